@@ -1,0 +1,25 @@
+//! Control laws. Each produces a desired body torque (N m, body axes) from the attitude
+//! estimate; steering/allocation turns it into actuator commands.
+
+pub mod quaternion_feedback;
+pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains};
+
+use crate::math::Vec3;
+
+/// Scale `u` so that `|u_i| <= limit_i` on every axis, keeping its direction.
+/// Returns the scaled vector and whether scaling happened. Non-positive or non-finite
+/// limits leave that axis unconstrained (validated parameters never contain them).
+pub fn scale_to_box(u: &Vec3, limit: &Vec3) -> (Vec3, bool) {
+    let mut s = 1.0f32;
+    for (x, l) in u.iter().zip(limit.iter()) {
+        let a = libm::fabsf(*x);
+        if *l > 0.0 && a > *l {
+            s = s.min(*l / a);
+        }
+    }
+    if s < 1.0 {
+        (u * s, true)
+    } else {
+        (*u, false)
+    }
+}

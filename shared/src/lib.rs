@@ -1,0 +1,33 @@
+//! Attitude-control flight software: the algorithms that run on the on-board computer.
+//!
+//! `no_std`, no heap, no panics on any input, f32 throughout (the Cortex-M4F FPU is
+//! single precision). Transcendental math goes through `libm` explicitly so that the
+//! host build and the MCU build produce the same bits.
+//!
+//! Architecture:
+//! - [`math`]: the one quaternion convention of the project and Euler conversions.
+//! - [`control`]: control laws producing a desired body torque.
+//! - [`steering`]: maps a body torque onto an actuator set (CMG pyramid here).
+//! - [`params`]: the typed, versioned, checksummed flight parameter set.
+//! - [`protocol`]: wire messages and the COBS + CRC framing of the host link.
+//! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+#![cfg_attr(
+    test,
+    allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing)
+)]
+
+pub mod control;
+pub mod fsw;
+pub mod math;
+pub mod params;
+pub mod protocol;
+pub mod steering;
+
+pub use fsw::Fsw;

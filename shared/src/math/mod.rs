@@ -1,0 +1,33 @@
+//! Math types and the project's attitude conventions.
+//!
+//! # Quaternion convention (the only one in the project)
+//! - Hamilton algebra (`i j k = -1`), stored scalar-last `[x, y, z, w]` — the same order
+//!   as papers 000/002 (`q4` scalar) and as nalgebra's `Quaternion::coords`.
+//! - An attitude quaternion `q_ib` rotates vectors from the body frame B into the
+//!   reference (inertial, or LVLH when stated) frame I: `v_I = q ⊗ v_B ⊗ q*`.
+//!   Kinematics: `dq/dt = ½ q ⊗ [ω_B; 0]` with ω the body rate in body axes.
+//! - Attitude error: `q_e = q_c* ⊗ q`, the body attitude relative to the commanded
+//!   frame, vector part in body axes; its sign is chosen with `w ≥ 0` (short way round).
+//!   This is the same physical error as eq. 16 of paper 000 (written there in Wie's
+//!   reversed-product notation).
+//!
+//! # Euler angles
+//! `[roll φ, pitch θ, yaw ψ]`. Sequence 3-2-1 (default): `q = q_z(ψ) ⊗ q_y(θ) ⊗ q_x(φ)`,
+//! i.e. yaw first, about the reference z axis. Sequence 1-2-3 (paper 003):
+//! `q = q_x(φ) ⊗ q_y(θ) ⊗ q_z(ψ)`.
+//!
+//! nalgebra supplies the algebra; its trigonometric helpers are *not* used in flight
+//! code because on the host they would call the platform libm rather than `libm`.
+
+mod quat;
+pub use quat::*;
+
+pub type Vec3 = nalgebra::Vector3<f32>;
+pub type Mat3 = nalgebra::Matrix3<f32>;
+pub type Quat = nalgebra::Quaternion<f32>;
+
+/// True when every component is finite (not NaN, not ±inf).
+#[inline]
+pub fn all_finite(v: &[f32]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}

@@ -1,0 +1,442 @@
+//! Four single-gimbal CMGs in a pyramid (paper 000 eqs 6-8) and their steering laws.
+//!
+//! Momentum (eq 6), gimbal angles `δ_i`, skew `β`, `c = cos`, `s = sin`:
+//! `h = h0 ( [-cβ s1, c1, sβ s1] + [-c2, -cβ s2, sβ s2] + [cβ s3, -c3, sβ s3] + [c4, cβ s4, sβ s4] )`
+//! Jacobian `J = ∂h/∂δ` (eq 8), 3×4. Torque on the body (eq 4): `T = -J δ̇ - ω × h`.
+//! The steering therefore asks for `ḣ = -u - ω × h` and solves `J δ̇ = ḣ`:
+//! - Moore-Penrose `δ̇ = Jᵀ (J Jᵀ)⁻¹ ḣ`;
+//! - singularity-robust `δ̇ = Jᵀ (J Jᵀ + α I)⁻¹ ḣ` (eq 11) with α from eqs 12-14.
+//!
+//! The singularity measure `m = det(J₁ J₁ᵀ)` uses the unit-momentum Jacobian
+//! `J₁ = J / h0`, so α and `m` are dimensionless and independent of the rotor size.
+
+use crate::math::{Mat3, Vec3};
+use crate::params::{AlphaSchedule, CmgParams, SteeringLaw};
+use crate::protocol::status;
+use libm::{cosf, expf, sinf};
+use nalgebra::SMatrix;
+
+pub type Jacobian = SMatrix<f32, 3, 4>;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CmgPyramid {
+    pub h0_nms: f32,
+    cos_skew: f32,
+    sin_skew: f32,
+}
+
+/// What a steering call produced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SteeringOutput {
+    pub gimbal_rate_rad_s: [f32; 4],
+    /// `m = det(J₁ J₁ᵀ)`.
+    pub singularity_measure: f32,
+    /// α used (0 for Moore-Penrose).
+    pub alpha: f32,
+    /// `protocol::status` bits: RATE_SCALED, ANGLE_LIMITED, SINGULAR.
+    pub status: u16,
+}
+
+/// Gimbal rate and angle limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GimbalLimits {
+    pub max_rate_rad_s: f32,
+    pub min_angle_rad: f32,
+    pub max_angle_rad: f32,
+}
+
+impl From<&CmgParams> for GimbalLimits {
+    fn from(p: &CmgParams) -> Self {
+        Self {
+            max_rate_rad_s: p.max_gimbal_rate_rad_s,
+            min_angle_rad: p.gimbal_min_rad,
+            max_angle_rad: p.gimbal_max_rad,
+        }
+    }
+}
+
+/// `[sin δ_i]`, `[cos δ_i]`, computed once per step and shared by `h` and `J`.
+#[derive(Clone, Copy, Debug)]
+pub struct GimbalTrig {
+    pub s: [f32; 4],
+    pub c: [f32; 4],
+}
+
+impl GimbalTrig {
+    pub fn new(delta_rad: &[f32; 4]) -> Self {
+        Self {
+            s: delta_rad.map(sinf),
+            c: delta_rad.map(cosf),
+        }
+    }
+}
+
+impl CmgPyramid {
+    pub fn new(skew_rad: f32, h0_nms: f32) -> Self {
+        Self {
+            h0_nms,
+            cos_skew: cosf(skew_rad),
+            sin_skew: sinf(skew_rad),
+        }
+    }
+
+    /// Cluster momentum in body axes, N m s (eq 6).
+    pub fn momentum(&self, t: &GimbalTrig) -> Vec3 {
+        let (cb, sb) = (self.cos_skew, self.sin_skew);
+        let [s1, s2, s3, s4] = t.s;
+        let [c1, c2, c3, c4] = t.c;
+        Vec3::new(
+            -cb * s1 - c2 + cb * s3 + c4,
+            c1 - cb * s2 - c3 + cb * s4,
+            sb * (s1 + s2 + s3 + s4),
+        ) * self.h0_nms
+    }
+
+    /// Unit-momentum Jacobian `J₁ = ∂h/∂δ / h0` (eq 8).
+    pub fn unit_jacobian(&self, t: &GimbalTrig) -> Jacobian {
+        let (cb, sb) = (self.cos_skew, self.sin_skew);
+        let [s1, s2, s3, s4] = t.s;
+        let [c1, c2, c3, c4] = t.c;
+        #[rustfmt::skip]
+        let j = Jacobian::new(
+            -cb * c1,  s2,       cb * c3, -s4,
+            -s1,      -cb * c2,  s3,       cb * c4,
+             sb * c1,  sb * c2,  sb * c3,  sb * c4,
+        );
+        j
+    }
+
+    /// Jacobian with units, N m s / rad.
+    pub fn jacobian(&self, t: &GimbalTrig) -> Jacobian {
+        self.unit_jacobian(t) * self.h0_nms
+    }
+
+    /// Torque the gimbal rates produce on the body (eq 4): `-J δ̇ - ω × h`.
+    pub fn torque_on_body(
+        &self,
+        t: &GimbalTrig,
+        rate_rad_s: &Vec3,
+        gimbal_rate_rad_s: &[f32; 4],
+    ) -> Vec3 {
+        let d = nalgebra::Vector4::from(*gimbal_rate_rad_s);
+        -(self.jacobian(t) * d) - rate_rad_s.cross(&self.momentum(t))
+    }
+
+    /// Solve for gimbal rates that produce body torque `torque_nm` at body rate `ω`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn steer(
+        &self,
+        law: &SteeringLaw,
+        singular_threshold: f32,
+        limits: &GimbalLimits,
+        t: &GimbalTrig,
+        delta_rad: &[f32; 4],
+        rate_rad_s: &Vec3,
+        torque_nm: &Vec3,
+        dt_s: f32,
+    ) -> SteeringOutput {
+        let j1 = self.unit_jacobian(t);
+        let jjt: Mat3 = j1 * j1.transpose();
+        let m = jjt.determinant();
+        // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
+        let hdot = (-torque_nm - rate_rad_s.cross(&self.momentum(t))) / self.h0_nms;
+        let mut st = 0u16;
+        let alpha = match law {
+            SteeringLaw::MoorePenrose => 0.0,
+            SteeringLaw::SingularityRobust(s) => alpha_of(s, m),
+        };
+        let a = jjt + Mat3::identity() * alpha;
+        let rates = match (m >= singular_threshold || alpha > 0.0, a.try_inverse()) {
+            (true, Some(inv)) => j1.transpose() * (inv * hdot),
+            _ => {
+                st |= status::SINGULAR;
+                nalgebra::Vector4::zeros()
+            }
+        };
+        let mut r: [f32; 4] = rates.into();
+        if !r.iter().all(|x| x.is_finite()) {
+            st |= status::SINGULAR;
+            r = [0.0; 4];
+        }
+        st |= limit_rates(&mut r, delta_rad, limits, dt_s);
+        SteeringOutput {
+            gimbal_rate_rad_s: r,
+            singularity_measure: m,
+            alpha,
+            status: st,
+        }
+    }
+}
+
+/// α from the schedule (paper 000 eqs 12-14).
+pub fn alpha_of(s: &AlphaSchedule, m: f32) -> f32 {
+    match *s {
+        AlphaSchedule::Quadratic { a0, m0, m_cr } => {
+            if m >= m_cr {
+                0.0
+            } else {
+                let r = 1.0 - m / m0;
+                a0 * r * r
+            }
+        }
+        AlphaSchedule::Inverse { a0, m_cr, a_max } => {
+            if m >= m_cr {
+                0.0
+            } else if m > a0 / a_max {
+                a0 / m
+            } else {
+                a_max
+            }
+        }
+        AlphaSchedule::Exponential { a0, mu } => a0 * expf(-mu * m),
+    }
+}
+
+/// Enforce the rate limit by scaling the whole vector (direction kept), then stop any
+/// gimbal that would cross its angle limit within `dt`. Returns status bits.
+pub fn limit_rates(r: &mut [f32; 4], delta_rad: &[f32; 4], l: &GimbalLimits, dt_s: f32) -> u16 {
+    let mut st = 0;
+    let peak = r.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
+    if peak > l.max_rate_rad_s {
+        let s = l.max_rate_rad_s / peak;
+        r.iter_mut().for_each(|x| *x *= s);
+        st |= status::RATE_SCALED;
+    }
+    for (x, d) in r.iter_mut().zip(delta_rad.iter()) {
+        let next = d + *x * dt_s;
+        if next > l.max_angle_rad && *x > 0.0 {
+            *x = ((l.max_angle_rad - d) / dt_s).max(0.0);
+            st |= status::ANGLE_LIMITED;
+        } else if next < l.min_angle_rad && *x < 0.0 {
+            *x = ((l.min_angle_rad - d) / dt_s).min(0.0);
+            st |= status::ANGLE_LIMITED;
+        }
+    }
+    st
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector4;
+
+    const BETA: f32 = 0.955_233_9; // 54.73 deg
+
+    fn deg4(d: [f32; 4]) -> [f32; 4] {
+        d.map(|x| x.to_radians())
+    }
+
+    /// Independent form of eq 6: sum of the four unit vectors as the paper prints them.
+    fn momentum_eq6(h0: f64, beta: f64, d: [f64; 4]) -> [f64; 3] {
+        let (cb, sb) = (beta.cos(), beta.sin());
+        let (s, c) = (d.map(f64::sin), d.map(f64::cos));
+        let terms = [
+            [-cb * s[0], c[0], sb * s[0]],
+            [-c[1], -cb * s[1], sb * s[1]],
+            [cb * s[2], -c[2], sb * s[2]],
+            [c[3], cb * s[3], sb * s[3]],
+        ];
+        let mut h = [0.0; 3];
+        for t in terms {
+            for k in 0..3 {
+                h[k] += h0 * t[k];
+            }
+        }
+        h
+    }
+
+    #[test]
+    fn momentum_matches_eq6_and_zero_gimbals_cancel() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        let h = p.momentum(&GimbalTrig::new(&[0.0; 4]));
+        assert!(h.norm() < 1e-6, "zero gimbals store no momentum: {h:?}");
+        let d = [0.3f32, -1.1, 2.0, 0.7];
+        let h = p.momentum(&GimbalTrig::new(&d));
+        let r = momentum_eq6(0.623, BETA as f64, d.map(|x| x as f64));
+        for k in 0..3 {
+            assert!((h[k] as f64 - r[k]).abs() < 1e-6);
+        }
+    }
+
+    #[test]
+    fn jacobian_matches_central_differences_of_eq6() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        for d in [
+            [0.0f32, 0.0, 0.0, 0.0],
+            [0.3, -1.1, 2.0, 0.7],
+            [1.57, 0.0, -1.57, 0.0],
+        ] {
+            let j = p.jacobian(&GimbalTrig::new(&d));
+            let d64 = d.map(|x| x as f64);
+            let eps = 1e-6;
+            for i in 0..4 {
+                let (mut a, mut b) = (d64, d64);
+                a[i] += eps;
+                b[i] -= eps;
+                let (ha, hb) = (
+                    momentum_eq6(0.623, BETA as f64, a),
+                    momentum_eq6(0.623, BETA as f64, b),
+                );
+                for k in 0..3 {
+                    let fd = (ha[k] - hb[k]) / (2.0 * eps);
+                    assert!(
+                        (j[(k, i)] as f64 - fd).abs() < 1e-5,
+                        "J[{k},{i}] {} vs {fd}",
+                        j[(k, i)]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn zero_gimbal_singularity_measure_is_the_known_value() {
+        // At δ = 0 the columns are [-cβ,0,sβ], [0,-cβ,sβ], [cβ,0,sβ], [0,cβ,sβ]:
+        // J₁ J₁ᵀ = diag(2cβ², 2cβ², 4sβ²) → m = 16 cβ⁴ sβ².
+        let p = CmgPyramid::new(BETA, 1.0);
+        let j = p.unit_jacobian(&GimbalTrig::new(&[0.0; 4]));
+        let m = (j * j.transpose()).determinant();
+        let (cb, sb) = (BETA.cos(), BETA.sin());
+        let expect = 16.0 * cb.powi(4) * sb * sb;
+        assert!((m - expect).abs() < 1e-5 * expect);
+    }
+
+    fn lim() -> GimbalLimits {
+        GimbalLimits {
+            max_rate_rad_s: 10.0,
+            min_angle_rad: -1e3,
+            max_angle_rad: 1e3,
+        }
+    }
+
+    #[test]
+    fn sr_tends_to_mp_as_alpha_goes_to_zero() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        let d = [0.3f32, -0.4, 0.8, 0.1];
+        let t = GimbalTrig::new(&d);
+        let w = Vec3::new(0.01, -0.02, 0.03);
+        let u = Vec3::new(0.05, -0.02, 0.08);
+        let mp = p.steer(
+            &SteeringLaw::MoorePenrose,
+            1e-6,
+            &lim(),
+            &t,
+            &d,
+            &w,
+            &u,
+            0.01,
+        );
+        assert_eq!(mp.status, 0);
+        // MP realises the torque exactly (away from singularities).
+        let got = p.torque_on_body(&t, &w, &mp.gimbal_rate_rad_s);
+        assert!((got - u).norm() < 1e-5 * u.norm().max(1.0), "{got:?}");
+        let mut prev = f32::INFINITY;
+        let mut ratio = 0.0;
+        for a0 in [1e-1f32, 1e-2, 1e-3, 1e-4] {
+            let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu: 0.0 });
+            let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &w, &u, 0.01);
+            let diff: f32 = sr
+                .gimbal_rate_rad_s
+                .iter()
+                .zip(mp.gimbal_rate_rad_s.iter())
+                .map(|(a, b)| (a - b).abs())
+                .sum();
+            assert!(diff < prev, "difference shrinks with alpha");
+            ratio = diff / prev;
+            prev = diff;
+        }
+        let scale: f32 = mp.gimbal_rate_rad_s.iter().map(|x| x.abs()).sum();
+        // SR - MP = O(α): a tenfold smaller α gives a tenfold smaller difference.
+        assert!((0.08..0.12).contains(&ratio), "convergence ratio {ratio}");
+        assert!(
+            prev < 5e-3 * scale,
+            "relative difference {} at alpha 1e-4",
+            prev / scale
+        );
+    }
+
+    #[test]
+    fn elliptic_singularity_mp_is_safe_and_sr_is_stuck() {
+        // δ = (90, 0, -90, 0) deg: every column of J has zero x component, torque along x
+        // is unreachable; J Jᵀ is singular.
+        let p = CmgPyramid::new(BETA, 0.623);
+        let d = deg4([90.0, 0.0, -90.0, 0.0]);
+        let t = GimbalTrig::new(&d);
+        let j = p.unit_jacobian(&t);
+        assert!((j * j.transpose()).determinant().abs() < 1e-6);
+        let u = Vec3::new(0.1, 0.0, 0.0);
+        let mp = p.steer(
+            &SteeringLaw::MoorePenrose,
+            1e-6,
+            &lim(),
+            &t,
+            &d,
+            &Vec3::zeros(),
+            &u,
+            0.01,
+        );
+        assert!(mp.gimbal_rate_rad_s.iter().all(|x| x.is_finite()));
+        assert_ne!(mp.status & status::SINGULAR, 0);
+        let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
+        let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01);
+        let peak = sr
+            .gimbal_rate_rad_s
+            .iter()
+            .fold(0.0f32, |a, x| a.max(x.abs()));
+        assert!(
+            peak < 1e-4,
+            "SR is stuck at the elliptic singularity: {peak}"
+        );
+        assert!(sr.alpha > 0.0);
+    }
+
+    #[test]
+    fn rate_limit_scaling_keeps_direction() {
+        let mut r = [0.4f32, -2.0, 1.0, 0.1];
+        let orig = Vector4::from(r);
+        let l = GimbalLimits {
+            max_rate_rad_s: 0.5,
+            ..lim()
+        };
+        let st = limit_rates(&mut r, &[0.0; 4], &l, 0.01);
+        assert_ne!(st & status::RATE_SCALED, 0);
+        let v = Vector4::from(r);
+        assert!((v.amax() - 0.5).abs() < 1e-6);
+        assert!((v.normalize().dot(&orig.normalize()) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn angle_limit_stops_the_gimbal_at_the_stop() {
+        let mut r = [1.0f32, -1.0, 0.0, 0.0];
+        let l = GimbalLimits {
+            max_rate_rad_s: 10.0,
+            min_angle_rad: -0.5,
+            max_angle_rad: 0.5,
+        };
+        let st = limit_rates(&mut r, &[0.495, -0.5, 0.0, 0.0], &l, 0.01);
+        assert_ne!(st & status::ANGLE_LIMITED, 0);
+        assert!((0.495 + r[0] * 0.01 - 0.5).abs() < 1e-6);
+        assert_eq!(r[1], 0.0);
+    }
+
+    #[test]
+    fn alpha_schedules_follow_eqs_12_to_14() {
+        let q = AlphaSchedule::Quadratic {
+            a0: 0.1,
+            m0: 0.5,
+            m_cr: 0.3,
+        };
+        assert_eq!(alpha_of(&q, 0.4), 0.0);
+        assert!((alpha_of(&q, 0.1) - 0.1 * 0.8f32.powi(2)).abs() < 1e-7);
+        let i = AlphaSchedule::Inverse {
+            a0: 1e-3,
+            m_cr: 0.3,
+            a_max: 0.05,
+        };
+        assert_eq!(alpha_of(&i, 0.5), 0.0);
+        assert!((alpha_of(&i, 0.1) - 1e-2).abs() < 1e-7);
+        assert_eq!(alpha_of(&i, 1e-4), 0.05);
+        let e = AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 };
+        assert!((alpha_of(&e, 0.1) - 0.01 * (-1.0f32).exp()).abs() < 1e-8);
+    }
+}
