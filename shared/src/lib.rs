@@ -28,6 +28,7 @@ pub mod fsw;
 pub mod math;
 pub mod params;
 pub mod protocol;
+pub mod session;
 pub mod steering;
 
 pub use fsw::Fsw;

@@ -1,0 +1,14 @@
+//! Host simulator: f64 plant models, sensors, the links to the flight code (in-process,
+//! QEMU, TCP, serial), the scenario format, the run loop and its outputs.
+//!
+//! The flight software is never re-implemented here: every run calls the `acs-flight`
+//! crate, either directly (in-process) or on the flight computer over the postcard link.
+
+pub mod attitude;
+pub mod link;
+pub mod output;
+pub mod plant;
+pub mod plots;
+pub mod runner;
+pub mod scenario;
+pub mod sensors;

@@ -1,0 +1,192 @@
+//! The flight protocol over a byte stream (see `acs_flight::protocol`).
+
+use super::{FlightLink, LinkInfo};
+use acs_flight::params::FlightParams;
+use acs_flight::protocol::{
+    encode_frame, schema_hash, FrameAccumulator, FswMsg, HostMsg, SensorFrame, StepReport,
+    MAX_FRAME, PROTOCOL_VERSION,
+};
+use anyhow::{anyhow, bail, Context, Result};
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpStream;
+use std::time::{Duration, Instant};
+
+/// How long to wait for any reply before declaring the flight side dead.
+pub const REPLY_TIMEOUT: Duration = Duration::from_secs(10);
+
+pub struct Framed<S: Read + Write> {
+    stream: S,
+    name: String,
+    acc: FrameAccumulator<MAX_FRAME>,
+    rx: Box<[u8; 4096]>,
+    rx_pos: usize,
+    rx_len: usize,
+    tx: Box<[u8; MAX_FRAME]>,
+    pub info: Option<LinkInfo>,
+}
+
+impl Framed<TcpStream> {
+    pub fn tcp(addr: &str) -> Result<Self> {
+        let s = TcpStream::connect(addr).with_context(|| format!("connecting to {addr}"))?;
+        Self::from_tcp(s, format!("tcp:{addr}"))
+    }
+
+    pub fn from_tcp(s: TcpStream, name: String) -> Result<Self> {
+        s.set_nodelay(true)?;
+        s.set_read_timeout(Some(Duration::from_millis(200)))?;
+        Ok(Self::new(s, name))
+    }
+}
+
+impl Framed<Box<dyn serialport::SerialPort>> {
+    pub fn serial(device: &str, baud: u32) -> Result<Self> {
+        let p = serialport::new(device, baud)
+            .timeout(Duration::from_millis(200))
+            .open()
+            .with_context(|| format!("opening serial port {device}"))?;
+        Ok(Self::new(p, format!("serial:{device}@{baud}")))
+    }
+}
+
+impl<S: Read + Write> Framed<S> {
+    pub fn new(stream: S, name: String) -> Self {
+        Self {
+            stream,
+            name,
+            acc: FrameAccumulator::new(),
+            rx: Box::new([0; 4096]),
+            rx_pos: 0,
+            rx_len: 0,
+            tx: Box::new([0; MAX_FRAME]),
+            info: None,
+        }
+    }
+
+    pub fn send(&mut self, msg: &HostMsg) -> Result<()> {
+        let frame =
+            encode_frame(msg, &mut self.tx[..]).map_err(|e| anyhow!("encoding {msg:?}: {e:?}"))?;
+        self.stream.write_all(frame)?;
+        self.stream.flush()?;
+        Ok(())
+    }
+
+    /// Send raw bytes (tests use this to inject corrupt frames).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<()> {
+        self.stream.write_all(bytes)?;
+        self.stream.flush()?;
+        Ok(())
+    }
+
+    /// Next good message; bad frames are counted and skipped.
+    pub fn recv(&mut self) -> Result<FswMsg> {
+        let deadline = Instant::now() + REPLY_TIMEOUT;
+        loop {
+            while self.rx_pos < self.rx_len {
+                let b = self.rx[self.rx_pos];
+                self.rx_pos += 1;
+                if let Some(Ok(m)) = self.acc.push::<FswMsg>(b) {
+                    return Ok(m);
+                }
+            }
+            match self.stream.read(&mut self.rx[..]) {
+                Ok(0) => bail!("{}: the flight side closed the link", self.name),
+                Ok(n) => {
+                    self.rx_pos = 0;
+                    self.rx_len = n;
+                }
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
+                    ) =>
+                {
+                    if Instant::now() > deadline {
+                        bail!("{}: no reply within {:?}", self.name, REPLY_TIMEOUT);
+                    }
+                }
+                Err(e) => return Err(e).context(format!("{}: reading", self.name)),
+            }
+        }
+    }
+}
+
+impl<S: Read + Write> FlightLink for Framed<S> {
+    fn name(&self) -> String {
+        self.name.clone()
+    }
+
+    fn hello(&mut self) -> Result<LinkInfo> {
+        // A lone delimiter first: the other side drops whatever partial frame it holds.
+        self.send_raw(&[0])?;
+        self.send(&HostMsg::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            schema_hash: schema_hash(),
+        })?;
+        match self.recv()? {
+            FswMsg::HelloAck {
+                protocol_version,
+                schema_hash: h,
+                cost_counter_hz,
+                board,
+                ..
+            } => {
+                if protocol_version != PROTOCOL_VERSION || h != schema_hash() {
+                    bail!("{}: flight protocol {protocol_version}/{h:#x}, host {PROTOCOL_VERSION}/{:#x}", self.name, schema_hash());
+                }
+                // QEMU (board 1) runs with -icount shift=0: 1 instruction per ns.
+                let ipt = (board == 1 && cost_counter_hz > 0).then(|| 1e9 / cost_counter_hz as f64);
+                let info = LinkInfo {
+                    board,
+                    cost_counter_hz,
+                    instructions_per_tick: ipt,
+                };
+                self.info = Some(info.clone());
+                Ok(info)
+            }
+            FswMsg::Error(e) => bail!("{}: flight side refused hello: {e:?}", self.name),
+            other => bail!("{}: unexpected reply to hello: {other:?}", self.name),
+        }
+    }
+
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        self.send(&HostMsg::UploadParams(*params))?;
+        match self.recv()? {
+            FswMsg::ParamsAccepted { checksum } => {
+                let mine = params.checksum().map_err(|e| anyhow!("{e}"))?;
+                if checksum != mine {
+                    bail!("{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name);
+                }
+                Ok(checksum)
+            }
+            FswMsg::ParamsRejected(e) => {
+                bail!("{}: flight code rejected the parameters: {e}", self.name)
+            }
+            other => bail!(
+                "{}: unexpected reply to the parameter upload: {other:?}",
+                self.name
+            ),
+        }
+    }
+
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        self.send(&HostMsg::Sensor(*frame))?;
+        loop {
+            match self.recv()? {
+                FswMsg::Step(r) if r.cmd.seq == frame.seq => return Ok(r),
+                FswMsg::Step(r) if r.cmd.seq < frame.seq => continue, // a late answer to an older frame
+                FswMsg::Step(r) => bail!(
+                    "{}: reply for frame {} while waiting for {}",
+                    self.name,
+                    r.cmd.seq,
+                    frame.seq
+                ),
+                FswMsg::Error(e) => bail!("{}: flight error {e:?}", self.name),
+                other => bail!("{}: unexpected message {other:?}", self.name),
+            }
+        }
+    }
+
+    fn frames_dropped_host(&self) -> u32 {
+        self.acc.stats.dropped()
+    }
+}

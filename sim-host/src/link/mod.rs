@@ -1,0 +1,86 @@
+//! Links between the simulator and the flight code. Every link speaks the same session
+//! (hello → parameter upload → one step per sensor frame); only the transport differs:
+//! - [`in_process::InProcess`]: calls `acs_flight::Fsw` directly (no serialisation);
+//! - [`framed::Framed`]: the postcard/COBS/CRC protocol over any byte stream
+//!   (TCP to a board bridge or to QEMU, a serial port);
+//! - [`qemu`]: starts the real firmware under QEMU and connects a `Framed` link to it.
+
+pub mod framed;
+pub mod in_process;
+pub mod qemu;
+pub mod serve;
+
+use acs_flight::params::FlightParams;
+use acs_flight::protocol::{SensorFrame, StepReport};
+use anyhow::{bail, Result};
+use std::path::PathBuf;
+
+/// What the flight side said at hello.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinkInfo {
+    pub board: u8,
+    /// Frequency of the counter behind `StepReport::step_cost_ticks`, Hz (0: not measured).
+    pub cost_counter_hz: u32,
+    /// Instructions per cost tick when the counter runs in QEMU with `-icount shift=0`
+    /// (1 instruction = 1 ns); `None` on real hardware (ticks are cycles there).
+    pub instructions_per_tick: Option<f64>,
+}
+
+pub trait FlightLink {
+    fn name(&self) -> String;
+    fn hello(&mut self) -> Result<LinkInfo>;
+    /// Upload and have the flight side validate the parameters; returns the checksum it computed.
+    fn upload(&mut self, params: &FlightParams) -> Result<u32>;
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport>;
+    /// Frames the host side dropped (CRC, COBS, ...).
+    fn frames_dropped_host(&self) -> u32 {
+        0
+    }
+}
+
+/// Parsed `--link` value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LinkKind {
+    InProcess,
+    Qemu,
+    Tcp(String),
+    Serial { device: String, baud: u32 },
+}
+
+impl std::str::FromStr for LinkKind {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        Ok(match s {
+            "in-process" => LinkKind::InProcess,
+            "qemu" => LinkKind::Qemu,
+            _ if s.starts_with("tcp:") => LinkKind::Tcp(s[4..].to_string()),
+            _ if s.starts_with("serial:") => {
+                let rest = &s[7..];
+                let (device, baud) = match rest.split_once('@') {
+                    Some((d, b)) => (d.to_string(), b.parse()?),
+                    None => (rest.to_string(), 115_200),
+                };
+                LinkKind::Serial { device, baud }
+            }
+            _ => bail!(
+                "unknown link {s:?}: use in-process, qemu, tcp:HOST:PORT or serial:DEV[@BAUD]"
+            ),
+        })
+    }
+}
+
+/// Options for links that start something.
+#[derive(Clone, Debug, Default)]
+pub struct LinkOptions {
+    /// Firmware ELF for `qemu`; default: the release build under `firmware/target`.
+    pub firmware: Option<PathBuf>,
+}
+
+pub fn open(kind: &LinkKind, opts: &LinkOptions) -> Result<Box<dyn FlightLink>> {
+    Ok(match kind {
+        LinkKind::InProcess => Box::new(in_process::InProcess::new()),
+        LinkKind::Qemu => Box::new(qemu::QemuLink::start(opts.firmware.as_deref())?),
+        LinkKind::Tcp(addr) => Box::new(framed::Framed::tcp(addr)?),
+        LinkKind::Serial { device, baud } => Box::new(framed::Framed::serial(device, *baud)?),
+    })
+}

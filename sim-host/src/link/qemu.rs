@@ -1,0 +1,150 @@
+//! Processor-in-the-loop on an emulated Cortex-M4F: starts the firmware ELF in
+//! `qemu-system-arm -machine mps2-an386` with UART0 on a loopback TCP socket and
+//! instruction counting (`-icount shift=0`: one instruction = 1 ns of virtual time), then
+//! talks the flight protocol to it.
+
+use super::framed::Framed;
+use super::{FlightLink, LinkInfo};
+use acs_flight::params::FlightParams;
+use acs_flight::protocol::{SensorFrame, StepReport};
+use anyhow::{bail, Context, Result};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Default location of the QEMU firmware build (`scripts/firmware.sh build`).
+pub fn default_firmware() -> PathBuf {
+    if let Ok(p) = std::env::var("ACS_FIRMWARE_ELF") {
+        return PathBuf::from(p);
+    }
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../firmware/target/thumbv7em-none-eabihf/release/acs-firmware")
+}
+
+/// The QEMU command line (without the ELF and port) — also printed by `--verbose`.
+pub fn qemu_args(elf: &Path, port: u16) -> Vec<String> {
+    [
+        "-machine",
+        "mps2-an386",
+        "-cpu",
+        "cortex-m4",
+        "-nographic",
+        "-monitor",
+        "none",
+        "-icount",
+        "shift=0,align=off,sleep=off",
+        "-semihosting-config",
+        "enable=on,target=native",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .chain([
+        "-serial".to_string(),
+        format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
+        "-kernel".to_string(),
+        elf.display().to_string(),
+    ])
+    .collect()
+}
+
+pub struct QemuLink {
+    child: Child,
+    link: Framed<TcpStream>,
+    log: PathBuf,
+}
+
+impl QemuLink {
+    pub fn start(firmware: Option<&Path>) -> Result<Self> {
+        let elf = firmware
+            .map(Path::to_path_buf)
+            .unwrap_or_else(default_firmware);
+        if !elf.exists() {
+            bail!("firmware ELF {} not found: build it with `scripts/firmware.sh build` (or pass --firmware)", elf.display());
+        }
+        let port = TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+        let log = std::env::temp_dir().join(format!("acs-qemu-{}-{port}.log", std::process::id()));
+        let out = std::fs::File::create(&log)?;
+        let child = Command::new("qemu-system-arm")
+            .args(qemu_args(&elf, port))
+            .stdin(Stdio::null())
+            .stdout(out.try_clone()?)
+            .stderr(out)
+            .spawn()
+            .context("starting qemu-system-arm (install it: apt-get install qemu-system-arm)")?;
+        let mut me_child = Some(child);
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let stream = loop {
+            match TcpStream::connect(("127.0.0.1", port)) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    if let Some(c) = me_child.as_mut() {
+                        if let Ok(Some(st)) = c.try_wait() {
+                            let txt = std::fs::read_to_string(&log).unwrap_or_default();
+                            bail!("qemu exited ({st}) before accepting the link:\n{txt}");
+                        }
+                    }
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+                Err(e) => {
+                    if let Some(mut c) = me_child.take() {
+                        let _ = c.kill();
+                        let _ = c.wait();
+                    }
+                    return Err(e).context("connecting to qemu's UART socket");
+                }
+            }
+        };
+        let link = Framed::from_tcp(stream, format!("qemu:{}", elf.display()))?;
+        let child = me_child.take().context("qemu process lost")?;
+        Ok(Self { child, link, log })
+    }
+
+    /// The underlying framed link (tests inject raw bytes through it).
+    pub fn framed(&mut self) -> &mut Framed<TcpStream> {
+        &mut self.link
+    }
+
+    fn with_log<T>(&mut self, r: Result<T>) -> Result<T> {
+        r.map_err(|e| {
+            let exited = self.child.try_wait().ok().flatten();
+            let tail = std::fs::read(&self.log)
+                .map(|b| String::from_utf8_lossy(&b[b.len().saturating_sub(2000)..]).into_owned())
+                .unwrap_or_default();
+            e.context(format!(
+                "qemu {}; log {}: {tail}",
+                exited.map_or("running".to_string(), |s| s.to_string()),
+                self.log.display()
+            ))
+        })
+    }
+}
+
+impl Drop for QemuLink {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_file(&self.log);
+    }
+}
+
+impl FlightLink for QemuLink {
+    fn name(&self) -> String {
+        "qemu".into()
+    }
+    fn hello(&mut self) -> Result<LinkInfo> {
+        let r = self.link.hello();
+        self.with_log(r)
+    }
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        let r = self.link.upload(params);
+        self.with_log(r)
+    }
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        let r = self.link.step(frame);
+        self.with_log(r)
+    }
+    fn frames_dropped_host(&self) -> u32 {
+        self.link.frames_dropped_host()
+    }
+}

@@ -1,0 +1,107 @@
+//! `sim-host`: run attitude-control scenarios against the flight code.
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use sim_host::link::{self, LinkKind, LinkOptions};
+use sim_host::scenario::Scenario;
+use sim_host::{output, runner};
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "sim-host",
+    version,
+    about = "Spacecraft attitude-control simulator: software- and processor-in-the-loop"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Run a scenario and write timeseries.csv, summary.json and PNG plots into --out.
+    Run {
+        scenario: PathBuf,
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// in-process | qemu | tcp:HOST:PORT | serial:DEV[@BAUD] (default: the scenario's, else in-process)
+        #[arg(long)]
+        link: Option<LinkKind>,
+        /// Firmware ELF for --link qemu (default: firmware/target/.../release/acs-firmware).
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+        /// Skip the PNG figures.
+        #[arg(long)]
+        no_plots: bool,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Check a scenario file and print the flight parameters it uploads.
+    Check { scenario: PathBuf },
+    /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
+    Serve {
+        #[arg(long, default_value = "127.0.0.1:7878")]
+        listen: String,
+    },
+}
+
+fn main() -> Result<()> {
+    match Cli::parse().cmd {
+        Cmd::Run {
+            scenario,
+            out,
+            link,
+            firmware,
+            no_plots,
+            quiet,
+        } => {
+            let sc = Scenario::load(&scenario)?;
+            let kind = match (link, &sc.link.kind) {
+                (Some(k), _) => k,
+                (None, Some(s)) => s.parse().context("scenario link.kind")?,
+                (None, None) => LinkKind::InProcess,
+            };
+            let mut l = link::open(&kind, &LinkOptions { firmware })?;
+            let r = runner::run(&sc, l.as_mut(), !quiet)?;
+            drop(l);
+            let files = output::write_all(&out, &r, !no_plots)?;
+            let s = &r.summary;
+            println!(
+                "{}: {} steps over {} on {}; final error {:.4} deg, settle {} ; min m {:.3}; max gimbal rate {:.3} rad/s; RTF {:.0}x{}",
+                s.scenario,
+                s.steps,
+                format_args!("{:.1} s", s.sim_time_s),
+                s.link,
+                s.final_error_deg,
+                s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
+                s.min_singularity_measure,
+                s.max_gimbal_rate_rad_s,
+                s.real_time_factor,
+                s.max_step_instructions.map_or(String::new(), |n| format!("; max {n} instructions/step")),
+            );
+            for f in files {
+                println!("  wrote {}", f.display());
+            }
+        }
+        Cmd::Serve { listen } => {
+            let l = std::net::TcpListener::bind(&listen)
+                .with_context(|| format!("binding {listen}"))?;
+            eprintln!("flight code listening on {}", l.local_addr()?);
+            link::serve::serve(l, None)?;
+        }
+        Cmd::Check { scenario } => {
+            let sc = Scenario::load(&scenario)?;
+            let p = sc.flight_params()?;
+            println!(
+                "{}: ok ({} steps); parameter checksum {:#010x}",
+                sc.name,
+                sc.steps(),
+                p.checksum().map_err(|e| anyhow::anyhow!("{e}"))?
+            );
+            println!("{p:#?}");
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,160 @@
+//! Single-gimbal CMG cluster, general geometry: unit i has gimbal axis `g_i` and rotor
+//! momentum `h_i = h0 (cos δ_i s_i + sin δ_i t_i)` with `t_i = g_i × s_i`, so that
+//! `∂h_i/∂δ_i = g_i × h_i`. The four-unit pyramid of paper 000 (eq 6) is a preset; a
+//! test checks the preset against eq 6 as printed.
+//!
+//! Hardware limits: gimbal rate saturates at `max_rate_rad_s`; optional angle stops.
+
+use super::MAX_GIMBALS;
+use crate::attitude::Vec3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CmgUnit {
+    /// Rotor momentum direction at δ = 0.
+    pub spin0: Vec3,
+    /// Direction of ∂h/∂δ at δ = 0 (`g × spin0`).
+    pub trans0: Vec3,
+    pub h0_nms: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct CmgCluster {
+    pub units: Vec<CmgUnit>,
+    pub max_rate_rad_s: f64,
+    /// `(min, max)` gimbal angle, rad; `None` = unlimited.
+    pub angle_limits_rad: Option<(f64, f64)>,
+}
+
+impl CmgCluster {
+    /// Four-CMG pyramid with skew angle β (paper 000 eq 6).
+    pub fn pyramid(
+        skew_rad: f64,
+        h0_nms: f64,
+        max_rate_rad_s: f64,
+        angle_limits_rad: Option<(f64, f64)>,
+    ) -> Self {
+        let (sb, cb) = skew_rad.sin_cos();
+        let unit = |s: [f64; 3], t: [f64; 3]| CmgUnit {
+            spin0: Vec3::from(s),
+            trans0: Vec3::from(t),
+            h0_nms,
+        };
+        Self {
+            units: vec![
+                unit([0.0, 1.0, 0.0], [-cb, 0.0, sb]),
+                unit([-1.0, 0.0, 0.0], [0.0, -cb, sb]),
+                unit([0.0, -1.0, 0.0], [cb, 0.0, sb]),
+                unit([1.0, 0.0, 0.0], [0.0, cb, sb]),
+            ],
+            max_rate_rad_s,
+            angle_limits_rad,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.units.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.units.is_empty()
+    }
+
+    pub fn unit_momentum(&self, i: usize, delta: f64) -> Vec3 {
+        let u = &self.units[i];
+        let (s, c) = delta.sin_cos();
+        (u.spin0 * c + u.trans0 * s) * u.h0_nms
+    }
+
+    /// Cluster momentum, body axes.
+    pub fn momentum(&self, delta: &[f64; MAX_GIMBALS]) -> Vec3 {
+        (0..self.units.len())
+            .map(|i| self.unit_momentum(i, delta[i]))
+            .sum()
+    }
+
+    /// Column i of the Jacobian, `∂h/∂δ_i`.
+    pub fn jacobian_column(&self, i: usize, delta: f64) -> Vec3 {
+        let u = &self.units[i];
+        let (s, c) = delta.sin_cos();
+        (u.trans0 * c - u.spin0 * s) * u.h0_nms
+    }
+
+    /// `ḣ = J δ̇`.
+    pub fn momentum_rate(&self, delta: &[f64; MAX_GIMBALS], rate: &[f64; MAX_GIMBALS]) -> Vec3 {
+        (0..self.units.len())
+            .map(|i| self.jacobian_column(i, delta[i]) * rate[i])
+            .sum()
+    }
+
+    /// `det(J₁ J₁ᵀ)` with unit rotor momentum.
+    pub fn singularity_measure(&self, delta: &[f64; MAX_GIMBALS]) -> f64 {
+        let mut jjt = nalgebra::Matrix3::<f64>::zeros();
+        for i in 0..self.units.len() {
+            let c = self.jacobian_column(i, delta[i]) / self.units[i].h0_nms;
+            jjt += c * c.transpose();
+        }
+        jjt.determinant()
+    }
+
+    /// The rate the gimbal servo applies for a command.
+    pub fn applied_rate(&self, cmd: f64, delta: f64) -> f64 {
+        if !cmd.is_finite() {
+            return 0.0;
+        }
+        let r = cmd.clamp(-self.max_rate_rad_s, self.max_rate_rad_s);
+        match self.angle_limits_rad {
+            Some((lo, _)) if delta <= lo && r < 0.0 => 0.0,
+            Some((_, hi)) if delta >= hi && r > 0.0 => 0.0,
+            _ => r,
+        }
+    }
+
+    pub fn clamp_angles(&self, delta: &mut [f64; MAX_GIMBALS]) {
+        if let Some((lo, hi)) = self.angle_limits_rad {
+            for d in delta.iter_mut().take(self.units.len()) {
+                *d = d.clamp(lo, hi);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pyramid_preset_is_eq6_of_paper_000() {
+        let beta = 54.73f64.to_radians();
+        let c = CmgCluster::pyramid(beta, 0.623, 1.0, None);
+        let (cb, sb) = (beta.cos(), beta.sin());
+        let mut d = [0.0; MAX_GIMBALS];
+        d[..4].copy_from_slice(&[0.4, -1.3, 2.2, 0.9]);
+        let (s, k) = (d.map(f64::sin), d.map(f64::cos));
+        let eq6 = Vec3::new(
+            -cb * s[0] - k[1] + cb * s[2] + k[3],
+            k[0] - cb * s[1] - k[2] + cb * s[3],
+            sb * (s[0] + s[1] + s[2] + s[3]),
+        ) * 0.623;
+        assert!((c.momentum(&d) - eq6).norm() < 1e-14);
+    }
+
+    #[test]
+    fn gimbal_axes_are_unit_and_orthogonal_to_the_momentum() {
+        let c = CmgCluster::pyramid(54.73f64.to_radians(), 1.0, 1.0, None);
+        for u in &c.units {
+            let g = u.spin0.cross(&u.trans0);
+            assert!((g.norm() - 1.0).abs() < 1e-12 && u.spin0.dot(&u.trans0).abs() < 1e-12);
+            // The gimbal axis leans 90° - β from the z axis: g·z = cos β.
+            assert!((g.z - 54.73f64.to_radians().cos()).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn servo_limits() {
+        let c = CmgCluster::pyramid(1.0, 1.0, 0.5, Some((-1.0, 1.0)));
+        assert_eq!(c.applied_rate(2.0, 0.0), 0.5);
+        assert_eq!(c.applied_rate(f64::NAN, 0.0), 0.0);
+        assert_eq!(c.applied_rate(0.3, 1.0), 0.0);
+        assert_eq!(c.applied_rate(-0.3, 1.0), -0.3);
+    }
+}
