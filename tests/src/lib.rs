@@ -1,6 +1,10 @@
 //! Helpers shared by the integration tests.
 
+use acs_flight::protocol::{encode_frame, valid, HostMsg, SensorFrame, MAX_FRAME};
+use sim_host::link::framed::Framed;
 use sim_host::link::in_process::InProcess;
+use sim_host::link::FlightLink;
+use std::io::{Read, Write};
 use sim_host::runner::{self, RunResult};
 use sim_host::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -18,3 +22,40 @@ pub fn scenario(rel: &str) -> Scenario {
 pub fn run_in_process(sc: &Scenario) -> RunResult {
     runner::run(sc, &mut InProcess::new(), false).unwrap_or_else(|e| panic!("{}: {e:#}", sc.name))
 }
+
+fn frame(seq: u32) -> SensorFrame {
+    SensorFrame {
+        seq,
+        time_us: seq as u64 * 10_000,
+        q_ib_xyzw: [0.0, 0.0, 0.1, 0.995],
+        rate_rad_s: [0.0; 3],
+        gimbal_angle_rad: [0.0; 4],
+        valid: valid::ALL,
+    }
+}
+
+/// Shared by the QEMU test: corrupt frames between good ones never stop the flight side.
+pub fn corrupt_frames_are_dropped_and_counted<S: Read + Write>(link: &mut Framed<S>) {
+    link.hello().unwrap();
+    link.upload(&acs_flight::params::FlightParams::default())
+        .unwrap();
+    let mut buf = [0u8; MAX_FRAME];
+    let good = encode_frame(&HostMsg::Sensor(frame(1)), &mut buf)
+        .unwrap()
+        .to_vec();
+    let mut flipped = good.clone();
+    flipped[5] ^= 0x10;
+    let truncated = [&good[..good.len() / 2], &[0u8]].concat();
+    let garbage = vec![0x55u8, 0xAA, 0x01, 0x02, 0x00];
+    let oversize = [vec![0x42u8; MAX_FRAME + 50], vec![0]].concat();
+    let mut expected_drops = 0;
+    for (k, bad) in [flipped, truncated, garbage, oversize].iter().enumerate() {
+        link.send_raw(bad).unwrap();
+        expected_drops += 1;
+        let seq = 10 + k as u32;
+        let r = link.step(&frame(seq)).unwrap();
+        assert_eq!(r.cmd.seq, seq);
+        assert_eq!(r.frames_dropped, expected_drops, "after corruption {k}");
+    }
+}
+

@@ -1,0 +1,66 @@
+//! Processor-in-the-loop: the same scenario against the real firmware on an emulated
+//! Cortex-M4F (QEMU mps2-an386) must give the same trajectory as the in-process run
+//! (same f32 flight code, compiled for another ISA), and the firmware must report the
+//! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
+
+use acs_tests::{repo, run_in_process, scenario};
+use sim_host::link::qemu::{default_firmware, QemuLink};
+use sim_host::runner;
+
+
+fn qemu_available() -> bool {
+    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested");
+    }
+    ok
+}
+
+fn firmware() {
+    if !default_firmware().exists() {
+        let st = std::process::Command::new(repo().join("scripts/firmware.sh")).arg("build").status().expect("scripts/firmware.sh");
+        assert!(st.success(), "firmware build failed");
+    }
+}
+
+#[test]
+fn qemu_run_matches_in_process_and_reports_instruction_counts() {
+    if !qemu_available() {
+        return;
+    }
+    firmware();
+    let mut sc = scenario("paper000/test3.toml");
+    sc.duration_s = 15.0;
+    sc.sensors.attitude_noise_deg = 0.2; // exercise noisy inputs too
+    let sil = run_in_process(&sc);
+    let mut link = QemuLink::start(None).unwrap();
+    let pil = runner::run(&sc, &mut link, false).unwrap();
+    let mut worst = 0.0f64;
+    for name in ["q_x", "q_y", "q_z", "q_w", "rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s", "gimbal1_deg", "gimbal2_deg", "gimbal3_deg", "gimbal4_deg"] {
+        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+        assert_eq!(a.len(), b.len());
+        let scale = if name.starts_with("gimbal") { 1f64.to_radians() } else { 1.0 };
+        for (x, y) in a.iter().zip(b) {
+            worst = worst.max((x - y).abs() * scale);
+        }
+    }
+    eprintln!("SIL vs PIL: largest state difference {worst:e} (rad, rad/s or unit quaternion)");
+    assert!(worst <= 1e-6, "SIL and PIL trajectories differ by {worst:e}");
+    let s = &pil.summary;
+    let max = s.max_step_instructions.expect("the firmware measures every step");
+    eprintln!("PIL: Fsw::step max {max} instructions, mean {:.0}", s.mean_step_instructions.unwrap());
+    assert!(max > 500 && max < 20_000, "{max} instructions per step");
+    assert_eq!(s.board, acs_flight::session::board::QEMU_MPS2_AN386);
+    assert_eq!(s.frames_dropped_flight + s.frames_dropped_host, 0);
+    assert!((s.final_error_deg - sil.summary.final_error_deg).abs() < 1e-6);
+}
+
+#[test]
+fn firmware_drops_corrupt_frames_and_keeps_answering() {
+    if !qemu_available() {
+        return;
+    }
+    firmware();
+    let mut link = QemuLink::start(None).unwrap();
+    acs_tests::corrupt_frames_are_dropped_and_counted(link.framed());
+}
