@@ -456,7 +456,7 @@ mod tests {
         // Garbage between frames (non-zero bytes, then a delimiter).
         s.extend_from_slice(&[0x55, 0xAA, 0x13, 0x37, 0x00]);
         // Oversize: more non-zero bytes than the buffer holds.
-        s.extend(std::iter::repeat(0x42).take(MAX_FRAME + 10));
+        s.extend(std::iter::repeat_n(0x42, MAX_FRAME + 10));
         s.push(0);
         s.extend_from_slice(&good);
         let got = feed(&mut acc, &s);

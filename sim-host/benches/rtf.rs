@@ -16,7 +16,12 @@ fn main() {
     let sc = Scenario::load(&path).expect("scenario");
     let reps = 50;
     let mut rtf: Vec<f64> = (0..reps)
-        .map(|_| runner::run(&sc, &mut InProcess::new(), false).expect("run").summary.real_time_factor)
+        .map(|_| {
+            runner::run(&sc, &mut InProcess::new(), false)
+                .expect("run")
+                .summary
+                .real_time_factor
+        })
         .collect();
     rtf.sort_by(|a, b| a.total_cmp(b));
     println!(
@@ -28,12 +33,19 @@ fn main() {
         rtf[reps - 1]
     );
 
-    if std::process::Command::new("qemu-system-arm").arg("--version").output().is_err() || !default_firmware().exists() {
+    if std::process::Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_err()
+        || !default_firmware().exists()
+    {
         println!("qemu: skipped (needs qemu-system-arm and `scripts/firmware.sh build`)");
         return;
     }
     let mut link = QemuLink::start(None).expect("qemu");
-    let r = runner::run(&sc, &mut link, false).expect("qemu run").summary;
+    let r = runner::run(&sc, &mut link, false)
+        .expect("qemu run")
+        .summary;
     println!(
         "qemu mps2-an386 (Cortex-M4F) {}: Fsw::step max {} instructions, mean {:.0}, over {} steps (±40: 25 MHz counter); PIL real-time factor {:.1}x",
         sc.name,

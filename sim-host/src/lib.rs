@@ -4,6 +4,9 @@
 //! The flight software is never re-implemented here: every run calls the `acs-flight`
 //! crate, either directly (in-process) or on the flight computer over the postcard link.
 
+// Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
+#![allow(clippy::needless_range_loop)]
+
 pub mod attitude;
 pub mod link;
 pub mod output;

@@ -7,7 +7,7 @@
 use crate::attitude::{error_angle, euler_from_quat};
 use crate::link::{FlightLink, LinkInfo};
 use crate::output::TimeSeries;
-use crate::plant::{Input, MAX_GIMBALS};
+use crate::plant::Input;
 use crate::scenario::Scenario;
 use crate::sensors::SensorSuite;
 use acs_flight::protocol::status;
@@ -263,7 +263,6 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     if let Some(b) = bar {
         b.finish_and_clear();
     }
-    debug_assert!(MAX_GIMBALS >= 4);
 
     let sim_time = steps as f64 * dt;
     let final_error_deg = errors.last().map_or(f64::NAN, |e| e.1);

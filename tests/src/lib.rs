@@ -4,9 +4,9 @@ use acs_flight::protocol::{encode_frame, valid, HostMsg, SensorFrame, MAX_FRAME}
 use sim_host::link::framed::Framed;
 use sim_host::link::in_process::InProcess;
 use sim_host::link::FlightLink;
-use std::io::{Read, Write};
 use sim_host::runner::{self, RunResult};
 use sim_host::scenario::Scenario;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 /// Repository root.
@@ -58,4 +58,3 @@ pub fn corrupt_frames_are_dropped_and_counted<S: Read + Write>(link: &mut Framed
         assert_eq!(r.frames_dropped, expected_drops, "after corruption {k}");
     }
 }
-

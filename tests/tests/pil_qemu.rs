@@ -7,9 +7,11 @@ use acs_tests::{repo, run_in_process, scenario};
 use sim_host::link::qemu::{default_firmware, QemuLink};
 use sim_host::runner;
 
-
 fn qemu_available() -> bool {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    let ok = std::process::Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
     if !ok {
         eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested");
     }
@@ -18,7 +20,10 @@ fn qemu_available() -> bool {
 
 fn firmware() {
     if !default_firmware().exists() {
-        let st = std::process::Command::new(repo().join("scripts/firmware.sh")).arg("build").status().expect("scripts/firmware.sh");
+        let st = std::process::Command::new(repo().join("scripts/firmware.sh"))
+            .arg("build")
+            .status()
+            .expect("scripts/firmware.sh");
         assert!(st.success(), "firmware build failed");
     }
 }
@@ -36,19 +41,43 @@ fn qemu_run_matches_in_process_and_reports_instruction_counts() {
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
     let mut worst = 0.0f64;
-    for name in ["q_x", "q_y", "q_z", "q_w", "rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s", "gimbal1_deg", "gimbal2_deg", "gimbal3_deg", "gimbal4_deg"] {
+    for name in [
+        "q_x",
+        "q_y",
+        "q_z",
+        "q_w",
+        "rate_x_rad_s",
+        "rate_y_rad_s",
+        "rate_z_rad_s",
+        "gimbal1_deg",
+        "gimbal2_deg",
+        "gimbal3_deg",
+        "gimbal4_deg",
+    ] {
         let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
         assert_eq!(a.len(), b.len());
-        let scale = if name.starts_with("gimbal") { 1f64.to_radians() } else { 1.0 };
+        let scale = if name.starts_with("gimbal") {
+            1f64.to_radians()
+        } else {
+            1.0
+        };
         for (x, y) in a.iter().zip(b) {
             worst = worst.max((x - y).abs() * scale);
         }
     }
     eprintln!("SIL vs PIL: largest state difference {worst:e} (rad, rad/s or unit quaternion)");
-    assert!(worst <= 1e-6, "SIL and PIL trajectories differ by {worst:e}");
+    assert!(
+        worst <= 1e-6,
+        "SIL and PIL trajectories differ by {worst:e}"
+    );
     let s = &pil.summary;
-    let max = s.max_step_instructions.expect("the firmware measures every step");
-    eprintln!("PIL: Fsw::step max {max} instructions, mean {:.0}", s.mean_step_instructions.unwrap());
+    let max = s
+        .max_step_instructions
+        .expect("the firmware measures every step");
+    eprintln!(
+        "PIL: Fsw::step max {max} instructions, mean {:.0}",
+        s.mean_step_instructions.unwrap()
+    );
     assert!(max > 500 && max < 20_000, "{max} instructions per step");
     assert_eq!(s.board, acs_flight::session::board::QEMU_MPS2_AN386);
     assert_eq!(s.frames_dropped_flight + s.frames_dropped_host, 0);
