@@ -5,7 +5,15 @@ use clap::{Parser, Subcommand};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::Scenario;
 use sim_host::{output, runner};
+use std::io::Write;
 use std::path::PathBuf;
+
+/// `println!` that does not panic when stdout is a closed pipe (`sim-host … | head`).
+macro_rules! say {
+    ($($t:tt)*) => {{
+        let _ = writeln!(std::io::stdout().lock(), $($t)*);
+    }};
+}
 
 #[derive(Parser)]
 #[command(
@@ -68,7 +76,7 @@ fn main() -> Result<()> {
             drop(l);
             let files = output::write_all(&out, &r, !no_plots)?;
             let s = &r.summary;
-            println!(
+            say!(
                 "{}: {} steps over {} on {}; final error {:.4} deg, settle {} ; min m {:.3}; max gimbal rate {:.3} rad/s; RTF {:.0}x{}",
                 s.scenario,
                 s.steps,
@@ -82,7 +90,7 @@ fn main() -> Result<()> {
                 s.max_step_instructions.map_or(String::new(), |n| format!("; max {n} instructions/step")),
             );
             for f in files {
-                println!("  wrote {}", f.display());
+                say!("  wrote {}", f.display());
             }
         }
         Cmd::Serve { listen } => {
@@ -94,13 +102,13 @@ fn main() -> Result<()> {
         Cmd::Check { scenario } => {
             let sc = Scenario::load(&scenario)?;
             let p = sc.flight_params()?;
-            println!(
+            say!(
                 "{}: ok ({} steps); parameter checksum {:#010x}",
                 sc.name,
                 sc.steps(),
                 p.checksum().map_err(|e| anyhow::anyhow!("{e}"))?
             );
-            println!("{p:#?}");
+            say!("{p:#?}");
         }
     }
     Ok(())
