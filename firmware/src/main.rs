@@ -1,0 +1,70 @@
+//! Flight-computer firmware: runs `acs_flight::Fsw` behind the COBS/CRC host link.
+//!
+//! Boards (cargo features, exactly one): `board-qemu` (default, QEMU `mps2-an386`) and
+//! `board-stm32f405`. See docs/firmware.md.
+//!
+//! Tasks (one thread-mode executor, `executor.rs`):
+//! - `link::link_task` owns the UART receive side, answers Hello / UploadParams /
+//!   SetTarget / StartRealTime and, in lockstep mode, steps every `Sensor` frame;
+//! - `control::control_task` runs the real-time loop after `StartRealTime`.
+#![no_std]
+#![no_main]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+mod board;
+mod control;
+mod executor;
+mod link;
+mod state;
+
+use acs_flight::session::Session;
+use embassy_sync::mutex::Mutex;
+use static_cell::StaticCell;
+
+use crate::executor::Executor;
+use crate::state::{SharedSession, SharedTx};
+
+static EXECUTOR: StaticCell<Executor> = StaticCell::new();
+static SESSION: StaticCell<SharedSession> = StaticCell::new();
+static TX: StaticCell<SharedTx> = StaticCell::new();
+
+#[cortex_m_rt::entry]
+fn main() -> ! {
+    defmt::info!(
+        "acs-firmware {=str} (board {=u8}), cost counter {=u32} Hz",
+        env!("CARGO_PKG_VERSION"),
+        board::BOARD_ID,
+        board::cost_counter_hz()
+    );
+    let (rx, tx) = board::init();
+    let session = Session::new(board::BOARD_ID, board::cost_counter_hz());
+    let (Some(session), Some(tx), Some(executor)) = (
+        SESSION.try_init(Mutex::new(session)),
+        TX.try_init(Mutex::new(tx)),
+        EXECUTOR.try_init(Executor::new()),
+    ) else {
+        defmt::error!("main entered twice");
+        board::exit_failure()
+    };
+    executor.run(|spawner| {
+        match link::link_task(rx, session, tx) {
+            Ok(t) => spawner.spawn(t),
+            Err(e) => {
+                defmt::error!("spawn link task: {}", e);
+                board::exit_failure()
+            }
+        }
+        match control::control_task(session, tx) {
+            Ok(t) => spawner.spawn(t),
+            Err(e) => {
+                defmt::error!("spawn control task: {}", e);
+                board::exit_failure()
+            }
+        }
+    })
+}
