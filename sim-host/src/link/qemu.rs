@@ -22,7 +22,7 @@ pub fn default_firmware() -> PathBuf {
         .join("../firmware/target/thumbv7em-none-eabihf/release/acs-firmware")
 }
 
-/// The QEMU command line (without the ELF and port) — also printed by `--verbose`.
+/// The QEMU command line for the firmware `elf` with UART0 on loopback `port`.
 pub fn qemu_args(elf: &Path, port: u16) -> Vec<String> {
     [
         "-machine",
@@ -34,8 +34,11 @@ pub fn qemu_args(elf: &Path, port: u16) -> Vec<String> {
         "none",
         "-icount",
         "shift=0,align=off,sleep=off",
+        // Semihosting (binary defmt frames) to stdout, i.e. the log file.
+        "-chardev",
+        "stdio,id=semi",
         "-semihosting-config",
-        "enable=on,target=native",
+        "enable=on,target=native,chardev=semi",
     ]
     .iter()
     .map(|s| s.to_string())
