@@ -2,31 +2,59 @@
 //! simulator's in-process link both call.
 //!
 //! `Fsw::step(&SensorFrame) -> ActuatorCommand`:
-//! 1. reject bad input (flags, NaN/inf, quaternion norm off by > 10 %, rates > 50 rad/s):
-//!    the safe command (zero gimbal rates: the CMGs hold their momentum) with `BAD_INPUT`;
-//! 2. quaternion feedback → torque demand;
-//! 3. CMG steering → gimbal rates, then the torque they realise and a shortfall flag.
+//! 1. reject bad input (missing validity bits for what the configuration needs, NaN/inf,
+//!    quaternion norm off by > 10 %, rates > 50 rad/s): the safe command (all actuators
+//!    idle: gimbals stop, wheel torques, dipoles and thrusters zero) with `BAD_INPUT`;
+//! 2. the control law → body-torque demand;
+//! 3. allocation to the configured actuator family → commands, the torque they realise,
+//!    saturation, and status bits the controller uses for anti-windup next step.
 //!
 //! No heap, no panics, no loops without a fixed bound.
 
+use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
+use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::control::{QuaternionFeedback, QuaternionFeedbackGains};
-use crate::math::{quat_from_xyzw, quat_normalized, Mat3, Quat, Vec3};
-use crate::params::{FlightParams, ParamError, ParamField, ParamReason};
-use crate::protocol::{status, valid, ActuatorCommand, SensorFrame};
+use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
+use crate::params::{
+    ActuatorParams, ControllerParams, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError,
+    ParamField, ParamReason, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
+};
+use crate::protocol::{ActuatorCommand, SensorFrame, status, valid};
 use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig};
 
 /// Largest body rate the flight code accepts as a measurement, rad/s.
 pub const MAX_RATE_RAD_S: f32 = 50.0;
 
-#[derive(Clone, Copy, Debug)]
+/// Thruster allocator at the configured capacity (`N + 1` LP columns: thrusters and λ).
+pub type ThrusterAllocator = Allocator<MAX_THRUSTERS, { MAX_THRUSTERS + 1 }>;
+
+#[derive(Clone, Debug)]
+enum Actuators {
+    Cmg {
+        pyramid: CmgPyramid,
+        limits: GimbalLimits,
+        steering: SteeringParams,
+    },
+    Wheels(crate::params::WheelParams),
+    Magnetorquers(crate::params::MagnetorquerParams),
+    Thrusters {
+        alloc: ThrusterAllocator,
+        bounds: Bounds<MAX_THRUSTERS>,
+        method: ThrusterMethod,
+        pwpf: Pwpf<MAX_THRUSTERS>,
+    },
+}
+
+#[derive(Clone, Debug)]
 struct Configured {
     params: FlightParams,
     inertia: Mat3,
     gains: QuaternionFeedbackGains,
     dt_s: f32,
     q_target: Quat,
-    pyramid: CmgPyramid,
-    limits: GimbalLimits,
+    actuators: Actuators,
+    /// Validity bits a sensor frame must carry for this configuration.
+    required: u16,
 }
 
 /// Flight software state. `Fsw::new()` is unconfigured; `configure` must accept a
@@ -36,6 +64,38 @@ pub struct Fsw {
     cfg: Option<Configured>,
     control: QuaternionFeedback,
     saturated_last: bool,
+}
+
+fn thruster_runtime(t: &ThrusterParams, dt_s: f32) -> Result<Actuators, ParamError> {
+    let bad = |field| ParamError {
+        field,
+        reason: ParamReason::OutOfRange,
+    };
+    let n = (t.count as usize).min(MAX_THRUSTERS);
+    let mut u_max = [0.0f32; MAX_THRUSTERS];
+    for x in u_max.iter_mut().take(n) {
+        *x = 1.0;
+    }
+    let alloc = ThrusterAllocator::new(t.torque_nm, [0.0; MAX_THRUSTERS], u_max);
+    let failures = Failures {
+        failed: u32::from(t.failed_mask),
+        stuck_on: 0,
+    };
+    let bounds = alloc.bounds(None, failures);
+    let pp = PwpfParams {
+        km: t.pwpf_km,
+        tm: t.pwpf_tm_s,
+        u_on: t.pwpf_u_on,
+        u_off: t.pwpf_u_off,
+        u_m: 1.0,
+    };
+    let pwpf = Pwpf::new(pp, dt_s).ok_or(bad(ParamField::Pwpf))?;
+    Ok(Actuators::Thrusters {
+        alloc,
+        bounds,
+        method: t.method,
+        pwpf,
+    })
 }
 
 impl Fsw {
@@ -58,23 +118,48 @@ impl Fsw {
             field: ParamField::Target,
             reason: ParamReason::NotUnitQuaternion,
         })?;
-        let c = &p.controller;
+        let dt_s = 1.0 / p.control_rate_hz;
         let m = crate::params::rows_to_mat;
+        let ControllerParams::QuaternionFeedback(c) = &p.controller;
+        let gains = QuaternionFeedbackGains {
+            k: m(&c.k_att_nm),
+            d: m(&c.d_rate_nms),
+            ki: m(&c.ki_att_nm_s),
+            integral_limit_s: c.integral_limit_s,
+            torque_limit_nm: Vec3::from(c.torque_limit_nm),
+            gyro_compensation: c.gyro_compensation,
+        };
+        let mut required = valid::ATTITUDE | valid::RATE;
+        let actuators = match &p.actuator {
+            ActuatorParams::Cmg { cmg, steering } => {
+                required |= valid::GIMBALS;
+                Actuators::Cmg {
+                    pyramid: CmgPyramid::new(cmg.skew_rad, cmg.h0_nms),
+                    limits: GimbalLimits::from(cmg),
+                    steering: *steering,
+                }
+            }
+            ActuatorParams::Wheels(w) => {
+                required |= valid::WHEELS;
+                Actuators::Wheels(*w)
+            }
+            ActuatorParams::Magnetorquers(mt) => {
+                required |= valid::MAG;
+                Actuators::Magnetorquers(*mt)
+            }
+            ActuatorParams::Thrusters(t) => thruster_runtime(t, dt_s)?,
+        };
+        if p.target_frame == TargetFrame::Reference {
+            required |= valid::REFERENCE;
+        }
         self.cfg = Some(Configured {
             params: *p,
             inertia: p.inertia(),
-            gains: QuaternionFeedbackGains {
-                k: m(&c.k_att_nm),
-                d: m(&c.d_rate_nms),
-                ki: m(&c.ki_att_nm_s),
-                integral_limit_s: c.integral_limit_s,
-                torque_limit_nm: Vec3::from(c.torque_limit_nm),
-                gyro_compensation: c.gyro_compensation,
-            },
-            dt_s: 1.0 / p.control_rate_hz,
+            gains,
+            dt_s,
             q_target,
-            pyramid: CmgPyramid::new(p.cmg.skew_rad, p.cmg.h0_nms),
-            limits: GimbalLimits::from(&p.cmg),
+            actuators,
+            required,
         });
         self.control.reset();
         self.saturated_last = false;
@@ -105,7 +190,7 @@ impl Fsw {
         Ok(())
     }
 
-    /// The command to hold when there is no trustworthy input: gimbals stop.
+    /// The command to hold when there is no trustworthy input: every actuator idle.
     pub fn safe_command(seq: u32, status_bits: u16) -> ActuatorCommand {
         ActuatorCommand {
             seq,
@@ -116,103 +201,255 @@ impl Fsw {
 
     /// One control step.
     pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
-        let Some(cfg) = self.cfg.as_ref() else {
+        let Some(cfg) = self.cfg.as_mut() else {
             return Self::safe_command(f.seq, status::NOT_CONFIGURED);
         };
-        let Some((q, w, delta)) = check_frame(f) else {
+        let Some(m) = check_frame(f, cfg.required) else {
             return Self::safe_command(f.seq, status::BAD_INPUT);
         };
-        let trig = GimbalTrig::new(&delta);
-        let h_cmg = cfg.pyramid.momentum(&trig);
+        let (q_cmd, w_cmd) = match cfg.params.target_frame {
+            TargetFrame::Inertial => (cfg.q_target, Vec3::zeros()),
+            TargetFrame::Reference => (
+                m.q_ref * cfg.q_target,
+                rotate_ref_to_body(&m.q, &m.ref_rate),
+            ),
+        };
+        let mut cmd = ActuatorCommand {
+            seq: f.seq,
+            ..Default::default()
+        };
+        // Actuator momentum for the gyroscopic term, and CMG trig reused by the steering.
+        let (h_act, trig) = match &cfg.actuators {
+            Actuators::Cmg { pyramid, .. } => {
+                let t = GimbalTrig::new(&m.gimbals);
+                (pyramid.momentum(&t), Some(t))
+            }
+            Actuators::Wheels(w) => {
+                let mut h = Vec3::zeros();
+                for (a, s) in w.axes.iter().zip(m.wheels.iter()).take(w.count as usize) {
+                    h += Vec3::from(*a) * (w.inertia_kgm2 * s);
+                }
+                (h, None)
+            }
+            _ => (Vec3::zeros(), None),
+        };
         let demand = self.control.update(
             &cfg.gains,
             &cfg.inertia,
-            &q,
-            &cfg.q_target,
-            &w,
-            &h_cmg,
+            &m.q,
+            &q_cmd,
+            &m.w,
+            &w_cmd,
+            &h_act,
             cfg.dt_s,
             self.saturated_last,
         );
-        let s = &cfg.params.steering;
-        let out = cfg.pyramid.steer(
-            &s.law,
-            s.singular_threshold,
-            &cfg.limits,
-            &trig,
-            &delta,
-            &w,
-            &demand.torque_nm,
-            cfg.dt_s,
-        );
-        let realised = cfg
-            .pyramid
-            .torque_on_body(&trig, &w, &out.gimbal_rate_rad_s);
-        let mut st = out.status;
+        let u = demand.torque_nm;
+        let dt = cfg.dt_s;
+        let alloc: AllocResult<4> = match &mut cfg.actuators {
+            Actuators::Cmg {
+                pyramid,
+                limits,
+                steering,
+            } => {
+                let Some(t) = trig.as_ref() else {
+                    return Self::safe_command(f.seq, status::BAD_INPUT);
+                };
+                let out = pyramid.steer(
+                    &steering.law,
+                    steering.singular_threshold,
+                    limits,
+                    t,
+                    &m.gimbals,
+                    &m.w,
+                    &u,
+                    dt,
+                );
+                let realised = pyramid.torque_on_body(t, &m.w, &out.gimbal_rate_rad_s);
+                cmd.gimbal_rate_cmd_rad_s = out.gimbal_rate_rad_s;
+                cmd.singularity_measure = out.singularity_measure;
+                cmd.steering_alpha = out.alpha;
+                cmd.status |= out.status;
+                cmg_result(out.gimbal_rate_rad_s, &realised, &u)
+            }
+            Actuators::Wheels(w) => {
+                let r = wheels::allocate(w, &m.wheels, &u);
+                cmd.wheel_torque_cmd_nm = r.u;
+                narrow(&r)
+            }
+            Actuators::Magnetorquers(mt) => {
+                let r = magnetorquers::allocate(mt, &m.mag, &u);
+                cmd.dipole_cmd_am2 = r.u;
+                narrow(&r)
+            }
+            Actuators::Thrusters {
+                alloc,
+                bounds,
+                method,
+                pwpf,
+            } => {
+                let d: [f32; 3] = u.into();
+                let r = match method {
+                    ThrusterMethod::DirectionPreserving => alloc.direction_preserving(&d, bounds),
+                    ThrusterMethod::Bodson => alloc.bodson(&d, bounds),
+                };
+                cmd.thruster_level = r.u;
+                cmd.thruster_on = pwpf.step(&r.u) as u16;
+                narrow(&r)
+            }
+        };
+        cmd.torque_demand_nm = u.into();
+        cmd.torque_realised_nm = alloc.realised;
+        cmd.attitude_error_rad = demand.error_angle_rad;
+        cmd.alloc_iterations = alloc.iterations;
+        cmd.saturated = alloc.sat_low | alloc.sat_high;
         if demand.limited {
-            st |= status::TORQUE_LIMITED;
+            cmd.status |= status::TORQUE_LIMITED;
         }
-        if (realised - demand.torque_nm).norm() > 0.01 * demand.torque_nm.norm() + 1e-6 {
-            st |= status::TORQUE_SHORTFALL;
+        match alloc.status {
+            AllocStatus::Ok => {}
+            AllocStatus::Scaled => cmd.status |= status::RATE_SCALED,
+            AllocStatus::Singular => cmd.status |= status::SINGULAR,
+            AllocStatus::Infeasible | AllocStatus::NonFinite | AllocStatus::IterationCap => {
+                cmd.status |= status::ALLOC_FALLBACK
+            }
         }
-        self.saturated_last = st
+        if alloc.unrealised != 0 {
+            cmd.status |= status::UNREALISED;
+        }
+        let realised = Vec3::from(alloc.realised);
+        if (realised - u).norm() > 0.01 * u.norm() + 1e-6 {
+            cmd.status |= status::TORQUE_SHORTFALL;
+        }
+        self.saturated_last = cmd.status
             & (status::TORQUE_LIMITED
                 | status::RATE_SCALED
                 | status::ANGLE_LIMITED
                 | status::TORQUE_SHORTFALL
-                | status::SINGULAR)
+                | status::SINGULAR
+                | status::ALLOC_FALLBACK
+                | status::UNREALISED)
             != 0;
-        ActuatorCommand {
-            seq: f.seq,
-            gimbal_rate_cmd_rad_s: out.gimbal_rate_rad_s,
-            torque_demand_nm: demand.torque_nm.into(),
-            torque_realised_nm: realised.into(),
-            singularity_measure: out.singularity_measure,
-            steering_alpha: out.alpha,
-            attitude_error_rad: demand.error_angle_rad,
-            status: st,
-        }
+        cmd
     }
 }
 
-/// Validated, normalised measurements, or `None` when anything is untrustworthy.
-fn check_frame(f: &SensorFrame) -> Option<(Quat, Vec3, [f32; 4])> {
-    if f.valid & valid::ALL != valid::ALL {
-        return None;
+/// The allocation fields `step` reads, independent of the family's command width.
+fn narrow<const N: usize>(r: &AllocResult<N>) -> AllocResult<4> {
+    AllocResult {
+        u: [0.0; 4],
+        realised: r.realised,
+        shortfall: r.shortfall,
+        lambda: r.lambda,
+        sat_low: r.sat_low,
+        sat_high: r.sat_high,
+        unrealised: r.unrealised,
+        iterations: r.iterations,
+        status: r.status,
     }
-    let q = quat_from_xyzw(f.q_ib_xyzw);
+}
+
+fn cmg_result(rates: [f32; 4], realised: &Vec3, demand: &Vec3) -> AllocResult<4> {
+    let short = demand - realised;
+    let dn = demand.norm_squared();
+    AllocResult {
+        u: rates,
+        realised: (*realised).into(),
+        shortfall: short.into(),
+        lambda: if dn > 0.0 {
+            (realised.dot(demand) / dn).clamp(0.0, 1.0)
+        } else {
+            1.0
+        },
+        sat_low: 0,
+        sat_high: 0,
+        unrealised: 0,
+        iterations: 1,
+        // The CMG steering reports its own status bits (RATE_SCALED, SINGULAR, …).
+        status: AllocStatus::Ok,
+    }
+}
+
+/// Validated, normalised measurements.
+struct Measured {
+    q: Quat,
+    w: Vec3,
+    gimbals: [f32; 4],
+    wheels: [f32; MAX_WHEELS],
+    mag: Vec3,
+    q_ref: Quat,
+    ref_rate: Vec3,
+}
+
+fn finite(xs: &[f32]) -> bool {
+    xs.iter().all(|x| x.is_finite())
+}
+
+fn unit_quat(q: [f32; 4]) -> Option<Quat> {
+    let q = quat_from_xyzw(q);
     let n = q.norm();
     if !n.is_finite() || !(0.9..=1.1).contains(&n) {
         return None;
     }
-    let q = quat_normalized(&q)?;
-    let w = Vec3::from(f.rate_rad_s);
-    if !w.iter().all(|x| x.is_finite()) || w.amax() > MAX_RATE_RAD_S {
+    quat_normalized(&q)
+}
+
+/// `None` when anything the configuration needs is missing or untrustworthy.
+fn check_frame(f: &SensorFrame, required: u16) -> Option<Measured> {
+    if f.valid & required != required {
         return None;
     }
-    if !f
-        .gimbal_angle_rad
-        .iter()
-        .all(|x| x.is_finite() && libm::fabsf(*x) < 1.0e3)
+    let q = unit_quat(f.q_ib_xyzw)?;
+    let w = Vec3::from(f.rate_rad_s);
+    if !finite(&f.rate_rad_s) || w.amax() > MAX_RATE_RAD_S {
+        return None;
+    }
+    if required & valid::GIMBALS != 0
+        && !f
+            .gimbal_angle_rad
+            .iter()
+            .all(|x| x.is_finite() && libm::fabsf(*x) < 1.0e3)
     {
         return None;
     }
-    Some((q, w, f.gimbal_angle_rad))
+    if required & valid::WHEELS != 0 && !finite(&f.wheel_speed_rad_s) {
+        return None;
+    }
+    if required & valid::MAG != 0 && !finite(&f.mag_field_t) {
+        return None;
+    }
+    let (q_ref, ref_rate) = if required & valid::REFERENCE != 0 {
+        if !finite(&f.ref_rate_rad_s) {
+            return None;
+        }
+        (unit_quat(f.q_ref_xyzw)?, Vec3::from(f.ref_rate_rad_s))
+    } else {
+        (Quat::identity(), Vec3::zeros())
+    };
+    Some(Measured {
+        q,
+        w,
+        gimbals: f.gimbal_angle_rad,
+        wheels: f.wheel_speed_rad_s,
+        mag: Vec3::from(f.mag_field_t),
+        q_ref,
+        ref_rate,
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{quat_from_euler, quat_to_xyzw, EulerSeq};
+    use crate::math::{EulerSeq, quat_from_euler, quat_to_xyzw};
+    use crate::params::{MagnetorquerParams, WheelParams};
 
     fn frame(q: Quat) -> SensorFrame {
         SensorFrame {
-            seq: 5,
-            time_us: 0,
             q_ib_xyzw: quat_to_xyzw(&q),
-            rate_rad_s: [0.0; 3],
             gimbal_angle_rad: [0.1, 0.2, -0.1, 0.3],
+            mag_field_t: [2e-5, -1e-5, 3e-5],
             valid: valid::ALL,
+            ..SensorFrame::empty(5, 0)
         }
     }
 
@@ -236,12 +473,12 @@ mod tests {
             nan(|f| f.rate_rad_s[1] = 1e6),
             nan(|f| f.gimbal_angle_rad[3] = f32::NAN),
             nan(|f| f.valid = valid::RATE),
+            nan(|f| f.valid = valid::ATTITUDE | valid::RATE), // CMG configuration needs gimbals
         ];
         for b in bad {
             let c = f.step(&b);
             assert_eq!(c.status, status::BAD_INPUT, "{b:?}");
-            assert_eq!(c.gimbal_rate_cmd_rad_s, [0.0; 4]);
-            assert_eq!(c.seq, 5);
+            assert_eq!(c, Fsw::safe_command(5, status::BAD_INPUT));
         }
     }
 
@@ -270,5 +507,54 @@ mod tests {
             ParamField::ControlRate
         );
         assert_eq!(f.params(), Some(&good));
+    }
+
+    fn other_family(a: ActuatorParams) -> Fsw {
+        let mut f = Fsw::new();
+        f.configure(&FlightParams {
+            actuator: a,
+            ..FlightParams::default()
+        })
+        .unwrap();
+        f
+    }
+
+    #[test]
+    fn every_family_produces_torque_against_the_error() {
+        let q = quat_from_euler([0.02, -0.03, 0.05], EulerSeq::Zyx321);
+        let mut axes = [[0.0; 3]; MAX_WHEELS];
+        axes[0] = [1.0, 0.0, 0.0];
+        axes[1] = [0.0, 1.0, 0.0];
+        axes[2] = [0.0, 0.0, 1.0];
+        let w = WheelParams {
+            count: 3,
+            axes,
+            max_torque_nm: 10.0,
+            max_speed_rad_s: 600.0,
+            inertia_kgm2: 0.01,
+            null_gain_per_s: 0.0,
+            bias_speed_rad_s: [0.0; MAX_WHEELS],
+            failed_mask: 0,
+        };
+        let mut fw = other_family(ActuatorParams::Wheels(w));
+        let c = fw.step(&frame(q));
+        let d = Vec3::from(c.torque_demand_nm);
+        assert!((Vec3::from(c.torque_realised_nm) - d).norm() < 1e-5 * d.norm());
+        // Body torque = -Σ a_i u_i: with the identity layout u = -T.
+        assert!((c.wheel_torque_cmd_nm[0] + d.x).abs() < 1e-6);
+        let mt = MagnetorquerParams {
+            max_dipole_am2: [1e6; 3],
+            min_dipole_am2: [1e6; 3],
+            deadband_lo_am2: [0.0; 3],
+            deadband_hi_am2: [0.0; 3],
+            min_field_t: 1e-7,
+        };
+        let mut fm = other_family(ActuatorParams::Magnetorquers(mt));
+        let c = fm.step(&frame(q));
+        let b = Vec3::new(2e-5, -1e-5, 3e-5);
+        let d = Vec3::from(c.torque_demand_nm);
+        let perp = d - b * (d.dot(&b) / b.norm_squared());
+        assert!((Vec3::from(c.torque_realised_nm) - perp).norm() < 1e-4 * perp.norm());
+        assert!(Vec3::from(c.dipole_cmd_am2).norm() > 0.0);
     }
 }

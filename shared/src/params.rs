@@ -5,15 +5,20 @@
 //! Gains are explicit matrices: the host turns scenario-level choices (e.g. paper 000's
 //! `zeta`, `wn`) into them, so the flight code stays generic and cheap.
 
-use crate::math::{quat_from_xyzw, Mat3};
+use crate::math::{Mat3, quat_from_xyzw};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 1;
+pub const PARAMS_VERSION: u16 = 2;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
-pub const PARAMS_MAX_SIZE: usize = 384;
+pub const PARAMS_MAX_SIZE: usize = 768;
+
+/// Capacity of the reaction-wheel array.
+pub const MAX_WHEELS: usize = 6;
+/// Capacity of the thruster set.
+pub const MAX_THRUSTERS: usize = 12;
 
 /// CRC used for frames and the parameter checksum: CRC-32/ISO-HDLC (the zlib CRC).
 pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
@@ -28,19 +33,113 @@ pub struct FlightParams {
     /// Spacecraft inertia about the centre of mass, body axes, row-major, kg m².
     pub inertia_kgm2: [[f32; 3]; 3],
     pub controller: ControllerParams,
-    pub cmg: CmgParams,
-    pub steering: SteeringParams,
-    /// Commanded attitude `q_ib`, scalar-last `[x, y, z, w]` (see `math` for the convention).
+    pub actuator: ActuatorParams,
+    /// Commanded attitude, scalar-last `[x, y, z, w]` (see `math` for the convention),
+    /// relative to `target_frame`.
     pub target_q_xyzw: [f32; 4],
+    pub target_frame: TargetFrame,
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).
     pub hold_after_missed_frames: u16,
 }
 
+/// The frame the target attitude is given in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum TargetFrame {
+    /// `q_c = q_target` (inertial pointing).
+    Inertial,
+    /// `q_c = q_ref ⊗ q_target` with `q_ref` (e.g. LVLH → inertial) and its rate from the
+    /// sensor frame's navigation fields: pointing that follows the orbit.
+    Reference,
+}
+
+/// The control law and its gains.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ControllerParams {
+    QuaternionFeedback(QuaternionFeedbackParams),
+}
+
+/// The actuator family the torque demand is allocated to, with its geometry and limits.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ActuatorParams {
+    Cmg {
+        cmg: CmgParams,
+        steering: SteeringParams,
+    },
+    Wheels(WheelParams),
+    Magnetorquers(MagnetorquerParams),
+    Thrusters(ThrusterParams),
+}
+
+/// Reaction-wheel array (allocation in `allocation::wheels`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WheelParams {
+    pub count: u8,
+    /// Spin axes in body axes (unit), the columns of paper 001's C (eq 9).
+    pub axes: [[f32; 3]; MAX_WHEELS],
+    pub max_torque_nm: f32,
+    pub max_speed_rad_s: f32,
+    /// Axial rotor inertia.
+    pub inertia_kgm2: f32,
+    /// Null-space momentum-management gain, 1/s (0 = off).
+    pub null_gain_per_s: f32,
+    /// Wheel speeds the null-space term drives towards.
+    pub bias_speed_rad_s: [f32; MAX_WHEELS],
+    /// Bit i: wheel i failed (removed from the allocation).
+    pub failed_mask: u8,
+}
+
+/// Magnetorquer rods along the body axes (allocation in `allocation::magnetorquers`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagnetorquerParams {
+    /// Largest positive dipole per axis, A m².
+    pub max_dipole_am2: [f32; 3],
+    /// Largest negative dipole per axis, as a positive magnitude, A m².
+    pub min_dipole_am2: [f32; 3],
+    /// Hysteresis dead band `(lo, hi)` per axis (paper 003: -1.26 … +1.86 A m²); 0, 0 = none.
+    pub deadband_lo_am2: [f32; 3],
+    pub deadband_hi_am2: [f32; 3],
+    /// Below this field magnitude the dipole law is not used, T.
+    pub min_field_t: f32,
+}
+
+/// Thruster allocation method.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ThrusterMethod {
+    /// Paper 004 eqs 12-18, then minimum propellant when attainable.
+    DirectionPreserving,
+    /// Bodson's scaled direction-preserving LP.
+    Bodson,
+}
+
+/// On/off thrusters (allocation in `allocation::thruster`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ThrusterParams {
+    pub count: u8,
+    /// Torque of each thruster firing at full thrust, N m (columns of paper 004's B
+    /// times the thrust); row = axis.
+    pub torque_nm: [[f32; MAX_THRUSTERS]; 3],
+    pub method: ThrusterMethod,
+    /// PWPF modulator (paper 004 fig 5, table 3), run at the control rate.
+    pub pwpf_km: f32,
+    pub pwpf_tm_s: f32,
+    pub pwpf_u_on: f32,
+    pub pwpf_u_off: f32,
+    /// Bit i: thruster i failed off.
+    pub failed_mask: u16,
+}
+
 /// Quaternion feedback `u = -K q_e - D ω - Ki ∫q_e dt (+ ω × H)` (paper 000 eqs 15-18).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct ControllerParams {
+pub struct QuaternionFeedbackParams {
     /// Attitude gain K, N m per unit quaternion vector part, row-major.
     pub k_att_nm: [[f32; 3]; 3],
     /// Rate gain D, N m per rad/s, row-major.
@@ -122,6 +221,16 @@ pub enum ParamField {
     SingularThreshold,
     Target,
     HoldAfterMissed,
+    WheelCount,
+    WheelAxis,
+    WheelLimit,
+    WheelNullSpace,
+    DipoleLimit,
+    DeadBand,
+    MinField,
+    ThrusterCount,
+    ThrusterTorque,
+    Pwpf,
 }
 
 /// Why it was rejected.
@@ -196,6 +305,129 @@ fn is_symmetric(m: &Mat3) -> bool {
     (m - m.transpose()).abs().max() <= 1e-5 * scale
 }
 
+impl QuaternionFeedbackParams {
+    fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        check_finite(F::AttitudeGain, &flat(&self.k_att_nm))?;
+        check_finite(F::RateGain, &flat(&self.d_rate_nms))?;
+        check_finite(F::IntegralGain, &flat(&self.ki_att_nm_s))?;
+        check_range(F::IntegralLimit, self.integral_limit_s, 0.0, 1.0e6)?;
+        for t in self.torque_limit_nm {
+            check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+        }
+        Ok(())
+    }
+}
+
+fn validate_cmg(g: &CmgParams, steering: &SteeringParams) -> Result<(), ParamError> {
+    use ParamField as F;
+    use ParamReason as R;
+    check_range(
+        F::CmgSkew,
+        g.skew_rad,
+        1e-3,
+        core::f32::consts::FRAC_PI_2 - 1e-3,
+    )?;
+    check_range(F::CmgMomentum, g.h0_nms, 1e-6, 1.0e5)?;
+    check_range(F::GimbalRateLimit, g.max_gimbal_rate_rad_s, 1e-6, 100.0)?;
+    check_range(F::GimbalAngleRange, g.gimbal_min_rad, -1.0e3, 1.0e3)?;
+    check_range(F::GimbalAngleRange, g.gimbal_max_rad, -1.0e3, 1.0e3)?;
+    if g.gimbal_min_rad >= g.gimbal_max_rad {
+        return Err(err(F::GimbalAngleRange, R::OutOfRange));
+    }
+    match steering.law {
+        SteeringLaw::MoorePenrose => {}
+        SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic { a0, m0, m_cr }) => {
+            check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, m0, 1e-9, 1.0e6)?;
+            check_range(F::SteeringAlpha, m_cr, 0.0, 1.0e6)?;
+        }
+        SteeringLaw::SingularityRobust(AlphaSchedule::Inverse { a0, m_cr, a_max }) => {
+            check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, m_cr, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, a_max, 1e-9, 1.0e6)?;
+        }
+        SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu }) => {
+            check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, mu, 0.0, 1.0e6)?;
+        }
+    }
+    check_range(
+        F::SingularThreshold,
+        steering.singular_threshold,
+        1e-12,
+        1.0,
+    )
+}
+
+impl WheelParams {
+    fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        use ParamReason as R;
+        let n = self.count as usize;
+        if n == 0 || n > MAX_WHEELS {
+            return Err(err(F::WheelCount, R::OutOfRange));
+        }
+        for a in self.axes.iter().take(n) {
+            check_finite(F::WheelAxis, a)?;
+            let norm = libm::sqrtf(a.iter().map(|x| x * x).sum());
+            if (norm - 1.0).abs() > 1e-3 {
+                return Err(err(F::WheelAxis, R::OutOfRange));
+            }
+        }
+        check_range(F::WheelLimit, self.max_torque_nm, 1e-9, 1.0e4)?;
+        check_range(F::WheelLimit, self.max_speed_rad_s, 1e-3, 1.0e5)?;
+        check_range(F::WheelLimit, self.inertia_kgm2, 1e-9, 1.0e3)?;
+        check_range(F::WheelNullSpace, self.null_gain_per_s, 0.0, 1.0e3)?;
+        check_finite(F::WheelNullSpace, &self.bias_speed_rad_s)?;
+        Ok(())
+    }
+}
+
+impl MagnetorquerParams {
+    fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        use ParamReason as R;
+        for i in 0..3 {
+            let g = |a: &[f32; 3]| a.get(i).copied().unwrap_or(f32::NAN);
+            check_range(F::DipoleLimit, g(&self.max_dipole_am2), 0.0, 1.0e6)?;
+            check_range(F::DipoleLimit, g(&self.min_dipole_am2), 0.0, 1.0e6)?;
+            let (lo, hi) = (g(&self.deadband_lo_am2), g(&self.deadband_hi_am2));
+            check_range(F::DeadBand, lo, -1.0e6, 1.0e6)?;
+            check_range(F::DeadBand, hi, -1.0e6, 1.0e6)?;
+            if lo > hi || lo > 0.0 || hi < 0.0 {
+                return Err(err(F::DeadBand, R::OutOfRange));
+            }
+        }
+        check_range(F::MinField, self.min_field_t, 0.0, 1.0)
+    }
+}
+
+impl ThrusterParams {
+    fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        use ParamReason as R;
+        let n = self.count as usize;
+        if n == 0 || n > MAX_THRUSTERS {
+            return Err(err(F::ThrusterCount, R::OutOfRange));
+        }
+        for row in &self.torque_nm {
+            check_finite(F::ThrusterTorque, row)?;
+            if row.iter().any(|x| libm::fabsf(*x) > 1.0e6) {
+                return Err(err(F::ThrusterTorque, R::OutOfRange));
+            }
+        }
+        check_range(F::Pwpf, self.pwpf_km, 1e-6, 1.0e6)?;
+        check_range(F::Pwpf, self.pwpf_tm_s, 1e-6, 1.0e4)?;
+        check_range(F::Pwpf, self.pwpf_u_on, 1e-6, 1.0e6)?;
+        check_range(F::Pwpf, self.pwpf_u_off, 0.0, 1.0e6)?;
+        if self.pwpf_u_off >= self.pwpf_u_on {
+            return Err(err(F::Pwpf, R::OutOfRange));
+        }
+        Ok(())
+    }
+}
+
 impl FlightParams {
     /// Check every field; the first offending field is reported.
     pub fn validate(&self) -> Result<(), ParamError> {
@@ -213,51 +445,15 @@ impl FlightParams {
         if !is_spd(&inertia) {
             return Err(err(F::Inertia, R::NotPositiveDefinite));
         }
-        let c = &self.controller;
-        check_finite(F::AttitudeGain, &flat(&c.k_att_nm))?;
-        check_finite(F::RateGain, &flat(&c.d_rate_nms))?;
-        check_finite(F::IntegralGain, &flat(&c.ki_att_nm_s))?;
-        check_range(F::IntegralLimit, c.integral_limit_s, 0.0, 1.0e6)?;
-        for t in c.torque_limit_nm {
-            check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+        match &self.controller {
+            ControllerParams::QuaternionFeedback(c) => c.validate()?,
         }
-        let g = &self.cmg;
-        check_range(
-            F::CmgSkew,
-            g.skew_rad,
-            1e-3,
-            core::f32::consts::FRAC_PI_2 - 1e-3,
-        )?;
-        check_range(F::CmgMomentum, g.h0_nms, 1e-6, 1.0e5)?;
-        check_range(F::GimbalRateLimit, g.max_gimbal_rate_rad_s, 1e-6, 100.0)?;
-        check_range(F::GimbalAngleRange, g.gimbal_min_rad, -1.0e3, 1.0e3)?;
-        check_range(F::GimbalAngleRange, g.gimbal_max_rad, -1.0e3, 1.0e3)?;
-        if g.gimbal_min_rad >= g.gimbal_max_rad {
-            return Err(err(F::GimbalAngleRange, R::OutOfRange));
+        match &self.actuator {
+            ActuatorParams::Cmg { cmg, steering } => validate_cmg(cmg, steering)?,
+            ActuatorParams::Wheels(w) => w.validate()?,
+            ActuatorParams::Magnetorquers(m) => m.validate()?,
+            ActuatorParams::Thrusters(t) => t.validate()?,
         }
-        match self.steering.law {
-            SteeringLaw::MoorePenrose => {}
-            SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic { a0, m0, m_cr }) => {
-                check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
-                check_range(F::SteeringAlpha, m0, 1e-9, 1.0e6)?;
-                check_range(F::SteeringAlpha, m_cr, 0.0, 1.0e6)?;
-            }
-            SteeringLaw::SingularityRobust(AlphaSchedule::Inverse { a0, m_cr, a_max }) => {
-                check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
-                check_range(F::SteeringAlpha, m_cr, 0.0, 1.0e6)?;
-                check_range(F::SteeringAlpha, a_max, 1e-9, 1.0e6)?;
-            }
-            SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu }) => {
-                check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
-                check_range(F::SteeringAlpha, mu, 0.0, 1.0e6)?;
-            }
-        }
-        check_range(
-            F::SingularThreshold,
-            self.steering.singular_threshold,
-            1e-12,
-            1.0,
-        )?;
         check_finite(F::Target, &self.target_q_xyzw)?;
         let n = quat_from_xyzw(self.target_q_xyzw).norm();
         if (n - 1.0).abs() > 1e-3 {
@@ -319,28 +515,31 @@ impl Default for FlightParams {
             version: PARAMS_VERSION,
             control_rate_hz: 100.0,
             inertia_kgm2: inertia,
-            controller: ControllerParams {
+            controller: ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
                 k_att_nm: scale(k),
                 d_rate_nms: scale(d),
                 ki_att_nm_s: [[0.0; 3]; 3],
                 integral_limit_s: 0.0,
                 torque_limit_nm: [10.0; 3],
                 gyro_compensation: false,
+            }),
+            actuator: ActuatorParams::Cmg {
+                cmg: CmgParams {
+                    skew_rad: 54.73f32.to_radians(),
+                    h0_nms: 0.623,
+                    max_gimbal_rate_rad_s: 60f32.to_radians(),
+                    gimbal_min_rad: -1000.0,
+                    gimbal_max_rad: 1000.0,
+                },
+                steering: SteeringParams {
+                    law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
+                        a0: 0.01,
+                        mu: 10.0,
+                    }),
+                    singular_threshold: 1e-6,
+                },
             },
-            cmg: CmgParams {
-                skew_rad: 54.73f32.to_radians(),
-                h0_nms: 0.623,
-                max_gimbal_rate_rad_s: 60f32.to_radians(),
-                gimbal_min_rad: -1000.0,
-                gimbal_max_rad: 1000.0,
-            },
-            steering: SteeringParams {
-                law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
-                    a0: 0.01,
-                    mu: 10.0,
-                }),
-                singular_threshold: 1e-6,
-            },
+            target_frame: TargetFrame::Inertial,
             target_q_xyzw: [0.0, 0.0, 0.0, 1.0],
             hold_after_missed_frames: 10,
         }
@@ -350,6 +549,107 @@ impl Default for FlightParams {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn qf(p: &mut FlightParams) -> &mut QuaternionFeedbackParams {
+        match &mut p.controller {
+            ControllerParams::QuaternionFeedback(q) => q,
+        }
+    }
+
+    fn cmg(p: &mut FlightParams) -> &mut CmgParams {
+        match &mut p.actuator {
+            ActuatorParams::Cmg { cmg, .. } => cmg,
+            _ => panic!("default is a CMG set"),
+        }
+    }
+
+    #[test]
+    fn every_actuator_family_validates_and_fits_the_frame() {
+        let base = FlightParams::default();
+        let mut axes = [[0.0; 3]; MAX_WHEELS];
+        axes[0] = [1.0, 0.0, 0.0];
+        axes[1] = [0.0, 1.0, 0.0];
+        axes[2] = [0.0, 0.0, 1.0];
+        let wheels = WheelParams {
+            count: 3,
+            axes,
+            max_torque_nm: 0.1,
+            max_speed_rad_s: 600.0,
+            inertia_kgm2: 0.01,
+            null_gain_per_s: 0.0,
+            bias_speed_rad_s: [0.0; MAX_WHEELS],
+            failed_mask: 0,
+        };
+        let mtq = MagnetorquerParams {
+            max_dipole_am2: [12.26; 3],
+            min_dipole_am2: [11.76; 3],
+            deadband_lo_am2: [-1.26; 3],
+            deadband_hi_am2: [1.86; 3],
+            min_field_t: 1e-7,
+        };
+        let thr = ThrusterParams {
+            count: 12,
+            torque_nm: [[1.0e5; MAX_THRUSTERS]; 3],
+            method: ThrusterMethod::Bodson,
+            pwpf_km: 4.5,
+            pwpf_tm_s: 0.15,
+            pwpf_u_on: 0.45,
+            pwpf_u_off: 0.15,
+            failed_mask: 0xfff,
+        };
+        for a in [
+            ActuatorParams::Wheels(wheels),
+            ActuatorParams::Magnetorquers(mtq),
+            ActuatorParams::Thrusters(thr),
+        ] {
+            let p = FlightParams {
+                actuator: a,
+                ..base
+            };
+            assert_eq!(p.validate(), Ok(()), "{a:?}");
+            let mut buf = [0u8; 2048];
+            let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf)
+                .unwrap()
+                .len();
+            assert!(n <= crate::protocol::MAX_PAYLOAD, "{n} bytes");
+        }
+        let mut w2 = wheels;
+        w2.axes[1] = [0.0, 2.0, 0.0];
+        assert_eq!(
+            FlightParams {
+                actuator: ActuatorParams::Wheels(w2),
+                ..base
+            }
+            .validate()
+            .unwrap_err()
+            .field,
+            ParamField::WheelAxis
+        );
+        let mut m2 = mtq;
+        m2.deadband_lo_am2[1] = 0.5;
+        assert_eq!(
+            FlightParams {
+                actuator: ActuatorParams::Magnetorquers(m2),
+                ..base
+            }
+            .validate()
+            .unwrap_err()
+            .field,
+            ParamField::DeadBand
+        );
+        let mut t2 = thr;
+        t2.pwpf_u_off = 0.5;
+        assert_eq!(
+            FlightParams {
+                actuator: ActuatorParams::Thrusters(t2),
+                ..base
+            }
+            .validate()
+            .unwrap_err()
+            .field,
+            ParamField::Pwpf
+        );
+    }
 
     #[test]
     fn default_is_valid_and_fits_the_buffer() {
@@ -364,7 +664,7 @@ mod tests {
     fn checksum_changes_with_any_field() {
         let p = FlightParams::default();
         let mut q = p;
-        q.controller.k_att_nm[2][2] += 1e-3;
+        qf(&mut q).k_att_nm[2][2] += 1e-3;
         assert_ne!(p.checksum().unwrap(), q.checksum().unwrap());
         assert_eq!(p.checksum().unwrap(), p.clone().checksum().unwrap());
     }
@@ -382,13 +682,13 @@ mod tests {
         p.inertia_kgm2[0][1] = 0.5;
         assert_eq!(p.validate().unwrap_err().reason, ParamReason::NotSymmetric);
         let mut p = base;
-        p.controller.d_rate_nms[1][1] = f32::NAN;
+        qf(&mut p).d_rate_nms[1][1] = f32::NAN;
         assert_eq!(
             p.validate().unwrap_err(),
             err(ParamField::RateGain, ParamReason::NotFinite)
         );
         let mut p = base;
-        p.cmg.h0_nms = 0.0;
+        cmg(&mut p).h0_nms = 0.0;
         assert_eq!(p.validate().unwrap_err().field, ParamField::CmgMomentum);
         let mut p = base;
         p.target_q_xyzw = [0.0, 0.0, 0.0, 2.0];
@@ -400,8 +700,8 @@ mod tests {
         p.version = 99;
         assert_eq!(p.validate().unwrap_err().field, ParamField::Version);
         let mut p = base;
-        p.cmg.gimbal_min_rad = 1.0;
-        p.cmg.gimbal_max_rad = 0.5;
+        cmg(&mut p).gimbal_min_rad = 1.0;
+        cmg(&mut p).gimbal_max_rad = 0.5;
         assert_eq!(
             p.validate().unwrap_err().field,
             ParamField::GimbalAngleRange

@@ -10,24 +10,29 @@
 //!
 //! Wire types are plain arrays of f32/u32 so that no layout depends on a math library.
 
-use crate::params::{FlightParams, ParamError, CRC32};
+use crate::params::{CRC32, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 400;
+pub const MAX_PAYLOAD: usize = 768;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 
 /// `SensorFrame::valid` bits.
 pub mod valid {
-    pub const ATTITUDE: u8 = 1 << 0;
-    pub const RATE: u8 = 1 << 1;
-    pub const GIMBALS: u8 = 1 << 2;
-    pub const ALL: u8 = ATTITUDE | RATE | GIMBALS;
+    pub const ATTITUDE: u16 = 1 << 0;
+    pub const RATE: u16 = 1 << 1;
+    pub const GIMBALS: u16 = 1 << 2;
+    pub const WHEELS: u16 = 1 << 3;
+    pub const MAG: u16 = 1 << 4;
+    pub const SUN: u16 = 1 << 5;
+    /// `q_ref_xyzw` and `ref_rate_rad_s` (navigation solution) are valid.
+    pub const REFERENCE: u16 = 1 << 6;
+    pub const ALL: u16 = ATTITUDE | RATE | GIMBALS | WHEELS | MAG | SUN | REFERENCE;
 }
 
 /// `ActuatorCommand::status` bits.
@@ -48,6 +53,12 @@ pub mod status {
     pub const NOT_CONFIGURED: u16 = 1 << 6;
     /// Real-time mode: no fresh sensor frame, the safe command is held.
     pub const HOLD: u16 = 1 << 7;
+    /// The allocation failed (infeasible, iteration cap, non-finite): its documented
+    /// safe fallback was commanded.
+    pub const ALLOC_FALLBACK: u16 = 1 << 8;
+    /// Some actuator cannot realise its command (magnetorquer dead band, wheel at its
+    /// speed limit).
+    pub const UNREALISED: u16 = 1 << 9;
 }
 
 /// One sample of everything the flight code reads, taken at `time_us`.
@@ -62,8 +73,37 @@ pub struct SensorFrame {
     pub rate_rad_s: [f32; 3],
     /// Measured gimbal angles of the four CMGs.
     pub gimbal_angle_rad: [f32; 4],
+    /// Measured wheel speeds relative to the body.
+    pub wheel_speed_rad_s: [f32; MAX_WHEELS],
+    /// Magnetometer, body axes, T.
+    pub mag_field_t: [f32; 3],
+    /// Sun direction, body axes (unit).
+    pub sun_dir: [f32; 3],
+    /// Navigation solution: the reference frame (e.g. LVLH) relative to inertial,
+    /// scalar-last, and its angular velocity in inertial axes.
+    pub q_ref_xyzw: [f32; 4],
+    pub ref_rate_rad_s: [f32; 3],
     /// [`valid`] bits.
-    pub valid: u8,
+    pub valid: u16,
+}
+
+impl SensorFrame {
+    /// A frame with nothing valid yet (identity attitudes, zeros).
+    pub const fn empty(seq: u32, time_us: u64) -> Self {
+        Self {
+            seq,
+            time_us,
+            q_ib_xyzw: [0.0, 0.0, 0.0, 1.0],
+            rate_rad_s: [0.0; 3],
+            gimbal_angle_rad: [0.0; 4],
+            wheel_speed_rad_s: [0.0; MAX_WHEELS],
+            mag_field_t: [0.0; 3],
+            sun_dir: [0.0; 3],
+            q_ref_xyzw: [0.0, 0.0, 0.0, 1.0],
+            ref_rate_rad_s: [0.0; 3],
+            valid: 0,
+        }
+    }
 }
 
 /// What one control step decided, plus what it achieved.
@@ -73,9 +113,18 @@ pub struct ActuatorCommand {
     /// Sequence number of the sensor frame this answers.
     pub seq: u32,
     pub gimbal_rate_cmd_rad_s: [f32; 4],
+    /// Motor torque on each wheel rotor (the body receives the reaction), N m.
+    pub wheel_torque_cmd_nm: [f32; MAX_WHEELS],
+    /// Magnetorquer dipole command, body axes, A m².
+    pub dipole_cmd_am2: [f32; 3],
+    /// Bit i: thruster i open during the next control period (after PWPF).
+    pub thruster_on: u16,
+    /// Allocated thrust level in [0, 1] per thruster (the PWPF input).
+    pub thruster_level: [f32; MAX_THRUSTERS],
     /// Torque the control law asked for (after its own limit), body axes.
     pub torque_demand_nm: [f32; 3],
-    /// Torque the commanded gimbal rates produce (eq 4, with `ω × h`), body axes.
+    /// Torque the commands produce according to the flight code's actuator model
+    /// (CMG: eq 4 with `ω × h`; thrusters: the allocated level, before modulation).
     pub torque_realised_nm: [f32; 3],
     /// `det(J Jᵀ)` with unit rotor momentum.
     pub singularity_measure: f32,
@@ -83,6 +132,10 @@ pub struct ActuatorCommand {
     pub steering_alpha: f32,
     /// Rotation angle of the attitude error, rad.
     pub attitude_error_rad: f32,
+    /// Allocation iterations (simplex pivots, wheel re-allocation passes).
+    pub alloc_iterations: u16,
+    /// Bit i: actuator i at a limit (either side).
+    pub saturated: u32,
     /// [`status`] bits.
     pub status: u16,
 }
@@ -346,12 +399,13 @@ mod tests {
 
     fn sensor(seq: u32) -> HostMsg {
         HostMsg::Sensor(SensorFrame {
-            seq,
-            time_us: 10_000 * seq as u64,
             q_ib_xyzw: [0.1, -0.2, 0.3, 0.927],
             rate_rad_s: [0.01, 0.0, -0.02],
             gimbal_angle_rad: [0.0, 0.5, -0.5, 0.0],
+            wheel_speed_rad_s: [10.0, -20.0, 30.0, 0.0, 0.0, 0.0],
+            mag_field_t: [2e-5, -1e-5, 3e-5],
             valid: valid::ALL,
+            ..SensorFrame::empty(seq, 10_000 * seq as u64)
         })
     }
 

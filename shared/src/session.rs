@@ -4,7 +4,7 @@
 
 use crate::fsw::Fsw;
 use crate::params::PARAMS_VERSION;
-use crate::protocol::{schema_hash, FswMsg, HostMsg, LinkError, StepReport, PROTOCOL_VERSION};
+use crate::protocol::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, StepReport, schema_hash};
 
 /// Board identifiers reported in `HelloAck`.
 pub mod board {
@@ -114,7 +114,7 @@ impl Session {
 mod tests {
     use super::*;
     use crate::params::FlightParams;
-    use crate::protocol::{status, valid, SensorFrame};
+    use crate::protocol::{SensorFrame, status, valid};
 
     #[test]
     fn hello_checks_version_and_schema() {
@@ -164,12 +164,8 @@ mod tests {
             t
         };
         let f = SensorFrame {
-            seq: 9,
-            time_us: 0,
-            q_ib_xyzw: [0.0, 0.0, 0.0, 1.0],
-            rate_rad_s: [0.0; 3],
-            gimbal_angle_rad: [0.0; 4],
             valid: valid::ALL,
+            ..SensorFrame::empty(9, 0)
         };
         match s.handle(&HostMsg::Sensor(f), 3, &mut c) {
             Some(FswMsg::Step(r)) => {
@@ -187,7 +183,7 @@ mod tests {
             s.handle(&HostMsg::UploadParams(p), 0, &mut c),
             Some(FswMsg::ParamsAccepted { .. })
         ));
-        p.cmg.h0_nms = -1.0;
+        p.control_rate_hz = -1.0;
         assert!(matches!(
             s.handle(&HostMsg::UploadParams(p), 0, &mut c),
             Some(FswMsg::ParamsRejected(_))

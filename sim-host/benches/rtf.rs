@@ -6,7 +6,7 @@
 //! closed loop (no file output).
 
 use sim_host::link::in_process::InProcess;
-use sim_host::link::qemu::{default_firmware, QemuLink};
+use sim_host::link::qemu::{QemuLink, default_firmware};
 use sim_host::runner;
 use sim_host::scenario::Scenario;
 use std::path::Path;

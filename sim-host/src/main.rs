@@ -83,11 +83,13 @@ fn main() -> Result<()> {
                 format_args!("{:.1} s", s.sim_time_s),
                 s.link,
                 s.final_error_deg,
-                s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
+                s.settle_time_s
+                    .map_or("never".into(), |t| format!("{t:.2} s")),
                 s.min_singularity_measure,
                 s.max_gimbal_rate_rad_s,
                 s.real_time_factor,
-                s.max_step_instructions.map_or(String::new(), |n| format!("; max {n} instructions/step")),
+                s.max_step_instructions
+                    .map_or(String::new(), |n| format!("; max {n} instructions/step")),
             );
             for f in files {
                 say!("  wrote {}", f.display());

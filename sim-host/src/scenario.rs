@@ -2,14 +2,14 @@
 //! rejects unknown keys, and [`Scenario::validate`] rejects impossible values naming
 //! the key, before anything runs.
 
-use crate::attitude::{from_xyzw, quat_from_euler, Quat};
-use crate::plant::{cmg::CmgCluster, Spacecraft, State, MAX_GIMBALS};
+use crate::attitude::{Quat, from_xyzw, quat_from_euler};
+use crate::plant::{MAX_GIMBALS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{
-    AlphaSchedule, CmgParams, ControllerParams, FlightParams, SteeringLaw, SteeringParams,
-    PARAMS_VERSION,
+    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, PARAMS_VERSION,
+    QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
 };
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -322,7 +322,9 @@ impl Scenario {
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
         self.target.validate("target")?;
         let Some(cmg) = &self.actuators.cmg else {
-            bail!("invalid value for `actuators`: this version steers a CMG cluster; add [actuators.cmg]");
+            bail!(
+                "invalid value for `actuators`: this version steers a CMG cluster; add [actuators.cmg]"
+            );
         };
         if cmg.layout != "pyramid4" {
             return Err(bad(
@@ -372,7 +374,7 @@ impl Scenario {
                         return Err(bad(
                             "controller",
                             "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
-                        ))
+                        ));
                     }
                 }
                 if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
@@ -400,13 +402,13 @@ impl Scenario {
                 }
             }
             ("sr", None) => {
-                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"))
+                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
             }
             (other, _) => {
                 return Err(bad(
                     "steering.law",
                     format!("unknown law {other:?} (known: \"mp\", \"sr\")"),
-                ))
+                ));
             }
         }
         positive(
@@ -488,7 +490,7 @@ impl Scenario {
                 return Err(bad(
                     "controller",
                     "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
-                ))
+                ));
             }
         };
         let cmg = self
@@ -525,25 +527,28 @@ impl Scenario {
             version: PARAMS_VERSION,
             control_rate_hz: self.timing.control_rate_hz as f32,
             inertia_kgm2: f(&inertia),
-            controller: ControllerParams {
+            controller: ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
                 k_att_nm: f(&k),
                 d_rate_nms: f(&d),
                 ki_att_nm_s: f(&(k * *ki_per_s)),
                 integral_limit_s: *integral_limit_s as f32,
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
                 gyro_compensation: *gyro_compensation,
+            }),
+            actuator: ActuatorParams::Cmg {
+                cmg: CmgParams {
+                    skew_rad: cmg.skew_deg.to_radians() as f32,
+                    h0_nms: cmg.h0_nms as f32,
+                    max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
+                    gimbal_min_rad: -lim as f32,
+                    gimbal_max_rad: lim as f32,
+                },
+                steering: SteeringParams {
+                    law,
+                    singular_threshold: self.steering.singular_threshold as f32,
+                },
             },
-            cmg: CmgParams {
-                skew_rad: cmg.skew_deg.to_radians() as f32,
-                h0_nms: cmg.h0_nms as f32,
-                max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
-                gimbal_min_rad: -lim as f32,
-                gimbal_max_rad: lim as f32,
-            },
-            steering: SteeringParams {
-                law,
-                singular_threshold: self.steering.singular_threshold as f32,
-            },
+            target_frame: TargetFrame::Inertial,
             target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
             hold_after_missed_frames: 10,
         })
@@ -592,7 +597,8 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         let p = s.flight_params().unwrap();
         assert_eq!(p.validate(), Ok(()));
         // K = 2 ωn² I (eq 17)
-        assert!((p.controller.k_att_nm[2][2] - 2.0 * 0.49 * 5.8).abs() < 1e-5);
+        let ControllerParams::QuaternionFeedback(c) = &p.controller;
+        assert!((c.k_att_nm[2][2] - 2.0 * 0.49 * 5.8).abs() < 1e-5);
         assert_eq!(s.steps(), 1000);
     }
 

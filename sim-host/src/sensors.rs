@@ -2,10 +2,10 @@
 //! rate gyro with white noise and constant bias, gimbal encoders with white noise.
 //! One seeded ChaCha stream per run: same scenario and seed, same bits.
 
-use crate::attitude::{to_xyzw, Quat, Vec3};
+use crate::attitude::{Quat, Vec3, to_xyzw};
 use crate::plant::State;
 use crate::scenario::Sensors as SensorSpec;
-use acs_flight::protocol::{valid, SensorFrame};
+use acs_flight::protocol::{SensorFrame, valid};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -61,12 +61,11 @@ impl SensorSuite {
             *x = (s.gimbal_rad[i] + noise) as f32;
         }
         SensorFrame {
-            seq,
-            time_us: (t_s * 1e6).round() as u64,
             q_ib_xyzw: to_xyzw(&q_meas).map(|x| x as f32),
             rate_rad_s: [w.x as f32, w.y as f32, w.z as f32],
             gimbal_angle_rad: g,
-            valid: valid::ALL,
+            valid: valid::ATTITUDE | valid::RATE | valid::GIMBALS,
+            ..SensorFrame::empty(seq, (t_s * 1e6).round() as u64)
         }
     }
 }

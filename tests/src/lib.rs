@@ -1,9 +1,9 @@
 //! Helpers shared by the integration tests.
 
-use acs_flight::protocol::{encode_frame, valid, HostMsg, SensorFrame, MAX_FRAME};
+use acs_flight::protocol::{HostMsg, MAX_FRAME, SensorFrame, encode_frame, valid};
+use sim_host::link::FlightLink;
 use sim_host::link::framed::Framed;
 use sim_host::link::in_process::InProcess;
-use sim_host::link::FlightLink;
 use sim_host::runner::{self, RunResult};
 use sim_host::scenario::Scenario;
 use std::io::{Read, Write};
@@ -25,12 +25,9 @@ pub fn run_in_process(sc: &Scenario) -> RunResult {
 
 fn frame(seq: u32) -> SensorFrame {
     SensorFrame {
-        seq,
-        time_us: seq as u64 * 10_000,
         q_ib_xyzw: [0.0, 0.0, 0.1, 0.995],
-        rate_rad_s: [0.0; 3],
-        gimbal_angle_rad: [0.0; 4],
         valid: valid::ALL,
+        ..SensorFrame::empty(seq, seq as u64 * 10_000)
     }
 }
 

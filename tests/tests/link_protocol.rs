@@ -6,7 +6,7 @@
 use acs_flight::protocol::{FswMsg, HostMsg};
 use acs_tests::{corrupt_frames_are_dropped_and_counted, run_in_process, scenario};
 use sim_host::link::framed::Framed;
-use sim_host::link::{serve, FlightLink};
+use sim_host::link::{FlightLink, serve};
 use std::net::{TcpListener, TcpStream};
 
 fn virtual_board() -> Framed<TcpStream> {

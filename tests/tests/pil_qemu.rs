@@ -4,7 +4,7 @@
 //! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
 
 use acs_tests::{repo, run_in_process, scenario};
-use sim_host::link::qemu::{default_firmware, QemuLink};
+use sim_host::link::qemu::{QemuLink, default_firmware};
 use sim_host::runner;
 
 fn qemu_available() -> bool {
@@ -13,7 +13,9 @@ fn qemu_available() -> bool {
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested");
+        eprintln!(
+            "SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested"
+        );
     }
     ok
 }

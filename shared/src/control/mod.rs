@@ -17,9 +17,5 @@ pub fn scale_to_box(u: &Vec3, limit: &Vec3) -> (Vec3, bool) {
             s = s.min(*l / a);
         }
     }
-    if s < 1.0 {
-        (u * s, true)
-    } else {
-        (*u, false)
-    }
+    if s < 1.0 { (u * s, true) } else { (*u, false) }
 }

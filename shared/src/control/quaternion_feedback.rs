@@ -1,6 +1,6 @@
 //! Quaternion feedback (Wie; paper 000 eqs 15-18):
 //!
-//! `u = -K q_e,v - D ω - Ki ∫ q_e,v dt [+ ω × (I ω + h)]`
+//! `u = -K q_e,v - D (ω - ω_c) - Ki ∫ q_e,v dt [+ ω × (I ω + h)]`
 //!
 //! with `K = 2 ωn² I`, `D = 2 ζ ωn I` for the paper's tuning (the host builds K, D from
 //! ζ, ωn; any matrices are accepted). Linearised per axis this is
@@ -11,7 +11,7 @@
 //! each component is clamped to `± integral_limit_s`.
 
 use super::scale_to_box;
-use crate::math::{attitude_error, rotation_angle, Mat3, Quat, Vec3};
+use crate::math::{Mat3, Quat, Vec3, attitude_error, rotation_angle};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QuaternionFeedbackGains {
@@ -40,8 +40,9 @@ pub struct TorqueDemand {
 }
 
 impl QuaternionFeedback {
-    /// One update. `q`, `q_cmd`: unit quaternions; `h_act_nms`: actuator momentum in body
-    /// axes (for gyroscopic compensation); `saturated_last`: anti-windup input.
+    /// One update. `q`, `q_cmd`: unit quaternions; `rate_cmd_rad_s`: rate of the
+    /// commanded frame in body axes (zero for inertial pointing); `h_act_nms`: actuator
+    /// momentum in body axes (gyroscopic compensation); `saturated_last`: anti-windup.
     #[allow(clippy::too_many_arguments)]
     pub fn update(
         &mut self,
@@ -50,6 +51,7 @@ impl QuaternionFeedback {
         q: &Quat,
         q_cmd: &Quat,
         rate_rad_s: &Vec3,
+        rate_cmd_rad_s: &Vec3,
         h_act_nms: &Vec3,
         dt_s: f32,
         saturated_last: bool,
@@ -60,7 +62,7 @@ impl QuaternionFeedback {
             let lim = g.integral_limit_s;
             self.integral = (self.integral + ev * dt_s).map(|x| x.clamp(-lim, lim));
         }
-        let mut u = -(g.k * ev) - g.d * rate_rad_s - g.ki * self.integral;
+        let mut u = -(g.k * ev) - g.d * (rate_rad_s - rate_cmd_rad_s) - g.ki * self.integral;
         if g.gyro_compensation {
             u += rate_rad_s.cross(&(inertia * rate_rad_s + h_act_nms));
         }
@@ -80,7 +82,7 @@ impl QuaternionFeedback {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{quat_from_euler, EulerSeq};
+    use crate::math::{EulerSeq, quat_from_euler};
 
     fn gains(inertia: &Mat3, zeta: f32, wn: f32) -> QuaternionFeedbackGains {
         QuaternionFeedbackGains {
@@ -110,10 +112,25 @@ mod tests {
             &Quat::identity(),
             &rate,
             &Vec3::zeros(),
+            &Vec3::zeros(),
             0.01,
             false,
         );
         let expect = -5.8 * (wn * wn * theta + 2.0 * zeta * wn * 2e-3);
+        // Tracking a frame that turns at the measured rate removes the damping term.
+        let mut c2 = QuaternionFeedback::default();
+        let d2 = c2.update(
+            &g,
+            &inertia,
+            &q,
+            &Quat::identity(),
+            &rate,
+            &rate,
+            &Vec3::zeros(),
+            0.01,
+            false,
+        );
+        assert!((d2.torque_nm.z + 5.8 * wn * wn * theta).abs() < 1e-4 * 5.8 * wn * wn * theta);
         assert!(
             (d.torque_nm.z - expect).abs() < 1e-4 * expect.abs(),
             "{} vs {}",
@@ -140,6 +157,7 @@ mod tests {
                 &Quat::identity(),
                 &Vec3::zeros(),
                 &Vec3::zeros(),
+                &Vec3::zeros(),
                 0.01,
                 false,
             )
@@ -149,6 +167,7 @@ mod tests {
             &inertia,
             &q,
             &Quat::identity(),
+            &Vec3::zeros(),
             &Vec3::zeros(),
             &Vec3::zeros(),
             0.01,
@@ -176,6 +195,7 @@ mod tests {
                 &Quat::identity(),
                 &Vec3::zeros(),
                 &Vec3::zeros(),
+                &Vec3::zeros(),
                 0.01,
                 false,
             );
@@ -188,6 +208,7 @@ mod tests {
             &inertia,
             &q2,
             &Quat::identity(),
+            &Vec3::zeros(),
             &Vec3::zeros(),
             &Vec3::zeros(),
             0.01,

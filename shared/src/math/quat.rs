@@ -29,11 +29,7 @@ pub fn quat_normalized(q: &Quat) -> Option<Quat> {
 #[inline]
 pub fn attitude_error(q: &Quat, q_cmd: &Quat) -> Quat {
     let e = q_cmd.conjugate() * q;
-    if e.w < 0.0 {
-        -e
-    } else {
-        e
-    }
+    if e.w < 0.0 { -e } else { e }
 }
 
 /// Rotate a body vector into the reference frame: `v_I = q ⊗ v_B ⊗ q*`.

@@ -3,10 +3,10 @@
 use super::{FlightLink, LinkInfo};
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{
-    encode_frame, schema_hash, FrameAccumulator, FswMsg, HostMsg, SensorFrame, StepReport,
-    MAX_FRAME, PROTOCOL_VERSION,
+    FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport,
+    encode_frame, schema_hash,
 };
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{Context, Result, anyhow, bail};
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
@@ -131,7 +131,11 @@ impl<S: Read + Write> FlightLink for Framed<S> {
                 ..
             } => {
                 if protocol_version != PROTOCOL_VERSION || h != schema_hash() {
-                    bail!("{}: flight protocol {protocol_version}/{h:#x}, host {PROTOCOL_VERSION}/{:#x}", self.name, schema_hash());
+                    bail!(
+                        "{}: flight protocol {protocol_version}/{h:#x}, host {PROTOCOL_VERSION}/{:#x}",
+                        self.name,
+                        schema_hash()
+                    );
                 }
                 // QEMU (board 1) runs with -icount shift=0: 1 instruction per ns.
                 let ipt = (board == 1 && cost_counter_hz > 0).then(|| 1e9 / cost_counter_hz as f64);
@@ -154,7 +158,10 @@ impl<S: Read + Write> FlightLink for Framed<S> {
             FswMsg::ParamsAccepted { checksum } => {
                 let mine = params.checksum().map_err(|e| anyhow!("{e}"))?;
                 if checksum != mine {
-                    bail!("{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name);
+                    bail!(
+                        "{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}",
+                        self.name
+                    );
                 }
                 Ok(checksum)
             }

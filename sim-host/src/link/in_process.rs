@@ -1,8 +1,8 @@
 use super::{FlightLink, LinkInfo};
+use acs_flight::Fsw;
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{SensorFrame, StepReport};
-use acs_flight::Fsw;
-use anyhow::{anyhow, Result};
+use anyhow::{Result, anyhow};
 
 /// The flight code called directly, in this process.
 pub struct InProcess {

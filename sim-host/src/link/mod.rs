@@ -12,7 +12,7 @@ pub mod serve;
 
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{SensorFrame, StepReport};
-use anyhow::{bail, Result};
+use anyhow::{Result, bail};
 use std::path::PathBuf;
 
 /// What the flight side said at hello.

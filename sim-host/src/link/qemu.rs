@@ -7,7 +7,7 @@ use super::framed::Framed;
 use super::{FlightLink, LinkInfo};
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{SensorFrame, StepReport};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result, bail};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -63,7 +63,10 @@ impl QemuLink {
             .map(Path::to_path_buf)
             .unwrap_or_else(default_firmware);
         if !elf.exists() {
-            bail!("firmware ELF {} not found: build it with `scripts/firmware.sh build` (or pass --firmware)", elf.display());
+            bail!(
+                "firmware ELF {} not found: build it with `scripts/firmware.sh build` (or pass --firmware)",
+                elf.display()
+            );
         }
         let port = TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
         let log = std::env::temp_dir().join(format!("acs-qemu-{}-{port}.log", std::process::id()));
@@ -81,11 +84,11 @@ impl QemuLink {
             match TcpStream::connect(("127.0.0.1", port)) {
                 Ok(s) => break s,
                 Err(_) if Instant::now() < deadline => {
-                    if let Some(c) = me_child.as_mut() {
-                        if let Ok(Some(st)) = c.try_wait() {
-                            let txt = std::fs::read_to_string(&log).unwrap_or_default();
-                            bail!("qemu exited ({st}) before accepting the link:\n{txt}");
-                        }
+                    if let Some(c) = me_child.as_mut()
+                        && let Ok(Some(st)) = c.try_wait()
+                    {
+                        let txt = std::fs::read_to_string(&log).unwrap_or_default();
+                        bail!("qemu exited ({st}) before accepting the link:\n{txt}");
                     }
                     std::thread::sleep(Duration::from_millis(20));
                 }

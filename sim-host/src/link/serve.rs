@@ -3,8 +3,8 @@
 //! firmware runs, so `--link tcp:` can be exercised (and the framing tested end to end)
 //! without a board or QEMU. The cost counter is the host's nanosecond clock.
 
-use acs_flight::protocol::{encode_frame, FrameAccumulator, HostMsg, MAX_FRAME};
-use acs_flight::session::{board, Session};
+use acs_flight::protocol::{FrameAccumulator, HostMsg, MAX_FRAME, encode_frame};
+use acs_flight::session::{Session, board};
 use anyhow::Result;
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpListener;
@@ -27,12 +27,11 @@ pub fn serve_stream<S: Read + Write>(mut s: S) -> Result<()> {
             Err(e) => return Err(e.into()),
         };
         for &b in &rx[..n] {
-            if let Some(Ok(msg)) = acc.push::<HostMsg>(b) {
-                if let Some(reply) = session.handle(&msg, acc.stats.dropped(), &mut clock) {
-                    if let Ok(f) = encode_frame(&reply, &mut tx) {
-                        s.write_all(f)?;
-                    }
-                }
+            if let Some(Ok(msg)) = acc.push::<HostMsg>(b)
+                && let Some(reply) = session.handle(&msg, acc.stats.dropped(), &mut clock)
+                && let Ok(f) = encode_frame(&reply, &mut tx)
+            {
+                s.write_all(f)?;
             }
         }
         s.flush()?;

@@ -9,7 +9,7 @@
 
 pub mod cmg;
 
-use crate::attitude::{dcm_body_to_ref, Quat, Vec3};
+use crate::attitude::{Quat, Vec3, dcm_body_to_ref};
 use cmg::CmgCluster;
 use nalgebra::Matrix3;
 

@@ -1,0 +1,61 @@
+//! Actuator allocation: from a body-torque demand to actuator commands, with one
+//! result type for every family (PX4-style: one interface, several methods, saturation
+//! reported back to the controller).
+//!
+//! - [`wheels`]: reaction-wheel pseudo-inverse with null-space momentum management;
+//! - [`magnetorquers`]: the cross-product dipole law (paper 003 eqs 21-22);
+//! - [`thruster`]: bounded-variable simplex LP (paper 004) and PWPF modulation.
+//!
+//! CMG steering (gimbal rates) lives in `crate::steering` and reports through the same
+//! [`AllocResult`].
+
+pub mod magnetorquers;
+pub mod thruster;
+pub mod wheels;
+
+/// Number of controlled axes (moments about x, y, z).
+pub const AXES: usize = 3;
+
+/// Allocation outcome.
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AllocStatus {
+    /// Demand attained: `B u = m_d` within the LP tolerances, `λ = 1`.
+    Ok,
+    /// Not attainable: `B u = λ m_d` with `0 <= λ < 1` (direction kept).
+    Scaled,
+    /// No admissible `u` keeps the direction (bounds inconsistent, or stuck-on /
+    /// rate-limited thrusters force a moment off the demanded ray). Fallback used.
+    Infeasible,
+    /// Non-finite input (`m_d`, `B`, limits, rate data). Fallback used.
+    NonFinite,
+    /// The simplex hit its iteration cap. Fallback used.
+    IterationCap,
+    /// The actuator geometry cannot produce torque about some axis (rank < 3: CMG
+    /// singularity, too few healthy wheels, |B| ≈ 0 for magnetorquers). Best effort.
+    Singular,
+}
+
+/// Result of every allocation method.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AllocResult<const N: usize> {
+    /// Actuator commands: thrust levels (units of the bounds), wheel torques (N m on
+    /// the rotor), dipoles (A m²) or gimbal rates (rad/s).
+    pub u: [f32; N],
+    /// Body torque the commands produce (`B u` for thrusters).
+    pub realised: [f32; AXES],
+    /// Demand minus realised.
+    pub shortfall: [f32; AXES],
+    /// Fraction of the demand achieved along its direction (1 when `Ok`).
+    pub lambda: f32,
+    /// Bit `i`: actuator `i` (0-based) at its lower bound.
+    pub sat_low: u32,
+    /// Bit `i`: actuator `i` at its upper bound.
+    pub sat_high: u32,
+    /// Bit `i`: actuator `i` was commanded but cannot realise it (magnetorquer
+    /// dead band, wheel at its speed limit); its share is missing from `realised`.
+    pub unrealised: u32,
+    /// Simplex iterations (pivots + bound flips) over all LPs of the call.
+    pub iterations: u16,
+    pub status: AllocStatus,
+}

@@ -1,0 +1,753 @@
+//! Thruster control allocation by linear programming (paper 004).
+//!
+//! Problem (eqs 1-10): find thrust levels `u` with `B u = m_d` and
+//! `u_lo <= u <= u_hi`, where the bounds fold position limits, rate limits (eq 9)
+//! and failures ([`Allocator::bounds`]).
+//!
+//! Two methods, one result type ([`AllocResult`]):
+//!
+//! 1. [`Allocator::direction_preserving`] — the paper's LP, eqs 12-18:
+//!    `max λ` s.t. `B u = λ m_d`, `u_lo <= u <= u_hi`, `0 <= λ <= 1`, solved as
+//!    `min cᵀx, A x = b, 0 <= x <= h` with `x = [u - u_lo; λ]`, `A = [B, -m_d]`,
+//!    `b = -B u_lo`, `h = [u_hi - u_lo; 1]`, `c = [0 … 0, -1]` (eqs 13-17).
+//!    If `λ` reaches 1 the demand is attainable and a second LP (the "remaining
+//!    freedom" of the paper) minimises propellant `Σ w_i u_i` (`w_i = 1` for
+//!    thrusters with `u_min = 0`, else 0) subject to `B u = m_d` exactly. If
+//!    `λ < 1` the direction is kept and the magnitude scaled (status `Scaled`).
+//!
+//! 2. [`Allocator::bodson`] — Bodson's direction-preserving method as evaluated in
+//!    Bodson (2002, JGCA 25(4)) and written up as "DPscaled" in Durham, Bordignon &
+//!    Beck, *Aircraft Control Allocation* (2017, §A.5.3) — the paper's ref \[26\].
+//!    `λ` is eliminated: with `k = argmax |m_i|`, the `2` rows
+//!    `m_j (B u)_k - m_k (B u)_j = 0` (`j ≠ k`) force `B u ∥ m_d`, and the objective
+//!    `max m_dᵀ B u` drives `B u` to the boundary of the attainable set along
+//!    `m_d` **without the cap λ <= 1**. Then, with `λ* = m_dᵀBu*/|m_d|²`:
+//!    `λ* < 1` → `u = u*` (scaled, same as method 1); `λ* >= 1` → the boundary
+//!    solution is scaled back towards the zero-command point, `u = u*/λ*`
+//!    (Durham's direct-allocation solution). If rate limits or a stuck-on thruster
+//!    exclude `u = 0`, the anchor is instead the solution `u⁻` of the same LP
+//!    minimising `m_dᵀ B u` (at `λ⁻`), and `u = u⁻ + (1-λ⁻)/(λ*-λ⁻)·(u* - u⁻)`.
+//!    Difference from method 1: for attainable demands method 1 returns a vertex
+//!    (then the fuel optimum) with many thrusters off; Bodson's returns a scaled
+//!    boundary point — a continuous, ray-homogeneous map `m_d ↦ u` that fires
+//!    opposing thrusters together, at the cost of more propellant and of always
+//!    pivoting to the boundary (more iterations). This matches the paper's
+//!    ranking (table 5: more fuel and processing time, smaller tracking error).
+//!
+//! Why this variant: the paper only says Bodson "optimised the direction-preserving
+//! approach for control error" and cites \[26\]; of the LP allocators of Bodson 2002 /
+//! \[26\] this is the one that (a) still preserves direction for unattainable demands
+//! (the paper lists both methods as answers to unattainable demands) and (b) differs
+//! on attainable ones. Bodson's *mixed-optimisation* LP (`min ‖Bu - m‖₁ + ε‖u‖₁`)
+//! does not preserve direction when saturated, so it is not the method compared.
+//!
+//! # Numerics (f32)
+//! - `λ >= 1 - LAMBDA_TOL` (1e-5) counts as attained (then status `Ok`, `λ = 1`).
+//! - LP tolerances: see [`super::simplex`] (pivot 1e-6, reduced cost 1e-6, phase-1
+//!   feasibility 1e-5 relative, all in scaled units); the final basic solution is
+//!   refined with a compensated residual, so λ of method 1 is accurate to ~1e-7.
+//! - `B u` (realised moment, Bodson's λ) uses compensated dot products; Bodson's
+//!   boundary vertex is re-solved on its active set against the unrounded `m_d`
+//!   ([`Allocator::bodson`] docs), because the reduced rows are rounded in f32.
+//!
+//! # Safe fallback
+//! On `Infeasible`, `NonFinite` or `IterationCap` the command is
+//! `u_i = clamp(0, u_lo_i, u_hi_i)`: every thruster off, except where consistent
+//! finite bounds exclude 0 (stuck-on thruster, or a rate limit that forbids an
+//! instant cut-off) where the bound nearest 0 is used; `u_i = 0` if that thruster's
+//! bounds are non-finite or inverted. `λ = 0`; `realised = B u` and
+//! `shortfall = m_d - realised` (components set to 0 where non-finite).
+
+use super::simplex::{Dot2, Lp, LpSolution, LpStatus, default_iteration_cap};
+pub use crate::allocation::{AXES, AllocResult, AllocStatus};
+
+/// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
+pub const LAMBDA_TOL: f32 = 1e-5;
+/// A thruster is flagged saturated when within `SAT_TOL · (u_hi - u_lo)` of a bound
+/// (a failed thruster, `u_lo = u_hi`, is flagged at both).
+pub const SAT_TOL: f32 = 1e-5;
+
+/// Per-call admissible thrust interval `[lo, hi]` (eq 8).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds<const N: usize> {
+    pub lo: [f32; N],
+    pub hi: [f32; N],
+}
+
+/// Rate limits (eqs 6-7): `rho_min <= u̇ <= rho_max`, previous command `u_prev`,
+/// sample time `dt` (the paper's `T`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RateLimit<const N: usize> {
+    pub u_prev: [f32; N],
+    pub rho_min: [f32; N],
+    pub rho_max: [f32; N],
+    pub dt: f32,
+}
+
+/// Failure mask (bit `i` = thruster `i`, 0-based). A failed thruster is locked:
+/// at 0 (failed off) or, if its `stuck_on` bit is set too, at `u_max` (stuck on).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Failures {
+    pub failed: u32,
+    pub stuck_on: u32,
+}
+
+impl Failures {
+    pub const NONE: Self = Self {
+        failed: 0,
+        stuck_on: 0,
+    };
+    /// Failed-off thrusters from 1-based indices (as in the paper's text).
+    pub fn off_1based(ids: &[usize]) -> Self {
+        let mut failed = 0u32;
+        for id in ids {
+            if (1..=32).contains(id) {
+                failed |= 1u32 << (id - 1);
+            }
+        }
+        Self {
+            failed,
+            stuck_on: 0,
+        }
+    }
+}
+
+/// Panic-free clamp (`f32::clamp` asserts `lo <= hi`): `lo` wins if `lo > hi`,
+/// NaN `x` gives `lo`.
+#[inline(always)]
+pub(crate) fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
+    if !(x >= lo) {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+#[inline(always)]
+fn g<const K: usize>(v: &[f32; K], i: usize) -> f32 {
+    match v.get(i) {
+        Some(x) => *x,
+        None => 0.0,
+    }
+}
+
+/// Solve the 3×3 system `a z = r` by Gaussian elimination with partial pivoting,
+/// plus one step of iterative refinement with a compensated residual ([`Dot2`]).
+/// `None` if singular (pivot < 1e-12 · max |a|) or non-finite.
+fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
+    let amax = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+    if !(amax > 0.0) || !amax.is_finite() {
+        return None;
+    }
+    let elim = |rhs: &[f32; 3]| -> Option<[f32; 3]> {
+        let mut m = *a;
+        let mut v = *rhs;
+        // column 0..2 pivoting, written out (no runtime indexing)
+        let piv = |m: &mut [[f32; 3]; 3], v: &mut [f32; 3], c: usize| {
+            let mut best = c;
+            let mut bv = 0.0f32;
+            for (i, row) in m.iter().enumerate().skip(c) {
+                let x = g(row, c).abs();
+                if x > bv {
+                    bv = x;
+                    best = i;
+                }
+            }
+            m.swap(c.min(2), best.min(2));
+            v.swap(c.min(2), best.min(2));
+            bv
+        };
+        for c in 0..3usize {
+            if !(piv(&mut m, &mut v, c) > 1e-12 * amax) {
+                return None;
+            }
+            let (Some(prow), Some(pv)) = (m.get(c).copied(), v.get(c).copied()) else {
+                return None;
+            };
+            let p = g(&prow, c);
+            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c + 1) {
+                let f = g(row, c) / p;
+                for (x, y) in row.iter_mut().zip(prow.iter()) {
+                    *x -= f * y;
+                }
+                *vi -= f * pv;
+            }
+        }
+        let mut z = [0.0f32; 3];
+        for c in (0..3usize).rev() {
+            let row = m.get(c).copied().unwrap_or([0.0; 3]);
+            let mut acc = g(&v, c);
+            for (k, zk) in z.iter().enumerate().skip(c + 1) {
+                acc -= g(&row, k) * zk;
+            }
+            if let Some(zc) = z.get_mut(c) {
+                *zc = acc / g(&row, c);
+            }
+        }
+        if z.iter().all(|x| x.is_finite()) {
+            Some(z)
+        } else {
+            None
+        }
+    };
+    let z = elim(r)?;
+    let mut res = [0.0f32; 3];
+    for ((ri, row), rhs) in res.iter_mut().zip(a.iter()).zip(r.iter()) {
+        let mut acc = Dot2::new(*rhs);
+        for (aij, zj) in row.iter().zip(z.iter()) {
+            acc.add_prod(-*aij, *zj);
+        }
+        *ri = acc.value();
+    }
+    match elim(&res) {
+        Some(dz) => {
+            let mut out = z;
+            for (o, d) in out.iter_mut().zip(dz.iter()) {
+                *o += d;
+            }
+            Some(out)
+        }
+        None => Some(z),
+    }
+}
+
+/// The allocator: effectiveness matrix `B` (3 × N, moment per unit command) and
+/// nominal limits. `NV` must equal `N + 1` (the λ column of eq 16); this is checked
+/// at compile time. `N <= 32` (bitmasks).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Allocator<const N: usize, const NV: usize> {
+    b: [[f32; N]; AXES],
+    u_min: [f32; N],
+    u_max: [f32; N],
+    fuel_w: [f32; N],
+    /// Iteration cap per LP solve (default `4 (rows + cols)` = 48 for N = 8).
+    pub lp_iteration_cap: u16,
+}
+
+impl<const N: usize, const NV: usize> Allocator<N, NV> {
+    const DIMS_OK: () = assert!(
+        NV == N + 1 && N >= 1 && N <= 32,
+        "Allocator<N, NV>: NV must be N + 1 and 1 <= N <= 32"
+    );
+
+    /// `B` (3 × N), nominal `u_min`, `u_max` (eq 5). Non-finite data are accepted
+    /// here and reported as `NonFinite` by every allocation call.
+    pub fn new(b: [[f32; N]; AXES], u_min: [f32; N], u_max: [f32; N]) -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::DIMS_OK;
+        let mut fuel_w = [0.0f32; N];
+        for (w, lo) in fuel_w.iter_mut().zip(u_min.iter()) {
+            *w = if *lo == 0.0 { 1.0 } else { 0.0 };
+        }
+        Self {
+            b,
+            u_min,
+            u_max,
+            fuel_w,
+            lp_iteration_cap: default_iteration_cap(AXES, NV),
+        }
+    }
+
+    /// Replace the propellant weights of the fuel stage (default: 1 for thrusters
+    /// with `u_min = 0`, else 0). Non-finite weights make the fuel stage fail
+    /// (stage-1 solution kept). Tip: weights `1 + 1e-4·i` break the exact fuel ties
+    /// of symmetric layouts, making the attainable-demand allocation unique and so
+    /// continuous in `m_d` (at a fuel cost ≤ 1e-4·Σu·N).
+    pub fn with_fuel_weights(mut self, w: [f32; N]) -> Self {
+        self.fuel_w = w;
+        self
+    }
+
+    pub fn b(&self) -> &[[f32; N]; AXES] {
+        &self.b
+    }
+
+    /// Nominal bounds (no rate limit, no failure).
+    pub fn nominal_bounds(&self) -> Bounds<N> {
+        Bounds {
+            lo: self.u_min,
+            hi: self.u_max,
+        }
+    }
+
+    /// Per-call bounds: eq 9 rate folding, then failures.
+    ///
+    /// `lo = max(u_min, u_prev + T ρ_min)`, `hi = min(u_max, u_prev + T ρ_max)`.
+    /// If these cross (`u_prev` outside `[u_min, u_max]` by more than one rate step)
+    /// position limits win and the thruster is pinned at the position limit nearest
+    /// `u_prev`. A failed thruster gets `lo = hi = 0` (off) or `u_max` (stuck on),
+    /// overriding everything. Non-finite rate data make that thruster's bounds NaN,
+    /// so the allocation call reports `NonFinite`.
+    pub fn bounds(&self, rate: Option<&RateLimit<N>>, failures: Failures) -> Bounds<N> {
+        let mut out = self.nominal_bounds();
+        if let Some(rl) = rate {
+            for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
+                let (up, rmin, rmax) = (g(&rl.u_prev, i), g(&rl.rho_min, i), g(&rl.rho_max, i));
+                let (umin, umax) = (g(&self.u_min, i), g(&self.u_max, i));
+                let a = up + rl.dt * rmin;
+                let bb = up + rl.dt * rmax;
+                if !(a.is_finite() && bb.is_finite()) {
+                    *lo = f32::NAN;
+                    *hi = f32::NAN;
+                    continue;
+                }
+                let l = if a > umin { a } else { umin };
+                let h = if bb < umax { bb } else { umax };
+                if l <= h {
+                    *lo = l;
+                    *hi = h;
+                } else {
+                    let pin = if up >= umax { umax } else { umin };
+                    *lo = pin;
+                    *hi = pin;
+                }
+            }
+        }
+        for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
+            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            if failures.failed & bit != 0 {
+                let v = if failures.stuck_on & bit != 0 {
+                    g(&self.u_max, i)
+                } else {
+                    0.0
+                };
+                *lo = v;
+                *hi = v;
+            }
+        }
+        out
+    }
+
+    fn inputs_finite(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> bool {
+        m_d.iter().all(|v| v.is_finite())
+            && self.b.iter().all(|r| r.iter().all(|v| v.is_finite()))
+            && bd.lo.iter().chain(bd.hi.iter()).all(|v| v.is_finite())
+            && self
+                .u_min
+                .iter()
+                .chain(self.u_max.iter())
+                .all(|v| v.is_finite())
+    }
+
+    fn bounds_consistent(bd: &Bounds<N>) -> bool {
+        bd.lo.iter().zip(bd.hi.iter()).all(|(l, h)| l <= h)
+    }
+
+    fn zero_admissible(bd: &Bounds<N>) -> bool {
+        bd.lo
+            .iter()
+            .zip(bd.hi.iter())
+            .all(|(l, h)| *l <= 0.0 && *h >= 0.0)
+    }
+
+    /// `B u` with compensated dot products ([`Dot2`]): moments near zero are sums of
+    /// O(1) terms that cancel, and both `realised` and Bodson's `λ` are read from it.
+    fn moment(&self, u: &[f32; N]) -> [f32; AXES] {
+        let mut out = [0.0f32; AXES];
+        for (o, row) in out.iter_mut().zip(self.b.iter()) {
+            let mut acc = Dot2::new(0.0);
+            for (b, x) in row.iter().zip(u.iter()) {
+                acc.add_prod(*b, *x);
+            }
+            *o = acc.value();
+        }
+        out
+    }
+
+    /// Build the result: clamp into bounds, realised / shortfall, saturation masks.
+    fn finish(
+        &self,
+        m_d: &[f32; AXES],
+        bd: &Bounds<N>,
+        mut u: [f32; N],
+        lambda: f32,
+        status: AllocStatus,
+        iterations: u16,
+    ) -> AllocResult<N> {
+        let mut sat_low = 0u32;
+        let mut sat_high = 0u32;
+        for (i, ((x, lo), hi)) in u.iter_mut().zip(bd.lo.iter()).zip(bd.hi.iter()).enumerate() {
+            if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+                if !x.is_finite() {
+                    *x = 0.0;
+                }
+                continue;
+            }
+            if !(*x >= *lo) {
+                *x = *lo; // also catches NaN
+            }
+            if *x > *hi {
+                *x = *hi;
+            }
+            let tol = SAT_TOL * (hi - lo);
+            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            if *x <= lo + tol {
+                sat_low |= bit;
+            }
+            if *x >= hi - tol {
+                sat_high |= bit;
+            }
+        }
+        let mut realised = self.moment(&u);
+        let mut shortfall = [0.0f32; AXES];
+        for ((s, r), m) in shortfall
+            .iter_mut()
+            .zip(realised.iter_mut())
+            .zip(m_d.iter())
+        {
+            if !r.is_finite() {
+                *r = 0.0;
+            }
+            let d = m - *r;
+            *s = if d.is_finite() { d } else { 0.0 };
+        }
+        AllocResult {
+            u,
+            realised,
+            shortfall,
+            lambda,
+            sat_low,
+            sat_high,
+            iterations,
+            status,
+            unrealised: 0,
+        }
+    }
+
+    /// The documented safe fallback (module docs).
+    fn fallback(
+        &self,
+        m_d: &[f32; AXES],
+        bd: &Bounds<N>,
+        status: AllocStatus,
+        it: u16,
+    ) -> AllocResult<N> {
+        let mut u = [0.0f32; N];
+        for ((x, lo), hi) in u.iter_mut().zip(bd.lo.iter()).zip(bd.hi.iter()) {
+            *x = if lo.is_finite() && hi.is_finite() && lo <= hi {
+                clampf(0.0, *lo, *hi)
+            } else {
+                0.0
+            };
+        }
+        self.finish(m_d, bd, u, 0.0, status, it)
+    }
+
+    fn lp_fail(s: LpStatus) -> AllocStatus {
+        match s {
+            LpStatus::IterationCap => AllocStatus::IterationCap,
+            LpStatus::NonFinite => AllocStatus::NonFinite,
+            // Unbounded cannot occur (all h finite); treated as infeasible.
+            LpStatus::Infeasible | LpStatus::Unbounded | LpStatus::Optimal => {
+                AllocStatus::Infeasible
+            }
+        }
+    }
+
+    /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
+    pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N + 1);
+        for ((arow, bi), (brow, mi)) in
+            lp.a.iter_mut()
+                .zip(lp.b.iter_mut())
+                .zip(self.b.iter().zip(m_d.iter()))
+        {
+            let mut acc = 0.0f32;
+            for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
+                *a = *b;
+                acc += b * lo;
+            }
+            if let Some(a) = arow.get_mut(N) {
+                *a = -mi; // A = [B, -m_d]       (eq 16)
+            }
+            *bi = -acc; // b = -B u_min          (eq 16)
+        }
+        for ((h, lo), hi) in lp.h.iter_mut().zip(bd.lo.iter()).zip(bd.hi.iter()) {
+            *h = hi - lo; // h = [u_max - u_min; 1]   (eq 17)
+        }
+        if let Some(h) = lp.h.get_mut(N) {
+            *h = 1.0;
+        }
+        if let Some(c) = lp.c.get_mut(N) {
+            *c = -1.0; // c = [0 … 0, -1]      (eq 15)
+        }
+        lp
+    }
+
+    /// Fuel LP: `min Σ w_i u_i` s.t. `B u = m_d`, `lo <= u <= hi` (x = u - lo).
+    pub fn fuel_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N);
+        for ((arow, bi), (brow, mi)) in
+            lp.a.iter_mut()
+                .zip(lp.b.iter_mut())
+                .zip(self.b.iter().zip(m_d.iter()))
+        {
+            let mut acc = 0.0f32;
+            for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
+                *a = *b;
+                acc += b * lo;
+            }
+            *bi = mi - acc;
+        }
+        for (((h, c), (lo, hi)), w) in
+            lp.h.iter_mut()
+                .zip(lp.c.iter_mut())
+                .zip(bd.lo.iter().zip(bd.hi.iter()))
+                .zip(self.fuel_w.iter())
+        {
+            *h = hi - lo;
+            *c = *w;
+        }
+        lp
+    }
+
+    /// Bodson's reduced LP (2 rows): `B u ∥ m̂`, `max` (or `min`) `m̂ᵀ B u`.
+    /// `k` is the index of the largest `|m̂|` (`|m̂_k| = 1`).
+    pub fn bodson_lp(
+        &self,
+        m_hat: &[f32; AXES],
+        k: usize,
+        bd: &Bounds<N>,
+        maximise: bool,
+    ) -> Lp<AXES, NV> {
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES - 1, N);
+        let bk = self.b.get(k).copied().unwrap_or([0.0; N]);
+        let mk = g(m_hat, k);
+        let mut r = 0usize;
+        for (j, (brow, mj)) in self.b.iter().zip(m_hat.iter()).enumerate() {
+            if j == k {
+                continue;
+            }
+            if let (Some(arow), Some(bi)) = (lp.a.get_mut(r), lp.b.get_mut(r)) {
+                let mut acc = 0.0f32;
+                for (((a, bkl), bjl), lo) in arow
+                    .iter_mut()
+                    .zip(bk.iter())
+                    .zip(brow.iter())
+                    .zip(bd.lo.iter())
+                {
+                    *a = mj * bkl - mk * bjl;
+                    acc += *a * lo;
+                }
+                *bi = -acc;
+            }
+            r += 1;
+        }
+        let sign = if maximise { -1.0 } else { 1.0 };
+        for (l, ((c, h), (lo, hi))) in
+            lp.c.iter_mut()
+                .zip(lp.h.iter_mut())
+                .zip(bd.lo.iter().zip(bd.hi.iter()))
+                .enumerate()
+                .take(N)
+        {
+            let mut proj = 0.0f32;
+            for (brow, mi) in self.b.iter().zip(m_hat.iter()) {
+                proj += mi * g(brow, l);
+            }
+            *c = sign * proj;
+            *h = hi - lo;
+        }
+        lp
+    }
+
+    /// Accuracy polish of a Bodson boundary solution: the reduced LP's rows
+    /// `m_j B_k - m_k B_j` are rounded in f32, so its vertex satisfies `B u ∥ m`
+    /// only to `cond · ε`. With the LP's active set (exactly two thrusters strictly
+    /// inside their bounds, the generic case) the original 3×3 system
+    /// `[b_f1, b_f2, -m_d] [u_f1, u_f2, λ]ᵀ = -Σ_{j∉F} b_j u_j` is re-solved with
+    /// refinement, with the unrounded demand `m_d` (the rounding of `m̂ = m_d/|m_k|`
+    /// alone moves λ by `ε ×` the ray/facet grazing factor). Kept only if finite and inside the bounds (± 1e-5 of the span);
+    /// otherwise (degenerate vertex) `u` is left unchanged.
+    fn polish_bodson(&self, u: &mut [f32; N], m_d: &[f32; AXES], bd: &Bounds<N>) {
+        let mut free = [usize::MAX; 2];
+        let mut nf = 0usize;
+        for (j, ((x, lo), hi)) in u.iter().zip(bd.lo.iter()).zip(bd.hi.iter()).enumerate() {
+            let tol = 1e-5 * (hi - lo);
+            if *x > lo + tol && *x < hi - tol {
+                if let Some(f) = free.get_mut(nf) {
+                    *f = j;
+                }
+                nf += 1;
+            }
+        }
+        if nf != 2 {
+            return;
+        }
+        let [f1, f2] = free;
+        let mut a = [[0.0f32; 3]; 3];
+        let mut r = [0.0f32; 3];
+        for ((arow, ri), (brow, mi)) in a
+            .iter_mut()
+            .zip(r.iter_mut())
+            .zip(self.b.iter().zip(m_d.iter()))
+        {
+            *arow = [g(brow, f1), g(brow, f2), -mi];
+            let mut acc = Dot2::new(0.0);
+            for (j, (bij, x)) in brow.iter().zip(u.iter()).enumerate() {
+                if j != f1 && j != f2 {
+                    acc.add_prod(-*bij, *x);
+                }
+            }
+            *ri = acc.value();
+        }
+        let Some(z) = solve3(&a, &r) else {
+            return;
+        };
+        let ok = |j: usize, v: f32| {
+            let (lo, hi) = (g(&bd.lo, j), g(&bd.hi, j));
+            let tol = 1e-5 * (hi - lo);
+            v >= lo - tol && v <= hi + tol
+        };
+        let [z1, z2, _] = z;
+        if ok(f1, z1) && ok(f2, z2) {
+            if let Some(x) = u.get_mut(f1) {
+                *x = clampf(z1, g(&bd.lo, f1), g(&bd.hi, f1));
+            }
+            if let Some(x) = u.get_mut(f2) {
+                *x = clampf(z2, g(&bd.lo, f2), g(&bd.hi, f2));
+            }
+        }
+    }
+
+    fn u_from_x(x: &[f32; NV], bd: &Bounds<N>) -> [f32; N] {
+        let mut u = [0.0f32; N];
+        for ((ui, xi), lo) in u.iter_mut().zip(x.iter()).zip(bd.lo.iter()) {
+            *ui = lo + xi;
+        }
+        u
+    }
+
+    fn fuel(&self, u: &[f32; N]) -> f32 {
+        u.iter().zip(self.fuel_w.iter()).map(|(x, w)| x * w).sum()
+    }
+
+    /// Paper eqs 12-18 + fuel stage. See the module docs.
+    pub fn direction_preserving(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
+        if !self.inputs_finite(m_d, bd) {
+            return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
+        }
+        if !Self::bounds_consistent(bd) {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+        }
+        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        let mut it = s1.iterations;
+        if s1.status != LpStatus::Optimal {
+            return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
+        }
+        let lambda = g(&s1.x, N);
+        let u1 = Self::u_from_x(&s1.x, bd);
+        if lambda < 1.0 - LAMBDA_TOL {
+            return self.finish(m_d, bd, u1, lambda, AllocStatus::Scaled, it);
+        }
+        // Attainable: stage 2, minimum propellant with B u = m_d.
+        let s2 = self.fuel_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        it = it.saturating_add(s2.iterations);
+        let u2 = Self::u_from_x(&s2.x, bd);
+        let u = if s2.status == LpStatus::Optimal && self.fuel(&u2) <= self.fuel(&u1) {
+            u2
+        } else {
+            u1 // stage 2 failed numerically (λ within tolerance of 1): keep stage 1
+        };
+        self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, it)
+    }
+
+    /// Bodson's direction-preserving method (reduced LP, solution scaled from the
+    /// boundary). See the module docs.
+    pub fn bodson(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
+        if !self.inputs_finite(m_d, bd) {
+            return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
+        }
+        if !Self::bounds_consistent(bd) {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+        }
+        let zero_ok = Self::zero_admissible(bd);
+        // k = argmax |m_i| (first on ties), m̂ = m_d / |m_k|.
+        let mut k = 0usize;
+        let mut mk = 0.0f32;
+        for (i, v) in m_d.iter().enumerate() {
+            if v.abs() > mk {
+                mk = v.abs();
+                k = i;
+            }
+        }
+        let mut m_hat = [0.0f32; AXES];
+        for (h, v) in m_hat.iter_mut().zip(m_d.iter()) {
+            *h = v / mk;
+        }
+        let mm: f32 = m_hat.iter().map(|v| v * v).sum();
+        let lambda_of = |u: &[f32; N]| -> f32 {
+            let bu = self.moment(u);
+            let p: f32 = bu.iter().zip(m_hat.iter()).map(|(a, b)| a * b).sum();
+            p / mm / mk
+        };
+        if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
+            // Zero (or subnormal) demand.
+            if zero_ok {
+                return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
+            }
+            let s = self
+                .fuel_lp(&[0.0; AXES], bd)
+                .solve_with_cap(self.lp_iteration_cap);
+            if s.status != LpStatus::Optimal {
+                return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
+            }
+            return self.finish(
+                m_d,
+                bd,
+                Self::u_from_x(&s.x, bd),
+                1.0,
+                AllocStatus::Ok,
+                s.iterations,
+            );
+        }
+        let s_hi = self
+            .bodson_lp(&m_hat, k, bd, true)
+            .solve_with_cap(self.lp_iteration_cap);
+        let mut it = s_hi.iterations;
+        if s_hi.status != LpStatus::Optimal {
+            return self.fallback(m_d, bd, Self::lp_fail(s_hi.status), it);
+        }
+        let mut u_hi = Self::u_from_x(&s_hi.x, bd);
+        self.polish_bodson(&mut u_hi, m_d, bd);
+        let l_hi = lambda_of(&u_hi);
+        if !l_hi.is_finite() || l_hi < -LAMBDA_TOL {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, it);
+        }
+        if l_hi < 1.0 - LAMBDA_TOL {
+            return self.finish(m_d, bd, u_hi, l_hi.max(0.0), AllocStatus::Scaled, it);
+        }
+        // Attainable: scale back from the boundary towards the anchor.
+        let (u_lo, l_lo) = if zero_ok {
+            ([0.0f32; N], 0.0f32)
+        } else {
+            let s_lo = self
+                .bodson_lp(&m_hat, k, bd, false)
+                .solve_with_cap(self.lp_iteration_cap);
+            it = it.saturating_add(s_lo.iterations);
+            if s_lo.status != LpStatus::Optimal {
+                return self.fallback(m_d, bd, Self::lp_fail(s_lo.status), it);
+            }
+            let mut u = Self::u_from_x(&s_lo.x, bd);
+            self.polish_bodson(&mut u, m_d, bd);
+            (u, lambda_of(&u))
+        };
+        if !l_lo.is_finite() || l_lo > 1.0 + LAMBDA_TOL {
+            // Even the smallest admissible output along m_d exceeds the demand.
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, it);
+        }
+        let den = l_hi - l_lo;
+        let t = if den > LAMBDA_TOL {
+            clampf((1.0 - l_lo) / den, 0.0, 1.0)
+        } else {
+            1.0
+        };
+        let mut u = [0.0f32; N];
+        for ((x, a), b) in u.iter_mut().zip(u_lo.iter()).zip(u_hi.iter()) {
+            *x = a + t * (b - a);
+        }
+        self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, it)
+    }
+}

@@ -1,0 +1,955 @@
+//! Bounded-variable two-phase primal simplex on fixed-size stack arrays.
+//!
+//! Solves the standard form of paper 004, eq 11:
+//!
+//! ```text
+//!     min cᵀx   subject to   A x = b,   0 <= x <= h
+//! ```
+//!
+//! with `A` of `rows <= M` by `cols <= N` (const-generic capacities, runtime active
+//! sizes). Upper bounds are handled implicitly: a nonbasic variable sits at 0 or at
+//! `h_j`, and the ratio test includes the entering variable's own bound ("bound
+//! flip") and the basic variables' upper bounds, so no extra rows are added.
+//! `h_j = +inf` means "no upper bound"; `h_j = 0` fixes `x_j = 0`.
+//!
+//! # Algorithm
+//! - **Scaling** (exact where possible): column `j` is scaled by `h_j` (so every
+//!   finite-bounded variable lives in `[0, 1]`; unbounded columns by a power of two
+//!   of their largest entry), then every row by a power of two so its largest entry
+//!   is in `[1, 2)`, the cost by a power of two so `max |c| ∈ [1, 2)`. All tolerances
+//!   below are in these scaled units. Rows are sign-normalised so `b >= 0`.
+//! - **Phase 1**: one artificial variable per row, basis = artificials, cost =
+//!   Σ artificials. Artificials never re-enter once they leave. Phase 1 ends
+//!   infeasible if Σ artificials > [`FEAS_TOL`]·(1 + max b).
+//! - **Phase 2**: the true cost; artificials still basic (redundant or degenerate
+//!   rows) get the bounds `[0, 0]`, so the ratio test pivots them out at the first
+//!   entering column that touches their row.
+//! - **Anti-cycling**: Bland's rule ([`Pricing::Bland`]), or by default
+//!   [`Pricing::DantzigBland`]: largest `|d_j|` while pivots make progress, Bland
+//!   after any degenerate pivot. Bland's entering variable is the lowest-index
+//!   eligible one (at lower with `d_j < -DUAL_TOL`, or at upper with
+//!   `d_j > DUAL_TOL`); among ratio-test ties (within [`TIE_TOL`]) the leaving
+//!   variable is the lowest index, the bound flip counting as the entering
+//!   variable's own index (structural `j` < artificial `N + i`). Everything is
+//!   deterministic: same input bits → same output bits.
+//! - **Refactorisation**: at the end of each phase the basis inverse is rebuilt from
+//!   the scaled data by Gauss-Jordan with partial pivoting, the tableau and basic
+//!   values recomputed, and optimality re-checked (drift-induced extra pivots count
+//!   towards the cap).
+//! - **Refinement**: after each refactorisation the basic values get one step of
+//!   iterative refinement with a compensated (Dot2) residual, so `x` is accurate to
+//!   ~ε rather than `cond(B)·ε` (f32 only, no f64).
+//! - **Iteration cap**: every pivot or bound flip is one iteration, both phases
+//!   together; default [`default_iteration_cap`] `= 4 (rows + cols)`.
+//!
+//! # No panics
+//! NaN / ±inf in `A`, `b`, `c`, NaN or `-inf` in `h`, and data whose scaling
+//! overflows return [`LpStatus::NonFinite`]; `h_j < 0` returns
+//! [`LpStatus::Infeasible`]. All array accesses are checked (`get`) or iterator
+//! based; loops are bounded by `M`, `N` and the iteration cap.
+
+/// Pivot tolerance: a scaled tableau entry with `|α| <= PIVOT_TOL` is never pivoted on
+/// (its basic variable is not limited by the ratio test; the result is snapped back
+/// into its bounds). f32 ε is 1.2e-7; after a few pivots entries carry errors of
+/// a few ε, hence ~10 ε.
+pub const PIVOT_TOL: f32 = 1e-6;
+/// Reduced-cost optimality tolerance (scaled cost, `max |c| ∈ [1, 2)`).
+pub const DUAL_TOL: f32 = 1e-6;
+/// Phase-1 feasibility tolerance, relative: infeasible iff
+/// `Σ artificials > FEAS_TOL · (1 + max_i b_i)` (scaled rows, `max |A_ij| ∈ [1, 2)`).
+pub const FEAS_TOL: f32 = 1e-5;
+/// Ratio-test tie window (scaled variable units, i.e. fractions of `h_j`).
+pub const TIE_TOL: f32 = 1e-7;
+/// Basic values within this distance of a bound (scaled) are snapped onto it, so
+/// that degenerate ties are exact and Bland's rule sees them.
+pub const SNAP_TOL: f32 = 1e-7;
+/// A refactorisation pivot below this magnitude means a singular basis; the
+/// refactorisation is then skipped (the pivoted tableau is kept).
+const SINGULAR_TOL: f32 = 1e-9;
+
+/// Default iteration cap `4 (rows + cols)`, saturating at `u16::MAX`.
+pub const fn default_iteration_cap(rows: usize, cols: usize) -> u16 {
+    let k = 4usize.saturating_mul(rows.saturating_add(cols));
+    if k > u16::MAX as usize {
+        u16::MAX
+    } else {
+        k as u16
+    }
+}
+
+/// Entering-variable rule. Both are deterministic and anti-cycling; the leaving
+/// variable is always chosen by Bland's lowest-index rule among ratio ties.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pricing {
+    /// Pure Bland: lowest-index eligible variable enters.
+    Bland,
+    /// Dantzig (largest `|d_j|`, lowest index on ties) while pivots make progress;
+    /// Bland's rule after every degenerate pivot, until a non-degenerate step.
+    /// Cycling needs an endless run of degenerate pivots, and Bland's rule cannot
+    /// cycle from any starting basis, so this terminates; it is typically faster.
+    DantzigBland,
+}
+
+/// Outcome of a solve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LpStatus {
+    /// Optimal within the tolerances above.
+    Optimal,
+    /// No `x` with `A x = b, 0 <= x <= h` (phase 1 residual too large, or `h_j < 0`).
+    Infeasible,
+    /// The objective decreases without limit (only possible with `h_j = inf`).
+    Unbounded,
+    /// The iteration cap was reached first; `x` is the last basic solution
+    /// (bounded, but possibly infeasible in phase 1 or suboptimal in phase 2).
+    IterationCap,
+    /// A non-finite input, or scaling / objective overflow.
+    NonFinite,
+}
+
+/// Solution of [`Lp::solve`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LpSolution<const N: usize> {
+    /// Primal solution (original units), always inside `[0, h]` (zero on `NonFinite`).
+    pub x: [f32; N],
+    /// `cᵀx` (original units).
+    pub objective: f32,
+    /// Pivots + bound flips, both phases.
+    pub iterations: u16,
+    pub status: LpStatus,
+    /// At the optimum: min `|d_j|` over movable nonbasic structurals (scaled cost).
+    /// `> DUAL_TOL` ⇒ the optimum is unique (dual non-degenerate). `inf` if none.
+    pub dual_margin: f32,
+    /// At the optimum: min distance of a basic structural from its bounds (scaled).
+    /// `> 0` ⇒ primal non-degenerate. `inf` if none.
+    pub primal_margin: f32,
+}
+
+impl<const N: usize> LpSolution<N> {
+    fn failed(status: LpStatus, iterations: u16) -> Self {
+        Self {
+            x: [0.0; N],
+            objective: 0.0,
+            iterations,
+            status,
+            dual_margin: 0.0,
+            primal_margin: 0.0,
+        }
+    }
+}
+
+/// `min cᵀx, A x = b, 0 <= x <= h`, first `rows` rows and `cols` columns active.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lp<const M: usize, const N: usize> {
+    pub a: [[f32; N]; M],
+    pub b: [f32; M],
+    pub c: [f32; N],
+    pub h: [f32; N],
+    /// Active rows (`> M` is clamped to `M`).
+    pub rows: usize,
+    /// Active columns (`> N` is clamped to `N`).
+    pub cols: usize,
+    /// Entering rule (default [`Pricing::DantzigBland`]).
+    pub pricing: Pricing,
+}
+
+impl<const M: usize, const N: usize> Default for Lp<M, N> {
+    fn default() -> Self {
+        Self::zeroed(M, N)
+    }
+}
+
+#[inline(always)]
+fn g<const K: usize>(v: &[f32; K], i: usize) -> f32 {
+    match v.get(i) {
+        Some(x) => *x,
+        None => 0.0,
+    }
+}
+
+#[inline(always)]
+fn set<const K: usize>(v: &mut [f32; K], i: usize, x: f32) {
+    if let Some(e) = v.get_mut(i) {
+        *e = x;
+    }
+}
+
+#[inline(always)]
+fn gb<const K: usize>(v: &[bool; K], i: usize) -> bool {
+    match v.get(i) {
+        Some(x) => *x,
+        None => false,
+    }
+}
+
+#[inline(always)]
+fn setb<const K: usize>(v: &mut [bool; K], i: usize, x: bool) {
+    if let Some(e) = v.get_mut(i) {
+        *e = x;
+    }
+}
+
+/// `2^-e` for `v = m 2^e`, `m ∈ [1, 2)`: an exact power-of-two reciprocal scale.
+/// Returns 1 for zero, subnormal or non-finite `v`.
+fn pow2_recip(v: f32) -> f32 {
+    let field = (v.to_bits() >> 23) & 0xff;
+    if !(v > 0.0) || field == 0 || field == 0xff {
+        return 1.0;
+    }
+    // 2^-(field-127) has exponent field 254 - field; keep it a normal number.
+    let nf = 254u32.saturating_sub(field).clamp(1, 254);
+    f32::from_bits(nf << 23)
+}
+
+impl<const M: usize, const N: usize> Lp<M, N> {
+    /// All-zero problem with the given active size (`h = 0`).
+    pub const fn zeroed(rows: usize, cols: usize) -> Self {
+        Self {
+            a: [[0.0; N]; M],
+            b: [0.0; M],
+            c: [0.0; N],
+            h: [0.0; N],
+            rows,
+            cols,
+            pricing: Pricing::DantzigBland,
+        }
+    }
+
+    /// Solve with the default cap `4 (rows + cols)`.
+    pub fn solve(&self) -> LpSolution<N> {
+        let m = if self.rows < M { self.rows } else { M };
+        let n = if self.cols < N { self.cols } else { N };
+        self.solve_with_cap(default_iteration_cap(m, n))
+    }
+
+    /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
+    pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
+        let m = if self.rows < M { self.rows } else { M };
+        let n = if self.cols < N { self.cols } else { N };
+
+        // ---- validation ------------------------------------------------------
+        for (row, bi) in self.a.iter().zip(self.b.iter()).take(m) {
+            if !bi.is_finite() || row.iter().take(n).any(|v| !v.is_finite()) {
+                return LpSolution::failed(LpStatus::NonFinite, 0);
+            }
+        }
+        for (cj, hj) in self.c.iter().zip(self.h.iter()).take(n) {
+            if !cj.is_finite() || hj.is_nan() || *hj == f32::NEG_INFINITY {
+                return LpSolution::failed(LpStatus::NonFinite, 0);
+            }
+        }
+        if self.h.iter().take(n).any(|hj| *hj < 0.0) {
+            return LpSolution::failed(LpStatus::Infeasible, 0);
+        }
+
+        // ---- scaling ---------------------------------------------------------
+        let mut s = [1.0f32; N]; // x_j = s_j y_j
+        let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
+        for (j, (sj, hsj)) in s.iter_mut().zip(hs.iter_mut()).enumerate().take(n) {
+            let hj = g(&self.h, j);
+            if hj == f32::INFINITY {
+                let mut colmax = 0.0f32;
+                for row in self.a.iter().take(m) {
+                    let v = g(row, j);
+                    if v.abs() > colmax {
+                        colmax = v.abs();
+                    }
+                }
+                *sj = pow2_recip(colmax);
+                *hsj = f32::INFINITY;
+            } else if hj > 0.0 {
+                *sj = hj;
+                *hsj = 1.0;
+            } else {
+                *sj = 1.0;
+                *hsj = 0.0;
+            }
+        }
+        let mut sv = Solver::<M, N>::new(m, n, cap);
+        sv.dantzig = self.pricing == Pricing::DantzigBland;
+        sv.h = hs;
+        let mut bmax = 0.0f32;
+        for ((srow, sb), (row, bi)) in
+            sv.a.iter_mut()
+                .zip(sv.b.iter_mut())
+                .zip(self.a.iter().zip(self.b.iter()))
+                .take(m)
+        {
+            let mut rmax = 0.0f32;
+            for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(s.iter()).take(n) {
+                *dst = src * sj;
+                if dst.abs() > rmax {
+                    rmax = dst.abs();
+                }
+            }
+            let r = if rmax > 1e-30 { pow2_recip(rmax) } else { 1.0 };
+            let mut bs = bi * r;
+            let sign = if bs < 0.0 { -1.0 } else { 1.0 };
+            bs *= sign;
+            for dst in srow.iter_mut().take(n) {
+                *dst *= r * sign;
+            }
+            *sb = bs;
+            if bs > bmax {
+                bmax = bs;
+            }
+        }
+        let mut cmax = 0.0f32;
+        for ((dst, cj), sj) in sv.c.iter_mut().zip(self.c.iter()).zip(s.iter()).take(n) {
+            *dst = cj * sj;
+            if dst.abs() > cmax {
+                cmax = dst.abs();
+            }
+        }
+        let cs = if cmax > 1e-30 { pow2_recip(cmax) } else { 1.0 };
+        for dst in sv.c.iter_mut().take(n) {
+            *dst *= cs;
+        }
+        let scaled_ok = sv.a.iter().take(m).all(|r| r.iter().all(|v| v.is_finite()))
+            && sv.b.iter().all(|v| v.is_finite())
+            && sv.c.iter().all(|v| v.is_finite())
+            && s.iter().all(|v| v.is_finite());
+        if !scaled_ok {
+            return LpSolution::failed(LpStatus::NonFinite, 0);
+        }
+        sv.init_basis();
+
+        // ---- phase 1 ---------------------------------------------------------
+        sv.phase1 = true;
+        if let Err(e) = sv.run_phase() {
+            return sv.extract(e, &s, self);
+        }
+        let mut infeas = 0.0f32;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
+            if *var >= N {
+                infeas += *xb;
+            }
+        }
+        if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
+            return sv.extract(LpStatus::Infeasible, &s, self);
+        }
+
+        // ---- phase 2 ---------------------------------------------------------
+        sv.phase1 = false;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter_mut()).take(m) {
+            if *var >= N {
+                *xb = 0.0;
+            }
+        }
+        match sv.run_phase() {
+            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
+            Err(e) => sv.extract(e, &s, self),
+        }
+    }
+}
+
+/// Working state. Basis entries: `j < N` structural, `N + i` artificial of row `i`.
+struct Solver<const M: usize, const N: usize> {
+    a: [[f32; N]; M],
+    b: [f32; M],
+    c: [f32; N],
+    h: [f32; N],
+    /// Tableau `B⁻¹ A`.
+    t: [[f32; N]; M],
+    /// `B⁻¹` (= the tableau of the artificial columns).
+    binv: [[f32; M]; M],
+    xb: [f32; M],
+    basis: [usize; M],
+    basic: [bool; N],
+    upper: [bool; N],
+    m: usize,
+    n: usize,
+    iters: u16,
+    cap: u16,
+    phase1: bool,
+    /// Dantzig pricing allowed (Pricing::DantzigBland).
+    dantzig: bool,
+    /// Last pivot was degenerate: Bland's rule in force.
+    bland_now: bool,
+}
+
+impl<const M: usize, const N: usize> Solver<M, N> {
+    fn new(m: usize, n: usize, cap: u16) -> Self {
+        Self {
+            a: [[0.0; N]; M],
+            b: [0.0; M],
+            c: [0.0; N],
+            h: [0.0; N],
+            t: [[0.0; N]; M],
+            binv: [[0.0; M]; M],
+            xb: [0.0; M],
+            basis: [0; M],
+            basic: [false; N],
+            upper: [false; N],
+            m,
+            n,
+            iters: 0,
+            cap,
+            phase1: true,
+            dantzig: false,
+            bland_now: false,
+        }
+    }
+
+    fn init_basis(&mut self) {
+        self.t = self.a;
+        for (i, ((row, var), (xb, bi))) in self
+            .binv
+            .iter_mut()
+            .zip(self.basis.iter_mut())
+            .zip(self.xb.iter_mut().zip(self.b.iter()))
+            .enumerate()
+        {
+            *row = [0.0; M];
+            set(row, i, 1.0);
+            *var = N.saturating_add(i);
+            *xb = *bi;
+        }
+    }
+
+    /// Cost of a basic variable in the current phase.
+    #[inline]
+    fn cost_of(&self, var: usize) -> f32 {
+        if var < N {
+            if self.phase1 { 0.0 } else { g(&self.c, var) }
+        } else if self.phase1 {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Upper bound of a basic variable in the current phase.
+    #[inline]
+    fn upper_of(&self, var: usize) -> f32 {
+        if var < N {
+            g(&self.h, var)
+        } else if self.phase1 {
+            f32::INFINITY
+        } else {
+            0.0
+        }
+    }
+
+    #[inline]
+    fn reduced_cost(&self, j: usize) -> f32 {
+        let cj = if self.phase1 { 0.0 } else { g(&self.c, j) };
+        let mut z = 0.0f32;
+        for (row, var) in self.t.iter().zip(self.basis.iter()).take(self.m) {
+            z += self.cost_of(*var) * g(row, j);
+        }
+        cj - z
+    }
+
+    /// Improvement rate of entering `j` (> DUAL_TOL ⇒ eligible), 0 if not movable.
+    #[inline]
+    fn gain(&self, j: usize) -> f32 {
+        if gb(&self.basic, j) || !(g(&self.h, j) > 0.0) {
+            return 0.0;
+        }
+        let d = self.reduced_cost(j);
+        if gb(&self.upper, j) { d } else { -d }
+    }
+
+    /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
+    /// lowest index on ties), see [`Pricing`].
+    fn price(&self) -> Option<usize> {
+        if !self.dantzig || self.bland_now {
+            return (0..self.n).find(|&j| self.gain(j) > DUAL_TOL);
+        }
+        let mut best: Option<(usize, f32)> = None;
+        for j in 0..self.n {
+            let gj = self.gain(j);
+            if gj > DUAL_TOL && best.is_none_or(|(_, gb)| gj > gb) {
+                best = Some((j, gj));
+            }
+        }
+        best.map(|(j, _)| j)
+    }
+
+    /// Ratio-test limit of row `i` for entering column `j` moving in direction `s`:
+    /// `(step, hits_upper)`.
+    #[inline]
+    fn row_limit(&self, i: usize, j: usize, s: f32) -> Option<(f32, bool)> {
+        let alpha = s * self.t.get(i).map_or(0.0, |r| g(r, j));
+        let x = g(&self.xb, i);
+        if alpha > PIVOT_TOL {
+            Some((x.max(0.0) / alpha, false))
+        } else if alpha < -PIVOT_TOL {
+            let var = match self.basis.get(i) {
+                Some(v) => *v,
+                None => return None,
+            };
+            let ub = self.upper_of(var);
+            if ub.is_finite() {
+                Some(((ub - x).max(0.0) / -alpha, true))
+            } else {
+                None
+            }
+        } else {
+            None
+        }
+    }
+
+    /// One iteration. `Ok(true)`: pivoted/flipped; `Ok(false)`: optimal.
+    fn iterate(&mut self) -> Result<bool, LpStatus> {
+        let Some(j) = self.price() else {
+            return Ok(false);
+        };
+        if self.iters >= self.cap {
+            return Err(LpStatus::IterationCap);
+        }
+        self.iters = self.iters.saturating_add(1);
+        let at_upper = gb(&self.upper, j);
+        let s = if at_upper { -1.0f32 } else { 1.0 };
+        let hj = g(&self.h, j);
+
+        // Pass 1: the minimum ratio (bound flip included).
+        let mut tmin = hj;
+        for i in 0..self.m {
+            if let Some((lim, _)) = self.row_limit(i, j, s)
+                && lim < tmin
+            {
+                tmin = lim;
+            }
+        }
+        if !tmin.is_finite() {
+            return Err(LpStatus::Unbounded);
+        }
+        // Pass 2: Bland among ties — lowest variable index leaves.
+        let window = tmin + TIE_TOL;
+        let mut choice: Option<(usize, f32, bool)> = None; // (row, step, hits_upper)
+        let mut choice_var = usize::MAX;
+        let mut flip = false;
+        if hj <= window {
+            choice_var = j;
+            flip = true;
+        }
+        for i in 0..self.m {
+            if let Some((lim, up)) = self.row_limit(i, j, s) {
+                let var = self.basis.get(i).copied().unwrap_or(usize::MAX);
+                if lim <= window && var < choice_var {
+                    choice = Some((i, lim, up));
+                    choice_var = var;
+                    flip = false;
+                }
+            }
+        }
+
+        if flip {
+            self.bland_now = false; // a flip moves by h_j > 0: never degenerate
+            for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
+                *xb -= s * hj * g(row, j);
+            }
+            setb(&mut self.upper, j, !at_upper);
+            self.snap();
+            return Ok(true);
+        }
+        let Some((r, theta, hits_upper)) = choice else {
+            // Unreachable: tmin is attained by the flip or by a row.
+            return Err(LpStatus::Unbounded);
+        };
+        self.bland_now = !(theta > 0.0);
+        for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
+            *xb -= s * theta * g(row, j);
+        }
+        set(&mut self.xb, r, if at_upper { hj } else { 0.0 } + s * theta);
+        let leaving = self.basis.get(r).copied().unwrap_or(usize::MAX);
+        self.pivot(r, j);
+        if leaving < N {
+            setb(&mut self.basic, leaving, false);
+            setb(&mut self.upper, leaving, hits_upper);
+        }
+        if let Some(v) = self.basis.get_mut(r) {
+            *v = j;
+        }
+        setb(&mut self.basic, j, true);
+        setb(&mut self.upper, j, false);
+        self.snap();
+        Ok(true)
+    }
+
+    /// Gauss-Jordan pivot of the tableau and `B⁻¹` on row `r`, column `j`.
+    fn pivot(&mut self, r: usize, j: usize) {
+        let (Some(prow), Some(pbin)) = (self.t.get(r).copied(), self.binv.get(r).copied()) else {
+            return;
+        };
+        let piv = g(&prow, j);
+        if piv == 0.0 {
+            return;
+        }
+        let inv = 1.0 / piv;
+        let mut prow_n = prow;
+        let mut pbin_n = pbin;
+        prow_n.iter_mut().for_each(|v| *v *= inv);
+        pbin_n.iter_mut().for_each(|v| *v *= inv);
+        set(&mut prow_n, j, 1.0);
+        for (i, (row, brow)) in self
+            .t
+            .iter_mut()
+            .zip(self.binv.iter_mut())
+            .enumerate()
+            .take(self.m)
+        {
+            if i == r {
+                *row = prow_n;
+                *brow = pbin_n;
+                continue;
+            }
+            let f = g(row, j);
+            if f != 0.0 {
+                for (v, p) in row.iter_mut().zip(prow_n.iter()) {
+                    *v -= f * p;
+                }
+                for (v, p) in brow.iter_mut().zip(pbin_n.iter()) {
+                    *v -= f * p;
+                }
+            }
+            set(row, j, 0.0);
+        }
+    }
+
+    /// Snap basic values onto their bounds (clears f32 drift; exact degenerate ties).
+    fn snap(&mut self) {
+        for i in 0..self.m {
+            let var = self.basis.get(i).copied().unwrap_or(usize::MAX);
+            let ub = self.upper_of(var);
+            if let Some(x) = self.xb.get_mut(i) {
+                if *x < SNAP_TOL {
+                    *x = 0.0;
+                } else if ub.is_finite() && *x > ub - SNAP_TOL {
+                    *x = ub;
+                }
+            }
+        }
+    }
+
+    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
+    /// Returns false (and changes nothing) if the basis matrix is numerically singular.
+    fn refactor(&mut self) -> bool {
+        let m = self.m;
+        // Basis matrix, column k = column of basis[k].
+        let mut bm = [[0.0f32; M]; M];
+        for (k, var) in self.basis.iter().enumerate().take(m) {
+            for (i, row) in bm.iter_mut().enumerate().take(m) {
+                let v = if *var < N {
+                    self.a.get(i).map_or(0.0, |r| g(r, *var))
+                } else if *var - N == i {
+                    1.0
+                } else {
+                    0.0
+                };
+                set(row, k, v);
+            }
+        }
+        let mut inv = [[0.0f32; M]; M];
+        for (i, row) in inv.iter_mut().enumerate() {
+            set(row, i, 1.0);
+        }
+        for col in 0..m {
+            // partial pivoting
+            let mut p = col;
+            let mut best = 0.0f32;
+            for (i, row) in bm.iter().enumerate().take(m).skip(col) {
+                let v = g(row, col).abs();
+                if v > best {
+                    best = v;
+                    p = i;
+                }
+            }
+            if !(best > SINGULAR_TOL) {
+                return false;
+            }
+            if p != col {
+                let (Some(rp), Some(rc)) = (bm.get(p).copied(), bm.get(col).copied()) else {
+                    return false;
+                };
+                let (Some(ip), Some(ic)) = (inv.get(p).copied(), inv.get(col).copied()) else {
+                    return false;
+                };
+                if let Some(x) = bm.get_mut(p) {
+                    *x = rc;
+                }
+                if let Some(x) = bm.get_mut(col) {
+                    *x = rp;
+                }
+                if let Some(x) = inv.get_mut(p) {
+                    *x = ic;
+                }
+                if let Some(x) = inv.get_mut(col) {
+                    *x = ip;
+                }
+            }
+            let (Some(mut pr), Some(mut pi)) = (bm.get(col).copied(), inv.get(col).copied()) else {
+                return false;
+            };
+            let d = 1.0 / g(&pr, col);
+            pr.iter_mut().for_each(|v| *v *= d);
+            pi.iter_mut().for_each(|v| *v *= d);
+            for (i, (row, irow)) in bm.iter_mut().zip(inv.iter_mut()).enumerate().take(m) {
+                if i == col {
+                    *row = pr;
+                    *irow = pi;
+                    continue;
+                }
+                let f = g(row, col);
+                if f != 0.0 {
+                    for (v, p) in row.iter_mut().zip(pr.iter()) {
+                        *v -= f * p;
+                    }
+                    for (v, p) in irow.iter_mut().zip(pi.iter()) {
+                        *v -= f * p;
+                    }
+                }
+            }
+        }
+        if !inv.iter().all(|r| r.iter().all(|v| v.is_finite())) {
+            return false;
+        }
+        // rhs = b - Σ_{nonbasic at upper} a_j h_j
+        let mut rhs = self.b;
+        for (ri, row) in rhs.iter_mut().zip(self.a.iter()).take(m) {
+            for (j, aij) in row.iter().enumerate().take(self.n) {
+                if !gb(&self.basic, j) && gb(&self.upper, j) {
+                    *ri -= aij * g(&self.h, j);
+                }
+            }
+        }
+        for (i, (trow, (irow, xb))) in self
+            .t
+            .iter_mut()
+            .zip(inv.iter().zip(self.xb.iter_mut()))
+            .enumerate()
+            .take(m)
+        {
+            let _ = i;
+            for (j, tv) in trow.iter_mut().enumerate().take(self.n) {
+                let mut acc = 0.0f32;
+                for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
+                    acc += ik * g(arow, j);
+                }
+                *tv = acc;
+            }
+            let mut acc = 0.0f32;
+            for (ik, r) in irow.iter().zip(rhs.iter()).take(m) {
+                acc += ik * r;
+            }
+            *xb = acc;
+        }
+        self.refine(&inv);
+        // Exact unit columns for the basic structurals.
+        for (k, var) in self.basis.iter().enumerate().take(m) {
+            if *var < N {
+                for (i, trow) in self.t.iter_mut().enumerate().take(m) {
+                    set(trow, *var, if i == k { 1.0 } else { 0.0 });
+                }
+            }
+        }
+        self.binv = inv;
+        self.snap();
+        true
+    }
+
+    /// One step of iterative refinement of the basic values with a compensated
+    /// residual (Ogita-Rump-Oishi Dot2: TwoSum + Dekker TwoProduct, f32 only):
+    /// `r = b - Σ_{nonbasic at upper} a_j h_j - B x_B` is evaluated as if in twice the
+    /// working precision, then `x_B += B⁻¹ r`. This brings the basic solution (and so
+    /// λ) from `cond(B)·ε` to ~`ε` accuracy for `cond(B) << 1/ε`. Skipped if anything
+    /// is non-finite (huge data).
+    fn refine(&mut self, inv: &[[f32; M]; M]) {
+        let m = self.m;
+        let mut r = [0.0f32; M];
+        for (i, (ri, (arow, bi))) in r
+            .iter_mut()
+            .zip(self.a.iter().zip(self.b.iter()))
+            .enumerate()
+            .take(m)
+        {
+            let mut acc = Dot2::new(*bi);
+            for (j, aij) in arow.iter().enumerate().take(self.n) {
+                if !gb(&self.basic, j) && gb(&self.upper, j) {
+                    acc.add_prod(-*aij, g(&self.h, j));
+                }
+            }
+            for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(m) {
+                let coef = if *var < N {
+                    g(arow, *var)
+                } else if *var - N == i {
+                    1.0
+                } else {
+                    0.0
+                };
+                acc.add_prod(-coef, *xb);
+            }
+            *ri = acc.value();
+        }
+        if !r.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        let mut upd = [0.0f32; M];
+        for (u, irow) in upd.iter_mut().zip(inv.iter()).take(m) {
+            *u = irow.iter().zip(r.iter()).take(m).map(|(a, b)| a * b).sum();
+        }
+        if upd.iter().all(|v| v.is_finite()) {
+            for (x, u) in self.xb.iter_mut().zip(upd.iter()).take(m) {
+                *x += u;
+            }
+        }
+    }
+
+    /// Pivot to optimality, refactor, re-check.
+    fn run_phase(&mut self) -> Result<(), LpStatus> {
+        // Each pass either pivots (bounded by the cap) or ends the phase; the outer
+        // loop runs at most cap + 1 times.
+        loop {
+            match self.iterate() {
+                Ok(true) => continue,
+                Ok(false) => {
+                    if self.refactor() && self.price().is_some() {
+                        continue;
+                    }
+                    return Ok(());
+                }
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    fn extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> LpSolution<N> {
+        let mut y = [0.0f32; N];
+        for (j, yj) in y.iter_mut().enumerate().take(self.n) {
+            if !gb(&self.basic, j) && gb(&self.upper, j) {
+                *yj = g(&self.h, j);
+            }
+        }
+        let mut primal_margin = f32::INFINITY;
+        for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(self.m) {
+            if *var < N {
+                set(&mut y, *var, *xb);
+                let ub = g(&self.h, *var);
+                let gap = if ub.is_finite() { xb.min(ub - xb) } else { *xb };
+                if gap < primal_margin {
+                    primal_margin = gap;
+                }
+            }
+        }
+        let mut dual_margin = f32::INFINITY;
+        if status == LpStatus::Optimal {
+            for j in 0..self.n {
+                if !gb(&self.basic, j) && g(&self.h, j) > 0.0 {
+                    let d = self.reduced_cost(j).abs();
+                    if d < dual_margin {
+                        dual_margin = d;
+                    }
+                }
+            }
+        } else {
+            dual_margin = 0.0;
+        }
+        let mut x = [0.0f32; N];
+        let mut obj = 0.0f32;
+        for (j, ((xj, yj), sj)) in x
+            .iter_mut()
+            .zip(y.iter())
+            .zip(s.iter())
+            .enumerate()
+            .take(self.n)
+        {
+            let hj = g(&lp.h, j);
+            let v = (yj * sj).max(0.0);
+            *xj = if v > hj { hj } else { v };
+            obj += g(&lp.c, j) * *xj;
+        }
+        if !(obj.is_finite() && x.iter().all(|v| v.is_finite())) {
+            // overflow of finite-but-huge data: report it, never return inf/NaN
+            return LpSolution::failed(LpStatus::NonFinite, self.iters);
+        }
+        LpSolution {
+            x,
+            objective: obj,
+            iterations: self.iters,
+            status,
+            dual_margin,
+            primal_margin,
+        }
+    }
+}
+
+/// Compensated dot-product accumulator (Dot2, Ogita-Rump-Oishi 2005) in f32:
+/// error-free TwoSum and Dekker's TwoProduct (Veltkamp split by 2^12 + 1).
+pub(crate) struct Dot2 {
+    s: f32,
+    c: f32,
+}
+
+impl Dot2 {
+    #[inline]
+    pub(crate) fn new(x: f32) -> Self {
+        Self { s: x, c: 0.0 }
+    }
+    #[inline]
+    fn split(a: f32) -> (f32, f32) {
+        let t = 4097.0 * a;
+        let hi = t - (t - a);
+        (hi, a - hi)
+    }
+    #[inline]
+    pub(crate) fn add_prod(&mut self, a: f32, b: f32) {
+        let p = a * b;
+        let (ah, al) = Self::split(a);
+        let (bh, bl) = Self::split(b);
+        let ep = al * bl - (((p - ah * bh) - al * bh) - ah * bl);
+        let s = self.s + p;
+        let z = s - self.s;
+        let es = (self.s - (s - z)) + (p - z);
+        self.s = s;
+        self.c += ep + es;
+    }
+    #[inline]
+    pub(crate) fn value(&self) -> f32 {
+        self.s + self.c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pow2() {
+        assert_eq!(pow2_recip(1.0), 1.0);
+        assert_eq!(pow2_recip(3.0), 0.5);
+        assert_eq!(pow2_recip(0.3), 4.0);
+        assert_eq!(pow2_recip(0.0), 1.0);
+        assert_eq!(pow2_recip(f32::NAN), 1.0);
+        assert!(pow2_recip(f32::MAX) > 0.0);
+    }
+
+    #[test]
+    fn small_lp() {
+        // min -x0 - 2 x1, x0 + x1 = 1, x in [0, 1]^2 plus slack: x0 + x1 + s = 1.5
+        let mut lp = Lp::<1, 3>::zeroed(1, 3);
+        lp.a = [[1.0, 1.0, 1.0]];
+        lp.b = [1.5];
+        lp.c = [-1.0, -2.0, 0.0];
+        lp.h = [1.0, 1.0, f32::INFINITY];
+        let s = lp.solve();
+        assert_eq!(s.status, LpStatus::Optimal);
+        assert!((s.objective + 2.5).abs() < 1e-6, "{s:?}");
+    }
+
+    #[test]
+    fn infeasible_and_unbounded() {
+        let mut lp = Lp::<1, 2>::zeroed(1, 2);
+        lp.a = [[1.0, 1.0]];
+        lp.b = [3.0];
+        lp.h = [1.0, 1.0];
+        assert_eq!(lp.solve().status, LpStatus::Infeasible);
+        lp.h = [f32::INFINITY, f32::INFINITY];
+        lp.c = [-1.0, 0.0];
+        lp.a = [[1.0, -1.0]];
+        lp.b = [0.5];
+        assert_eq!(lp.solve().status, LpStatus::Unbounded);
+        lp.b = [f32::NAN];
+        assert_eq!(lp.solve().status, LpStatus::NonFinite);
+    }
+}
