@@ -8,6 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod attitude;
+pub mod environment;
 pub mod link;
 pub mod output;
 pub mod plant;

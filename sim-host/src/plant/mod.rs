@@ -8,6 +8,7 @@
 //! `q̇ = ½ q ⊗ [ω; 0]`.
 
 pub mod cmg;
+pub mod wheel;
 
 use crate::attitude::{Quat, Vec3, dcm_body_to_ref};
 use cmg::CmgCluster;
