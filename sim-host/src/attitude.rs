@@ -58,6 +58,11 @@ pub fn error_angle(q: &Quat, q_cmd: &Quat) -> f64 {
     2.0 * e.imag().norm().atan2(e.w.abs())
 }
 
+/// Express a reference-frame vector in body axes: `v_B = q* ⊗ v_I ⊗ q`.
+pub fn rotate_ref_to_body(q: &Quat, v: &Vec3) -> Vec3 {
+    UnitQuaternion::new_unchecked(*q).inverse_transform_vector(v)
+}
+
 /// Rotation matrix taking body vectors to the reference frame.
 pub fn dcm_body_to_ref(q: &Quat) -> nalgebra::Matrix3<f64> {
     UnitQuaternion::from_quaternion(*q)

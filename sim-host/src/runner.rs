@@ -241,7 +241,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             break;
         }
         for _ in 0..sub {
-            state = craft.rk4(&state, &input, h);
+            state = craft.rk4(t, &state, &input, h, None);
         }
         if progress && k % 1024 == 0 {
             if bar.is_none() && start.elapsed() > Duration::from_secs(1) {

@@ -461,6 +461,7 @@ impl Scenario {
             q: self.initial.attitude.quaternion(),
             w: self.initial.rate_rad_s.into(),
             gimbal_rad: g,
+            wheels: Default::default(),
         }
     }
 

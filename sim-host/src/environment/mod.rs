@@ -10,6 +10,7 @@
 //! project storage `[x, y, z, w]` = `q.coords`.
 pub mod frames;
 pub mod magnetic;
+pub mod model;
 pub mod orbit;
 pub mod torques;
 

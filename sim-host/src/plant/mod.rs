@@ -1,35 +1,55 @@
 //! Plant models (f64). The spacecraft is a rigid body carrying momentum-exchange
-//! actuators; the state is integrated with fixed-step RK4 at an integer multiple of the
-//! control rate, the quaternion renormalised after every step.
+//! actuators (CMGs, reaction wheels), magnetorquers and thrusters, possibly mounted on an
+//! air-bearing rig; one RK4 integrates body, gimbal and wheel states at a fixed step that
+//! is an integer fraction of the control period; the quaternion is renormalised after
+//! every step.
 //!
-//! Rigid body with a CMG cluster (paper 000 eqs 1-4, gimbal and transverse rotor inertia
-//! neglected as in the paper):
-//! `H = I ω + h`, `I ω̇ = T_ext - ḣ - ω × (I ω + h)`, `ḣ = Σ δ̇_i (g_i × h_i)`,
+//! Body (papers 000 eqs 1-4 and 001 eqs 2-5), with `J` the inertia without the wheels'
+//! axial rotor inertia, `h_a` the wheels' absolute axial momenta, `h` the CMG momentum:
+//! `H = J ω + h + C h_a`,
+//! `J ω̇ = T_ext - ω × H - ḣ - C ḣ_a + T_imbalance`, `ḣ = Σ δ̇_i (g_i × h_i)`,
 //! `q̇ = ½ q ⊗ [ω; 0]`.
+//! External torques: environment (gravity gradient, drag, SRP, constant/harmonic), the
+//! rig's pendulum and stops, `m × B` of the spacecraft dipole (torquers + residual), and
+//! the thrusters' torque averaged over the step (exact impulse, see `thrusters`).
 
 pub mod cmg;
+pub mod rig;
 pub mod wheel;
 
-use crate::attitude::{Quat, Vec3, dcm_body_to_ref};
+use crate::attitude::{Quat, Vec3, dcm_body_to_ref, rotate_ref_to_body};
+use crate::environment::model::{EnvSnapshot, Environment};
+use crate::environment::torques::TorqueBreakdown;
 use cmg::CmgCluster;
 use nalgebra::Matrix3;
+use rig::Rig;
+use wheel::{WheelOutput, WheelParams, WheelState};
 
 /// Largest number of gimbals the fixed-size state holds.
 pub const MAX_GIMBALS: usize = 8;
+/// Largest number of wheels the fixed-size state holds.
+pub const MAX_WHEELS: usize = acs_flight::params::MAX_WHEELS;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {
-    /// `q_ib`, body → inertial.
+    /// `q_ib`, body → inertial (or → lab on a rig).
     pub q: Quat,
     /// Body rate, body axes, rad/s.
     pub w: Vec3,
     pub gimbal_rad: [f64; MAX_GIMBALS],
+    pub wheels: [WheelState; MAX_WHEELS],
 }
 
-/// Actuator inputs held constant over one control period (zero-order hold).
+/// Actuator inputs held constant over one dynamics step (zero-order hold).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Input {
     pub gimbal_rate_cmd_rad_s: [f64; MAX_GIMBALS],
+    /// Motor torque command per wheel (on the rotor; the body gets the reaction).
+    pub wheel_torque_cmd_nm: [f64; MAX_WHEELS],
+    /// Total spacecraft dipole (torquer rods as realised + residual), body axes, A m².
+    pub dipole_am2: Vec3,
+    /// Thruster torque averaged over the step, body axes.
+    pub thruster_torque_nm: Vec3,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -37,13 +57,29 @@ struct Deriv {
     dq: Quat,
     dw: Vec3,
     dgimbal: [f64; MAX_GIMBALS],
+    dwheel: [wheel::WheelDeriv; MAX_WHEELS],
+}
+
+/// Every torque acting on the body at one instant, for telemetry and tests.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TorqueReport {
+    pub env: TorqueBreakdown,
+    pub rig_nm: Vec3,
+    pub magnetic_nm: Vec3,
+    pub thrusters_nm: Vec3,
+    /// CMG: `-ḣ - ω × h`; wheels: `-C ḣ_a - ω × C h_a` (+ imbalance).
+    pub actuators_nm: Vec3,
 }
 
 #[derive(Clone, Debug)]
 pub struct Spacecraft {
+    /// Inertia without the wheels' axial rotor inertia (`J` of paper 001 eq 3).
     pub inertia: Matrix3<f64>,
     inertia_inv: Matrix3<f64>,
     pub cmg: Option<CmgCluster>,
+    pub wheels: Vec<WheelParams>,
+    pub rig: Option<Rig>,
+    pub env: Option<Environment>,
     /// Constant external torque, body axes, N m.
     pub external_torque_nm: Vec3,
 }
@@ -55,6 +91,9 @@ impl Spacecraft {
             inertia,
             inertia_inv: inertia.try_inverse()?,
             cmg,
+            wheels: Vec::new(),
+            rig: None,
+            env: None,
             external_torque_nm: Vec3::zeros(),
         })
     }
@@ -70,25 +109,70 @@ impl Spacecraft {
         r
     }
 
-    /// Actuator momentum in body axes.
+    /// Actuator momentum in body axes (CMG cluster + wheels' absolute axial momentum).
     pub fn actuator_momentum(&self, s: &State) -> Vec3 {
-        self.cmg
+        let mut h = self
+            .cmg
             .as_ref()
-            .map_or(Vec3::zeros(), |c| c.momentum(&s.gimbal_rad))
+            .map_or(Vec3::zeros(), |c| c.momentum(&s.gimbal_rad));
+        for (p, ws) in self.wheels.iter().zip(s.wheels.iter()) {
+            h += Vec3::from(p.spin_axis) * ws.h_abs_nms;
+        }
+        h
     }
 
-    /// Torque the actuators exert on the body: `-ḣ - ω × h` (eq 4).
+    /// Wheel outputs (speed, current, power, …) at a state and input.
+    pub fn wheel_outputs(&self, s: &State, u: &Input) -> [WheelOutput; MAX_WHEELS] {
+        let mut o = [WheelOutput::default(); MAX_WHEELS];
+        let w: [f64; 3] = s.w.into();
+        for (i, p) in self.wheels.iter().enumerate() {
+            o[i] = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]).1;
+        }
+        o
+    }
+
+    fn external(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
+        let mut r = TorqueReport {
+            thrusters_nm: u.thruster_torque_nm,
+            ..Default::default()
+        };
+        if let (Some(e), Some(snap)) = (&self.env, env) {
+            r.env = e.torques(t, &s.q, snap);
+            if let Some(b) = snap.b_ref_t {
+                r.magnetic_nm = u.dipole_am2.cross(&rotate_ref_to_body(&s.q, &b));
+            }
+        }
+        if let Some(rig) = &self.rig {
+            r.rig_nm = rig.torque(&s.q, &s.w, &self.inertia);
+        }
+        r
+    }
+
+    /// Every torque on the body at a state (telemetry).
+    pub fn torques(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
+        let mut r = self.external(t, s, u, env);
+        r.actuators_nm = self.actuator_torque(s, u);
+        r
+    }
+
+    /// Torque the momentum-exchange actuators exert on the body: `-ḣ - ω × h` (eq 4).
     pub fn actuator_torque(&self, s: &State, u: &Input) -> Vec3 {
         let rates = self.applied_gimbal_rates(s, u);
-        match &self.cmg {
-            Some(c) => {
-                -c.momentum_rate(&s.gimbal_rad, &rates) - s.w.cross(&c.momentum(&s.gimbal_rad))
-            }
-            None => Vec3::zeros(),
+        let mut t = Vec3::zeros();
+        if let Some(c) = &self.cmg {
+            t += -c.momentum_rate(&s.gimbal_rad, &rates) - s.w.cross(&c.momentum(&s.gimbal_rad));
         }
+        let w: [f64; 3] = s.w.into();
+        for (i, p) in self.wheels.iter().enumerate() {
+            let (d, o) = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
+            let a = Vec3::from(p.spin_axis);
+            t += -a * d.dh_abs_nm - s.w.cross(&(a * s.wheels[i].h_abs_nms))
+                + Vec3::from(o.imbalance_torque_nm);
+        }
+        t
     }
 
-    fn deriv(&self, s: &State, u: &Input) -> Deriv {
+    fn deriv(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> Deriv {
         let rates = self.applied_gimbal_rates(s, u);
         let (h, hdot) = match &self.cmg {
             Some(c) => (
@@ -97,13 +181,27 @@ impl Spacecraft {
             ),
             None => (Vec3::zeros(), Vec3::zeros()),
         };
-        let big_h = self.inertia * s.w + h;
-        let dw = self.inertia_inv * (self.external_torque_nm - hdot - s.w.cross(&big_h));
+        let mut h_total = h;
+        let mut torque = self.external_torque_nm - hdot;
+        let mut dwheel = [wheel::WheelDeriv::default(); MAX_WHEELS];
+        let w: [f64; 3] = s.w.into();
+        for (i, p) in self.wheels.iter().enumerate() {
+            let (d, o) = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
+            let a = Vec3::from(p.spin_axis);
+            h_total += a * s.wheels[i].h_abs_nms;
+            torque += -a * d.dh_abs_nm + Vec3::from(o.imbalance_torque_nm);
+            dwheel[i] = d;
+        }
+        let ext = self.external(t, s, u, env);
+        torque += ext.env.total + ext.rig_nm + ext.magnetic_nm + ext.thrusters_nm;
+        let big_h = self.inertia * s.w + h_total;
+        let dw = self.inertia_inv * (torque - s.w.cross(&big_h));
         let dq = s.q * Quat::from_imag(s.w) * 0.5;
         Deriv {
             dq,
             dw,
             dgimbal: rates,
+            dwheel,
         }
     }
 
@@ -112,19 +210,25 @@ impl Spacecraft {
         for (x, dx) in g.iter_mut().zip(d.dgimbal.iter()) {
             *x += h * dx;
         }
+        let mut wh = s.wheels;
+        for (x, dx) in wh.iter_mut().zip(d.dwheel.iter()) {
+            *x = x.add_scaled(dx, h);
+        }
         State {
             q: s.q + d.dq * h,
             w: s.w + d.dw * h,
             gimbal_rad: g,
+            wheels: wh,
         }
     }
 
-    /// One classical RK4 step of length `h` with the input held; renormalises `q`.
-    pub fn rk4(&self, s: &State, u: &Input, h: f64) -> State {
-        let k1 = self.deriv(s, u);
-        let k2 = self.deriv(&Self::add(s, &k1, 0.5 * h), u);
-        let k3 = self.deriv(&Self::add(s, &k2, 0.5 * h), u);
-        let k4 = self.deriv(&Self::add(s, &k3, h), u);
+    /// One classical RK4 step of length `h` from time `t` with the input held;
+    /// renormalises `q`. `env`: the environment snapshot of this step (None: free space).
+    pub fn rk4(&self, t: f64, s: &State, u: &Input, h: f64, env: Option<&EnvSnapshot>) -> State {
+        let k1 = self.deriv(t, s, u, env);
+        let k2 = self.deriv(t + 0.5 * h, &Self::add(s, &k1, 0.5 * h), u, env);
+        let k3 = self.deriv(t + 0.5 * h, &Self::add(s, &k2, 0.5 * h), u, env);
+        let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env);
         let mut g = s.gimbal_rad;
         for i in 0..MAX_GIMBALS {
             g[i] += h / 6.0
@@ -133,12 +237,23 @@ impl Spacecraft {
         if let Some(c) = &self.cmg {
             c.clamp_angles(&mut g);
         }
+        let mut wh = s.wheels;
+        for i in 0..self.wheels.len().min(MAX_WHEELS) {
+            wh[i] = wh[i]
+                .add_scaled(&k1.dwheel[i], h / 6.0)
+                .add_scaled(&k2.dwheel[i], h / 3.0)
+                .add_scaled(&k3.dwheel[i], h / 3.0)
+                .add_scaled(&k4.dwheel[i], h / 6.0);
+            // Every term uses integer multiples of the rotor angle: wrap it.
+            wh[i].rotor_angle_rad = wh[i].rotor_angle_rad.rem_euclid(std::f64::consts::TAU);
+        }
         let q = s.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * (h / 6.0);
         let w = s.w + (k1.dw + (k2.dw + k3.dw) * 2.0 + k4.dw) * (h / 6.0);
         State {
             q: q.normalize(),
             w,
             gimbal_rad: g,
+            wheels: wh,
         }
     }
 
@@ -147,9 +262,16 @@ impl Spacecraft {
         dcm_body_to_ref(&s.q) * (self.inertia * s.w + self.actuator_momentum(s))
     }
 
-    /// Rotational kinetic energy of the body, J (conserved with gimbals at rest).
+    /// Rotational kinetic energy of body and wheels, J (conserved with gimbals at rest and
+    /// torque-free wheels): `½ ωᵀ J ω + Σ h_a² / (2 I_w)`.
     pub fn kinetic_energy(&self, s: &State) -> f64 {
-        0.5 * s.w.dot(&(self.inertia * s.w))
+        let wheels: f64 = self
+            .wheels
+            .iter()
+            .zip(s.wheels.iter())
+            .map(|(p, ws)| ws.h_abs_nms * ws.h_abs_nms / (2.0 * p.inertia_kgm2))
+            .sum();
+        0.5 * s.w.dot(&(self.inertia * s.w)) + wheels
     }
 }
 
@@ -158,6 +280,7 @@ mod tests {
     use super::*;
     use crate::attitude::quat_from_euler;
     use acs_flight::math::EulerSeq;
+    use wheel::{WheelParams, WheelState};
 
     fn craft() -> Spacecraft {
         let i = Matrix3::new(3.1, 0.05, -0.02, 0.05, 3.4, 0.03, -0.02, 0.03, 5.8);
@@ -175,7 +298,76 @@ mod tests {
             q: quat_from_euler([0.2, -0.1, 0.5], EulerSeq::Zyx321),
             w: Vec3::new(0.05, -0.08, 0.12),
             gimbal_rad: g,
+            wheels: [WheelState::default(); MAX_WHEELS],
         }
+    }
+
+    /// CMG pyramid plus the four-wheel pyramid of paper 001 (ideal wheels), wheels spinning.
+    fn craft_with_wheels() -> (Spacecraft, State) {
+        let mut sc = craft();
+        let (a, b) = (45f64.to_radians(), 54.73f64.to_radians());
+        let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
+        for axis in [
+            [ca * sb, sa * sb, cb],
+            [-sa * sb, ca * sb, cb],
+            [-ca * sb, -sa * sb, cb],
+            [sa * sb, -ca * sb, cb],
+        ] {
+            sc.wheels.push(WheelParams {
+                spin_axis: axis,
+                ..WheelParams::ideal(0.2, 600.0, 0.01)
+            });
+        }
+        let mut s = state();
+        for (i, speed) in [100.0, -50.0, 30.0, 250.0].into_iter().enumerate() {
+            s.wheels[i] = WheelState::spinning(&sc.wheels[i], speed, &s.w.into());
+        }
+        (sc, s)
+    }
+
+    #[test]
+    fn torque_free_body_with_wheels_and_cmgs_conserves_momentum_and_energy_for_hours() {
+        // 3 h. The drift is RK4 truncation: it must be small and fall at 4th order with dt.
+        let drift = |dt: f64| {
+            let (sc, mut s) = craft_with_wheels();
+            let (h0, e0) = (sc.angular_momentum_inertial(&s), sc.kinetic_energy(&s));
+            let u = Input::default();
+            for _ in 0..(10_800.0 / dt) as usize {
+                s = sc.rk4(0.0, &s, &u, dt, None);
+            }
+            let (h1, e1) = (sc.angular_momentum_inertial(&s), sc.kinetic_energy(&s));
+            ((h1 - h0).norm() / h0.norm(), (e1 - e0).abs() / e0)
+        };
+        let (h_a, e_a) = drift(0.05);
+        let (h_b, e_b) = drift(0.025);
+        eprintln!(
+            "3 h drift: momentum {h_a:e} / {h_b:e}, energy {e_a:e} / {e_b:e} (dt 0.05 / 0.025 s)"
+        );
+        assert!(h_a < 1e-6 && e_a < 1e-6, "{h_a:e} {e_a:e}");
+        assert!(
+            h_b < h_a / 10.0 && e_b < e_a / 10.0,
+            "not converging at 4th order"
+        );
+    }
+
+    #[test]
+    fn wheel_torques_exchange_momentum_with_the_body_and_conserve_the_total() {
+        let (sc, mut s) = craft_with_wheels();
+        let h0 = sc.angular_momentum_inertial(&s);
+        let mut u = Input::default();
+        u.wheel_torque_cmd_nm[..4].copy_from_slice(&[0.05, -0.03, 0.02, -0.04]);
+        for _ in 0..6_000 {
+            s = sc.rk4(0.0, &s, &u, 0.01, None);
+        }
+        let h1 = sc.angular_momentum_inertial(&s);
+        assert!(
+            (h1 - h0).norm() < 1e-9 * h0.norm(),
+            "drift {:e}",
+            (h1 - h0).norm() / h0.norm()
+        );
+        // 60 s at 0.05 N m changed wheel 1's absolute momentum by 3 N m s.
+        let w0 = WheelState::spinning(&sc.wheels[0], 100.0, &state().w.into());
+        assert!((s.wheels[0].h_abs_nms - w0.h_abs_nms - 3.0).abs() < 1e-9);
     }
 
     #[test]
@@ -185,7 +377,7 @@ mod tests {
         let (h0, e0) = (sc.angular_momentum_inertial(&s), sc.kinetic_energy(&s));
         let u = Input::default();
         for _ in 0..100_000 {
-            s = sc.rk4(&s, &u, 0.01);
+            s = sc.rk4(0.0, &s, &u, 0.01, None);
         }
         let (h1, e1) = (sc.angular_momentum_inertial(&s), sc.kinetic_energy(&s));
         // RK4 at 100 Hz on a ~0.15 rad/s tumble: truncation error ~1e-12 per step.
@@ -209,7 +401,7 @@ mod tests {
         let mut u = Input::default();
         u.gimbal_rate_cmd_rad_s[..4].copy_from_slice(&[0.3, -0.2, 0.1, 0.4]);
         for _ in 0..100_000 {
-            s = sc.rk4(&s, &u, 0.01);
+            s = sc.rk4(0.0, &s, &u, 0.01, None);
         }
         let h1 = sc.angular_momentum_inertial(&s);
         assert!(
@@ -230,7 +422,7 @@ mod tests {
         let mut u = Input::default();
         u.gimbal_rate_cmd_rad_s[..4].copy_from_slice(&[0.5, 0.0, -0.25, 0.1]);
         let dt = 1e-4;
-        let s1 = sc.rk4(&s, &u, dt);
+        let s1 = sc.rk4(0.0, &s, &u, dt, None);
         let t_expected = sc.actuator_torque(&s, &u);
         let c = sc.cmg.as_ref().unwrap();
         let jd = c.momentum_rate(&s.gimbal_rad, &u.gimbal_rate_cmd_rad_s);
