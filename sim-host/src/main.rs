@@ -66,7 +66,9 @@ fn main() -> Result<()> {
             quiet,
         } => {
             let sc = Scenario::load(&scenario)?;
+            let open_loop = matches!(sc.controller, sim_host::scenario::Controller::None);
             let kind = match (link, &sc.link.kind) {
+                _ if open_loop => LinkKind::InProcess,
                 (Some(k), _) => k,
                 (None, Some(s)) => s.parse().context("scenario link.kind")?,
                 (None, None) => LinkKind::InProcess,
@@ -76,21 +78,33 @@ fn main() -> Result<()> {
             drop(l);
             let files = output::write_all(&out, &r, !no_plots)?;
             let s = &r.summary;
-            say!(
-                "{}: {} steps over {} on {}; final error {:.4} deg, settle {} ; min m {:.3}; max gimbal rate {:.3} rad/s; RTF {:.0}x{}",
+            let mut line = format!(
+                "{}: {} steps over {:.1} s on {}; final error {:.4} deg, settle {}, RTF {:.0}x",
                 s.scenario,
                 s.steps,
-                format_args!("{:.1} s", s.sim_time_s),
+                s.sim_time_s,
                 s.link,
                 s.final_error_deg,
                 s.settle_time_s
                     .map_or("never".into(), |t| format!("{t:.2} s")),
-                s.min_singularity_measure,
-                s.max_gimbal_rate_rad_s,
-                s.real_time_factor,
-                s.max_step_instructions
-                    .map_or(String::new(), |n| format!("; max {n} instructions/step")),
+                s.real_time_factor
             );
+            let opt = |name: &str, v: Option<f64>, unit: &str| {
+                v.map(|x| format!("; {name} {x:.4}{unit}"))
+                    .unwrap_or_default()
+            };
+            line += &opt("min m", s.min_singularity_measure, "");
+            line += &opt("max gimbal rate", s.max_gimbal_rate_rad_s, " rad/s");
+            line += &opt("max wheel speed", s.max_wheel_speed_rpm, " rpm");
+            line += &opt("max wheel power", s.max_wheel_power_w, " W");
+            line += &opt("propellant", s.propellant_kg, " kg");
+            line += &opt("max pulses", s.max_pulses.map(f64::from), "");
+            line += &opt(
+                "max instructions/step",
+                s.max_step_instructions.map(|x| x as f64),
+                "",
+            );
+            say!("{line}");
             for f in files {
                 say!("  wrote {}", f.display());
             }

@@ -2,12 +2,24 @@
 //! rejects unknown keys, and [`Scenario::validate`] rejects impossible values naming
 //! the key, before anything runs.
 
-use crate::attitude::{Quat, from_xyzw, quat_from_euler};
-use crate::plant::{MAX_GIMBALS, Spacecraft, State, cmg::CmgCluster};
+use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body};
+use crate::environment::frames::{EarthRotation, julian_date};
+use crate::environment::magnetic::{FieldModel, MagneticField};
+use crate::environment::model::{EnvSnapshot, Environment, FieldSource};
+use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
+use crate::environment::torques::{
+    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
+};
+use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
+use crate::plant::rig::Rig;
+use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet};
+use crate::plant::wheel::{WheelParams, WheelState};
+use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{
-    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, PARAMS_VERSION,
-    QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
+    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, MAX_THRUSTERS,
+    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams,
+    TargetFrame, ThrusterMethod, ThrusterParams,
 };
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Matrix3;
@@ -27,7 +39,20 @@ pub struct Scenario {
     pub target: AttitudeSpec,
     pub actuators: Actuators,
     pub controller: Controller,
-    pub steering: Steering,
+    /// CMG steering law (required with a CMG cluster under closed-loop control).
+    #[serde(default)]
+    pub steering: Option<Steering>,
+    /// Orbit; absent: free space (or the lab, with `[rig]`).
+    #[serde(default)]
+    pub orbit: Option<OrbitSpec>,
+    #[serde(default)]
+    pub environment: EnvironmentSpec,
+    /// Air-bearing test rig (pendulum torque, travel stops); excludes `[orbit]`.
+    #[serde(default)]
+    pub rig: Option<RigSpec>,
+    /// Open-loop actuator command profile (with `controller.type = "none"`).
+    #[serde(default)]
+    pub open_loop: Option<OpenLoop>,
     #[serde(default)]
     pub sensors: Sensors,
     #[serde(default)]
@@ -60,18 +85,185 @@ pub struct SpacecraftSpec {
     /// Constant external torque, body axes.
     #[serde(default)]
     pub external_torque_nm: [f64; 3],
+    /// Harmonic disturbance `a sin(2π f t + φ)` per body axis, added to the constant one.
+    #[serde(default)]
+    pub harmonic_torque: Option<HarmonicSpec>,
+    /// Residual magnetic dipole, body axes, A m² (paper 003: [0, 0, 0.001]).
+    #[serde(default)]
+    pub residual_dipole_am2: [f64; 3],
+    /// Outer dimensions of a box-shaped body centred on the CoM, m (drag and SRP plates).
+    #[serde(default)]
+    pub box_m: Option<[f64; 3]>,
+    /// Drag reference area and centre-of-pressure offset from the CoM (instead of `box_m`).
+    #[serde(default)]
+    pub drag_area_m2: Option<f64>,
+    #[serde(default)]
+    pub cp_offset_m: [f64; 3],
+    #[serde(default = "default_cd")]
+    pub drag_coefficient: f64,
+}
+
+fn default_cd() -> f64 {
+    2.2
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HarmonicSpec {
+    pub amplitude_nm: [f64; 3],
+    pub frequency_hz: [f64; 3],
+    #[serde(default)]
+    pub phase_rad: [f64; 3],
+}
+
+/// Orbit: `kind = "circular" | "kepler" | "tle"`.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+pub enum OrbitKind {
+    Circular {
+        altitude_km: f64,
+        inclination_deg: f64,
+        #[serde(default)]
+        raan_deg: f64,
+        /// Argument of latitude at t = 0.
+        #[serde(default)]
+        arg_lat_deg: f64,
+    },
+    Kepler {
+        a_km: f64,
+        e: f64,
+        inclination_deg: f64,
+        #[serde(default)]
+        raan_deg: f64,
+        #[serde(default)]
+        argp_deg: f64,
+        #[serde(default)]
+        true_anomaly_deg: f64,
+    },
+    Tle {
+        line1: String,
+        line2: String,
+    },
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitSpec {
+    #[serde(flatten)]
+    pub kind: OrbitKind,
+    /// Numerical J2 propagation (circular/Kepler).
+    #[serde(default)]
+    pub j2: bool,
+    /// UTC epoch of t = 0, "YYYY-MM-DDThh:mm:ss" (Earth rotation, WMM date, Sun).
+    #[serde(default = "default_epoch")]
+    pub epoch_utc: String,
+}
+
+fn default_epoch() -> String {
+    "2026-01-01T00:00:00".into()
+}
+
+/// Environment models.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSpec {
+    /// "none", "dipole" (tilted dipole) or "wmm" (World Magnetic Model), along the orbit.
+    #[serde(default = "default_field")]
+    pub magnetic_field: String,
+    /// A constant field in the reference (lab) frame, T — for rigs without an orbit.
+    #[serde(default)]
+    pub lab_field_t: Option<[f64; 3]>,
+    #[serde(default = "yes")]
+    pub gravity_gradient: bool,
+    /// "none", "exponential" (Vallado table) or a fixed density via `density_kg_m3`.
+    #[serde(default = "default_atmosphere")]
+    pub atmosphere: String,
+    #[serde(default)]
+    pub density_kg_m3: Option<f64>,
+    /// Solar radiation pressure on the `box_m` plates.
+    #[serde(default)]
+    pub solar_pressure: bool,
+}
+
+impl Default for EnvironmentSpec {
+    fn default() -> Self {
+        Self {
+            magnetic_field: default_field(),
+            lab_field_t: None,
+            gravity_gradient: true,
+            atmosphere: default_atmosphere(),
+            density_kg_m3: None,
+            solar_pressure: false,
+        }
+    }
+}
+
+fn default_field() -> String {
+    "dipole".into()
+}
+fn default_atmosphere() -> String {
+    "none".into()
+}
+fn yes() -> bool {
+    true
+}
+
+/// Air-bearing rig.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigSpec {
+    /// `m g r`, body axes, N m (paper 003 eq 28: [-0.004, -0.001, 0.5]).
+    pub mgr_nm: [f64; 3],
+    #[serde(default)]
+    pub roll_limit_deg: Option<f64>,
+    #[serde(default)]
+    pub pitch_limit_deg: Option<f64>,
+}
+
+/// Open-loop command table: each row holds from its time until the next row.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpenLoop {
+    #[serde(default)]
+    pub commands: Vec<OpenLoopRow>,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpenLoopRow {
+    pub t_s: f64,
+    #[serde(default)]
+    pub gimbal_rate_rad_s: Option<[f64; 4]>,
+    #[serde(default)]
+    pub wheel_torque_nm: Option<Vec<f64>>,
+    #[serde(default)]
+    pub dipole_am2: Option<[f64; 3]>,
+    /// 1-based thruster numbers that are on.
+    #[serde(default)]
+    pub thrusters_on: Option<Vec<usize>>,
 }
 
 /// An attitude: Euler angles `[roll, pitch, yaw]` in degrees with a sequence, or a quaternion.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct AttitudeSpec {
+    /// "inertial" (default) or "lvlh" (the orbit frame: z nadir, y = -orbit normal).
+    #[serde(default)]
+    pub frame: RefFrame,
     #[serde(default)]
     pub euler_deg: Option<[f64; 3]>,
     #[serde(default)]
     pub euler_sequence: EulerSequence,
     #[serde(default)]
     pub quaternion_xyzw: Option<[f64; 4]>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum RefFrame {
+    #[default]
+    Inertial,
+    Lvlh,
 }
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
@@ -99,6 +291,9 @@ pub struct InitialState {
     pub attitude: AttitudeSpec,
     #[serde(default)]
     pub rate_rad_s: [f64; 3],
+    /// Add the rate that keeps the body fixed in LVLH (needs `[orbit]`).
+    #[serde(default)]
+    pub orbit_synchronous: bool,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -106,6 +301,128 @@ pub struct InitialState {
 pub struct Actuators {
     #[serde(default)]
     pub cmg: Option<CmgSpec>,
+    #[serde(default)]
+    pub wheels: Option<WheelsSpec>,
+    #[serde(default)]
+    pub magnetorquers: Option<MagnetorquersSpec>,
+    #[serde(default)]
+    pub thrusters: Option<ThrustersSpec>,
+}
+
+/// Reaction wheels.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct WheelsSpec {
+    /// "pyramid4" (paper 001 eq 9 with `pyramid_alpha_deg`, `pyramid_beta_deg`) or "axes".
+    #[serde(default = "pyramid4")]
+    pub layout: String,
+    #[serde(default = "default_alpha")]
+    pub pyramid_alpha_deg: f64,
+    #[serde(default = "default_beta")]
+    pub pyramid_beta_deg: f64,
+    /// Spin axes (body, unit) when `layout = "axes"`.
+    #[serde(default)]
+    pub axes: Vec<[f64; 3]>,
+    /// "ideal" (torque and speed limits) or "accurate" (paper 001 electrical model).
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// Wheel data (defaults: paper 001): max torque 0.75 N m, 6000 rpm, 0.086 kg m².
+    #[serde(default)]
+    pub max_torque_nm: Option<f64>,
+    #[serde(default)]
+    pub max_speed_rpm: Option<f64>,
+    #[serde(default)]
+    pub inertia_kgm2: Option<f64>,
+    #[serde(default)]
+    pub initial_speed_rpm: Vec<f64>,
+    /// Flight null-space momentum management.
+    #[serde(default)]
+    pub null_gain_per_s: f64,
+    #[serde(default)]
+    pub bias_speed_rpm: Vec<f64>,
+    /// 1-based wheel numbers the flight code treats as failed (the plant still has them).
+    #[serde(default)]
+    pub failed: Vec<usize>,
+}
+
+fn default_alpha() -> f64 {
+    45.0
+}
+fn default_beta() -> f64 {
+    54.73
+}
+fn default_model() -> String {
+    "ideal".into()
+}
+
+/// Magnetorquer rods along the body axes.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetorquersSpec {
+    /// Largest positive and negative dipole per axis (magnitudes), A m².
+    pub max_dipole_am2: [f64; 3],
+    #[serde(default)]
+    pub min_dipole_am2: Option<[f64; 3]>,
+    /// Hysteresis dead band per axis (paper 003 rig: -1.26 … +1.86 A m²).
+    #[serde(default)]
+    pub deadband_am2: Option<[f64; 2]>,
+}
+
+/// Thrusters.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrustersSpec {
+    /// "paper004" (table 2) or "matrix" (`torque_per_newton_m`).
+    #[serde(default = "paper004")]
+    pub layout: String,
+    /// Columns: torque per newton of each thruster, body axes, m.
+    #[serde(default)]
+    pub torque_per_newton_m: Vec<[f64; 3]>,
+    pub thrust_n: f64,
+    pub isp_s: f64,
+    #[serde(default)]
+    pub min_on_time_s: f64,
+    #[serde(default)]
+    pub open_delay_s: f64,
+    #[serde(default)]
+    pub close_delay_s: f64,
+    /// "direction_preserving" or "bodson".
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// PWPF (paper 004 table 3 defaults: Km 4.5, Tm 0.15 s, Uon 0.45, Uoff 0.15).
+    #[serde(default = "default_pwpf")]
+    pub pwpf: [f64; 4],
+    #[serde(default)]
+    pub failures: Vec<ThrusterFailureSpec>,
+}
+
+fn paper004() -> String {
+    "paper004".into()
+}
+fn default_method() -> String {
+    "direction_preserving".into()
+}
+fn default_pwpf() -> [f64; 4] {
+    [4.5, 0.15, 0.45, 0.15]
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrusterFailureSpec {
+    /// 1-based thruster number.
+    pub thruster: usize,
+    #[serde(default)]
+    pub at_s: f64,
+    /// "off" or "stuck_on".
+    #[serde(default = "off")]
+    pub mode: String,
+    /// Whether the flight code is told (its allocation then excludes the thruster).
+    #[serde(default = "yes")]
+    pub known_to_flight: bool,
+}
+
+fn off() -> String {
+    "off".into()
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -153,6 +470,8 @@ pub enum Controller {
         #[serde(default)]
         gyro_compensation: bool,
     },
+    /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
+    None,
 }
 
 fn default_integral_limit() -> f64 {
@@ -205,6 +524,76 @@ pub struct Sensors {
     /// 1σ gimbal-angle encoder noise, deg.
     #[serde(default)]
     pub gimbal_noise_deg: f64,
+    /// 1σ magnetometer noise per axis, T.
+    #[serde(default)]
+    pub magnetometer_noise_t: f64,
+    /// 1σ wheel tachometer noise, rad/s.
+    #[serde(default)]
+    pub wheel_speed_noise_rad_s: f64,
+    /// Detailed models (replace the shortcuts above when given).
+    #[serde(default)]
+    pub gyro: Option<GyroSensorSpec>,
+    #[serde(default)]
+    pub star_tracker: Option<StarTrackerSpec>,
+    #[serde(default)]
+    pub magnetometer: Option<MagnetometerSensorSpec>,
+    #[serde(default)]
+    pub sun: Option<SunSensorSpecToml>,
+}
+
+/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroSensorSpec {
+    /// Sample rate (default: the control rate).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub arw_rad_s_rthz: f64,
+    #[serde(default)]
+    pub rrw_rad_s2_rthz: f64,
+    #[serde(default)]
+    pub bias_rad_s: [f64; 3],
+    #[serde(default)]
+    pub scale_factor_ppm: f64,
+}
+
+/// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StarTrackerSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    #[serde(default)]
+    pub bias_deg: [f64; 3],
+}
+
+/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetometerSensorSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_t: f64,
+    #[serde(default)]
+    pub bias_t: [f64; 3],
+    #[serde(default)]
+    pub coupling_t_per_am2: [[f64; 3]; 3],
+}
+
+/// Sun sensor: angular noise, field of view around a boresight, eclipse.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunSensorSpecToml {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    pub boresight_body: [f64; 3],
+    pub fov_half_angle_deg: f64,
 }
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -300,10 +689,10 @@ impl Scenario {
         if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
             return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
         }
-        if i.symmetric_eigenvalues().min() <= 0.0 {
+        let e = i.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
             return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
         }
-        let e = i.symmetric_eigenvalues();
         let (a, b, c) = (e[0], e[1], e[2]);
         if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
             return Err(bad(
@@ -311,126 +700,741 @@ impl Scenario {
                 "principal moments violate the triangle inequality",
             ));
         }
-        if let Some(m) = self.spacecraft.mass_kg {
+        let sc = &self.spacecraft;
+        if let Some(m) = sc.mass_kg {
             positive("spacecraft.mass_kg", m)?;
         }
-        finite(
-            "spacecraft.external_torque_nm",
-            &self.spacecraft.external_torque_nm,
-        )?;
+        finite("spacecraft.external_torque_nm", &sc.external_torque_nm)?;
+        finite("spacecraft.residual_dipole_am2", &sc.residual_dipole_am2)?;
+        finite("spacecraft.cp_offset_m", &sc.cp_offset_m)?;
+        positive("spacecraft.drag_coefficient", sc.drag_coefficient)?;
+        if let Some(bx) = sc.box_m {
+            for x in bx {
+                positive("spacecraft.box_m", x)?;
+            }
+        }
+        if let Some(a) = sc.drag_area_m2 {
+            positive("spacecraft.drag_area_m2", a)?;
+        }
+        if let Some(h) = &sc.harmonic_torque {
+            finite(
+                "spacecraft.harmonic_torque",
+                &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat(),
+            )?;
+        }
         self.initial.attitude.validate("initial")?;
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
         self.target.validate("target")?;
-        let Some(cmg) = &self.actuators.cmg else {
-            bail!(
-                "invalid value for `actuators`: this version steers a CMG cluster; add [actuators.cmg]"
-            );
-        };
-        if cmg.layout != "pyramid4" {
-            return Err(bad(
-                "actuators.cmg.layout",
-                format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout),
-            ));
-        }
-        if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
-            return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
-        }
-        positive("actuators.cmg.h0_nms", cmg.h0_nms)?;
-        positive(
-            "actuators.cmg.max_gimbal_rate_deg_s",
-            cmg.max_gimbal_rate_deg_s,
-        )?;
-        if let Some(l) = cmg.gimbal_limit_deg {
-            positive("actuators.cmg.gimbal_limit_deg", l)?;
-            if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
-                return Err(bad(
-                    "actuators.cmg.initial_gimbal_deg",
-                    "outside gimbal_limit_deg",
-                ));
+        let needs_orbit = |k: &str| -> Result<()> {
+            if self.orbit.is_none() {
+                Err(bad(k, "needs an [orbit]"))
+            } else {
+                Ok(())
             }
+        };
+        if self.initial.attitude.frame == RefFrame::Lvlh {
+            needs_orbit("initial.frame")?;
         }
-        finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
-        match &self.controller {
-            Controller::QuaternionFeedback {
-                zeta,
-                wn_rad_s,
-                k_diag_nm,
-                d_diag_nms,
-                ki_per_s,
-                integral_limit_s,
-                torque_limit_nm,
-                ..
-            } => {
-                match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
-                    (Some(z), Some(w), None, None) => {
-                        positive("controller.zeta", *z)?;
-                        positive("controller.wn_rad_s", *w)?;
-                    }
-                    (None, None, Some(k), Some(d)) => {
-                        finite("controller.k_diag_nm", k)?;
-                        finite("controller.d_diag_nms", d)?;
-                    }
-                    _ => {
+        if self.initial.orbit_synchronous {
+            needs_orbit("initial.orbit_synchronous")?;
+        }
+        if self.target.frame == RefFrame::Lvlh {
+            needs_orbit("target.frame")?;
+        }
+        if let Some(o) = &self.orbit {
+            if self.rig.is_some() {
+                return Err(bad("rig", "a rig sits in a lab: remove [orbit] or [rig]"));
+            }
+            match &o.kind {
+                OrbitKind::Circular {
+                    altitude_km,
+                    inclination_deg,
+                    raan_deg,
+                    arg_lat_deg,
+                } => {
+                    positive("orbit.altitude_km", *altitude_km)?;
+                    finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
+                }
+                OrbitKind::Kepler {
+                    a_km,
+                    e,
+                    inclination_deg,
+                    raan_deg,
+                    argp_deg,
+                    true_anomaly_deg,
+                } => {
+                    if !(a_km.is_finite() && *a_km > 6378.137) {
                         return Err(bad(
-                            "controller",
-                            "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
+                            "orbit.a_km",
+                            "must exceed the Earth's radius (6378.137 km)",
                         ));
                     }
+                    if !(0.0..1.0).contains(e) {
+                        return Err(bad("orbit.e", "must be in [0, 1)"));
+                    }
+                    if a_km * (1.0 - e) <= 6378.137 {
+                        return Err(bad("orbit.e", "perigee below the Earth's surface"));
+                    }
+                    finite(
+                        "orbit",
+                        &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg],
+                    )?;
                 }
-                if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
-                    return Err(bad("controller.ki_per_s", "must be >= 0"));
-                }
-                if !(integral_limit_s.is_finite() && *integral_limit_s >= 0.0) {
-                    return Err(bad("controller.integral_limit_s", "must be >= 0"));
-                }
-                for t in torque_limit_nm {
-                    positive("controller.torque_limit_nm", *t)?;
-                }
+                OrbitKind::Tle { .. } => {}
             }
+            parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
         }
-        match (self.steering.law.as_str(), &self.steering.alpha) {
-            ("mp", None) => {}
-            ("mp", Some(_)) => return Err(bad("steering.alpha", "Moore-Penrose takes no alpha")),
-            ("sr", Some(a)) => {
-                let v = match a {
-                    Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
-                    Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
-                    Alpha::Exponential { a0, mu } => vec![*a0, *mu],
-                };
-                if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                    return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
-                }
-            }
-            ("sr", None) => {
-                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
-            }
-            (other, _) => {
+        let env = &self.environment;
+        match env.magnetic_field.as_str() {
+            "none" => {}
+            "dipole" | "wmm" => {}
+            other => {
                 return Err(bad(
-                    "steering.law",
-                    format!("unknown law {other:?} (known: \"mp\", \"sr\")"),
+                    "environment.magnetic_field",
+                    format!("unknown model {other:?} (known: \"none\", \"dipole\", \"wmm\")"),
                 ));
             }
         }
-        positive(
-            "steering.singular_threshold",
-            self.steering.singular_threshold,
-        )?;
+        if let Some(b) = env.lab_field_t {
+            finite("environment.lab_field_t", &b)?;
+            if self.orbit.is_some() {
+                return Err(bad("environment.lab_field_t", "only without an [orbit]"));
+            }
+        }
+        match env.atmosphere.as_str() {
+            "none" | "exponential" => {}
+            "fixed" => positive(
+                "environment.density_kg_m3",
+                env.density_kg_m3.unwrap_or(f64::NAN),
+            )?,
+            other => {
+                return Err(bad(
+                    "environment.atmosphere",
+                    format!(
+                        "unknown model {other:?} (known: \"none\", \"exponential\", \"fixed\")"
+                    ),
+                ));
+            }
+        }
+        if env.atmosphere != "none" && sc.box_m.is_none() && sc.drag_area_m2.is_none() {
+            return Err(bad(
+                "environment.atmosphere",
+                "drag needs spacecraft.box_m or spacecraft.drag_area_m2",
+            ));
+        }
+        if env.solar_pressure && sc.box_m.is_none() {
+            return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
+        }
+        if let Some(r) = &self.rig {
+            finite("rig.mgr_nm", &r.mgr_nm)?;
+            for (k, l) in [
+                ("rig.roll_limit_deg", r.roll_limit_deg),
+                ("rig.pitch_limit_deg", r.pitch_limit_deg),
+            ] {
+                if let Some(l) = l {
+                    positive(k, l)?;
+                }
+            }
+        }
+        self.validate_actuators()?;
+        if let Controller::QuaternionFeedback {
+            zeta,
+            wn_rad_s,
+            k_diag_nm,
+            d_diag_nms,
+            ki_per_s,
+            integral_limit_s,
+            torque_limit_nm,
+            ..
+        } = &self.controller
+        {
+            match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
+                (Some(z), Some(w), None, None) => {
+                    positive("controller.zeta", *z)?;
+                    positive("controller.wn_rad_s", *w)?;
+                }
+                (None, None, Some(k), Some(d)) => {
+                    finite("controller.k_diag_nm", k)?;
+                    finite("controller.d_diag_nms", d)?;
+                }
+                _ => {
+                    return Err(bad(
+                        "controller",
+                        "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
+                    ));
+                }
+            }
+            if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
+                return Err(bad("controller.ki_per_s", "must be >= 0"));
+            }
+            if !(integral_limit_s.is_finite() && *integral_limit_s >= 0.0) {
+                return Err(bad("controller.integral_limit_s", "must be >= 0"));
+            }
+            for t in torque_limit_nm {
+                positive("controller.torque_limit_nm", *t)?;
+            }
+        }
         let s = &self.sensors;
         for (k, v) in [
             ("sensors.attitude_noise_deg", s.attitude_noise_deg),
             ("sensors.rate_noise_rad_s", s.rate_noise_rad_s),
             ("sensors.gimbal_noise_deg", s.gimbal_noise_deg),
+            ("sensors.magnetometer_noise_t", s.magnetometer_noise_t),
+            ("sensors.wheel_speed_noise_rad_s", s.wheel_speed_noise_rad_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(k, "must be >= 0"));
             }
         }
         finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
-        // Last line of defence: the flight code's own validation must accept the upload.
-        self.flight_params()?
-            .validate()
-            .map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+        if let Some(ol) = &self.open_loop {
+            if !matches!(self.controller, Controller::None) {
+                return Err(bad("open_loop", "needs controller.type = \"none\""));
+            }
+            let mut last = f64::NEG_INFINITY;
+            for (k, row) in ol.commands.iter().enumerate() {
+                let key = format!("open_loop.commands[{k}]");
+                if !(row.t_s.is_finite() && row.t_s >= last) {
+                    return Err(bad(&key, "t_s must be finite and non-decreasing"));
+                }
+                last = row.t_s;
+                let n_w = self
+                    .actuators
+                    .wheels
+                    .as_ref()
+                    .map_or(0, |w| self.wheel_axes(w).len());
+                if let Some(w) = &row.wheel_torque_nm {
+                    if w.len() != n_w {
+                        return Err(bad(
+                            &key,
+                            format!("wheel_torque_nm has {} entries for {n_w} wheels", w.len()),
+                        ));
+                    }
+                    finite(&key, w)?;
+                }
+                if row.gimbal_rate_rad_s.is_some() && self.actuators.cmg.is_none() {
+                    return Err(bad(&key, "gimbal_rate_rad_s without [actuators.cmg]"));
+                }
+                if row.dipole_am2.is_some() && self.actuators.magnetorquers.is_none() {
+                    return Err(bad(&key, "dipole_am2 without [actuators.magnetorquers]"));
+                }
+                if let Some(t) = &row.thrusters_on {
+                    let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+                    if t.iter().any(|i| *i == 0 || *i > n) {
+                        return Err(bad(&key, format!("thrusters_on must be 1..={n}")));
+                    }
+                }
+            }
+        }
+        if !matches!(self.controller, Controller::None) {
+            // Last line of defence: the flight code's own validation must accept the upload.
+            self.flight_params()?
+                .validate()
+                .map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+        }
         Ok(())
+    }
+
+    fn validate_actuators(&self) -> Result<()> {
+        let act = &self.actuators;
+        let families = [
+            act.cmg.is_some(),
+            act.wheels.is_some(),
+            act.magnetorquers.is_some(),
+            act.thrusters.is_some(),
+        ];
+        let n_families = families.iter().filter(|x| **x).count();
+        if !matches!(self.controller, Controller::None) && n_families != 1 {
+            return Err(bad(
+                "actuators",
+                format!(
+                    "closed-loop control allocates to exactly one actuator family ({n_families} given)"
+                ),
+            ));
+        }
+        if let Some(cmg) = &act.cmg {
+            if cmg.layout != "pyramid4" {
+                return Err(bad(
+                    "actuators.cmg.layout",
+                    format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout),
+                ));
+            }
+            if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
+                return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
+            }
+            positive("actuators.cmg.h0_nms", cmg.h0_nms)?;
+            positive(
+                "actuators.cmg.max_gimbal_rate_deg_s",
+                cmg.max_gimbal_rate_deg_s,
+            )?;
+            if let Some(l) = cmg.gimbal_limit_deg {
+                positive("actuators.cmg.gimbal_limit_deg", l)?;
+                if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
+                    return Err(bad(
+                        "actuators.cmg.initial_gimbal_deg",
+                        "outside gimbal_limit_deg",
+                    ));
+                }
+            }
+            finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+            if !matches!(self.controller, Controller::None) && self.steering.is_none() {
+                return Err(bad(
+                    "steering",
+                    "a CMG cluster under control needs [steering]",
+                ));
+            }
+            if let Some(st) = &self.steering {
+                match (st.law.as_str(), &st.alpha) {
+                    ("mp", None) => {}
+                    ("mp", Some(_)) => {
+                        return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
+                    }
+                    ("sr", Some(a)) => {
+                        let v = match a {
+                            Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
+                            Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
+                            Alpha::Exponential { a0, mu } => vec![*a0, *mu],
+                        };
+                        if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                            return Err(bad(
+                                "steering.alpha",
+                                "parameters must be finite and >= 0",
+                            ));
+                        }
+                    }
+                    ("sr", None) => {
+                        return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
+                    }
+                    (other, _) => {
+                        return Err(bad(
+                            "steering.law",
+                            format!("unknown law {other:?} (known: \"mp\", \"sr\")"),
+                        ));
+                    }
+                }
+                positive("steering.singular_threshold", st.singular_threshold)?;
+            }
+        }
+        if let Some(w) = &act.wheels {
+            match w.layout.as_str() {
+                "pyramid4" => {
+                    finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+                    if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                        return Err(bad(
+                            "actuators.wheels.pyramid_beta_deg",
+                            "must be in (0, 90)",
+                        ));
+                    }
+                }
+                "axes" => {
+                    if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                        return Err(bad(
+                            "actuators.wheels.axes",
+                            format!("needs 1..={MAX_WHEELS} axes"),
+                        ));
+                    }
+                    for a in &w.axes {
+                        let n = Vec3::from(*a).norm();
+                        if !n.is_finite() || n < 1e-9 {
+                            return Err(bad(
+                                "actuators.wheels.axes",
+                                "zero-norm or non-finite axis",
+                            ));
+                        }
+                    }
+                }
+                other => {
+                    return Err(bad(
+                        "actuators.wheels.layout",
+                        format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+                    ));
+                }
+            }
+            if !matches!(w.model.as_str(), "ideal" | "accurate") {
+                return Err(bad(
+                    "actuators.wheels.model",
+                    "must be \"ideal\" or \"accurate\"",
+                ));
+            }
+            for (k, v) in [
+                ("actuators.wheels.max_torque_nm", w.max_torque_nm),
+                ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
+                ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+            ] {
+                if let Some(v) = v {
+                    positive(k, v)?;
+                }
+            }
+            let n = self.wheel_axes(w).len();
+            for (k, v) in [
+                ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
+                ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
+            ] {
+                if !v.is_empty() && v.len() != n {
+                    return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
+                }
+                finite(k, v)?;
+            }
+            if w.failed.iter().any(|i| *i == 0 || *i > n) {
+                return Err(bad(
+                    "actuators.wheels.failed",
+                    format!("wheel numbers are 1..={n}"),
+                ));
+            }
+            if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
+                return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
+            }
+            for p in self.wheel_params()? {
+                p.validate().map_err(|e| bad("actuators.wheels", e))?;
+            }
+        }
+        if let Some(m) = &act.magnetorquers {
+            for x in m
+                .max_dipole_am2
+                .iter()
+                .chain(m.min_dipole_am2.iter().flatten())
+            {
+                positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+            }
+            if let Some([lo, hi]) = m.deadband_am2 {
+                if !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite()) {
+                    return Err(bad(
+                        "actuators.magnetorquers.deadband_am2",
+                        "must be [lo <= 0, hi >= 0]",
+                    ));
+                }
+            }
+            if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
+                return Err(bad(
+                    "actuators.magnetorquers",
+                    "need a field: an [orbit] or environment.lab_field_t",
+                ));
+            }
+        }
+        if let Some(t) = &act.thrusters {
+            positive("actuators.thrusters.thrust_n", t.thrust_n)?;
+            positive("actuators.thrusters.isp_s", t.isp_s)?;
+            for (k, v) in [
+                ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
+                ("actuators.thrusters.open_delay_s", t.open_delay_s),
+                ("actuators.thrusters.close_delay_s", t.close_delay_s),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(bad(k, "must be >= 0"));
+                }
+            }
+            match t.layout.as_str() {
+                "paper004" => {}
+                "matrix" => {
+                    if t.torque_per_newton_m.is_empty()
+                        || t.torque_per_newton_m.len() > MAX_THRUSTERS
+                    {
+                        return Err(bad(
+                            "actuators.thrusters.torque_per_newton_m",
+                            format!("needs 1..={MAX_THRUSTERS} columns"),
+                        ));
+                    }
+                    finite(
+                        "actuators.thrusters.torque_per_newton_m",
+                        &t.torque_per_newton_m.concat(),
+                    )?;
+                }
+                other => {
+                    return Err(bad(
+                        "actuators.thrusters.layout",
+                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\")"),
+                    ));
+                }
+            }
+            if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
+                return Err(bad(
+                    "actuators.thrusters.method",
+                    "must be \"direction_preserving\" or \"bodson\"",
+                ));
+            }
+            let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+            for f in &t.failures {
+                if f.thruster == 0 || f.thruster > n {
+                    return Err(bad(
+                        "actuators.thrusters.failures",
+                        format!("thruster numbers are 1..={n}"),
+                    ));
+                }
+                if !matches!(f.mode.as_str(), "off" | "stuck_on")
+                    || !(f.at_s.is_finite() && f.at_s >= 0.0)
+                {
+                    return Err(bad(
+                        "actuators.thrusters.failures",
+                        "mode \"off\" or \"stuck_on\", at_s >= 0",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Spin axes of the wheels (unit, body).
+    pub fn wheel_axes(&self, w: &WheelsSpec) -> Vec<[f64; 3]> {
+        match w.layout.as_str() {
+            "axes" => w
+                .axes
+                .iter()
+                .map(|a| (Vec3::from(*a).normalize()).into())
+                .collect(),
+            _ => {
+                // Paper 001 eq 9.
+                let (al, be) = (
+                    w.pyramid_alpha_deg.to_radians(),
+                    w.pyramid_beta_deg.to_radians(),
+                );
+                let (ca, sa, cb, sb) = (al.cos(), al.sin(), be.cos(), be.sin());
+                vec![
+                    [ca * sb, sa * sb, cb],
+                    [-sa * sb, ca * sb, cb],
+                    [-ca * sb, -sa * sb, cb],
+                    [sa * sb, -ca * sb, cb],
+                ]
+            }
+        }
+    }
+
+    /// Plant models of the wheels.
+    pub fn wheel_params(&self) -> Result<Vec<WheelParams>> {
+        let Some(w) = &self.actuators.wheels else {
+            return Ok(Vec::new());
+        };
+        let base = WheelParams::paper001();
+        let rpm = std::f64::consts::PI / 30.0;
+        Ok(self
+            .wheel_axes(w)
+            .into_iter()
+            .map(|axis| {
+                let mut p = match w.model.as_str() {
+                    "accurate" => base.clone(),
+                    _ => WheelParams::ideal(
+                        w.max_torque_nm.unwrap_or(base.max_torque_nm),
+                        w.max_speed_rpm.map_or(base.max_speed_rad_s, |x| x * rpm),
+                        w.inertia_kgm2.unwrap_or(base.inertia_kgm2),
+                    ),
+                };
+                if let Some(t) = w.max_torque_nm {
+                    p.max_torque_nm = t;
+                }
+                if let Some(s) = w.max_speed_rpm {
+                    p.max_speed_rad_s = s * rpm;
+                }
+                if let Some(i) = w.inertia_kgm2 {
+                    p.inertia_kgm2 = i;
+                }
+                p.spin_axis = axis;
+                p
+            })
+            .collect())
+    }
+
+    /// Plant model of the magnetorquers (rods + residual dipole).
+    pub fn magnetorquer_set(&self) -> MagnetorquerSet {
+        let residual = self.spacecraft.residual_dipole_am2;
+        match &self.actuators.magnetorquers {
+            Some(m) => {
+                let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+                let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+                let rods = (0..3)
+                    .map(|i| {
+                        let mut axis = [0.0; 3];
+                        axis[i] = 1.0;
+                        MagnetorquerSpec {
+                            axis,
+                            max_pos_am2: m.max_dipole_am2[i],
+                            max_neg_am2: neg[i],
+                            deadband_lo_am2: lo,
+                            deadband_hi_am2: hi,
+                        }
+                    })
+                    .collect();
+                MagnetorquerSet {
+                    rods,
+                    residual_dipole_am2: residual,
+                }
+            }
+            None => MagnetorquerSet {
+                rods: Vec::new(),
+                residual_dipole_am2: residual,
+            },
+        }
+    }
+
+    /// Plant model of the thrusters, failures included.
+    pub fn thruster_set(&self) -> Option<ThrusterSet> {
+        let t = self.actuators.thrusters.as_ref()?;
+        let cols: Vec<[f64; 3]> = match t.layout.as_str() {
+            "matrix" => t.torque_per_newton_m.clone(),
+            _ => ThrusterSet::paper004(1.0).torque_matrix(),
+        };
+        let mut set = ThrusterSet::from_torque_matrix(
+            &cols,
+            t.thrust_n,
+            t.isp_s,
+            t.min_on_time_s,
+            t.open_delay_s,
+            t.close_delay_s,
+        );
+        set.failures = t
+            .failures
+            .iter()
+            .map(|f| {
+                (
+                    f.thruster - 1,
+                    f.at_s,
+                    if f.mode == "stuck_on" {
+                        ThrusterFailure::StuckOn
+                    } else {
+                        ThrusterFailure::Off
+                    },
+                )
+            })
+            .collect();
+        Some(set)
+    }
+
+    /// The environment of the run (`None`: free space without a field, or a rig without one).
+    pub fn environment(&self) -> Result<Option<Environment>> {
+        let sc = &self.spacecraft;
+        let inertia = self.inertia();
+        let external = match &sc.harmonic_torque {
+            Some(h) => HarmonicTorque {
+                a: Vec3::zeros(),
+                b: Vec3::from(h.amplitude_nm),
+                omega: Vec3::from(h.frequency_hz) * std::f64::consts::TAU,
+                phi: Vec3::from(h.phase_rad),
+            },
+            None => HarmonicTorque::default(),
+        };
+        let plates = sc
+            .box_m
+            .map(|b| box_plates(b[0], b[1], b[2], Vec3::zeros()));
+        let env = &self.environment;
+        let Some(o) = &self.orbit else {
+            if env.lab_field_t.is_none() && sc.harmonic_torque.is_none() {
+                return Ok(None);
+            }
+            let disturbances = Disturbances {
+                inertia,
+                gravity_gradient: false,
+                drag: None,
+                srp: None,
+                residual_dipole_am2: Vec3::zeros(),
+                external,
+            };
+            let field = env
+                .lab_field_t
+                .map_or(FieldSource::None, |b| FieldSource::Fixed(Vec3::from(b)));
+            return Ok(Some(Environment {
+                orbit: None,
+                earth: EarthRotation::Simple { theta0_rad: 0.0 },
+                field,
+                disturbances,
+            }));
+        };
+        let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        let model = match &o.kind {
+            OrbitKind::Circular {
+                altitude_km,
+                inclination_deg,
+                raan_deg,
+                arg_lat_deg,
+            } => OrbitModel::Circular {
+                altitude_m: altitude_km * 1e3,
+                inclination_rad: inclination_deg.to_radians(),
+                raan_rad: raan_deg.to_radians(),
+                arg_lat0_rad: arg_lat_deg.to_radians(),
+            },
+            OrbitKind::Kepler {
+                a_km,
+                e,
+                inclination_deg,
+                raan_deg,
+                argp_deg,
+                true_anomaly_deg,
+            } => OrbitModel::Kepler {
+                a_m: a_km * 1e3,
+                e: *e,
+                i: inclination_deg.to_radians(),
+                raan: raan_deg.to_radians(),
+                argp: argp_deg.to_radians(),
+                nu0: true_anomaly_deg.to_radians(),
+            },
+            OrbitKind::Tle { line1, line2 } => OrbitModel::Tle {
+                line1: line1.clone(),
+                line2: line2.clone(),
+            },
+        };
+        let prop = OrbitPropagator::new(
+            &model,
+            PropagatorOptions {
+                j2: o.j2,
+                step_s: 10.0,
+            },
+        )
+        .map_err(|e| bad("orbit", format!("{e:?}")))?;
+        // A TLE brings its own epoch.
+        let jd = prop.epoch_jd_utc().unwrap_or(jd);
+        let earth = EarthRotation::Gmst { jd_ut1_epoch: jd };
+        let field = match env.magnetic_field.as_str() {
+            "dipole" => FieldSource::Model(MagneticField::new(FieldModel::default_dipole(), earth)),
+            "wmm" => FieldSource::Model(MagneticField::new(
+                FieldModel::Wmm {
+                    decimal_year: 2000.0 + (jd - 2_451_544.5) / 365.25,
+                },
+                earth,
+            )),
+            _ => FieldSource::None,
+        };
+        let geometry = match (sc.drag_area_m2, &plates) {
+            (Some(a), _) => Some(DragGeometry::CopOffset {
+                area_m2: a,
+                cop_b: Vec3::from(sc.cp_offset_m),
+            }),
+            (None, Some(p)) => Some(DragGeometry::Plates(p.clone())),
+            _ => None,
+        };
+        let atmosphere = match env.atmosphere.as_str() {
+            "exponential" => Some(Atmosphere::ExponentialVallado),
+            "fixed" => env
+                .density_kg_m3
+                .map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
+            _ => None,
+        };
+        let drag = match (geometry, atmosphere) {
+            (Some(geometry), Some(atmosphere)) => Some(DragModel {
+                geometry,
+                cd: sc.drag_coefficient,
+                atmosphere,
+            }),
+            _ => None,
+        };
+        let srp = match (&plates, env.solar_pressure) {
+            (Some(p), true) => Some(SrpModel {
+                plates: p.clone(),
+                pressure_n_m2: 4.56e-6,
+                jd_epoch: jd,
+            }),
+            _ => None,
+        };
+        let disturbances = Disturbances {
+            inertia,
+            gravity_gradient: env.gravity_gradient,
+            drag,
+            srp,
+            residual_dipole_am2: Vec3::zeros(),
+            external,
+        };
+        Ok(Some(Environment {
+            orbit: Some(prop),
+            earth,
+            field,
+            disturbances,
+        }))
     }
 
     /// The plant described by the scenario.
@@ -444,24 +1448,63 @@ impl Scenario {
                     .map(|l| (-l.to_radians(), l.to_radians())),
             )
         });
-        let mut sc = Spacecraft::new(self.inertia(), cmg)
-            .ok_or_else(|| bad("spacecraft.inertia_kgm2", "singular"))?;
+        let wheels = self.wheel_params()?;
+        // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
+        let mut j = self.inertia();
+        for w in &wheels {
+            let a = Vec3::from(w.spin_axis);
+            j -= a * a.transpose() * w.inertia_kgm2;
+        }
+        let mut sc = Spacecraft::new(j, cmg).ok_or_else(|| {
+            bad(
+                "spacecraft.inertia_kgm2",
+                "singular once the wheels' axial inertia is removed",
+            )
+        })?;
+        sc.wheels = wheels;
         sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
+        sc.env = self.environment()?;
+        sc.rig = self.rig.as_ref().map(|r| Rig {
+            mgr_nm: r.mgr_nm.into(),
+            roll_limit_rad: r.roll_limit_deg.map(f64::to_radians),
+            pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians),
+        });
         Ok(sc)
     }
 
-    pub fn initial_state(&self) -> State {
+    /// Initial state; `env` is needed for attitudes or rates given relative to LVLH.
+    pub fn initial_state(&self, craft: &Spacecraft, env0: Option<&EnvSnapshot>) -> State {
         let mut g = [0.0; MAX_GIMBALS];
         if let Some(c) = &self.actuators.cmg {
             for (x, d) in g.iter_mut().zip(c.initial_gimbal_deg) {
                 *x = d.to_radians();
             }
         }
+        let q_lvlh = env0.and_then(|e| e.q_lvlh).unwrap_or_else(Quat::identity);
+        let mut q = self.initial.attitude.quaternion();
+        if self.initial.attitude.frame == RefFrame::Lvlh {
+            q = q_lvlh * q;
+        }
+        let mut w = Vec3::from(self.initial.rate_rad_s);
+        if self.initial.orbit_synchronous {
+            w += rotate_ref_to_body(&q, &env0.map_or(Vec3::zeros(), |e| e.lvlh_rate_ref));
+        }
+        let mut wheels = [WheelState::default(); MAX_WHEELS];
+        let rpm = std::f64::consts::PI / 30.0;
+        let speeds = self
+            .actuators
+            .wheels
+            .as_ref()
+            .map_or(Vec::new(), |w| w.initial_speed_rpm.clone());
+        for (i, p) in craft.wheels.iter().enumerate() {
+            wheels[i] =
+                WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
+        }
         State {
-            q: self.initial.attitude.quaternion(),
-            w: self.initial.rate_rad_s.into(),
+            q,
+            w,
             gimbal_rad: g,
-            wheels: Default::default(),
+            wheels,
         }
     }
 
@@ -480,7 +1523,10 @@ impl Scenario {
             integral_limit_s,
             torque_limit_nm,
             gyro_compensation,
-        } = &self.controller;
+        } = &self.controller
+        else {
+            bail!("controller.type = \"none\" uploads no flight parameters");
+        };
         let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
             (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
             (_, _, Some(k), Some(d)) => (
@@ -493,35 +1539,6 @@ impl Scenario {
                     "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
                 ));
             }
-        };
-        let cmg = self
-            .actuators
-            .cmg
-            .as_ref()
-            .ok_or_else(|| bad("actuators.cmg", "missing"))?;
-        let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
-        let law = match (self.steering.law.as_str(), &self.steering.alpha) {
-            ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
-                    a0: *a0 as f32,
-                    m0: *m0 as f32,
-                    m_cr: *m_cr as f32,
-                })
-            }
-            ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
-                    a0: *a0 as f32,
-                    m_cr: *m_cr as f32,
-                    a_max: *a_max as f32,
-                })
-            }
-            ("sr", Some(Alpha::Exponential { a0, mu })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
-                    a0: *a0 as f32,
-                    mu: *mu as f32,
-                })
-            }
-            _ => SteeringLaw::MoorePenrose,
         };
         let q = self.target.quaternion();
         Ok(FlightParams {
@@ -536,7 +1553,48 @@ impl Scenario {
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
                 gyro_compensation: *gyro_compensation,
             }),
-            actuator: ActuatorParams::Cmg {
+            actuator: self.actuator_params()?,
+            target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
+            target_frame: match self.target.frame {
+                RefFrame::Inertial => TargetFrame::Inertial,
+                RefFrame::Lvlh => TargetFrame::Reference,
+            },
+            hold_after_missed_frames: 10,
+        })
+    }
+
+    fn actuator_params(&self) -> Result<ActuatorParams> {
+        let act = &self.actuators;
+        if let Some(cmg) = &act.cmg {
+            let st = self
+                .steering
+                .as_ref()
+                .ok_or_else(|| bad("steering", "missing"))?;
+            let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
+            let law = match (st.law.as_str(), &st.alpha) {
+                ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
+                        a0: *a0 as f32,
+                        m0: *m0 as f32,
+                        m_cr: *m_cr as f32,
+                    })
+                }
+                ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
+                        a0: *a0 as f32,
+                        m_cr: *m_cr as f32,
+                        a_max: *a_max as f32,
+                    })
+                }
+                ("sr", Some(Alpha::Exponential { a0, mu })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
+                        a0: *a0 as f32,
+                        mu: *mu as f32,
+                    })
+                }
+                _ => SteeringLaw::MoorePenrose,
+            };
+            return Ok(ActuatorParams::Cmg {
                 cmg: CmgParams {
                     skew_rad: cmg.skew_deg.to_radians() as f32,
                     h0_nms: cmg.h0_nms as f32,
@@ -546,13 +1604,77 @@ impl Scenario {
                 },
                 steering: SteeringParams {
                     law,
-                    singular_threshold: self.steering.singular_threshold as f32,
+                    singular_threshold: st.singular_threshold as f32,
                 },
-            },
-            target_frame: TargetFrame::Inertial,
-            target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
-            hold_after_missed_frames: 10,
-        })
+            });
+        }
+        if let Some(w) = &act.wheels {
+            let plant = self.wheel_params()?;
+            let mut axes = [[0.0f32; 3]; MAX_WHEELS];
+            let mut bias = [0.0f32; MAX_WHEELS];
+            let rpm = std::f64::consts::PI / 30.0;
+            for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
+                axes[i] = p.spin_axis.map(|x| x as f32);
+                bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
+            }
+            let p0 = plant
+                .first()
+                .ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+            let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
+            return Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
+                count: plant.len() as u8,
+                axes,
+                max_torque_nm: p0.max_torque_nm as f32,
+                max_speed_rad_s: p0.max_speed_rad_s as f32,
+                inertia_kgm2: p0.inertia_kgm2 as f32,
+                null_gain_per_s: w.null_gain_per_s as f32,
+                bias_speed_rad_s: bias,
+                failed_mask,
+            }));
+        }
+        if let Some(m) = &act.magnetorquers {
+            let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+            let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+            return Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
+                max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
+                min_dipole_am2: neg.map(|x| x as f32),
+                deadband_lo_am2: [lo as f32; 3],
+                deadband_hi_am2: [hi as f32; 3],
+                min_field_t: 1e-7,
+            }));
+        }
+        if let Some(t) = &act.thrusters {
+            let set = self
+                .thruster_set()
+                .ok_or_else(|| bad("actuators.thrusters", "missing"))?;
+            let b = set.torque_matrix();
+            let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
+            for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
+                for k in 0..3 {
+                    torque_nm[k][j] = col[k] as f32;
+                }
+            }
+            let failed_mask = t
+                .failures
+                .iter()
+                .filter(|f| f.known_to_flight && f.mode == "off")
+                .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
+            return Ok(ActuatorParams::Thrusters(ThrusterParams {
+                count: b.len() as u8,
+                torque_nm,
+                method: if t.method == "bodson" {
+                    ThrusterMethod::Bodson
+                } else {
+                    ThrusterMethod::DirectionPreserving
+                },
+                pwpf_km: t.pwpf[0] as f32,
+                pwpf_tm_s: t.pwpf[1] as f32,
+                pwpf_u_on: t.pwpf[2] as f32,
+                pwpf_u_off: t.pwpf[3] as f32,
+                failed_mask,
+            }));
+        }
+        bail!("invalid value for `actuators`: no actuator to control")
     }
 
     pub fn control_dt(&self) -> f64 {
@@ -562,6 +1684,32 @@ impl Scenario {
     pub fn steps(&self) -> u64 {
         (self.duration_s * self.timing.control_rate_hz).round() as u64
     }
+}
+
+/// Julian date of a UTC time "YYYY-MM-DDThh:mm:ss" (seconds may have a fraction).
+pub fn parse_epoch(s: &str) -> std::result::Result<f64, String> {
+    let err = || format!("{s:?} is not YYYY-MM-DDThh:mm:ss");
+    let (date, time) = s.split_once('T').ok_or_else(err)?;
+    let d: Vec<&str> = date.split('-').collect();
+    let t: Vec<&str> = time.split(':').collect();
+    if d.len() != 3 || t.len() != 3 {
+        return Err(err());
+    }
+    let y: i32 = d[0].parse().map_err(|_| err())?;
+    let mo: u32 = d[1].parse().map_err(|_| err())?;
+    let da: u32 = d[2].parse().map_err(|_| err())?;
+    let h: u32 = t[0].parse().map_err(|_| err())?;
+    let mi: u32 = t[1].parse().map_err(|_| err())?;
+    let se: f64 = t[2].parse().map_err(|_| err())?;
+    if !(1..=12).contains(&mo)
+        || !(1..=31).contains(&da)
+        || h > 23
+        || mi > 59
+        || !(0.0..61.0).contains(&se)
+    {
+        return Err(err());
+    }
+    Ok(julian_date(y, mo, da, h, mi, se))
 }
 
 #[cfg(test)]

@@ -14,7 +14,9 @@
 //! the thrusters' torque averaged over the step (exact impulse, see `thrusters`).
 
 pub mod cmg;
+pub mod magnetorquers;
 pub mod rig;
+pub mod thrusters;
 pub mod wheel;
 
 use crate::attitude::{Quat, Vec3, dcm_body_to_ref, rotate_ref_to_body};

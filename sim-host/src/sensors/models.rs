@@ -1,0 +1,727 @@
+//! Sensor models with their own sample rates: rate gyro (ARW, bias random walk, constant
+//! bias, scale factor), attitude sensor (star tracker / AHRS), magnetometer (with
+//! magnetorquer coupling), sun sensor (eclipse and field of view).
+//!
+//! All sensors are **discrete**: call `update(t, truth…)` once per dynamics step boundary
+//! (after the RK4 step, with the true state at `t`). A sample is taken when `t` reaches
+//! the next point of the sensor's grid `k / rate_hz` (k = 0, 1, …; a step that skips a
+//! grid point samples once, late, at `t`); between samples the last reading is held.
+//! The sensors have no continuous state; the gyro's bias random walk is propagated
+//! exactly (Wiener increment over the actual time between samples) at each sample.
+//! Pure helpers: [`sun_in_body`], [`cylindrical_eclipse`].
+//!
+//! Noise: each sensor owns a ChaCha8 stream from [`sensor_rng`]`(scenario seed, sensor
+//! index)`, so adding, removing or reordering other sensors leaves its noise unchanged.
+//! Every sample draws a fixed number of normals whatever the parameters or validity, so
+//! e.g. switching on the bias random walk or an eclipse does not shift the white noise.
+//!
+//! Conventions: Hamilton quaternions, `q_ib` rotates body → inertial; nalgebra's
+//! `Quaternion` stores `[x, y, z, w]` (scalar last). Vectors are `[f64; 3]`, SI units.
+
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+type Vec3 = Vector3<f64>;
+pub type Quat = Quaternion<f64>;
+
+/// Noise stream of sensor `index` in a scenario: the key comes from `scenario_seed`, the
+/// ChaCha stream (nonce) is `index + 1`. Stream 0 is left to the simulator's existing
+/// `SensorSuite`, which uses `ChaCha8Rng::seed_from_u64(seed)`.
+pub fn sensor_rng(scenario_seed: u64, index: u32) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(scenario_seed);
+    r.set_stream(u64::from(index) + 1);
+    r
+}
+
+fn gauss3(rng: &mut ChaCha8Rng, sigma: &[f64; 3]) -> Vec3 {
+    Vec3::from_fn(|i, _| {
+        let n: f64 = StandardNormal.sample(rng);
+        n * sigma[i]
+    })
+}
+
+/// Small rotation `exp(θ/2)` of a rotation vector θ (rad).
+fn small_rot(theta: &Vec3) -> Quat {
+    UnitQuaternion::from_scaled_axis(*theta).into_inner()
+}
+
+/// Sample clock: grid `k / rate_hz` from t = 0.
+#[derive(Clone, Debug, PartialEq)]
+struct Clock {
+    period_s: f64,
+    next_k: u64,
+    last_t_s: Option<f64>,
+}
+
+impl Clock {
+    fn new(rate_hz: f64) -> Self {
+        assert!(
+            rate_hz > 0.0 && rate_hz.is_finite(),
+            "sample rate must be > 0"
+        );
+        Self {
+            period_s: 1.0 / rate_hz,
+            next_k: 0,
+            last_t_s: None,
+        }
+    }
+
+    /// `Some(time since the previous sample)` (0 for the first) if a sample is due at `t`.
+    fn due(&mut self, t: f64) -> Option<f64> {
+        let tol = 1e-9 * self.period_s;
+        if (self.next_k as f64) * self.period_s > t + tol {
+            return None;
+        }
+        self.next_k = ((t + tol) / self.period_s).floor() as u64 + 1;
+        let dt = self.last_t_s.map_or(0.0, |l| t - l);
+        self.last_t_s = Some(t);
+        Some(dt)
+    }
+}
+
+// ---------------------------------------------------------------------------------- gyro
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GyroSpec {
+    pub rate_hz: f64,
+    /// Angle random walk N per axis, rad/s/√Hz (= rad/√s). Per-sample white noise σ =
+    /// N √rate_hz; Allan deviation N / √τ.
+    pub arw_rad_s_rthz: [f64; 3],
+    /// Rate random walk K per axis, rad/s²/√Hz (= rad/s/√s): bias variance grows as K² t;
+    /// Allan deviation K √(τ/3).
+    pub rrw_rad_s2_rthz: [f64; 3],
+    /// Constant bias, rad/s.
+    pub bias_rad_s: [f64; 3],
+    /// Scale-factor error per axis (dimensionless, 1e-3 = 1000 ppm).
+    pub scale_factor: [f64; 3],
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GyroReading {
+    pub t_s: f64,
+    pub rate_rad_s: [f64; 3],
+    /// False until the first sample.
+    pub valid: bool,
+}
+
+/// Rate gyro: `ω_m = (1 + s) ω + b0 + b_rw(t) + n`, per axis.
+#[derive(Clone, Debug)]
+pub struct Gyro {
+    pub spec: GyroSpec,
+    rng: ChaCha8Rng,
+    clock: Clock,
+    bias_rw: Vec3,
+    last: GyroReading,
+}
+
+impl Gyro {
+    pub fn new(spec: GyroSpec, scenario_seed: u64, index: u32) -> Self {
+        Self {
+            clock: Clock::new(spec.rate_hz),
+            spec,
+            rng: sensor_rng(scenario_seed, index),
+            bias_rw: Vec3::zeros(),
+            last: GyroReading::default(),
+        }
+    }
+
+    /// Discrete: true body rate at `t`; samples if due, returns the held reading.
+    pub fn update(&mut self, t_s: f64, w_true_rad_s: &[f64; 3]) -> GyroReading {
+        if let Some(dt) = self.clock.due(t_s) {
+            let sd = self.spec.rate_hz.sqrt();
+            let white = gauss3(&mut self.rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
+            let sq = dt.sqrt();
+            self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
+            let w = Vec3::from(*w_true_rad_s);
+            let sf = Vec3::from(self.spec.scale_factor);
+            let m =
+                w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            self.last = GyroReading {
+                t_s,
+                rate_rad_s: m.into(),
+                valid: true,
+            };
+        }
+        self.last
+    }
+
+    pub fn reading(&self) -> GyroReading {
+        self.last
+    }
+
+    /// Current total bias (constant + random walk), rad/s — truth for estimator tests.
+    pub fn bias_rad_s(&self) -> [f64; 3] {
+        (Vec3::from(self.spec.bias_rad_s) + self.bias_rw).into()
+    }
+}
+
+// ----------------------------------------------------------------------- attitude sensor
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AttitudeSensorSpec {
+    pub rate_hz: f64,
+    /// 1σ small-rotation noise about each body axis, rad.
+    pub noise_rad: [f64; 3],
+    /// Constant misalignment, rotation vector in body axes, rad (zero = none).
+    pub bias_rad: [f64; 3],
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AttitudeReading {
+    pub t_s: f64,
+    /// Measured `q_ib`.
+    pub q_ib: Quat,
+    pub valid: bool,
+}
+
+/// Star tracker / AHRS: `q_m = q_ib ⊗ exp(b/2) ⊗ exp(n/2)`, body-frame perturbations.
+#[derive(Clone, Debug)]
+pub struct AttitudeSensor {
+    pub spec: AttitudeSensorSpec,
+    rng: ChaCha8Rng,
+    clock: Clock,
+    last: AttitudeReading,
+}
+
+impl AttitudeSensor {
+    pub fn new(spec: AttitudeSensorSpec, scenario_seed: u64, index: u32) -> Self {
+        Self {
+            clock: Clock::new(spec.rate_hz),
+            spec,
+            rng: sensor_rng(scenario_seed, index),
+            last: AttitudeReading {
+                t_s: 0.0,
+                q_ib: Quat::identity(),
+                valid: false,
+            },
+        }
+    }
+
+    /// Discrete: true `q_ib` at `t`; samples if due, returns the held reading.
+    pub fn update(&mut self, t_s: f64, q_ib_true: &Quat) -> AttitudeReading {
+        if self.clock.due(t_s).is_some() {
+            let n = gauss3(&mut self.rng, &self.spec.noise_rad);
+            let q =
+                q_ib_true.normalize() * small_rot(&Vec3::from(self.spec.bias_rad)) * small_rot(&n);
+            self.last = AttitudeReading {
+                t_s,
+                q_ib: q,
+                valid: true,
+            };
+        }
+        self.last
+    }
+
+    pub fn reading(&self) -> AttitudeReading {
+        self.last
+    }
+}
+
+// -------------------------------------------------------------------------- magnetometer
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MagnetometerSpec {
+    pub rate_hz: f64,
+    /// 1σ white noise per axis, T.
+    pub noise_t: [f64; 3],
+    /// Constant bias per axis, T (hard iron; put the constant residual dipole's field here).
+    pub bias_t: [f64; 3],
+    /// Field at the magnetometer per unit rod dipole, row-major 3×3, T per A m²:
+    /// `B_err = C m_rods` with `m_rods` the rods' body dipole
+    /// ([`crate::magnetorquers::MagnetorquerSet::rod_dipole_am2`]).
+    pub coupling_t_per_am2: [[f64; 3]; 3],
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MagReading {
+    pub t_s: f64,
+    pub b_body_t: [f64; 3],
+    pub valid: bool,
+}
+
+/// Magnetometer: `B_m = B_body + C m_rods + b + n`.
+#[derive(Clone, Debug)]
+pub struct Magnetometer {
+    pub spec: MagnetometerSpec,
+    rng: ChaCha8Rng,
+    clock: Clock,
+    last: MagReading,
+}
+
+impl Magnetometer {
+    pub fn new(spec: MagnetometerSpec, scenario_seed: u64, index: u32) -> Self {
+        Self {
+            clock: Clock::new(spec.rate_hz),
+            spec,
+            rng: sensor_rng(scenario_seed, index),
+            last: MagReading::default(),
+        }
+    }
+
+    /// Pure: noise-free reading for a true field and rod dipole.
+    pub fn ideal(&self, b_body_t: &[f64; 3], rod_dipole_am2: &[f64; 3]) -> [f64; 3] {
+        let c = Matrix3::from_row_slice(self.spec.coupling_t_per_am2.as_flattened());
+        (Vec3::from(*b_body_t) + c * Vec3::from(*rod_dipole_am2) + Vec3::from(self.spec.bias_t))
+            .into()
+    }
+
+    /// Discrete: true body field (T) and realised rod dipole (A m², body) at `t`.
+    pub fn update(
+        &mut self,
+        t_s: f64,
+        b_body_t: &[f64; 3],
+        rod_dipole_am2: &[f64; 3],
+    ) -> MagReading {
+        if self.clock.due(t_s).is_some() {
+            let n = gauss3(&mut self.rng, &self.spec.noise_t);
+            self.last = MagReading {
+                t_s,
+                b_body_t: (Vec3::from(self.ideal(b_body_t, rod_dipole_am2)) + n).into(),
+                valid: true,
+            };
+        }
+        self.last
+    }
+
+    pub fn reading(&self) -> MagReading {
+        self.last
+    }
+}
+
+// ---------------------------------------------------------------------------- sun sensor
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SunSensorSpec {
+    pub rate_hz: f64,
+    /// 1σ angular noise about each of the two axes normal to the sun line, rad
+    /// (total angular error rms √2 σ).
+    pub noise_rad: f64,
+    /// Unit boresight, body.
+    pub boresight_body: [f64; 3],
+    /// Field-of-view cone half angle, rad (sun on the edge counts as inside).
+    pub fov_half_angle_rad: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SunReading {
+    pub t_s: f64,
+    /// Measured unit sun vector, body; zero when invalid.
+    pub sun_body: [f64; 3],
+    /// False in eclipse, outside the field of view, or before the first sample.
+    pub valid: bool,
+}
+
+/// Pure: unit sun direction in body axes, `R(q_ib)ᵀ s_i`.
+pub fn sun_in_body(q_ib: &Quat, sun_inertial: &[f64; 3]) -> [f64; 3] {
+    let s = Vec3::from(*sun_inertial).normalize();
+    UnitQuaternion::from_quaternion(*q_ib)
+        .inverse_transform_vector(&s)
+        .into()
+}
+
+/// Pure: cylindrical Earth shadow. `r_m` satellite position and `sun_inertial` sun
+/// direction in the same (Earth-centred) frame; Earth radius 6378.137 km.
+pub fn cylindrical_eclipse(r_m: &[f64; 3], sun_inertial: &[f64; 3]) -> bool {
+    const R_EARTH_M: f64 = 6_378_137.0;
+    let (r, s) = (Vec3::from(*r_m), Vec3::from(*sun_inertial).normalize());
+    let along = r.dot(&s);
+    along < 0.0 && (r - s * along).norm() < R_EARTH_M
+}
+
+#[derive(Clone, Debug)]
+pub struct SunSensor {
+    pub spec: SunSensorSpec,
+    rng: ChaCha8Rng,
+    clock: Clock,
+    last: SunReading,
+}
+
+impl SunSensor {
+    pub fn new(spec: SunSensorSpec, scenario_seed: u64, index: u32) -> Self {
+        Self {
+            clock: Clock::new(spec.rate_hz),
+            spec,
+            rng: sensor_rng(scenario_seed, index),
+            last: SunReading::default(),
+        }
+    }
+
+    /// Discrete: attitude, sun direction (inertial, any length) and eclipse flag at `t`.
+    pub fn update(
+        &mut self,
+        t_s: f64,
+        q_ib: &Quat,
+        sun_inertial: &[f64; 3],
+        in_eclipse: bool,
+    ) -> SunReading {
+        if self.clock.due(t_s).is_some() {
+            let e = gauss3(&mut self.rng, &[self.spec.noise_rad; 3]);
+            let s = Vec3::from(sun_in_body(q_ib, sun_inertial));
+            let bore = Vec3::from(self.spec.boresight_body).normalize();
+            let in_fov = s.dot(&bore).clamp(-1.0, 1.0).acos() <= self.spec.fov_half_angle_rad;
+            let valid = !in_eclipse && in_fov;
+            // Rotate by the noise component normal to the sun line.
+            let e_perp = e - s * s.dot(&e);
+            let m = UnitQuaternion::from_scaled_axis(e_perp) * s;
+            self.last = SunReading {
+                t_s,
+                sun_body: if valid {
+                    m.normalize().into()
+                } else {
+                    [0.0; 3]
+                },
+                valid,
+            };
+        }
+        self.last
+    }
+
+    pub fn reading(&self) -> SunReading {
+        self.last
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)]
+mod tests {
+    use super::*;
+
+    /// Overlapping Allan deviation of a rate series sampled at `tau0`, cluster size `m`.
+    fn adev(rate: &[f64], tau0: f64, m: usize) -> f64 {
+        let mut theta = vec![0.0; rate.len() + 1];
+        for (k, w) in rate.iter().enumerate() {
+            theta[k + 1] = theta[k] + w * tau0;
+        }
+        let n = theta.len();
+        let tau = m as f64 * tau0;
+        let s: f64 = (0..n - 2 * m)
+            .map(|k| {
+                let d = theta[k + 2 * m] - 2.0 * theta[k + m] + theta[k];
+                d * d
+            })
+            .sum();
+        (s / (2.0 * tau * tau * (n - 2 * m) as f64)).sqrt()
+    }
+
+    /// Least-squares slope of log σ against log τ.
+    fn slope(pts: &[(f64, f64)]) -> f64 {
+        let l: Vec<(f64, f64)> = pts.iter().map(|(t, s)| (t.ln(), s.ln())).collect();
+        let n = l.len() as f64;
+        let (mx, my) = (
+            l.iter().map(|p| p.0).sum::<f64>() / n,
+            l.iter().map(|p| p.1).sum::<f64>() / n,
+        );
+        l.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+            / l.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+    }
+
+    fn gyro_spec() -> GyroSpec {
+        GyroSpec {
+            rate_hz: 10.0,
+            arw_rad_s_rthz: [1e-3, 2e-3, 5e-4],
+            rrw_rad_s2_rthz: [1e-4, 5e-5, 2e-4],
+            bias_rad_s: [0.0; 3],
+            scale_factor: [0.0; 3],
+        }
+    }
+
+    #[test]
+    fn gyro_allan_deviation() {
+        // 8 independent gyros (sensor indices 0..8), 10⁵ s each at 10 Hz; Allan variances
+        // averaged over the runs (long-τ estimates have few degrees of freedom).
+        let spec = gyro_spec();
+        let (f, n, runs) = (spec.rate_hz, 1_000_000, 8);
+        let short_m = [1usize, 2, 4, 8]; // τ = 0.1 … 0.8 s (ARW region, τ ≪ √3 N/K ≥ 4 s)
+        let long_m = [5000usize, 10000, 20000]; // τ = 500 … 2000 s (RRW region)
+        let mut avar = [[0.0; 7]; 3];
+        for run in 0..runs {
+            let mut g = Gyro::new(spec, 7, run);
+            let mut series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            for k in 0..n {
+                let r = g.update(k as f64 / f, &[0.0; 3]);
+                for a in 0..3 {
+                    series[a][k] = r.rate_rad_s[a];
+                }
+            }
+            for a in 0..3 {
+                for (j, &m) in short_m.iter().chain(&long_m).enumerate() {
+                    avar[a][j] += adev(&series[a], 1.0 / f, m).powi(2) / runs as f64;
+                }
+            }
+        }
+        for a in 0..3 {
+            let (nn, kk) = (spec.arw_rad_s_rthz[a], spec.rrw_rad_s2_rthz[a]);
+            let pts: Vec<(f64, f64)> = short_m
+                .iter()
+                .chain(&long_m)
+                .zip(avar[a])
+                .map(|(&m, v)| (m as f64 / f, v.sqrt()))
+                .collect();
+            let (short, long) = pts.split_at(short_m.len());
+            let (ss, sl) = (slope(short), slope(long));
+            let arw_fit = short.iter().map(|(t, s)| s * t.sqrt()).sum::<f64>() / short.len() as f64;
+            // RRW magnitude with the (small) white-noise share removed.
+            let rrw_fit = long
+                .iter()
+                .map(|(t, s)| ((s * s - nn * nn / t) * 3.0 / t).sqrt())
+                .sum::<f64>()
+                / long.len() as f64;
+            println!(
+                "axis {a}: short slope {ss:+.3}, N fit {arw_fit:.4e} (true {nn:.1e}, {:+.1}%); \
+                 long slope {sl:+.3}, K fit {rrw_fit:.4e} (true {kk:.1e}, {:+.1}%)",
+                100.0 * (arw_fit / nn - 1.0),
+                100.0 * (rrw_fit / kk - 1.0)
+            );
+            assert!((ss + 0.5).abs() < 0.03, "ARW slope {ss}");
+            assert!((arw_fit / nn - 1.0).abs() < 0.10, "ARW {arw_fit}");
+            assert!((sl - 0.5).abs() < 0.1, "RRW slope {sl}");
+            assert!((rrw_fit / kk - 1.0).abs() < 0.2, "RRW {rrw_fit}");
+        }
+    }
+
+    #[test]
+    fn bias_random_walk_variance_grows_linearly() {
+        let mut spec = gyro_spec();
+        spec.arw_rad_s_rthz = [0.0; 3];
+        spec.bias_rad_s = [1.0, 2.0, 3.0];
+        let (runs, checks) = (4000, [10usize, 100, 1000]); // sample counts at 10 Hz
+        let mut sum2 = [[0.0; 3]; 3];
+        for r in 0..runs {
+            let mut g = Gyro::new(spec, 1234, r as u32);
+            let mut ci = 0;
+            for k in 0..=1000 {
+                g.update(k as f64 / spec.rate_hz, &[0.0; 3]);
+                if k == checks[ci] {
+                    let b = g.bias_rad_s();
+                    for a in 0..3 {
+                        sum2[ci][a] += (b[a] - spec.bias_rad_s[a]).powi(2);
+                    }
+                    ci = (ci + 1).min(2);
+                }
+            }
+        }
+        for (ci, &k) in checks.iter().enumerate() {
+            let t = k as f64 / spec.rate_hz;
+            for a in 0..3 {
+                let ratio = sum2[ci][a] / runs as f64 / (spec.rrw_rad_s2_rthz[a].powi(2) * t);
+                println!("t = {t:6.1} s axis {a}: var / (K² t) = {ratio:.3}");
+                // 4000 runs: 1σ of a variance estimate is √(2/4000) = 2.2 %.
+                assert!((ratio - 1.0).abs() < 0.08, "{ratio}");
+            }
+        }
+    }
+
+    #[test]
+    fn gyro_scale_factor_bias_and_hold() {
+        let spec = GyroSpec {
+            rate_hz: 4.0,
+            arw_rad_s_rthz: [0.0; 3],
+            rrw_rad_s2_rthz: [0.0; 3],
+            bias_rad_s: [1e-3, 0.0, -1e-3],
+            scale_factor: [0.01, -0.02, 0.0],
+        };
+        let mut g = Gyro::new(spec, 1, 0);
+        let r = g.update(0.0, &[0.1, 0.1, 0.1]);
+        assert!(r.valid);
+        let want = [0.101 + 1e-3, 0.098, 0.1 - 1e-3];
+        for a in 0..3 {
+            assert!((r.rate_rad_s[a] - want[a]).abs() < 1e-15);
+        }
+        // Held until the next 0.25 s grid point (steps of 0.1 s: sample at 0.3).
+        assert_eq!(g.update(0.1, &[0.0; 3]), r);
+        assert_eq!(g.update(0.2, &[0.0; 3]), r);
+        let r2 = g.update(0.3, &[0.0; 3]);
+        assert_eq!((r2.t_s, r2.rate_rad_s), (0.3, [1e-3, 0.0, -1e-3]));
+        assert_eq!(g.update(0.4, &[5.0; 3]), r2);
+    }
+
+    #[test]
+    fn attitude_sensor_noise_and_bias() {
+        let q_true = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1).into_inner();
+        // Bias only: exact.
+        let bias = [0.01, -0.02, 0.005];
+        let mut s = AttitudeSensor::new(
+            AttitudeSensorSpec {
+                rate_hz: 5.0,
+                noise_rad: [0.0; 3],
+                bias_rad: bias,
+            },
+            3,
+            1,
+        );
+        let r = s.update(0.0, &q_true);
+        let err = (UnitQuaternion::from_quaternion(q_true).inverse()
+            * UnitQuaternion::from_quaternion(r.q_ib))
+        .scaled_axis();
+        assert!((err - Vec3::from(bias)).norm() < 1e-15);
+        // Noise: per-axis rms of the body-frame error rotation.
+        let sig = [1e-3, 2e-3, 4e-4];
+        let mut s = AttitudeSensor::new(
+            AttitudeSensorSpec {
+                rate_hz: 5.0,
+                noise_rad: sig,
+                bias_rad: [0.0; 3],
+            },
+            3,
+            1,
+        );
+        let n = 20_000;
+        let mut ss = Vec3::zeros();
+        for k in 0..n {
+            let r = s.update(k as f64 / 5.0, &q_true);
+            let e = (UnitQuaternion::from_quaternion(q_true).inverse()
+                * UnitQuaternion::from_quaternion(r.q_ib))
+            .scaled_axis();
+            ss += e.component_mul(&e);
+        }
+        for a in 0..3 {
+            let rms = (ss[a] / n as f64).sqrt();
+            assert!((rms / sig[a] - 1.0).abs() < 0.03, "axis {a}: {rms}");
+        }
+    }
+
+    #[test]
+    fn magnetometer_sees_torquers_only_when_on() {
+        use crate::plant::magnetorquers::MagnetorquerSet;
+        let spec = MagnetometerSpec {
+            rate_hz: 10.0,
+            noise_t: [0.0; 3],
+            bias_t: [0.0; 3],
+            coupling_t_per_am2: [[2e-6, 0.0, 1e-7], [0.0, -3e-6, 0.0], [5e-7, 0.0, 1e-6]],
+        };
+        let rig = MagnetorquerSet::paper003_rig();
+        let b = [20e-6, -5e-6, 40e-6];
+        let mut m = Magnetometer::new(spec, 9, 2);
+        // Off, and commanded inside the dead band (the rods produce nothing): truth.
+        assert_eq!(
+            m.update(0.0, &b, &rig.rod_dipole_am2(&rig.realised(&[0.0; 3])))
+                .b_body_t,
+            b
+        );
+        assert_eq!(
+            m.update(
+                0.1,
+                &b,
+                &rig.rod_dipole_am2(&rig.realised(&[1.0, -1.0, 1.5]))
+            )
+            .b_body_t,
+            b
+        );
+        // On: B + C m.
+        let dip = rig.rod_dipole_am2(&rig.realised(&[5.0, 0.0, -3.0]));
+        let r = m.update(0.2, &b, &dip).b_body_t;
+        let want = [20e-6 + 10e-6 - 3e-7, -5e-6, 40e-6 + 2.5e-6 - 3e-6];
+        for a in 0..3 {
+            assert!((r[a] - want[a]).abs() < 1e-18, "{r:?}");
+        }
+        // Noise and bias statistics.
+        let spec = MagnetometerSpec {
+            noise_t: [1e-7, 2e-7, 5e-8],
+            bias_t: [1e-6, 0.0, -1e-6],
+            ..spec
+        };
+        let mut m = Magnetometer::new(spec, 9, 2);
+        let n = 20_000;
+        let (mut s1, mut s2) = (Vec3::zeros(), Vec3::zeros());
+        for k in 0..n {
+            let e = Vec3::from(m.update(k as f64 / 10.0, &b, &[0.0; 3]).b_body_t) - Vec3::from(b);
+            s1 += e;
+            s2 += e.component_mul(&e);
+        }
+        for a in 0..3 {
+            let mean = s1[a] / n as f64;
+            let sd = (s2[a] / n as f64 - mean * mean).sqrt();
+            assert!((mean - spec.bias_t[a]).abs() < 4.0 * spec.noise_t[a] / (n as f64).sqrt());
+            assert!((sd / spec.noise_t[a] - 1.0).abs() < 0.03);
+        }
+    }
+
+    #[test]
+    fn sun_sensor_validity() {
+        let spec = SunSensorSpec {
+            rate_hz: 2.0,
+            noise_rad: 1e-3,
+            boresight_body: [0.0, 0.0, 1.0],
+            fov_half_angle_rad: 60f64.to_radians(),
+        };
+        let mut s = SunSensor::new(spec, 5, 3);
+        let q = Quat::identity();
+        // Sun along +z body: valid, close to truth.
+        let r = s.update(0.0, &q, &[0.0, 0.0, 1.5e11], false);
+        assert!(r.valid && (Vec3::from(r.sun_body) - Vec3::z()).norm() < 6e-3);
+        // Eclipse.
+        let r = s.update(0.5, &q, &[0.0, 0.0, 1.0], true);
+        assert!(!r.valid && r.sun_body == [0.0; 3]);
+        // 59° and 61° off boresight; sun behind.
+        let dir = |deg: f64| [deg.to_radians().sin(), 0.0, deg.to_radians().cos()];
+        assert!(s.update(1.0, &q, &dir(59.0), false).valid);
+        assert!(!s.update(1.5, &q, &dir(61.0), false).valid);
+        assert!(!s.update(2.0, &q, &[0.0, 0.0, -1.0], false).valid);
+        // q_ib = 90° about x maps body z to inertial -y, so an inertial +y sun is body -z.
+        let qx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2)
+            .into_inner();
+        let sb = sun_in_body(&qx, &[0.0, 1.0, 0.0]);
+        assert!((Vec3::from(sb) + Vec3::z()).norm() < 1e-15, "{sb:?}");
+        // Angular noise: rms total angle ≈ √2 σ.
+        let n = 20_000;
+        let mut s2 = 0.0;
+        for k in 0..n {
+            let r = s.update(2.5 + k as f64 / 2.0, &q, &[0.0, 0.0, 1.0], false);
+            s2 += Vec3::from(r.sun_body).angle(&Vec3::z()).powi(2);
+        }
+        let rms = (s2 / n as f64 / 2.0).sqrt();
+        assert!((rms / 1e-3 - 1.0).abs() < 0.03, "{rms}");
+        // Cylindrical shadow.
+        let sun = [1.0, 0.0, 0.0];
+        assert!(cylindrical_eclipse(&[-7.0e6, 0.0, 0.0], &sun));
+        assert!(!cylindrical_eclipse(&[7.0e6, 0.0, 0.0], &sun));
+        assert!(!cylindrical_eclipse(&[-7.0e6, 6.5e6, 0.0], &sun));
+    }
+
+    #[test]
+    fn determinism_and_independent_streams() {
+        let spec = gyro_spec();
+        let run = |seed, idx, with_other: bool| {
+            let mut g = Gyro::new(spec, seed, idx);
+            let mut other = Magnetometer::new(
+                MagnetometerSpec {
+                    rate_hz: 10.0,
+                    noise_t: [1e-7; 3],
+                    bias_t: [0.0; 3],
+                    coupling_t_per_am2: [[0.0; 3]; 3],
+                },
+                seed,
+                idx + 1,
+            );
+            (0..1000)
+                .map(|k| {
+                    let t = k as f64 / 10.0;
+                    if with_other {
+                        other.update(t, &[1e-5; 3], &[0.0; 3]);
+                    }
+                    g.update(t, &[0.01, 0.0, 0.0]).rate_rad_s.map(f64::to_bits)
+                })
+                .collect::<Vec<_>>()
+        };
+        let a = run(42, 0, false);
+        assert_eq!(a, run(42, 0, false), "same seed, same bits");
+        assert_eq!(
+            a,
+            run(42, 0, true),
+            "another sensor does not disturb this one"
+        );
+        assert_ne!(a, run(42, 1, false), "other index, other stream");
+        assert_ne!(a, run(43, 0, false), "other seed, other stream");
+        // Stream 0 (the existing SensorSuite's) is not used by index 0.
+        let mut legacy = ChaCha8Rng::seed_from_u64(42);
+        let mut idx0 = sensor_rng(42, 0);
+        let (x, y): (f64, f64) = (
+            StandardNormal.sample(&mut legacy),
+            StandardNormal.sample(&mut idx0),
+        );
+        assert_ne!(x.to_bits(), y.to_bits());
+    }
+}
