@@ -12,21 +12,8 @@
 //! - [`protocol`]: wire messages and the COBS + CRC framing of the host link.
 //! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
-#![cfg_attr(
-    test,
-    allow(
-        clippy::unwrap_used,
-        clippy::expect_used,
-        clippy::indexing_slicing,
-        clippy::panic
-    )
-)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
+#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
 // `!(x > y)` is used on purpose in numerical code: it is also true for NaN (fail-safe).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 // No heap in flight code: large enum variants cannot be boxed, and they are all `Copy` data.

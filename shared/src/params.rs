@@ -65,10 +65,7 @@ pub enum ControllerParams {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ActuatorParams {
-    Cmg {
-        cmg: CmgParams,
-        steering: SteeringParams,
-    },
+    Cmg { cmg: CmgParams, steering: SteeringParams },
     Wheels(WheelParams),
     Magnetorquers(MagnetorquerParams),
     Thrusters(ThrusterParams),
@@ -270,11 +267,7 @@ fn mat(m: &[[f32; 3]; 3]) -> Mat3 {
 }
 
 fn check_finite(field: ParamField, xs: &[f32]) -> Result<(), ParamError> {
-    if xs.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(err(field, ParamReason::NotFinite))
-    }
+    if xs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(err(field, ParamReason::NotFinite)) }
 }
 
 fn check_range(field: ParamField, x: f32, lo: f32, hi: f32) -> Result<(), ParamError> {
@@ -322,12 +315,7 @@ impl QuaternionFeedbackParams {
 fn validate_cmg(g: &CmgParams, steering: &SteeringParams) -> Result<(), ParamError> {
     use ParamField as F;
     use ParamReason as R;
-    check_range(
-        F::CmgSkew,
-        g.skew_rad,
-        1e-3,
-        core::f32::consts::FRAC_PI_2 - 1e-3,
-    )?;
+    check_range(F::CmgSkew, g.skew_rad, 1e-3, core::f32::consts::FRAC_PI_2 - 1e-3)?;
     check_range(F::CmgMomentum, g.h0_nms, 1e-6, 1.0e5)?;
     check_range(F::GimbalRateLimit, g.max_gimbal_rate_rad_s, 1e-6, 100.0)?;
     check_range(F::GimbalAngleRange, g.gimbal_min_rad, -1.0e3, 1.0e3)?;
@@ -352,12 +340,7 @@ fn validate_cmg(g: &CmgParams, steering: &SteeringParams) -> Result<(), ParamErr
             check_range(F::SteeringAlpha, mu, 0.0, 1.0e6)?;
         }
     }
-    check_range(
-        F::SingularThreshold,
-        steering.singular_threshold,
-        1e-12,
-        1.0,
-    )
+    check_range(F::SingularThreshold, steering.singular_threshold, 1e-12, 1.0)
 }
 
 impl WheelParams {
@@ -469,8 +452,7 @@ impl FlightParams {
     /// flight code received.
     pub fn checksum(&self) -> Result<u32, ParamError> {
         let mut buf = [0u8; PARAMS_MAX_SIZE];
-        let used = postcard::to_slice(self, &mut buf)
-            .map_err(|_| err(ParamField::Version, ParamReason::TooLarge))?;
+        let used = postcard::to_slice(self, &mut buf).map_err(|_| err(ParamField::Version, ParamReason::TooLarge))?;
         Ok(CRC32.checksum(used))
     }
 
@@ -482,11 +464,7 @@ impl FlightParams {
 
 /// Row-major array form of a matrix (for building parameter sets).
 pub fn mat_to_rows(m: &Mat3) -> [[f32; 3]; 3] {
-    [
-        [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
-        [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
-        [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
-    ]
+    [[m[(0, 0)], m[(0, 1)], m[(0, 2)]], [m[(1, 0)], m[(1, 1)], m[(1, 2)]], [m[(2, 0)], m[(2, 1)], m[(2, 2)]]]
 }
 
 /// Matrix from row-major arrays.
@@ -532,10 +510,7 @@ impl Default for FlightParams {
                     gimbal_max_rad: 1000.0,
                 },
                 steering: SteeringParams {
-                    law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
-                        a0: 0.01,
-                        mu: 10.0,
-                    }),
+                    law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 }),
                     singular_threshold: 1e-6,
                 },
             },
@@ -597,56 +572,29 @@ mod tests {
             pwpf_u_off: 0.15,
             failed_mask: 0xfff,
         };
-        for a in [
-            ActuatorParams::Wheels(wheels),
-            ActuatorParams::Magnetorquers(mtq),
-            ActuatorParams::Thrusters(thr),
-        ] {
-            let p = FlightParams {
-                actuator: a,
-                ..base
-            };
+        for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {
+            let p = FlightParams { actuator: a, ..base };
             assert_eq!(p.validate(), Ok(()), "{a:?}");
             let mut buf = [0u8; 2048];
-            let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf)
-                .unwrap()
-                .len();
+            let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf).unwrap().len();
             assert!(n <= crate::protocol::MAX_PAYLOAD, "{n} bytes");
         }
         let mut w2 = wheels;
         w2.axes[1] = [0.0, 2.0, 0.0];
         assert_eq!(
-            FlightParams {
-                actuator: ActuatorParams::Wheels(w2),
-                ..base
-            }
-            .validate()
-            .unwrap_err()
-            .field,
+            FlightParams { actuator: ActuatorParams::Wheels(w2), ..base }.validate().unwrap_err().field,
             ParamField::WheelAxis
         );
         let mut m2 = mtq;
         m2.deadband_lo_am2[1] = 0.5;
         assert_eq!(
-            FlightParams {
-                actuator: ActuatorParams::Magnetorquers(m2),
-                ..base
-            }
-            .validate()
-            .unwrap_err()
-            .field,
+            FlightParams { actuator: ActuatorParams::Magnetorquers(m2), ..base }.validate().unwrap_err().field,
             ParamField::DeadBand
         );
         let mut t2 = thr;
         t2.pwpf_u_off = 0.5;
         assert_eq!(
-            FlightParams {
-                actuator: ActuatorParams::Thrusters(t2),
-                ..base
-            }
-            .validate()
-            .unwrap_err()
-            .field,
+            FlightParams { actuator: ActuatorParams::Thrusters(t2), ..base }.validate().unwrap_err().field,
             ParamField::Pwpf
         );
     }
@@ -674,37 +622,25 @@ mod tests {
         let base = FlightParams::default();
         let mut p = base;
         p.inertia_kgm2[0][0] = -1.0;
-        assert_eq!(
-            p.validate().unwrap_err(),
-            err(ParamField::Inertia, ParamReason::NotPositiveDefinite)
-        );
+        assert_eq!(p.validate().unwrap_err(), err(ParamField::Inertia, ParamReason::NotPositiveDefinite));
         let mut p = base;
         p.inertia_kgm2[0][1] = 0.5;
         assert_eq!(p.validate().unwrap_err().reason, ParamReason::NotSymmetric);
         let mut p = base;
         qf(&mut p).d_rate_nms[1][1] = f32::NAN;
-        assert_eq!(
-            p.validate().unwrap_err(),
-            err(ParamField::RateGain, ParamReason::NotFinite)
-        );
+        assert_eq!(p.validate().unwrap_err(), err(ParamField::RateGain, ParamReason::NotFinite));
         let mut p = base;
         cmg(&mut p).h0_nms = 0.0;
         assert_eq!(p.validate().unwrap_err().field, ParamField::CmgMomentum);
         let mut p = base;
         p.target_q_xyzw = [0.0, 0.0, 0.0, 2.0];
-        assert_eq!(
-            p.validate().unwrap_err().reason,
-            ParamReason::NotUnitQuaternion
-        );
+        assert_eq!(p.validate().unwrap_err().reason, ParamReason::NotUnitQuaternion);
         let mut p = base;
         p.version = 99;
         assert_eq!(p.validate().unwrap_err().field, ParamField::Version);
         let mut p = base;
         cmg(&mut p).gimbal_min_rad = 1.0;
         cmg(&mut p).gimbal_max_rad = 0.5;
-        assert_eq!(
-            p.validate().unwrap_err().field,
-            ParamField::GimbalAngleRange
-        );
+        assert_eq!(p.validate().unwrap_err().field, ParamField::GimbalAngleRange);
     }
 }

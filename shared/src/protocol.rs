@@ -274,9 +274,7 @@ impl LinkStats {
 /// Encode `msg` as one frame into `out`; returns the frame (delimiter included).
 pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a [u8], FrameError> {
     let mut raw = [0u8; MAX_PAYLOAD + 4];
-    let n = postcard::to_slice(msg, &mut raw)
-        .map_err(|_| FrameError::BufferTooSmall)?
-        .len();
+    let n = postcard::to_slice(msg, &mut raw).map_err(|_| FrameError::BufferTooSmall)?.len();
     let (body, _) = raw.split_at_mut(n.min(MAX_PAYLOAD));
     let crc = CRC32.checksum(body).to_le_bytes();
     let total = n + 4;
@@ -319,23 +317,13 @@ impl<const N: usize> FrameAccumulator<N> {
             buf: [0; N],
             len: 0,
             overflow: false,
-            stats: LinkStats {
-                frames_ok: 0,
-                oversize: 0,
-                cobs: 0,
-                short: 0,
-                crc: 0,
-                decode: 0,
-            },
+            stats: LinkStats { frames_ok: 0, oversize: 0, cobs: 0, short: 0, crc: 0, decode: 0 },
         }
     }
 
     /// Feed one byte. Returns `None` mid-frame (and for empty frames, which senders may
     /// use to flush a half-received frame at the other end).
-    pub fn push<T: for<'de> Deserialize<'de>>(
-        &mut self,
-        byte: u8,
-    ) -> Option<Result<T, FrameError>> {
+    pub fn push<T: for<'de> Deserialize<'de>>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
         if byte != 0 {
             match self.buf.get_mut(self.len) {
                 Some(slot) => {
@@ -414,38 +402,23 @@ mod tests {
         encode_frame(m, &mut out).unwrap().to_vec()
     }
 
-    fn feed(
-        acc: &mut FrameAccumulator<MAX_FRAME>,
-        bytes: &[u8],
-    ) -> std::vec::Vec<Result<HostMsg, FrameError>> {
-        bytes
-            .iter()
-            .filter_map(|b| acc.push::<HostMsg>(*b))
-            .collect()
+    fn feed(acc: &mut FrameAccumulator<MAX_FRAME>, bytes: &[u8]) -> std::vec::Vec<Result<HostMsg, FrameError>> {
+        bytes.iter().filter_map(|b| acc.push::<HostMsg>(*b)).collect()
     }
 
     #[test]
     fn round_trip_every_message_kind() {
         let msgs = [
-            HostMsg::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                schema_hash: schema_hash(),
-            },
+            HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
             HostMsg::UploadParams(FlightParams::default()),
             sensor(7),
-            HostMsg::SetTarget {
-                target_q_xyzw: [0.0, 0.0, 0.42, 0.9],
-            },
+            HostMsg::SetTarget { target_q_xyzw: [0.0, 0.0, 0.42, 0.9] },
             HostMsg::StartRealTime,
         ];
         let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         for m in &msgs {
             let f = enc(m);
-            assert_eq!(
-                f.iter().filter(|b| **b == 0).count(),
-                1,
-                "only the delimiter is zero"
-            );
+            assert_eq!(f.iter().filter(|b| **b == 0).count(), 1, "only the delimiter is zero");
             assert!(f.len() <= MAX_FRAME);
             let got = feed(&mut acc, &f);
             assert_eq!(got, vec![Ok(m.clone())]);
@@ -456,16 +429,10 @@ mod tests {
     #[test]
     fn largest_messages_fit() {
         let mut raw = [0u8; 2048];
-        let n = postcard::to_slice(&HostMsg::UploadParams(FlightParams::default()), &mut raw)
-            .unwrap()
-            .len();
+        let n = postcard::to_slice(&HostMsg::UploadParams(FlightParams::default()), &mut raw).unwrap().len();
         assert!(n <= MAX_PAYLOAD, "{n}");
         let step = FswMsg::Step(StepReport {
-            cmd: ActuatorCommand {
-                seq: u32::MAX,
-                status: u16::MAX,
-                ..Default::default()
-            },
+            cmd: ActuatorCommand { seq: u32::MAX, status: u16::MAX, ..Default::default() },
             step_cost_ticks: u32::MAX,
             deadline_misses: u32::MAX,
             frames_dropped: u32::MAX,
@@ -490,10 +457,7 @@ mod tests {
                 // the good frame must be an error, and the good frame must come through.
                 let (last, before) = got.split_last().unwrap();
                 assert_eq!(last, &Ok(sensor(2)), "flip {byte}:{bit}");
-                assert!(
-                    before.iter().all(|r| r.is_err()),
-                    "flip {byte}:{bit} produced a message"
-                );
+                assert!(before.iter().all(|r| r.is_err()), "flip {byte}:{bit} produced a message");
                 assert_eq!(acc.stats.dropped() as usize, before.len());
                 assert!(acc.stats.dropped() >= 1 || bad[byte] == 0);
             }

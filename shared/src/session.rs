@@ -23,13 +23,7 @@ pub struct Session {
 
 impl Session {
     pub const fn new(board: u8, cost_counter_hz: u32) -> Self {
-        Self {
-            fsw: Fsw::new(),
-            board,
-            cost_counter_hz,
-            real_time: false,
-            deadline_misses: 0,
-        }
+        Self { fsw: Fsw::new(), board, cost_counter_hz, real_time: false, deadline_misses: 0 }
     }
 
     /// True once the host asked for real-time mode (`StartRealTime`).
@@ -39,24 +33,12 @@ impl Session {
 
     /// Handle one message. `frames_dropped`: the receiver's count, reported in steps;
     /// `counter`: reads the cost counter (wrapping), called right before and after the step.
-    pub fn handle(
-        &mut self,
-        msg: &HostMsg,
-        frames_dropped: u32,
-        counter: &mut dyn FnMut() -> u32,
-    ) -> Option<FswMsg> {
+    pub fn handle(&mut self, msg: &HostMsg, frames_dropped: u32, counter: &mut dyn FnMut() -> u32) -> Option<FswMsg> {
         match msg {
-            HostMsg::Hello {
-                protocol_version,
-                schema_hash: h,
-            } => Some(if *protocol_version != PROTOCOL_VERSION {
-                FswMsg::Error(LinkError::ProtocolVersion {
-                    flight: PROTOCOL_VERSION,
-                })
+            HostMsg::Hello { protocol_version, schema_hash: h } => Some(if *protocol_version != PROTOCOL_VERSION {
+                FswMsg::Error(LinkError::ProtocolVersion { flight: PROTOCOL_VERSION })
             } else if *h != schema_hash() {
-                FswMsg::Error(LinkError::SchemaHash {
-                    flight: schema_hash(),
-                })
+                FswMsg::Error(LinkError::SchemaHash { flight: schema_hash() })
             } else {
                 FswMsg::HelloAck {
                     protocol_version: PROTOCOL_VERSION,
@@ -74,11 +56,7 @@ impl Session {
                 let t0 = counter();
                 let cmd = self.fsw.step(f);
                 let t1 = counter();
-                Some(FswMsg::Step(self.report(
-                    cmd,
-                    t1.wrapping_sub(t0),
-                    frames_dropped,
-                )))
+                Some(FswMsg::Step(self.report(cmd, t1.wrapping_sub(t0), frames_dropped)))
             }
             HostMsg::SetTarget { target_q_xyzw } => match self.fsw.set_target(*target_q_xyzw) {
                 Ok(()) => None,
@@ -95,18 +73,8 @@ impl Session {
         }
     }
 
-    pub fn report(
-        &self,
-        cmd: crate::protocol::ActuatorCommand,
-        ticks: u32,
-        frames_dropped: u32,
-    ) -> StepReport {
-        StepReport {
-            cmd,
-            step_cost_ticks: ticks,
-            deadline_misses: self.deadline_misses,
-            frames_dropped,
-        }
+    pub fn report(&self, cmd: crate::protocol::ActuatorCommand, ticks: u32, frames_dropped: u32) -> StepReport {
+        StepReport { cmd, step_cost_ticks: ticks, deadline_misses: self.deadline_misses, frames_dropped }
     }
 }
 
@@ -120,39 +88,15 @@ mod tests {
     fn hello_checks_version_and_schema() {
         let mut s = Session::new(board::HOST, 0);
         let mut c = || 0u32;
-        let ok = s.handle(
-            &HostMsg::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                schema_hash: schema_hash(),
-            },
-            0,
-            &mut c,
-        );
+        let ok =
+            s.handle(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() }, 0, &mut c);
         assert!(matches!(ok, Some(FswMsg::HelloAck { board: 0, .. })));
-        let bad = s.handle(
-            &HostMsg::Hello {
-                protocol_version: PROTOCOL_VERSION + 1,
-                schema_hash: schema_hash(),
-            },
-            0,
-            &mut c,
-        );
-        assert!(matches!(
-            bad,
-            Some(FswMsg::Error(LinkError::ProtocolVersion { .. }))
-        ));
-        let bad = s.handle(
-            &HostMsg::Hello {
-                protocol_version: PROTOCOL_VERSION,
-                schema_hash: !schema_hash(),
-            },
-            0,
-            &mut c,
-        );
-        assert!(matches!(
-            bad,
-            Some(FswMsg::Error(LinkError::SchemaHash { .. }))
-        ));
+        let bad =
+            s.handle(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION + 1, schema_hash: schema_hash() }, 0, &mut c);
+        assert!(matches!(bad, Some(FswMsg::Error(LinkError::ProtocolVersion { .. }))));
+        let bad =
+            s.handle(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: !schema_hash() }, 0, &mut c);
+        assert!(matches!(bad, Some(FswMsg::Error(LinkError::SchemaHash { .. }))));
     }
 
     #[test]
@@ -163,10 +107,7 @@ mod tests {
             t = t.wrapping_add(7);
             t
         };
-        let f = SensorFrame {
-            valid: valid::ALL,
-            ..SensorFrame::empty(9, 0)
-        };
+        let f = SensorFrame { valid: valid::ALL, ..SensorFrame::empty(9, 0) };
         match s.handle(&HostMsg::Sensor(f), 3, &mut c) {
             Some(FswMsg::Step(r)) => {
                 assert_eq!((r.cmd.seq, r.step_cost_ticks, r.frames_dropped), (9, 7, 3));
@@ -174,19 +115,10 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        assert!(matches!(
-            s.handle(&HostMsg::StartRealTime, 0, &mut c),
-            Some(FswMsg::Error(LinkError::NotConfigured))
-        ));
+        assert!(matches!(s.handle(&HostMsg::StartRealTime, 0, &mut c), Some(FswMsg::Error(LinkError::NotConfigured))));
         let mut p = FlightParams::default();
-        assert!(matches!(
-            s.handle(&HostMsg::UploadParams(p), 0, &mut c),
-            Some(FswMsg::ParamsAccepted { .. })
-        ));
+        assert!(matches!(s.handle(&HostMsg::UploadParams(p), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
         p.control_rate_hz = -1.0;
-        assert!(matches!(
-            s.handle(&HostMsg::UploadParams(p), 0, &mut c),
-            Some(FswMsg::ParamsRejected(_))
-        ));
+        assert!(matches!(s.handle(&HostMsg::UploadParams(p), 0, &mut c), Some(FswMsg::ParamsRejected(_))));
     }
 }

@@ -9,9 +9,7 @@ use acs_flight::allocation::thruster::{AllocResult, AllocStatus, Failures, RateL
 use common::*;
 
 fn same_bits<const N: usize>(a: &AllocResult<N>, b: &AllocResult<N>) -> bool {
-    a.u.iter()
-        .zip(b.u.iter())
-        .all(|(x, y)| x.to_bits() == y.to_bits())
+    a.u.iter().zip(b.u.iter()).all(|(x, y)| x.to_bits() == y.to_bits())
         && a.lambda.to_bits() == b.lambda.to_bits()
         && a.status == b.status
         && a.iterations == b.iterations
@@ -39,11 +37,7 @@ fn degenerate_demands_are_deterministic() {
     dirs.extend(z.normals.iter().copied());
     for i in 0..8 {
         for j in (i + 1)..8 {
-            dirs.push([
-                cols[i][0] + cols[j][0],
-                cols[i][1] + cols[j][1],
-                cols[i][2] + cols[j][2],
-            ]);
+            dirs.push([cols[i][0] + cols[j][0], cols[i][1] + cols[j][1], cols[i][2] + cols[j][2]]);
         }
     }
     let mut n = 0;
@@ -53,27 +47,16 @@ fn degenerate_demands_are_deterministic() {
             let m = to_f32(&[d[0] * reach * f, d[1] * reach * f, d[2] * reach * f]);
             for bodson in [false, true] {
                 let run = || {
-                    if bodson {
-                        al.bodson(&m, &bd)
-                    } else {
-                        al.direction_preserving(&m, &bd)
-                    }
+                    if bodson { al.bodson(&m, &bd) } else { al.direction_preserving(&m, &bd) }
                 };
                 let (a, b) = (run(), run());
                 assert!(same_bits(&a, &b), "non-deterministic for {m:?}");
-                assert!(
-                    matches!(a.status, AllocStatus::Ok | AllocStatus::Scaled),
-                    "{:?} for {m:?}",
-                    a.status
-                );
+                assert!(matches!(a.status, AllocStatus::Ok | AllocStatus::Scaled), "{:?} for {m:?}", a.status);
                 n += 1;
             }
         }
     }
-    println!(
-        "determinism: {} degenerate/tied demands × 2 methods, bit-identical on repeat",
-        n / 2
-    );
+    println!("determinism: {} degenerate/tied demands × 2 methods, bit-identical on repeat", n / 2);
 }
 
 /// max over nonsingular 3-column subsets S of ‖B_S⁻¹‖_∞ (f64).
@@ -90,10 +73,7 @@ fn basis_lipschitz(b: &[[f32; 8]; 3]) -> f64 {
                 }
                 // rows of the inverse: (a1×a2, a2×a0, a0×a1) / det
                 let rows = [cross(&a1, &a2), cross(&a2, &a0), cross(&a0, &a1)];
-                let n = rows
-                    .iter()
-                    .map(|r| r.iter().map(|v| v.abs()).sum::<f64>() / det.abs())
-                    .fold(0.0, f64::max);
+                let n = rows.iter().map(|r| r.iter().map(|v| v.abs()).sum::<f64>() / det.abs()).fold(0.0, f64::max);
                 best = best.max(n);
             }
         }
@@ -123,29 +103,16 @@ fn one_percent_change_bounded() {
         let m = to_f32(&[d[0] * s, d[1] * s, d[2] * s]);
         let p = rng.unit3();
         let dm = 0.01 * s;
-        let m2 = to_f32(&[
-            m[0] as f64 + p[0] * dm,
-            m[1] as f64 + p[1] * dm,
-            m[2] as f64 + p[2] * dm,
-        ]);
-        let dm_inf = (0..3)
-            .map(|a| (m2[a] as f64 - m[a] as f64).abs())
-            .fold(0.0, f64::max);
-        let (r1, r2) = (
-            al.direction_preserving(&m, &bd),
-            al.direction_preserving(&m2, &bd),
-        );
+        let m2 = to_f32(&[m[0] as f64 + p[0] * dm, m[1] as f64 + p[1] * dm, m[2] as f64 + p[2] * dm]);
+        let dm_inf = (0..3).map(|a| (m2[a] as f64 - m[a] as f64).abs()).fold(0.0, f64::max);
+        let (r1, r2) = (al.direction_preserving(&m, &bd), al.direction_preserving(&m2, &bd));
         if r1.status != AllocStatus::Ok || r2.status != AllocStatus::Ok {
             continue;
         }
-        let du = (0..8)
-            .map(|j| (r1.u[j] as f64 - r2.u[j] as f64).abs())
-            .fold(0.0, f64::max);
+        let du = (0..8).map(|j| (r1.u[j] as f64 - r2.u[j] as f64).abs()).fold(0.0, f64::max);
         let b1 = al.bodson(&m, &bd);
         let b2 = al.bodson(&m2, &bd);
-        let dub = (0..8)
-            .map(|j| (b1.u[j] as f64 - b2.u[j] as f64).abs())
-            .fold(0.0, f64::max);
+        let dub = (0..8).map(|j| (b1.u[j] as f64 - b2.u[j] as f64).abs()).fold(0.0, f64::max);
         worst_bodson = worst_bodson.max(dub / dm_inf);
         let m1 = al.fuel_lp(&m, &bd).solve().dual_margin;
         let m2m = al.fuel_lp(&m2, &bd).solve().dual_margin;
@@ -181,11 +148,7 @@ fn attainable_demands() {
         let al = if case % 2 == 0 {
             paper_allocator(1.0)
         } else {
-            acs_flight::allocation::thruster::Allocator::<8, 9>::new(
-                random_b(&mut rng),
-                [0.0; 8],
-                [1.0; 8],
-            )
+            acs_flight::allocation::thruster::Allocator::<8, 9>::new(random_b(&mut rng), [0.0; 8], [1.0; 8])
         };
         let bd = al.nominal_bounds();
         let z = zonotope_of(al.b(), &bd);
@@ -196,39 +159,25 @@ fn attainable_demands() {
         }
         let s = reach * rng.range(0.01, 0.98);
         let m = to_f32(&[d[0] * s, d[1] * s, d[2] * s]);
-        let scale: f64 = al
-            .b()
-            .iter()
-            .flat_map(|r| r.iter())
-            .map(|v| v.abs() as f64)
-            .sum();
+        let scale: f64 = al.b().iter().flat_map(|r| r.iter()).map(|v| v.abs() as f64).sum();
         let r = al.direction_preserving(&m, &bd);
         assert_eq!(r.status, AllocStatus::Ok, "{m:?}");
         assert_eq!(r.lambda, 1.0);
         let bu = moment(al.b(), &r.u);
-        let res = (0..3)
-            .map(|a| (bu[a] - m[a] as f64).abs())
-            .fold(0.0, f64::max)
-            / scale;
+        let res = (0..3).map(|a| (bu[a] - m[a] as f64).abs()).fold(0.0, f64::max) / scale;
         assert!(res <= 1e-5, "‖Bu - m‖∞ / Σ|B| = {res}");
         worst_res = worst_res.max(res);
         // fuel stage vs stage 1
         let s1 = al.dp_lp(&m, &bd).solve();
         let fuel1: f64 = s1.x[..8].iter().map(|v| *v as f64).sum();
         let fuel2: f64 = r.u.iter().map(|v| *v as f64).sum();
-        assert!(
-            fuel2 <= fuel1 + 1e-5,
-            "fuel stage {fuel2} > stage 1 {fuel1}"
-        );
+        assert!(fuel2 <= fuel1 + 1e-5, "fuel stage {fuel2} > stage 1 {fuel1}");
         saved += fuel1 - fuel2;
         // Bodson: also exact, never less fuel than the fuel optimum
         let rb = al.bodson(&m, &bd);
         assert_eq!(rb.status, AllocStatus::Ok);
         let bub = moment(al.b(), &rb.u);
-        let resb = (0..3)
-            .map(|a| (bub[a] - m[a] as f64).abs())
-            .fold(0.0, f64::max)
-            / scale;
+        let resb = (0..3).map(|a| (bub[a] - m[a] as f64).abs()).fold(0.0, f64::max) / scale;
         assert!(resb <= 1e-5, "Bodson ‖Bu - m‖∞ / Σ|B| = {resb}");
         worst_res_b = worst_res_b.max(resb);
         let fuelb: f64 = rb.u.iter().map(|v| *v as f64).sum();
@@ -255,18 +204,10 @@ fn fuel_dp_vs_bodson_paper() {
     for d in sphere(2000) {
         let reach = z.ray_interval(&d).unwrap().1;
         let m = to_f32(&[d[0] * reach * 0.5, d[1] * reach * 0.5, d[2] * reach * 0.5]);
-        fd += al
-            .direction_preserving(&m, &bd)
-            .u
-            .iter()
-            .map(|v| *v as f64)
-            .sum::<f64>();
+        fd += al.direction_preserving(&m, &bd).u.iter().map(|v| *v as f64).sum::<f64>();
         fb += al.bodson(&m, &bd).u.iter().map(|v| *v as f64).sum::<f64>();
     }
-    println!(
-        "paper B, demands at 50 % of reach over 2000 directions: Σu Bodson / Σu DP = {:.3}",
-        fb / fd
-    );
+    println!("paper B, demands at 50 % of reach over 2000 directions: Σu Bodson / Σu DP = {:.3}", fb / fd);
     assert!(fb > fd);
 }
 
@@ -279,23 +220,12 @@ fn rate_limits_and_stuck_on() {
     let mut n_scaled = [0usize; 2];
     let mut n_inf = [0usize; 2];
     for _ in 0..3000 {
-        let mut rl = RateLimit {
-            u_prev: [0.0; 8],
-            rho_min: [-2.0; 8],
-            rho_max: [2.0; 8],
-            dt: 0.1,
-        };
+        let mut rl = RateLimit { u_prev: [0.0; 8], rho_min: [-2.0; 8], rho_max: [2.0; 8], dt: 0.1 };
         for v in rl.u_prev.iter_mut() {
             *v = rng.f64() as f32;
         }
-        let fail = if rng.f64() < 0.3 {
-            Failures {
-                failed: 1 << rng.below(8),
-                stuck_on: 0xff,
-            }
-        } else {
-            Failures::NONE
-        };
+        let fail =
+            if rng.f64() < 0.3 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
         let bd = al.bounds(Some(&rl), fail);
         for j in 0..8 {
             assert!(bd.lo[j] <= bd.hi[j]);
@@ -310,11 +240,7 @@ fn rate_limits_and_stuck_on() {
         let d = rng.unit3();
         let m = [d[0] * 0.5, d[1] * 0.5, d[2] * 0.5];
         for (k, bodson) in [false, true].into_iter().enumerate() {
-            let r = if bodson {
-                al.bodson(&to_f32(&m), &bd)
-            } else {
-                al.direction_preserving(&to_f32(&m), &bd)
-            };
+            let r = if bodson { al.bodson(&to_f32(&m), &bd) } else { al.direction_preserving(&to_f32(&m), &bd) };
             for j in 0..8 {
                 assert!(r.u[j] >= bd.lo[j] && r.u[j] <= bd.hi[j]);
             }
@@ -323,23 +249,12 @@ fn rate_limits_and_stuck_on() {
                 AllocStatus::Ok | AllocStatus::Scaled => {
                     let bu = moment(al.b(), &r.u);
                     for a in 0..3 {
-                        assert!(
-                            (bu[a] - r.lambda as f64 * m[a]).abs() < 1e-4,
-                            "direction lost"
-                        );
+                        assert!((bu[a] - r.lambda as f64 * m[a]).abs() < 1e-4, "direction lost");
                     }
                     if let Some(w) = want {
-                        assert!(
-                            (r.lambda as f64 - w).abs() <= 1e-4 * w.max(1e-2),
-                            "λ {} vs {w}",
-                            r.lambda
-                        );
+                        assert!((r.lambda as f64 - w).abs() <= 1e-4 * w.max(1e-2), "λ {} vs {w}", r.lambda);
                     }
-                    if r.status == AllocStatus::Ok {
-                        n_ok[k] += 1
-                    } else {
-                        n_scaled[k] += 1
-                    }
+                    if r.status == AllocStatus::Ok { n_ok[k] += 1 } else { n_scaled[k] += 1 }
                 }
                 AllocStatus::Infeasible => {
                     // the ray segment [0, m] misses Z (rate limits keep some thrusters on)

@@ -10,32 +10,18 @@ use acs_flight::allocation::thruster::paper::paper_allocator;
 use acs_flight::allocation::thruster::{AllocStatus, Allocator, Lp, LpStatus, Pricing};
 use common::*;
 
-fn check_lp<const M: usize, const N: usize>(
-    lp: &Lp<M, N>,
-    worst: &mut f64,
-    counts: &mut [usize; 3],
-) {
+fn check_lp<const M: usize, const N: usize>(lp: &Lp<M, N>, worst: &mut f64, counts: &mut [usize; 3]) {
     let ours = lp.solve();
     let theirs = microlp_solve(lp);
     match (ours.status, theirs) {
         (LpStatus::Optimal, Ok((obj, _))) => {
             let err = (ours.objective as f64 - obj).abs() / (1.0 + obj.abs());
-            assert!(
-                err <= 1e-4,
-                "objective {} vs microlp {obj} ({lp:?})",
-                ours.objective
-            );
+            assert!(err <= 1e-4, "objective {} vs microlp {obj} ({lp:?})", ours.objective);
             *worst = worst.max(err);
             // primal feasibility of our x in f64
             for i in 0..lp.rows {
-                let r: f64 = (0..lp.cols)
-                    .map(|j| lp.a[i][j] as f64 * ours.x[j] as f64)
-                    .sum::<f64>()
-                    - lp.b[i] as f64;
-                assert!(
-                    r.abs() <= 1e-4 * (1.0 + lp.b[i].abs() as f64),
-                    "row {i} residual {r}"
-                );
+                let r: f64 = (0..lp.cols).map(|j| lp.a[i][j] as f64 * ours.x[j] as f64).sum::<f64>() - lp.b[i] as f64;
+                assert!(r.abs() <= 1e-4 * (1.0 + lp.b[i].abs() as f64), "row {i} residual {r}");
             }
             counts[0] += 1;
         }
@@ -53,11 +39,7 @@ fn generic_random_lps() {
     for case in 0..3000 {
         let kind = case % 3; // 0 feasible bounded, 1 maybe infeasible, 2 some h = inf
         let mut lp = Lp::<3, 10>::zeroed(3, 10);
-        lp.pricing = if case % 2 == 0 {
-            Pricing::Bland
-        } else {
-            Pricing::DantzigBland
-        };
+        lp.pricing = if case % 2 == 0 { Pricing::Bland } else { Pricing::DantzigBland };
         let mut x = [0.0f64; 10];
         for j in 0..10 {
             lp.h[j] = rng.range(0.1, 2.0) as f32;
@@ -65,11 +47,7 @@ fn generic_random_lps() {
                 lp.h[j] = f32::INFINITY;
             }
             lp.c[j] = rng.range(-1.0, 1.0) as f32;
-            x[j] = if lp.h[j].is_finite() {
-                rng.range(0.0, lp.h[j] as f64)
-            } else {
-                rng.range(0.0, 2.0)
-            };
+            x[j] = if lp.h[j].is_finite() { rng.range(0.0, lp.h[j] as f64) } else { rng.range(0.0, 2.0) };
             // degenerate starts: some x at bounds
             if rng.f64() < 0.3 {
                 x[j] = 0.0;
@@ -124,11 +102,7 @@ fn allocation_lps_vs_microlp() {
         };
         let bd = al.nominal_bounds();
         let d = rng.unit3();
-        let m = to_f32(&[
-            d[0] * rng.range(0.05, 3.0),
-            d[1] * rng.range(0.05, 3.0),
-            d[2] * rng.range(0.05, 3.0),
-        ]);
+        let m = to_f32(&[d[0] * rng.range(0.05, 3.0), d[1] * rng.range(0.05, 3.0), d[2] * rng.range(0.05, 3.0)]);
         // stage 1 (eq 18)
         let lp = al.dp_lp(&m, &bd);
         let (obj, _) = microlp_solve(&lp).expect("stage-1 LP is feasible (λ = 0, u = 0)");
@@ -146,7 +120,5 @@ fn allocation_lps_vs_microlp() {
         }
         n += 1;
     }
-    println!(
-        "allocation LPs vs microlp: {n} demands, max rel λ error {worst_l:.2e}, max rel fuel error {worst_f:.2e}"
-    );
+    println!("allocation LPs vs microlp: {n} demands, max rel λ error {worst_l:.2e}, max rel fuel error {worst_f:.2e}");
 }

@@ -37,10 +37,7 @@ fn failure_table() {
         if k > 3 {
             continue;
         }
-        let ids: Vec<usize> = (0..8)
-            .filter(|i| mask & (1 << i) != 0)
-            .map(|i| i + 1)
-            .collect();
+        let ids: Vec<usize> = (0..8).filter(|i| mask & (1 << i) != 0).map(|i| i + 1).collect();
         let (ok, r, n) = authority(&ids);
         total[k - 1] += 1;
         if ok {
@@ -72,10 +69,7 @@ fn failure_table() {
     );
     // {1, 4} (the paper's simulated case)
     let (ok14, r14, _) = authority(&[1, 4]);
-    println!(
-        "{{1,4}}: authority {}, inscribed radius {r14:.4}",
-        if ok14 { "kept" } else { "LOST" }
-    );
+    println!("{{1,4}}: authority {}, inscribed radius {r14:.4}", if ok14 { "kept" } else { "LOST" });
     assert!(ok14);
     assert!(!ok, "B says {{1,3,7}} keeps authority");
 
@@ -85,16 +79,8 @@ fn failure_table() {
         let bd = al.bounds(None, Failures::off_1based(ids));
         for bodson in [false, true] {
             let m = to_f32(n);
-            let r = if bodson {
-                al.bodson(&m, &bd)
-            } else {
-                al.direction_preserving(&m, &bd)
-            };
-            assert!(
-                r.lambda.abs() < 1e-5,
-                "{ids:?}: λ {} along the witness",
-                r.lambda
-            );
+            let r = if bodson { al.bodson(&m, &bd) } else { al.direction_preserving(&m, &bd) };
+            assert!(r.lambda.abs() < 1e-5, "{ids:?}: λ {} along the witness", r.lambda);
             assert!(r.u.iter().all(|v| *v >= 0.0) && ids.iter().all(|i| r.u[i - 1] == 0.0));
         }
     }
@@ -110,27 +96,14 @@ fn failures_1_and_4_still_allocate() {
     let mut n = 0;
     for d in sphere(3000) {
         // any demand within the inscribed ball is attainable
-        let m = to_f32(&[
-            d[0] * radius * 0.99,
-            d[1] * radius * 0.99,
-            d[2] * radius * 0.99,
-        ]);
+        let m = to_f32(&[d[0] * radius * 0.99, d[1] * radius * 0.99, d[2] * radius * 0.99]);
         for bodson in [false, true] {
-            let r = if bodson {
-                al.bodson(&m, &bd)
-            } else {
-                al.direction_preserving(&m, &bd)
-            };
+            let r = if bodson { al.bodson(&m, &bd) } else { al.direction_preserving(&m, &bd) };
             assert_eq!(r.status, AllocStatus::Ok, "{m:?}");
             assert_eq!((r.u[0], r.u[3]), (0.0, 0.0));
             assert_eq!(r.sat_low & 0b1001, 0b1001);
             assert_eq!(r.sat_high & 0b1001, 0b1001);
-            worst = worst.max(
-                r.shortfall
-                    .iter()
-                    .map(|v| v.abs() as f64)
-                    .fold(0.0, f64::max),
-            );
+            worst = worst.max(r.shortfall.iter().map(|v| v.abs() as f64).fold(0.0, f64::max));
             n += 1;
         }
         // and beyond it, direction kept with λ from the oracle
@@ -148,24 +121,14 @@ fn failures_1_and_4_still_allocate() {
 fn stuck_on_thruster() {
     // Thruster 2 stuck on: the allocator compensates with the others.
     let al = paper_allocator(1.0);
-    let bd = al.bounds(
-        None,
-        Failures {
-            failed: 0b10,
-            stuck_on: 0b10,
-        },
-    );
+    let bd = al.bounds(None, Failures { failed: 0b10, stuck_on: 0b10 });
     assert_eq!((bd.lo[1], bd.hi[1]), (1.0, 1.0));
     let z = zonotope_of(al.b(), &bd);
     let mut counts = [0usize; 3];
     for d in sphere(500) {
         let m = [d[0] * 0.2, d[1] * 0.2, d[2] * 0.2];
         for bodson in [false, true] {
-            let r = if bodson {
-                al.bodson(&to_f32(&m), &bd)
-            } else {
-                al.direction_preserving(&to_f32(&m), &bd)
-            };
+            let r = if bodson { al.bodson(&to_f32(&m), &bd) } else { al.direction_preserving(&to_f32(&m), &bd) };
             assert_eq!(r.u[1], 1.0);
             let want = z.dp_lambda(&m);
             match r.status {

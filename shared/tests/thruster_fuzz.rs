@@ -6,9 +6,7 @@
 #[path = "thruster_common/mod.rs"]
 mod common;
 use acs_flight::allocation::thruster::paper::PAPER_PWPF;
-use acs_flight::allocation::thruster::{
-    AllocStatus, Allocator, Bounds, Failures, Lp, LpStatus, Pwpf, RateLimit,
-};
+use acs_flight::allocation::thruster::{AllocStatus, Allocator, Bounds, Failures, Lp, LpStatus, Pwpf, RateLimit};
 use common::*;
 
 fn wild(rng: &mut Rng) -> f32 {
@@ -67,12 +65,8 @@ fn fuzz_100k() {
             },
         ];
         let rate = if rng.f64() < 0.3 {
-            let mut rl = RateLimit {
-                u_prev: [0.0; 8],
-                rho_min: [-1.0; 8],
-                rho_max: [1.0; 8],
-                dt: maybe_wild(&mut rng, p, 0.1),
-            };
+            let mut rl =
+                RateLimit { u_prev: [0.0; 8], rho_min: [-1.0; 8], rho_max: [1.0; 8], dt: maybe_wild(&mut rng, p, 0.1) };
             for j in 0..8 {
                 rl.u_prev[j] = {
                     let v = rng.f64() as f32;
@@ -92,10 +86,7 @@ fn fuzz_100k() {
         let bd = al.bounds(rate.as_ref(), fail);
         let bd = if rng.f64() < 0.05 {
             // raw garbage bounds too
-            let mut g = Bounds {
-                lo: [0.0; 8],
-                hi: [0.0; 8],
-            };
+            let mut g = Bounds { lo: [0.0; 8], hi: [0.0; 8] };
             for j in 0..8 {
                 g.lo[j] = wild(&mut rng);
                 g.hi[j] = wild(&mut rng);
@@ -110,27 +101,13 @@ fn fuzz_100k() {
             && umin.iter().chain(umax.iter()).all(|v| v.is_finite());
         let consistent = bd.lo.iter().zip(bd.hi.iter()).all(|(l, h)| l <= h);
         // finite but so large that f32 sums/products may overflow inside the LP
-        let huge = m
-            .iter()
-            .chain(b.iter().flatten())
-            .chain(bd.lo.iter())
-            .chain(bd.hi.iter())
-            .any(|v| v.abs() > 1e15);
+        let huge = m.iter().chain(b.iter().flatten()).chain(bd.lo.iter()).chain(bd.hi.iter()).any(|v| v.abs() > 1e15);
         for bodson in [false, true] {
-            let r = if bodson {
-                al.bodson(&m, &bd)
-            } else {
-                al.direction_preserving(&m, &bd)
-            };
+            let r = if bodson { al.bodson(&m, &bd) } else { al.direction_preserving(&m, &bd) };
             statuses[r.status as usize] += 1;
             max_it = max_it.max(r.iterations);
             assert!(r.u.iter().all(|v| v.is_finite()));
-            assert!(
-                r.realised
-                    .iter()
-                    .chain(r.shortfall.iter())
-                    .all(|v| v.is_finite())
-            );
+            assert!(r.realised.iter().chain(r.shortfall.iter()).all(|v| v.is_finite()));
             assert!(r.lambda.is_finite() && r.lambda >= 0.0 && r.lambda <= 1.0);
             if !inputs_finite {
                 assert_eq!(r.status, AllocStatus::NonFinite);
@@ -172,10 +149,7 @@ fn fuzz_100k() {
         }
         let s = lp.solve_with_cap(rng.below(60) as u16);
         lp_statuses[s.status as usize] += 1;
-        assert!(
-            s.x.iter().all(|v| v.is_finite() && *v >= 0.0),
-            "{lp:?} -> {s:?}"
-        );
+        assert!(s.x.iter().all(|v| v.is_finite() && *v >= 0.0), "{lp:?} -> {s:?}");
         if s.status == LpStatus::Optimal {
             assert!(s.objective.is_finite());
         }

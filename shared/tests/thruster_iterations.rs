@@ -6,9 +6,7 @@
 mod common;
 use acs_flight::allocation::thruster::paper::paper_allocator;
 use acs_flight::allocation::thruster::simplex::default_iteration_cap;
-use acs_flight::allocation::thruster::{
-    AllocStatus, Allocator, Bounds, Failures, LpStatus, Pricing, RateLimit,
-};
+use acs_flight::allocation::thruster::{AllocStatus, Allocator, Bounds, Failures, LpStatus, Pricing, RateLimit};
 use common::*;
 
 #[derive(Default, Debug)]
@@ -20,12 +18,7 @@ struct Worst {
     n: usize,
 }
 
-fn sweep_one<const N: usize, const NV: usize>(
-    al: &Allocator<N, NV>,
-    bd: &Bounds<N>,
-    m: &[f32; 3],
-    w: &mut Worst,
-) {
+fn sweep_one<const N: usize, const NV: usize>(al: &Allocator<N, NV>, bd: &Bounds<N>, m: &[f32; 3], w: &mut Worst) {
     let r = al.direction_preserving(m, bd);
     let b = al.bodson(m, bd);
     assert_ne!(r.status, AllocStatus::IterationCap, "DP cap at {m:?}");
@@ -49,28 +42,16 @@ fn demands(z: &Zonotope, cols: &[[f64; 3]], ndir: usize) -> Vec<[f32; 3]> {
     dirs.extend(z.normals.iter().copied());
     for i in 0..cols.len() {
         for j in (i + 1)..cols.len() {
-            dirs.push([
-                cols[i][0] + cols[j][0],
-                cols[i][1] + cols[j][1],
-                cols[i][2] + cols[j][2],
-            ]);
+            dirs.push([cols[i][0] + cols[j][0], cols[i][1] + cols[j][1], cols[i][2] + cols[j][2]]);
         }
     }
     dirs.push([1.0, 0.0, 0.0]);
     dirs.push([0.0, 0.0, 0.0]);
     let mut out = Vec::new();
     for d in dirs {
-        let reach = z
-            .ray_interval(&d)
-            .map(|r| r.1)
-            .filter(|r| r.is_finite() && *r > 1e-9)
-            .unwrap_or(1.0);
+        let reach = z.ray_interval(&d).map(|r| r.1).filter(|r| r.is_finite() && *r > 1e-9).unwrap_or(1.0);
         for f in [0.01, 0.5, 0.999, 1.0, 1.001, 2.0, 1e3] {
-            out.push(to_f32(&[
-                d[0] * reach * f,
-                d[1] * reach * f,
-                d[2] * reach * f,
-            ]));
+            out.push(to_f32(&[d[0] * reach * f, d[1] * reach * f, d[2] * reach * f]));
         }
     }
     out
@@ -95,13 +76,7 @@ fn worst_case_iterations() {
         if mask.count_ones() > 3 {
             continue;
         }
-        let bd = al.bounds(
-            None,
-            Failures {
-                failed: mask,
-                stuck_on: 0,
-            },
-        );
+        let bd = al.bounds(None, Failures { failed: mask, stuck_on: 0 });
         let z = zonotope_of(al.b(), &bd);
         for m in demands(&z, &cols, 300) {
             sweep_one(&al, &bd, &m, &mut wf);
@@ -112,27 +87,12 @@ fn worst_case_iterations() {
     let mut rng = Rng(123);
     let mut wr = Worst::default();
     for _ in 0..20000 {
-        let mut rl = RateLimit {
-            u_prev: [0.0; 8],
-            rho_min: [-3.0; 8],
-            rho_max: [3.0; 8],
-            dt: 0.1,
-        };
+        let mut rl = RateLimit { u_prev: [0.0; 8], rho_min: [-3.0; 8], rho_max: [3.0; 8], dt: 0.1 };
         for v in rl.u_prev.iter_mut() {
-            *v = if rng.f64() < 0.5 {
-                0.0
-            } else {
-                rng.f64() as f32
-            };
+            *v = if rng.f64() < 0.5 { 0.0 } else { rng.f64() as f32 };
         }
-        let fail = if rng.f64() < 0.2 {
-            Failures {
-                failed: 1 << rng.below(8),
-                stuck_on: 0xff,
-            }
-        } else {
-            Failures::NONE
-        };
+        let fail =
+            if rng.f64() < 0.2 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
         let bd = al.bounds(Some(&rl), fail);
         let d = rng.unit3();
         let s = rng.range(0.0, 2.0);

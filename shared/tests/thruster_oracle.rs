@@ -23,14 +23,7 @@ struct Stats {
 }
 impl Stats {
     fn new() -> Self {
-        Self {
-            n: 0,
-            max_abs: 0.0,
-            max_rel: 0.0,
-            max_dir: 0.0,
-            max_iter: 0,
-            rep: 0,
-        }
+        Self { n: 0, max_abs: 0.0, max_rel: 0.0, max_dir: 0.0, max_iter: 0, rep: 0 }
     }
 }
 
@@ -45,42 +38,20 @@ fn check<const N: usize, const NV: usize>(
     let md = to_f32(m);
     let mf = [md[0] as f64, md[1] as f64, md[2] as f64]; // oracle on the f32 demand
     let want = z.dp_lambda(&mf).expect("0 is admissible, the ray meets Z");
-    let r = if bodson {
-        al.bodson(&md, bd)
-    } else {
-        al.direction_preserving(&md, bd)
-    };
-    assert!(
-        matches!(r.status, AllocStatus::Ok | AllocStatus::Scaled),
-        "status {:?} for m {m:?}",
-        r.status
-    );
+    let r = if bodson { al.bodson(&md, bd) } else { al.direction_preserving(&md, bd) };
+    assert!(matches!(r.status, AllocStatus::Ok | AllocStatus::Scaled), "status {:?} for m {m:?}", r.status);
     let got = r.lambda as f64;
     let err = (got - want).abs();
     let rel = err / want.max(1e-2);
-    let scale: f64 = al
-        .b()
-        .iter()
-        .flat_map(|r| r.iter())
-        .map(|v| v.abs() as f64)
-        .sum();
+    let scale: f64 = al.b().iter().flat_map(|r| r.iter()).map(|v| v.abs() as f64).sum();
     let delta_u = 4.0 * f32::EPSILON as f64 * scale / norm(&mf);
-    assert!(
-        err <= 1e-4 * want.max(1e-2) + delta_u,
-        "λ {got} vs oracle {want} (m {m:?}, bodson {bodson})"
-    );
+    assert!(err <= 1e-4 * want.max(1e-2) + delta_u, "λ {got} vs oracle {want} (m {m:?}, bodson {bodson})");
     if err > 1e-4 * want.max(1e-2) {
         st.rep += 1;
     }
     let bu = moment(al.b(), &r.u);
-    let dir = (0..3)
-        .map(|a| (bu[a] - got * mf[a]).abs())
-        .fold(0.0, f64::max)
-        / scale;
-    assert!(
-        dir <= 1e-4,
-        "|Bu - λm| / Σ|B| = {dir} (m {m:?}, bodson {bodson})"
-    );
+    let dir = (0..3).map(|a| (bu[a] - got * mf[a]).abs()).fold(0.0, f64::max) / scale;
+    assert!(dir <= 1e-4, "|Bu - λm| / Σ|B| = {dir} (m {m:?}, bodson {bodson})");
     st.n += 1;
     st.max_abs = st.max_abs.max(err);
     st.max_rel = st.max_rel.max(rel);
@@ -133,11 +104,7 @@ fn random_b_1000() {
         for _ in 0..20 {
             let d = rng.unit3();
             let (_, reach) = z.ray_interval(&d).unwrap();
-            let f = if rng.f64() < 0.1 {
-                1.0
-            } else {
-                rng.range(0.1, 3.0)
-            };
+            let f = if rng.f64() < 0.1 { 1.0 } else { rng.range(0.1, 3.0) };
             let s = if reach > 1e-9 {
                 reach * f
             } else {
@@ -180,11 +147,7 @@ fn random_b_5000_extended() {
         for _ in 0..20 {
             let d = rng.unit3();
             let (_, reach) = z.ray_interval(&d).unwrap();
-            let s = if reach > 1e-9 {
-                reach * rng.range(0.1, 3.0)
-            } else {
-                1.0
-            };
+            let s = if reach > 1e-9 { reach * rng.range(0.1, 3.0) } else { 1.0 };
             let m = [d[0] * s, d[1] * s, d[2] * s];
             check(&al, &z, &bd, &m, false, &mut st[0]);
             check(&al, &z, &bd, &m, true, &mut st[1]);

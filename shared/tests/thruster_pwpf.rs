@@ -43,11 +43,7 @@ fn measure(e: f32, periods: usize, max_steps: usize) -> Option<(f64, f64, f64)> 
         off += r1 - f0;
     }
     let n = periods as f64;
-    Some((
-        on as f64 * DT as f64 / n,
-        off as f64 * DT as f64 / n,
-        first_width,
-    ))
+    Some((on as f64 * DT as f64 / n, off as f64 * DT as f64 / n, first_width))
 }
 
 #[test]
@@ -80,14 +76,8 @@ fn static_duty_cycle_and_frequency() {
         let s_off = |f: f64| km * ee - f;
         let tol_on = dt * (1.0 + s_off(p.u_on as f64) / s_on(p.u_on as f64));
         let tol_off = dt * (1.0 + s_on(p.u_off as f64) / s_off(p.u_off as f64));
-        assert!(
-            (ton - ton_c).abs() <= tol_on,
-            "T_on: {ton} vs {ton_c} (tol {tol_on})"
-        );
-        assert!(
-            (toff - toff_c).abs() <= tol_off,
-            "T_off: {toff} vs {toff_c} (tol {tol_off})"
-        );
+        assert!((ton - ton_c).abs() <= tol_on, "T_on: {ton} vs {ton_c} (tol {tol_on})");
+        assert!((toff - toff_c).abs() <= tol_off, "T_off: {toff} vs {toff_c} (tol {tol_off})");
         let period = ton_c + toff_c;
         let tol_dc = 1.1 * (toff_c * tol_on + ton_c * tol_off) / (period * period);
         let tol_f = 1.1 * (tol_on + tol_off) / period;
@@ -109,8 +99,7 @@ fn minimum_pulse_width() {
     let p = PAPER_PWPF;
     let e = p.dead_zone() * 1.0001;
     let (ton, _, first) = measure(e, 2, 20_000_000).expect("pulses just above the dead zone");
-    let closed =
-        -(p.tm as f64) * (1.0 - (p.hysteresis() as f64) / (p.km as f64 * p.u_m as f64)).ln();
+    let closed = -(p.tm as f64) * (1.0 - (p.hysteresis() as f64) / (p.km as f64 * p.u_m as f64)).ln();
     let at_e = p.on_time(e) as f64;
     println!(
         "min pulse width: closed form -Tm ln(1 - h/(Km Um)) = {:.4} ms; measured {:.4} ms (first pulse {:.4} ms), T_on(E_d·1.0001) = {:.4} ms",
@@ -164,25 +153,14 @@ fn exact_discretisation_independent_of_dt() {
         }
         let t = steps as f64 * dt as f64;
         let want = 4.5 * 0.5 * (1.0 - (-t / 0.15).exp());
-        assert!(
-            (m.filter()[0] as f64 - want).abs() < 1e-5,
-            "dt {dt}: {} vs {want}",
-            m.filter()[0]
-        );
+        assert!((m.filter()[0] as f64 - want).abs() < 1e-5, "dt {dt}: {} vs {want}", m.filter()[0]);
     }
 }
 
 #[test]
 fn garbage_inputs() {
     let mut m = Pwpf::<4>::new(PAPER_PWPF, 0.01).unwrap();
-    for x in [
-        f32::NAN,
-        f32::INFINITY,
-        f32::NEG_INFINITY,
-        f32::MAX,
-        -f32::MAX,
-        1e30,
-    ] {
+    for x in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, -f32::MAX, 1e30] {
         for _ in 0..100 {
             m.step(&[x, -x, x, 0.5]);
             assert!(m.filter().iter().all(|v| v.is_finite()));

@@ -65,9 +65,7 @@ pub fn rotate_ref_to_body(q: &Quat, v: &Vec3) -> Vec3 {
 
 /// Rotation matrix taking body vectors to the reference frame.
 pub fn dcm_body_to_ref(q: &Quat) -> nalgebra::Matrix3<f64> {
-    UnitQuaternion::from_quaternion(*q)
-        .to_rotation_matrix()
-        .into_inner()
+    UnitQuaternion::from_quaternion(*q).to_rotation_matrix().into_inner()
 }
 
 #[cfg(test)]

@@ -57,14 +57,7 @@ enum Cmd {
 
 fn main() -> Result<()> {
     match Cli::parse().cmd {
-        Cmd::Run {
-            scenario,
-            out,
-            link,
-            firmware,
-            no_plots,
-            quiet,
-        } => {
+        Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
             let sc = Scenario::load(&scenario)?;
             let open_loop = matches!(sc.controller, sim_host::scenario::Controller::None);
             let kind = match (link, &sc.link.kind) {
@@ -85,13 +78,11 @@ fn main() -> Result<()> {
                 s.sim_time_s,
                 s.link,
                 s.final_error_deg,
-                s.settle_time_s
-                    .map_or("never".into(), |t| format!("{t:.2} s")),
+                s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
                 s.real_time_factor
             );
             let opt = |name: &str, v: Option<f64>, unit: &str| {
-                v.map(|x| format!("; {name} {x:.4}{unit}"))
-                    .unwrap_or_default()
+                v.map(|x| format!("; {name} {x:.4}{unit}")).unwrap_or_default()
             };
             line += &opt("min m", s.min_singularity_measure, "");
             line += &opt("max gimbal rate", s.max_gimbal_rate_rad_s, " rad/s");
@@ -99,19 +90,14 @@ fn main() -> Result<()> {
             line += &opt("max wheel power", s.max_wheel_power_w, " W");
             line += &opt("propellant", s.propellant_kg, " kg");
             line += &opt("max pulses", s.max_pulses.map(f64::from), "");
-            line += &opt(
-                "max instructions/step",
-                s.max_step_instructions.map(|x| x as f64),
-                "",
-            );
+            line += &opt("max instructions/step", s.max_step_instructions.map(|x| x as f64), "");
             say!("{line}");
             for f in files {
                 say!("  wrote {}", f.display());
             }
         }
         Cmd::Serve { listen } => {
-            let l = std::net::TcpListener::bind(&listen)
-                .with_context(|| format!("binding {listen}"))?;
+            let l = std::net::TcpListener::bind(&listen).with_context(|| format!("binding {listen}"))?;
             eprintln!("flight code listening on {}", l.local_addr()?);
             link::serve::serve(l, None)?;
         }

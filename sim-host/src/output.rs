@@ -20,10 +20,7 @@ impl TimeSeries {
     }
 
     pub fn col(&self, name: &str) -> Option<&[f64]> {
-        self.names
-            .iter()
-            .position(|n| n == name)
-            .map(|i| self.cols[i].as_slice())
+        self.names.iter().position(|n| n == name).map(|i| self.cols[i].as_slice())
     }
 
     pub fn push_row(&mut self, row: &[f64]) {
@@ -61,13 +58,34 @@ impl TimeSeries {
     }
 }
 
-/// The paper-style figures of a CMG run.
+fn leak(s: String) -> &'static str {
+    Box::leak(s.into_boxed_str())
+}
+
+/// One series per wheel / thruster (missing columns are skipped by the renderer).
+fn per_unit(prefix: &str, quantity: &str, label: &str, n: usize) -> Vec<Series<'static>> {
+    (1..=n)
+        .map(|i| Series {
+            column: leak(format!("{prefix}{i}_{quantity}")),
+            label: leak(format!("{label}{i}")),
+            dashed: false,
+        })
+        .collect()
+}
+
+fn xyz(prefix: &str, suffix: &str) -> Vec<Series<'static>> {
+    ["x", "y", "z"]
+        .iter()
+        .map(|a| Series { column: leak(format!("{prefix}_{a}_{suffix}")), label: leak(a.to_string()), dashed: false })
+        .collect()
+}
+
+/// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
+/// and one figure per actuator family or environment present (figures whose columns are
+/// absent are skipped).
 pub fn figures() -> Vec<Figure<'static>> {
-    let s = |column, label, dashed| Series {
-        column,
-        label,
-        dashed,
-    };
+    let s = |column, label, dashed| Series { column, label, dashed };
+    let panel = |title, y_label, series| Panel { title, y_label, series, log_y: false };
     vec![
         Figure {
             file_name: "attitude.png",
@@ -75,33 +93,9 @@ pub fn figures() -> Vec<Figure<'static>> {
             x: "t_s",
             x_label: "time [s]",
             panels: vec![
-                Panel {
-                    title: "roll",
-                    y_label: "deg",
-                    series: vec![
-                        s("roll_deg", "roll", false),
-                        s("roll_target_deg", "target", true),
-                    ],
-                    log_y: false,
-                },
-                Panel {
-                    title: "pitch",
-                    y_label: "deg",
-                    series: vec![
-                        s("pitch_deg", "pitch", false),
-                        s("pitch_target_deg", "target", true),
-                    ],
-                    log_y: false,
-                },
-                Panel {
-                    title: "yaw",
-                    y_label: "deg",
-                    series: vec![
-                        s("yaw_deg", "yaw", false),
-                        s("yaw_target_deg", "target", true),
-                    ],
-                    log_y: false,
-                },
+                panel("roll", "deg", vec![s("roll_deg", "roll", false), s("roll_target_deg", "target", true)]),
+                panel("pitch", "deg", vec![s("pitch_deg", "pitch", false), s("pitch_target_deg", "target", true)]),
+                panel("yaw", "deg", vec![s("yaw_deg", "yaw", false), s("yaw_target_deg", "target", true)]),
                 Panel {
                     title: "attitude error",
                     y_label: "deg",
@@ -116,38 +110,36 @@ pub fn figures() -> Vec<Figure<'static>> {
             x: "t_s",
             x_label: "time [s]",
             panels: vec![
-                Panel {
-                    title: "gimbal angles",
-                    y_label: "deg",
-                    series: (1..=4)
-                        .map(|i| s(GIMBAL_DEG[i - 1], GIMBAL_LABEL[i - 1], false))
+                panel("gimbal angles", "deg", per_unit("gimbal", "deg", "δ", 4)),
+                panel(
+                    "commanded gimbal rates",
+                    "rad/s",
+                    (1..=4)
+                        .map(|i| Series {
+                            column: leak(format!("gimbal_rate{i}_rad_s")),
+                            label: leak(format!("δ{i}")),
+                            dashed: false,
+                        })
                         .collect(),
-                    log_y: false,
-                },
-                Panel {
-                    title: "commanded gimbal rates",
-                    y_label: "rad/s",
-                    series: (1..=4)
-                        .map(|i| s(GIMBAL_RATE[i - 1], GIMBAL_LABEL[i - 1], false))
-                        .collect(),
-                    log_y: false,
-                },
+                ),
             ],
         },
         Figure {
             file_name: "torque.png",
-            title: "Control torque: demanded (dashed) and realised by the cluster",
+            title: "Control torque: demanded (dashed) and applied by the actuators",
             x: "t_s",
             x_label: "time [s]",
-            panels: (0..3)
-                .map(|i| Panel {
-                    title: AXIS_TITLE[i],
-                    y_label: "N m",
-                    series: vec![
-                        s(TORQUE_APPLIED[i], "applied", false),
-                        s(TORQUE_DEMAND[i], "demand", true),
-                    ],
-                    log_y: false,
+            panels: ["x", "y", "z"]
+                .iter()
+                .map(|a| {
+                    panel(
+                        leak(a.to_string()),
+                        "N m",
+                        vec![
+                            Series { column: leak(format!("torque_applied_{a}_nm")), label: "applied", dashed: false },
+                            Series { column: leak(format!("torque_demand_{a}_nm")), label: "demand", dashed: true },
+                        ],
+                    )
                 })
                 .collect(),
         },
@@ -157,18 +149,8 @@ pub fn figures() -> Vec<Figure<'static>> {
             x: "t_s",
             x_label: "time [s]",
             panels: vec![
-                Panel {
-                    title: "singularity measure",
-                    y_label: "m",
-                    series: vec![s("singularity_m", "m", false)],
-                    log_y: false,
-                },
-                Panel {
-                    title: "SR weight α",
-                    y_label: "α",
-                    series: vec![s("steering_alpha", "α", false)],
-                    log_y: false,
-                },
+                panel("singularity measure", "m", vec![s("singularity_m", "m", false)]),
+                panel("SR weight α", "α", vec![s("steering_alpha", "α", false)]),
             ],
         },
         Figure {
@@ -176,39 +158,78 @@ pub fn figures() -> Vec<Figure<'static>> {
             title: "Body rates",
             x: "t_s",
             x_label: "time [s]",
-            panels: vec![Panel {
-                title: "body rate",
-                y_label: "rad/s",
-                series: vec![
-                    s("rate_x_rad_s", "ωx", false),
-                    s("rate_y_rad_s", "ωy", false),
-                    s("rate_z_rad_s", "ωz", false),
-                ],
-                log_y: false,
-            }],
+            panels: vec![panel(
+                "body rate",
+                "rad/s",
+                vec![s("rate_x_rad_s", "ωx", false), s("rate_y_rad_s", "ωy", false), s("rate_z_rad_s", "ωz", false)],
+            )],
+        },
+        Figure {
+            file_name: "wheels.png",
+            title: "Reaction wheels",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![
+                panel("speed", "rpm", per_unit("wheel", "speed_rpm", "w", 6)),
+                panel("motor current", "A", per_unit("wheel", "current_a", "w", 6)),
+                panel("electrical power", "W", per_unit("wheel", "power_w", "w", 6)),
+                panel("torque on the body", "N m", per_unit("wheel", "torque_nm", "w", 6)),
+            ],
+        },
+        Figure {
+            file_name: "magnetorquers.png",
+            title: "Magnetorquer dipoles (commanded dashed) and field",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![
+                panel("dipole", "A m²", {
+                    let mut v = xyz("dipole", "am2");
+                    v.extend(xyz("dipole_cmd", "am2").into_iter().map(|mut x| {
+                        x.dashed = true;
+                        x.label = leak(format!("{} cmd", x.label));
+                        x
+                    }));
+                    v
+                }),
+                panel("field in body axes", "T", xyz("b_body", "t")),
+            ],
+        },
+        Figure {
+            file_name: "thrusters.png",
+            title: "Thrusters",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![
+                panel(
+                    "allocated level (PWPF input)",
+                    "-",
+                    (1..=12)
+                        .map(|i| Series {
+                            column: leak(format!("thruster{i}_level")),
+                            label: leak(format!("T{i}")),
+                            dashed: false,
+                        })
+                        .collect(),
+                ),
+                panel("propellant used", "kg", vec![s("propellant_kg", "propellant", false)]),
+                panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
+            ],
+        },
+        Figure {
+            file_name: "environment.png",
+            title: "Environment torques, body axes",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![
+                panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
+                panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
+                panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
+                panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
+                panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
+            ],
         },
     ]
 }
-
-const GIMBAL_DEG: [&str; 4] = ["gimbal1_deg", "gimbal2_deg", "gimbal3_deg", "gimbal4_deg"];
-const GIMBAL_RATE: [&str; 4] = [
-    "gimbal_rate1_rad_s",
-    "gimbal_rate2_rad_s",
-    "gimbal_rate3_rad_s",
-    "gimbal_rate4_rad_s",
-];
-const GIMBAL_LABEL: [&str; 4] = ["δ1", "δ2", "δ3", "δ4"];
-const AXIS_TITLE: [&str; 3] = ["x", "y", "z"];
-const TORQUE_APPLIED: [&str; 3] = [
-    "torque_applied_x_nm",
-    "torque_applied_y_nm",
-    "torque_applied_z_nm",
-];
-const TORQUE_DEMAND: [&str; 3] = [
-    "torque_demand_x_nm",
-    "torque_demand_y_nm",
-    "torque_demand_z_nm",
-];
 
 /// Write everything a run produces into `dir`; returns the files written.
 pub fn write_all(dir: &Path, r: &RunResult, with_plots: bool) -> Result<Vec<PathBuf>> {

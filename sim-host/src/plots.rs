@@ -82,8 +82,7 @@ fn ensure_font() -> io::Result<()> {
             .iter()
             .all(|f| plotters::style::register_font(f, FontStyle::Normal, TTF).is_ok())
     });
-    ok.then_some(())
-        .ok_or_else(|| io::Error::other("plots: embedded font failed to load"))
+    ok.then_some(()).ok_or_else(|| io::Error::other("plots: embedded font failed to load"))
 }
 
 fn err<E: std::fmt::Display>(e: E) -> io::Error {
@@ -105,11 +104,7 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
             .iter()
             .map(|p| {
                 let s = p.series.iter().enumerate();
-                (
-                    p,
-                    s.filter_map(|(i, s)| Some((i, s, ts.col(s.column)?)))
-                        .collect::<Vec<_>>(),
-                )
+                (p, s.filter_map(|(i, s)| Some((i, s, ts.col(s.column)?))).collect::<Vec<_>>())
             })
             .filter(|(_, s)| !s.is_empty())
             .collect();
@@ -124,18 +119,9 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
             let (top, mut area) = root.split_vertically(TITLE_H);
             let centre = Pos::new(HPos::Center, VPos::Center);
             let title_style = TextStyle::from((FONT, 28).into_font()).pos(centre);
-            top.draw_text(
-                fig.title,
-                &title_style,
-                ((w / 2) as i32, (TITLE_H / 2) as i32),
-            )
-            .map_err(err)?;
+            top.draw_text(fig.title, &title_style, ((w / 2) as i32, (TITLE_H / 2) as i32)).map_err(err)?;
             let x_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
-            let x_range = if x_range.1 > x_range.0 {
-                x_range
-            } else {
-                pad(x_range, 0.0)
-            };
+            let x_range = if x_range.1 > x_range.0 { x_range } else { pad(x_range, 0.0) };
             for (k, (panel, series)) in panels.iter().enumerate() {
                 let last = k + 1 == panels.len();
                 let (cell, rest) = area.split_vertically(PANEL_H + if last { XLABEL_H } else { 0 });
@@ -153,9 +139,7 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
                     let (lo, hi) = finite_range(ys.filter(|v| *v > 0.0)).unwrap_or((0.1, 10.0));
                     let lo = lo / 2.0;
                     let hi = hi * (hi / lo).powf(0.05).max(1.2);
-                    let chart = cb
-                        .build_cartesian_2d(x_rng, (lo..hi).log_scale())
-                        .map_err(err)?;
+                    let chart = cb.build_cartesian_2d(x_rng, (lo..hi).log_scale()).map_err(err)?;
                     draw_panel(chart, x_desc, x_range, panel, x, series, &log_tick)?;
                 } else {
                     let (lo, hi) = pad(finite_range(ys).unwrap_or((-1.0, 1.0)), 0.05);
@@ -218,14 +202,10 @@ where
         }
         runs.retain(|r| !r.is_empty());
         let anno = if s.dashed {
-            let el = runs
-                .into_iter()
-                .map(|r| DashedPathElement::new(r, 8, 5, style));
+            let el = runs.into_iter().map(|r| DashedPathElement::new(r, 8, 5, style));
             chart.draw_series(el).map_err(err)?
         } else {
-            chart
-                .draw_series(runs.into_iter().map(|r| PathElement::new(r, style)))
-                .map_err(err)?
+            chart.draw_series(runs.into_iter().map(|r| PathElement::new(r, style))).map_err(err)?
         };
         let dashed = s.dashed;
         anno.label(s.label).legend(move |(lx, ly)| {
@@ -254,24 +234,15 @@ where
 /// every tick plotters will place; values within 1e-9 of the span of zero print as "0".
 fn tick_formatter(lo: f64, hi: f64, n: usize) -> impl Fn(&f64) -> String {
     let ticks = RangedCoordf64::from(lo..hi).key_points(BoldPoints(n));
-    let step = ticks
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(hi - lo, f64::min);
+    let step = ticks.windows(2).map(|w| w[1] - w[0]).fold(hi - lo, f64::min);
     let mag = lo.abs().max(hi.abs());
     let sci = !(1e-3..1e5).contains(&mag);
-    let scale = if sci {
-        10f64.powf(mag.log10().floor())
-    } else {
-        1.0
-    };
+    let scale = if sci { 10f64.powf(mag.log10().floor()) } else { 1.0 };
     let exact = |d: i32, v: &f64| {
         let (m, p) = (v / scale, 10f64.powi(d));
         ((m * p).round() / p - m).abs() <= 1e-6 * step / scale
     };
-    let dec = (0..8)
-        .find(|&d| ticks.iter().all(|v| exact(d, v)))
-        .unwrap_or(8) as usize;
+    let dec = (0..8).find(|&d| ticks.iter().all(|v| exact(d, v))).unwrap_or(8) as usize;
     move |v: &f64| match () {
         _ if v.abs() <= 1e-9 * (hi - lo) => "0".into(),
         _ if sci => format!("{v:.dec$e}"),
@@ -289,10 +260,7 @@ fn log_tick(v: &f64) -> String {
         '-' => '⁻',
         d => ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'][d as usize - '0' as usize],
     };
-    format!(
-        "10{}",
-        (e as i32).to_string().chars().map(sup).collect::<String>()
-    )
+    format!("10{}", (e as i32).to_string().chars().map(sup).collect::<String>())
 }
 
 /// (min, max) of the finite values, if any.
@@ -335,25 +303,14 @@ mod tests {
         assert_eq!(pad((0.0, 0.0), 0.05), (-1.0, 1.0));
         let (lo, hi) = pad((-2.0, -2.0), 0.05);
         assert!((lo + 2.2).abs() < 1e-12 && (hi + 1.8).abs() < 1e-12);
-        assert_eq!(
-            finite_range([f64::NAN, 3.0, f64::INFINITY, -1.0].into_iter()),
-            Some((-1.0, 3.0))
-        );
+        assert_eq!(finite_range([f64::NAN, 3.0, f64::INFINITY, -1.0].into_iter()), Some((-1.0, 3.0)));
         assert_eq!(finite_range([f64::NAN].into_iter()), None);
         assert_eq!(
-            (
-                log_tick(&1e-3),
-                log_tick(&1.0),
-                log_tick(&100.0),
-                log_tick(&2e-3)
-            ),
+            (log_tick(&1e-3), log_tick(&1.0), log_tick(&100.0), log_tick(&2e-3)),
             ("10⁻³".into(), "10⁰".into(), "10²".into(), "2e-3".into())
         );
         let f = tick_formatter(-0.7, 1.05, Y_TICKS);
-        assert_eq!(
-            (f(&0.5), f(&-5.551115123125783e-17), f(&1.0)),
-            ("0.5".into(), "0".into(), "1.0".into())
-        );
+        assert_eq!((f(&0.5), f(&-5.551115123125783e-17), f(&1.0)), ("0.5".into(), "0".into(), "1.0".into()));
         let f = tick_formatter(-1.6e6, 1.6e6, Y_TICKS);
         assert_eq!((f(&5e5), f(&1.5e6)), ("5.0e5".into(), "1.5e6".into()));
         let f = tick_formatter(0.0, 299.9, X_TICKS);

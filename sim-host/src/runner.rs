@@ -91,16 +91,7 @@ pub struct RunResult {
 /// group per actuator family and environment model present.
 pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
     let s = |x: &[&str]| x.iter().map(|c| c.to_string()).collect::<Vec<_>>();
-    let mut v = s(&[
-        "t_s",
-        "q_x",
-        "q_y",
-        "q_z",
-        "q_w",
-        "roll_deg",
-        "pitch_deg",
-        "yaw_deg",
-    ]);
+    let mut v = s(&["t_s", "q_x", "q_y", "q_z", "q_w", "roll_deg", "pitch_deg", "yaw_deg"]);
     v.extend(s(&[
         "roll_target_deg",
         "pitch_target_deg",
@@ -120,15 +111,8 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
     }
     for i in 1..=n_wheels {
         v.extend(
-            [
-                "speed_rpm",
-                "current_a",
-                "voltage_v",
-                "power_w",
-                "friction_nm",
-                "torque_nm",
-            ]
-            .map(|q| format!("wheel{i}_{q}")),
+            ["speed_rpm", "current_a", "voltage_v", "power_w", "friction_nm", "torque_nm"]
+                .map(|q| format!("wheel{i}_{q}")),
         );
     }
     if sc.actuators.magnetorquers.is_some() {
@@ -142,17 +126,21 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
     if sc.orbit.is_some() || sc.environment.lab_field_t.is_some() {
         v.extend(["x", "y", "z"].map(|a| format!("b_body_{a}_t")));
     }
-    for g in [
-        "gravity_gradient",
-        "drag",
-        "srp",
-        "magnetic",
-        "rig",
-        "external",
-    ] {
-        v.extend(["x", "y", "z"].map(|a| format!("torque_{g}_{a}_nm")));
+    if has_environment(sc) {
+        for g in ["gravity_gradient", "drag", "srp", "magnetic", "rig", "external"] {
+            v.extend(["x", "y", "z"].map(|a| format!("torque_{g}_{a}_nm")));
+        }
     }
     v
+}
+
+/// Whether any environment or rig torque can act (the torque breakdown is recorded then).
+fn has_environment(sc: &Scenario) -> bool {
+    sc.orbit.is_some()
+        || sc.rig.is_some()
+        || sc.environment.lab_field_t.is_some()
+        || sc.spacecraft.harmonic_torque.is_some()
+        || sc.spacecraft.external_torque_nm != [0.0; 3]
 }
 
 /// The open-loop row in force at `t`.
@@ -161,10 +149,7 @@ fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
 }
 
 fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
-    let mut c = ActuatorCommand {
-        seq,
-        ..Default::default()
-    };
+    let mut c = ActuatorCommand { seq, ..Default::default() };
     if let Some(r) = row {
         if let Some(g) = r.gimbal_rate_rad_s {
             c.gimbal_rate_cmd_rad_s = g.map(|x| x as f32);
@@ -190,8 +175,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let closed_loop = !matches!(sc.controller, Controller::None);
     let info: Option<LinkInfo> = if closed_loop {
         let info = link.hello().context("hello")?;
-        link.upload(&sc.flight_params()?)
-            .context("parameter upload")?;
+        link.upload(&sc.flight_params()?).context("parameter upload")?;
         Some(info)
     } else {
         None
@@ -208,10 +192,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let n_wheels = craft.wheels.len();
     let mtq = sc.magnetorquer_set();
     let thrusters = sc.thruster_set();
-    let n_thr = thrusters
-        .as_ref()
-        .map_or(0, |t| t.thrusters.len())
-        .min(MAX_THRUSTERS);
+    let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
     let mut thr_state = ThrusterState::new(n_thr);
     let mut sensors = SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz);
     let mut rod_dipole = [0.0f64; 3];
@@ -231,10 +212,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let every = sc.timing.output_every as u64;
     let open_rows: &[OpenLoopRow] = sc.open_loop.as_ref().map_or(&[], |o| o.commands.as_slice());
 
-    let mut ts = TimeSeries::with_columns(
-        column_names(sc, n_wheels, n_thr),
-        (steps / every + 2) as usize,
-    );
+    let mut ts = TimeSeries::with_columns(column_names(sc, n_wheels, n_thr), (steps / every + 2) as usize);
     let mut row = Vec::with_capacity(ts.names.len());
     let mut counts = StatusCounts::default();
     let (mut max_rate, mut min_m) = (0.0f64, f64::INFINITY);
@@ -245,6 +223,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let mut frames_dropped_flight = 0;
     let mut bar: Option<indicatif::ProgressBar> = None;
     let mut snap = snap0;
+    let with_env = has_environment(sc);
 
     let start = Instant::now();
     for k in 0..=steps {
@@ -254,33 +233,23 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         }
         let frame = sensors.sample(k as u32, t, &state, &craft, snap.as_ref(), &rod_dipole);
         let (cmd, ticks) = if closed_loop {
-            let report = link
-                .step(&frame)
-                .with_context(|| format!("control step {k} at t = {t:.3} s"))?;
+            let report = link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
             frames_dropped_flight = report.frames_dropped;
             (report.cmd, report.step_cost_ticks)
         } else {
             (open_loop_command(open_loop_at(open_rows, t), k as u32), 0)
         };
         let mut input = Input::default();
-        for (d, s) in input
-            .gimbal_rate_cmd_rad_s
-            .iter_mut()
-            .zip(cmd.gimbal_rate_cmd_rad_s)
-        {
+        for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
             *d = s as f64;
         }
-        for (d, s) in input
-            .wheel_torque_cmd_nm
-            .iter_mut()
-            .zip(cmd.wheel_torque_cmd_nm)
-            .take(MAX_WHEELS)
-        {
+        for (d, s) in input.wheel_torque_cmd_nm.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
             *d = s as f64;
         }
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
-        let rods = mtq.realised(&dipole_cmd);
-        rod_dipole = mtq.rod_dipole_am2(&rods);
+        if !mtq.rods.is_empty() {
+            rod_dipole = mtq.rod_dipole_am2(&mtq.realised(&dipole_cmd));
+        }
         input.dipole_am2 = rod_dipole.into();
         input.dipole_am2 += crate::attitude::Vec3::from(mtq.residual_dipole_am2);
 
@@ -293,12 +262,9 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         }
         if let Some(c) = &craft.cmg {
             min_m = min_m.min(c.singularity_measure(&state.gimbal_rad));
-            max_rate = cmd
-                .gimbal_rate_cmd_rad_s
-                .iter()
-                .fold(max_rate, |a, r| a.max(r.abs() as f64));
+            max_rate = cmd.gimbal_rate_cmd_rad_s.iter().fold(max_rate, |a, r| a.max(r.abs() as f64));
         }
-        let wheel_out = craft.wheel_outputs(&state, &input);
+        let wheel_out = if n_wheels > 0 { craft.wheel_outputs(&state, &input) } else { Default::default() };
         for o in wheel_out.iter().take(n_wheels) {
             max_wheel_rpm = max_wheel_rpm.max(o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
             max_wheel_w = max_wheel_w.max(o.power_w.abs());
@@ -331,11 +297,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
                 None => crate::attitude::Vec3::zeros(),
             }
         };
-        input.thruster_torque_nm = if k < steps {
-            thr_torque(t, &mut thr_state)
-        } else {
-            Default::default()
-        };
+        input.thruster_torque_nm = if k < steps { thr_torque(t, &mut thr_state) } else { Default::default() };
 
         if k % every == 0 || k == steps {
             let rel = q_frame.conjugate() * state.q;
@@ -353,20 +315,11 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             row.extend(applied.iter());
             row.push(err_deg);
             row.push(s as f64);
-            row.push(
-                info.as_ref()
-                    .and_then(|i| i.instructions_per_tick)
-                    .map_or(f64::NAN, |f| ticks as f64 * f),
-            );
+            row.push(info.as_ref().and_then(|i| i.instructions_per_tick).map_or(f64::NAN, |f| ticks as f64 * f));
             if sc.actuators.cmg.is_some() {
                 row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
                 row.extend(cmd.gimbal_rate_cmd_rad_s.iter().map(|x| *x as f64));
-                row.push(
-                    craft
-                        .cmg
-                        .as_ref()
-                        .map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)),
-                );
+                row.push(craft.cmg.as_ref().map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)));
                 row.push(cmd.steering_alpha as f64);
             }
             for o in wheel_out.iter().take(n_wheels) {
@@ -381,7 +334,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             }
             if sc.actuators.magnetorquers.is_some() {
                 row.extend(dipole_cmd);
-                row.extend(mtq.rod_dipole_am2(&rods));
+                row.extend(rod_dipole);
             }
             if n_thr > 0 {
                 row.push(thr_mask as f64);
@@ -392,20 +345,20 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             if sc.orbit.is_some() || sc.environment.lab_field_t.is_some() {
                 let b = snap
                     .and_then(|s| s.b_ref_t)
-                    .map_or(crate::attitude::Vec3::repeat(f64::NAN), |b| {
-                        rotate_ref_to_body(&state.q, &b)
-                    });
+                    .map_or(crate::attitude::Vec3::repeat(f64::NAN), |b| rotate_ref_to_body(&state.q, &b));
                 row.extend(b.iter());
             }
-            for v in [
-                tq.env.gravity_gradient,
-                tq.env.drag,
-                tq.env.srp,
-                tq.magnetic_nm,
-                tq.rig_nm,
-                tq.env.external + craft.external_torque_nm,
-            ] {
-                row.extend(v.iter());
+            if with_env {
+                for v in [
+                    tq.env.gravity_gradient,
+                    tq.env.drag,
+                    tq.env.srp,
+                    tq.magnetic_nm,
+                    tq.rig_nm,
+                    tq.env.external + craft.external_torque_nm,
+                ] {
+                    row.extend(v.iter());
+                }
             }
             ts.push_row(&row);
         }
@@ -447,25 +400,13 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         Some(t) if t < sim_time => Some(t + dt),
         Some(_) => None,
     };
-    let after: Vec<f64> = errors
-        .iter()
-        .filter(|(t, _)| settle_time_s.is_none_or(|s| *t >= s))
-        .map(|e| e.1)
-        .collect();
-    let rms_error_deg =
-        (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt();
+    let after: Vec<f64> = errors.iter().filter(|(t, _)| settle_time_s.is_none_or(|s| *t >= s)).map(|e| e.1).collect();
+    let rms_error_deg = (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt();
     let final_q_rel = target_frame(snap.as_ref()).conjugate() * state.q;
-    let ipt = info
-        .as_ref()
-        .and_then(|i| i.instructions_per_tick)
-        .filter(|_| n_ticks > 0);
+    let ipt = info.as_ref().and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
     let summary = Summary {
         scenario: sc.name.clone(),
-        link: if closed_loop {
-            link.name()
-        } else {
-            "open-loop".into()
-        },
+        link: if closed_loop { link.name() } else { "open-loop".into() },
         board: info.as_ref().map(|i| i.board),
         steps,
         sim_time_s: sim_time,
@@ -474,8 +415,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         final_error_deg,
         settle_time_s,
         settle_bound_deg: SETTLE_BOUND_DEG,
-        max_error_after_settle_deg: settle_time_s
-            .map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
+        max_error_after_settle_deg: settle_time_s.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
         mean_error_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
         rms_error_deg,
         final_euler_deg: euler_from_quat(&final_q_rel, seq).map(f64::to_degrees),
@@ -493,16 +433,9 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         max_step_ticks: (n_ticks > 0).then_some(max_ticks),
         status_counts: counts,
         frames_dropped_flight,
-        frames_dropped_host: if closed_loop {
-            link.frames_dropped_host()
-        } else {
-            0
-        },
+        frames_dropped_host: if closed_loop { link.frames_dropped_host() } else { 0 },
         wall_time_s: wall,
         real_time_factor: sim_time / wall.max(1e-9),
     };
-    Ok(RunResult {
-        summary,
-        series: ts,
-    })
+    Ok(RunResult { summary, series: ts })
 }

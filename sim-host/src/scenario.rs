@@ -17,9 +17,8 @@ use crate::plant::wheel::{WheelParams, WheelState};
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{
-    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, MAX_THRUSTERS,
-    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams,
-    TargetFrame, ThrusterMethod, ThrusterParams,
+    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, MAX_THRUSTERS, MagnetorquerParams,
+    PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
 };
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Matrix3;
@@ -116,47 +115,83 @@ pub struct HarmonicSpec {
     pub phase_rad: [f64; 3],
 }
 
-/// Orbit: `kind = "circular" | "kepler" | "tle"`.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields, tag = "kind", rename_all = "snake_case")]
+/// Orbit elements, by kind.
+#[derive(Clone, Debug, PartialEq)]
 pub enum OrbitKind {
-    Circular {
-        altitude_km: f64,
-        inclination_deg: f64,
-        #[serde(default)]
-        raan_deg: f64,
-        /// Argument of latitude at t = 0.
-        #[serde(default)]
-        arg_lat_deg: f64,
-    },
-    Kepler {
-        a_km: f64,
-        e: f64,
-        inclination_deg: f64,
-        #[serde(default)]
-        raan_deg: f64,
-        #[serde(default)]
-        argp_deg: f64,
-        #[serde(default)]
-        true_anomaly_deg: f64,
-    },
-    Tle {
-        line1: String,
-        line2: String,
-    },
+    Circular { altitude_km: f64, inclination_deg: f64, raan_deg: f64, arg_lat_deg: f64 },
+    Kepler { a_km: f64, e: f64, inclination_deg: f64, raan_deg: f64, argp_deg: f64, true_anomaly_deg: f64 },
+    Tle { line1: String, line2: String },
 }
 
+/// Orbit: `kind = "circular"` (altitude_km, inclination_deg, raan_deg, arg_lat_deg),
+/// `"kepler"` (a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg) or `"tle"`
+/// (line1, line2).
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct OrbitSpec {
-    #[serde(flatten)]
-    pub kind: OrbitKind,
+    pub kind: String,
+    #[serde(default)]
+    pub altitude_km: Option<f64>,
+    #[serde(default)]
+    pub a_km: Option<f64>,
+    #[serde(default)]
+    pub e: Option<f64>,
+    #[serde(default)]
+    pub inclination_deg: Option<f64>,
+    #[serde(default)]
+    pub raan_deg: f64,
+    /// Circular: argument of latitude at t = 0.
+    #[serde(default)]
+    pub arg_lat_deg: f64,
+    #[serde(default)]
+    pub argp_deg: f64,
+    #[serde(default)]
+    pub true_anomaly_deg: f64,
+    #[serde(default)]
+    pub line1: Option<String>,
+    #[serde(default)]
+    pub line2: Option<String>,
     /// Numerical J2 propagation (circular/Kepler).
     #[serde(default)]
     pub j2: bool,
     /// UTC epoch of t = 0, "YYYY-MM-DDThh:mm:ss" (Earth rotation, WMM date, Sun).
     #[serde(default = "default_epoch")]
     pub epoch_utc: String,
+}
+
+impl OrbitSpec {
+    /// The elements of the chosen kind, or an error naming the missing key.
+    pub fn elements(&self) -> Result<OrbitKind> {
+        let need = |k: &str, v: Option<f64>| {
+            v.ok_or_else(|| bad(&format!("orbit.{k}"), format!("required for kind = {:?}", self.kind)))
+        };
+        Ok(match self.kind.as_str() {
+            "circular" => OrbitKind::Circular {
+                altitude_km: need("altitude_km", self.altitude_km)?,
+                inclination_deg: need("inclination_deg", self.inclination_deg)?,
+                raan_deg: self.raan_deg,
+                arg_lat_deg: self.arg_lat_deg,
+            },
+            "kepler" => OrbitKind::Kepler {
+                a_km: need("a_km", self.a_km)?,
+                e: need("e", self.e)?,
+                inclination_deg: need("inclination_deg", self.inclination_deg)?,
+                raan_deg: self.raan_deg,
+                argp_deg: self.argp_deg,
+                true_anomaly_deg: self.true_anomaly_deg,
+            },
+            "tle" => OrbitKind::Tle {
+                line1: self.line1.clone().ok_or_else(|| bad("orbit.line1", "required for kind = \"tle\""))?,
+                line2: self.line2.clone().ok_or_else(|| bad("orbit.line2", "required for kind = \"tle\""))?,
+            },
+            other => {
+                return Err(bad(
+                    "orbit.kind",
+                    format!("unknown kind {other:?} (known: \"circular\", \"kepler\", \"tle\")"),
+                ));
+            }
+        })
+    }
 }
 
 fn default_epoch() -> String {
@@ -610,19 +645,11 @@ fn bad(key: &str, why: impl std::fmt::Display) -> anyhow::Error {
 }
 
 fn finite(key: &str, xs: &[f64]) -> Result<()> {
-    if xs.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(bad(key, "must be finite"))
-    }
+    if xs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(bad(key, "must be finite")) }
 }
 
 fn positive(key: &str, x: f64) -> Result<()> {
-    if x.is_finite() && x > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(key, format!("must be > 0 (got {x})")))
-    }
+    if x.is_finite() && x > 0.0 { Ok(()) } else { Err(bad(key, format!("must be > 0 (got {x})"))) }
 }
 
 impl AttitudeSpec {
@@ -638,10 +665,7 @@ impl AttitudeSpec {
                 }
                 Ok(())
             }
-            (Some(_), Some(_)) => Err(bad(
-                key,
-                "give either euler_deg or quaternion_xyzw, not both",
-            )),
+            (Some(_), Some(_)) => Err(bad(key, "give either euler_deg or quaternion_xyzw, not both")),
             (None, None) => Err(bad(key, "needs euler_deg or quaternion_xyzw")),
         }
     }
@@ -663,8 +687,7 @@ impl Scenario {
     }
 
     pub fn load(path: &Path) -> Result<Self> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
         Self::from_toml(&text).with_context(|| format!("scenario {}", path.display()))
     }
 
@@ -695,10 +718,7 @@ impl Scenario {
         }
         let (a, b, c) = (e[0], e[1], e[2]);
         if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
-            return Err(bad(
-                "spacecraft.inertia_kgm2",
-                "principal moments violate the triangle inequality",
-            ));
+            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
         }
         let sc = &self.spacecraft;
         if let Some(m) = sc.mass_kg {
@@ -717,21 +737,13 @@ impl Scenario {
             positive("spacecraft.drag_area_m2", a)?;
         }
         if let Some(h) = &sc.harmonic_torque {
-            finite(
-                "spacecraft.harmonic_torque",
-                &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat(),
-            )?;
+            finite("spacecraft.harmonic_torque", &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat())?;
         }
         self.initial.attitude.validate("initial")?;
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
         self.target.validate("target")?;
-        let needs_orbit = |k: &str| -> Result<()> {
-            if self.orbit.is_none() {
-                Err(bad(k, "needs an [orbit]"))
-            } else {
-                Ok(())
-            }
-        };
+        let needs_orbit =
+            |k: &str| -> Result<()> { if self.orbit.is_none() { Err(bad(k, "needs an [orbit]")) } else { Ok(()) } };
         if self.initial.attitude.frame == RefFrame::Lvlh {
             needs_orbit("initial.frame")?;
         }
@@ -745,29 +757,14 @@ impl Scenario {
             if self.rig.is_some() {
                 return Err(bad("rig", "a rig sits in a lab: remove [orbit] or [rig]"));
             }
-            match &o.kind {
-                OrbitKind::Circular {
-                    altitude_km,
-                    inclination_deg,
-                    raan_deg,
-                    arg_lat_deg,
-                } => {
+            match &o.elements()? {
+                OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
                     positive("orbit.altitude_km", *altitude_km)?;
                     finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
                 }
-                OrbitKind::Kepler {
-                    a_km,
-                    e,
-                    inclination_deg,
-                    raan_deg,
-                    argp_deg,
-                    true_anomaly_deg,
-                } => {
+                OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
                     if !(a_km.is_finite() && *a_km > 6378.137) {
-                        return Err(bad(
-                            "orbit.a_km",
-                            "must exceed the Earth's radius (6378.137 km)",
-                        ));
+                        return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
                     }
                     if !(0.0..1.0).contains(e) {
                         return Err(bad("orbit.e", "must be in [0, 1)"));
@@ -775,10 +772,7 @@ impl Scenario {
                     if a_km * (1.0 - e) <= 6378.137 {
                         return Err(bad("orbit.e", "perigee below the Earth's surface"));
                     }
-                    finite(
-                        "orbit",
-                        &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg],
-                    )?;
+                    finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
                 }
                 OrbitKind::Tle { .. } => {}
             }
@@ -803,34 +797,23 @@ impl Scenario {
         }
         match env.atmosphere.as_str() {
             "none" | "exponential" => {}
-            "fixed" => positive(
-                "environment.density_kg_m3",
-                env.density_kg_m3.unwrap_or(f64::NAN),
-            )?,
+            "fixed" => positive("environment.density_kg_m3", env.density_kg_m3.unwrap_or(f64::NAN))?,
             other => {
                 return Err(bad(
                     "environment.atmosphere",
-                    format!(
-                        "unknown model {other:?} (known: \"none\", \"exponential\", \"fixed\")"
-                    ),
+                    format!("unknown model {other:?} (known: \"none\", \"exponential\", \"fixed\")"),
                 ));
             }
         }
         if env.atmosphere != "none" && sc.box_m.is_none() && sc.drag_area_m2.is_none() {
-            return Err(bad(
-                "environment.atmosphere",
-                "drag needs spacecraft.box_m or spacecraft.drag_area_m2",
-            ));
+            return Err(bad("environment.atmosphere", "drag needs spacecraft.box_m or spacecraft.drag_area_m2"));
         }
         if env.solar_pressure && sc.box_m.is_none() {
             return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
         }
         if let Some(r) = &self.rig {
             finite("rig.mgr_nm", &r.mgr_nm)?;
-            for (k, l) in [
-                ("rig.roll_limit_deg", r.roll_limit_deg),
-                ("rig.pitch_limit_deg", r.pitch_limit_deg),
-            ] {
+            for (k, l) in [("rig.roll_limit_deg", r.roll_limit_deg), ("rig.pitch_limit_deg", r.pitch_limit_deg)] {
                 if let Some(l) = l {
                     positive(k, l)?;
                 }
@@ -858,10 +841,7 @@ impl Scenario {
                     finite("controller.d_diag_nms", d)?;
                 }
                 _ => {
-                    return Err(bad(
-                        "controller",
-                        "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
-                    ));
+                    return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
                 }
             }
             if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
@@ -898,17 +878,10 @@ impl Scenario {
                     return Err(bad(&key, "t_s must be finite and non-decreasing"));
                 }
                 last = row.t_s;
-                let n_w = self
-                    .actuators
-                    .wheels
-                    .as_ref()
-                    .map_or(0, |w| self.wheel_axes(w).len());
+                let n_w = self.actuators.wheels.as_ref().map_or(0, |w| self.wheel_axes(w).len());
                 if let Some(w) = &row.wheel_torque_nm {
                     if w.len() != n_w {
-                        return Err(bad(
-                            &key,
-                            format!("wheel_torque_nm has {} entries for {n_w} wheels", w.len()),
-                        ));
+                        return Err(bad(&key, format!("wheel_torque_nm has {} entries for {n_w} wheels", w.len())));
                     }
                     finite(&key, w)?;
                 }
@@ -928,28 +901,19 @@ impl Scenario {
         }
         if !matches!(self.controller, Controller::None) {
             // Last line of defence: the flight code's own validation must accept the upload.
-            self.flight_params()?
-                .validate()
-                .map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+            self.flight_params()?.validate().map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
         }
         Ok(())
     }
 
     fn validate_actuators(&self) -> Result<()> {
         let act = &self.actuators;
-        let families = [
-            act.cmg.is_some(),
-            act.wheels.is_some(),
-            act.magnetorquers.is_some(),
-            act.thrusters.is_some(),
-        ];
+        let families = [act.cmg.is_some(), act.wheels.is_some(), act.magnetorquers.is_some(), act.thrusters.is_some()];
         let n_families = families.iter().filter(|x| **x).count();
         if !matches!(self.controller, Controller::None) && n_families != 1 {
             return Err(bad(
                 "actuators",
-                format!(
-                    "closed-loop control allocates to exactly one actuator family ({n_families} given)"
-                ),
+                format!("closed-loop control allocates to exactly one actuator family ({n_families} given)"),
             ));
         }
         if let Some(cmg) = &act.cmg {
@@ -963,25 +927,16 @@ impl Scenario {
                 return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
             }
             positive("actuators.cmg.h0_nms", cmg.h0_nms)?;
-            positive(
-                "actuators.cmg.max_gimbal_rate_deg_s",
-                cmg.max_gimbal_rate_deg_s,
-            )?;
+            positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
             if let Some(l) = cmg.gimbal_limit_deg {
                 positive("actuators.cmg.gimbal_limit_deg", l)?;
                 if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
-                    return Err(bad(
-                        "actuators.cmg.initial_gimbal_deg",
-                        "outside gimbal_limit_deg",
-                    ));
+                    return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
                 }
             }
             finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
             if !matches!(self.controller, Controller::None) && self.steering.is_none() {
-                return Err(bad(
-                    "steering",
-                    "a CMG cluster under control needs [steering]",
-                ));
+                return Err(bad("steering", "a CMG cluster under control needs [steering]"));
             }
             if let Some(st) = &self.steering {
                 match (st.law.as_str(), &st.alpha) {
@@ -996,20 +951,14 @@ impl Scenario {
                             Alpha::Exponential { a0, mu } => vec![*a0, *mu],
                         };
                         if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                            return Err(bad(
-                                "steering.alpha",
-                                "parameters must be finite and >= 0",
-                            ));
+                            return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
                         }
                     }
                     ("sr", None) => {
                         return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
                     }
                     (other, _) => {
-                        return Err(bad(
-                            "steering.law",
-                            format!("unknown law {other:?} (known: \"mp\", \"sr\")"),
-                        ));
+                        return Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\")")));
                     }
                 }
                 positive("steering.singular_threshold", st.singular_threshold)?;
@@ -1020,26 +969,17 @@ impl Scenario {
                 "pyramid4" => {
                     finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
                     if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
-                        return Err(bad(
-                            "actuators.wheels.pyramid_beta_deg",
-                            "must be in (0, 90)",
-                        ));
+                        return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
                     }
                 }
                 "axes" => {
                     if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
-                        return Err(bad(
-                            "actuators.wheels.axes",
-                            format!("needs 1..={MAX_WHEELS} axes"),
-                        ));
+                        return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
                     }
                     for a in &w.axes {
                         let n = Vec3::from(*a).norm();
                         if !n.is_finite() || n < 1e-9 {
-                            return Err(bad(
-                                "actuators.wheels.axes",
-                                "zero-norm or non-finite axis",
-                            ));
+                            return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
                         }
                     }
                 }
@@ -1051,10 +991,7 @@ impl Scenario {
                 }
             }
             if !matches!(w.model.as_str(), "ideal" | "accurate") {
-                return Err(bad(
-                    "actuators.wheels.model",
-                    "must be \"ideal\" or \"accurate\"",
-                ));
+                return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
             }
             for (k, v) in [
                 ("actuators.wheels.max_torque_nm", w.max_torque_nm),
@@ -1076,10 +1013,7 @@ impl Scenario {
                 finite(k, v)?;
             }
             if w.failed.iter().any(|i| *i == 0 || *i > n) {
-                return Err(bad(
-                    "actuators.wheels.failed",
-                    format!("wheel numbers are 1..={n}"),
-                ));
+                return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
             }
             if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
                 return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
@@ -1089,26 +1023,16 @@ impl Scenario {
             }
         }
         if let Some(m) = &act.magnetorquers {
-            for x in m
-                .max_dipole_am2
-                .iter()
-                .chain(m.min_dipole_am2.iter().flatten())
-            {
+            for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
                 positive("actuators.magnetorquers.max_dipole_am2", *x)?;
             }
             if let Some([lo, hi]) = m.deadband_am2 {
                 if !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite()) {
-                    return Err(bad(
-                        "actuators.magnetorquers.deadband_am2",
-                        "must be [lo <= 0, hi >= 0]",
-                    ));
+                    return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
                 }
             }
             if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
-                return Err(bad(
-                    "actuators.magnetorquers",
-                    "need a field: an [orbit] or environment.lab_field_t",
-                ));
+                return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
             }
         }
         if let Some(t) = &act.thrusters {
@@ -1126,18 +1050,13 @@ impl Scenario {
             match t.layout.as_str() {
                 "paper004" => {}
                 "matrix" => {
-                    if t.torque_per_newton_m.is_empty()
-                        || t.torque_per_newton_m.len() > MAX_THRUSTERS
-                    {
+                    if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
                         return Err(bad(
                             "actuators.thrusters.torque_per_newton_m",
                             format!("needs 1..={MAX_THRUSTERS} columns"),
                         ));
                     }
-                    finite(
-                        "actuators.thrusters.torque_per_newton_m",
-                        &t.torque_per_newton_m.concat(),
-                    )?;
+                    finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
                 }
                 other => {
                     return Err(bad(
@@ -1147,26 +1066,15 @@ impl Scenario {
                 }
             }
             if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
-                return Err(bad(
-                    "actuators.thrusters.method",
-                    "must be \"direction_preserving\" or \"bodson\"",
-                ));
+                return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
             }
             let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
             for f in &t.failures {
                 if f.thruster == 0 || f.thruster > n {
-                    return Err(bad(
-                        "actuators.thrusters.failures",
-                        format!("thruster numbers are 1..={n}"),
-                    ));
+                    return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
                 }
-                if !matches!(f.mode.as_str(), "off" | "stuck_on")
-                    || !(f.at_s.is_finite() && f.at_s >= 0.0)
-                {
-                    return Err(bad(
-                        "actuators.thrusters.failures",
-                        "mode \"off\" or \"stuck_on\", at_s >= 0",
-                    ));
+                if !matches!(f.mode.as_str(), "off" | "stuck_on") || !(f.at_s.is_finite() && f.at_s >= 0.0) {
+                    return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
                 }
             }
         }
@@ -1176,24 +1084,12 @@ impl Scenario {
     /// Spin axes of the wheels (unit, body).
     pub fn wheel_axes(&self, w: &WheelsSpec) -> Vec<[f64; 3]> {
         match w.layout.as_str() {
-            "axes" => w
-                .axes
-                .iter()
-                .map(|a| (Vec3::from(*a).normalize()).into())
-                .collect(),
+            "axes" => w.axes.iter().map(|a| (Vec3::from(*a).normalize()).into()).collect(),
             _ => {
                 // Paper 001 eq 9.
-                let (al, be) = (
-                    w.pyramid_alpha_deg.to_radians(),
-                    w.pyramid_beta_deg.to_radians(),
-                );
+                let (al, be) = (w.pyramid_alpha_deg.to_radians(), w.pyramid_beta_deg.to_radians());
                 let (ca, sa, cb, sb) = (al.cos(), al.sin(), be.cos(), be.sin());
-                vec![
-                    [ca * sb, sa * sb, cb],
-                    [-sa * sb, ca * sb, cb],
-                    [-ca * sb, -sa * sb, cb],
-                    [sa * sb, -ca * sb, cb],
-                ]
+                vec![[ca * sb, sa * sb, cb], [-sa * sb, ca * sb, cb], [-ca * sb, -sa * sb, cb], [sa * sb, -ca * sb, cb]]
             }
         }
     }
@@ -1252,15 +1148,9 @@ impl Scenario {
                         }
                     })
                     .collect();
-                MagnetorquerSet {
-                    rods,
-                    residual_dipole_am2: residual,
-                }
+                MagnetorquerSet { rods, residual_dipole_am2: residual }
             }
-            None => MagnetorquerSet {
-                rods: Vec::new(),
-                residual_dipole_am2: residual,
-            },
+            None => MagnetorquerSet { rods: Vec::new(), residual_dipole_am2: residual },
         }
     }
 
@@ -1286,11 +1176,7 @@ impl Scenario {
                 (
                     f.thruster - 1,
                     f.at_s,
-                    if f.mode == "stuck_on" {
-                        ThrusterFailure::StuckOn
-                    } else {
-                        ThrusterFailure::Off
-                    },
+                    if f.mode == "stuck_on" { ThrusterFailure::StuckOn } else { ThrusterFailure::Off },
                 )
             })
             .collect();
@@ -1310,9 +1196,7 @@ impl Scenario {
             },
             None => HarmonicTorque::default(),
         };
-        let plates = sc
-            .box_m
-            .map(|b| box_plates(b[0], b[1], b[2], Vec3::zeros()));
+        let plates = sc.box_m.map(|b| box_plates(b[0], b[1], b[2], Vec3::zeros()));
         let env = &self.environment;
         let Some(o) = &self.orbit else {
             if env.lab_field_t.is_none() && sc.harmonic_torque.is_none() {
@@ -1326,9 +1210,7 @@ impl Scenario {
                 residual_dipole_am2: Vec3::zeros(),
                 external,
             };
-            let field = env
-                .lab_field_t
-                .map_or(FieldSource::None, |b| FieldSource::Fixed(Vec3::from(b)));
+            let field = env.lab_field_t.map_or(FieldSource::None, |b| FieldSource::Fixed(Vec3::from(b)));
             return Ok(Some(Environment {
                 orbit: None,
                 earth: EarthRotation::Simple { theta0_rad: 0.0 },
@@ -1337,88 +1219,54 @@ impl Scenario {
             }));
         };
         let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
-        let model = match &o.kind {
-            OrbitKind::Circular {
-                altitude_km,
-                inclination_deg,
-                raan_deg,
-                arg_lat_deg,
-            } => OrbitModel::Circular {
+        let model = match &o.elements()? {
+            OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
                 altitude_m: altitude_km * 1e3,
                 inclination_rad: inclination_deg.to_radians(),
                 raan_rad: raan_deg.to_radians(),
                 arg_lat0_rad: arg_lat_deg.to_radians(),
             },
-            OrbitKind::Kepler {
-                a_km,
-                e,
-                inclination_deg,
-                raan_deg,
-                argp_deg,
-                true_anomaly_deg,
-            } => OrbitModel::Kepler {
-                a_m: a_km * 1e3,
-                e: *e,
-                i: inclination_deg.to_radians(),
-                raan: raan_deg.to_radians(),
-                argp: argp_deg.to_radians(),
-                nu0: true_anomaly_deg.to_radians(),
-            },
-            OrbitKind::Tle { line1, line2 } => OrbitModel::Tle {
-                line1: line1.clone(),
-                line2: line2.clone(),
-            },
+            OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
+                OrbitModel::Kepler {
+                    a_m: a_km * 1e3,
+                    e: *e,
+                    i: inclination_deg.to_radians(),
+                    raan: raan_deg.to_radians(),
+                    argp: argp_deg.to_radians(),
+                    nu0: true_anomaly_deg.to_radians(),
+                }
+            }
+            OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
         };
-        let prop = OrbitPropagator::new(
-            &model,
-            PropagatorOptions {
-                j2: o.j2,
-                step_s: 10.0,
-            },
-        )
-        .map_err(|e| bad("orbit", format!("{e:?}")))?;
+        let prop = OrbitPropagator::new(&model, PropagatorOptions { j2: o.j2, step_s: 10.0 })
+            .map_err(|e| bad("orbit", format!("{e:?}")))?;
         // A TLE brings its own epoch.
         let jd = prop.epoch_jd_utc().unwrap_or(jd);
         let earth = EarthRotation::Gmst { jd_ut1_epoch: jd };
         let field = match env.magnetic_field.as_str() {
             "dipole" => FieldSource::Model(MagneticField::new(FieldModel::default_dipole(), earth)),
             "wmm" => FieldSource::Model(MagneticField::new(
-                FieldModel::Wmm {
-                    decimal_year: 2000.0 + (jd - 2_451_544.5) / 365.25,
-                },
+                FieldModel::Wmm { decimal_year: 2000.0 + (jd - 2_451_544.5) / 365.25 },
                 earth,
             )),
             _ => FieldSource::None,
         };
         let geometry = match (sc.drag_area_m2, &plates) {
-            (Some(a), _) => Some(DragGeometry::CopOffset {
-                area_m2: a,
-                cop_b: Vec3::from(sc.cp_offset_m),
-            }),
+            (Some(a), _) => Some(DragGeometry::CopOffset { area_m2: a, cop_b: Vec3::from(sc.cp_offset_m) }),
             (None, Some(p)) => Some(DragGeometry::Plates(p.clone())),
             _ => None,
         };
         let atmosphere = match env.atmosphere.as_str() {
             "exponential" => Some(Atmosphere::ExponentialVallado),
-            "fixed" => env
-                .density_kg_m3
-                .map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
+            "fixed" => env.density_kg_m3.map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
             _ => None,
         };
         let drag = match (geometry, atmosphere) {
-            (Some(geometry), Some(atmosphere)) => Some(DragModel {
-                geometry,
-                cd: sc.drag_coefficient,
-                atmosphere,
-            }),
+            (Some(geometry), Some(atmosphere)) => Some(DragModel { geometry, cd: sc.drag_coefficient, atmosphere }),
             _ => None,
         };
         let srp = match (&plates, env.solar_pressure) {
-            (Some(p), true) => Some(SrpModel {
-                plates: p.clone(),
-                pressure_n_m2: 4.56e-6,
-                jd_epoch: jd,
-            }),
+            (Some(p), true) => Some(SrpModel { plates: p.clone(), pressure_n_m2: 4.56e-6, jd_epoch: jd }),
             _ => None,
         };
         let disturbances = Disturbances {
@@ -1429,12 +1277,7 @@ impl Scenario {
             residual_dipole_am2: Vec3::zeros(),
             external,
         };
-        Ok(Some(Environment {
-            orbit: Some(prop),
-            earth,
-            field,
-            disturbances,
-        }))
+        Ok(Some(Environment { orbit: Some(prop), earth, field, disturbances }))
     }
 
     /// The plant described by the scenario.
@@ -1444,8 +1287,7 @@ impl Scenario {
                 c.skew_deg.to_radians(),
                 c.h0_nms,
                 c.max_gimbal_rate_deg_s.to_radians(),
-                c.gimbal_limit_deg
-                    .map(|l| (-l.to_radians(), l.to_radians())),
+                c.gimbal_limit_deg.map(|l| (-l.to_radians(), l.to_radians())),
             )
         });
         let wheels = self.wheel_params()?;
@@ -1455,12 +1297,8 @@ impl Scenario {
             let a = Vec3::from(w.spin_axis);
             j -= a * a.transpose() * w.inertia_kgm2;
         }
-        let mut sc = Spacecraft::new(j, cmg).ok_or_else(|| {
-            bad(
-                "spacecraft.inertia_kgm2",
-                "singular once the wheels' axial inertia is removed",
-            )
-        })?;
+        let mut sc = Spacecraft::new(j, cmg)
+            .ok_or_else(|| bad("spacecraft.inertia_kgm2", "singular once the wheels' axial inertia is removed"))?;
         sc.wheels = wheels;
         sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
         sc.env = self.environment()?;
@@ -1491,29 +1329,18 @@ impl Scenario {
         }
         let mut wheels = [WheelState::default(); MAX_WHEELS];
         let rpm = std::f64::consts::PI / 30.0;
-        let speeds = self
-            .actuators
-            .wheels
-            .as_ref()
-            .map_or(Vec::new(), |w| w.initial_speed_rpm.clone());
+        let speeds = self.actuators.wheels.as_ref().map_or(Vec::new(), |w| w.initial_speed_rpm.clone());
         for (i, p) in craft.wheels.iter().enumerate() {
-            wheels[i] =
-                WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
+            wheels[i] = WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
         }
-        State {
-            q,
-            w,
-            gimbal_rad: g,
-            wheels,
-        }
+        State { q, w, gimbal_rad: g, wheels }
     }
 
     /// The parameter set uploaded to the flight code.
     pub fn flight_params(&self) -> Result<FlightParams> {
         let inertia = self.inertia();
-        let f = |m: &Matrix3<f64>| -> [[f32; 3]; 3] {
-            std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32))
-        };
+        let f =
+            |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
         let Controller::QuaternionFeedback {
             zeta,
             wn_rad_s,
@@ -1529,15 +1356,9 @@ impl Scenario {
         };
         let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
             (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
-            (_, _, Some(k), Some(d)) => (
-                Matrix3::from_diagonal(&(*k).into()),
-                Matrix3::from_diagonal(&(*d).into()),
-            ),
+            (_, _, Some(k), Some(d)) => (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into())),
             _ => {
-                return Err(bad(
-                    "controller",
-                    "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms",
-                ));
+                return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
             }
         };
         let q = self.target.quaternion();
@@ -1566,10 +1387,7 @@ impl Scenario {
     fn actuator_params(&self) -> Result<ActuatorParams> {
         let act = &self.actuators;
         if let Some(cmg) = &act.cmg {
-            let st = self
-                .steering
-                .as_ref()
-                .ok_or_else(|| bad("steering", "missing"))?;
+            let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
             let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
             let law = match (st.law.as_str(), &st.alpha) {
                 ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
@@ -1587,10 +1405,7 @@ impl Scenario {
                     })
                 }
                 ("sr", Some(Alpha::Exponential { a0, mu })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential {
-                        a0: *a0 as f32,
-                        mu: *mu as f32,
-                    })
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
                 }
                 _ => SteeringLaw::MoorePenrose,
             };
@@ -1602,10 +1417,7 @@ impl Scenario {
                     gimbal_min_rad: -lim as f32,
                     gimbal_max_rad: lim as f32,
                 },
-                steering: SteeringParams {
-                    law,
-                    singular_threshold: st.singular_threshold as f32,
-                },
+                steering: SteeringParams { law, singular_threshold: st.singular_threshold as f32 },
             });
         }
         if let Some(w) = &act.wheels {
@@ -1617,9 +1429,7 @@ impl Scenario {
                 axes[i] = p.spin_axis.map(|x| x as f32);
                 bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
             }
-            let p0 = plant
-                .first()
-                .ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+            let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
             let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
             return Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
                 count: plant.len() as u8,
@@ -1644,9 +1454,7 @@ impl Scenario {
             }));
         }
         if let Some(t) = &act.thrusters {
-            let set = self
-                .thruster_set()
-                .ok_or_else(|| bad("actuators.thrusters", "missing"))?;
+            let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
             let b = set.torque_matrix();
             let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
             for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
@@ -1662,11 +1470,7 @@ impl Scenario {
             return Ok(ActuatorParams::Thrusters(ThrusterParams {
                 count: b.len() as u8,
                 torque_nm,
-                method: if t.method == "bodson" {
-                    ThrusterMethod::Bodson
-                } else {
-                    ThrusterMethod::DirectionPreserving
-                },
+                method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
                 pwpf_km: t.pwpf[0] as f32,
                 pwpf_tm_s: t.pwpf[1] as f32,
                 pwpf_u_on: t.pwpf[2] as f32,
@@ -1701,12 +1505,7 @@ pub fn parse_epoch(s: &str) -> std::result::Result<f64, String> {
     let h: u32 = t[0].parse().map_err(|_| err())?;
     let mi: u32 = t[1].parse().map_err(|_| err())?;
     let se: f64 = t[2].parse().map_err(|_| err())?;
-    if !(1..=12).contains(&mo)
-        || !(1..=31).contains(&da)
-        || h > 23
-        || mi > 59
-        || !(0.0..61.0).contains(&se)
-    {
+    if !(1..=12).contains(&mo) || !(1..=31).contains(&da) || h > 23 || mi > 59 || !(0.0..61.0).contains(&se) {
         return Err(err());
     }
     Ok(julian_date(y, mo, da, h, mi, se))
@@ -1771,25 +1570,13 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
                 "[[-3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]",
                 "spacecraft.inertia_kgm2",
             ),
-            (
-                "[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]",
-                "[[1, 0, 0], [0, 1, 0], [0, 0, 5.8]]",
-                "triangle",
-            ),
-            (
-                "[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]",
-                "[[3.1, 1, 0], [0, 3.1, 0], [0, 0, 5.8]]",
-                "symmetric",
-            ),
+            ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[1, 0, 0], [0, 1, 0], [0, 0, 5.8]]", "triangle"),
+            ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[3.1, 1, 0], [0, 3.1, 0], [0, 0, 5.8]]", "symmetric"),
             ("h0_nms = 0.623", "h0_nms = -1", "actuators.cmg.h0_nms"),
             ("duration_s = 10.0", "duration_s = 0", "duration_s"),
             ("law = \"sr\"", "law = \"xx\"", "steering.law"),
             ("zeta = 0.47", "zeta = -0.47", "controller.zeta"),
-            (
-                "control_rate_hz = 100.0",
-                "control_rate_hz = nan",
-                "timing.control_rate_hz",
-            ),
+            ("control_rate_hz = 100.0", "control_rate_hz = nan", "timing.control_rate_hz"),
         ];
         for (from, to, key) in cases {
             let e = err_of(&MINIMAL.replace(from, to));

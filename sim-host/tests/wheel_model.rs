@@ -11,20 +11,12 @@ fn rk4(p: &WheelParams, s: &WheelState, cmd: f64, dt: f64) -> WheelState {
     let k2 = f(&s.add_scaled(&k1, dt / 2.0));
     let k3 = f(&s.add_scaled(&k2, dt / 2.0));
     let k4 = f(&s.add_scaled(&k3, dt));
-    s.add_scaled(&k1, dt / 6.0)
-        .add_scaled(&k2, dt / 3.0)
-        .add_scaled(&k3, dt / 3.0)
-        .add_scaled(&k4, dt / 6.0)
+    s.add_scaled(&k1, dt / 6.0).add_scaled(&k2, dt / 3.0).add_scaled(&k3, dt / 3.0).add_scaled(&k4, dt / 6.0)
 }
 
 /// Paper wheel without Coulomb, bearing and ripple terms.
 fn quiet() -> WheelParams {
-    WheelParams {
-        coulomb_nm: 0.0,
-        bearing_nm: 0.0,
-        ripple_nm: 0.0,
-        ..WheelParams::paper001()
-    }
+    WheelParams { coulomb_nm: 0.0, bearing_nm: 0.0, ripple_nm: 0.0, ..WheelParams::paper001() }
 }
 
 /// Amplitude of the component of `x` at angular frequency `w` (samples every `dt`, integer periods).
@@ -54,41 +46,11 @@ fn paper_params_valid_and_step() {
         1e3 * p.harmonic_step_s()
     );
     for (f, bad) in [
-        (
-            "spin_axis",
-            WheelParams {
-                spin_axis: [1.0, 1.0, 0.0],
-                ..p.clone()
-            },
-        ),
-        (
-            "inertia_kgm2",
-            WheelParams {
-                inertia_kgm2: 0.0,
-                ..p.clone()
-            },
-        ),
-        (
-            "resistance_ohm",
-            WheelParams {
-                resistance_ohm: -1.0,
-                ..p.clone()
-            },
-        ),
-        (
-            "max_power_w",
-            WheelParams {
-                quiescent_power_w: 500.0,
-                ..p.clone()
-            },
-        ),
-        (
-            "coulomb_nm",
-            WheelParams {
-                coulomb_nm: f64::NAN,
-                ..p.clone()
-            },
-        ),
+        ("spin_axis", WheelParams { spin_axis: [1.0, 1.0, 0.0], ..p.clone() }),
+        ("inertia_kgm2", WheelParams { inertia_kgm2: 0.0, ..p.clone() }),
+        ("resistance_ohm", WheelParams { resistance_ohm: -1.0, ..p.clone() }),
+        ("max_power_w", WheelParams { quiescent_power_w: 500.0, ..p.clone() }),
+        ("coulomb_nm", WheelParams { coulomb_nm: f64::NAN, ..p.clone() }),
     ] {
         let e = bad.validate().unwrap_err();
         assert!(e.contains(f), "{e}");
@@ -98,10 +60,7 @@ fn paper_params_valid_and_step() {
 /// Eq 15 alone (loop open, no current): ω(t) = ω0 exp(-λ t / I_w). Tol 1e-9 relative.
 #[test]
 fn viscous_spin_down() {
-    let p = WheelParams {
-        speed_loop_gain: 0.0,
-        ..quiet()
-    };
+    let p = WheelParams { speed_loop_gain: 0.0, ..quiet() };
     let w0 = 300.0;
     let mut s = WheelState::spinning(&p, w0, &Z);
     let dt = 0.05;
@@ -121,11 +80,7 @@ fn viscous_spin_down() {
 /// absolute-momentum coupling. ω_rel(t) = ω_rel0 exp(-λ t (1/I_w + 1/J)). Tol 1e-9 relative.
 #[test]
 fn viscous_spin_down_free_body() {
-    let p = WheelParams {
-        speed_loop_gain: 0.0,
-        spin_axis: [0.6, 0.0, 0.8],
-        ..quiet()
-    };
+    let p = WheelParams { speed_loop_gain: 0.0, spin_axis: [0.6, 0.0, 0.8], ..quiet() };
     let j = 2.0; // body inertia about the spin axis (J of eq 3), small to make coupling visible
     let a = p.spin_axis;
     let (w0, wb0) = (200.0, 0.3);
@@ -143,11 +98,7 @@ fn viscous_spin_down_free_body() {
         let (k2, b2) = f(&s.add_scaled(&k1, dt / 2.0), wb + dt / 2.0 * b1);
         let (k3, b3) = f(&s.add_scaled(&k2, dt / 2.0), wb + dt / 2.0 * b2);
         let (k4, b4) = f(&s.add_scaled(&k3, dt), wb + dt * b3);
-        s = s
-            .add_scaled(&k1, dt / 6.0)
-            .add_scaled(&k2, dt / 3.0)
-            .add_scaled(&k3, dt / 3.0)
-            .add_scaled(&k4, dt / 6.0);
+        s = s.add_scaled(&k1, dt / 6.0).add_scaled(&k2, dt / 3.0).add_scaled(&k3, dt / 3.0).add_scaled(&k4, dt / 6.0);
         wb += dt / 6.0 * (b1 + 2.0 * b2 + 2.0 * b3 + b4);
         let w = evaluate(&p, &s, 0.0, &a.map(|x| x * wb), &Z).1.speed_rad_s;
         let truth = w0 * (-rate * n as f64 * dt).exp();
@@ -163,10 +114,7 @@ fn viscous_spin_down_free_body() {
 /// ḣ_a does not depend on ω̇; eq 23 output ω̇_w = ḣ_a/I_w - aᵀω̇. Tol 1e-12.
 #[test]
 fn body_accel_only_enters_eq23_output() {
-    let p = WheelParams {
-        spin_axis: [0.0, 0.6, 0.8],
-        ..WheelParams::paper001()
-    };
+    let p = WheelParams { spin_axis: [0.0, 0.6, 0.8], ..WheelParams::paper001() };
     let wb = [0.01, -0.02, 0.03];
     let s = WheelState::spinning(&p, 150.0, &wb);
     let acc = [0.1, 0.2, -0.3];
@@ -182,11 +130,7 @@ fn body_accel_only_enters_eq23_output() {
 /// p = K_f K_c / I_w, and the speed sags by T_e/(I_w p)(1 - exp(-p t)). Tol 1e-6 relative to T_f0.
 #[test]
 fn speed_loop_rejects_friction_eq10() {
-    let p = WheelParams {
-        viscous_nms: 0.0,
-        coulomb_nm: 0.04,
-        ..quiet()
-    };
+    let p = WheelParams { viscous_nms: 0.0, coulomb_nm: 0.04, ..quiet() };
     let w0 = 100.0;
     let mut s = WheelState::spinning(&p, w0, &Z); // Dahl converged: T_e = T_f0 constant
     let pole = p.torque_constant_nm_per_a * p.speed_loop_gain / p.inertia_kgm2;
@@ -198,9 +142,7 @@ fn speed_loop_rejects_friction_eq10() {
         let u_out = -o.delivered_torque_nm;
         let tu = -p.coulomb_nm * (-pole * t).exp();
         let tw = w0 - p.coulomb_nm / (p.inertia_kgm2 * pole) * (1.0 - (-pole * t).exp());
-        worst = worst
-            .max((u_out - tu).abs() / p.coulomb_nm)
-            .max((o.speed_rad_s - tw).abs() / p.coulomb_nm);
+        worst = worst.max((u_out - tu).abs() / p.coulomb_nm).max((o.speed_rad_s - tw).abs() / p.coulomb_nm);
         s = rk4(&p, &s, 0.0, dt);
     }
     println!("eq 10 rejection: worst err {worst:.2e} (pole {pole} rad/s)");
@@ -216,30 +158,11 @@ fn speed_loop_rejects_friction_eq10() {
 #[test]
 fn saturation_speed_closed_form() {
     for case in 0..3 {
-        let p = WheelParams {
-            speed_limiter: case == 0,
-            coulomb_nm: 0.04,
-            ..quiet()
-        };
-        let p = if case == 1 {
-            WheelParams {
-                max_power_w: 5000.0,
-                ..p
-            }
-        } else {
-            p
-        };
-        let (k, l, tf, r) = (
-            p.torque_constant_nm_per_a,
-            p.viscous_nms,
-            p.coulomb_nm,
-            p.resistance_ohm,
-        );
+        let p = WheelParams { speed_limiter: case == 0, coulomb_nm: 0.04, ..quiet() };
+        let p = if case == 1 { WheelParams { max_power_w: 5000.0, ..p } } else { p };
+        let (k, l, tf, r) = (p.torque_constant_nm_per_a, p.viscous_nms, p.coulomb_nm, p.resistance_ohm);
         let truth = match case {
-            0 => {
-                (k * k * p.max_speed_rad_s / p.speed_limiter_gain_ohm - tf)
-                    / (k * k / p.speed_limiter_gain_ohm + l)
-            }
+            0 => (k * k * p.max_speed_rad_s / p.speed_limiter_gain_ohm - tf) / (k * k / p.speed_limiter_gain_ohm + l),
             1 => (k * p.motor_voltage_max_v / r - tf) / (k * k / r + l),
             _ => {
                 let g = |w: f64| {
@@ -284,23 +207,11 @@ fn saturation_speed_closed_form() {
 #[test]
 fn limits_hold_in_reversing_saturation() {
     for (pq, ai) in [(0.0, 0.0), (15.0, 0.01)] {
-        let p = WheelParams {
-            quiescent_power_w: pq,
-            control_loss_coeff: ai,
-            ..WheelParams::paper001()
-        };
+        let p = WheelParams { quiescent_power_w: pq, control_loss_coeff: ai, ..WheelParams::paper001() };
         let dt = p.max_stable_step_s();
         let mut s = WheelState::default();
-        let (mut pmax, mut imax, mut vmax, mut wmax, mut tmax): (f64, f64, f64, f64, f64) =
-            (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (cmd, dur) in [
-            (1.5, 100.0),
-            (-1.5, 180.0),
-            (1.5, 40.0),
-            (-1.5, 20.0),
-            (1.5, 170.0),
-            (-1.5, 90.0),
-        ] {
+        let (mut pmax, mut imax, mut vmax, mut wmax, mut tmax): (f64, f64, f64, f64, f64) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (cmd, dur) in [(1.5, 100.0), (-1.5, 180.0), (1.5, 40.0), (-1.5, 20.0), (1.5, 170.0), (-1.5, 90.0)] {
             for _ in 0..(dur / dt) as usize {
                 let o = evaluate(&p, &s, cmd, &Z, &Z).1;
                 pmax = pmax.max(o.power_w);
@@ -347,15 +258,9 @@ fn imbalance_frequency_and_amplitude() {
             ..quiet()
         };
         let p = if dynamic {
-            WheelParams {
-                static_imbalance_kgm: 0.0,
-                ..base
-            }
+            WheelParams { static_imbalance_kgm: 0.0, ..base }
         } else {
-            WheelParams {
-                dyn_imbalance_kgm2: 0.0,
-                ..base
-            }
+            WheelParams { dyn_imbalance_kgm2: 0.0, ..base }
         };
         let dt = 2.0 * PI / w / 64.0;
         let mut s = WheelState::spinning(&p, w, &Z);
@@ -376,19 +281,12 @@ fn imbalance_frequency_and_amplitude() {
             let truth = if dynamic {
                 p.dyn_imbalance_kgm2 * w * w * proj(e)
             } else {
-                let exr = [
-                    e[1] * r[2] - e[2] * r[1],
-                    e[2] * r[0] - e[0] * r[2],
-                    e[0] * r[1] - e[1] * r[0],
-                ];
+                let exr = [e[1] * r[2] - e[2] * r[1], e[2] * r[0] - e[0] * r[2], e[0] * r[1] - e[1] * r[0]];
                 p.static_imbalance_kgm * w * w * proj(exr)
             };
             let amp = dft_amp(&tq[k], w, dt);
             let amp2 = dft_amp(&tq[k], 2.0 * w, dt);
-            let crossings = tq[k]
-                .windows(2)
-                .filter(|v| v[0].signum() != v[1].signum())
-                .count();
+            let crossings = tq[k].windows(2).filter(|v| v[0].signum() != v[1].signum()).count();
             println!(
                 "{} axis {k}: DFT amp {amp:.6e}, closed form {truth:.6e}, 2ω amp {amp2:.1e}, zero crossings {crossings} (10 revs)",
                 if dynamic { "dynamic" } else { "static" }
@@ -438,20 +336,7 @@ fn dahl_converges_at_constant_speed() {
     for w in [10.0, -10.0] {
         let mut s = WheelState::spinning(&p, w, &Z);
         s.dahl_friction_nm = 0.0;
-        let f = |t: f64| {
-            evaluate(
-                &p,
-                &WheelState {
-                    dahl_friction_nm: t,
-                    ..s
-                },
-                0.0,
-                &Z,
-                &Z,
-            )
-            .0
-            .ddahl
-        };
+        let f = |t: f64| evaluate(&p, &WheelState { dahl_friction_nm: t, ..s }, 0.0, &Z, &Z).0.ddahl;
         let dt = 0.01;
         let mut worst: f64 = 0.0;
         for n in 1..=10000 {
@@ -461,14 +346,10 @@ fn dahl_converges_at_constant_speed() {
             let k4 = f(t + dt * k3);
             s.dahl_friction_nm += dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
             let x0 = p.coulomb_nm;
-            let truth = w.signum()
-                * (p.coulomb_nm - x0 / (1.0 + p.dahl_beta * w.abs() * x0 * n as f64 * dt));
+            let truth = w.signum() * (p.coulomb_nm - x0 / (1.0 + p.dahl_beta * w.abs() * x0 * n as f64 * dt));
             worst = worst.max((s.dahl_friction_nm - truth).abs());
         }
-        println!(
-            "Dahl at {w} rad/s: T_f(100 s) = {:.6}, worst err {worst:.1e}",
-            s.dahl_friction_nm
-        );
+        println!("Dahl at {w} rad/s: T_f(100 s) = {:.6}, worst err {worst:.1e}", s.dahl_friction_nm);
         assert!(worst < 1e-9);
         assert!((s.dahl_friction_nm - 0.04 * w.signum()).abs() < 0.01 * 0.04);
     }
@@ -481,15 +362,8 @@ fn dahl_converges_at_constant_speed() {
 /// Tol 1e-5 N m (the tanh band |ω| < 0.03 rad/s is travelled in ~1e-4 rad).
 #[test]
 fn dahl_reverses_smoothly() {
-    let p = WheelParams {
-        speed_loop_gain: 0.0,
-        ..WheelParams::paper001()
-    };
-    let p = WheelParams {
-        bearing_nm: 0.0,
-        ripple_nm: 0.0,
-        ..p
-    };
+    let p = WheelParams { speed_loop_gain: 0.0, ..WheelParams::paper001() };
+    let p = WheelParams { bearing_nm: 0.0, ripple_nm: 0.0, ..p };
     let mut s = WheelState::spinning(&p, 5.0, &Z);
     let dt = 1e-3;
     let (mut sign_changes, mut last_sign, mut max_rate, mut max_w) = (0, 0.0, 0.0_f64, 0.0_f64);
@@ -528,29 +402,10 @@ fn dahl_reverses_smoothly() {
 /// Jacobian bound): T_f rises monotonically to T_f0 without overshoot beyond 1e-9 N m.
 #[test]
 fn dahl_worst_case_stable_at_max_step() {
-    let p = WheelParams {
-        speed_loop_gain: 0.0,
-        ..WheelParams::paper001()
-    };
+    let p = WheelParams { speed_loop_gain: 0.0, ..WheelParams::paper001() };
     let w = p.max_speed_rad_s;
-    let s0 = WheelState {
-        dahl_friction_nm: -p.coulomb_nm,
-        ..WheelState::spinning(&p, w, &Z)
-    };
-    let f = |t: f64| {
-        evaluate(
-            &p,
-            &WheelState {
-                dahl_friction_nm: t,
-                ..s0
-            },
-            0.0,
-            &Z,
-            &Z,
-        )
-        .0
-        .ddahl
-    };
+    let s0 = WheelState { dahl_friction_nm: -p.coulomb_nm, ..WheelState::spinning(&p, w, &Z) };
+    let f = |t: f64| evaluate(&p, &WheelState { dahl_friction_nm: t, ..s0 }, 0.0, &Z, &Z).0.ddahl;
     let dt = p.max_stable_step_s();
     let mut t = s0.dahl_friction_nm;
     for _ in 0..2000 {

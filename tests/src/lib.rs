@@ -24,22 +24,15 @@ pub fn run_in_process(sc: &Scenario) -> RunResult {
 }
 
 fn frame(seq: u32) -> SensorFrame {
-    SensorFrame {
-        q_ib_xyzw: [0.0, 0.0, 0.1, 0.995],
-        valid: valid::ALL,
-        ..SensorFrame::empty(seq, seq as u64 * 10_000)
-    }
+    SensorFrame { q_ib_xyzw: [0.0, 0.0, 0.1, 0.995], valid: valid::ALL, ..SensorFrame::empty(seq, seq as u64 * 10_000) }
 }
 
 /// Shared by the QEMU test: corrupt frames between good ones never stop the flight side.
 pub fn corrupt_frames_are_dropped_and_counted<S: Read + Write>(link: &mut Framed<S>) {
     link.hello().unwrap();
-    link.upload(&acs_flight::params::FlightParams::default())
-        .unwrap();
+    link.upload(&acs_flight::params::FlightParams::default()).unwrap();
     let mut buf = [0u8; MAX_FRAME];
-    let good = encode_frame(&HostMsg::Sensor(frame(1)), &mut buf)
-        .unwrap()
-        .to_vec();
+    let good = encode_frame(&HostMsg::Sensor(frame(1)), &mut buf).unwrap().to_vec();
     let mut flipped = good.clone();
     flipped[5] ^= 0x10;
     let truncated = [&good[..good.len() / 2], &[0u8]].concat();

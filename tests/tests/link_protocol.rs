@@ -24,19 +24,9 @@ fn framed_tcp_run_equals_in_process_run_bit_for_bit() {
     let a = run_in_process(&sc);
     let mut link = virtual_board();
     let b = sim_host::runner::run(&sc, &mut link, false).unwrap();
-    for name in [
-        "q_w",
-        "yaw_deg",
-        "gimbal1_deg",
-        "gimbal_rate3_rad_s",
-        "torque_demand_z_nm",
-        "singularity_m",
-    ] {
+    for name in ["q_w", "yaw_deg", "gimbal1_deg", "gimbal_rate3_rad_s", "torque_demand_z_nm", "singularity_m"] {
         let (x, y) = (a.series.col(name).unwrap(), b.series.col(name).unwrap());
-        assert!(
-            x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()),
-            "column {name} differs"
-        );
+        assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()), "column {name} differs");
     }
     assert_eq!(b.summary.frames_dropped_flight, 0);
     assert_eq!(b.summary.frames_dropped_host, 0);
@@ -56,10 +46,6 @@ fn rejected_parameters_and_version_mismatch_are_reported() {
     p.inertia_kgm2[1][1] = -3.0;
     let e = format!("{:#}", link.upload(&p).unwrap_err());
     assert!(e.contains("Inertia"), "{e}");
-    link.send(&HostMsg::Hello {
-        protocol_version: 999,
-        schema_hash: 0,
-    })
-    .unwrap();
+    link.send(&HostMsg::Hello { protocol_version: 999, schema_hash: 0 }).unwrap();
     assert!(matches!(link.recv().unwrap(), FswMsg::Error(_)));
 }

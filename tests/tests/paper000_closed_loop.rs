@@ -10,12 +10,7 @@ fn test1_and_test3_yaw_slews_reach_the_target_and_test3_is_about_three_times_fas
     let r1 = run_in_process(&scenario("paper000/test1.toml")).summary;
     let r3 = run_in_process(&scenario("paper000/test3.toml")).summary;
     for s in [&r1, &r3] {
-        assert!(
-            s.final_error_deg < 0.1,
-            "{}: final error {} deg",
-            s.scenario,
-            s.final_error_deg
-        );
+        assert!(s.final_error_deg < 0.1, "{}: final error {} deg", s.scenario, s.final_error_deg);
         assert!((s.final_euler_deg[2] - 50.0).abs() < 0.1);
         // Never beyond the 60 deg/s gimbal-rate limit (f32 rounding allowed).
         assert!(s.max_gimbal_rate_rad_s.unwrap() <= 60f64.to_radians() * (1.0 + 1e-6));
@@ -36,12 +31,7 @@ fn three_axis_tests_2_and_4_converge() {
             "{}: final error {:.2e} deg, settle {:?} s, min m {:?}",
             s.scenario, s.final_error_deg, s.settle_time_s, s.min_singularity_measure
         );
-        assert!(
-            s.final_error_deg < 0.1,
-            "{}: {}",
-            s.scenario,
-            s.final_error_deg
-        );
+        assert!(s.final_error_deg < 0.1, "{}: {}", s.scenario, s.final_error_deg);
         for k in 0..3 {
             assert!((s.final_euler_deg[k] - s.target_euler_deg[k]).abs() < 0.1);
         }
@@ -56,12 +46,7 @@ fn same_scenario_and_seed_give_the_same_bits() {
     sc.sensors.seed = 7;
     // Compare bit patterns (NaN columns, e.g. unmeasured step cost, compare equal too).
     let bits = |sc: &sim_host::scenario::Scenario| -> Vec<Vec<u64>> {
-        run_in_process(sc)
-            .series
-            .cols
-            .iter()
-            .map(|c| c.iter().map(|x| x.to_bits()).collect())
-            .collect()
+        run_in_process(sc).series.cols.iter().map(|c| c.iter().map(|x| x.to_bits()).collect()).collect()
     };
     let a = bits(&sc);
     assert_eq!(a, bits(&sc));

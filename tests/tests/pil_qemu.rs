@@ -8,14 +8,9 @@ use sim_host::link::qemu::{QemuLink, default_firmware};
 use sim_host::runner;
 
 fn qemu_available() -> bool {
-    let ok = std::process::Command::new("qemu-system-arm")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success());
+    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
     if !ok {
-        eprintln!(
-            "SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested"
-        );
+        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested");
     }
     ok
 }
@@ -58,28 +53,16 @@ fn qemu_run_matches_in_process_and_reports_instruction_counts() {
     ] {
         let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
         assert_eq!(a.len(), b.len());
-        let scale = if name.starts_with("gimbal") {
-            1f64.to_radians()
-        } else {
-            1.0
-        };
+        let scale = if name.starts_with("gimbal") { 1f64.to_radians() } else { 1.0 };
         for (x, y) in a.iter().zip(b) {
             worst = worst.max((x - y).abs() * scale);
         }
     }
     eprintln!("SIL vs PIL: largest state difference {worst:e} (rad, rad/s or unit quaternion)");
-    assert!(
-        worst <= 1e-6,
-        "SIL and PIL trajectories differ by {worst:e}"
-    );
+    assert!(worst <= 1e-6, "SIL and PIL trajectories differ by {worst:e}");
     let s = &pil.summary;
-    let max = s
-        .max_step_instructions
-        .expect("the firmware measures every step");
-    eprintln!(
-        "PIL: Fsw::step max {max} instructions, mean {:.0}",
-        s.mean_step_instructions.unwrap()
-    );
+    let max = s.max_step_instructions.expect("the firmware measures every step");
+    eprintln!("PIL: Fsw::step max {max} instructions, mean {:.0}", s.mean_step_instructions.unwrap());
     assert!(max > 500 && max < 20_000, "{max} instructions per step");
     assert_eq!(s.board, Some(acs_flight::session::board::QEMU_MPS2_AN386));
     assert_eq!(s.frames_dropped_flight + s.frames_dropped_host, 0);

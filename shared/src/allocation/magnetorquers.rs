@@ -25,11 +25,7 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
         iterations: 1,
         status: AllocStatus::Ok,
     };
-    if !b_body_t
-        .iter()
-        .chain(torque_nm.iter())
-        .all(|x| x.is_finite())
-    {
+    if !b_body_t.iter().chain(torque_nm.iter()).all(|x| x.is_finite()) {
         r.status = AllocStatus::NonFinite;
         return r;
     }
@@ -41,11 +37,7 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
     let m: [f32; 3] = (b_body_t.cross(torque_nm) / b2).into();
     // Asymmetric per-axis limits: scale the whole vector.
     let mut s = 1.0f32;
-    for ((mi, hi), lo) in m
-        .iter()
-        .zip(p.max_dipole_am2.iter())
-        .zip(p.min_dipole_am2.iter())
-    {
+    for ((mi, hi), lo) in m.iter().zip(p.max_dipole_am2.iter()).zip(p.min_dipole_am2.iter()) {
         if *mi > *hi && *mi > 0.0 {
             s = s.min(hi / mi);
         } else if *mi < -lo && *mi < 0.0 {
@@ -75,11 +67,7 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
     r.u = m;
     r.realised = realised.into();
     r.shortfall = short.into();
-    r.lambda = if tn > 0.0 {
-        (realised.dot(torque_nm) / tn).clamp(0.0, 1.0)
-    } else {
-        1.0
-    };
+    r.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
     r.status = if s < 1.0 || r.unrealised != 0 || short.norm() > 1e-3 * libm::sqrtf(tn) {
         AllocStatus::Scaled
     } else {
@@ -145,17 +133,9 @@ mod tests {
 
     #[test]
     fn weak_or_bad_field_is_refused() {
+        assert_eq!(allocate(&rig(), &Vec3::zeros(), &Vec3::new(1e-4, 0.0, 0.0)).status, AllocStatus::Singular);
         assert_eq!(
-            allocate(&rig(), &Vec3::zeros(), &Vec3::new(1e-4, 0.0, 0.0)).status,
-            AllocStatus::Singular
-        );
-        assert_eq!(
-            allocate(
-                &rig(),
-                &Vec3::new(f32::NAN, 0.0, 0.0),
-                &Vec3::new(1e-4, 0.0, 0.0)
-            )
-            .status,
+            allocate(&rig(), &Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::new(1e-4, 0.0, 0.0)).status,
             AllocStatus::NonFinite
         );
     }

@@ -28,11 +28,7 @@ fn axis(p: &WheelParams, i: usize) -> Vec3 {
 
 /// Allocate the body torque demand `torque_nm` to the wheels.
 /// `speed_rad_s`: measured wheel speeds relative to the body.
-pub fn allocate(
-    p: &WheelParams,
-    speed_rad_s: &[f32; MAX_WHEELS],
-    torque_nm: &Vec3,
-) -> AllocResult<MAX_WHEELS> {
+pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Vec3) -> AllocResult<MAX_WHEELS> {
     let n = (p.count as usize).min(MAX_WHEELS);
     let mut r = AllocResult {
         u: [0.0; MAX_WHEELS],
@@ -45,9 +41,7 @@ pub fn allocate(
         iterations: 0,
         status: AllocStatus::Ok,
     };
-    if !torque_nm.iter().all(|x| x.is_finite())
-        || !speed_rad_s.iter().take(n).all(|x| x.is_finite())
-    {
+    if !torque_nm.iter().all(|x| x.is_finite()) || !speed_rad_s.iter().take(n).all(|x| x.is_finite()) {
         r.status = AllocStatus::NonFinite;
         return r;
     }
@@ -67,29 +61,21 @@ pub fn allocate(
         let scale = (m.trace() / 3.0).max(1e-30);
         let singular = m.determinant() < RANK_TOL * scale * scale * scale;
         // Damped inverse when the healthy wheels do not span 3 axes (best effort).
-        let inv = if singular {
-            (m + Mat3::identity() * (1e-3 * scale)).try_inverse()
-        } else {
-            m.try_inverse()
-        };
+        let inv = if singular { (m + Mat3::identity() * (1e-3 * scale)).try_inverse() } else { m.try_inverse() };
         let Some(inv) = inv else {
             status = AllocStatus::Singular;
             u = [0.0; MAX_WHEELS];
             break;
         };
-        status = if singular {
-            AllocStatus::Singular
-        } else {
-            AllocStatus::Ok
-        };
+        status = if singular { AllocStatus::Singular } else { AllocStatus::Ok };
         let w = inv * torque_nm;
         // Null-space term: projection of the speed error onto the null space of C.
         let mut e = [0.0f32; MAX_WHEELS];
         let mut ce = Vec3::zeros();
         for i in 0..n {
             if active & (1 << i) != 0 {
-                let err = speed_rad_s.get(i).copied().unwrap_or(0.0)
-                    - p.bias_speed_rad_s.get(i).copied().unwrap_or(0.0);
+                let err =
+                    speed_rad_s.get(i).copied().unwrap_or(0.0) - p.bias_speed_rad_s.get(i).copied().unwrap_or(0.0);
                 if let Some(x) = e.get_mut(i) {
                     *x = err;
                 }
@@ -121,11 +107,7 @@ pub fn allocate(
     }
     // Torque limit: scale everything (body-torque direction kept, null part stays null).
     let peak = u.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
-    let s = if peak > p.max_torque_nm {
-        p.max_torque_nm / peak
-    } else {
-        1.0
-    };
+    let s = if peak > p.max_torque_nm { p.max_torque_nm / peak } else { 1.0 };
     let mut realised = Vec3::zeros();
     for i in 0..n {
         let Some(ui) = u.get_mut(i) else { continue };
@@ -142,15 +124,9 @@ pub fn allocate(
     r.realised = realised.into();
     r.shortfall = short.into();
     let tn = torque_nm.norm_squared();
-    r.lambda = if tn > 0.0 {
-        (realised.dot(torque_nm) / tn).clamp(0.0, 1.0)
-    } else {
-        1.0
-    };
+    r.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
     r.status = match status {
-        AllocStatus::Ok if s < 1.0 || short.norm() > 1e-4 * libm::sqrtf(tn) + 1e-9 => {
-            AllocStatus::Scaled
-        }
+        AllocStatus::Ok if s < 1.0 || short.norm() > 1e-4 * libm::sqrtf(tn) + 1e-9 => AllocStatus::Scaled,
         other => other,
     };
     r
@@ -198,19 +174,10 @@ mod tests {
         let base = allocate(&p, &speeds, &t);
         p.null_gain_per_s = 0.01;
         let with_null = allocate(&p, &speeds, &t);
-        let diff: f32 = base
-            .u
-            .iter()
-            .zip(with_null.u.iter())
-            .map(|(a, b)| (a - b).abs())
-            .sum();
+        let diff: f32 = base.u.iter().zip(with_null.u.iter()).map(|(a, b)| (a - b).abs()).sum();
         assert!(diff > 1e-3, "the null term is active");
         let d = Vec3::from(with_null.realised) - Vec3::from(base.realised);
-        assert!(
-            d.norm() <= 1e-6 * t.norm(),
-            "body torque changed by {}",
-            d.norm()
-        );
+        assert!(d.norm() <= 1e-6 * t.norm(), "body torque changed by {}", d.norm());
         // It drives the speeds towards the bias: d/dt Σ (Ω_i - 0)² < 0 from the null part.
         let null: [f32; 4] = core::array::from_fn(|i| with_null.u[i] - base.u[i]);
         let dv: f32 = (0..4).map(|i| speeds[i] * null[i]).sum();
@@ -230,10 +197,7 @@ mod tests {
             ] {
                 let r = allocate(&p, &[0.0; MAX_WHEELS], &t);
                 assert_eq!(r.u[failed], 0.0);
-                assert!(
-                    (Vec3::from(r.realised) - t).norm() < 1e-5,
-                    "wheel {failed} failed, demand {t:?}: {r:?}"
-                );
+                assert!((Vec3::from(r.realised) - t).norm() < 1e-5, "wheel {failed} failed, demand {t:?}: {r:?}");
             }
         }
     }
@@ -259,19 +223,12 @@ mod tests {
         let r = allocate(&p, &speeds, &t);
         assert_eq!(r.u[0], 0.0);
         assert_ne!(r.unrealised & 1, 0);
-        assert!(
-            (Vec3::from(r.realised) - t).norm() < 1e-5,
-            "three wheels still realise it"
-        );
+        assert!((Vec3::from(r.realised) - t).norm() < 1e-5, "three wheels still realise it");
     }
 
     #[test]
     fn bad_input_is_refused() {
-        let r = allocate(
-            &pyramid(),
-            &[f32::NAN; MAX_WHEELS],
-            &Vec3::new(0.1, 0.0, 0.0),
-        );
+        let r = allocate(&pyramid(), &[f32::NAN; MAX_WHEELS], &Vec3::new(0.1, 0.0, 0.0));
         assert_eq!(r.status, AllocStatus::NonFinite);
         assert_eq!(r.u, [0.0; MAX_WHEELS]);
         let mut p = pyramid();

@@ -67,11 +67,7 @@ impl QuaternionFeedback {
             u += rate_rad_s.cross(&(inertia * rate_rad_s + h_act_nms));
         }
         let (torque_nm, limited) = scale_to_box(&u, &g.torque_limit_nm);
-        TorqueDemand {
-            torque_nm,
-            limited,
-            error_angle_rad: rotation_angle(&e),
-        }
+        TorqueDemand { torque_nm, limited, error_angle_rad: rotation_angle(&e) }
     }
 
     pub fn reset(&mut self) {
@@ -105,38 +101,13 @@ mod tests {
         let rate = Vec3::new(0.0, 0.0, 2e-3);
         let q = quat_from_euler([0.0, 0.0, theta], EulerSeq::Zyx321);
         let mut c = QuaternionFeedback::default();
-        let d = c.update(
-            &g,
-            &inertia,
-            &q,
-            &Quat::identity(),
-            &rate,
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            0.01,
-            false,
-        );
+        let d = c.update(&g, &inertia, &q, &Quat::identity(), &rate, &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
         let expect = -5.8 * (wn * wn * theta + 2.0 * zeta * wn * 2e-3);
         // Tracking a frame that turns at the measured rate removes the damping term.
         let mut c2 = QuaternionFeedback::default();
-        let d2 = c2.update(
-            &g,
-            &inertia,
-            &q,
-            &Quat::identity(),
-            &rate,
-            &rate,
-            &Vec3::zeros(),
-            0.01,
-            false,
-        );
+        let d2 = c2.update(&g, &inertia, &q, &Quat::identity(), &rate, &rate, &Vec3::zeros(), 0.01, false);
         assert!((d2.torque_nm.z + 5.8 * wn * wn * theta).abs() < 1e-4 * 5.8 * wn * wn * theta);
-        assert!(
-            (d.torque_nm.z - expect).abs() < 1e-4 * expect.abs(),
-            "{} vs {}",
-            d.torque_nm.z,
-            expect
-        );
+        assert!((d.torque_nm.z - expect).abs() < 1e-4 * expect.abs(), "{} vs {}", d.torque_nm.z, expect);
         assert!(d.torque_nm.x.abs() < 1e-9 && d.torque_nm.y.abs() < 1e-9);
     }
 
@@ -150,29 +121,10 @@ mod tests {
         let free = {
             let mut g2 = g;
             g2.torque_limit_nm = Vec3::repeat(1e3);
-            c.update(
-                &g2,
-                &inertia,
-                &q,
-                &Quat::identity(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                0.01,
-                false,
-            )
+            c.update(&g2, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false)
         };
-        let lim = c.update(
-            &g,
-            &inertia,
-            &q,
-            &Quat::identity(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            0.01,
-            false,
-        );
+        let lim =
+            c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
         assert!(lim.limited);
         assert!(lim.torque_nm.amax() <= 0.1 + 1e-7);
         let cos = lim.torque_nm.normalize().dot(&free.torque_nm.normalize());
@@ -188,32 +140,12 @@ mod tests {
         let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
         let mut c = QuaternionFeedback::default();
         for _ in 0..1000 {
-            c.update(
-                &g,
-                &inertia,
-                &q,
-                &Quat::identity(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                0.01,
-                false,
-            );
+            c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
         }
         assert!((c.integral.z - 0.05).abs() < 1e-7, "clamped at the limit");
         let before = c.integral;
         let q2 = quat_from_euler([0.0, 0.0, -0.5], EulerSeq::Zyx321);
-        c.update(
-            &g,
-            &inertia,
-            &q2,
-            &Quat::identity(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            0.01,
-            true,
-        );
+        c.update(&g, &inertia, &q2, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, true);
         assert_eq!(c.integral, before, "frozen while saturated");
     }
 }

@@ -136,12 +136,7 @@ mod tests {
 
     #[test]
     fn euler_round_trip_both_sequences() {
-        let cases = [
-            [0.1, -0.4, 2.5],
-            [-1.2, 0.7, -3.0],
-            [0.0, 1.2, 0.3],
-            [0.05, 0.02, 0.87],
-        ];
+        let cases = [[0.1, -0.4, 2.5], [-1.2, 0.7, -3.0], [0.0, 1.2, 0.3], [0.05, 0.02, 0.87]];
         for seq in [EulerSeq::Zyx321, EulerSeq::Xyz123] {
             for c in cases {
                 let q = quat_from_euler(c, seq);
@@ -158,12 +153,9 @@ mod tests {
     fn sequence_321_matches_rotation_matrix_product() {
         // Independent truth: R = Rz(ψ) Ry(θ) Rx(φ) built from elementary matrices.
         let (r, p, y) = (0.3f32, -0.2f32, 1.1f32);
-        let rx =
-            nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, r.cos(), -r.sin(), 0.0, r.sin(), r.cos());
-        let ry =
-            nalgebra::Matrix3::new(p.cos(), 0.0, p.sin(), 0.0, 1.0, 0.0, -p.sin(), 0.0, p.cos());
-        let rz =
-            nalgebra::Matrix3::new(y.cos(), -y.sin(), 0.0, y.sin(), y.cos(), 0.0, 0.0, 0.0, 1.0);
+        let rx = nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, r.cos(), -r.sin(), 0.0, r.sin(), r.cos());
+        let ry = nalgebra::Matrix3::new(p.cos(), 0.0, p.sin(), 0.0, 1.0, 0.0, -p.sin(), 0.0, p.cos());
+        let rz = nalgebra::Matrix3::new(y.cos(), -y.sin(), 0.0, y.sin(), y.cos(), 0.0, 0.0, 0.0, 1.0);
         let m = rz * ry * rx;
         let q = quat_from_euler([r, p, y], EulerSeq::Zyx321);
         for v in [Vec3::x(), Vec3::y(), Vec3::z(), Vec3::new(0.3, -0.5, 0.8)] {
@@ -180,13 +172,8 @@ mod tests {
         let e2 = attitude_error(&(-qc), &qc);
         assert!(close(e2.w, 1.0, TOL));
         // A 10° yaw offset gives a rotation angle of 10°.
-        let q =
-            quat_from_euler([0.2, 0.1, -0.5], EulerSeq::Zyx321) * axis_quat(2, 10f32.to_radians());
-        assert!(close(
-            rotation_angle(&attitude_error(&q, &qc)).to_degrees(),
-            10.0,
-            1e-3
-        ));
+        let q = quat_from_euler([0.2, 0.1, -0.5], EulerSeq::Zyx321) * axis_quat(2, 10f32.to_radians());
+        assert!(close(rotation_angle(&attitude_error(&q, &qc)).to_degrees(), 10.0, 1e-3));
     }
 
     #[test]

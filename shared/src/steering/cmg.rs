@@ -64,20 +64,13 @@ pub struct GimbalTrig {
 
 impl GimbalTrig {
     pub fn new(delta_rad: &[f32; 4]) -> Self {
-        Self {
-            s: delta_rad.map(sinf),
-            c: delta_rad.map(cosf),
-        }
+        Self { s: delta_rad.map(sinf), c: delta_rad.map(cosf) }
     }
 }
 
 impl CmgPyramid {
     pub fn new(skew_rad: f32, h0_nms: f32) -> Self {
-        Self {
-            h0_nms,
-            cos_skew: cosf(skew_rad),
-            sin_skew: sinf(skew_rad),
-        }
+        Self { h0_nms, cos_skew: cosf(skew_rad), sin_skew: sinf(skew_rad) }
     }
 
     /// Cluster momentum in body axes, N m s (eq 6).
@@ -85,11 +78,7 @@ impl CmgPyramid {
         let (cb, sb) = (self.cos_skew, self.sin_skew);
         let [s1, s2, s3, s4] = t.s;
         let [c1, c2, c3, c4] = t.c;
-        Vec3::new(
-            -cb * s1 - c2 + cb * s3 + c4,
-            c1 - cb * s2 - c3 + cb * s4,
-            sb * (s1 + s2 + s3 + s4),
-        ) * self.h0_nms
+        Vec3::new(-cb * s1 - c2 + cb * s3 + c4, c1 - cb * s2 - c3 + cb * s4, sb * (s1 + s2 + s3 + s4)) * self.h0_nms
     }
 
     /// Unit-momentum Jacobian `J₁ = ∂h/∂δ / h0` (eq 8).
@@ -112,12 +101,7 @@ impl CmgPyramid {
     }
 
     /// Torque the gimbal rates produce on the body (eq 4): `-J δ̇ - ω × h`.
-    pub fn torque_on_body(
-        &self,
-        t: &GimbalTrig,
-        rate_rad_s: &Vec3,
-        gimbal_rate_rad_s: &[f32; 4],
-    ) -> Vec3 {
+    pub fn torque_on_body(&self, t: &GimbalTrig, rate_rad_s: &Vec3, gimbal_rate_rad_s: &[f32; 4]) -> Vec3 {
         let d = nalgebra::Vector4::from(*gimbal_rate_rad_s);
         -(self.jacobian(t) * d) - rate_rad_s.cross(&self.momentum(t))
     }
@@ -159,12 +143,7 @@ impl CmgPyramid {
             r = [0.0; 4];
         }
         st |= limit_rates(&mut r, delta_rad, limits, dt_s);
-        SteeringOutput {
-            gimbal_rate_rad_s: r,
-            singularity_measure: m,
-            alpha,
-            status: st,
-        }
+        SteeringOutput { gimbal_rate_rad_s: r, singularity_measure: m, alpha, status: st }
     }
 }
 
@@ -261,11 +240,7 @@ mod tests {
     #[test]
     fn jacobian_matches_central_differences_of_eq6() {
         let p = CmgPyramid::new(BETA, 0.623);
-        for d in [
-            [0.0f32, 0.0, 0.0, 0.0],
-            [0.3, -1.1, 2.0, 0.7],
-            [1.57, 0.0, -1.57, 0.0],
-        ] {
+        for d in [[0.0f32, 0.0, 0.0, 0.0], [0.3, -1.1, 2.0, 0.7], [1.57, 0.0, -1.57, 0.0]] {
             let j = p.jacobian(&GimbalTrig::new(&d));
             let d64 = d.map(|x| x as f64);
             let eps = 1e-6;
@@ -273,17 +248,10 @@ mod tests {
                 let (mut a, mut b) = (d64, d64);
                 a[i] += eps;
                 b[i] -= eps;
-                let (ha, hb) = (
-                    momentum_eq6(0.623, BETA as f64, a),
-                    momentum_eq6(0.623, BETA as f64, b),
-                );
+                let (ha, hb) = (momentum_eq6(0.623, BETA as f64, a), momentum_eq6(0.623, BETA as f64, b));
                 for k in 0..3 {
                     let fd = (ha[k] - hb[k]) / (2.0 * eps);
-                    assert!(
-                        (j[(k, i)] as f64 - fd).abs() < 1e-5,
-                        "J[{k},{i}] {} vs {fd}",
-                        j[(k, i)]
-                    );
+                    assert!((j[(k, i)] as f64 - fd).abs() < 1e-5, "J[{k},{i}] {} vs {fd}", j[(k, i)]);
                 }
             }
         }
@@ -302,11 +270,7 @@ mod tests {
     }
 
     fn lim() -> GimbalLimits {
-        GimbalLimits {
-            max_rate_rad_s: 10.0,
-            min_angle_rad: -1e3,
-            max_angle_rad: 1e3,
-        }
+        GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -1e3, max_angle_rad: 1e3 }
     }
 
     #[test]
@@ -316,16 +280,7 @@ mod tests {
         let t = GimbalTrig::new(&d);
         let w = Vec3::new(0.01, -0.02, 0.03);
         let u = Vec3::new(0.05, -0.02, 0.08);
-        let mp = p.steer(
-            &SteeringLaw::MoorePenrose,
-            1e-6,
-            &lim(),
-            &t,
-            &d,
-            &w,
-            &u,
-            0.01,
-        );
+        let mp = p.steer(&SteeringLaw::MoorePenrose, 1e-6, &lim(), &t, &d, &w, &u, 0.01);
         assert_eq!(mp.status, 0);
         // MP realises the torque exactly (away from singularities).
         let got = p.torque_on_body(&t, &w, &mp.gimbal_rate_rad_s);
@@ -335,12 +290,8 @@ mod tests {
         for a0 in [1e-1f32, 1e-2, 1e-3, 1e-4] {
             let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu: 0.0 });
             let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &w, &u, 0.01);
-            let diff: f32 = sr
-                .gimbal_rate_rad_s
-                .iter()
-                .zip(mp.gimbal_rate_rad_s.iter())
-                .map(|(a, b)| (a - b).abs())
-                .sum();
+            let diff: f32 =
+                sr.gimbal_rate_rad_s.iter().zip(mp.gimbal_rate_rad_s.iter()).map(|(a, b)| (a - b).abs()).sum();
             assert!(diff < prev, "difference shrinks with alpha");
             ratio = diff / prev;
             prev = diff;
@@ -348,11 +299,7 @@ mod tests {
         let scale: f32 = mp.gimbal_rate_rad_s.iter().map(|x| x.abs()).sum();
         // SR - MP = O(α): a tenfold smaller α gives a tenfold smaller difference.
         assert!((0.08..0.12).contains(&ratio), "convergence ratio {ratio}");
-        assert!(
-            prev < 5e-3 * scale,
-            "relative difference {} at alpha 1e-4",
-            prev / scale
-        );
+        assert!(prev < 5e-3 * scale, "relative difference {} at alpha 1e-4", prev / scale);
     }
 
     #[test]
@@ -365,28 +312,13 @@ mod tests {
         let j = p.unit_jacobian(&t);
         assert!((j * j.transpose()).determinant().abs() < 1e-6);
         let u = Vec3::new(0.1, 0.0, 0.0);
-        let mp = p.steer(
-            &SteeringLaw::MoorePenrose,
-            1e-6,
-            &lim(),
-            &t,
-            &d,
-            &Vec3::zeros(),
-            &u,
-            0.01,
-        );
+        let mp = p.steer(&SteeringLaw::MoorePenrose, 1e-6, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01);
         assert!(mp.gimbal_rate_rad_s.iter().all(|x| x.is_finite()));
         assert_ne!(mp.status & status::SINGULAR, 0);
         let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
         let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01);
-        let peak = sr
-            .gimbal_rate_rad_s
-            .iter()
-            .fold(0.0f32, |a, x| a.max(x.abs()));
-        assert!(
-            peak < 1e-4,
-            "SR is stuck at the elliptic singularity: {peak}"
-        );
+        let peak = sr.gimbal_rate_rad_s.iter().fold(0.0f32, |a, x| a.max(x.abs()));
+        assert!(peak < 1e-4, "SR is stuck at the elliptic singularity: {peak}");
         assert!(sr.alpha > 0.0);
     }
 
@@ -394,10 +326,7 @@ mod tests {
     fn rate_limit_scaling_keeps_direction() {
         let mut r = [0.4f32, -2.0, 1.0, 0.1];
         let orig = Vector4::from(r);
-        let l = GimbalLimits {
-            max_rate_rad_s: 0.5,
-            ..lim()
-        };
+        let l = GimbalLimits { max_rate_rad_s: 0.5, ..lim() };
         let st = limit_rates(&mut r, &[0.0; 4], &l, 0.01);
         assert_ne!(st & status::RATE_SCALED, 0);
         let v = Vector4::from(r);
@@ -408,11 +337,7 @@ mod tests {
     #[test]
     fn angle_limit_stops_the_gimbal_at_the_stop() {
         let mut r = [1.0f32, -1.0, 0.0, 0.0];
-        let l = GimbalLimits {
-            max_rate_rad_s: 10.0,
-            min_angle_rad: -0.5,
-            max_angle_rad: 0.5,
-        };
+        let l = GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -0.5, max_angle_rad: 0.5 };
         let st = limit_rates(&mut r, &[0.495, -0.5, 0.0, 0.0], &l, 0.01);
         assert_ne!(st & status::ANGLE_LIMITED, 0);
         assert!((0.495 + r[0] * 0.01 - 0.5).abs() < 1e-6);
@@ -421,18 +346,10 @@ mod tests {
 
     #[test]
     fn alpha_schedules_follow_eqs_12_to_14() {
-        let q = AlphaSchedule::Quadratic {
-            a0: 0.1,
-            m0: 0.5,
-            m_cr: 0.3,
-        };
+        let q = AlphaSchedule::Quadratic { a0: 0.1, m0: 0.5, m_cr: 0.3 };
         assert_eq!(alpha_of(&q, 0.4), 0.0);
         assert!((alpha_of(&q, 0.1) - 0.1 * 0.8f32.powi(2)).abs() < 1e-7);
-        let i = AlphaSchedule::Inverse {
-            a0: 1e-3,
-            m_cr: 0.3,
-            a_max: 0.05,
-        };
+        let i = AlphaSchedule::Inverse { a0: 1e-3, m_cr: 0.3, a_max: 0.05 };
         assert_eq!(alpha_of(&i, 0.5), 0.0);
         assert!((alpha_of(&i, 0.1) - 1e-2).abs() < 1e-7);
         assert_eq!(alpha_of(&i, 1e-4), 0.05);

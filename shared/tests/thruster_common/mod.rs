@@ -1,10 +1,5 @@
 //! Shared test support: seeded PRNG, the zonotope oracle (f64, no LP), microlp wrappers.
-#![allow(
-    dead_code,
-    clippy::indexing_slicing,
-    clippy::unwrap_used,
-    clippy::expect_used
-)]
+#![allow(dead_code, clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used)]
 
 use acs_flight::allocation::thruster::{Bounds, Lp, LpStatus};
 
@@ -31,11 +26,7 @@ impl Rng {
     /// Uniform direction on the unit sphere.
     pub fn unit3(&mut self) -> [f64; 3] {
         loop {
-            let v = [
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            ];
+            let v = [self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0)];
             let n = norm(&v);
             if n > 1e-3 && n <= 1.0 {
                 return [v[0] / n, v[1] / n, v[2] / n];
@@ -48,11 +39,7 @@ pub fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 pub fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 pub fn norm(a: &[f64; 3]) -> f64 {
     dot(a, a).sqrt()
@@ -73,9 +60,7 @@ pub fn sphere(n: usize) -> Vec<[f64; 3]> {
 
 /// Columns of a 3×N f32 matrix as f64 vectors (exactly the f32 data).
 pub fn columns<const N: usize>(b: &[[f32; N]; 3]) -> Vec<[f64; 3]> {
-    (0..N)
-        .map(|j| [b[0][j] as f64, b[1][j] as f64, b[2][j] as f64])
-        .collect()
+    (0..N).map(|j| [b[0][j] as f64, b[1][j] as f64, b[2][j] as f64]).collect()
 }
 
 /// The zonotope `Z = {B u : lo <= u <= hi}` written as translation + generators.
@@ -116,11 +101,7 @@ impl Zonotope {
                 normals.push([-u[0], -u[1], -u[2]]);
             }
         }
-        Self {
-            gens,
-            fixed,
-            normals,
-        }
+        Self { gens, fixed, normals }
     }
 
     /// Support function `h_Z(n) = n·fixed + Σ_k max(n·b_k lo_k, n·b_k hi_k)`.
@@ -166,11 +147,7 @@ impl Zonotope {
                 return None;
             }
         }
-        if lmin <= lmax {
-            Some((lmin, lmax))
-        } else {
-            None
-        }
+        if lmin <= lmax { Some((lmin, lmax)) } else { None }
     }
 
     /// The direction-preserving optimum of eqs 12-18: `max λ ∈ [0, 1]` with `λ m ∈ Z`.
@@ -226,24 +203,17 @@ pub fn moment<const N: usize>(b: &[[f32; N]; 3], u: &[f32; N]) -> [f64; 3] {
 }
 
 /// Solve an `Lp` in f64 with microlp. `Ok((objective, x))`, `Err(status)`.
-pub fn microlp_solve<const M: usize, const N: usize>(
-    lp: &Lp<M, N>,
-) -> Result<(f64, Vec<f64>), LpStatus> {
+pub fn microlp_solve<const M: usize, const N: usize>(lp: &Lp<M, N>) -> Result<(f64, Vec<f64>), LpStatus> {
     use microlp::{ComparisonOp, Error, OptimizationDirection, Problem};
     let mut p = Problem::new(OptimizationDirection::Minimize);
-    let vars: Vec<_> = (0..lp.cols)
-        .map(|j| p.add_var(lp.c[j] as f64, (0.0, lp.h[j] as f64)))
-        .collect();
+    let vars: Vec<_> = (0..lp.cols).map(|j| p.add_var(lp.c[j] as f64, (0.0, lp.h[j] as f64))).collect();
     for i in 0..lp.rows {
         let terms: Vec<_> = (0..lp.cols).map(|j| (vars[j], lp.a[i][j] as f64)).collect();
         p.add_constraint(&terms[..], ComparisonOp::Eq, lp.b[i] as f64);
     }
     match p.solve() {
         Ok(out) => match out.into_solution() {
-            Ok(sol) => Ok((
-                sol.objective(),
-                vars.iter().map(|v| sol.var_value(*v)).collect(),
-            )),
+            Ok(sol) => Ok((sol.objective(), vars.iter().map(|v| sol.var_value(*v)).collect())),
             Err(_) => Err(LpStatus::IterationCap),
         },
         Err(Error::Infeasible) => Err(LpStatus::Infeasible),

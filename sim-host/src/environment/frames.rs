@@ -84,11 +84,7 @@ pub fn rot_eci_to_ecef(theta: f64) -> Rotation3<f64> {
 }
 
 /// ECI state -> ECEF state: `r_f = R r_i`, `v_f = R v_i - w_E x r_f` (transport theorem).
-pub fn eci_to_ecef_state(
-    theta: f64,
-    r: &Vector3<f64>,
-    v: &Vector3<f64>,
-) -> (Vector3<f64>, Vector3<f64>) {
+pub fn eci_to_ecef_state(theta: f64, r: &Vector3<f64>, v: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let rot = rot_eci_to_ecef(theta);
     let rf = rot * r;
     let w = Vector3::new(0.0, 0.0, OMEGA_E);
@@ -96,11 +92,7 @@ pub fn eci_to_ecef_state(
 }
 
 /// ECEF state -> ECI state (inverse of [`eci_to_ecef_state`]).
-pub fn ecef_to_eci_state(
-    theta: f64,
-    rf: &Vector3<f64>,
-    vf: &Vector3<f64>,
-) -> (Vector3<f64>, Vector3<f64>) {
+pub fn ecef_to_eci_state(theta: f64, rf: &Vector3<f64>, vf: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let rot_t = rot_eci_to_ecef(theta).inverse();
     let w = Vector3::new(0.0, 0.0, OMEGA_E);
     (rot_t * rf, rot_t * (vf + w.cross(rf)))
@@ -110,11 +102,7 @@ pub fn ecef_to_eci_state(
 pub fn geodetic_to_ecef(lat: f64, lon: f64, h: f64) -> Vector3<f64> {
     let (sl, cl) = lat.sin_cos();
     let n = WGS84_A / (1.0 - WGS84_E2 * sl * sl).sqrt();
-    Vector3::new(
-        (n + h) * cl * lon.cos(),
-        (n + h) * cl * lon.sin(),
-        (n * (1.0 - WGS84_E2) + h) * sl,
-    )
+    Vector3::new((n + h) * cl * lon.cos(), (n + h) * cl * lon.sin(), (n * (1.0 - WGS84_E2) + h) * sl)
 }
 
 /// ECEF -> WGS-84 geodetic (lat, lon [rad], h [m]). Fixed-point iteration on latitude,
@@ -144,10 +132,7 @@ pub fn lat_height(p: f64, z: f64) -> (f64, f64) {
         }
     }
     let (s, c) = lat.sin_cos();
-    (
-        lat,
-        p * c + z * s - WGS84_A * (1.0 - WGS84_E2 * s * s).sqrt(),
-    )
+    (lat, p * c + z * s - WGS84_A * (1.0 - WGS84_E2 * s * s).sqrt())
 }
 
 /// Rotation LVLH -> ECI (`v_eci = q * v_lvlh`). Columns of the matrix are the LVLH axes
@@ -181,11 +166,7 @@ pub fn lvlh_rate_eci(r: &Vector3<f64>, v: &Vector3<f64>, a: &Vector3<f64>) -> Ve
 
 /// Body rate [rad/s, body frame] that keeps a body with attitude `q_ib` fixed in LVLH
 /// (Keplerian LVLH rate `(r x v)/r^2` rotated into the body): `w_b = q_ib^-1 (r x v)/r^2`.
-pub fn orbit_synchronous_rate(
-    q_ib: &UnitQuaternion<f64>,
-    r: &Vector3<f64>,
-    v: &Vector3<f64>,
-) -> Vector3<f64> {
+pub fn orbit_synchronous_rate(q_ib: &UnitQuaternion<f64>, r: &Vector3<f64>, v: &Vector3<f64>) -> Vector3<f64> {
     q_ib.inverse_transform_vector(&(r.cross(v) / r.norm_squared()))
 }
 
@@ -193,11 +174,7 @@ pub fn orbit_synchronous_rate(
 pub fn ned_basis(lat: f64, lon: f64) -> [Vector3<f64>; 3] {
     let (sp, cp) = lat.sin_cos();
     let (sl, cl) = lon.sin_cos();
-    [
-        Vector3::new(-sp * cl, -sp * sl, cp),
-        Vector3::new(-sl, cl, 0.0),
-        Vector3::new(-cp * cl, -cp * sl, -sp),
-    ]
+    [Vector3::new(-sp * cl, -sp * sl, cp), Vector3::new(-sl, cl, 0.0), Vector3::new(-cp * cl, -cp * sl, -sp)]
 }
 
 #[cfg(test)]
@@ -207,14 +184,8 @@ mod tests {
     fn states() -> Vec<(Vector3<f64>, Vector3<f64>)> {
         vec![
             (Vector3::new(6.9e6, 0.0, 0.0), Vector3::new(0.0, 7.6e3, 0.0)),
-            (
-                Vector3::new(-4.1e6, 3.3e6, 5.0e6),
-                Vector3::new(1.2e3, -5.5e3, 4.6e3),
-            ),
-            (
-                Vector3::new(1.0e6, -6.6e6, 0.7e6),
-                Vector3::new(-7.1e3, -0.9e3, 2.9e3),
-            ),
+            (Vector3::new(-4.1e6, 3.3e6, 5.0e6), Vector3::new(1.2e3, -5.5e3, 4.6e3)),
+            (Vector3::new(1.0e6, -6.6e6, 0.7e6), Vector3::new(-7.1e3, -0.9e3, 2.9e3)),
         ]
     }
 
@@ -246,10 +217,7 @@ mod tests {
         let dt = 1e-3;
         let rot = |t: f64| {
             let (s, c) = (n * t).sin_cos();
-            q_lvlh_to_eci(
-                &(r.norm() * Vector3::new(c, s, 0.0)),
-                &(v.norm() * Vector3::new(-s, c, 0.0)),
-            )
+            q_lvlh_to_eci(&(r.norm() * Vector3::new(c, s, 0.0)), &(v.norm() * Vector3::new(-s, c, 0.0)))
         };
         let dq = rot(0.0).inverse() * rot(dt); // LVLH(0) -> LVLH(dt), body-fixed increment
         let w_fd = dq.scaled_axis() / dt;
@@ -273,9 +241,7 @@ mod tests {
     #[test]
     fn geodetic_round_trip_1mm() {
         let mut worst: f64 = 0.0;
-        for lat_d in [
-            -90.0, -89.9999, -63.0, -10.0, 0.0, 0.001, 37.0, 80.0, 89.99, 90.0,
-        ] {
+        for lat_d in [-90.0, -89.9999, -63.0, -10.0, 0.0, 0.001, 37.0, 80.0, 89.99, 90.0] {
             for lon_d in [-179.9, -72.0, 0.0, 45.0, 120.0, 180.0] {
                 for h in [-500.0, 0.0, 300e3, 617e3, 36000e3] {
                     let (lat, lon) = (f64::to_radians(lat_d), f64::to_radians(lon_d));

@@ -30,14 +30,8 @@ pub const WMM2025_DIPOLE_LON_DEG: f64 = -72.7566;
 /// convention: year + (day_of_year - 1 + day_fraction)/days_in_year).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum FieldModel {
-    TiltedDipole {
-        b0_t: f64,
-        m_tilt_deg: f64,
-        m_lon_deg: f64,
-    },
-    Wmm {
-        decimal_year: f64,
-    },
+    TiltedDipole { b0_t: f64, m_tilt_deg: f64, m_lon_deg: f64 },
+    Wmm { decimal_year: f64 },
 }
 
 impl FieldModel {
@@ -85,16 +79,9 @@ impl MagneticField {
         let rot = self.earth.eci_to_ecef(t_s);
         let r_ecef = rot * r_eci;
         let b_ecef = match self.model {
-            FieldModel::TiltedDipole {
-                b0_t,
-                m_tilt_deg,
-                m_lon_deg,
-            } => dipole_ecef(
-                &r_ecef,
-                b0_t,
-                m_tilt_deg.to_radians(),
-                m_lon_deg.to_radians(),
-            ),
+            FieldModel::TiltedDipole { b0_t, m_tilt_deg, m_lon_deg } => {
+                dipole_ecef(&r_ecef, b0_t, m_tilt_deg.to_radians(), m_lon_deg.to_radians())
+            }
             FieldModel::Wmm { decimal_year } => wmm_ecef(&r_ecef, decimal_year, t_s)?,
         };
         Ok(rot.inverse() * b_ecef)
@@ -120,11 +107,7 @@ pub fn wmm_ned(lat: f64, lon: f64, h: f64, date: Date) -> Result<V3, MagError> {
         date,
     )
     .map_err(MagError::Wmm)?;
-    Ok(Vector3::new(
-        f.x().get::<tesla>() as f64,
-        f.y().get::<tesla>() as f64,
-        f.z().get::<tesla>() as f64,
-    ))
+    Ok(Vector3::new(f.x().get::<tesla>() as f64, f.y().get::<tesla>() as f64, f.z().get::<tesla>() as f64))
 }
 
 /// (year, zero-based fractional day of year) of `decimal_year + t/86400 days`.
@@ -176,10 +159,7 @@ mod tests {
 
     #[test]
     fn dipole_equator_pole_and_inverse_cube() {
-        let (tilt, lon) = (
-            WMM2025_DIPOLE_TILT_DEG.to_radians(),
-            WMM2025_DIPOLE_LON_DEG.to_radians(),
-        );
+        let (tilt, lon) = (WMM2025_DIPOLE_TILT_DEG.to_radians(), WMM2025_DIPOLE_LON_DEG.to_radians());
         let pole = Vector3::new(tilt.sin() * lon.cos(), tilt.sin() * lon.sin(), tilt.cos());
         let eq = pole.cross(&Vector3::x()).normalize(); // on the magnetic equator
         let r = 7000e3;
@@ -203,18 +183,12 @@ mod tests {
 
     #[test]
     fn dipole_rotates_with_earth() {
-        let f = MagneticField::new(
-            FieldModel::default_dipole(),
-            EarthRotation::Simple { theta0_rad: 0.4 },
-        );
+        let f = MagneticField::new(FieldModel::default_dipole(), EarthRotation::Simple { theta0_rad: 0.4 });
         let r_ecef = Vector3::new(3e6, -5e6, 3.5e6);
         let t = 1234.5;
         let rot = f.earth.eci_to_ecef(t);
         let b = f.b_eci_t(&(rot.inverse() * r_ecef), t).unwrap();
-        let (tl, ln) = (
-            WMM2025_DIPOLE_TILT_DEG.to_radians(),
-            WMM2025_DIPOLE_LON_DEG.to_radians(),
-        );
+        let (tl, ln) = (WMM2025_DIPOLE_TILT_DEG.to_radians(), WMM2025_DIPOLE_LON_DEG.to_radians());
         assert!((rot * b - dipole_ecef(&r_ecef, B0_STANDARD, tl, ln)).norm() < 1e-18);
     }
 
@@ -230,10 +204,8 @@ mod tests {
         ];
         let t = 0.0; // evaluated through an ECI frame rotated by theta0 = 2 rad
         for (year, h_km, lat_d, lon_d, xyz) in cases {
-            let f = MagneticField::new(
-                FieldModel::Wmm { decimal_year: year },
-                EarthRotation::Simple { theta0_rad: 2.0 },
-            );
+            let f =
+                MagneticField::new(FieldModel::Wmm { decimal_year: year }, EarthRotation::Simple { theta0_rad: 2.0 });
             let (lat, lon): (f64, f64) = (lat_d.to_radians(), lon_d.to_radians());
             let r_ecef = geodetic_to_ecef(lat, lon, h_km * 1e3);
             let rot = f.earth.eci_to_ecef(t);
@@ -257,41 +229,18 @@ mod tests {
         for y in [2019.9, 2030.01] {
             let e = MagneticField::new(FieldModel::Wmm { decimal_year: y }, earth).b_eci_t(&r, 0.0);
             assert!(
-                matches!(
-                    e,
-                    Err(MagError::Wmm(
-                        world_magnetic_model::Error::DateOutsideOfValidityRange { .. }
-                    ))
-                ),
+                matches!(e, Err(MagError::Wmm(world_magnetic_model::Error::DateOutsideOfValidityRange { .. }))),
                 "{e:?}"
             );
         }
-        let f = MagneticField::new(
-            FieldModel::Wmm {
-                decimal_year: 2026.2,
-            },
-            earth,
-        );
+        let f = MagneticField::new(FieldModel::Wmm { decimal_year: 2026.2 }, earth);
         assert!(f.b_eci_t(&r, 0.0).is_ok());
-        assert!(matches!(
-            f.b_eci_t(&Vector3::new(7300e3, 0.0, 0.0), 0.0),
-            Err(MagError::Wmm(_))
-        )); // > 850 km
+        assert!(matches!(f.b_eci_t(&Vector3::new(7300e3, 0.0, 0.0), 0.0), Err(MagError::Wmm(_)))); // > 850 km
         // stepping over the year boundary by t
-        let f = MagneticField::new(
-            FieldModel::Wmm {
-                decimal_year: 2026.999,
-            },
-            earth,
-        );
+        let f = MagneticField::new(FieldModel::Wmm { decimal_year: 2026.999 }, earth);
         assert!(f.b_eci_t(&r, 10.0 * 86400.0).is_ok());
         // continuity across a day boundary (interpolated): jump < 0.01 nT
-        let f = MagneticField::new(
-            FieldModel::Wmm {
-                decimal_year: 2026.0,
-            },
-            EarthRotation::Simple { theta0_rad: 0.0 },
-        );
+        let f = MagneticField::new(FieldModel::Wmm { decimal_year: 2026.0 }, EarthRotation::Simple { theta0_rad: 0.0 });
         let r_ecef = Vector3::new(6000e3, 3000e3, 1000e3);
         let b = |t: f64| wmm_ecef(&r_ecef, 2026.0, t).unwrap();
         let jump = (b(86400.0 - 1e-3) - b(86400.0)).norm();
@@ -308,12 +257,7 @@ mod tests {
     fn wmm_vs_dipole_same_order() {
         // sanity: at 617 km the WMM and the WMM2025-dipole (with its own B0) agree to ~20 %
         let earth = EarthRotation::Simple { theta0_rad: 0.0 };
-        let w = MagneticField::new(
-            FieldModel::Wmm {
-                decimal_year: 2026.0,
-            },
-            earth,
-        );
+        let w = MagneticField::new(FieldModel::Wmm { decimal_year: 2026.0 }, earth);
         let d = MagneticField::new(
             FieldModel::TiltedDipole {
                 b0_t: 2.9735e-5,
@@ -325,8 +269,7 @@ mod tests {
         let mut worst: f64 = 0.0;
         for k in 0..36 {
             let a = k as f64 * 10f64.to_radians();
-            let r = (6378137.0 + 617e3)
-                * Vector3::new(a.cos() * 0.2, a.sin() * 0.2, a.cos()).normalize();
+            let r = (6378137.0 + 617e3) * Vector3::new(a.cos() * 0.2, a.sin() * 0.2, a.cos()).normalize();
             let (bw, bd) = (w.b_eci_t(&r, 0.0).unwrap(), d.b_eci_t(&r, 0.0).unwrap());
             worst = worst.max(bw.angle(&bd).to_degrees());
         }

@@ -48,24 +48,18 @@ pub struct EnvSnapshot {
 
 impl Environment {
     pub fn snapshot(&mut self, t_s: f64) -> Result<EnvSnapshot> {
-        let mut s = EnvSnapshot {
-            t_s,
-            ..Default::default()
-        };
+        let mut s = EnvSnapshot { t_s, ..Default::default() };
         if let Some(o) = self.orbit.as_mut() {
-            let (r, v) = o
-                .try_state_at(t_s)
-                .map_err(|e| anyhow!("orbit at t = {t_s} s: {e:?}"))?;
+            let (r, v) = o.try_state_at(t_s).map_err(|e| anyhow!("orbit at t = {t_s} s: {e:?}"))?;
             s.orbit = Some((r, v));
             s.q_lvlh = Some(*q_lvlh_to_eci(&r, &v).quaternion());
             s.lvlh_rate_ref = r.cross(&v) / r.norm_squared();
         }
         s.b_ref_t = match (&self.field, s.orbit) {
             (FieldSource::Fixed(b), _) => Some(*b),
-            (FieldSource::Model(m), Some((r, _))) => Some(
-                m.b_eci_t(&r, t_s)
-                    .map_err(|e| anyhow!("magnetic field at t = {t_s} s: {e:?}"))?,
-            ),
+            (FieldSource::Model(m), Some((r, _))) => {
+                Some(m.b_eci_t(&r, t_s).map_err(|e| anyhow!("magnetic field at t = {t_s} s: {e:?}"))?)
+            }
             _ => None,
         };
         Ok(s)
@@ -78,11 +72,7 @@ impl Environment {
             Some((r, v)) => self.disturbances.torques_b(t_s, &r, &v, &uq, None),
             None => {
                 let ext = self.disturbances.external.eval(t_s);
-                TorqueBreakdown {
-                    external: ext,
-                    total: ext,
-                    ..Default::default()
-                }
+                TorqueBreakdown { external: ext, total: ext, ..Default::default() }
             }
         }
     }

@@ -25,24 +25,9 @@ type V3 = Vector3<f64>;
 /// Kepler elements are osculating at t = 0 (`nu0` = true anomaly); 0 <= e < 1.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum OrbitModel {
-    Circular {
-        altitude_m: f64,
-        inclination_rad: f64,
-        raan_rad: f64,
-        arg_lat0_rad: f64,
-    },
-    Kepler {
-        a_m: f64,
-        e: f64,
-        i: f64,
-        raan: f64,
-        argp: f64,
-        nu0: f64,
-    },
-    Tle {
-        line1: String,
-        line2: String,
-    },
+    Circular { altitude_m: f64, inclination_rad: f64, raan_rad: f64, arg_lat0_rad: f64 },
+    Kepler { a_m: f64, e: f64, i: f64, raan: f64, argp: f64, nu0: f64 },
+    Tle { line1: String, line2: String },
 }
 
 /// Propagator options. `j2` switches the circular/Kepler models to numerical integration of
@@ -55,10 +40,7 @@ pub struct PropagatorOptions {
 }
 impl Default for PropagatorOptions {
     fn default() -> Self {
-        Self {
-            j2: false,
-            step_s: 10.0,
-        }
+        Self { j2: false, step_s: 10.0 }
     }
 }
 
@@ -97,10 +79,7 @@ struct J2Integrator {
 enum Kind {
     Analytic(Kep),
     J2(Kep, J2Integrator),
-    Tle {
-        c: Box<sgp4::Constants>,
-        epoch_jd_utc: f64,
-    },
+    Tle { c: Box<sgp4::Constants>, epoch_jd_utc: f64 },
 }
 
 /// Orbit propagator; `state_at` takes `&mut self` because the J2 integrator caches its
@@ -149,18 +128,8 @@ impl Kep {
             return Err(OrbitError::InvalidElements(format!("a = {a}, e = {e}")));
         }
         let e0 = 2.0 * (((1.0 - e) / (1.0 + e)).sqrt() * (nu0 / 2.0).tan()).atan();
-        let e0 = if (nu0 / 2.0).cos().abs() < 1e-15 {
-            nu0
-        } else {
-            e0
-        };
-        Ok(Kep {
-            a,
-            e,
-            n: (MU / (a * a * a)).sqrt(),
-            m0: e0 - e * e0.sin(),
-            pqw: pqw_to_eci(i, raan, argp),
-        })
+        let e0 = if (nu0 / 2.0).cos().abs() < 1e-15 { nu0 } else { e0 };
+        Ok(Kep { a, e, n: (MU / (a * a * a)).sqrt(), m0: e0 - e * e0.sin(), pqw: pqw_to_eci(i, raan, argp) })
     }
     /// Two-body state (Vallado eqs. 2-54/2-55 in eccentric-anomaly form).
     fn state(&self, t: f64) -> (V3, V3) {
@@ -181,12 +150,7 @@ pub fn accel_j2(r: &V3) -> V3 {
     let rn = r2.sqrt();
     let zz = r.z * r.z / r2;
     let k = -1.5 * J2 * MU * R_E * R_E / (r2 * r2 * rn);
-    -MU / (r2 * rn) * r
-        + k * Vector3::new(
-            r.x * (1.0 - 5.0 * zz),
-            r.y * (1.0 - 5.0 * zz),
-            r.z * (3.0 - 5.0 * zz),
-        )
+    -MU / (r2 * rn) * r + k * Vector3::new(r.x * (1.0 - 5.0 * zz), r.y * (1.0 - 5.0 * zz), r.z * (3.0 - 5.0 * zz))
 }
 
 /// J2 potential energy term to add to `v^2/2 - mu/r` for an integral of motion:
@@ -194,8 +158,7 @@ pub fn accel_j2(r: &V3) -> V3 {
 pub fn energy_j2(r: &V3, v: &V3) -> f64 {
     let rn = r.norm();
     let s = r.z / rn;
-    0.5 * v.norm_squared() - MU / rn
-        + MU * J2 * R_E * R_E / (2.0 * rn.powi(3)) * (3.0 * s * s - 1.0)
+    0.5 * v.norm_squared() - MU / rn + MU * J2 * R_E * R_E / (2.0 * rn.powi(3)) * (3.0 * s * s - 1.0)
 }
 
 fn rk4(x: &(V3, V3), h: f64) -> (V3, V3) {
@@ -204,10 +167,7 @@ fn rk4(x: &(V3, V3), h: f64) -> (V3, V3) {
     let (k2r, k2v) = (v + 0.5 * h * k1v, accel_j2(&(r + 0.5 * h * k1r)));
     let (k3r, k3v) = (v + 0.5 * h * k2v, accel_j2(&(r + 0.5 * h * k2r)));
     let (k4r, k4v) = (v + h * k3v, accel_j2(&(r + h * k3r)));
-    (
-        r + h / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r),
-        v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v),
-    )
+    (r + h / 6.0 * (k1r + 2.0 * k2r + 2.0 * k3r + k4r), v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v))
 }
 
 impl J2Integrator {
@@ -226,80 +186,34 @@ impl J2Integrator {
             self.k += kt.signum();
         }
         let rest = t - kt as f64 * self.h;
-        if rest == 0.0 {
-            self.xk
-        } else {
-            rk4(&self.xk, rest)
-        }
+        if rest == 0.0 { self.xk } else { rk4(&self.xk, rest) }
     }
 }
 
 impl OrbitPropagator {
     pub fn new(model: &OrbitModel, opts: PropagatorOptions) -> Result<Self, OrbitError> {
         let kep = match model {
-            OrbitModel::Circular {
-                altitude_m,
-                inclination_rad,
-                raan_rad,
-                arg_lat0_rad,
-            } => Kep::new(
-                R_E + altitude_m,
-                0.0,
-                *inclination_rad,
-                *raan_rad,
-                0.0,
-                *arg_lat0_rad,
-            )?,
-            OrbitModel::Kepler {
-                a_m,
-                e,
-                i,
-                raan,
-                argp,
-                nu0,
-            } => Kep::new(*a_m, *e, *i, *raan, *argp, *nu0)?,
+            OrbitModel::Circular { altitude_m, inclination_rad, raan_rad, arg_lat0_rad } => {
+                Kep::new(R_E + altitude_m, 0.0, *inclination_rad, *raan_rad, 0.0, *arg_lat0_rad)?
+            }
+            OrbitModel::Kepler { a_m, e, i, raan, argp, nu0 } => Kep::new(*a_m, *e, *i, *raan, *argp, *nu0)?,
             OrbitModel::Tle { line1, line2 } => {
-                let el = sgp4::Elements::from_tle(
-                    None,
-                    line1.trim().as_bytes(),
-                    line2.trim().as_bytes(),
-                )
-                .map_err(|e| OrbitError::Tle(e.to_string()))?;
+                let el = sgp4::Elements::from_tle(None, line1.trim().as_bytes(), line2.trim().as_bytes())
+                    .map_err(|e| OrbitError::Tle(e.to_string()))?;
                 let c = sgp4::Constants::from_elements_afspc_compatibility_mode(&el)
                     .map_err(|e| OrbitError::Tle(e.to_string()))?;
-                let epoch_jd_utc = crate::environment::frames::JD_J2000
-                    + el.epoch_afspc_compatibility_mode() * 365.25;
-                return Ok(Self {
-                    kind: Kind::Tle {
-                        c: Box::new(c),
-                        epoch_jd_utc,
-                    },
-                });
+                let epoch_jd_utc = crate::environment::frames::JD_J2000 + el.epoch_afspc_compatibility_mode() * 365.25;
+                return Ok(Self { kind: Kind::Tle { c: Box::new(c), epoch_jd_utc } });
             }
         };
         if opts.j2 {
             if !(opts.step_s > 0.0 && opts.step_s <= 10.0) {
-                return Err(OrbitError::InvalidElements(format!(
-                    "J2 step {} s not in (0, 10]",
-                    opts.step_s
-                )));
+                return Err(OrbitError::InvalidElements(format!("J2 step {} s not in (0, 10]", opts.step_s)));
             }
             let x0 = kep.state(0.0);
-            Ok(Self {
-                kind: Kind::J2(
-                    kep,
-                    J2Integrator {
-                        x0,
-                        h: opts.step_s,
-                        k: 0,
-                        xk: x0,
-                    },
-                ),
-            })
+            Ok(Self { kind: Kind::J2(kep, J2Integrator { x0, h: opts.step_s, k: 0, xk: x0 }) })
         } else {
-            Ok(Self {
-                kind: Kind::Analytic(kep),
-            })
+            Ok(Self { kind: Kind::Analytic(kep) })
         }
     }
 
@@ -312,18 +226,14 @@ impl OrbitPropagator {
                 let p = c
                     .propagate_afspc_compatibility_mode(sgp4::MinutesSinceEpoch(t_s / 60.0))
                     .map_err(|e| OrbitError::Sgp4(e.to_string()))?;
-                Ok((
-                    Vector3::from(p.position) * 1e3,
-                    Vector3::from(p.velocity) * 1e3,
-                ))
+                Ok((Vector3::from(p.position) * 1e3, Vector3::from(p.velocity) * 1e3))
             }
         }
     }
 
     /// Like [`Self::try_state_at`]; panics only if SGP4 fails (decayed / diverging TLE).
     pub fn state_at(&mut self, t_s: f64) -> (V3, V3) {
-        self.try_state_at(t_s)
-            .unwrap_or_else(|e| panic!("orbit propagation failed at t = {t_s} s: {e}"))
+        self.try_state_at(t_s).unwrap_or_else(|e| panic!("orbit propagation failed at t = {t_s} s: {e}"))
     }
 
     /// Unperturbed mean motion sqrt(mu/a^3) [rad/s] (None for TLE).
@@ -385,10 +295,7 @@ mod tests {
         );
         assert!(max_rel(&r1, &r0) < 1e-12 && max_rel(&v1, &v0) < 1e-12);
         assert!(max_rel(&rh, &-r0) < 1e-12); // half period: opposite side
-        assert!(
-            (r0.norm() - (R_E + 617e3)).abs() < 1e-6
-                && (v0.norm() - (MU / (R_E + 617e3)).sqrt()).abs() < 1e-9
-        );
+        assert!((r0.norm() - (R_E + 617e3)).abs() < 1e-6 && (v0.norm() - (MU / (R_E + 617e3)).sqrt()).abs() < 1e-9);
         assert!(r0.dot(&v0).abs() < 1e-3);
     }
 
@@ -396,14 +303,7 @@ mod tests {
     fn kepler_period_energy_momentum() {
         for e in [0.0f64, 0.1, 0.7, 0.95] {
             let a = 8000e3 / (1.0 - e).max(0.3);
-            let m = OrbitModel::Kepler {
-                a_m: a,
-                e,
-                i: 0.9,
-                raan: 2.0,
-                argp: 1.1,
-                nu0: 2.5,
-            };
+            let m = OrbitModel::Kepler { a_m: a, e, i: 0.9, raan: 2.0, argp: 1.1, nu0: 2.5 };
             let mut p = OrbitPropagator::new(&m, Default::default()).unwrap();
             let t = period(a);
             let (r0, v0) = p.state_at(0.0);
@@ -436,14 +336,7 @@ mod tests {
         }
         assert!(
             OrbitPropagator::new(
-                &OrbitModel::Kepler {
-                    a_m: 7e6,
-                    e: 1.0,
-                    i: 0.0,
-                    raan: 0.0,
-                    argp: 0.0,
-                    nu0: 0.0
-                },
+                &OrbitModel::Kepler { a_m: 7e6, e: 1.0, i: 0.0, raan: 0.0, argp: 0.0, nu0: 0.0 },
                 Default::default()
             )
             .is_err()
@@ -475,14 +368,7 @@ mod tests {
                 raan_rad: 0.5,
                 arg_lat0_rad: 0.0,
             };
-            let mut p = OrbitPropagator::new(
-                &m,
-                PropagatorOptions {
-                    j2: true,
-                    step_s: 10.0,
-                },
-            )
-            .unwrap();
+            let mut p = OrbitPropagator::new(&m, PropagatorOptions { j2: true, step_s: 10.0 }).unwrap();
             let tp = period(a);
             let norb = (86400.0 / tp).floor();
             let mean_raan = |p: &mut OrbitPropagator, t0: f64| {
@@ -517,33 +403,12 @@ mod tests {
 
     #[test]
     fn j2_cache_consistent_and_off_is_kepler() {
-        let m = OrbitModel::Kepler {
-            a_m: 7000e3,
-            e: 0.01,
-            i: 1.0,
-            raan: 0.1,
-            argp: 0.2,
-            nu0: 0.3,
-        };
-        let mut p = OrbitPropagator::new(
-            &m,
-            PropagatorOptions {
-                j2: true,
-                step_s: 5.0,
-            },
-        )
-        .unwrap();
+        let m = OrbitModel::Kepler { a_m: 7000e3, e: 0.01, i: 1.0, raan: 0.1, argp: 0.2, nu0: 0.3 };
+        let mut p = OrbitPropagator::new(&m, PropagatorOptions { j2: true, step_s: 5.0 }).unwrap();
         let ts = [0.0, 0.1, 3.3, 7.0, 1000.4, 999.0, -37.5, -12.0, 2500.0];
         let seq: Vec<_> = ts.iter().map(|&t| p.state_at(t)).collect();
         for (t, s) in ts.iter().zip(seq) {
-            let mut fresh = OrbitPropagator::new(
-                &m,
-                PropagatorOptions {
-                    j2: true,
-                    step_s: 5.0,
-                },
-            )
-            .unwrap();
+            let mut fresh = OrbitPropagator::new(&m, PropagatorOptions { j2: true, step_s: 5.0 }).unwrap();
             assert_eq!(fresh.state_at(*t), s, "t = {t}");
         }
         // Short arcs: J2 solution stays within J2-size distance of Kepler
@@ -563,21 +428,9 @@ mod tests {
         };
         let mut p = OrbitPropagator::new(&m, Default::default()).unwrap();
         let cases = [
-            (
-                0.0,
-                [7022.46529266, -1400.08296755, 0.03995155],
-                [1.893841015, 6.405893759, 4.534807250],
-            ),
-            (
-                360.0,
-                [-7154.03120202, -3783.17682504, -3536.19412294],
-                [4.741887409, -4.151817765, -2.093935425],
-            ),
-            (
-                1440.0,
-                [-938.55923943, -6268.18748831, -4294.02924751],
-                [7.536105209, -0.427127707, 0.989878080],
-            ),
+            (0.0, [7022.46529266, -1400.08296755, 0.03995155], [1.893841015, 6.405893759, 4.534807250]),
+            (360.0, [-7154.03120202, -3783.17682504, -3536.19412294], [4.741887409, -4.151817765, -2.093935425]),
+            (1440.0, [-938.55923943, -6268.18748831, -4294.02924751], [7.536105209, -0.427127707, 0.989878080]),
         ];
         for (tmin, r, v) in cases {
             let (rr, vv) = p.state_at(tmin * 60.0);

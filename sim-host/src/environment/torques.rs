@@ -23,11 +23,7 @@ pub const CD_DEFAULT: f64 = 2.2;
 /// Crassidis 2014 sec. 3.3.6), r^_b = unit position vector (zenith) in body axes.
 /// Zero when a principal axis is along r^. Small-angle pitch about the LVLH y axis
 /// (x along-track, y = -orbit normal, z nadir) obeys `Iy th'' = -3 n^2 (Ix - Iz) th`.
-pub fn gravity_gradient_torque(
-    r_eci: &V3,
-    q_ib: &UnitQuaternion<f64>,
-    inertia: &Matrix3<f64>,
-) -> V3 {
+pub fn gravity_gradient_torque(r_eci: &V3, q_ib: &UnitQuaternion<f64>, inertia: &Matrix3<f64>) -> V3 {
     let rn = r_eci.norm();
     let u = q_ib.inverse_transform_vector(&(r_eci / rn));
     3.0 * MU / (rn * rn * rn) * u.cross(&(inertia * u))
@@ -49,13 +45,7 @@ pub struct Plate {
 impl Plate {
     /// Black plate (absorbing for SRP).
     pub fn new(area_m2: f64, normal_b: V3, cop_b: V3) -> Self {
-        Self {
-            area_m2,
-            normal_b: normal_b.normalize(),
-            cop_b,
-            spec_refl: 0.0,
-            diff_refl: 0.0,
-        }
+        Self { area_m2, normal_b: normal_b.normalize(), cop_b, spec_refl: 0.0, diff_refl: 0.0 }
     }
 }
 
@@ -64,10 +54,7 @@ impl Plate {
 /// torques vanish for any flow direction (sum of l_i A_i = volume for each axis).
 pub fn box_plates(lx: f64, ly: f64, lz: f64, centre_b: V3) -> Vec<Plate> {
     let mut v = Vec::with_capacity(6);
-    for (k, (len, area)) in [(lx, ly * lz), (ly, lx * lz), (lz, lx * ly)]
-        .into_iter()
-        .enumerate()
-    {
+    for (k, (len, area)) in [(lx, ly * lz), (ly, lx * lz), (lz, lx * ly)].into_iter().enumerate() {
         for s in [1.0, -1.0] {
             let n = V3::ith(k, s);
             v.push(Plate::new(area, n, centre_b + n * (len / 2.0)));
@@ -170,18 +157,14 @@ pub fn drag_force_torque(geom: &DragGeometry, cd: f64, rho: f64, v_rel_b: &V3) -
             let f = -q * area_m2 * vh;
             (f, cop_b.cross(&f))
         }
-        DragGeometry::Plates(plates) => {
-            plates
-                .iter()
-                .fold((V3::zeros(), V3::zeros()), |(fs, ts), p| {
-                    let c = p.normal_b.dot(&vh);
-                    if c <= 0.0 {
-                        return (fs, ts);
-                    }
-                    let f = -q * p.area_m2 * c * vh;
-                    (fs + f, ts + p.cop_b.cross(&f))
-                })
-        }
+        DragGeometry::Plates(plates) => plates.iter().fold((V3::zeros(), V3::zeros()), |(fs, ts), p| {
+            let c = p.normal_b.dot(&vh);
+            if c <= 0.0 {
+                return (fs, ts);
+            }
+            let f = -q * p.area_m2 * c * vh;
+            (fs + f, ts + p.cop_b.cross(&f))
+        }),
     }
 }
 
@@ -211,20 +194,17 @@ pub fn in_shadow_cylindrical(r_sc: &V3, r_sun: &V3) -> bool {
 /// body axes, `p` = pressure [N/m^2]. Per lit plate (cos = n.s > 0), Markley & Crassidis
 /// 2014 sec. 3.3.6 (Wertz 1978 sec. 17.2): `F = -p A cos [2 (R_diff/3 + R_spec cos) n + (1 - R_spec) s]`.
 pub fn srp_force_torque(plates: &[Plate], s_b: &V3, p: f64) -> (V3, V3) {
-    plates
-        .iter()
-        .fold((V3::zeros(), V3::zeros()), |(fs, ts), pl| {
-            let c = pl.normal_b.dot(s_b);
-            if c <= 0.0 {
-                return (fs, ts);
-            }
-            let f = -p
-                * pl.area_m2
-                * c
-                * (2.0 * (pl.diff_refl / 3.0 + pl.spec_refl * c) * pl.normal_b
-                    + (1.0 - pl.spec_refl) * s_b);
-            (fs + f, ts + pl.cop_b.cross(&f))
-        })
+    plates.iter().fold((V3::zeros(), V3::zeros()), |(fs, ts), pl| {
+        let c = pl.normal_b.dot(s_b);
+        if c <= 0.0 {
+            return (fs, ts);
+        }
+        let f = -p
+            * pl.area_m2
+            * c
+            * (2.0 * (pl.diff_refl / 3.0 + pl.spec_refl * c) * pl.normal_b + (1.0 - pl.spec_refl) * s_b);
+        (fs + f, ts + pl.cop_b.cross(&f))
+    })
 }
 
 // ------------------------------------------------------------------ magnetic + external
@@ -245,10 +225,7 @@ pub struct HarmonicTorque {
 }
 impl HarmonicTorque {
     pub fn constant(a: V3) -> Self {
-        Self {
-            a,
-            ..Default::default()
-        }
+        Self { a, ..Default::default() }
     }
     #[inline]
     pub fn eval(&self, t: f64) -> V3 {
@@ -298,14 +275,7 @@ pub struct TorqueBreakdown {
 impl Disturbances {
     /// Torques at time t for ECI state (r, v), attitude q_ib and field `b_eci` [T] (None -> no
     /// residual-dipole torque).
-    pub fn torques_b(
-        &self,
-        t: f64,
-        r: &V3,
-        v: &V3,
-        q_ib: &UnitQuaternion<f64>,
-        b_eci: Option<&V3>,
-    ) -> TorqueBreakdown {
+    pub fn torques_b(&self, t: f64, r: &V3, v: &V3, q_ib: &UnitQuaternion<f64>, b_eci: Option<&V3>) -> TorqueBreakdown {
         let mut o = TorqueBreakdown::default();
         if self.gravity_gradient {
             o.gravity_gradient = gravity_gradient_torque(r, q_ib, &self.inertia);
@@ -319,14 +289,11 @@ impl Disturbances {
             if !in_shadow_cylindrical(r, &rs) {
                 let d = rs - r;
                 let p = s.pressure_n_m2 * (AU / d.norm()).powi(2);
-                o.srp =
-                    srp_force_torque(&s.plates, &q_ib.inverse_transform_vector(&d.normalize()), p)
-                        .1;
+                o.srp = srp_force_torque(&s.plates, &q_ib.inverse_transform_vector(&d.normalize()), p).1;
             }
         }
         if let Some(b) = b_eci {
-            o.magnetic =
-                magnetic_torque(&self.residual_dipole_am2, &q_ib.inverse_transform_vector(b));
+            o.magnetic = magnetic_torque(&self.residual_dipole_am2, &q_ib.inverse_transform_vector(b));
         }
         o.external = self.external.eval(t);
         o.total = o.gravity_gradient + o.drag + o.srp + o.magnetic + o.external;
@@ -357,14 +324,8 @@ mod tests {
         let q = ql * UnitQuaternion::from_axis_angle(&V3::y_axis(), th);
         let tau = gravity_gradient_torque(&r, &q, &i);
         let n2 = MU / r.norm().powi(3);
-        println!(
-            "GG pitch torque {tau:?} vs -3n^2(Ix-Iz)th = {:.4e}",
-            -3.0 * n2 * 0.031 * th
-        );
-        assert!(
-            (tau.y / (-3.0 * n2 * 0.031 * th) - 1.0).abs() < 1e-5
-                && tau.x.abs() + tau.z.abs() < 1e-20
-        );
+        println!("GG pitch torque {tau:?} vs -3n^2(Ix-Iz)th = {:.4e}", -3.0 * n2 * 0.031 * th);
+        assert!((tau.y / (-3.0 * n2 * 0.031 * th) - 1.0).abs() < 1e-5 && tau.x.abs() + tau.z.abs() < 1e-20);
     }
 
     /// Rigid body + circular orbit, RK4 (dt = 1 s) with gravity-gradient torque only.
@@ -375,47 +336,27 @@ mod tests {
         let inertia = Matrix3::from_diagonal(&idiag);
         let inv = inertia.try_inverse().unwrap();
         let mut orb = OrbitPropagator::new(
-            &OrbitModel::Circular {
-                altitude_m: alt,
-                inclination_rad: 1.2,
-                raan_rad: 0.4,
-                arg_lat0_rad: 0.0,
-            },
+            &OrbitModel::Circular { altitude_m: alt, inclination_rad: 1.2, raan_rad: 0.4, arg_lat0_rad: 0.0 },
             Default::default(),
         )
         .unwrap();
         let n = orb.mean_motion().unwrap();
         let expected = std::f64::consts::TAU / (n * (3.0 * (idiag.x - idiag.z) / idiag.y).sqrt());
         let (r0, v0) = orb.state_at(0.0);
-        let mut q = (q_lvlh_to_eci(&r0, &v0)
-            * UnitQuaternion::from_axis_angle(&V3::y_axis(), 1f64.to_radians()))
-        .into_inner();
+        let mut q =
+            (q_lvlh_to_eci(&r0, &v0) * UnitQuaternion::from_axis_angle(&V3::y_axis(), 1f64.to_radians())).into_inner();
         let mut w = orbit_synchronous_rate(&UnitQuaternion::new_normalize(q), &r0, &v0);
         let f = |orb: &mut OrbitPropagator, t: f64, q: &Quaternion<f64>, w: &V3| {
             let (r, _) = orb.state_at(t);
             let tau = gravity_gradient_torque(&r, &UnitQuaternion::new_normalize(*q), &inertia);
-            (
-                q * Quaternion::from_imag(*w) * 0.5,
-                inv * (tau - w.cross(&(inertia * w))),
-            )
+            (q * Quaternion::from_imag(*w) * 0.5, inv * (tau - w.cross(&(inertia * w))))
         };
         let (dt, tend) = (1.0, 5.5 * expected);
-        let (mut t, mut prev, mut crossings, mut max_off): (f64, f64, Vec<f64>, f64) =
-            (0.0, 1.0, vec![], 0.0);
+        let (mut t, mut prev, mut crossings, mut max_off): (f64, f64, Vec<f64>, f64) = (0.0, 1.0, vec![], 0.0);
         while t < tend {
             let (k1q, k1w) = f(&mut orb, t, &q, &w);
-            let (k2q, k2w) = f(
-                &mut orb,
-                t + dt / 2.0,
-                &(q + k1q * (dt / 2.0)),
-                &(w + k1w * (dt / 2.0)),
-            );
-            let (k3q, k3w) = f(
-                &mut orb,
-                t + dt / 2.0,
-                &(q + k2q * (dt / 2.0)),
-                &(w + k2w * (dt / 2.0)),
-            );
+            let (k2q, k2w) = f(&mut orb, t + dt / 2.0, &(q + k1q * (dt / 2.0)), &(w + k1w * (dt / 2.0)));
+            let (k3q, k3w) = f(&mut orb, t + dt / 2.0, &(q + k2q * (dt / 2.0)), &(w + k2w * (dt / 2.0)));
             let (k4q, k4w) = f(&mut orb, t + dt, &(q + k3q * dt), &(w + k3w * dt));
             q = (q + (k1q + k2q * 2.0 + k3q * 2.0 + k4q) * (dt / 6.0)).normalize();
             w += (k1w + k2w * 2.0 + k3w * 2.0 + k4w) * (dt / 6.0);
@@ -429,17 +370,13 @@ mod tests {
             }
             prev = th;
         }
-        let measured =
-            (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
+        let measured = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f64;
         (measured, expected, max_off)
     }
 
     #[test]
     fn gg_pitch_libration_period() {
-        for (alt, idiag) in [
-            (617e3, V3::new(0.037, 0.036, 0.006)),
-            (300e3, V3::new(10.0, 12.0, 4.0)),
-        ] {
+        for (alt, idiag) in [(617e3, V3::new(0.037, 0.036, 0.006)), (300e3, V3::new(10.0, 12.0, 4.0))] {
             let (m, e, off) = libration_period(alt, idiag);
             println!(
                 "pitch libration {alt:.0} m, I={:?}: measured {m:.2} s, theory {e:.2} s ({:+.3} %), T_orb {:.1} s, max roll/yaw quat comp {off:.1e}",
@@ -457,35 +394,17 @@ mod tests {
         let (rho, cd, a) = (1.68e-14, CD_DEFAULT, 0.034);
         let cop = V3::new(0.0, 0.0, 0.05);
         for v in [V3::new(7500.0, 0.0, 0.0), V3::new(4000.0, -5000.0, 3000.0)] {
-            let (f, tau) = drag_force_torque(
-                &DragGeometry::CopOffset {
-                    area_m2: a,
-                    cop_b: cop,
-                },
-                cd,
-                rho,
-                &v,
-            );
+            let (f, tau) = drag_force_torque(&DragGeometry::CopOffset { area_m2: a, cop_b: cop }, cd, rho, &v);
             let vh = v.normalize();
             let mag = 0.5 * rho * v.norm_squared() * cd * a * cop.cross(&vh).norm();
-            println!(
-                "drag CoP: tau = {tau:?}, |tau| = {:.6e}, expected {mag:.6e}",
-                tau.norm()
-            );
+            println!("drag CoP: tau = {tau:?}, |tau| = {:.6e}, expected {mag:.6e}", tau.norm());
             assert!((tau.norm() / mag - 1.0).abs() < 1e-12);
             assert!((tau.normalize() - cop.cross(&(-vh)).normalize()).norm() < 1e-12); // r_cp x (-v^)
             assert!((f.normalize() + vh).norm() < 1e-12); // force opposes the velocity
         }
         // flow along +x, CoP above (+z): torque about -y (nose pitched back into the flow)
-        let (_, tau) = drag_force_torque(
-            &DragGeometry::CopOffset {
-                area_m2: a,
-                cop_b: cop,
-            },
-            cd,
-            rho,
-            &V3::new(7500.0, 0.0, 0.0),
-        );
+        let (_, tau) =
+            drag_force_torque(&DragGeometry::CopOffset { area_m2: a, cop_b: cop }, cd, rho, &V3::new(7500.0, 0.0, 0.0));
         assert!(tau.y < 0.0 && tau.x == 0.0 && tau.z == 0.0);
     }
 
@@ -493,23 +412,8 @@ mod tests {
     fn drag_plates() {
         let (rho, cd, v) = (1e-12, 2.2, V3::new(7500.0, 0.0, 0.0));
         let cop = V3::new(0.02, 0.01, 0.05);
-        let one = |n: V3| {
-            drag_force_torque(
-                &DragGeometry::Plates(vec![Plate::new(0.03, n, cop)]),
-                cd,
-                rho,
-                &v,
-            )
-        };
-        let refm = drag_force_torque(
-            &DragGeometry::CopOffset {
-                area_m2: 0.03,
-                cop_b: cop,
-            },
-            cd,
-            rho,
-            &v,
-        );
+        let one = |n: V3| drag_force_torque(&DragGeometry::Plates(vec![Plate::new(0.03, n, cop)]), cd, rho, &v);
+        let refm = drag_force_torque(&DragGeometry::CopOffset { area_m2: 0.03, cop_b: cop }, cd, rho, &v);
         assert!((one(V3::x()).1 - refm.1).norm() < 1e-20);
         assert_eq!(one(-V3::x()).0, V3::zeros()); // back face: no force
         let tilted = one(V3::new(0.5, 0.75f64.sqrt(), 0.0)); // 60 deg incidence
@@ -520,20 +424,12 @@ mod tests {
             let (f, t) = drag_force_torque(&DragGeometry::Plates(boxp.clone()), cd, rho, &vv);
             let vh = vv.normalize();
             let aproj = 0.1 * 0.34 * vh.x.abs() + 0.1 * 0.34 * vh.y.abs() + 0.01 * vh.z.abs();
-            assert!(
-                t.norm() < 1e-22
-                    && (f.norm() / (0.5 * rho * vv.norm_squared() * cd * aproj) - 1.0).abs()
-                        < 1e-12
-            );
+            assert!(t.norm() < 1e-22 && (f.norm() / (0.5 * rho * vv.norm_squared() * cd * aproj) - 1.0).abs() < 1e-12);
         }
         // offset cuboid (CoM 2 cm below the geometric centre along z) + flow along x:
         // torque = r_c x F with r_c = +0.02 z
-        let (f, t) = drag_force_torque(
-            &DragGeometry::Plates(box_plates(0.1, 0.1, 0.34, V3::new(0.0, 0.0, 0.02))),
-            cd,
-            rho,
-            &v,
-        );
+        let (f, t) =
+            drag_force_torque(&DragGeometry::Plates(box_plates(0.1, 0.1, 0.34, V3::new(0.0, 0.0, 0.02))), cd, rho, &v);
         assert!((t - V3::new(0.0, 0.0, 0.02).cross(&f)).norm() < 1e-20);
     }
 
@@ -567,22 +463,13 @@ mod tests {
     fn sun_and_shadow() {
         // 2024 March equinox 2024-03-20 03:06 UTC: Sun on +x (RA 0, dec 0)
         let s = sun_position_eci(julian_date(2024, 3, 20, 3, 6, 0.0));
-        let (ra, dec) = (
-            s.y.atan2(s.x).to_degrees(),
-            (s.z / s.norm()).asin().to_degrees(),
-        );
-        println!(
-            "equinox: RA {ra:.4} deg, dec {dec:.4} deg, r {:.5} AU",
-            s.norm() / AU
-        );
+        let (ra, dec) = (s.y.atan2(s.x).to_degrees(), (s.z / s.norm()).asin().to_degrees());
+        println!("equinox: RA {ra:.4} deg, dec {dec:.4} deg, r {:.5} AU", s.norm() / AU);
         assert!(ra.abs() < 0.03 && dec.abs() < 0.015);
         // June solstice 2024-06-20 20:51 UTC: dec = obliquity 23.436 deg, RA 90 deg
         let s = sun_position_eci(julian_date(2024, 6, 20, 20, 51, 0.0));
         let dec = (s.z / s.norm()).asin().to_degrees();
-        println!(
-            "solstice: RA {:.4} deg, dec {dec:.4} deg",
-            s.y.atan2(s.x).to_degrees()
-        );
+        println!("solstice: RA {:.4} deg, dec {dec:.4} deg", s.y.atan2(s.x).to_degrees());
         assert!((dec - 23.436).abs() < 0.01);
         // perihelion 2024-01-03 00:39 UTC: 0.983307 AU
         let d = sun_position_eci(julian_date(2024, 1, 3, 0, 39, 0.0)).norm() / AU;
@@ -603,10 +490,7 @@ mod tests {
         assert!((f - V3::new(-P_SUN * 2.0, 0.0, 0.0)).norm() < 1e-20); // absorbed: -P A s
         assert!((t - cop.cross(&f)).norm() < 1e-22);
         p.spec_refl = 1.0;
-        assert!(
-            (srp_force_torque(&[p], &s, P_SUN).0 - V3::new(-2.0 * P_SUN * 2.0, 0.0, 0.0)).norm()
-                < 1e-20
-        );
+        assert!((srp_force_torque(&[p], &s, P_SUN).0 - V3::new(-2.0 * P_SUN * 2.0, 0.0, 0.0)).norm() < 1e-20);
         p.normal_b = -V3::x();
         assert_eq!(srp_force_torque(&[p], &s, P_SUN).0, V3::zeros());
     }
@@ -633,9 +517,7 @@ mod tests {
             drag: Some(DragModel {
                 geometry: DragGeometry::Plates(box_plates(0.1, 0.1, 0.34, V3::new(0.0, 0.0, 0.01))),
                 cd: 2.2,
-                atmosphere: Atmosphere::Fixed {
-                    rho_kg_m3: 1.68e-14,
-                },
+                atmosphere: Atmosphere::Fixed { rho_kg_m3: 1.68e-14 },
             }),
             srp: Some(SrpModel {
                 plates: box_plates(0.1, 0.1, 0.34, V3::new(0.0, 0.0, 0.01)),
@@ -649,10 +531,7 @@ mod tests {
         let q = UnitQuaternion::from_euler_angles(0.1, 0.2, 0.3);
         let b = V3::new(1e-5, 2e-5, -2e-5);
         let o = d.torques_b(100.0, &r, &v, &q, Some(&b));
-        assert!(
-            (o.total - (o.gravity_gradient + o.drag + o.srp + o.magnetic + o.external)).norm()
-                < 1e-25
-        );
+        assert!((o.total - (o.gravity_gradient + o.drag + o.srp + o.magnetic + o.external)).norm() < 1e-25);
         assert!(o.gravity_gradient.norm() > 0.0 && o.drag.norm() > 0.0 && o.magnetic.norm() > 0.0);
         println!("paper-003 cubesat at 617 km: {o:#?}");
     }

@@ -3,8 +3,7 @@
 use super::{FlightLink, LinkInfo};
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{
-    FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport,
-    encode_frame, schema_hash,
+    FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport, encode_frame, schema_hash,
 };
 use anyhow::{Context, Result, anyhow, bail};
 use std::io::{ErrorKind, Read, Write};
@@ -63,8 +62,7 @@ impl<S: Read + Write> Framed<S> {
     }
 
     pub fn send(&mut self, msg: &HostMsg) -> Result<()> {
-        let frame =
-            encode_frame(msg, &mut self.tx[..]).map_err(|e| anyhow!("encoding {msg:?}: {e:?}"))?;
+        let frame = encode_frame(msg, &mut self.tx[..]).map_err(|e| anyhow!("encoding {msg:?}: {e:?}"))?;
         self.stream.write_all(frame)?;
         self.stream.flush()?;
         Ok(())
@@ -94,12 +92,7 @@ impl<S: Read + Write> Framed<S> {
                     self.rx_pos = 0;
                     self.rx_len = n;
                 }
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted
-                    ) =>
-                {
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted) => {
                     if Instant::now() > deadline {
                         bail!("{}: no reply within {:?}", self.name, REPLY_TIMEOUT);
                     }
@@ -118,18 +111,9 @@ impl<S: Read + Write> FlightLink for Framed<S> {
     fn hello(&mut self) -> Result<LinkInfo> {
         // A lone delimiter first: the other side drops whatever partial frame it holds.
         self.send_raw(&[0])?;
-        self.send(&HostMsg::Hello {
-            protocol_version: PROTOCOL_VERSION,
-            schema_hash: schema_hash(),
-        })?;
+        self.send(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() })?;
         match self.recv()? {
-            FswMsg::HelloAck {
-                protocol_version,
-                schema_hash: h,
-                cost_counter_hz,
-                board,
-                ..
-            } => {
+            FswMsg::HelloAck { protocol_version, schema_hash: h, cost_counter_hz, board, .. } => {
                 if protocol_version != PROTOCOL_VERSION || h != schema_hash() {
                     bail!(
                         "{}: flight protocol {protocol_version}/{h:#x}, host {PROTOCOL_VERSION}/{:#x}",
@@ -139,11 +123,7 @@ impl<S: Read + Write> FlightLink for Framed<S> {
                 }
                 // QEMU (board 1) runs with -icount shift=0: 1 instruction per ns.
                 let ipt = (board == 1 && cost_counter_hz > 0).then(|| 1e9 / cost_counter_hz as f64);
-                let info = LinkInfo {
-                    board,
-                    cost_counter_hz,
-                    instructions_per_tick: ipt,
-                };
+                let info = LinkInfo { board, cost_counter_hz, instructions_per_tick: ipt };
                 self.info = Some(info.clone());
                 Ok(info)
             }
@@ -158,20 +138,14 @@ impl<S: Read + Write> FlightLink for Framed<S> {
             FswMsg::ParamsAccepted { checksum } => {
                 let mine = params.checksum().map_err(|e| anyhow!("{e}"))?;
                 if checksum != mine {
-                    bail!(
-                        "{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}",
-                        self.name
-                    );
+                    bail!("{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name);
                 }
                 Ok(checksum)
             }
             FswMsg::ParamsRejected(e) => {
                 bail!("{}: flight code rejected the parameters: {e}", self.name)
             }
-            other => bail!(
-                "{}: unexpected reply to the parameter upload: {other:?}",
-                self.name
-            ),
+            other => bail!("{}: unexpected reply to the parameter upload: {other:?}", self.name),
         }
     }
 
@@ -181,12 +155,9 @@ impl<S: Read + Write> FlightLink for Framed<S> {
             match self.recv()? {
                 FswMsg::Step(r) if r.cmd.seq == frame.seq => return Ok(r),
                 FswMsg::Step(r) if r.cmd.seq < frame.seq => continue, // a late answer to an older frame
-                FswMsg::Step(r) => bail!(
-                    "{}: reply for frame {} while waiting for {}",
-                    self.name,
-                    r.cmd.seq,
-                    frame.seq
-                ),
+                FswMsg::Step(r) => {
+                    bail!("{}: reply for frame {} while waiting for {}", self.name, r.cmd.seq, frame.seq)
+                }
                 FswMsg::Error(e) => bail!("{}: flight error {e:?}", self.name),
                 other => bail!("{}: unexpected message {other:?}", self.name),
             }

@@ -26,21 +26,12 @@ impl FlightLink for InProcess {
         "in-process".into()
     }
     fn hello(&mut self) -> Result<LinkInfo> {
-        Ok(LinkInfo {
-            board: 0,
-            cost_counter_hz: 0,
-            instructions_per_tick: None,
-        })
+        Ok(LinkInfo { board: 0, cost_counter_hz: 0, instructions_per_tick: None })
     }
     fn upload(&mut self, params: &FlightParams) -> Result<u32> {
-        self.fsw
-            .configure(params)
-            .map_err(|e| anyhow!("flight code rejected the parameters: {e}"))
+        self.fsw.configure(params).map_err(|e| anyhow!("flight code rejected the parameters: {e}"))
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        Ok(StepReport {
-            cmd: self.fsw.step(frame),
-            ..Default::default()
-        })
+        Ok(StepReport { cmd: self.fsw.step(frame), ..Default::default() })
     }
 }

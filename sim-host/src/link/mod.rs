@@ -62,9 +62,7 @@ impl std::str::FromStr for LinkKind {
                 };
                 LinkKind::Serial { device, baud }
             }
-            _ => bail!(
-                "unknown link {s:?}: use in-process, qemu, tcp:HOST:PORT or serial:DEV[@BAUD]"
-            ),
+            _ => bail!("unknown link {s:?}: use in-process, qemu, tcp:HOST:PORT or serial:DEV[@BAUD]"),
         })
     }
 }

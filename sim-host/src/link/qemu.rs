@@ -18,8 +18,7 @@ pub fn default_firmware() -> PathBuf {
     if let Ok(p) = std::env::var("ACS_FIRMWARE_ELF") {
         return PathBuf::from(p);
     }
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../firmware/target/thumbv7em-none-eabihf/release/acs-firmware")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/target/thumbv7em-none-eabihf/release/acs-firmware")
 }
 
 /// The QEMU command line for the firmware `elf` with UART0 on loopback `port`.
@@ -59,9 +58,7 @@ pub struct QemuLink {
 
 impl QemuLink {
     pub fn start(firmware: Option<&Path>) -> Result<Self> {
-        let elf = firmware
-            .map(Path::to_path_buf)
-            .unwrap_or_else(default_firmware);
+        let elf = firmware.map(Path::to_path_buf).unwrap_or_else(default_firmware);
         if !elf.exists() {
             bail!(
                 "firmware ELF {} not found: build it with `scripts/firmware.sh build` (or pass --firmware)",

@@ -27,18 +27,9 @@ pub struct CmgCluster {
 
 impl CmgCluster {
     /// Four-CMG pyramid with skew angle β (paper 000 eq 6).
-    pub fn pyramid(
-        skew_rad: f64,
-        h0_nms: f64,
-        max_rate_rad_s: f64,
-        angle_limits_rad: Option<(f64, f64)>,
-    ) -> Self {
+    pub fn pyramid(skew_rad: f64, h0_nms: f64, max_rate_rad_s: f64, angle_limits_rad: Option<(f64, f64)>) -> Self {
         let (sb, cb) = skew_rad.sin_cos();
-        let unit = |s: [f64; 3], t: [f64; 3]| CmgUnit {
-            spin0: Vec3::from(s),
-            trans0: Vec3::from(t),
-            h0_nms,
-        };
+        let unit = |s: [f64; 3], t: [f64; 3]| CmgUnit { spin0: Vec3::from(s), trans0: Vec3::from(t), h0_nms };
         Self {
             units: vec![
                 unit([0.0, 1.0, 0.0], [-cb, 0.0, sb]),
@@ -67,9 +58,7 @@ impl CmgCluster {
 
     /// Cluster momentum, body axes.
     pub fn momentum(&self, delta: &[f64; MAX_GIMBALS]) -> Vec3 {
-        (0..self.units.len())
-            .map(|i| self.unit_momentum(i, delta[i]))
-            .sum()
+        (0..self.units.len()).map(|i| self.unit_momentum(i, delta[i])).sum()
     }
 
     /// Column i of the Jacobian, `∂h/∂δ_i`.
@@ -81,9 +70,18 @@ impl CmgCluster {
 
     /// `ḣ = J δ̇`.
     pub fn momentum_rate(&self, delta: &[f64; MAX_GIMBALS], rate: &[f64; MAX_GIMBALS]) -> Vec3 {
-        (0..self.units.len())
-            .map(|i| self.jacobian_column(i, delta[i]) * rate[i])
-            .sum()
+        (0..self.units.len()).map(|i| self.jacobian_column(i, delta[i]) * rate[i]).sum()
+    }
+
+    /// `(h, ḣ = J δ̇)` with one `sin_cos` per unit (the RK4 hot path).
+    pub fn momentum_and_rate(&self, delta: &[f64; MAX_GIMBALS], rate: &[f64; MAX_GIMBALS]) -> (Vec3, Vec3) {
+        let (mut h, mut hd) = (Vec3::zeros(), Vec3::zeros());
+        for (i, u) in self.units.iter().enumerate() {
+            let (s, c) = delta[i].sin_cos();
+            h += (u.spin0 * c + u.trans0 * s) * u.h0_nms;
+            hd += (u.trans0 * c - u.spin0 * s) * (u.h0_nms * rate[i]);
+        }
+        (h, hd)
     }
 
     /// `det(J₁ J₁ᵀ)` with unit rotor momentum.

@@ -32,9 +32,7 @@ pub struct MagnetorquerSpec {
 impl MagnetorquerSpec {
     /// Pure: dipole the rod produces for a command (A m²). Non-finite commands give 0.
     pub fn realised(&self, cmd_am2: f64) -> f64 {
-        if !cmd_am2.is_finite()
-            || (cmd_am2 > self.deadband_lo_am2 && cmd_am2 < self.deadband_hi_am2)
-        {
+        if !cmd_am2.is_finite() || (cmd_am2 > self.deadband_lo_am2 && cmd_am2 < self.deadband_hi_am2) {
             0.0
         } else {
             cmd_am2.clamp(-self.max_neg_am2, self.max_pos_am2)
@@ -59,11 +57,7 @@ impl MagnetorquerSet {
             deadband_hi_am2: hi,
         };
         Self {
-            rods: vec![
-                rod([1.0, 0.0, 0.0]),
-                rod([0.0, 1.0, 0.0]),
-                rod([0.0, 0.0, 1.0]),
-            ],
+            rods: vec![rod([1.0, 0.0, 0.0]), rod([0.0, 1.0, 0.0]), rod([0.0, 0.0, 1.0])],
             residual_dipole_am2: residual,
         }
     }
@@ -83,21 +77,12 @@ impl MagnetorquerSet {
     /// Pure: dipole each rod actually produces for per-rod commands (A m²). Missing
     /// commands count as 0.
     pub fn realised(&self, cmd_am2: &[f64]) -> Vec<f64> {
-        self.rods
-            .iter()
-            .enumerate()
-            .map(|(i, r)| r.realised(cmd_am2.get(i).copied().unwrap_or(0.0)))
-            .collect()
+        self.rods.iter().enumerate().map(|(i, r)| r.realised(cmd_am2.get(i).copied().unwrap_or(0.0))).collect()
     }
 
     /// Pure: body dipole of the rods alone (A m²), e.g. for magnetometer coupling.
     pub fn rod_dipole_am2(&self, realised: &[f64]) -> [f64; 3] {
-        self.rods
-            .iter()
-            .zip(realised)
-            .map(|(r, &m)| Vec3::from(r.axis) * m)
-            .sum::<Vec3>()
-            .into()
+        self.rods.iter().zip(realised).map(|(r, &m)| Vec3::from(r.axis) * m).sum::<Vec3>().into()
     }
 
     /// Pure: total body dipole `m` (rods + residual, A m²) and torque `m × B` (N m) for
@@ -151,10 +136,7 @@ mod tests {
         assert!((t[2] + 12.26 * 50e-6).abs() < 1e-15);
         // A skewed rod projects along its axis.
         let skew = MagnetorquerSet {
-            rods: vec![MagnetorquerSpec {
-                axis: [0.6, 0.8, 0.0],
-                ..s.rods[0]
-            }],
+            rods: vec![MagnetorquerSpec { axis: [0.6, 0.8, 0.0], ..s.rods[0] }],
             residual_dipole_am2: [0.0; 3],
         };
         assert_eq!(skew.rod_dipole_am2(&skew.realised(&[5.0])), [3.0, 4.0, 0.0]);

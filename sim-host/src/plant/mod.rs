@@ -113,10 +113,7 @@ impl Spacecraft {
 
     /// Actuator momentum in body axes (CMG cluster + wheels' absolute axial momentum).
     pub fn actuator_momentum(&self, s: &State) -> Vec3 {
-        let mut h = self
-            .cmg
-            .as_ref()
-            .map_or(Vec3::zeros(), |c| c.momentum(&s.gimbal_rad));
+        let mut h = self.cmg.as_ref().map_or(Vec3::zeros(), |c| c.momentum(&s.gimbal_rad));
         for (p, ws) in self.wheels.iter().zip(s.wheels.iter()) {
             h += Vec3::from(p.spin_axis) * ws.h_abs_nms;
         }
@@ -134,10 +131,7 @@ impl Spacecraft {
     }
 
     fn external(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
-        let mut r = TorqueReport {
-            thrusters_nm: u.thruster_torque_nm,
-            ..Default::default()
-        };
+        let mut r = TorqueReport { thrusters_nm: u.thruster_torque_nm, ..Default::default() };
         if let (Some(e), Some(snap)) = (&self.env, env) {
             r.env = e.torques(t, &s.q, snap);
             if let Some(b) = snap.b_ref_t {
@@ -168,8 +162,7 @@ impl Spacecraft {
         for (i, p) in self.wheels.iter().enumerate() {
             let (d, o) = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
             let a = Vec3::from(p.spin_axis);
-            t += -a * d.dh_abs_nm - s.w.cross(&(a * s.wheels[i].h_abs_nms))
-                + Vec3::from(o.imbalance_torque_nm);
+            t += -a * d.dh_abs_nm - s.w.cross(&(a * s.wheels[i].h_abs_nms)) + Vec3::from(o.imbalance_torque_nm);
         }
         t
     }
@@ -177,10 +170,7 @@ impl Spacecraft {
     fn deriv(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> Deriv {
         let rates = self.applied_gimbal_rates(s, u);
         let (h, hdot) = match &self.cmg {
-            Some(c) => (
-                c.momentum(&s.gimbal_rad),
-                c.momentum_rate(&s.gimbal_rad, &rates),
-            ),
+            Some(c) => c.momentum_and_rate(&s.gimbal_rad, &rates),
             None => (Vec3::zeros(), Vec3::zeros()),
         };
         let mut h_total = h;
@@ -199,12 +189,7 @@ impl Spacecraft {
         let big_h = self.inertia * s.w + h_total;
         let dw = self.inertia_inv * (torque - s.w.cross(&big_h));
         let dq = s.q * Quat::from_imag(s.w) * 0.5;
-        Deriv {
-            dq,
-            dw,
-            dgimbal: rates,
-            dwheel,
-        }
+        Deriv { dq, dw, dgimbal: rates, dwheel }
     }
 
     fn add(s: &State, d: &Deriv, h: f64) -> State {
@@ -216,12 +201,7 @@ impl Spacecraft {
         for (x, dx) in wh.iter_mut().zip(d.dwheel.iter()) {
             *x = x.add_scaled(dx, h);
         }
-        State {
-            q: s.q + d.dq * h,
-            w: s.w + d.dw * h,
-            gimbal_rad: g,
-            wheels: wh,
-        }
+        State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, wheels: wh }
     }
 
     /// One classical RK4 step of length `h` from time `t` with the input held;
@@ -233,8 +213,7 @@ impl Spacecraft {
         let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env);
         let mut g = s.gimbal_rad;
         for i in 0..MAX_GIMBALS {
-            g[i] += h / 6.0
-                * (k1.dgimbal[i] + 2.0 * k2.dgimbal[i] + 2.0 * k3.dgimbal[i] + k4.dgimbal[i]);
+            g[i] += h / 6.0 * (k1.dgimbal[i] + 2.0 * k2.dgimbal[i] + 2.0 * k3.dgimbal[i] + k4.dgimbal[i]);
         }
         if let Some(c) = &self.cmg {
             c.clamp_angles(&mut g);
@@ -251,12 +230,7 @@ impl Spacecraft {
         }
         let q = s.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * (h / 6.0);
         let w = s.w + (k1.dw + (k2.dw + k3.dw) * 2.0 + k4.dw) * (h / 6.0);
-        State {
-            q: q.normalize(),
-            w,
-            gimbal_rad: g,
-            wheels: wh,
-        }
+        State { q: q.normalize(), w, gimbal_rad: g, wheels: wh }
     }
 
     /// Total angular momentum in the inertial frame, N m s (conserved without T_ext).
@@ -286,11 +260,7 @@ mod tests {
 
     fn craft() -> Spacecraft {
         let i = Matrix3::new(3.1, 0.05, -0.02, 0.05, 3.4, 0.03, -0.02, 0.03, 5.8);
-        Spacecraft::new(
-            i,
-            Some(CmgCluster::pyramid(54.73f64.to_radians(), 0.623, 1e3, None)),
-        )
-        .unwrap()
+        Spacecraft::new(i, Some(CmgCluster::pyramid(54.73f64.to_radians(), 0.623, 1e3, None))).unwrap()
     }
 
     fn state() -> State {
@@ -309,16 +279,9 @@ mod tests {
         let mut sc = craft();
         let (a, b) = (45f64.to_radians(), 54.73f64.to_radians());
         let (ca, sa, cb, sb) = (a.cos(), a.sin(), b.cos(), b.sin());
-        for axis in [
-            [ca * sb, sa * sb, cb],
-            [-sa * sb, ca * sb, cb],
-            [-ca * sb, -sa * sb, cb],
-            [sa * sb, -ca * sb, cb],
-        ] {
-            sc.wheels.push(WheelParams {
-                spin_axis: axis,
-                ..WheelParams::ideal(0.2, 600.0, 0.01)
-            });
+        for axis in [[ca * sb, sa * sb, cb], [-sa * sb, ca * sb, cb], [-ca * sb, -sa * sb, cb], [sa * sb, -ca * sb, cb]]
+        {
+            sc.wheels.push(WheelParams { spin_axis: axis, ..WheelParams::ideal(0.2, 600.0, 0.01) });
         }
         let mut s = state();
         for (i, speed) in [100.0, -50.0, 30.0, 250.0].into_iter().enumerate() {
@@ -342,14 +305,9 @@ mod tests {
         };
         let (h_a, e_a) = drift(0.05);
         let (h_b, e_b) = drift(0.025);
-        eprintln!(
-            "3 h drift: momentum {h_a:e} / {h_b:e}, energy {e_a:e} / {e_b:e} (dt 0.05 / 0.025 s)"
-        );
+        eprintln!("3 h drift: momentum {h_a:e} / {h_b:e}, energy {e_a:e} / {e_b:e} (dt 0.05 / 0.025 s)");
         assert!(h_a < 1e-6 && e_a < 1e-6, "{h_a:e} {e_a:e}");
-        assert!(
-            h_b < h_a / 10.0 && e_b < e_a / 10.0,
-            "not converging at 4th order"
-        );
+        assert!(h_b < h_a / 10.0 && e_b < e_a / 10.0, "not converging at 4th order");
     }
 
     #[test]
@@ -362,11 +320,7 @@ mod tests {
             s = sc.rk4(0.0, &s, &u, 0.01, None);
         }
         let h1 = sc.angular_momentum_inertial(&s);
-        assert!(
-            (h1 - h0).norm() < 1e-9 * h0.norm(),
-            "drift {:e}",
-            (h1 - h0).norm() / h0.norm()
-        );
+        assert!((h1 - h0).norm() < 1e-9 * h0.norm(), "drift {:e}", (h1 - h0).norm() / h0.norm());
         // 60 s at 0.05 N m changed wheel 1's absolute momentum by 3 N m s.
         let w0 = WheelState::spinning(&sc.wheels[0], 100.0, &state().w.into());
         assert!((s.wheels[0].h_abs_nms - w0.h_abs_nms - 3.0).abs() < 1e-9);
@@ -383,16 +337,8 @@ mod tests {
         }
         let (h1, e1) = (sc.angular_momentum_inertial(&s), sc.kinetic_energy(&s));
         // RK4 at 100 Hz on a ~0.15 rad/s tumble: truncation error ~1e-12 per step.
-        assert!(
-            (h1 - h0).norm() < 1e-9 * h0.norm(),
-            "momentum drift {:e}",
-            (h1 - h0).norm() / h0.norm()
-        );
-        assert!(
-            (e1 - e0).abs() < 1e-9 * e0,
-            "energy drift {:e}",
-            (e1 - e0).abs() / e0
-        );
+        assert!((h1 - h0).norm() < 1e-9 * h0.norm(), "momentum drift {:e}", (h1 - h0).norm() / h0.norm());
+        assert!((e1 - e0).abs() < 1e-9 * e0, "energy drift {:e}", (e1 - e0).abs() / e0);
     }
 
     #[test]
@@ -406,11 +352,7 @@ mod tests {
             s = sc.rk4(0.0, &s, &u, 0.01, None);
         }
         let h1 = sc.angular_momentum_inertial(&s);
-        assert!(
-            (h1 - h0).norm() < 1e-9 * h0.norm(),
-            "drift {:e}",
-            (h1 - h0).norm() / h0.norm()
-        );
+        assert!((h1 - h0).norm() < 1e-9 * h0.norm(), "drift {:e}", (h1 - h0).norm() / h0.norm());
         // The gimbals really moved (1000 s at 0.3 rad/s): the exchange was not trivial.
         assert!((s.gimbal_rad[0] - 0.3 - 300.0).abs() < 1e-9);
     }
@@ -430,9 +372,6 @@ mod tests {
         let jd = c.momentum_rate(&s.gimbal_rad, &u.gimbal_rate_cmd_rad_s);
         assert!((t_expected + jd).norm() < 1e-15, "T = -J δ̇ at ω = 0");
         let t_measured = sc.inertia * (s1.w - s.w) / dt;
-        assert!(
-            (t_measured - t_expected).norm() < 1e-3 * t_expected.norm(),
-            "{t_measured:?} vs {t_expected:?}"
-        );
+        assert!((t_measured - t_expected).norm() < 1e-3 * t_expected.norm(), "{t_measured:?} vs {t_expected:?}");
     }
 }

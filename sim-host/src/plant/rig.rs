@@ -72,18 +72,10 @@ mod tests {
     fn k_is_eq17() {
         let (phi, theta) = (0.3f64, -0.2f64);
         let q = quat_from_euler([phi, theta, 1.1], EulerSeq::Zyx321);
-        let rig = Rig {
-            mgr_nm: Vec3::new(0.0, 0.0, 1.0),
-            roll_limit_rad: None,
-            pitch_limit_rad: None,
-        };
+        let rig = Rig { mgr_nm: Vec3::new(0.0, 0.0, 1.0), roll_limit_rad: None, pitch_limit_rad: None };
         // T = e_z × K = [-K_y, K_x, 0]
         let t = rig.torque(&q, &Vec3::zeros(), &Matrix3::identity());
-        let k = Vec3::new(
-            -theta.sin(),
-            phi.sin() * theta.cos(),
-            phi.cos() * theta.cos(),
-        );
+        let k = Vec3::new(-theta.sin(), phi.sin() * theta.cos(), phi.cos() * theta.cos());
         assert!((t - Vec3::new(-k.y, k.x, 0.0)).norm() < 1e-12);
     }
 }

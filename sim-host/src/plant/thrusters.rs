@@ -93,9 +93,7 @@ impl ThrusterSet {
     /// Effectiveness matrix B (3×N, one column per thruster): torque in N m for a fully
     /// open valve (unit command), `(r_i - r_cg) × F_i d_i`.
     pub fn torque_matrix(&self) -> Vec<[f64; 3]> {
-        (0..self.thrusters.len())
-            .map(|i| self.torque_col(i).into())
-            .collect()
+        (0..self.thrusters.len()).map(|i| self.torque_col(i).into()).collect()
     }
 
     /// Build from an effectiveness matrix given as torque per newton of thrust (m), one
@@ -122,11 +120,7 @@ impl ThrusterSet {
                 torque_per_n_m: Some(*c),
             })
             .collect();
-        Self {
-            thrusters,
-            failures: Vec::new(),
-            cg_m: [0.0; 3],
-        }
+        Self { thrusters, failures: Vec::new(), cg_m: [0.0; 3] }
     }
 
     /// Paper 004 table 2 (r = d = 0.73 m), B × thrust. Isp = [`PAPER004_ASSUMED_ISP_S`]
@@ -139,9 +133,7 @@ impl ThrusterSet {
             [d, -0.43, -d, 0.0, -d, 0.43, d, 0.0],
             [d, -d, d, -d, d, -d, d, -d],
         ];
-        let cols: Vec<[f64; 3]> = (0..8)
-            .map(|j| [k * rows[0][j], k * rows[1][j], k * rows[2][j]])
-            .collect();
+        let cols: Vec<[f64; 3]> = (0..8).map(|j| [k * rows[0][j], k * rows[1][j], k * rows[2][j]]).collect();
         Self::from_torque_matrix(&cols, thrust_n, PAPER004_ASSUMED_ISP_S, 0.0, 0.0, 0.0)
     }
 
@@ -239,24 +231,14 @@ impl ThrusterSet {
             match (cmd, last) {
                 // Held on, or back on before a stretched pulse ended: same pulse.
                 (true, Some(p)) if p.cmd_off_s >= t => p.cmd_off_s = f64::INFINITY,
-                (true, _) => v.pulses.push(Pulse {
-                    cmd_on_s: t,
-                    cmd_off_s: f64::INFINITY,
-                }),
-                (false, Some(p)) if p.cmd_off_s.is_infinite() => {
-                    p.cmd_off_s = t.max(p.cmd_on_s + spec.min_on_time_s)
-                }
+                (true, _) => v.pulses.push(Pulse { cmd_on_s: t, cmd_off_s: f64::INFINITY }),
+                (false, Some(p)) if p.cmd_off_s.is_infinite() => p.cmd_off_s = t.max(p.cmd_on_s + spec.min_on_time_s),
                 (false, _) => {}
             }
             // 2. Valve open set over [t, t1): nominal schedule, overridden by failures
             //    piecewise between failure times falling inside the step.
             let mut cuts = vec![t];
-            cuts.extend(
-                set.failures
-                    .iter()
-                    .filter(|&&(j, tf, _)| j == i && tf > t && tf < t1)
-                    .map(|f| f.1),
-            );
+            cuts.extend(set.failures.iter().filter(|&&(j, tf, _)| j == i && tf > t && tf < t1).map(|f| f.1));
             cuts.push(t1);
             cuts.sort_by(f64::total_cmp);
             let mut iv: Vec<(f64, f64)> = Vec::new();
@@ -327,10 +309,7 @@ mod tests {
 
     /// Run a command sequence (one bool per step); returns per-step open fractions.
     fn run(set: &ThrusterSet, s: &mut ThrusterState, cmds: &[u32], dt: f64) -> Vec<f64> {
-        cmds.iter()
-            .enumerate()
-            .map(|(k, &c)| set.step(s, c, k as f64 * dt, dt)[0])
-            .collect()
+        cmds.iter().enumerate().map(|(k, &c)| set.step(s, c, k as f64 * dt, dt)[0]).collect()
     }
 
     fn pattern(pulses: usize, on: usize, off: usize, tail: usize) -> Vec<u32> {
@@ -353,10 +332,7 @@ mod tests {
         let t_on = on as f64 * dt;
         let want = n as f64 * 10.0 * t_on / (220.0 * G0_M_S2);
         let rel = (s.propellant_kg[0] - want).abs() / want;
-        println!(
-            "propellant {:.15e} kg, want {want:.15e}, rel {rel:.1e}",
-            s.propellant_kg[0]
-        );
+        println!("propellant {:.15e} kg, want {want:.15e}, rel {rel:.1e}", s.propellant_kg[0]);
         assert!(rel < 1e-12, "rel {rel:e}");
         assert_eq!(s.pulses[0], n as u32);
         assert!((s.on_time_s[0] - n as f64 * t_on).abs() < 1e-12);
@@ -378,12 +354,7 @@ mod tests {
         assert!((f[2] - 0.5).abs() < 1e-12 && f[3] == 0.0, "{f:?}");
         // Back on before the stretched pulse ends: one continuous pulse.
         let mut s = ThrusterState::new(1);
-        let f = run(
-            &set,
-            &mut s,
-            &[1, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0],
-            0.001,
-        );
+        let f = run(&set, &mut s, &[1, 0, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0], 0.001);
         assert_eq!(s.pulses[0], 1);
         assert!((f.iter().sum::<f64>() * 0.001 - 0.010).abs() < 1e-15);
     }
@@ -449,12 +420,7 @@ mod tests {
     #[test]
     fn pulse_counter_counts_rising_edges() {
         let mut s = ThrusterState::new(1);
-        run(
-            &one(0.0, 0.0, 0.0),
-            &mut s,
-            &[0, 1, 1, 1, 0, 1, 0, 0, 1, 1, 0, 1],
-            0.01,
-        );
+        run(&one(0.0, 0.0, 0.0), &mut s, &[0, 1, 1, 1, 0, 1, 0, 0, 1, 1, 0, 1], 0.01);
         assert_eq!(s.pulses[0], 4);
         // Delays longer than the gap merge two commanded pulses into one valve opening.
         let mut s = ThrusterState::new(1);
@@ -488,12 +454,7 @@ mod tests {
             cg_m: [0.0, 0.0, 0.0],
         };
         // By hand, r × F with r = (x, y, h): (y Fz - h Fy, h Fx - x Fz, x Fy - y Fx).
-        let want = [
-            [-h * f, 0.0, l * f],
-            [h * f, 0.0, l * f],
-            [0.0, -h * f, l * f],
-            [0.0, h * f, l * f],
-        ];
+        let want = [[-h * f, 0.0, l * f], [h * f, 0.0, l * f], [0.0, -h * f, l * f], [0.0, h * f, l * f]];
         assert_eq!(set.torque_matrix(), want);
         // An opposite pair is a pure couple.
         let (force, torque) = set.wrench(&[1.0, 1.0, 0.0, 0.0]);

@@ -189,21 +189,13 @@ fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 /// Largest `x ≥ 0` with `r x² + b x - c ≤ 0` (`r > 0`, `c ≥ 0`), cancellation-free.
 fn quad_root(r: f64, b: f64, c: f64) -> f64 {
     let sq = (b * b + 4.0 * r * c).sqrt();
-    if b >= 0.0 {
-        2.0 * c / (b + sq)
-    } else {
-        (sq - b) / (2.0 * r)
-    }
+    if b >= 0.0 { 2.0 * c / (b + sq) } else { (sq - b) / (2.0 * r) }
 }
 
 impl WheelParams {
@@ -259,18 +251,10 @@ impl WheelParams {
     /// Checks every field used by the selected fidelity; the error names the field.
     pub fn validate(&self) -> Result<(), String> {
         let pos = |n: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{n} must be finite and > 0 (got {v})"))
-            }
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(format!("{n} must be finite and > 0 (got {v})")) }
         };
         let nonneg = |n: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(format!("{n} must be finite and >= 0 (got {v})"))
-            }
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{n} must be finite and >= 0 (got {v})")) }
         };
         pos("inertia_kgm2", self.inertia_kgm2)?;
         let n = dot(&self.spin_axis, &self.spin_axis).sqrt();
@@ -329,11 +313,7 @@ impl WheelParams {
             Fidelity::Ideal => self.max_torque_nm / (iw * self.ideal_speed_band_rad_s),
             Fidelity::Accurate => {
                 let k = self.torque_constant_nm_per_a;
-                let lim = if self.speed_limiter {
-                    k * k / (self.speed_limiter_gain_ohm * iw)
-                } else {
-                    0.0
-                };
+                let lim = if self.speed_limiter { k * k / (self.speed_limiter_gain_ohm * iw) } else { 0.0 };
                 [
                     k * self.speed_loop_gain / iw,
                     k * k / (self.resistance_ohm * iw),
@@ -372,9 +352,7 @@ impl WheelParams {
     /// Unit vectors `â1, â2` spanning the plane normal to the spin axis (`â1 × â2 = a`).
     pub fn transverse_basis(&self) -> ([f64; 3], [f64; 3]) {
         let a = &self.spin_axis;
-        let i = (0..3)
-            .min_by(|&i, &j| a[i].abs().total_cmp(&a[j].abs()))
-            .unwrap();
+        let i = (0..3).min_by(|&i, &j| a[i].abs().total_cmp(&a[j].abs())).unwrap();
         let mut e = [0.0; 3];
         e[i] = 1.0;
         let u = cross(&e, a);
@@ -424,14 +402,8 @@ pub fn evaluate(
 ) -> (WheelDeriv, WheelOutput) {
     let iw = p.inertia_kgm2;
     let w = s.h_abs_nms / iw - dot(&p.spin_axis, body_rate_rad_s); // eq 4 solved for ω_w
-    let mut o = WheelOutput {
-        speed_rad_s: w,
-        ..Default::default()
-    };
-    let mut d = WheelDeriv {
-        drotor_angle: w,
-        ..Default::default()
-    };
+    let mut o = WheelOutput { speed_rad_s: w, ..Default::default() };
+    let mut d = WheelDeriv { drotor_angle: w, ..Default::default() };
     let sgn = if w >= 0.0 { 1.0 } else { -1.0 };
     match p.fidelity {
         Fidelity::Ideal => {
@@ -472,8 +444,7 @@ pub fn evaluate(
             let phi = s.rotor_angle_rad + p.phase_rad;
             let tv = p.viscous_nms * w;
             let tf = s.dahl_friction_nm;
-            let dist = p.bearing_nm * phi.sin()
-                + p.ripple_nm * (3.0 * p.motor_poles * s.rotor_angle_rad).sin();
+            let dist = p.bearing_nm * phi.sin() + p.ripple_nm * (3.0 * p.motor_poles * s.rotor_angle_rad).sin();
             let te = tf + tv + dist;
             // eq 23 Dahl (sign-preserving square, tanh sign)
             let x = p.coulomb_nm - tf * (w / p.sign_smoothing_rad_s).tanh();
@@ -484,19 +455,11 @@ pub fn evaluate(
             // eqs 16-20 imbalance, rotating with φ in the plane normal to the spin axis
             let (a1, a2) = p.transverse_basis();
             let (sn, cs) = phi.sin_cos();
-            let dir = [
-                cs * a1[0] + sn * a2[0],
-                cs * a1[1] + sn * a2[1],
-                cs * a1[2] + sn * a2[2],
-            ];
+            let dir = [cs * a1[0] + sn * a2[0], cs * a1[1] + sn * a2[1], cs * a1[2] + sn * a2[2]];
             let (fd, fs) = (p.dyn_imbalance_kgm2 * w * w, p.static_imbalance_kgm * w * w);
             o.imbalance_force_n = dir.map(|v| fs * v);
             let us = cross(&p.position_m, &o.imbalance_force_n);
-            o.imbalance_torque_nm = [
-                fd * dir[0] + us[0],
-                fd * dir[1] + us[1],
-                fd * dir[2] + us[2],
-            ];
+            o.imbalance_torque_nm = [fd * dir[0] + us[0], fd * dir[1] + us[1], fd * dir[2] + us[2]];
             o.current_a = i;
             o.voltage_v = r * i + k * w;
             o.power_w = p.quiescent_power_w + r * i * i + b * i.abs() + k * w * i;

@@ -17,8 +17,7 @@ use crate::plant::{Spacecraft, State};
 use crate::scenario::Sensors as SensorSpec;
 use acs_flight::protocol::{SensorFrame, valid};
 use models::{
-    AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor,
-    SunSensorSpec,
+    AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -133,45 +132,30 @@ impl SensorSuite {
         f.valid = valid::ATTITUDE | valid::RATE;
         if let Some(c) = &craft.cmg {
             for i in 0..c.len().min(4) {
-                f.gimbal_angle_rad[i] =
-                    (s.gimbal_rad[i] + self.gauss(self.gimbal_sigma_rad)) as f32;
+                f.gimbal_angle_rad[i] = (s.gimbal_rad[i] + self.gauss(self.gimbal_sigma_rad)) as f32;
             }
             f.valid |= valid::GIMBALS;
         }
         if !craft.wheels.is_empty() {
             let w: [f64; 3] = s.w.into();
-            for (i, p) in craft
-                .wheels
-                .iter()
-                .enumerate()
-                .take(f.wheel_speed_rad_s.len())
-            {
-                let rel = s.wheels[i].h_abs_nms / p.inertia_kgm2
-                    - Vec3::from(p.spin_axis).dot(&Vec3::from(w));
+            for (i, p) in craft.wheels.iter().enumerate().take(f.wheel_speed_rad_s.len()) {
+                let rel = s.wheels[i].h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&Vec3::from(w));
                 f.wheel_speed_rad_s[i] = (rel + self.gauss(self.wheel_sigma_rad_s)) as f32;
             }
             f.valid |= valid::WHEELS;
         }
         if let Some(e) = env {
             if let Some(b) = e.b_ref_t {
-                let m = self
-                    .mag
-                    .update(t_s, &rotate_ref_to_body(&s.q, &b).into(), rod_dipole_am2);
+                let m = self.mag.update(t_s, &rotate_ref_to_body(&s.q, &b).into(), rod_dipole_am2);
                 f.mag_field_t = m.b_body_t.map(|x| x as f32);
                 f.valid |= valid::MAG;
             }
             if let Some(q) = e.q_lvlh {
                 f.q_ref_xyzw = to_xyzw(&q).map(|x| x as f32);
-                f.ref_rate_rad_s = [
-                    e.lvlh_rate_ref.x as f32,
-                    e.lvlh_rate_ref.y as f32,
-                    e.lvlh_rate_ref.z as f32,
-                ];
+                f.ref_rate_rad_s = [e.lvlh_rate_ref.x as f32, e.lvlh_rate_ref.y as f32, e.lvlh_rate_ref.z as f32];
                 f.valid |= valid::REFERENCE;
             }
-            if let (Some(sun), Some((r, _)), Some(env_model)) =
-                (self.sun.as_mut(), e.orbit, craft.env.as_ref())
-            {
+            if let (Some(sun), Some((r, _)), Some(env_model)) = (self.sun.as_mut(), e.orbit, craft.env.as_ref()) {
                 let jd = match env_model.earth {
                     EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
                     EarthRotation::Simple { .. } => 2_451_545.0,
@@ -227,21 +211,14 @@ mod tests {
             rate_bias_rad_s: [1e-4, 0.0, 0.0],
             ..Default::default()
         };
-        let (mut a, mut b) = (
-            SensorSuite::new(&spec, 100.0),
-            SensorSuite::new(&spec, 100.0),
-        );
+        let (mut a, mut b) = (SensorSuite::new(&spec, 100.0), SensorSuite::new(&spec, 100.0));
         let n = 20_000;
         let (mut sum_ang2, mut sum_w, mut sum_w2) = (0.0, 0.0, 0.0);
         let c = craft();
         for k in 0..n {
             let t = k as f64 * 0.01;
             let fa = a.sample(k, t, &state(), &c, None, &[0.0; 3]);
-            assert_eq!(
-                fa,
-                b.sample(k, t, &state(), &c, None, &[0.0; 3]),
-                "same seed, same bits"
-            );
+            assert_eq!(fa, b.sample(k, t, &state(), &c, None, &[0.0; 3]), "same seed, same bits");
             let q = Quat::new(
                 fa.q_ib_xyzw[3] as f64,
                 fa.q_ib_xyzw[0] as f64,
@@ -259,10 +236,7 @@ mod tests {
         assert!((rms - 2.0).abs() < 0.05, "per-axis rms {rms} deg");
         // Bias shows in the mean (1e-4 ± 3 σ/√n), the white noise in the spread (σ = 1e-3 per sample).
         let mean = sum_w / n as f64;
-        assert!(
-            (mean - 1e-4).abs() < 3.0 * 1e-3 / (n as f64).sqrt(),
-            "{mean}"
-        );
+        assert!((mean - 1e-4).abs() < 3.0 * 1e-3 / (n as f64).sqrt(), "{mean}");
         let sd = (sum_w2 / n as f64 - mean * mean).sqrt();
         assert!((sd - 1e-3).abs() < 0.03e-3, "{sd}");
     }

@@ -58,15 +58,8 @@ struct Clock {
 
 impl Clock {
     fn new(rate_hz: f64) -> Self {
-        assert!(
-            rate_hz > 0.0 && rate_hz.is_finite(),
-            "sample rate must be > 0"
-        );
-        Self {
-            period_s: 1.0 / rate_hz,
-            next_k: 0,
-            last_t_s: None,
-        }
+        assert!(rate_hz > 0.0 && rate_hz.is_finite(), "sample rate must be > 0");
+        Self { period_s: 1.0 / rate_hz, next_k: 0, last_t_s: None }
     }
 
     /// `Some(time since the previous sample)` (0 for the first) if a sample is due at `t`.
@@ -131,19 +124,21 @@ impl Gyro {
     /// Discrete: true body rate at `t`; samples if due, returns the held reading.
     pub fn update(&mut self, t_s: f64, w_true_rad_s: &[f64; 3]) -> GyroReading {
         if let Some(dt) = self.clock.due(t_s) {
-            let sd = self.spec.rate_hz.sqrt();
-            let white = gauss3(&mut self.rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
-            let sq = dt.sqrt();
-            self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
+            // A noiseless gyro draws nothing (its stream is its own: no other sensor shifts).
+            let noiseless = self.spec.arw_rad_s_rthz == [0.0; 3] && self.spec.rrw_rad_s2_rthz == [0.0; 3];
+            let white = if noiseless {
+                Vec3::zeros()
+            } else {
+                let sd = self.spec.rate_hz.sqrt();
+                let white = gauss3(&mut self.rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
+                let sq = dt.sqrt();
+                self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
+                white
+            };
             let w = Vec3::from(*w_true_rad_s);
             let sf = Vec3::from(self.spec.scale_factor);
-            let m =
-                w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
-            self.last = GyroReading {
-                t_s,
-                rate_rad_s: m.into(),
-                valid: true,
-            };
+            let m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            self.last = GyroReading { t_s, rate_rad_s: m.into(), valid: true };
         }
         self.last
     }
@@ -192,11 +187,7 @@ impl AttitudeSensor {
             clock: Clock::new(spec.rate_hz),
             spec,
             rng: sensor_rng(scenario_seed, index),
-            last: AttitudeReading {
-                t_s: 0.0,
-                q_ib: Quat::identity(),
-                valid: false,
-            },
+            last: AttitudeReading { t_s: 0.0, q_ib: Quat::identity(), valid: false },
         }
     }
 
@@ -204,13 +195,8 @@ impl AttitudeSensor {
     pub fn update(&mut self, t_s: f64, q_ib_true: &Quat) -> AttitudeReading {
         if self.clock.due(t_s).is_some() {
             let n = gauss3(&mut self.rng, &self.spec.noise_rad);
-            let q =
-                q_ib_true.normalize() * small_rot(&Vec3::from(self.spec.bias_rad)) * small_rot(&n);
-            self.last = AttitudeReading {
-                t_s,
-                q_ib: q,
-                valid: true,
-            };
+            let q = q_ib_true.normalize() * small_rot(&Vec3::from(self.spec.bias_rad)) * small_rot(&n);
+            self.last = AttitudeReading { t_s, q_ib: q, valid: true };
         }
         self.last
     }
@@ -264,17 +250,11 @@ impl Magnetometer {
     /// Pure: noise-free reading for a true field and rod dipole.
     pub fn ideal(&self, b_body_t: &[f64; 3], rod_dipole_am2: &[f64; 3]) -> [f64; 3] {
         let c = Matrix3::from_row_slice(self.spec.coupling_t_per_am2.as_flattened());
-        (Vec3::from(*b_body_t) + c * Vec3::from(*rod_dipole_am2) + Vec3::from(self.spec.bias_t))
-            .into()
+        (Vec3::from(*b_body_t) + c * Vec3::from(*rod_dipole_am2) + Vec3::from(self.spec.bias_t)).into()
     }
 
     /// Discrete: true body field (T) and realised rod dipole (A m², body) at `t`.
-    pub fn update(
-        &mut self,
-        t_s: f64,
-        b_body_t: &[f64; 3],
-        rod_dipole_am2: &[f64; 3],
-    ) -> MagReading {
+    pub fn update(&mut self, t_s: f64, b_body_t: &[f64; 3], rod_dipole_am2: &[f64; 3]) -> MagReading {
         if self.clock.due(t_s).is_some() {
             let n = gauss3(&mut self.rng, &self.spec.noise_t);
             self.last = MagReading {
@@ -317,9 +297,7 @@ pub struct SunReading {
 /// Pure: unit sun direction in body axes, `R(q_ib)ᵀ s_i`.
 pub fn sun_in_body(q_ib: &Quat, sun_inertial: &[f64; 3]) -> [f64; 3] {
     let s = Vec3::from(*sun_inertial).normalize();
-    UnitQuaternion::from_quaternion(*q_ib)
-        .inverse_transform_vector(&s)
-        .into()
+    UnitQuaternion::from_quaternion(*q_ib).inverse_transform_vector(&s).into()
 }
 
 /// Pure: cylindrical Earth shadow. `r_m` satellite position and `sun_inertial` sun
@@ -350,13 +328,7 @@ impl SunSensor {
     }
 
     /// Discrete: attitude, sun direction (inertial, any length) and eclipse flag at `t`.
-    pub fn update(
-        &mut self,
-        t_s: f64,
-        q_ib: &Quat,
-        sun_inertial: &[f64; 3],
-        in_eclipse: bool,
-    ) -> SunReading {
+    pub fn update(&mut self, t_s: f64, q_ib: &Quat, sun_inertial: &[f64; 3], in_eclipse: bool) -> SunReading {
         if self.clock.due(t_s).is_some() {
             let e = gauss3(&mut self.rng, &[self.spec.noise_rad; 3]);
             let s = Vec3::from(sun_in_body(q_ib, sun_inertial));
@@ -366,15 +338,7 @@ impl SunSensor {
             // Rotate by the noise component normal to the sun line.
             let e_perp = e - s * s.dot(&e);
             let m = UnitQuaternion::from_scaled_axis(e_perp) * s;
-            self.last = SunReading {
-                t_s,
-                sun_body: if valid {
-                    m.normalize().into()
-                } else {
-                    [0.0; 3]
-                },
-                valid,
-            };
+            self.last = SunReading { t_s, sun_body: if valid { m.normalize().into() } else { [0.0; 3] }, valid };
         }
         self.last
     }
@@ -410,12 +374,8 @@ mod tests {
     fn slope(pts: &[(f64, f64)]) -> f64 {
         let l: Vec<(f64, f64)> = pts.iter().map(|(t, s)| (t.ln(), s.ln())).collect();
         let n = l.len() as f64;
-        let (mx, my) = (
-            l.iter().map(|p| p.0).sum::<f64>() / n,
-            l.iter().map(|p| p.1).sum::<f64>() / n,
-        );
-        l.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
-            / l.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+        let (mx, my) = (l.iter().map(|p| p.0).sum::<f64>() / n, l.iter().map(|p| p.1).sum::<f64>() / n);
+        l.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / l.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
     }
 
     fn gyro_spec() -> GyroSpec {
@@ -454,21 +414,14 @@ mod tests {
         }
         for a in 0..3 {
             let (nn, kk) = (spec.arw_rad_s_rthz[a], spec.rrw_rad_s2_rthz[a]);
-            let pts: Vec<(f64, f64)> = short_m
-                .iter()
-                .chain(&long_m)
-                .zip(avar[a])
-                .map(|(&m, v)| (m as f64 / f, v.sqrt()))
-                .collect();
+            let pts: Vec<(f64, f64)> =
+                short_m.iter().chain(&long_m).zip(avar[a]).map(|(&m, v)| (m as f64 / f, v.sqrt())).collect();
             let (short, long) = pts.split_at(short_m.len());
             let (ss, sl) = (slope(short), slope(long));
             let arw_fit = short.iter().map(|(t, s)| s * t.sqrt()).sum::<f64>() / short.len() as f64;
             // RRW magnitude with the (small) white-noise share removed.
-            let rrw_fit = long
-                .iter()
-                .map(|(t, s)| ((s * s - nn * nn / t) * 3.0 / t).sqrt())
-                .sum::<f64>()
-                / long.len() as f64;
+            let rrw_fit =
+                long.iter().map(|(t, s)| ((s * s - nn * nn / t) * 3.0 / t).sqrt()).sum::<f64>() / long.len() as f64;
             println!(
                 "axis {a}: short slope {ss:+.3}, N fit {arw_fit:.4e} (true {nn:.1e}, {:+.1}%); \
                  long slope {sl:+.3}, K fit {rrw_fit:.4e} (true {kk:.1e}, {:+.1}%)",
@@ -543,38 +496,20 @@ mod tests {
         let q_true = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1).into_inner();
         // Bias only: exact.
         let bias = [0.01, -0.02, 0.005];
-        let mut s = AttitudeSensor::new(
-            AttitudeSensorSpec {
-                rate_hz: 5.0,
-                noise_rad: [0.0; 3],
-                bias_rad: bias,
-            },
-            3,
-            1,
-        );
+        let mut s = AttitudeSensor::new(AttitudeSensorSpec { rate_hz: 5.0, noise_rad: [0.0; 3], bias_rad: bias }, 3, 1);
         let r = s.update(0.0, &q_true);
-        let err = (UnitQuaternion::from_quaternion(q_true).inverse()
-            * UnitQuaternion::from_quaternion(r.q_ib))
-        .scaled_axis();
+        let err =
+            (UnitQuaternion::from_quaternion(q_true).inverse() * UnitQuaternion::from_quaternion(r.q_ib)).scaled_axis();
         assert!((err - Vec3::from(bias)).norm() < 1e-15);
         // Noise: per-axis rms of the body-frame error rotation.
         let sig = [1e-3, 2e-3, 4e-4];
-        let mut s = AttitudeSensor::new(
-            AttitudeSensorSpec {
-                rate_hz: 5.0,
-                noise_rad: sig,
-                bias_rad: [0.0; 3],
-            },
-            3,
-            1,
-        );
+        let mut s = AttitudeSensor::new(AttitudeSensorSpec { rate_hz: 5.0, noise_rad: sig, bias_rad: [0.0; 3] }, 3, 1);
         let n = 20_000;
         let mut ss = Vec3::zeros();
         for k in 0..n {
             let r = s.update(k as f64 / 5.0, &q_true);
-            let e = (UnitQuaternion::from_quaternion(q_true).inverse()
-                * UnitQuaternion::from_quaternion(r.q_ib))
-            .scaled_axis();
+            let e = (UnitQuaternion::from_quaternion(q_true).inverse() * UnitQuaternion::from_quaternion(r.q_ib))
+                .scaled_axis();
             ss += e.component_mul(&e);
         }
         for a in 0..3 {
@@ -596,20 +531,8 @@ mod tests {
         let b = [20e-6, -5e-6, 40e-6];
         let mut m = Magnetometer::new(spec, 9, 2);
         // Off, and commanded inside the dead band (the rods produce nothing): truth.
-        assert_eq!(
-            m.update(0.0, &b, &rig.rod_dipole_am2(&rig.realised(&[0.0; 3])))
-                .b_body_t,
-            b
-        );
-        assert_eq!(
-            m.update(
-                0.1,
-                &b,
-                &rig.rod_dipole_am2(&rig.realised(&[1.0, -1.0, 1.5]))
-            )
-            .b_body_t,
-            b
-        );
+        assert_eq!(m.update(0.0, &b, &rig.rod_dipole_am2(&rig.realised(&[0.0; 3]))).b_body_t, b);
+        assert_eq!(m.update(0.1, &b, &rig.rod_dipole_am2(&rig.realised(&[1.0, -1.0, 1.5]))).b_body_t, b);
         // On: B + C m.
         let dip = rig.rod_dipole_am2(&rig.realised(&[5.0, 0.0, -3.0]));
         let r = m.update(0.2, &b, &dip).b_body_t;
@@ -618,11 +541,7 @@ mod tests {
             assert!((r[a] - want[a]).abs() < 1e-18, "{r:?}");
         }
         // Noise and bias statistics.
-        let spec = MagnetometerSpec {
-            noise_t: [1e-7, 2e-7, 5e-8],
-            bias_t: [1e-6, 0.0, -1e-6],
-            ..spec
-        };
+        let spec = MagnetometerSpec { noise_t: [1e-7, 2e-7, 5e-8], bias_t: [1e-6, 0.0, -1e-6], ..spec };
         let mut m = Magnetometer::new(spec, 9, 2);
         let n = 20_000;
         let (mut s1, mut s2) = (Vec3::zeros(), Vec3::zeros());
@@ -661,8 +580,7 @@ mod tests {
         assert!(!s.update(1.5, &q, &dir(61.0), false).valid);
         assert!(!s.update(2.0, &q, &[0.0, 0.0, -1.0], false).valid);
         // q_ib = 90° about x maps body z to inertial -y, so an inertial +y sun is body -z.
-        let qx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2)
-            .into_inner();
+        let qx = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2).into_inner();
         let sb = sun_in_body(&qx, &[0.0, 1.0, 0.0]);
         assert!((Vec3::from(sb) + Vec3::z()).norm() < 1e-15, "{sb:?}");
         // Angular noise: rms total angle ≈ √2 σ.
@@ -708,20 +626,13 @@ mod tests {
         };
         let a = run(42, 0, false);
         assert_eq!(a, run(42, 0, false), "same seed, same bits");
-        assert_eq!(
-            a,
-            run(42, 0, true),
-            "another sensor does not disturb this one"
-        );
+        assert_eq!(a, run(42, 0, true), "another sensor does not disturb this one");
         assert_ne!(a, run(42, 1, false), "other index, other stream");
         assert_ne!(a, run(43, 0, false), "other seed, other stream");
         // Stream 0 (the existing SensorSuite's) is not used by index 0.
         let mut legacy = ChaCha8Rng::seed_from_u64(42);
         let mut idx0 = sensor_rng(42, 0);
-        let (x, y): (f64, f64) = (
-            StandardNormal.sample(&mut legacy),
-            StandardNormal.sample(&mut idx0),
-        );
+        let (x, y): (f64, f64) = (StandardNormal.sample(&mut legacy), StandardNormal.sample(&mut idx0));
         assert_ne!(x.to_bits(), y.to_bits());
     }
 }

@@ -93,10 +93,7 @@ pub struct Failures {
 }
 
 impl Failures {
-    pub const NONE: Self = Self {
-        failed: 0,
-        stuck_on: 0,
-    };
+    pub const NONE: Self = Self { failed: 0, stuck_on: 0 };
     /// Failed-off thrusters from 1-based indices (as in the paper's text).
     pub fn off_1based(ids: &[usize]) -> Self {
         let mut failed = 0u32;
@@ -105,10 +102,7 @@ impl Failures {
                 failed |= 1u32 << (id - 1);
             }
         }
-        Self {
-            failed,
-            stuck_on: 0,
-        }
+        Self { failed, stuck_on: 0 }
     }
 }
 
@@ -186,11 +180,7 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
                 *zc = acc / g(&row, c);
             }
         }
-        if z.iter().all(|x| x.is_finite()) {
-            Some(z)
-        } else {
-            None
-        }
+        if z.iter().all(|x| x.is_finite()) { Some(z) } else { None }
     };
     let z = elim(r)?;
     let mut res = [0.0f32; 3];
@@ -227,10 +217,8 @@ pub struct Allocator<const N: usize, const NV: usize> {
 }
 
 impl<const N: usize, const NV: usize> Allocator<N, NV> {
-    const DIMS_OK: () = assert!(
-        NV == N + 1 && N >= 1 && N <= 32,
-        "Allocator<N, NV>: NV must be N + 1 and 1 <= N <= 32"
-    );
+    const DIMS_OK: () =
+        assert!(NV == N + 1 && N >= 1 && N <= 32, "Allocator<N, NV>: NV must be N + 1 and 1 <= N <= 32");
 
     /// `B` (3 × N), nominal `u_min`, `u_max` (eq 5). Non-finite data are accepted
     /// here and reported as `NonFinite` by every allocation call.
@@ -241,13 +229,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         for (w, lo) in fuel_w.iter_mut().zip(u_min.iter()) {
             *w = if *lo == 0.0 { 1.0 } else { 0.0 };
         }
-        Self {
-            b,
-            u_min,
-            u_max,
-            fuel_w,
-            lp_iteration_cap: default_iteration_cap(AXES, NV),
-        }
+        Self { b, u_min, u_max, fuel_w, lp_iteration_cap: default_iteration_cap(AXES, NV) }
     }
 
     /// Replace the propellant weights of the fuel stage (default: 1 for thrusters
@@ -266,10 +248,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Nominal bounds (no rate limit, no failure).
     pub fn nominal_bounds(&self) -> Bounds<N> {
-        Bounds {
-            lo: self.u_min,
-            hi: self.u_max,
-        }
+        Bounds { lo: self.u_min, hi: self.u_max }
     }
 
     /// Per-call bounds: eq 9 rate folding, then failures.
@@ -308,11 +287,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
             let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
             if failures.failed & bit != 0 {
-                let v = if failures.stuck_on & bit != 0 {
-                    g(&self.u_max, i)
-                } else {
-                    0.0
-                };
+                let v = if failures.stuck_on & bit != 0 { g(&self.u_max, i) } else { 0.0 };
                 *lo = v;
                 *hi = v;
             }
@@ -324,11 +299,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         m_d.iter().all(|v| v.is_finite())
             && self.b.iter().all(|r| r.iter().all(|v| v.is_finite()))
             && bd.lo.iter().chain(bd.hi.iter()).all(|v| v.is_finite())
-            && self
-                .u_min
-                .iter()
-                .chain(self.u_max.iter())
-                .all(|v| v.is_finite())
+            && self.u_min.iter().chain(self.u_max.iter()).all(|v| v.is_finite())
     }
 
     fn bounds_consistent(bd: &Bounds<N>) -> bool {
@@ -336,10 +307,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     }
 
     fn zero_admissible(bd: &Bounds<N>) -> bool {
-        bd.lo
-            .iter()
-            .zip(bd.hi.iter())
-            .all(|(l, h)| *l <= 0.0 && *h >= 0.0)
+        bd.lo.iter().zip(bd.hi.iter()).all(|(l, h)| *l <= 0.0 && *h >= 0.0)
     }
 
     /// `B u` with compensated dot products ([`Dot2`]): moments near zero are sums of
@@ -392,45 +360,21 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         }
         let mut realised = self.moment(&u);
         let mut shortfall = [0.0f32; AXES];
-        for ((s, r), m) in shortfall
-            .iter_mut()
-            .zip(realised.iter_mut())
-            .zip(m_d.iter())
-        {
+        for ((s, r), m) in shortfall.iter_mut().zip(realised.iter_mut()).zip(m_d.iter()) {
             if !r.is_finite() {
                 *r = 0.0;
             }
             let d = m - *r;
             *s = if d.is_finite() { d } else { 0.0 };
         }
-        AllocResult {
-            u,
-            realised,
-            shortfall,
-            lambda,
-            sat_low,
-            sat_high,
-            iterations,
-            status,
-            unrealised: 0,
-        }
+        AllocResult { u, realised, shortfall, lambda, sat_low, sat_high, iterations, status, unrealised: 0 }
     }
 
     /// The documented safe fallback (module docs).
-    fn fallback(
-        &self,
-        m_d: &[f32; AXES],
-        bd: &Bounds<N>,
-        status: AllocStatus,
-        it: u16,
-    ) -> AllocResult<N> {
+    fn fallback(&self, m_d: &[f32; AXES], bd: &Bounds<N>, status: AllocStatus, it: u16) -> AllocResult<N> {
         let mut u = [0.0f32; N];
         for ((x, lo), hi) in u.iter_mut().zip(bd.lo.iter()).zip(bd.hi.iter()) {
-            *x = if lo.is_finite() && hi.is_finite() && lo <= hi {
-                clampf(0.0, *lo, *hi)
-            } else {
-                0.0
-            };
+            *x = if lo.is_finite() && hi.is_finite() && lo <= hi { clampf(0.0, *lo, *hi) } else { 0.0 };
         }
         self.finish(m_d, bd, u, 0.0, status, it)
     }
@@ -440,20 +384,14 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             LpStatus::IterationCap => AllocStatus::IterationCap,
             LpStatus::NonFinite => AllocStatus::NonFinite,
             // Unbounded cannot occur (all h finite); treated as infeasible.
-            LpStatus::Infeasible | LpStatus::Unbounded | LpStatus::Optimal => {
-                AllocStatus::Infeasible
-            }
+            LpStatus::Infeasible | LpStatus::Unbounded | LpStatus::Optimal => AllocStatus::Infeasible,
         }
     }
 
     /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
     pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES, N + 1);
-        for ((arow, bi), (brow, mi)) in
-            lp.a.iter_mut()
-                .zip(lp.b.iter_mut())
-                .zip(self.b.iter().zip(m_d.iter()))
-        {
+        for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
             let mut acc = 0.0f32;
             for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
                 *a = *b;
@@ -479,11 +417,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     /// Fuel LP: `min Σ w_i u_i` s.t. `B u = m_d`, `lo <= u <= hi` (x = u - lo).
     pub fn fuel_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES, N);
-        for ((arow, bi), (brow, mi)) in
-            lp.a.iter_mut()
-                .zip(lp.b.iter_mut())
-                .zip(self.b.iter().zip(m_d.iter()))
-        {
+        for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
             let mut acc = 0.0f32;
             for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
                 *a = *b;
@@ -492,10 +426,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             *bi = mi - acc;
         }
         for (((h, c), (lo, hi)), w) in
-            lp.h.iter_mut()
-                .zip(lp.c.iter_mut())
-                .zip(bd.lo.iter().zip(bd.hi.iter()))
-                .zip(self.fuel_w.iter())
+            lp.h.iter_mut().zip(lp.c.iter_mut()).zip(bd.lo.iter().zip(bd.hi.iter())).zip(self.fuel_w.iter())
         {
             *h = hi - lo;
             *c = *w;
@@ -505,13 +436,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Bodson's reduced LP (2 rows): `B u ∥ m̂`, `max` (or `min`) `m̂ᵀ B u`.
     /// `k` is the index of the largest `|m̂|` (`|m̂_k| = 1`).
-    pub fn bodson_lp(
-        &self,
-        m_hat: &[f32; AXES],
-        k: usize,
-        bd: &Bounds<N>,
-        maximise: bool,
-    ) -> Lp<AXES, NV> {
+    pub fn bodson_lp(&self, m_hat: &[f32; AXES], k: usize, bd: &Bounds<N>, maximise: bool) -> Lp<AXES, NV> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES - 1, N);
         let bk = self.b.get(k).copied().unwrap_or([0.0; N]);
         let mk = g(m_hat, k);
@@ -522,12 +447,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             }
             if let (Some(arow), Some(bi)) = (lp.a.get_mut(r), lp.b.get_mut(r)) {
                 let mut acc = 0.0f32;
-                for (((a, bkl), bjl), lo) in arow
-                    .iter_mut()
-                    .zip(bk.iter())
-                    .zip(brow.iter())
-                    .zip(bd.lo.iter())
-                {
+                for (((a, bkl), bjl), lo) in arow.iter_mut().zip(bk.iter()).zip(brow.iter()).zip(bd.lo.iter()) {
                     *a = mj * bkl - mk * bjl;
                     acc += *a * lo;
                 }
@@ -537,11 +457,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         }
         let sign = if maximise { -1.0 } else { 1.0 };
         for (l, ((c, h), (lo, hi))) in
-            lp.c.iter_mut()
-                .zip(lp.h.iter_mut())
-                .zip(bd.lo.iter().zip(bd.hi.iter()))
-                .enumerate()
-                .take(N)
+            lp.c.iter_mut().zip(lp.h.iter_mut()).zip(bd.lo.iter().zip(bd.hi.iter())).enumerate().take(N)
         {
             let mut proj = 0.0f32;
             for (brow, mi) in self.b.iter().zip(m_hat.iter()) {
@@ -579,11 +495,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let [f1, f2] = free;
         let mut a = [[0.0f32; 3]; 3];
         let mut r = [0.0f32; 3];
-        for ((arow, ri), (brow, mi)) in a
-            .iter_mut()
-            .zip(r.iter_mut())
-            .zip(self.b.iter().zip(m_d.iter()))
-        {
+        for ((arow, ri), (brow, mi)) in a.iter_mut().zip(r.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
             *arow = [g(brow, f1), g(brow, f2), -mi];
             let mut acc = Dot2::new(0.0);
             for (j, (bij, x)) in brow.iter().zip(u.iter()).enumerate() {
@@ -688,24 +600,13 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             if zero_ok {
                 return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
             }
-            let s = self
-                .fuel_lp(&[0.0; AXES], bd)
-                .solve_with_cap(self.lp_iteration_cap);
+            let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
             if s.status != LpStatus::Optimal {
                 return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
             }
-            return self.finish(
-                m_d,
-                bd,
-                Self::u_from_x(&s.x, bd),
-                1.0,
-                AllocStatus::Ok,
-                s.iterations,
-            );
+            return self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations);
         }
-        let s_hi = self
-            .bodson_lp(&m_hat, k, bd, true)
-            .solve_with_cap(self.lp_iteration_cap);
+        let s_hi = self.bodson_lp(&m_hat, k, bd, true).solve_with_cap(self.lp_iteration_cap);
         let mut it = s_hi.iterations;
         if s_hi.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s_hi.status), it);
@@ -723,9 +624,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (u_lo, l_lo) = if zero_ok {
             ([0.0f32; N], 0.0f32)
         } else {
-            let s_lo = self
-                .bodson_lp(&m_hat, k, bd, false)
-                .solve_with_cap(self.lp_iteration_cap);
+            let s_lo = self.bodson_lp(&m_hat, k, bd, false).solve_with_cap(self.lp_iteration_cap);
             it = it.saturating_add(s_lo.iterations);
             if s_lo.status != LpStatus::Optimal {
                 return self.fallback(m_d, bd, Self::lp_fail(s_lo.status), it);
@@ -739,11 +638,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, it);
         }
         let den = l_hi - l_lo;
-        let t = if den > LAMBDA_TOL {
-            clampf((1.0 - l_lo) / den, 0.0, 1.0)
-        } else {
-            1.0
-        };
+        let t = if den > LAMBDA_TOL { clampf((1.0 - l_lo) / den, 0.0, 1.0) } else { 1.0 };
         let mut u = [0.0f32; N];
         for ((x, a), b) in u.iter_mut().zip(u_lo.iter()).zip(u_hi.iter()) {
             *x = a + t * (b - a);

@@ -18,11 +18,7 @@ pub const ARM_043: f32 = 0.43;
 pub fn paper_b(thrust: f32) -> [[f32; 8]; 3] {
     let k = thrust * core::f32::consts::FRAC_1_SQRT_2;
     let (r, d, e) = (R_ARM, D_HEIGHT, ARM_043);
-    let rows = [
-        [r, 0.0, r, -e, -r, 0.0, -r, e],
-        [d, -e, -d, 0.0, -d, e, d, 0.0],
-        [d, -d, d, -d, d, -d, d, -d],
-    ];
+    let rows = [[r, 0.0, r, -e, -r, 0.0, -r, e], [d, -e, -d, 0.0, -d, e, d, 0.0], [d, -d, d, -d, d, -d, d, -d]];
     let mut out = [[0.0f32; 8]; 3];
     for (o, row) in out.iter_mut().zip(rows.iter()) {
         for (x, v) in o.iter_mut().zip(row.iter()) {
@@ -41,10 +37,4 @@ pub fn paper_allocator(thrust: f32) -> PaperAllocator {
 }
 
 /// Table 3: `Km = 4.5, Tm = 0.15 s, Uon = 0.45, Uoff = 0.15`, unit output.
-pub const PAPER_PWPF: PwpfParams = PwpfParams {
-    km: 4.5,
-    tm: 0.15,
-    u_on: 0.45,
-    u_off: 0.15,
-    u_m: 1.0,
-};
+pub const PAPER_PWPF: PwpfParams = PwpfParams { km: 4.5, tm: 0.15, u_on: 0.45, u_off: 0.15, u_m: 1.0 };

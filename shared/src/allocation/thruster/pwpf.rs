@@ -51,15 +51,8 @@ pub const INPUT_LIMIT: f32 = 10.0;
 impl PwpfParams {
     /// All finite, `Km, Tm, Um > 0`, `Uon > Uoff`, `Uon > 0`.
     pub fn is_valid(&self) -> bool {
-        let all_finite = [self.km, self.tm, self.u_on, self.u_off, self.u_m]
-            .iter()
-            .all(|v| v.is_finite());
-        all_finite
-            && self.km > 0.0
-            && self.tm > 0.0
-            && self.u_m > 0.0
-            && self.u_on > self.u_off
-            && self.u_on > 0.0
+        let all_finite = [self.km, self.tm, self.u_on, self.u_off, self.u_m].iter().all(|v| v.is_finite());
+        all_finite && self.km > 0.0 && self.tm > 0.0 && self.u_m > 0.0 && self.u_on > self.u_off && self.u_on > 0.0
     }
     /// Hysteresis width `h = Uon - Uoff`.
     pub fn hysteresis(&self) -> f32 {
@@ -138,14 +131,7 @@ impl<const N: usize> Pwpf<N> {
         if !(c.is_finite() && c > 0.0) {
             return None;
         }
-        Some(Self {
-            p,
-            dt,
-            c,
-            f: [0.0; N],
-            comp: [0.0; N],
-            on: 0,
-        })
+        Some(Self { p, dt, c, f: [0.0; N], comp: [0.0; N], on: 0 })
     }
 
     pub fn params(&self) -> &PwpfParams {
@@ -174,13 +160,7 @@ impl<const N: usize> Pwpf<N> {
     pub fn step(&mut self, r: &[f32; N]) -> u32 {
         let mut mask = 0u32;
         let lim = INPUT_LIMIT * self.p.u_m;
-        for (i, ((f, comp), ri)) in self
-            .f
-            .iter_mut()
-            .zip(self.comp.iter_mut())
-            .zip(r.iter())
-            .enumerate()
-        {
+        for (i, ((f, comp), ri)) in self.f.iter_mut().zip(self.comp.iter_mut()).zip(r.iter()).enumerate() {
             let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
             let was_on = self.on & bit != 0;
             let on = if *f >= self.p.u_on {
@@ -191,11 +171,7 @@ impl<const N: usize> Pwpf<N> {
                 was_on
             };
             let y = if on { self.p.u_m } else { 0.0 };
-            let rin = if ri.is_finite() {
-                super::lp::clampf(*ri, -lim, lim)
-            } else {
-                0.0
-            };
+            let rin = if ri.is_finite() { super::lp::clampf(*ri, -lim, lim) } else { 0.0 };
             // Kahan: f += c (Km e - f)
             let inc = self.c * (self.p.km * (rin - y) - *f) - *comp;
             let next = *f + inc;

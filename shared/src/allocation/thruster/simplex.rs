@@ -70,11 +70,7 @@ const SINGULAR_TOL: f32 = 1e-9;
 /// Default iteration cap `4 (rows + cols)`, saturating at `u16::MAX`.
 pub const fn default_iteration_cap(rows: usize, cols: usize) -> u16 {
     let k = 4usize.saturating_mul(rows.saturating_add(cols));
-    if k > u16::MAX as usize {
-        u16::MAX
-    } else {
-        k as u16
-    }
+    if k > u16::MAX as usize { u16::MAX } else { k as u16 }
 }
 
 /// Entering-variable rule. Both are deterministic and anti-cycling; the leaving
@@ -126,14 +122,7 @@ pub struct LpSolution<const N: usize> {
 
 impl<const N: usize> LpSolution<N> {
     fn failed(status: LpStatus, iterations: u16) -> Self {
-        Self {
-            x: [0.0; N],
-            objective: 0.0,
-            iterations,
-            status,
-            dual_margin: 0.0,
-            primal_margin: 0.0,
-        }
+        Self { x: [0.0; N], objective: 0.0, iterations, status, dual_margin: 0.0, primal_margin: 0.0 }
     }
 }
 
@@ -203,15 +192,7 @@ fn pow2_recip(v: f32) -> f32 {
 impl<const M: usize, const N: usize> Lp<M, N> {
     /// All-zero problem with the given active size (`h = 0`).
     pub const fn zeroed(rows: usize, cols: usize) -> Self {
-        Self {
-            a: [[0.0; N]; M],
-            b: [0.0; M],
-            c: [0.0; N],
-            h: [0.0; N],
-            rows,
-            cols,
-            pricing: Pricing::DantzigBland,
-        }
+        Self { a: [[0.0; N]; M], b: [0.0; M], c: [0.0; N], h: [0.0; N], rows, cols, pricing: Pricing::DantzigBland }
     }
 
     /// Solve with the default cap `4 (rows + cols)`.
@@ -269,10 +250,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         sv.h = hs;
         let mut bmax = 0.0f32;
         for ((srow, sb), (row, bi)) in
-            sv.a.iter_mut()
-                .zip(sv.b.iter_mut())
-                .zip(self.a.iter().zip(self.b.iter()))
-                .take(m)
+            sv.a.iter_mut().zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
         {
             let mut rmax = 0.0f32;
             for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(s.iter()).take(n) {
@@ -392,12 +370,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
 
     fn init_basis(&mut self) {
         self.t = self.a;
-        for (i, ((row, var), (xb, bi))) in self
-            .binv
-            .iter_mut()
-            .zip(self.basis.iter_mut())
-            .zip(self.xb.iter_mut().zip(self.b.iter()))
-            .enumerate()
+        for (i, ((row, var), (xb, bi))) in
+            self.binv.iter_mut().zip(self.basis.iter_mut()).zip(self.xb.iter_mut().zip(self.b.iter())).enumerate()
         {
             *row = [0.0; M];
             set(row, i, 1.0);
@@ -480,11 +454,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 None => return None,
             };
             let ub = self.upper_of(var);
-            if ub.is_finite() {
-                Some(((ub - x).max(0.0) / -alpha, true))
-            } else {
-                None
-            }
+            if ub.is_finite() { Some(((ub - x).max(0.0) / -alpha, true)) } else { None }
         } else {
             None
         }
@@ -583,13 +553,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         prow_n.iter_mut().for_each(|v| *v *= inv);
         pbin_n.iter_mut().for_each(|v| *v *= inv);
         set(&mut prow_n, j, 1.0);
-        for (i, (row, brow)) in self
-            .t
-            .iter_mut()
-            .zip(self.binv.iter_mut())
-            .enumerate()
-            .take(self.m)
-        {
+        for (i, (row, brow)) in self.t.iter_mut().zip(self.binv.iter_mut()).enumerate().take(self.m) {
             if i == r {
                 *row = prow_n;
                 *brow = pbin_n;
@@ -714,13 +678,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        for (i, (trow, (irow, xb))) in self
-            .t
-            .iter_mut()
-            .zip(inv.iter().zip(self.xb.iter_mut()))
-            .enumerate()
-            .take(m)
-        {
+        for (i, (trow, (irow, xb))) in self.t.iter_mut().zip(inv.iter().zip(self.xb.iter_mut())).enumerate().take(m) {
             let _ = i;
             for (j, tv) in trow.iter_mut().enumerate().take(self.n) {
                 let mut acc = 0.0f32;
@@ -758,12 +716,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     fn refine(&mut self, inv: &[[f32; M]; M]) {
         let m = self.m;
         let mut r = [0.0f32; M];
-        for (i, (ri, (arow, bi))) in r
-            .iter_mut()
-            .zip(self.a.iter().zip(self.b.iter()))
-            .enumerate()
-            .take(m)
-        {
+        for (i, (ri, (arow, bi))) in r.iter_mut().zip(self.a.iter().zip(self.b.iter())).enumerate().take(m) {
             let mut acc = Dot2::new(*bi);
             for (j, aij) in arow.iter().enumerate().take(self.n) {
                 if !gb(&self.basic, j) && gb(&self.upper, j) {
@@ -847,13 +800,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
-        for (j, ((xj, yj), sj)) in x
-            .iter_mut()
-            .zip(y.iter())
-            .zip(s.iter())
-            .enumerate()
-            .take(self.n)
-        {
+        for (j, ((xj, yj), sj)) in x.iter_mut().zip(y.iter()).zip(s.iter()).enumerate().take(self.n) {
             let hj = g(&lp.h, j);
             let v = (yj * sj).max(0.0);
             *xj = if v > hj { hj } else { v };
@@ -863,14 +810,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             // overflow of finite-but-huge data: report it, never return inf/NaN
             return LpSolution::failed(LpStatus::NonFinite, self.iters);
         }
-        LpSolution {
-            x,
-            objective: obj,
-            iterations: self.iters,
-            status,
-            dual_margin,
-            primal_margin,
-        }
+        LpSolution { x, objective: obj, iterations: self.iters, status, dual_margin, primal_margin }
     }
 }
 
