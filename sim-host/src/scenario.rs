@@ -1026,10 +1026,10 @@ impl Scenario {
             for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
                 positive("actuators.magnetorquers.max_dipole_am2", *x)?;
             }
-            if let Some([lo, hi]) = m.deadband_am2 {
-                if !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite()) {
-                    return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
-                }
+            if let Some([lo, hi]) = m.deadband_am2
+                && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
+            {
+                return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
             }
             if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
                 return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
