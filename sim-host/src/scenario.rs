@@ -1073,7 +1073,7 @@ impl Scenario {
                 if f.thruster == 0 || f.thruster > n {
                     return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
                 }
-                if !matches!(f.mode.as_str(), "off" | "stuck_on") || !(f.at_s.is_finite() && f.at_s >= 0.0) {
+                if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
                     return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
                 }
             }
