@@ -10,9 +10,10 @@ use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
 use crate::environment::torques::{
     Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
 };
+use crate::plant::cmg::GimbalServo;
 use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
 use crate::plant::rig::Rig;
-use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet};
+use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
 use crate::plant::wheel::{WheelParams, WheelState};
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
@@ -407,12 +408,20 @@ pub struct MagnetorquersSpec {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ThrustersSpec {
-    /// "paper004" (table 2) or "matrix" (`torque_per_newton_m`).
+    /// "paper004" (table 2), "matrix" (`torque_per_newton_m`) or "geometry"
+    /// (`positions_m`, `directions`, about `cg_m`).
     #[serde(default = "paper004")]
     pub layout: String,
     /// Columns: torque per newton of each thruster, body axes, m.
     #[serde(default)]
     pub torque_per_newton_m: Vec<[f64; 3]>,
+    /// Nozzle positions and force directions (unit), body axes.
+    #[serde(default)]
+    pub positions_m: Vec<[f64; 3]>,
+    #[serde(default)]
+    pub directions: Vec<[f64; 3]>,
+    #[serde(default)]
+    pub cg_m: [f64; 3],
     pub thrust_n: f64,
     pub isp_s: f64,
     #[serde(default)]
@@ -467,13 +476,36 @@ pub struct CmgSpec {
     #[serde(default = "pyramid4")]
     pub layout: String,
     pub skew_deg: f64,
-    pub h0_nms: f64,
+    /// Rotor momentum per unit; or give `rotor_speed_rpm` and `rotor_inertia_kgm2`.
+    #[serde(default)]
+    pub h0_nms: Option<f64>,
+    #[serde(default)]
+    pub rotor_speed_rpm: Option<f64>,
+    #[serde(default)]
+    pub rotor_inertia_kgm2: Option<f64>,
     pub max_gimbal_rate_deg_s: f64,
+    /// Gimbal rate servo: first-order lag (s) and Coulomb friction on the gimbal bearing
+    /// (N m, with the gimbal inertia in kg m²). Absent: ideal rate servo.
+    #[serde(default)]
+    pub servo_time_constant_s: Option<f64>,
+    #[serde(default)]
+    pub gimbal_inertia_kgm2: Option<f64>,
+    #[serde(default)]
+    pub gimbal_friction_nm: f64,
     /// Symmetric gimbal stop, deg; absent = unlimited.
     #[serde(default)]
     pub gimbal_limit_deg: Option<f64>,
     #[serde(default)]
     pub initial_gimbal_deg: [f64; 4],
+}
+
+impl CmgSpec {
+    /// Rotor momentum per unit, N m s.
+    pub fn h0(&self) -> f64 {
+        self.h0_nms.unwrap_or_else(|| {
+            self.rotor_speed_rpm.unwrap_or(0.0) * std::f64::consts::PI / 30.0 * self.rotor_inertia_kgm2.unwrap_or(0.0)
+        })
+    }
 }
 
 fn pyramid4() -> String {
@@ -926,7 +958,27 @@ impl Scenario {
             if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
                 return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
             }
-            positive("actuators.cmg.h0_nms", cmg.h0_nms)?;
+            match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
+                (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
+                (None, Some(w), Some(i)) => {
+                    positive("actuators.cmg.rotor_speed_rpm", w)?;
+                    positive("actuators.cmg.rotor_inertia_kgm2", i)?;
+                }
+                _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
+            }
+            if let Some(tau) = cmg.servo_time_constant_s {
+                positive("actuators.cmg.servo_time_constant_s", tau)?;
+                positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
+            }
+            if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
+                return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
+            }
+            if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
+                return Err(bad(
+                    "actuators.cmg.gimbal_friction_nm",
+                    "needs servo_time_constant_s (friction acts on the servo)",
+                ));
+            }
             positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
             if let Some(l) = cmg.gimbal_limit_deg {
                 positive("actuators.cmg.gimbal_limit_deg", l)?;
@@ -1058,10 +1110,26 @@ impl Scenario {
                     }
                     finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
                 }
+                "geometry" => {
+                    let n = t.positions_m.len();
+                    if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                        return Err(bad(
+                            "actuators.thrusters.positions_m",
+                            format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                        ));
+                    }
+                    finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+                    for d in &t.directions {
+                        let norm = Vec3::from(*d).norm();
+                        if !(norm.is_finite() && norm > 1e-9) {
+                            return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                        }
+                    }
+                }
                 other => {
                     return Err(bad(
                         "actuators.thrusters.layout",
-                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\")"),
+                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
                     ));
                 }
             }
@@ -1157,18 +1225,42 @@ impl Scenario {
     /// Plant model of the thrusters, failures included.
     pub fn thruster_set(&self) -> Option<ThrusterSet> {
         let t = self.actuators.thrusters.as_ref()?;
-        let cols: Vec<[f64; 3]> = match t.layout.as_str() {
-            "matrix" => t.torque_per_newton_m.clone(),
-            _ => ThrusterSet::paper004(1.0).torque_matrix(),
+        let mut set = match t.layout.as_str() {
+            "geometry" => ThrusterSet {
+                thrusters: t
+                    .positions_m
+                    .iter()
+                    .zip(&t.directions)
+                    .map(|(p, d)| ThrusterSpec {
+                        position_m: *p,
+                        direction: Vec3::from(*d).normalize().into(),
+                        thrust_n: t.thrust_n,
+                        isp_s: t.isp_s,
+                        min_on_time_s: t.min_on_time_s,
+                        open_delay_s: t.open_delay_s,
+                        close_delay_s: t.close_delay_s,
+                        torque_per_n_m: None,
+                    })
+                    .collect(),
+                failures: Vec::new(),
+                cg_m: t.cg_m,
+            },
+            layout => {
+                let cols: Vec<[f64; 3]> = if layout == "matrix" {
+                    t.torque_per_newton_m.clone()
+                } else {
+                    ThrusterSet::paper004(1.0).torque_matrix()
+                };
+                ThrusterSet::from_torque_matrix(
+                    &cols,
+                    t.thrust_n,
+                    t.isp_s,
+                    t.min_on_time_s,
+                    t.open_delay_s,
+                    t.close_delay_s,
+                )
+            }
         };
-        let mut set = ThrusterSet::from_torque_matrix(
-            &cols,
-            t.thrust_n,
-            t.isp_s,
-            t.min_on_time_s,
-            t.open_delay_s,
-            t.close_delay_s,
-        );
         set.failures = t
             .failures
             .iter()
@@ -1283,12 +1375,18 @@ impl Scenario {
     /// The plant described by the scenario.
     pub fn spacecraft(&self) -> Result<Spacecraft> {
         let cmg = self.actuators.cmg.as_ref().map(|c| {
-            CmgCluster::pyramid(
+            let mut cl = CmgCluster::pyramid(
                 c.skew_deg.to_radians(),
-                c.h0_nms,
+                c.h0(),
                 c.max_gimbal_rate_deg_s.to_radians(),
                 c.gimbal_limit_deg.map(|l| (-l.to_radians(), l.to_radians())),
-            )
+            );
+            cl.servo = c.servo_time_constant_s.map(|tau| GimbalServo {
+                time_constant_s: tau,
+                gimbal_inertia_kgm2: c.gimbal_inertia_kgm2.unwrap_or(1.0),
+                friction_nm: c.gimbal_friction_nm,
+            });
+            cl
         });
         let wheels = self.wheel_params()?;
         // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
@@ -1333,7 +1431,7 @@ impl Scenario {
         for (i, p) in craft.wheels.iter().enumerate() {
             wheels[i] = WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
         }
-        State { q, w, gimbal_rad: g, wheels }
+        State { q, w, gimbal_rad: g, gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels }
     }
 
     /// The parameter set uploaded to the flight code.
@@ -1412,7 +1510,7 @@ impl Scenario {
             return Ok(ActuatorParams::Cmg {
                 cmg: CmgParams {
                     skew_rad: cmg.skew_deg.to_radians() as f32,
-                    h0_nms: cmg.h0_nms as f32,
+                    h0_nms: cmg.h0() as f32,
                     max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
                     gimbal_min_rad: -lim as f32,
                     gimbal_max_rad: lim as f32,

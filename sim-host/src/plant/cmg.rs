@@ -4,6 +4,11 @@
 //! test checks the preset against eq 6 as printed.
 //!
 //! Hardware limits: gimbal rate saturates at `max_rate_rad_s`; optional angle stops.
+//!
+//! Optional gimbal servo ([`GimbalServo`]): the real gimbal rate lags the command as a
+//! first-order loop with time constant τ and is opposed by Coulomb friction on the gimbal
+//! bearing, `δ̈ = (δ̇_cmd - δ̇)/τ - (T_f / I_g) tanh(δ̇ / ε)`; without it the gimbal follows
+//! the (saturated) command instantly, as in paper 000.
 
 use super::MAX_GIMBALS;
 use crate::attitude::Vec3;
@@ -23,6 +28,29 @@ pub struct CmgCluster {
     pub max_rate_rad_s: f64,
     /// `(min, max)` gimbal angle, rad; `None` = unlimited.
     pub angle_limits_rad: Option<(f64, f64)>,
+    /// Gimbal rate loop dynamics and friction; `None` = ideal rate servo.
+    pub servo: Option<GimbalServo>,
+}
+
+/// First-order gimbal rate servo with Coulomb friction on the gimbal axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GimbalServo {
+    pub time_constant_s: f64,
+    /// Gimbal (plus rotor, about the gimbal axis) inertia, kg m².
+    pub gimbal_inertia_kgm2: f64,
+    /// Coulomb friction torque on the gimbal bearing, N m.
+    pub friction_nm: f64,
+}
+
+/// Rate scale of the smooth friction sign, rad/s.
+const FRICTION_SMOOTHING_RAD_S: f64 = 1e-3;
+
+impl GimbalServo {
+    /// Gimbal acceleration for the applied command and the actual rate.
+    pub fn accel(&self, cmd: f64, rate: f64) -> f64 {
+        (cmd - rate) / self.time_constant_s
+            - self.friction_nm / self.gimbal_inertia_kgm2 * (rate / FRICTION_SMOOTHING_RAD_S).tanh()
+    }
 }
 
 impl CmgCluster {
@@ -39,6 +67,7 @@ impl CmgCluster {
             ],
             max_rate_rad_s,
             angle_limits_rad,
+            servo: None,
         }
     }
 
@@ -145,6 +174,24 @@ mod tests {
             // The gimbal axis leans 90° - β from the z axis: g·z = cos β.
             assert!((g.z - 54.73f64.to_radians().cos()).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn servo_lag_reaches_the_command_exponentially_and_friction_leaves_a_deficit() {
+        // δ̈ = (c - δ̇)/τ: after one τ the rate is (1 - 1/e) of a step command.
+        let s = GimbalServo { time_constant_s: 0.05, gimbal_inertia_kgm2: 1e-3, friction_nm: 0.0 };
+        let (mut r, dt) = (0.0, 1e-5);
+        for _ in 0..5000 {
+            r += dt * s.accel(0.5, r);
+        }
+        assert!((r / 0.5 - (1.0 - (-1.0f64).exp())).abs() < 1e-4, "{r}");
+        // With friction the steady rate falls short by τ T_f / I_g.
+        let f = GimbalServo { friction_nm: 2e-3, ..s };
+        let mut r = 0.0;
+        for _ in 0..200_000 {
+            r += dt * f.accel(0.5, r);
+        }
+        assert!((r - (0.5 - 0.05 * 2e-3 / 1e-3)).abs() < 1e-6, "{r}");
     }
 
     #[test]

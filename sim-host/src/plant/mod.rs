@@ -39,6 +39,8 @@ pub struct State {
     /// Body rate, body axes, rad/s.
     pub w: Vec3,
     pub gimbal_rad: [f64; MAX_GIMBALS],
+    /// Actual gimbal rates (a state only with a gimbal servo model; else the command).
+    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
     pub wheels: [WheelState; MAX_WHEELS],
 }
 
@@ -59,6 +61,7 @@ struct Deriv {
     dq: Quat,
     dw: Vec3,
     dgimbal: [f64; MAX_GIMBALS],
+    dgimbal_rate: [f64; MAX_GIMBALS],
     dwheel: [wheel::WheelDeriv; MAX_WHEELS],
 }
 
@@ -100,15 +103,32 @@ impl Spacecraft {
         })
     }
 
-    /// Gimbal rates the hardware actually applies (rate limit, angle stops).
+    /// Gimbal rates the hardware actually applies: with an ideal servo the command after
+    /// the rate limit and angle stops, with a servo model the lagging state.
     pub fn applied_gimbal_rates(&self, s: &State, u: &Input) -> [f64; MAX_GIMBALS] {
         let mut r = [0.0; MAX_GIMBALS];
         if let Some(c) = &self.cmg {
             for i in 0..c.units.len() {
-                r[i] = c.applied_rate(u.gimbal_rate_cmd_rad_s[i], s.gimbal_rad[i]);
+                r[i] = match c.servo {
+                    Some(_) => s.gimbal_rate_rad_s[i],
+                    None => c.applied_rate(u.gimbal_rate_cmd_rad_s[i], s.gimbal_rad[i]),
+                };
             }
         }
         r
+    }
+
+    fn gimbal_accel(&self, s: &State, u: &Input) -> [f64; MAX_GIMBALS] {
+        let mut a = [0.0; MAX_GIMBALS];
+        if let Some(c) = &self.cmg
+            && let Some(servo) = &c.servo
+        {
+            for i in 0..c.units.len() {
+                let cmd = c.applied_rate(u.gimbal_rate_cmd_rad_s[i], s.gimbal_rad[i]);
+                a[i] = servo.accel(cmd, s.gimbal_rate_rad_s[i]);
+            }
+        }
+        a
     }
 
     /// Actuator momentum in body axes (CMG cluster + wheels' absolute axial momentum).
@@ -189,19 +209,21 @@ impl Spacecraft {
         let big_h = self.inertia * s.w + h_total;
         let dw = self.inertia_inv * (torque - s.w.cross(&big_h));
         let dq = s.q * Quat::from_imag(s.w) * 0.5;
-        Deriv { dq, dw, dgimbal: rates, dwheel }
+        Deriv { dq, dw, dgimbal: rates, dgimbal_rate: self.gimbal_accel(s, u), dwheel }
     }
 
     fn add(s: &State, d: &Deriv, h: f64) -> State {
         let mut g = s.gimbal_rad;
-        for (x, dx) in g.iter_mut().zip(d.dgimbal.iter()) {
-            *x += h * dx;
+        let mut gr = s.gimbal_rate_rad_s;
+        for i in 0..MAX_GIMBALS {
+            g[i] += h * d.dgimbal[i];
+            gr[i] += h * d.dgimbal_rate[i];
         }
         let mut wh = s.wheels;
         for (x, dx) in wh.iter_mut().zip(d.dwheel.iter()) {
             *x = x.add_scaled(dx, h);
         }
-        State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, wheels: wh }
+        State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
     }
 
     /// One classical RK4 step of length `h` from time `t` with the input held;
@@ -212,8 +234,11 @@ impl Spacecraft {
         let k3 = self.deriv(t + 0.5 * h, &Self::add(s, &k2, 0.5 * h), u, env);
         let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env);
         let mut g = s.gimbal_rad;
+        let mut gr = s.gimbal_rate_rad_s;
         for i in 0..MAX_GIMBALS {
             g[i] += h / 6.0 * (k1.dgimbal[i] + 2.0 * k2.dgimbal[i] + 2.0 * k3.dgimbal[i] + k4.dgimbal[i]);
+            gr[i] += h / 6.0
+                * (k1.dgimbal_rate[i] + 2.0 * k2.dgimbal_rate[i] + 2.0 * k3.dgimbal_rate[i] + k4.dgimbal_rate[i]);
         }
         if let Some(c) = &self.cmg {
             c.clamp_angles(&mut g);
@@ -230,7 +255,7 @@ impl Spacecraft {
         }
         let q = s.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * (h / 6.0);
         let w = s.w + (k1.dw + (k2.dw + k3.dw) * 2.0 + k4.dw) * (h / 6.0);
-        State { q: q.normalize(), w, gimbal_rad: g, wheels: wh }
+        State { q: q.normalize(), w, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
     }
 
     /// Total angular momentum in the inertial frame, N m s (conserved without T_ext).
@@ -270,6 +295,7 @@ mod tests {
             q: quat_from_euler([0.2, -0.1, 0.5], EulerSeq::Zyx321),
             w: Vec3::new(0.05, -0.08, 0.12),
             gimbal_rad: g,
+            gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
             wheels: [WheelState::default(); MAX_WHEELS],
         }
     }

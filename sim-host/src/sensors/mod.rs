@@ -184,6 +184,7 @@ mod tests {
             q: Quat::identity(),
             w: Vec3::new(0.01, 0.02, 0.03),
             gimbal_rad: [0.0; MAX_GIMBALS],
+            gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
             wheels: Default::default(),
         }
     }
