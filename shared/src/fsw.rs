@@ -13,11 +13,11 @@
 
 use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
-use crate::control::{QuaternionFeedback, QuaternionFeedbackGains};
+use crate::control::{DcmPdGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd};
 use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
 use crate::params::{
     ActuatorParams, ControllerParams, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError, ParamField, ParamReason,
-    SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
+    SteeringLaw, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
 };
 use crate::protocol::{ActuatorCommand, SensorFrame, status, valid};
 use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig};
@@ -45,11 +45,17 @@ enum Actuators {
     },
 }
 
+#[derive(Clone, Copy, Debug)]
+enum Law {
+    QuaternionFeedback(QuaternionFeedbackGains),
+    DcmPd(DcmPdGains),
+}
+
 #[derive(Clone, Debug)]
 struct Configured {
     params: FlightParams,
     inertia: Mat3,
-    gains: QuaternionFeedbackGains,
+    law: Law,
     dt_s: f32,
     q_target: Quat,
     actuators: Actuators,
@@ -99,14 +105,20 @@ impl Fsw {
             .ok_or(ParamError { field: ParamField::Target, reason: ParamReason::NotUnitQuaternion })?;
         let dt_s = 1.0 / p.control_rate_hz;
         let m = crate::params::rows_to_mat;
-        let ControllerParams::QuaternionFeedback(c) = &p.controller;
-        let gains = QuaternionFeedbackGains {
-            k: m(&c.k_att_nm),
-            d: m(&c.d_rate_nms),
-            ki: m(&c.ki_att_nm_s),
-            integral_limit_s: c.integral_limit_s,
-            torque_limit_nm: Vec3::from(c.torque_limit_nm),
-            gyro_compensation: c.gyro_compensation,
+        let law = match &p.controller {
+            ControllerParams::QuaternionFeedback(c) => Law::QuaternionFeedback(QuaternionFeedbackGains {
+                k: m(&c.k_att_nm),
+                d: m(&c.d_rate_nms),
+                ki: m(&c.ki_att_nm_s),
+                integral_limit_s: c.integral_limit_s,
+                torque_limit_nm: Vec3::from(c.torque_limit_nm),
+                gyro_compensation: c.gyro_compensation,
+            }),
+            ControllerParams::DcmPd(c) => Law::DcmPd(DcmPdGains {
+                kp_nm: Vec3::from(c.kp_nm),
+                kd_nms: Vec3::from(c.kd_nms),
+                torque_limit_nm: Vec3::from(c.torque_limit_nm),
+            }),
         };
         let mut required = valid::ATTITUDE | valid::RATE;
         let actuators = match &p.actuator {
@@ -131,7 +143,7 @@ impl Fsw {
         if p.target_frame == TargetFrame::Reference {
             required |= valid::REFERENCE;
         }
-        self.cfg = Some(Configured { params: *p, inertia: p.inertia(), gains, dt_s, q_target, actuators, required });
+        self.cfg = Some(Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required });
         self.control.reset();
         self.saturated_last = false;
         Ok(checksum)
@@ -191,17 +203,12 @@ impl Fsw {
             }
             _ => (Vec3::zeros(), None),
         };
-        let demand = self.control.update(
-            &cfg.gains,
-            &cfg.inertia,
-            &m.q,
-            &q_cmd,
-            &m.w,
-            &w_cmd,
-            &h_act,
-            cfg.dt_s,
-            self.saturated_last,
-        );
+        let demand = match &cfg.law {
+            Law::QuaternionFeedback(g) => {
+                self.control.update(g, &cfg.inertia, &m.q, &q_cmd, &m.w, &w_cmd, &h_act, cfg.dt_s, self.saturated_last)
+            }
+            Law::DcmPd(g) => dcm_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
+        };
         let u = demand.torque_nm;
         let dt = cfg.dt_s;
         let alloc: AllocResult<4> = match &mut cfg.actuators {
@@ -210,7 +217,7 @@ impl Fsw {
                     return Self::safe_command(f.seq, status::BAD_INPUT);
                 };
                 let out =
-                    pyramid.steer(&steering.law, steering.singular_threshold, limits, t, &m.gimbals, &m.w, &u, dt);
+                    pyramid.steer(steering, limits, t, &m.gimbals, &m.w, &u, dt, dither_time_s(steering, f.time_us));
                 let realised = pyramid.torque_on_body(t, &m.w, &out.gimbal_rate_rad_s);
                 cmd.gimbal_rate_cmd_rad_s = out.gimbal_rate_rad_s;
                 cmd.singularity_measure = out.singularity_measure;
@@ -273,6 +280,18 @@ impl Fsw {
                 | status::UNREALISED)
             != 0;
         cmd
+    }
+}
+
+/// The GSR dither phase only matters modulo its period: reduce the clock there so f32
+/// keeps full resolution for ever.
+fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
+    match p.law {
+        SteeringLaw::GeneralizedSr { omega_rad_s, .. } if omega_rad_s > 0.0 => {
+            let period_us = ((core::f32::consts::TAU / omega_rad_s) * 1.0e6) as u64;
+            (time_us % period_us.max(1)) as f32 * 1.0e-6
+        }
+        _ => 0.0,
     }
 }
 

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 2;
+pub const PARAMS_VERSION: u16 = 3;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -59,6 +59,18 @@ pub enum TargetFrame {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ControllerParams {
     QuaternionFeedback(QuaternionFeedbackParams),
+    /// PD on the DCM error (paper 004 eqs 25-27).
+    DcmPd(DcmPdParams),
+}
+
+/// `M = Kp ∘ [a32 - a23, a13 - a31, a21 - a12] + Kd ∘ ω` (paper 004: Kp = [21, 53, 53],
+/// Kd = [-42, -91, -91]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DcmPdParams {
+    pub kp_nm: [f32; 3],
+    pub kd_nms: [f32; 3],
+    pub torque_limit_nm: [f32; 3],
 }
 
 /// The actuator family the torque demand is allocated to, with its geometry and limits.
@@ -174,6 +186,11 @@ pub enum SteeringLaw {
     MoorePenrose,
     /// `δ̇ = Jᵀ (J Jᵀ + α I)⁻¹ ḣ` (paper 000 eq 11) with the given α schedule.
     SingularityRobust(AlphaSchedule),
+    /// Generalized SR (Wie 2005; paper 002): `δ̇ = Jᵀ (J Jᵀ + λ E)⁻¹ ḣ`,
+    /// `E = [[1, ε3, ε2], [ε3, 1, ε1], [ε2, ε1, 1]]`, `εi = ε0 sin(ω t + φi)` with
+    /// `φ = (0, π/2, π)`, `λ = λ0 exp(-μ m)`. The time-varying off-diagonal dither moves
+    /// the gimbals off internal elliptic singularities where SR is stuck.
+    GeneralizedSr { lambda0: f32, mu: f32, eps0: f32, omega_rad_s: f32 },
 }
 
 /// Singularity-robust weight α as a function of `m = det(J Jᵀ)` (paper 000 eqs 12-14).
@@ -196,6 +213,12 @@ pub struct SteeringParams {
     pub law: SteeringLaw,
     /// Below this `m` the Moore-Penrose inverse is declared singular.
     pub singular_threshold: f32,
+    /// Null motion `k (I - J⁺J)(δ_pref - δ)` towards preferred gimbal angles, 1/s (0 = off).
+    pub null_gain_per_s: f32,
+    pub preferred_gimbal_rad: [f32; 4],
+    /// Below this `m` the steering checks for the momentum-envelope (saturation)
+    /// singularity and reports it.
+    pub saturation_check_m: f32,
 }
 
 /// Which parameter was rejected.
@@ -228,6 +251,7 @@ pub enum ParamField {
     ThrusterCount,
     ThrusterTorque,
     Pwpf,
+    NullMotion,
 }
 
 /// Why it was rejected.
@@ -339,7 +363,16 @@ fn validate_cmg(g: &CmgParams, steering: &SteeringParams) -> Result<(), ParamErr
             check_range(F::SteeringAlpha, a0, 0.0, 1.0e6)?;
             check_range(F::SteeringAlpha, mu, 0.0, 1.0e6)?;
         }
+        SteeringLaw::GeneralizedSr { lambda0, mu, eps0, omega_rad_s } => {
+            check_range(F::SteeringAlpha, lambda0, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, mu, 0.0, 1.0e6)?;
+            check_range(F::SteeringAlpha, eps0, 0.0, 1.0)?;
+            check_range(F::SteeringAlpha, omega_rad_s, 1e-6, 1.0e4)?;
+        }
     }
+    check_range(F::NullMotion, steering.null_gain_per_s, 0.0, 1.0e3)?;
+    check_finite(F::NullMotion, &steering.preferred_gimbal_rad)?;
+    check_range(F::SingularThreshold, steering.saturation_check_m, 0.0, 10.0)?;
     check_range(F::SingularThreshold, steering.singular_threshold, 1e-12, 1.0)
 }
 
@@ -430,6 +463,13 @@ impl FlightParams {
         }
         match &self.controller {
             ControllerParams::QuaternionFeedback(c) => c.validate()?,
+            ControllerParams::DcmPd(c) => {
+                check_finite(F::AttitudeGain, &c.kp_nm)?;
+                check_finite(F::RateGain, &c.kd_nms)?;
+                for t in c.torque_limit_nm {
+                    check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+                }
+            }
         }
         match &self.actuator {
             ActuatorParams::Cmg { cmg, steering } => validate_cmg(cmg, steering)?,
@@ -512,6 +552,9 @@ impl Default for FlightParams {
                 steering: SteeringParams {
                     law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 }),
                     singular_threshold: 1e-6,
+                    null_gain_per_s: 0.0,
+                    preferred_gimbal_rad: [0.0; 4],
+                    saturation_check_m: 0.05,
                 },
             },
             target_frame: TargetFrame::Inertial,
@@ -528,6 +571,7 @@ mod tests {
     fn qf(p: &mut FlightParams) -> &mut QuaternionFeedbackParams {
         match &mut p.controller {
             ControllerParams::QuaternionFeedback(q) => q,
+            _ => panic!("default is quaternion feedback"),
         }
     }
 

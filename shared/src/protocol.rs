@@ -15,7 +15,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 2;
+pub const PROTOCOL_VERSION: u16 = 3;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -59,6 +59,9 @@ pub mod status {
     /// Some actuator cannot realise its command (magnetorquer dead band, wheel at its
     /// speed limit).
     pub const UNREALISED: u16 = 1 << 9;
+    /// CMG cluster at its momentum envelope (saturation singularity): no more torque
+    /// along the singular direction; momentum must be dumped.
+    pub const MOMENTUM_SATURATION: u16 = 1 << 10;
 }
 
 /// One sample of everything the flight code reads, taken at `time_us`.

@@ -7,6 +7,7 @@
 // Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
 #![allow(clippy::needless_range_loop)]
 
+pub mod analysis;
 pub mod attitude;
 pub mod environment;
 pub mod link;

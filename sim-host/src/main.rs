@@ -27,6 +27,22 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
+enum Analyze {
+    /// Thruster control authority: the attainable-moment set of B (zonotope), its minimum
+    /// and maximum authority, and every 1-, 2- and 3-thruster failure that loses
+    /// three-axis authority.
+    Thrusters {
+        scenario: PathBuf,
+        /// Print the table as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Largest number of simultaneous failures to examine.
+        #[arg(long, default_value_t = 3)]
+        max_failed: usize,
+    },
+}
+
+#[derive(Subcommand)]
 enum Cmd {
     /// Run a scenario and write timeseries.csv, summary.json and PNG plots into --out.
     Run {
@@ -48,6 +64,11 @@ enum Cmd {
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check { scenario: PathBuf },
+    /// Design analyses of a scenario's actuators.
+    Analyze {
+        #[command(subcommand)]
+        what: Analyze,
+    },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
     Serve {
         #[arg(long, default_value = "127.0.0.1:7878")]
@@ -94,6 +115,18 @@ fn main() -> Result<()> {
             say!("{line}");
             for f in files {
                 say!("  wrote {}", f.display());
+            }
+        }
+        Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
+            let sc = Scenario::load(&scenario)?;
+            let set = sc.thruster_set().context("the scenario has no [actuators.thrusters]")?;
+            let b = set.torque_matrix();
+            let table = sim_host::analysis::thrusters::failure_table(&b, &vec![1.0; b.len()], max_failed.min(b.len()));
+            if json {
+                say!("{}", serde_json::to_string_pretty(&table)?);
+            } else {
+                say!("{}: {} thrusters, torque at full thrust (N m)", sc.name, b.len());
+                say!("{}", sim_host::analysis::thrusters::render_table(&table));
             }
         }
         Cmd::Serve { listen } => {

@@ -74,6 +74,12 @@ pub struct Summary {
     pub mean_step_instructions: Option<f64>,
     /// Largest `Fsw::step` cost in raw counter ticks (any board that measures).
     pub max_step_ticks: Option<u32>,
+    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs.
+    pub mean_step_us: Option<f64>,
+    pub max_step_us: Option<f64>,
+    /// With thrusters: mean time per control step of the flight code (control law,
+    /// LP allocation, PWPF — the LP dominates), µs, on the link's clock.
+    pub allocation_us_per_call: Option<f64>,
     pub status_counts: StatusCounts,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
@@ -404,6 +410,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let rms_error_deg = (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt();
     let final_q_rel = target_frame(snap.as_ref()).conjugate() * state.q;
     let ipt = info.as_ref().and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
+    let hz = info.as_ref().map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
     let summary = Summary {
         scenario: sc.name.clone(),
         link: if closed_loop { link.name() } else { "open-loop".into() },
@@ -431,6 +438,9 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         max_step_instructions: ipt.map(|f| (max_ticks as f64 * f).round() as u64),
         mean_step_instructions: ipt.map(|f| sum_ticks / n_ticks as f64 * f),
         max_step_ticks: (n_ticks > 0).then_some(max_ticks),
+        mean_step_us: hz.map(|h| sum_ticks / n_ticks as f64 / h * 1e6),
+        max_step_us: hz.map(|h| max_ticks as f64 / h * 1e6),
+        allocation_us_per_call: hz.filter(|_| n_thr > 0).map(|h| sum_ticks / n_ticks as f64 / h * 1e6),
         status_counts: counts,
         frames_dropped_flight,
         frames_dropped_host: if closed_loop { link.frames_dropped_host() } else { 0 },

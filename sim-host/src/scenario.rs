@@ -18,8 +18,9 @@ use crate::plant::wheel::{WheelParams, WheelState};
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{
-    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, FlightParams, MAX_THRUSTERS, MagnetorquerParams,
-    PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
+    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, DcmPdParams, FlightParams, MAX_THRUSTERS,
+    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
+    ThrusterMethod, ThrusterParams,
 };
 use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::Matrix3;
@@ -537,6 +538,13 @@ pub enum Controller {
         #[serde(default)]
         gyro_compensation: bool,
     },
+    /// PD on the DCM error (paper 004 eqs 25-27): `M = Kp ∘ [a32-a23, a13-a31, a21-a12] + Kd ∘ ω`.
+    DcmPd {
+        kp_nm: [f64; 3],
+        kd_nms: [f64; 3],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
     /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
     None,
 }
@@ -551,12 +559,36 @@ fn default_torque_limit() -> [f64; 3] {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Steering {
-    /// "mp" (Moore-Penrose) or "sr" (singularity robust).
+    /// "mp" (Moore-Penrose), "sr" (singularity robust) or "gsr" (generalized SR).
     pub law: String,
     #[serde(default)]
     pub alpha: Option<Alpha>,
+    /// GSR: `{ lambda0, mu, eps0, omega_rad_s }` (Wie: 0.01, 10, 0.01, π/2).
+    #[serde(default)]
+    pub gsr: Option<GsrSpec>,
     #[serde(default = "default_singular_threshold")]
     pub singular_threshold: f64,
+    /// Null motion towards `preferred_gimbal_deg`, 1/s (0 = off).
+    #[serde(default)]
+    pub null_gain_per_s: f64,
+    #[serde(default)]
+    pub preferred_gimbal_deg: [f64; 4],
+    /// Below this singularity measure the saturation (envelope) check runs.
+    #[serde(default = "default_saturation_check")]
+    pub saturation_check_m: f64,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GsrSpec {
+    pub lambda0: f64,
+    pub mu: f64,
+    pub eps0: f64,
+    pub omega_rad_s: f64,
+}
+
+fn default_saturation_check() -> f64 {
+    0.05
 }
 
 fn default_singular_threshold() -> f64 {
@@ -886,6 +918,13 @@ impl Scenario {
                 positive("controller.torque_limit_nm", *t)?;
             }
         }
+        if let Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } = &self.controller {
+            finite("controller.kp_nm", kp_nm)?;
+            finite("controller.kd_nms", kd_nms)?;
+            for t in torque_limit_nm {
+                positive("controller.torque_limit_nm", *t)?;
+            }
+        }
         let s = &self.sensors;
         for (k, v) in [
             ("sensors.attitude_noise_deg", s.attitude_noise_deg),
@@ -1009,11 +1048,29 @@ impl Scenario {
                     ("sr", None) => {
                         return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
                     }
+                    ("gsr", _) => {
+                        let g = st
+                            .gsr
+                            .as_ref()
+                            .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
+                        if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
+                            || !(g.omega_rad_s > 0.0)
+                        {
+                            return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
+                        }
+                    }
                     (other, _) => {
-                        return Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\")")));
+                        return Err(bad(
+                            "steering.law",
+                            format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"),
+                        ));
                     }
                 }
                 positive("steering.singular_threshold", st.singular_threshold)?;
+                if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
+                    return Err(bad("steering.null_gain_per_s", "must be >= 0"));
+                }
+                finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
             }
         }
         if let Some(w) = &act.wheels {
@@ -1439,39 +1496,46 @@ impl Scenario {
         let inertia = self.inertia();
         let f =
             |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
-        let Controller::QuaternionFeedback {
-            zeta,
-            wn_rad_s,
-            k_diag_nm,
-            d_diag_nms,
-            ki_per_s,
-            integral_limit_s,
-            torque_limit_nm,
-            gyro_compensation,
-        } = &self.controller
-        else {
-            bail!("controller.type = \"none\" uploads no flight parameters");
-        };
-        let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
-            (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
-            (_, _, Some(k), Some(d)) => (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into())),
-            _ => {
-                return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
+        let controller = match &self.controller {
+            Controller::QuaternionFeedback {
+                zeta,
+                wn_rad_s,
+                k_diag_nm,
+                d_diag_nms,
+                ki_per_s,
+                integral_limit_s,
+                torque_limit_nm,
+                gyro_compensation,
+            } => {
+                let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
+                    (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
+                    (_, _, Some(k), Some(d)) => {
+                        (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into()))
+                    }
+                    _ => return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms")),
+                };
+                ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
+                    k_att_nm: f(&k),
+                    d_rate_nms: f(&d),
+                    ki_att_nm_s: f(&(k * *ki_per_s)),
+                    integral_limit_s: *integral_limit_s as f32,
+                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+                    gyro_compensation: *gyro_compensation,
+                })
             }
+            Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::DcmPd(DcmPdParams {
+                kp_nm: kp_nm.map(|x| x as f32),
+                kd_nms: kd_nms.map(|x| x as f32),
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
+            Controller::None => bail!("controller.type = \"none\" uploads no flight parameters"),
         };
         let q = self.target.quaternion();
         Ok(FlightParams {
             version: PARAMS_VERSION,
             control_rate_hz: self.timing.control_rate_hz as f32,
             inertia_kgm2: f(&inertia),
-            controller: ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
-                k_att_nm: f(&k),
-                d_rate_nms: f(&d),
-                ki_att_nm_s: f(&(k * *ki_per_s)),
-                integral_limit_s: *integral_limit_s as f32,
-                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-                gyro_compensation: *gyro_compensation,
-            }),
+            controller,
             actuator: self.actuator_params()?,
             target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
             target_frame: match self.target.frame {
@@ -1505,6 +1569,15 @@ impl Scenario {
                 ("sr", Some(Alpha::Exponential { a0, mu })) => {
                     SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
                 }
+                ("gsr", _) => match &st.gsr {
+                    Some(g) => SteeringLaw::GeneralizedSr {
+                        lambda0: g.lambda0 as f32,
+                        mu: g.mu as f32,
+                        eps0: g.eps0 as f32,
+                        omega_rad_s: g.omega_rad_s as f32,
+                    },
+                    None => bail!("invalid value for `steering.gsr`: missing"),
+                },
                 _ => SteeringLaw::MoorePenrose,
             };
             return Ok(ActuatorParams::Cmg {
@@ -1515,7 +1588,13 @@ impl Scenario {
                     gimbal_min_rad: -lim as f32,
                     gimbal_max_rad: lim as f32,
                 },
-                steering: SteeringParams { law, singular_threshold: st.singular_threshold as f32 },
+                steering: SteeringParams {
+                    law,
+                    singular_threshold: st.singular_threshold as f32,
+                    null_gain_per_s: st.null_gain_per_s as f32,
+                    preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
+                    saturation_check_m: st.saturation_check_m as f32,
+                },
             });
         }
         if let Some(w) = &act.wheels {

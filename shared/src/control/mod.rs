@@ -1,8 +1,10 @@
 //! Control laws. Each produces a desired body torque (N m, body axes) from the attitude
 //! estimate; steering/allocation turns it into actuator commands.
 
+pub mod dcm_pd;
 pub mod quaternion_feedback;
-pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains};
+pub use dcm_pd::{DcmPdGains, dcm_pd};
+pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
 
 use crate::math::Vec3;
 

@@ -5,13 +5,19 @@
 //! Jacobian `J = ∂h/∂δ` (eq 8), 3×4. Torque on the body (eq 4): `T = -J δ̇ - ω × h`.
 //! The steering therefore asks for `ḣ = -u - ω × h` and solves `J δ̇ = ḣ`:
 //! - Moore-Penrose `δ̇ = Jᵀ (J Jᵀ)⁻¹ ḣ`;
-//! - singularity-robust `δ̇ = Jᵀ (J Jᵀ + α I)⁻¹ ḣ` (eq 11) with α from eqs 12-14.
+//! - singularity-robust `δ̇ = Jᵀ (J Jᵀ + α I)⁻¹ ḣ` (eq 11) with α from eqs 12-14;
+//! - generalized SR `δ̇ = Jᵀ (J Jᵀ + λ E(t))⁻¹ ḣ` with a rotating off-diagonal dither E
+//!   (Wie 2005, paper 002), which escapes internal elliptic singularities;
+//! - optional null motion `k (I - J⁺J)(δ_pref - δ)` towards preferred gimbal angles (no
+//!   body torque), and a check for the momentum-envelope (saturation) singularity: at a
+//!   singular set with singular direction u, all unit momenta on the same side of u
+//!   (`sign(h_i·u)` equal) means the cluster is saturated, not internally singular.
 //!
 //! The singularity measure `m = det(J₁ J₁ᵀ)` uses the unit-momentum Jacobian
 //! `J₁ = J / h0`, so α and `m` are dimensionless and independent of the rotor size.
 
 use crate::math::{Mat3, Vec3};
-use crate::params::{AlphaSchedule, CmgParams, SteeringLaw};
+use crate::params::{AlphaSchedule, CmgParams, SteeringLaw, SteeringParams};
 use crate::protocol::status;
 use libm::{cosf, expf, sinf};
 use nalgebra::SMatrix;
@@ -106,18 +112,50 @@ impl CmgPyramid {
         -(self.jacobian(t) * d) - rate_rad_s.cross(&self.momentum(t))
     }
 
+    /// Unit rotor momentum vectors of the four units (columns of eq 6 with `h0 = 1`).
+    fn unit_momenta(&self, t: &GimbalTrig) -> [Vec3; 4] {
+        let (cb, sb) = (self.cos_skew, self.sin_skew);
+        let [s1, s2, s3, s4] = t.s;
+        let [c1, c2, c3, c4] = t.c;
+        [
+            Vec3::new(-cb * s1, c1, sb * s1),
+            Vec3::new(-c2, -cb * s2, sb * s2),
+            Vec3::new(cb * s3, -c3, sb * s3),
+            Vec3::new(c4, cb * s4, sb * s4),
+        ]
+    }
+
+    /// At a (near-)singular `J₁ J₁ᵀ`: is it the momentum envelope (all unit momenta on
+    /// one side of the singular direction)? The singular direction is the largest column
+    /// of the adjugate (row cross products), which needs no eigen-solver.
+    pub fn at_momentum_envelope(&self, t: &GimbalTrig, jjt: &Mat3) -> bool {
+        let r = |i: usize| Vec3::new(jjt[(i, 0)], jjt[(i, 1)], jjt[(i, 2)]);
+        let cands = [r(1).cross(&r(2)), r(2).cross(&r(0)), r(0).cross(&r(1))];
+        let u =
+            cands.iter().fold(Vec3::zeros(), |best, c| if c.norm_squared() > best.norm_squared() { *c } else { best });
+        let n = u.norm();
+        if !(n > 0.0) || !n.is_finite() {
+            return false;
+        }
+        let u = u / n;
+        let p = self.unit_momenta(t).map(|h| h.dot(&u));
+        let tol = 0.05;
+        p.iter().all(|x| *x > tol) || p.iter().all(|x| *x < -tol)
+    }
+
     /// Solve for gimbal rates that produce body torque `torque_nm` at body rate `ω`.
+    /// `time_s` drives the GSR dither (any clock; only its phase matters).
     #[allow(clippy::too_many_arguments)]
     pub fn steer(
         &self,
-        law: &SteeringLaw,
-        singular_threshold: f32,
+        p: &SteeringParams,
         limits: &GimbalLimits,
         t: &GimbalTrig,
         delta_rad: &[f32; 4],
         rate_rad_s: &Vec3,
         torque_nm: &Vec3,
         dt_s: f32,
+        time_s: f32,
     ) -> SteeringOutput {
         let j1 = self.unit_jacobian(t);
         let jjt: Mat3 = j1 * j1.transpose();
@@ -125,18 +163,43 @@ impl CmgPyramid {
         // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
         let hdot = (-torque_nm - rate_rad_s.cross(&self.momentum(t))) / self.h0_nms;
         let mut st = 0u16;
-        let alpha = match law {
-            SteeringLaw::MoorePenrose => 0.0,
-            SteeringLaw::SingularityRobust(s) => alpha_of(s, m),
+        let (alpha, weight) = match &p.law {
+            SteeringLaw::MoorePenrose => (0.0, Mat3::identity()),
+            SteeringLaw::SingularityRobust(s) => (alpha_of(s, m), Mat3::identity()),
+            SteeringLaw::GeneralizedSr { lambda0, mu, eps0, omega_rad_s } => {
+                let ph = omega_rad_s * time_s;
+                let e1 = eps0 * sinf(ph);
+                let e2 = eps0 * sinf(ph + core::f32::consts::FRAC_PI_2);
+                let e3 = eps0 * sinf(ph + core::f32::consts::PI);
+                #[rustfmt::skip]
+                let e = Mat3::new(
+                    1.0, e3, e2,
+                    e3, 1.0, e1,
+                    e2, e1, 1.0,
+                );
+                (lambda0 * expf(-mu * m), e)
+            }
         };
-        let a = jjt + Mat3::identity() * alpha;
-        let rates = match (m >= singular_threshold || alpha > 0.0, a.try_inverse()) {
+        let a = jjt + weight * alpha;
+        let mut rates = match (m >= p.singular_threshold || alpha > 0.0, a.try_inverse()) {
             (true, Some(inv)) => j1.transpose() * (inv * hdot),
             _ => {
                 st |= status::SINGULAR;
                 nalgebra::Vector4::zeros()
             }
         };
+        // Null motion (only where the Moore-Penrose projector is well defined).
+        if p.null_gain_per_s > 0.0 && m >= p.singular_threshold {
+            if let Some(inv) = jjt.try_inverse() {
+                let d = nalgebra::Vector4::from(*delta_rad);
+                let e = nalgebra::Vector4::from(p.preferred_gimbal_rad) - d;
+                let proj = e - j1.transpose() * (inv * (j1 * e));
+                rates += proj * p.null_gain_per_s;
+            }
+        }
+        if m < p.saturation_check_m && self.at_momentum_envelope(t, &jjt) {
+            st |= status::MOMENTUM_SATURATION;
+        }
         let mut r: [f32; 4] = rates.into();
         if !r.iter().all(|x| x.is_finite()) {
             st |= status::SINGULAR;
@@ -269,6 +332,16 @@ mod tests {
         assert!((m - expect).abs() < 1e-5 * expect);
     }
 
+    fn sp(law: SteeringLaw) -> SteeringParams {
+        SteeringParams {
+            law,
+            singular_threshold: 1e-6,
+            null_gain_per_s: 0.0,
+            preferred_gimbal_rad: [0.0; 4],
+            saturation_check_m: 0.05,
+        }
+    }
+
     fn lim() -> GimbalLimits {
         GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -1e3, max_angle_rad: 1e3 }
     }
@@ -280,7 +353,7 @@ mod tests {
         let t = GimbalTrig::new(&d);
         let w = Vec3::new(0.01, -0.02, 0.03);
         let u = Vec3::new(0.05, -0.02, 0.08);
-        let mp = p.steer(&SteeringLaw::MoorePenrose, 1e-6, &lim(), &t, &d, &w, &u, 0.01);
+        let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &w, &u, 0.01, 0.0);
         assert_eq!(mp.status, 0);
         // MP realises the torque exactly (away from singularities).
         let got = p.torque_on_body(&t, &w, &mp.gimbal_rate_rad_s);
@@ -289,7 +362,7 @@ mod tests {
         let mut ratio = 0.0;
         for a0 in [1e-1f32, 1e-2, 1e-3, 1e-4] {
             let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu: 0.0 });
-            let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &w, &u, 0.01);
+            let sr = p.steer(&sp(law), &lim(), &t, &d, &w, &u, 0.01, 0.0);
             let diff: f32 =
                 sr.gimbal_rate_rad_s.iter().zip(mp.gimbal_rate_rad_s.iter()).map(|(a, b)| (a - b).abs()).sum();
             assert!(diff < prev, "difference shrinks with alpha");
@@ -312,11 +385,11 @@ mod tests {
         let j = p.unit_jacobian(&t);
         assert!((j * j.transpose()).determinant().abs() < 1e-6);
         let u = Vec3::new(0.1, 0.0, 0.0);
-        let mp = p.steer(&SteeringLaw::MoorePenrose, 1e-6, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01);
+        let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         assert!(mp.gimbal_rate_rad_s.iter().all(|x| x.is_finite()));
         assert_ne!(mp.status & status::SINGULAR, 0);
         let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
-        let sr = p.steer(&law, 1e-6, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01);
+        let sr = p.steer(&sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         let peak = sr.gimbal_rate_rad_s.iter().fold(0.0f32, |a, x| a.max(x.abs()));
         assert!(peak < 1e-4, "SR is stuck at the elliptic singularity: {peak}");
         assert!(sr.alpha > 0.0);
@@ -342,6 +415,85 @@ mod tests {
         assert_ne!(st & status::ANGLE_LIMITED, 0);
         assert!((0.495 + r[0] * 0.01 - 0.5).abs() < 1e-6);
         assert_eq!(r[1], 0.0);
+    }
+
+    /// Gimbal kinematics only (body held): integrate δ under the steering law; returns the
+    /// first time the realised torque delivers half of the x demand (None: never).
+    fn time_to_deliver(p: &CmgPyramid, law: SteeringLaw, start: [f32; 4], u: Vec3, seconds: f32) -> Option<f32> {
+        let (mut d, dt) = (start, 0.01f32);
+        for k in 0..(seconds / dt) as usize {
+            let t = GimbalTrig::new(&d);
+            let out = p.steer(&sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, dt, k as f32 * dt);
+            let got = p.torque_on_body(&t, &Vec3::zeros(), &out.gimbal_rate_rad_s);
+            if got.x / u.x > 0.5 {
+                return Some(k as f32 * dt);
+            }
+            for (x, r) in d.iter_mut().zip(out.gimbal_rate_rad_s) {
+                *x += r * dt;
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn gsr_leaves_the_elliptic_singularity_where_sr_is_stuck() {
+        // Wie's parameters: λ0 = 0.01, μ = 10, ε0 = 0.01, ω = π/2 rad/s (dither period 4 s);
+        // a demand of 0.5 N m along x (≈ 0.8 h0 per second), unreachable at the singularity.
+        let p = CmgPyramid::new(BETA, 0.623);
+        let start = deg4([90.0, 0.0, -90.0, 0.0]);
+        let u = Vec3::new(0.5, 0.0, 0.0);
+        let omega = core::f32::consts::FRAC_PI_2;
+        let sr = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
+        let gsr = SteeringLaw::GeneralizedSr { lambda0: 0.01, mu: 10.0, eps0: 0.01, omega_rad_s: omega };
+        assert_eq!(time_to_deliver(&p, sr, start, u, 8.0), None, "SR stays stuck");
+        let t = time_to_deliver(&p, gsr, start, u, 8.0).expect("GSR escapes");
+        std::eprintln!("GSR delivers half the x torque after {t:.2} s (dither period 4 s)");
+        assert!(t < 4.0, "within one dither period: {t}");
+    }
+
+    #[test]
+    fn null_motion_moves_gimbals_without_body_torque() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        let d = [0.3f32, -0.4, 0.8, 0.1];
+        let t = GimbalTrig::new(&d);
+        let u = Vec3::new(0.02, -0.01, 0.03);
+        let mut with = sp(SteeringLaw::MoorePenrose);
+        with.null_gain_per_s = 0.5;
+        let a = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let b = p.steer(&with, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let diff: f32 = a.gimbal_rate_rad_s.iter().zip(b.gimbal_rate_rad_s.iter()).map(|(x, y)| (x - y).abs()).sum();
+        assert!(diff > 1e-2, "null motion is active");
+        let ta = p.torque_on_body(&t, &Vec3::zeros(), &a.gimbal_rate_rad_s);
+        let tb = p.torque_on_body(&t, &Vec3::zeros(), &b.gimbal_rate_rad_s);
+        assert!((ta - tb).norm() < 1e-5 * u.norm() * 10.0, "{ta:?} vs {tb:?}");
+        // It drives δ towards the preferred angles (0): the null part opposes δ.
+        let null: [f32; 4] = core::array::from_fn(|i| b.gimbal_rate_rad_s[i] - a.gimbal_rate_rad_s[i]);
+        assert!(null.iter().zip(d.iter()).map(|(n, x)| n * x).sum::<f32>() < 0.0);
+    }
+
+    #[test]
+    fn saturation_singularity_is_told_apart_from_the_internal_one() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        let check = |deg: [f32; 4]| {
+            let t = GimbalTrig::new(&deg4(deg));
+            let j = p.unit_jacobian(&t);
+            p.at_momentum_envelope(&t, &(j * j.transpose()))
+        };
+        // All gimbals at 90°: every rotor tilts to +z, h = 4 h0 sin β ẑ, the envelope.
+        assert!(check([90.0, 90.0, 90.0, 90.0]));
+        // The elliptic internal singularity is not the envelope.
+        assert!(!check([90.0, 0.0, -90.0, 0.0]));
+        let out = p.steer(
+            &sp(SteeringLaw::MoorePenrose),
+            &lim(),
+            &GimbalTrig::new(&deg4([90.0; 4])),
+            &deg4([90.0; 4]),
+            &Vec3::zeros(),
+            &Vec3::new(0.0, 0.0, -0.1),
+            0.01,
+            0.0,
+        );
+        assert_ne!(out.status & status::MOMENTUM_SATURATION, 0);
     }
 
     #[test]

@@ -26,12 +26,16 @@ impl FlightLink for InProcess {
         "in-process".into()
     }
     fn hello(&mut self) -> Result<LinkInfo> {
-        Ok(LinkInfo { board: 0, cost_counter_hz: 0, instructions_per_tick: None })
+        // The step is timed with the host's monotonic clock, in nanoseconds.
+        Ok(LinkInfo { board: 0, cost_counter_hz: 1_000_000_000, instructions_per_tick: None })
     }
     fn upload(&mut self, params: &FlightParams) -> Result<u32> {
         self.fsw.configure(params).map_err(|e| anyhow!("flight code rejected the parameters: {e}"))
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        Ok(StepReport { cmd: self.fsw.step(frame), ..Default::default() })
+        let t0 = std::time::Instant::now();
+        let cmd = self.fsw.step(frame);
+        let ns = t0.elapsed().as_nanos().min(u32::MAX as u128) as u32;
+        Ok(StepReport { cmd, step_cost_ticks: ns.max(1), ..Default::default() })
     }
 }
