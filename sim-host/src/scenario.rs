@@ -1054,7 +1054,7 @@ impl Scenario {
                             .as_ref()
                             .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
                         if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
-                            || !(g.omega_rad_s > 0.0)
+                            || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
                         {
                             return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
                         }
@@ -1722,7 +1722,7 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         let p = s.flight_params().unwrap();
         assert_eq!(p.validate(), Ok(()));
         // K = 2 ωn² I (eq 17)
-        let ControllerParams::QuaternionFeedback(c) = &p.controller;
+        let ControllerParams::QuaternionFeedback(c) = &p.controller else { panic!("quaternion feedback") };
         assert!((c.k_att_nm[2][2] - 2.0 * 0.49 * 5.8).abs() < 1e-5);
         assert_eq!(s.steps(), 1000);
     }

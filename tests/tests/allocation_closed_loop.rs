@@ -52,7 +52,7 @@ fn paper004_with_thrusters_1_and_4_failed_still_controls_and_1_3_7_cannot() {
     assert!(lost.final_error_deg > 10.0, "without three-axis authority the manoeuvre fails");
     // The geometry says so independently of any simulation.
     let b = scenario("paper004/dp-nominal.toml").thruster_set().unwrap().torque_matrix();
-    let table = failure_table(&b, &vec![1.0; 8], 3);
+    let table = failure_table(&b, &[1.0; 8], 3);
     assert!(table.lost.contains(&vec![1, 3, 7]));
     assert!(!table.lost.contains(&vec![1, 4]));
 }

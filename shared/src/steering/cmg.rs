@@ -189,13 +189,14 @@ impl CmgPyramid {
             }
         };
         // Null motion (only where the Moore-Penrose projector is well defined).
-        if p.null_gain_per_s > 0.0 && m >= p.singular_threshold {
-            if let Some(inv) = jjt.try_inverse() {
-                let d = nalgebra::Vector4::from(*delta_rad);
-                let e = nalgebra::Vector4::from(p.preferred_gimbal_rad) - d;
-                let proj = e - j1.transpose() * (inv * (j1 * e));
-                rates += proj * p.null_gain_per_s;
-            }
+        if p.null_gain_per_s > 0.0
+            && m >= p.singular_threshold
+            && let Some(inv) = jjt.try_inverse()
+        {
+            let d = nalgebra::Vector4::from(*delta_rad);
+            let e = nalgebra::Vector4::from(p.preferred_gimbal_rad) - d;
+            let proj = e - j1.transpose() * (inv * (j1 * e));
+            rates += proj * p.null_gain_per_s;
         }
         if m < p.saturation_check_m && self.at_momentum_envelope(t, &jjt) {
             st |= status::MOMENTUM_SATURATION;
