@@ -33,6 +33,11 @@ impl FlightLink for InProcess {
         self.fsw.configure(params).map_err(|e| anyhow!("flight code rejected the parameters: {e}"))
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        // Reading the clock costs as much as a fifth of a step here: time one step in
+        // eight (0 = not measured; the statistics skip those).
+        if frame.seq % 8 != 0 {
+            return Ok(StepReport { cmd: self.fsw.step(frame), ..Default::default() });
+        }
         let t0 = std::time::Instant::now();
         let cmd = self.fsw.step(frame);
         let ns = t0.elapsed().as_nanos().min(u32::MAX as u128) as u32;
