@@ -14,17 +14,8 @@ use crate::math::Vec3;
 use crate::params::MagnetorquerParams;
 
 pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> AllocResult<3> {
-    let mut r = AllocResult {
-        u: [0.0; 3],
-        realised: [0.0; AXES],
-        shortfall: (*torque_nm).into(),
-        lambda: 0.0,
-        sat_low: 0,
-        sat_high: 0,
-        unrealised: 0,
-        iterations: 1,
-        status: AllocStatus::Ok,
-    };
+    let mut r = AllocResult::<3>::nothing_realised(torque_nm);
+    r.iterations = 1;
     if !b_body_t.iter().chain(torque_nm.iter()).all(|x| x.is_finite()) {
         r.status = AllocStatus::NonFinite;
         return r;

@@ -59,3 +59,20 @@ pub struct AllocResult<const N: usize> {
     pub iterations: u16,
     pub status: AllocStatus,
 }
+
+impl<const N: usize> AllocResult<N> {
+    /// Nothing commanded yet: zero commands, the whole demand as shortfall, status `Ok`.
+    pub fn nothing_realised(demand_nm: &crate::math::Vec3) -> Self {
+        Self {
+            u: [0.0; N],
+            realised: [0.0; AXES],
+            shortfall: (*demand_nm).into(),
+            lambda: 0.0,
+            sat_low: 0,
+            sat_high: 0,
+            unrealised: 0,
+            iterations: 0,
+            status: AllocStatus::Ok,
+        }
+    }
+}

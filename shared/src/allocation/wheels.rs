@@ -30,17 +30,7 @@ fn axis(p: &WheelParams, i: usize) -> Vec3 {
 /// `speed_rad_s`: measured wheel speeds relative to the body.
 pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Vec3) -> AllocResult<MAX_WHEELS> {
     let n = (p.count as usize).min(MAX_WHEELS);
-    let mut r = AllocResult {
-        u: [0.0; MAX_WHEELS],
-        realised: [0.0; AXES],
-        shortfall: (*torque_nm).into(),
-        lambda: 0.0,
-        sat_low: 0,
-        sat_high: 0,
-        unrealised: 0,
-        iterations: 0,
-        status: AllocStatus::Ok,
-    };
+    let mut r = AllocResult::<MAX_WHEELS>::nothing_realised(torque_nm);
     if !torque_nm.iter().all(|x| x.is_finite()) || !speed_rad_s.iter().take(n).all(|x| x.is_finite()) {
         r.status = AllocStatus::NonFinite;
         return r;
