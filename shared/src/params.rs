@@ -176,6 +176,8 @@ pub struct CmgParams {
     /// Gimbal-angle range, rad; `min <= δ <= max`. Use ±π or wider for unlimited gimbals.
     pub gimbal_min_rad: f32,
     pub gimbal_max_rad: f32,
+    /// Bit i: CMG i failed — its Jacobian column is removed and its rate command locked at 0.
+    pub failed_mask: u8,
 }
 
 /// How the steering law turns a momentum-rate demand into gimbal rates.
@@ -548,6 +550,7 @@ impl Default for FlightParams {
                     max_gimbal_rate_rad_s: 60f32.to_radians(),
                     gimbal_min_rad: -1000.0,
                     gimbal_max_rad: 1000.0,
+                    failed_mask: 0,
                 },
                 steering: SteeringParams {
                     law: SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 }),

@@ -249,8 +249,13 @@ fn yes() -> bool {
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct RigSpec {
+    /// "paper003" (m g r of eq 28, ±40° roll and pitch) or "paper000" (no pendulum term
+    /// given, ±45° roll and pitch); explicit keys below override the preset.
+    #[serde(default)]
+    pub preset: Option<String>,
     /// `m g r`, body axes, N m (paper 003 eq 28: [-0.004, -0.001, 0.5]).
-    pub mgr_nm: [f64; 3],
+    #[serde(default)]
+    pub mgr_nm: Option<[f64; 3]>,
     #[serde(default)]
     pub roll_limit_deg: Option<f64>,
     #[serde(default)]
@@ -498,6 +503,9 @@ pub struct CmgSpec {
     pub gimbal_limit_deg: Option<f64>,
     #[serde(default)]
     pub initial_gimbal_deg: [f64; 4],
+    /// 1-based CMGs the flight code treats as failed (locked, column removed).
+    #[serde(default)]
+    pub failed: Vec<usize>,
 }
 
 impl CmgSpec {
@@ -876,7 +884,14 @@ impl Scenario {
             return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
         }
         if let Some(r) = &self.rig {
-            finite("rig.mgr_nm", &r.mgr_nm)?;
+            if let Some(p) = &r.preset {
+                if !matches!(p.as_str(), "paper003" | "paper000") {
+                    return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
+                }
+            } else if r.mgr_nm.is_none() {
+                return Err(bad("rig.mgr_nm", "required without a preset"));
+            }
+            finite("rig.mgr_nm", &r.mgr_nm.unwrap_or_default())?;
             for (k, l) in [("rig.roll_limit_deg", r.roll_limit_deg), ("rig.pitch_limit_deg", r.pitch_limit_deg)] {
                 if let Some(l) = l {
                     positive(k, l)?;
@@ -1026,6 +1041,9 @@ impl Scenario {
                 }
             }
             finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+            if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
+                return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
+            }
             if !matches!(self.controller, Controller::None) && self.steering.is_none() {
                 return Err(bad("steering", "a CMG cluster under control needs [steering]"));
             }
@@ -1457,10 +1475,17 @@ impl Scenario {
         sc.wheels = wheels;
         sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
         sc.env = self.environment()?;
-        sc.rig = self.rig.as_ref().map(|r| Rig {
-            mgr_nm: r.mgr_nm.into(),
-            roll_limit_rad: r.roll_limit_deg.map(f64::to_radians),
-            pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians),
+        sc.rig = self.rig.as_ref().map(|r| {
+            let base = match r.preset.as_deref() {
+                Some("paper003") => Rig::paper003().1,
+                Some("paper000") => Rig::paper000(),
+                _ => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
+            };
+            Rig {
+                mgr_nm: r.mgr_nm.map_or(base.mgr_nm, Vec3::from),
+                roll_limit_rad: r.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
+                pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
+            }
         });
         Ok(sc)
     }
@@ -1587,6 +1612,7 @@ impl Scenario {
                     max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
                     gimbal_min_rad: -lim as f32,
                     gimbal_max_rad: lim as f32,
+                    failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
                 },
                 steering: SteeringParams {
                     law,

@@ -28,7 +28,7 @@ fn rig_pendulum_period_matches_the_closed_form() {
     // Small roll offset, diagonal inertia, pendulum m g r_z = 0.5 N m: T = 2π √(Ixx / m g r_z).
     let mut sc = scenario("paper003/rig-open-loop.toml");
     sc.spacecraft.inertia_kgm2 = [[1.76, 0.0, 0.0], [0.0, 1.79, 0.0], [0.0, 0.0, 2.92]];
-    sc.rig.as_mut().unwrap().mgr_nm = [0.0, 0.0, 0.5];
+    sc.rig.as_mut().unwrap().mgr_nm = Some([0.0, 0.0, 0.5]);
     sc.initial.attitude.euler_deg = Some([1.0, 0.0, 0.0]);
     sc.duration_s = 60.0;
     let r = run_in_process(&sc);

@@ -9,7 +9,7 @@
 //! band produces nothing on the real hardware: it is reported in `unrealised` and left
 //! out of `realised`. Below `min_field_t` the law is undefined: zero dipole, `Singular`.
 
-use super::{AXES, AllocResult, AllocStatus};
+use super::{AllocResult, AllocStatus};
 use crate::math::Vec3;
 use crate::params::MagnetorquerParams;
 

@@ -14,7 +14,7 @@
 //! wheels in general position still give full three-axis torque. Finally the whole
 //! command is scaled so that `|u_i| <= max_torque` (direction of the body torque kept).
 
-use super::{AXES, AllocResult, AllocStatus};
+use super::{AllocResult, AllocStatus};
 use crate::math::{Mat3, Vec3};
 use crate::params::{MAX_WHEELS, WheelParams};
 

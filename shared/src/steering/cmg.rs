@@ -49,6 +49,8 @@ pub struct GimbalLimits {
     pub max_rate_rad_s: f32,
     pub min_angle_rad: f32,
     pub max_angle_rad: f32,
+    /// Bit i: unit i failed (column removed, rate locked at 0).
+    pub failed_mask: u8,
 }
 
 impl From<&CmgParams> for GimbalLimits {
@@ -57,6 +59,7 @@ impl From<&CmgParams> for GimbalLimits {
             max_rate_rad_s: p.max_gimbal_rate_rad_s,
             min_angle_rad: p.gimbal_min_rad,
             max_angle_rad: p.gimbal_max_rad,
+            failed_mask: p.failed_mask,
         }
     }
 }
@@ -157,7 +160,12 @@ impl CmgPyramid {
         dt_s: f32,
         time_s: f32,
     ) -> SteeringOutput {
-        let j1 = self.unit_jacobian(t);
+        let mut j1 = self.unit_jacobian(t);
+        for i in 0..4 {
+            if limits.failed_mask & (1 << i) != 0 {
+                j1.set_column(i, &Vec3::zeros());
+            }
+        }
         let jjt: Mat3 = j1 * j1.transpose();
         let m = jjt.determinant();
         // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
@@ -205,6 +213,11 @@ impl CmgPyramid {
         if !r.iter().all(|x| x.is_finite()) {
             st |= status::SINGULAR;
             r = [0.0; 4];
+        }
+        for (i, x) in r.iter_mut().enumerate() {
+            if limits.failed_mask & (1 << i) != 0 {
+                *x = 0.0;
+            }
         }
         st |= limit_rates(&mut r, delta_rad, limits, dt_s);
         SteeringOutput { gimbal_rate_rad_s: r, singularity_measure: m, alpha, status: st }
@@ -344,7 +357,7 @@ mod tests {
     }
 
     fn lim() -> GimbalLimits {
-        GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -1e3, max_angle_rad: 1e3 }
+        GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -1e3, max_angle_rad: 1e3, failed_mask: 0 }
     }
 
     #[test]
@@ -411,7 +424,7 @@ mod tests {
     #[test]
     fn angle_limit_stops_the_gimbal_at_the_stop() {
         let mut r = [1.0f32, -1.0, 0.0, 0.0];
-        let l = GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -0.5, max_angle_rad: 0.5 };
+        let l = GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -0.5, max_angle_rad: 0.5, failed_mask: 0 };
         let st = limit_rates(&mut r, &[0.495, -0.5, 0.0, 0.0], &l, 0.01);
         assert_ne!(st & status::ANGLE_LIMITED, 0);
         assert!((0.495 + r[0] * 0.01 - 0.5).abs() < 1e-6);
@@ -495,6 +508,19 @@ mod tests {
             0.0,
         );
         assert_ne!(out.status & status::MOMENTUM_SATURATION, 0);
+    }
+
+    #[test]
+    fn a_failed_cmg_is_locked_and_the_other_three_still_realise_the_torque() {
+        let p = CmgPyramid::new(BETA, 0.623);
+        let d = [0.3f32, -0.4, 0.8, 0.1];
+        let t = GimbalTrig::new(&d);
+        let u = Vec3::new(0.02, -0.01, 0.03);
+        let l = GimbalLimits { failed_mask: 0b0100, ..lim() };
+        let out = p.steer(&sp(SteeringLaw::MoorePenrose), &l, &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        assert_eq!(out.gimbal_rate_rad_s[2], 0.0);
+        let got = p.torque_on_body(&t, &Vec3::zeros(), &out.gimbal_rate_rad_s);
+        assert!((got - u).norm() < 1e-4 * u.norm() * 10.0, "{got:?}");
     }
 
     #[test]

@@ -50,6 +50,17 @@ impl Rig {
         t
     }
 
+    /// Paper 000's rig (table 2): roll and pitch travel ±45°, yaw free (the table's ±180°
+    /// belongs to yaw: its yaw manoeuvres exceed 45°; see SEEDS.md). The paper gives no
+    /// centre-of-mass offset, so no pendulum term.
+    pub fn paper000() -> Self {
+        Rig {
+            mgr_nm: Vec3::zeros(),
+            roll_limit_rad: Some(45f64.to_radians()),
+            pitch_limit_rad: Some(45f64.to_radians()),
+        }
+    }
+
     /// Paper 003's rig (eqs 27-28), ±40° roll and pitch travel.
     pub fn paper003() -> (Matrix3<f64>, Self) {
         let i = Matrix3::new(1.76, -0.01, -0.05, -0.01, 1.79, -0.01, -0.05, -0.01, 2.92);
