@@ -7,6 +7,7 @@
 //! Architecture:
 //! - [`math`]: the one quaternion convention of the project and Euler conversions.
 //! - [`control`]: control laws producing a desired body torque.
+//! - [`estimation`]: state estimators (linear Kalman filter) and LQR state feedback.
 //! - [`steering`]: maps a body torque onto an actuator set (CMG pyramid here).
 //! - [`params`]: the typed, versioned, checksummed flight parameter set.
 //! - [`protocol`]: wire messages and the COBS + CRC framing of the host link.
@@ -21,6 +22,7 @@
 
 pub mod allocation;
 pub mod control;
+pub mod estimation;
 pub mod fsw;
 pub mod math;
 pub mod params;

@@ -9,6 +9,7 @@
 
 pub mod analysis;
 pub mod attitude;
+pub mod design;
 pub mod environment;
 pub mod link;
 pub mod output;
