@@ -13,7 +13,9 @@
 
 use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
-use crate::control::{DcmPdGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd};
+use crate::control::{
+    Bdot, BdotGains, DcmPdGains, EulerPdGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd, euler_pd,
+};
 use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
 use crate::params::{
     ActuatorParams, ControllerParams, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError, ParamField, ParamReason,
@@ -49,6 +51,8 @@ enum Actuators {
 enum Law {
     QuaternionFeedback(QuaternionFeedbackGains),
     DcmPd(DcmPdGains),
+    EulerPd(EulerPdGains),
+    Bdot(BdotGains),
 }
 
 #[derive(Clone, Debug)]
@@ -69,6 +73,7 @@ struct Configured {
 pub struct Fsw {
     cfg: Option<Configured>,
     control: QuaternionFeedback,
+    bdot: Bdot,
     saturated_last: bool,
 }
 
@@ -92,6 +97,7 @@ impl Fsw {
         Self {
             cfg: None,
             control: QuaternionFeedback { integral: nalgebra::Vector3::new(0.0, 0.0, 0.0) },
+            bdot: Bdot::new(),
             saturated_last: false,
         }
     }
@@ -119,6 +125,14 @@ impl Fsw {
                 kd_nms: Vec3::from(c.kd_nms),
                 torque_limit_nm: Vec3::from(c.torque_limit_nm),
             }),
+            ControllerParams::EulerPd(c) => Law::EulerPd(EulerPdGains {
+                kp_nm: Vec3::from(c.kp_nm),
+                kd_nms: Vec3::from(c.kd_nms),
+                torque_limit_nm: Vec3::from(c.torque_limit_nm),
+            }),
+            ControllerParams::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
+                Law::Bdot(BdotGains { gain: *gain_am2_s_per_t, filter_time_constant_s: *filter_time_constant_s })
+            }
         };
         let mut required = valid::ATTITUDE | valid::RATE;
         let actuators = match &p.actuator {
@@ -145,6 +159,7 @@ impl Fsw {
         }
         self.cfg = Some(Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required });
         self.control.reset();
+        self.bdot.reset();
         self.saturated_last = false;
         Ok(checksum)
     }
@@ -208,6 +223,8 @@ impl Fsw {
                 self.control.update(g, &cfg.inertia, &m.q, &q_cmd, &m.w, &w_cmd, &h_act, cfg.dt_s, self.saturated_last)
             }
             Law::DcmPd(g) => dcm_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
+            Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
+            Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
         };
         let u = demand.torque_nm;
         let dt = cfg.dt_s;

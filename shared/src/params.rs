@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 3;
+pub const PARAMS_VERSION: u16 = 4;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -61,10 +61,19 @@ pub enum ControllerParams {
     QuaternionFeedback(QuaternionFeedbackParams),
     /// PD on the DCM error (paper 004 eqs 25-27).
     DcmPd(DcmPdParams),
+    /// PD on Euler-angle errors (paper 003 eq 23), usually with magnetorquers.
+    EulerPd(DcmPdParams),
+    /// B-dot detumbling `m = -k dB/dt` (magnetorquers only).
+    Bdot {
+        gain_am2_s_per_t: f32,
+        filter_time_constant_s: f32,
+    },
 }
 
-/// `M = Kp ∘ [a32 - a23, a13 - a31, a21 - a12] + Kd ∘ ω` (paper 004: Kp = [21, 53, 53],
-/// Kd = [-42, -91, -91]).
+/// Per-axis PD gains. DCM PD: `M = Kp ∘ [a32 - a23, a13 - a31, a21 - a12] + Kd ∘ ω`
+/// (paper 004: Kp = [21, 53, 53], Kd = [-42, -91, -91]). Euler PD:
+/// `T = -Kp ∘ e - Kd ∘ ω` (paper 003: Kp = [0.001584, 0.001608, 0.002628],
+/// Kd = [0.1799, 0.1826, 0.2985]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DcmPdParams {
@@ -254,6 +263,8 @@ pub enum ParamField {
     ThrusterTorque,
     Pwpf,
     NullMotion,
+    /// The control law does not fit the actuator family (B-dot needs magnetorquers).
+    Controller,
 }
 
 /// Why it was rejected.
@@ -465,11 +476,18 @@ impl FlightParams {
         }
         match &self.controller {
             ControllerParams::QuaternionFeedback(c) => c.validate()?,
-            ControllerParams::DcmPd(c) => {
+            ControllerParams::DcmPd(c) | ControllerParams::EulerPd(c) => {
                 check_finite(F::AttitudeGain, &c.kp_nm)?;
                 check_finite(F::RateGain, &c.kd_nms)?;
                 for t in c.torque_limit_nm {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+                }
+            }
+            ControllerParams::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
+                check_range(F::AttitudeGain, *gain_am2_s_per_t, 0.0, 1.0e12)?;
+                check_range(F::RateGain, *filter_time_constant_s, 0.0, 1.0e4)?;
+                if !matches!(self.actuator, ActuatorParams::Magnetorquers(_)) {
+                    return Err(err(F::Controller, R::OutOfRange));
                 }
             }
         }

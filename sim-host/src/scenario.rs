@@ -553,6 +553,19 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// PD on Euler-angle errors (paper 003 eq 23): `T = -Kp ∘ e - Kd ∘ ω`.
+    EulerPd {
+        kp_nm: [f64; 3],
+        kd_nms: [f64; 3],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
+    Bdot {
+        gain_am2_s_per_t: f64,
+        #[serde(default)]
+        filter_time_constant_s: f64,
+    },
     /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
     None,
 }
@@ -933,11 +946,22 @@ impl Scenario {
                 positive("controller.torque_limit_nm", *t)?;
             }
         }
-        if let Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } = &self.controller {
+        if let Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm }
+        | Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } = &self.controller
+        {
             finite("controller.kp_nm", kp_nm)?;
             finite("controller.kd_nms", kd_nms)?;
             for t in torque_limit_nm {
                 positive("controller.torque_limit_nm", *t)?;
+            }
+        }
+        if let Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } = &self.controller {
+            positive("controller.gain_am2_s_per_t", *gain_am2_s_per_t)?;
+            if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
+                return Err(bad("controller.filter_time_constant_s", "must be >= 0"));
+            }
+            if self.actuators.magnetorquers.is_none() {
+                return Err(bad("controller", "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
             }
         }
         let s = &self.sensors;
@@ -1553,6 +1577,15 @@ impl Scenario {
                 kd_nms: kd_nms.map(|x| x as f32),
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
             }),
+            Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::EulerPd(DcmPdParams {
+                kp_nm: kp_nm.map(|x| x as f32),
+                kd_nms: kd_nms.map(|x| x as f32),
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
+            Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
+                gain_am2_s_per_t: *gain_am2_s_per_t as f32,
+                filter_time_constant_s: *filter_time_constant_s as f32,
+            },
             Controller::None => bail!("controller.type = \"none\" uploads no flight parameters"),
         };
         let q = self.target.quaternion();

@@ -2,8 +2,10 @@
 //! estimate; steering/allocation turns it into actuator commands.
 
 pub mod dcm_pd;
+pub mod magnetic;
 pub mod quaternion_feedback;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
+pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
 
 use crate::math::Vec3;
