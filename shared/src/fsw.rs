@@ -14,7 +14,8 @@
 use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::control::{
-    Bdot, BdotGains, DcmPdGains, EulerPdGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd, euler_pd,
+    Bdot, BdotGains, DcmPdGains, EulerPdGains, LqrGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd, euler_pd,
+    lqr,
 };
 use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
 use crate::params::{
@@ -53,6 +54,7 @@ enum Law {
     DcmPd(DcmPdGains),
     EulerPd(EulerPdGains),
     Bdot(BdotGains),
+    Lqr(LqrGains),
 }
 
 #[derive(Clone, Debug)]
@@ -132,6 +134,9 @@ impl Fsw {
             }),
             ControllerParams::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
                 Law::Bdot(BdotGains { gain: *gain_am2_s_per_t, filter_time_constant_s: *filter_time_constant_s })
+            }
+            ControllerParams::Lqr { k, torque_limit_nm } => {
+                Law::Lqr(LqrGains { k: *k, torque_limit_nm: Vec3::from(*torque_limit_nm) })
             }
         };
         let mut required = valid::ATTITUDE | valid::RATE;
@@ -225,6 +230,7 @@ impl Fsw {
             Law::DcmPd(g) => dcm_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
+            Law::Lqr(g) => lqr(g, &m.q, &q_cmd, &m.w, &w_cmd),
         };
         let u = demand.torque_nm;
         let dt = cfg.dt_s;

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 4;
+pub const PARAMS_VERSION: u16 = 5;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -67,6 +67,11 @@ pub enum ControllerParams {
     Bdot {
         gain_am2_s_per_t: f32,
         filter_time_constant_s: f32,
+    },
+    /// LQR `u = -K [e; ω - ω_c]` (K row-major 3×6, N m per rad and per rad/s).
+    Lqr {
+        k: [[f32; 6]; 3],
+        torque_limit_nm: [f32; 3],
     },
 }
 
@@ -481,6 +486,14 @@ impl FlightParams {
                 check_finite(F::RateGain, &c.kd_nms)?;
                 for t in c.torque_limit_nm {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+                }
+            }
+            ControllerParams::Lqr { k, torque_limit_nm } => {
+                for row in k {
+                    check_finite(F::AttitudeGain, row)?;
+                }
+                for t in torque_limit_nm {
+                    check_range(F::TorqueLimit, *t, 1e-9, 1.0e6)?;
                 }
             }
             ControllerParams::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {

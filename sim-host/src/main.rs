@@ -64,6 +64,8 @@ enum Cmd {
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check { scenario: PathBuf },
+    /// Print the LQR gain of a `controller.type = "lqr"` scenario (computed as at load).
+    Lqr { scenario: PathBuf },
     /// Design analyses of a scenario's actuators.
     Analyze {
         #[command(subcommand)]
@@ -115,6 +117,21 @@ fn main() -> Result<()> {
             say!("{line}");
             for f in files {
                 say!("  wrote {}", f.display());
+            }
+        }
+        Cmd::Lqr { scenario } => {
+            let sc = Scenario::load(&scenario)?;
+            let d = sc.lqr_design()?;
+            say!("{}: LQR on the {} model, K (N m per [rad, rad, rad, rad/s, rad/s, rad/s]):", sc.name, d.model);
+            for row in d.gain {
+                say!("  [{}]", row.map(|x| format!("{x:>12.5e}")).join(", "));
+            }
+            if !d.closed_loop_eigenvalues.is_empty() {
+                say!("closed-loop eigenvalues of A - B K:");
+                for e in &d.closed_loop_eigenvalues {
+                    say!("  {:>12.5e} {:+.5e} i", e.re, e.im);
+                }
+                say!("relative CARE residual {:.2e}", d.residual);
             }
         }
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {

@@ -560,6 +560,22 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// LQR `u = -K [e; ω - ω_c]`: an explicit 3×6 `gain`, or `q_diag` (6) and `r_diag` (3)
+    /// with the gain computed at load (CARE) on the linearised `model`: "free" (rigid
+    /// body), "orbit" (gravity gradient about LVLH at the scenario's orbit rate) or "rig"
+    /// (pendulum of `[rig]`); default from the scenario.
+    Lqr {
+        #[serde(default)]
+        gain: Option<[[f64; 6]; 3]>,
+        #[serde(default)]
+        q_diag: Option<[f64; 6]>,
+        #[serde(default)]
+        r_diag: Option<[f64; 3]>,
+        #[serde(default)]
+        model: Option<String>,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
     /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
     Bdot {
         gain_am2_s_per_t: f64,
@@ -1582,6 +1598,13 @@ impl Scenario {
                 kd_nms: kd_nms.map(|x| x as f32),
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
             }),
+            Controller::Lqr { torque_limit_nm, .. } => {
+                let k = self.lqr_design()?.gain;
+                ControllerParams::Lqr {
+                    k: k.map(|row| row.map(|x| x as f32)),
+                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+                }
+            }
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
                 gain_am2_s_per_t: *gain_am2_s_per_t as f32,
                 filter_time_constant_s: *filter_time_constant_s as f32,
@@ -1723,6 +1746,83 @@ impl Scenario {
 
     pub fn steps(&self) -> u64 {
         (self.duration_s * self.timing.control_rate_hz).round() as u64
+    }
+}
+
+/// An LQR design: the gain and what it was computed from.
+#[derive(Clone, Debug)]
+pub struct LqrDesign {
+    pub gain: [[f64; 6]; 3],
+    /// "given" for an explicit gain, else the model name.
+    pub model: String,
+    /// Closed-loop eigenvalues of `A - B K` (empty for a given gain).
+    pub closed_loop_eigenvalues: Vec<nalgebra::Complex<f64>>,
+    /// Relative CARE residual (0 for a given gain).
+    pub residual: f64,
+}
+
+impl Scenario {
+    /// The LQR gain of `controller.type = "lqr"`, computed at load when not given.
+    pub fn lqr_design(&self) -> Result<LqrDesign> {
+        use crate::design::models::{AttitudeModel, circular_orbit_rate};
+        use crate::design::riccati;
+        use nalgebra::DMatrix;
+        let Controller::Lqr { gain, q_diag, r_diag, model, .. } = &self.controller else {
+            bail!("controller.type is not \"lqr\"");
+        };
+        if let Some(k) = gain {
+            return Ok(LqrDesign {
+                gain: *k,
+                model: "given".into(),
+                closed_loop_eigenvalues: Vec::new(),
+                residual: 0.0,
+            });
+        }
+        let (Some(q), Some(r)) = (q_diag, r_diag) else {
+            return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`"));
+        };
+        let default_model = if self.rig.is_some() {
+            "rig"
+        } else if self.orbit.is_some() {
+            "orbit"
+        } else {
+            "free"
+        };
+        let model = model.clone().unwrap_or_else(|| default_model.into());
+        let orbit_rate = match self.orbit.as_ref().map(|o| o.elements()).transpose()? {
+            Some(OrbitKind::Circular { altitude_km, .. }) => circular_orbit_rate(altitude_km * 1e3),
+            Some(OrbitKind::Kepler { a_km, .. }) => (3.986004418e14 / (a_km * 1e3).powi(3)).sqrt(),
+            _ => 0.0,
+        };
+        let mgr = self.spacecraft()?.rig.map_or(Vec3::zeros(), |r| r.mgr_nm);
+        let m = AttitudeModel {
+            inertia: self.inertia(),
+            orbit_rate: if model == "orbit" { orbit_rate } else { 0.0 },
+            gravity_gradient: model == "orbit",
+            mgr: if model == "rig" { mgr } else { Vec3::zeros() },
+            stored_momentum: Vec3::zeros(),
+            input: DMatrix::identity(3, 3),
+        };
+        if !matches!(model.as_str(), "free" | "orbit" | "rig") {
+            return Err(bad(
+                "controller.model",
+                format!("unknown model {model:?} (known: \"free\", \"orbit\", \"rig\")"),
+            ));
+        }
+        let (a, b) = m.linear();
+        let qm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(q));
+        let rm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(r));
+        let (k, x) =
+            riccati::lqr(&a, &b, &qm, &rm).map_err(|e| bad("controller", format!("LQR design failed: {e:?}")))?;
+        let residual = riccati::care_residual_rel(&a, &b, &qm, &rm, &x).unwrap_or(f64::NAN);
+        let closed = &a - &b * &k;
+        let gain = std::array::from_fn(|i| std::array::from_fn(|j| k[(i, j)]));
+        Ok(LqrDesign {
+            gain,
+            model,
+            closed_loop_eigenvalues: riccati::eigenvalues(&closed).unwrap_or_default(),
+            residual,
+        })
     }
 }
 

@@ -2,9 +2,11 @@
 //! estimate; steering/allocation turns it into actuator commands.
 
 pub mod dcm_pd;
+pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
+pub use lqr::{LqrGains, lqr};
 pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
 
