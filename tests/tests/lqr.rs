@@ -32,3 +32,19 @@ fn paper003_rig_lqr_turns_101_deg_of_yaw_within_the_papers_accuracy() {
     assert!(rms < 7.0);
     assert!(e[0] > 100.0);
 }
+
+#[test]
+fn paper003_three_axis_magnetic_lqr_keeps_every_axis_within_15_deg_over_5_orbits() {
+    let r = run_in_process(&scenario("paper003/orbit-lqr.toml"));
+    let ts = &r.series;
+    let t = ts.col("t_s").unwrap();
+    let orbit = 5822.4;
+    let peak = |c: &str| {
+        ts.col(c).unwrap().iter().zip(t).filter(|(_, t)| **t > orbit).fold(0.0f64, |m, (x, _)| m.max(x.abs()))
+    };
+    let (r_, p_, y_) = (peak("roll_deg"), peak("pitch_deg"), peak("yaw_deg"));
+    eprintln!(
+        "paper 003 orbit LQR: peak |roll| {r_:.1}, |pitch| {p_:.1}, |yaw| {y_:.1} deg after the first orbit (paper: < 15 deg)"
+    );
+    assert!(r_ < 15.0 && p_ < 15.0 && y_ < 15.0);
+}
