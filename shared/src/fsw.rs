@@ -121,6 +121,7 @@ impl Fsw {
                 integral_limit_s: c.integral_limit_s,
                 torque_limit_nm: Vec3::from(c.torque_limit_nm),
                 gyro_compensation: c.gyro_compensation,
+                max_slew_rate_rad_s: c.max_slew_rate_rad_s,
             }),
             ControllerParams::DcmPd(c) => Law::DcmPd(DcmPdGains {
                 kp_nm: Vec3::from(c.kp_nm),

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 5;
+pub const PARAMS_VERSION: u16 = 6;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -175,6 +175,9 @@ pub struct QuaternionFeedbackParams {
     pub torque_limit_nm: [f32; 3],
     /// Add the gyroscopic term `ω × (I ω + h_cmg)` to the demand.
     pub gyro_compensation: bool,
+    /// Eigen-axis slew-rate limit (Wie & Lu 1995), rad/s; 0 = none. The attitude term is
+    /// saturated so that the steady slew under saturation runs at this rate.
+    pub max_slew_rate_rad_s: f32,
 }
 
 /// Four single-gimbal CMGs in a pyramid (paper 000 eq 6).
@@ -347,6 +350,7 @@ impl QuaternionFeedbackParams {
         check_finite(F::RateGain, &flat(&self.d_rate_nms))?;
         check_finite(F::IntegralGain, &flat(&self.ki_att_nm_s))?;
         check_range(F::IntegralLimit, self.integral_limit_s, 0.0, 1.0e6)?;
+        check_range(F::RateGain, self.max_slew_rate_rad_s, 0.0, 100.0)?;
         for t in self.torque_limit_nm {
             check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
         }
@@ -573,6 +577,7 @@ impl Default for FlightParams {
                 integral_limit_s: 0.0,
                 torque_limit_nm: [10.0; 3],
                 gyro_compensation: false,
+                max_slew_rate_rad_s: 0.0,
             }),
             actuator: ActuatorParams::Cmg {
                 cmg: CmgParams {

@@ -545,6 +545,9 @@ pub enum Controller {
         torque_limit_nm: [f64; 3],
         #[serde(default)]
         gyro_compensation: bool,
+        /// Eigen-axis slew-rate limit (Wie & Lu 1995), deg/s; absent = none.
+        #[serde(default)]
+        max_slew_rate_deg_s: Option<f64>,
     },
     /// PD on the DCM error (paper 004 eqs 25-27): `M = Kp ∘ [a32-a23, a13-a31, a21-a12] + Kd ∘ ω`.
     DcmPd {
@@ -951,6 +954,9 @@ impl Scenario {
                 _ => {
                     return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
                 }
+            }
+            if let Controller::QuaternionFeedback { max_slew_rate_deg_s: Some(r), .. } = &self.controller {
+                positive("controller.max_slew_rate_deg_s", *r)?;
             }
             if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
                 return Err(bad("controller.ki_per_s", "must be >= 0"));
@@ -1571,6 +1577,7 @@ impl Scenario {
                 integral_limit_s,
                 torque_limit_nm,
                 gyro_compensation,
+                max_slew_rate_deg_s,
             } => {
                 let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
                     (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
@@ -1586,6 +1593,7 @@ impl Scenario {
                     integral_limit_s: *integral_limit_s as f32,
                     torque_limit_nm: torque_limit_nm.map(|x| x as f32),
                     gyro_compensation: *gyro_compensation,
+                    max_slew_rate_rad_s: max_slew_rate_deg_s.map_or(0.0, |r| r.to_radians() as f32),
                 })
             }
             Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::DcmPd(DcmPdParams {
