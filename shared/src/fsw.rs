@@ -14,8 +14,8 @@
 use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::control::{
-    Bdot, BdotGains, DcmPdGains, EulerPdGains, LqrGains, QuaternionFeedback, QuaternionFeedbackGains, dcm_pd, euler_pd,
-    lqr,
+    Bdot, BdotGains, DcmPdGains, EulerPdGains, LqgEstimator, LqrGains, QuaternionFeedback, QuaternionFeedbackGains,
+    dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state,
 };
 use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
 use crate::params::{
@@ -55,6 +55,7 @@ enum Law {
     EulerPd(EulerPdGains),
     Bdot(BdotGains),
     Lqr(LqrGains),
+    Lqg(LqrGains, LqgEstimator),
 }
 
 #[derive(Clone, Debug)]
@@ -76,6 +77,8 @@ pub struct Fsw {
     cfg: Option<Configured>,
     control: QuaternionFeedback,
     bdot: Bdot,
+    /// Torque realised last step (the LQG estimator's input).
+    torque_last: Vec3,
     saturated_last: bool,
 }
 
@@ -100,6 +103,7 @@ impl Fsw {
             cfg: None,
             control: QuaternionFeedback { integral: nalgebra::Vector3::new(0.0, 0.0, 0.0) },
             bdot: Bdot::new(),
+            torque_last: nalgebra::Vector3::new(0.0, 0.0, 0.0),
             saturated_last: false,
         }
     }
@@ -139,6 +143,10 @@ impl Fsw {
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 Law::Lqr(LqrGains { k: *k, torque_limit_nm: Vec3::from(*torque_limit_nm) })
             }
+            ControllerParams::Lqg(g) => Law::Lqg(
+                LqrGains { k: g.k, torque_limit_nm: Vec3::from(g.torque_limit_nm) },
+                LqgEstimator::new(&g.a, &g.b, &g.l),
+            ),
         };
         let mut required = valid::ATTITUDE | valid::RATE;
         let actuators = match &p.actuator {
@@ -166,6 +174,7 @@ impl Fsw {
         self.cfg = Some(Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required });
         self.control.reset();
         self.bdot.reset();
+        self.torque_last = Vec3::zeros();
         self.saturated_last = false;
         Ok(checksum)
     }
@@ -224,7 +233,7 @@ impl Fsw {
             }
             _ => (Vec3::zeros(), None),
         };
-        let demand = match &cfg.law {
+        let demand = match &mut cfg.law {
             Law::QuaternionFeedback(g) => {
                 self.control.update(g, &cfg.inertia, &m.q, &q_cmd, &m.w, &w_cmd, &h_act, cfg.dt_s, self.saturated_last)
             }
@@ -232,6 +241,11 @@ impl Fsw {
             Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
             Law::Lqr(g) => lqr(g, &m.q, &q_cmd, &m.w, &w_cmd),
+            Law::Lqg(g, est) => {
+                let (z, angle) = lqr_state(&m.q, &q_cmd, &m.w, &w_cmd);
+                let x = est.update(&z, &self.torque_last);
+                lqr_from_state(g, &x, angle)
+            }
         };
         let u = demand.torque_nm;
         let dt = cfg.dt_s;
@@ -290,6 +304,7 @@ impl Fsw {
             cmd.status |= status::UNREALISED;
         }
         let realised = Vec3::from(alloc.realised);
+        self.torque_last = if realised.iter().all(|x| x.is_finite()) { realised } else { Vec3::zeros() };
         // Relative test: cubesat torques are ~1e-7 N m, so no absolute floor above round-off.
         if (realised - u).norm() > 0.01 * u.norm() + 1e-12 {
             cmd.status |= status::TORQUE_SHORTFALL;

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 6;
+pub const PARAMS_VERSION: u16 = 7;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -73,6 +73,21 @@ pub enum ControllerParams {
         k: [[f32; 6]; 3],
         torque_limit_nm: [f32; 3],
     },
+    /// LQG: the LQR gain on the estimate of a steady-state Kalman filter on the discrete
+    /// model `x⁺ = A x + B u` with `z = x` measured ([e; ω - ω_c]) and gain L
+    /// (`x̂ ← x̂⁻ + L (z - x̂⁻)`, paper 002 eq 13).
+    Lqg(LqgParams),
+}
+
+/// LQG parameters (all row-major), designed on the host.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LqgParams {
+    pub k: [[f32; 6]; 3],
+    pub a: [[f32; 6]; 6],
+    pub b: [[f32; 3]; 6],
+    pub l: [[f32; 6]; 6],
+    pub torque_limit_nm: [f32; 3],
 }
 
 /// Per-axis PD gains. DCM PD: `M = Kp ∘ [a32 - a23, a13 - a31, a21 - a12] + Kd ∘ ω`
@@ -492,6 +507,20 @@ impl FlightParams {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
                 }
             }
+            ControllerParams::Lqg(g) => {
+                for row in &g.k {
+                    check_finite(F::AttitudeGain, row)?;
+                }
+                for row in g.a.iter().chain(g.l.iter()) {
+                    check_finite(F::RateGain, row)?;
+                }
+                for row in &g.b {
+                    check_finite(F::RateGain, row)?;
+                }
+                for t in g.torque_limit_nm {
+                    check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+                }
+            }
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 for row in k {
                     check_finite(F::AttitudeGain, row)?;
@@ -655,6 +684,19 @@ mod tests {
             pwpf_u_off: 0.15,
             failed_mask: 0xfff,
         };
+        // The largest controller on the largest actuator set must fit a frame too.
+        let lqg = ControllerParams::Lqg(LqgParams {
+            k: [[1.0; 6]; 3],
+            a: [[1.0; 6]; 6],
+            b: [[1.0; 3]; 6],
+            l: [[1.0; 6]; 6],
+            torque_limit_nm: [1.0; 3],
+        });
+        let p = FlightParams { controller: lqg, actuator: ActuatorParams::Thrusters(thr), ..base };
+        assert_eq!(p.validate(), Ok(()));
+        let mut buf = [0u8; 2048];
+        let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf).unwrap().len();
+        assert!(n <= crate::protocol::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
         for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {
             let p = FlightParams { actuator: a, ..base };
             assert_eq!(p.validate(), Ok(()), "{a:?}");

@@ -15,7 +15,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 6;
+pub const PROTOCOL_VERSION: u16 = 7;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;

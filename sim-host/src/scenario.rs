@@ -579,6 +579,20 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// LQG (paper 002 eq 13): the LQR of `q_diag`, `r_diag`, `model` on the estimate of a
+    /// steady-state Kalman filter designed on the same model discretised at the control
+    /// period, with `process_noise` (6, per control step) and `measurement_noise` (6:
+    /// angle errors in rad, rates in rad/s) variances.
+    Lqg {
+        q_diag: [f64; 6],
+        r_diag: [f64; 3],
+        #[serde(default)]
+        model: Option<String>,
+        process_noise: [f64; 6],
+        measurement_noise: [f64; 6],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
     /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
     Bdot {
         gain_am2_s_per_t: f64,
@@ -1613,6 +1627,7 @@ impl Scenario {
                     torque_limit_nm: torque_limit_nm.map(|x| x as f32),
                 }
             }
+            Controller::Lqg { .. } => ControllerParams::Lqg(self.lqg_design()?),
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
                 gain_am2_s_per_t: *gain_am2_s_per_t as f32,
                 filter_time_constant_s: *filter_time_constant_s as f32,
@@ -1767,6 +1782,9 @@ pub struct LqrDesign {
     pub closed_loop_eigenvalues: Vec<nalgebra::Complex<f64>>,
     /// Relative CARE residual (0 for a given gain).
     pub residual: f64,
+    /// The continuous linear model `ẋ = A x + B u` (zeros for a given gain).
+    pub a: nalgebra::DMatrix<f64>,
+    pub b: nalgebra::DMatrix<f64>,
 }
 
 impl Scenario {
@@ -1775,19 +1793,21 @@ impl Scenario {
         use crate::design::models::{AttitudeModel, circular_orbit_rate};
         use crate::design::riccati;
         use nalgebra::DMatrix;
-        let Controller::Lqr { gain, q_diag, r_diag, model, .. } = &self.controller else {
-            bail!("controller.type is not \"lqr\"");
-        };
-        if let Some(k) = gain {
-            return Ok(LqrDesign {
-                gain: *k,
-                model: "given".into(),
-                closed_loop_eigenvalues: Vec::new(),
-                residual: 0.0,
-            });
-        }
-        let (Some(q), Some(r)) = (q_diag, r_diag) else {
-            return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`"));
+        let (q, r, model) = match &self.controller {
+            Controller::Lqr { gain: Some(k), .. } => {
+                return Ok(LqrDesign {
+                    gain: *k,
+                    model: "given".into(),
+                    closed_loop_eigenvalues: Vec::new(),
+                    residual: 0.0,
+                    a: DMatrix::zeros(6, 6),
+                    b: DMatrix::zeros(6, 3),
+                });
+            }
+            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, .. } => (q, r, model),
+            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
+            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag, model),
+            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
         };
         let default_model = if self.rig.is_some() {
             "rig"
@@ -1830,6 +1850,34 @@ impl Scenario {
             model,
             closed_loop_eigenvalues: riccati::eigenvalues(&closed).unwrap_or_default(),
             residual,
+            a,
+            b,
+        })
+    }
+
+    /// LQG: the LQR design, the model discretised at the control period, and the
+    /// steady-state Kalman gain for `z = x`.
+    pub fn lqg_design(&self) -> Result<acs_flight::params::LqgParams> {
+        use crate::design::{discretize::c2d, kalman::steady_state_kalman};
+        use nalgebra::DMatrix;
+        let Controller::Lqg { process_noise, measurement_noise, torque_limit_nm, .. } = &self.controller else {
+            bail!("controller.type is not \"lqg\"");
+        };
+        let d = self.lqr_design()?;
+        let (ad, bd) = c2d(&d.a, &d.b, self.control_dt()).map_err(|e| bad("controller", format!("c2d: {e:?}")))?;
+        let c = DMatrix::<f64>::identity(6, 6);
+        let qn = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(process_noise));
+        let rn = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(measurement_noise));
+        let (l, _p) = steady_state_kalman(&ad, &c, &qn, &rn)
+            .map_err(|e| bad("controller", format!("Kalman design failed: {e:?}")))?;
+        let f6 =
+            |m: &DMatrix<f64>| -> [[f32; 6]; 6] { std::array::from_fn(|r| std::array::from_fn(|k| m[(r, k)] as f32)) };
+        Ok(acs_flight::params::LqgParams {
+            k: d.gain.map(|row| row.map(|x| x as f32)),
+            a: f6(&ad),
+            b: std::array::from_fn(|r| std::array::from_fn(|k| bd[(r, k)] as f32)),
+            l: f6(&l),
+            torque_limit_nm: torque_limit_nm.map(|x| x as f32),
         })
     }
 }

@@ -48,3 +48,26 @@ fn paper003_three_axis_magnetic_lqr_keeps_every_axis_within_15_deg_over_5_orbits
     );
     assert!(r_ < 15.0 && p_ < 15.0 && y_ < 15.0);
 }
+
+fn steady_rms(r: &sim_host::runner::RunResult, from_s: f64) -> f64 {
+    let (t, e) = (r.series.col("t_s").unwrap(), r.series.col("error_deg").unwrap());
+    let v: Vec<f64> = t.iter().zip(e).filter(|(t, _)| **t >= from_s).map(|(_, e)| *e).collect();
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+#[test]
+fn paper002_lqg_with_sensor_noise_performs_nearly_as_lqr() {
+    let lqg = run_in_process(&scenario("paper002/lqg.toml"));
+    // The same LQR flying on the raw noisy measurements.
+    let mut sc = scenario("paper002/lqr.toml");
+    sc.sensors = scenario("paper002/lqg.toml").sensors;
+    let lqr = run_in_process(&sc);
+    let (a, b) = (steady_rms(&lqg, 30.0), steady_rms(&lqr, 30.0));
+    eprintln!(
+        "paper 002 with 0.1 deg / 1e-3 rad/s sensor noise: LQG settles {:?} s, steady RMS {a:.3} deg; LQR on raw measurements {:?} s, {b:.3} deg",
+        lqg.summary.settle_time_s, lqr.summary.settle_time_s
+    );
+    assert!(lqg.summary.settle_time_s.unwrap() < 18.0);
+    assert!(a < 0.2, "paper: < 0.2 deg");
+    assert!(a < 1.5 * b, "nearly the same as LQR");
+}

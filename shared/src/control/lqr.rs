@@ -14,14 +14,69 @@ pub struct LqrGains {
     pub torque_limit_nm: Vec3,
 }
 
-pub fn lqr(g: &LqrGains, q: &Quat, q_cmd: &Quat, rate_rad_s: &Vec3, rate_cmd_rad_s: &Vec3) -> TorqueDemand {
+/// The small-angle state `[e; ω - ω_c]` and the error rotation angle.
+pub fn lqr_state(q: &Quat, q_cmd: &Quat, rate_rad_s: &Vec3, rate_cmd_rad_s: &Vec3) -> ([f32; 6], f32) {
     let e = attitude_error(q, q_cmd);
     let ang = euler_from_quat(&e, EulerSeq::Zyx321);
     let dw = rate_rad_s - rate_cmd_rad_s;
-    let x = [ang[0], ang[1], ang[2], dw.x, dw.y, dw.z];
+    ([ang[0], ang[1], ang[2], dw.x, dw.y, dw.z], rotation_angle(&e))
+}
+
+/// `u = -K x`, limited per axis with the direction kept.
+pub fn lqr_from_state(g: &LqrGains, x: &[f32; 6], error_angle_rad: f32) -> TorqueDemand {
     let u = Vec3::from(g.k.map(|row| -row.iter().zip(x.iter()).map(|(k, x)| k * x).sum::<f32>()));
     let (torque_nm, limited) = scale_to_box(&u, &g.torque_limit_nm);
-    TorqueDemand { torque_nm, limited, error_angle_rad: rotation_angle(&e) }
+    TorqueDemand { torque_nm, limited, error_angle_rad }
+}
+
+pub fn lqr(g: &LqrGains, q: &Quat, q_cmd: &Quat, rate_rad_s: &Vec3, rate_cmd_rad_s: &Vec3) -> TorqueDemand {
+    let (x, angle) = lqr_state(q, q_cmd, rate_rad_s, rate_cmd_rad_s);
+    lqr_from_state(g, &x, angle)
+}
+
+/// Steady-state Kalman filter on the LQR state (LQG, paper 002 eq 13).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LqgEstimator {
+    pub a: nalgebra::SMatrix<f32, 6, 6>,
+    pub b: nalgebra::SMatrix<f32, 6, 3>,
+    pub l: nalgebra::SMatrix<f32, 6, 6>,
+    x: nalgebra::SVector<f32, 6>,
+    initialised: bool,
+}
+
+impl LqgEstimator {
+    pub fn new(a: &[[f32; 6]; 6], b: &[[f32; 3]; 6], l: &[[f32; 6]; 6]) -> Self {
+        let at = |m: &[[f32; 6]; 6], r: usize, c: usize| m.get(r).and_then(|row| row.get(c)).copied().unwrap_or(0.0);
+        Self {
+            a: nalgebra::SMatrix::from_fn(|r, c| at(a, r, c)),
+            b: nalgebra::SMatrix::from_fn(|r, c| b.get(r).and_then(|row| row.get(c)).copied().unwrap_or(0.0)),
+            l: nalgebra::SMatrix::from_fn(|r, c| at(l, r, c)),
+            x: nalgebra::SVector::zeros(),
+            initialised: false,
+        }
+    }
+
+    /// Predict with the torque applied last step, then correct with the measurement `z`.
+    /// The first call adopts the measurement. A non-finite result resets to `z`.
+    pub fn update(&mut self, z: &[f32; 6], u_last: &Vec3) -> [f32; 6] {
+        let zv = nalgebra::SVector::<f32, 6>::from(*z);
+        if !self.initialised {
+            self.x = zv;
+            self.initialised = true;
+        } else {
+            let pred = self.a * self.x + self.b * u_last;
+            self.x = pred + self.l * (zv - pred);
+            if !self.x.iter().all(|v| v.is_finite()) {
+                self.x = zv;
+            }
+        }
+        self.x.into()
+    }
+
+    pub fn reset(&mut self) {
+        self.x = nalgebra::SVector::zeros();
+        self.initialised = false;
+    }
 }
 
 #[cfg(test)]

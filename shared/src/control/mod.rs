@@ -6,7 +6,7 @@ pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
-pub use lqr::{LqrGains, lqr};
+pub use lqr::{LqgEstimator, LqrGains, lqr, lqr_from_state, lqr_state};
 pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
 
