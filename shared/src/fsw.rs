@@ -14,8 +14,8 @@
 use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::control::{
-    Bdot, BdotGains, DcmPdGains, EulerPdGains, LqgEstimator, LqrGains, QuaternionFeedback, QuaternionFeedbackGains,
-    dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state,
+    Bdot, BdotGains, DcmPdGains, Dmcs, DmcsGains, EulerPdGains, LqgEstimator, LqrGains, QuaternionFeedback,
+    QuaternionFeedbackGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state,
 };
 use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
 use crate::params::{
@@ -56,6 +56,7 @@ enum Law {
     Bdot(BdotGains),
     Lqr(LqrGains),
     Lqg(LqrGains, LqgEstimator),
+    Dmcs(DmcsGains),
 }
 
 #[derive(Clone, Debug)]
@@ -77,6 +78,7 @@ pub struct Fsw {
     cfg: Option<Configured>,
     control: QuaternionFeedback,
     bdot: Bdot,
+    dmcs: Dmcs,
     /// Torque realised last step (the LQG estimator's input).
     torque_last: Vec3,
     saturated_last: bool,
@@ -103,6 +105,7 @@ impl Fsw {
             cfg: None,
             control: QuaternionFeedback { integral: nalgebra::Vector3::new(0.0, 0.0, 0.0) },
             bdot: Bdot::new(),
+            dmcs: Dmcs::new(),
             torque_last: nalgebra::Vector3::new(0.0, 0.0, 0.0),
             saturated_last: false,
         }
@@ -143,6 +146,22 @@ impl Fsw {
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 Law::Lqr(LqrGains { k: *k, torque_limit_nm: Vec3::from(*torque_limit_nm) })
             }
+            ControllerParams::Dmcs(d) => {
+                let bad = ParamError { field: ParamField::AttitudeGain, reason: ParamReason::OutOfRange };
+                let (p21, p22) =
+                    DmcsGains::lyapunov_p(d.wn_rad_s, d.zeta, d.q_weights[0], d.q_weights[1]).ok_or(bad)?;
+                Law::Dmcs(DmcsGains {
+                    wn: d.wn_rad_s,
+                    zeta: d.zeta,
+                    model_inertia: Vec3::from(d.model_inertia_kgm2),
+                    alpha: d.alpha,
+                    beta: d.beta,
+                    p21,
+                    p22,
+                    gain_limit: d.gain_limit,
+                    torque_limit_nm: Vec3::from(d.torque_limit_nm),
+                })
+            }
             ControllerParams::Lqg(g) => Law::Lqg(
                 LqrGains { k: g.k, torque_limit_nm: Vec3::from(g.torque_limit_nm) },
                 LqgEstimator::new(&g.a, &g.b, &g.l),
@@ -174,6 +193,7 @@ impl Fsw {
         self.cfg = Some(Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required });
         self.control.reset();
         self.bdot.reset();
+        self.dmcs.reset();
         self.torque_last = Vec3::zeros();
         self.saturated_last = false;
         Ok(checksum)
@@ -241,6 +261,7 @@ impl Fsw {
             Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
             Law::Lqr(g) => lqr(g, &m.q, &q_cmd, &m.w, &w_cmd),
+            Law::Dmcs(g) => self.dmcs.update(g, &m.q, &q_cmd, &m.w, cfg.dt_s),
             Law::Lqg(g, est) => {
                 let (z, angle) = lqr_state(&m.q, &q_cmd, &m.w, &w_cmd);
                 let x = est.update(&z, &self.torque_last);
@@ -288,6 +309,9 @@ impl Fsw {
         cmd.torque_realised_nm = alloc.realised;
         cmd.attitude_error_rad = demand.error_angle_rad;
         cmd.alloc_iterations = alloc.iterations;
+        if let Law::Dmcs(_) = cfg.law {
+            cmd.law_telemetry = self.dmcs.dku;
+        }
         cmd.saturated = alloc.sat_low | alloc.sat_high;
         if demand.limited {
             cmd.status |= status::TORQUE_LIMITED;

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 7;
+pub const PARAMS_VERSION: u16 = 8;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -77,6 +77,25 @@ pub enum ControllerParams {
     /// model `x⁺ = A x + B u` with `z = x` measured ([e; ω - ω_c]) and gain L
     /// (`x̂ ← x̂⁻ + L (z - x̂⁻)`, paper 002 eq 13).
     Lqg(LqgParams),
+    /// Adaptive DMCS (paper 001 eqs 31-51).
+    Dmcs(DmcsParams),
+}
+
+/// DMCS parameters (paper 001 table 2: α 55, β 220, Q diag(0.1, 1), ωn 0.035, ζ 0.95,
+/// I_m diag(398, 391, 176)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DmcsParams {
+    pub wn_rad_s: f32,
+    pub zeta: f32,
+    pub model_inertia_kgm2: [f32; 3],
+    pub alpha: f32,
+    pub beta: f32,
+    /// Q of the Lyapunov equation (49), diagonal.
+    pub q_weights: [f32; 2],
+    /// Bound on every adaptive gain.
+    pub gain_limit: f32,
+    pub torque_limit_nm: [f32; 3],
 }
 
 /// LQG parameters (all row-major), designed on the host.
@@ -504,6 +523,22 @@ impl FlightParams {
                 check_finite(F::AttitudeGain, &c.kp_nm)?;
                 check_finite(F::RateGain, &c.kd_nms)?;
                 for t in c.torque_limit_nm {
+                    check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+                }
+            }
+            ControllerParams::Dmcs(d) => {
+                check_range(F::AttitudeGain, d.wn_rad_s, 1e-6, 1.0e3)?;
+                check_range(F::AttitudeGain, d.zeta, 1e-6, 1.0e3)?;
+                for i in d.model_inertia_kgm2 {
+                    check_range(F::Inertia, i, 1e-9, 1.0e9)?;
+                }
+                check_range(F::RateGain, d.alpha, 0.0, 1.0e9)?;
+                check_range(F::RateGain, d.beta, 0.0, 1.0e9)?;
+                for q in d.q_weights {
+                    check_range(F::RateGain, q, 1e-12, 1.0e9)?;
+                }
+                check_range(F::IntegralLimit, d.gain_limit, 1e-6, 1.0e12)?;
+                for t in d.torque_limit_nm {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
                 }
             }

@@ -15,7 +15,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 7;
+pub const PROTOCOL_VERSION: u16 = 8;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -137,6 +137,9 @@ pub struct ActuatorCommand {
     pub attitude_error_rad: f32,
     /// Allocation iterations (simplex pivots, wheel re-allocation passes).
     pub alloc_iterations: u16,
+    /// Internal state of the control law worth plotting (DMCS: the adaptive feed-forward
+    /// gains Δk_u per axis; other laws: 0).
+    pub law_telemetry: [f32; 3],
     /// Bit i: actuator i at a limit (either side).
     pub saturated: u32,
     /// [`status`] bits.

@@ -80,6 +80,13 @@ fn xyz(prefix: &str, suffix: &str) -> Vec<Series<'static>> {
         .collect()
 }
 
+fn xyz_plain(prefix: &str) -> Vec<Series<'static>> {
+    ["x", "y", "z"]
+        .iter()
+        .map(|a| Series { column: leak(format!("{prefix}_{a}")), label: leak(a.to_string()), dashed: false })
+        .collect()
+}
+
 /// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
 /// and one figure per actuator family or environment present (figures whose columns are
 /// absent are skipped).
@@ -163,6 +170,13 @@ pub fn figures() -> Vec<Figure<'static>> {
                 "rad/s",
                 vec![s("rate_x_rad_s", "ωx", false), s("rate_y_rad_s", "ωy", false), s("rate_z_rad_s", "ωz", false)],
             )],
+        },
+        Figure {
+            file_name: "adaptive.png",
+            title: "DMCS adaptive feed-forward gains Δk_u",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![panel("adaptive gain", "-", xyz_plain("adaptive_gain"))],
         },
         Figure {
             file_name: "wheels.png",

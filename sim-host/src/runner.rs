@@ -110,6 +110,9 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
         v.extend(["x", "y", "z"].map(|a| format!("torque_{g}_{a}_nm")));
     }
     v.extend(s(&["error_deg", "status", "step_cost_insns"]));
+    if matches!(sc.controller, Controller::Dmcs { .. }) {
+        v.extend(["x", "y", "z"].map(|a| format!("adaptive_gain_{a}")));
+    }
     if sc.actuators.cmg.is_some() {
         v.extend((1..=4).map(|i| format!("gimbal{i}_deg")));
         v.extend((1..=4).map(|i| format!("gimbal_rate{i}_rad_s")));
@@ -322,6 +325,9 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             row.push(err_deg);
             row.push(s as f64);
             row.push(info.as_ref().and_then(|i| i.instructions_per_tick).map_or(f64::NAN, |f| ticks as f64 * f));
+            if matches!(sc.controller, Controller::Dmcs { .. }) {
+                row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
+            }
             if sc.actuators.cmg.is_some() {
                 row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
                 row.extend(cmd.gimbal_rate_cmd_rad_s.iter().map(|x| *x as f64));
@@ -370,6 +376,13 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         }
         if k == steps {
             break;
+        }
+        if let Some(c) = &sc.spacecraft.inertia_change
+            && t < c.at_s
+            && t + dt >= c.at_s
+        {
+            let j = craft.inertia * c.factor;
+            craft.set_inertia(j);
         }
         for j in 0..sub {
             let tj = t + j as f64 * h;

@@ -89,6 +89,9 @@ pub struct SpacecraftSpec {
     /// Harmonic disturbance `a sin(2π f t + φ)` per body axis, added to the constant one.
     #[serde(default)]
     pub harmonic_torque: Option<HarmonicSpec>,
+    /// A step change of the inertia during the run (paper 001 injects one at 100 s).
+    #[serde(default)]
+    pub inertia_change: Option<InertiaChange>,
     /// Residual magnetic dipole, body axes, A m² (paper 003: [0, 0, 0.001]).
     #[serde(default)]
     pub residual_dipole_am2: [f64; 3],
@@ -106,6 +109,14 @@ pub struct SpacecraftSpec {
 
 fn default_cd() -> f64 {
     2.2
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InertiaChange {
+    pub at_s: f64,
+    /// The whole inertia is multiplied by this (1.2: +20 %).
+    pub factor: f64,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -593,6 +604,20 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// Adaptive DMCS (paper 001 eqs 31-51).
+    Dmcs {
+        wn_rad_s: f64,
+        zeta: f64,
+        model_inertia_kgm2: [f64; 3],
+        alpha: f64,
+        beta: f64,
+        #[serde(default = "default_dmcs_q")]
+        q_weights: [f64; 2],
+        #[serde(default = "default_gain_limit")]
+        gain_limit: f64,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
     /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
     Bdot {
         gain_am2_s_per_t: f64,
@@ -601,6 +626,13 @@ pub enum Controller {
     },
     /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
     None,
+}
+
+fn default_dmcs_q() -> [f64; 2] {
+    [0.1, 1.0]
+}
+fn default_gain_limit() -> f64 {
+    1.0e6
 }
 
 fn default_integral_limit() -> f64 {
@@ -844,6 +876,10 @@ impl Scenario {
         }
         finite("spacecraft.external_torque_nm", &sc.external_torque_nm)?;
         finite("spacecraft.residual_dipole_am2", &sc.residual_dipole_am2)?;
+        if let Some(c) = &sc.inertia_change {
+            positive("spacecraft.inertia_change.factor", c.factor)?;
+            finite("spacecraft.inertia_change.at_s", &[c.at_s])?;
+        }
         finite("spacecraft.cp_offset_m", &sc.cp_offset_m)?;
         positive("spacecraft.drag_coefficient", sc.drag_coefficient)?;
         if let Some(bx) = sc.box_m {
@@ -1628,6 +1664,25 @@ impl Scenario {
                 }
             }
             Controller::Lqg { .. } => ControllerParams::Lqg(self.lqg_design()?),
+            Controller::Dmcs {
+                wn_rad_s,
+                zeta,
+                model_inertia_kgm2,
+                alpha,
+                beta,
+                q_weights,
+                gain_limit,
+                torque_limit_nm,
+            } => ControllerParams::Dmcs(acs_flight::params::DmcsParams {
+                wn_rad_s: *wn_rad_s as f32,
+                zeta: *zeta as f32,
+                model_inertia_kgm2: model_inertia_kgm2.map(|x| x as f32),
+                alpha: *alpha as f32,
+                beta: *beta as f32,
+                q_weights: q_weights.map(|x| x as f32),
+                gain_limit: *gain_limit as f32,
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
                 gain_am2_s_per_t: *gain_am2_s_per_t as f32,
                 filter_time_constant_s: *filter_time_constant_s as f32,

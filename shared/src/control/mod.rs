@@ -2,10 +2,12 @@
 //! estimate; steering/allocation turns it into actuator commands.
 
 pub mod dcm_pd;
+pub mod dmcs;
 pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
+pub use dmcs::{Dmcs, DmcsGains};
 pub use lqr::{LqgEstimator, LqrGains, lqr, lqr_from_state, lqr_state};
 pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};

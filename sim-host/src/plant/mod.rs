@@ -103,6 +103,19 @@ impl Spacecraft {
         })
     }
 
+    /// Change the body inertia (`J`, without the wheels' axial inertia) during a run.
+    pub fn set_inertia(&mut self, inertia: Matrix3<f64>) -> bool {
+        match inertia.try_inverse() {
+            Some(inv) => {
+                self.inertia = inertia;
+                self.inertia_inv = inv;
+                self.env.iter_mut().for_each(|e| e.disturbances.inertia = inertia);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Gimbal rates the hardware actually applies: with an ideal servo the command after
     /// the rate limit and angle stops, with a servo model the lagging state.
     pub fn applied_gimbal_rates(&self, s: &State, u: &Input) -> [f64; MAX_GIMBALS] {
