@@ -81,7 +81,12 @@ fn log(msg: &HostMsg, reply: Option<&FswMsg>) {
             p.control_rate_hz
         ),
         (_, Some(FswMsg::ParamsRejected(e))) => defmt::warn!("params rejected: {}", e),
-        (HostMsg::SetTarget { .. }, None) => defmt::info!("target set"),
+        (HostMsg::SetTarget { .. }, Some(FswMsg::Ack)) => defmt::info!("target set"),
+        (HostMsg::UploadModeParams { mode, .. }, Some(FswMsg::ParamsAccepted { checksum })) => {
+            defmt::info!("mode {} params accepted: checksum {=u32:#010x}", mode, checksum)
+        }
+        (_, Some(FswMsg::ModesArmed { checksum })) => defmt::info!("mode table armed: {=u32:#010x}", checksum),
+        (_, Some(FswMsg::ModeAccepted { mode })) => defmt::info!("mode {}", mode),
         (_, Some(FswMsg::Error(e))) => defmt::warn!("{} -> {}", msg, e),
         _ => {}
     }

@@ -17,7 +17,10 @@ use crate::control::{
     Bdot, BdotGains, DcmPdGains, Dmcs, DmcsGains, EulerPdGains, LqgEstimator, LqrGains, QuaternionFeedback,
     QuaternionFeedbackGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state,
 };
-use crate::math::{Mat3, Quat, Vec3, quat_from_xyzw, quat_normalized, rotate_ref_to_body};
+use crate::math::{
+    Mat3, Quat, Vec3, attitude_error, quat_from_xyzw, quat_normalized, rotate_ref_to_body, rotation_angle,
+};
+use crate::modes::{MODE_COUNT, Mode, ModeInputs, ModeManager, ModeManagerParams, ModeRequest};
 use crate::params::{
     ActuatorParams, ControllerParams, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError, ParamField, ParamReason,
     SteeringLaw, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
@@ -72,16 +75,39 @@ struct Configured {
 }
 
 /// Flight software state. `Fsw::new()` is unconfigured; `configure` must accept a
-/// parameter set before `step` commands anything but the safe command.
-#[derive(Clone, Debug, Default)]
+/// parameter set (or `configure_mode` + `arm_modes` a mode table) before `step` commands
+/// anything but the safe command.
+#[derive(Clone, Debug)]
 pub struct Fsw {
-    cfg: Option<Configured>,
+    /// Single parameter set: slot 0. Mode table: slot `Mode::index()`.
+    slots: [Option<Configured>; MODE_COUNT],
+    /// Slot in force.
+    active: usize,
+    /// Slots hold a mode table (not a single parameter set).
+    table: bool,
+    /// The armed mode table's transition logic.
+    manager: Option<ModeManager>,
     control: QuaternionFeedback,
     bdot: Bdot,
     dmcs: Dmcs,
     /// Torque realised last step (the LQG estimator's input).
     torque_last: Vec3,
     saturated_last: bool,
+}
+
+impl Default for Fsw {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Why a mode command or a mode-table operation was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModeError {
+    /// No mode table is armed.
+    NotArmed,
+    /// The requested mode has no parameter set in the armed table.
+    NoSuchMode,
 }
 
 fn thruster_runtime(t: &ThrusterParams, dt_s: f32) -> Result<Actuators, ParamError> {
@@ -102,7 +128,10 @@ fn thruster_runtime(t: &ThrusterParams, dt_s: f32) -> Result<Actuators, ParamErr
 impl Fsw {
     pub const fn new() -> Self {
         Self {
-            cfg: None,
+            slots: [const { None }; MODE_COUNT],
+            active: 0,
+            table: false,
+            manager: None,
             control: QuaternionFeedback { integral: nalgebra::Vector3::new(0.0, 0.0, 0.0) },
             bdot: Bdot::new(),
             dmcs: Dmcs::new(),
@@ -111,9 +140,116 @@ impl Fsw {
         }
     }
 
-    /// Validate and adopt a parameter set; returns its checksum. On rejection the
-    /// previous configuration (if any) stays in force.
+    /// Validate and adopt a single parameter set (no mode manager); returns its checksum.
+    /// On rejection the previous configuration (if any) stays in force.
     pub fn configure(&mut self, p: &FlightParams) -> Result<u32, ParamError> {
+        let (cfg, checksum) = Self::build(p)?;
+        self.slots = [const { None }; MODE_COUNT];
+        if let Some(s) = self.slots.get_mut(0) {
+            *s = Some(cfg);
+        }
+        self.active = 0;
+        self.table = false;
+        self.manager = None;
+        self.reset_law_state();
+        Ok(checksum)
+    }
+
+    /// Validate and store the parameter set of one mode of a mode table; returns its
+    /// checksum. A first call after a single `configure` starts a new table (the single
+    /// set stops commanding until the table is armed). Replacing the active mode's set
+    /// while armed takes effect at the next step with fresh law state.
+    pub fn configure_mode(&mut self, mode: Mode, p: &FlightParams) -> Result<u32, ParamError> {
+        let (cfg, checksum) = Self::build(p)?;
+        // An armed table runs at one control rate.
+        if self.manager.is_some() && self.slots.iter().flatten().any(|o| o.dt_s != cfg.dt_s) {
+            return Err(ParamError { field: ParamField::ControlRate, reason: ParamReason::OutOfRange });
+        }
+        if !self.table {
+            self.slots = [const { None }; MODE_COUNT];
+            self.manager = None;
+            self.table = true;
+        }
+        if let Some(s) = self.slots.get_mut(mode.index()) {
+            *s = Some(cfg);
+        }
+        if self.manager.is_some() && self.active == mode.index() {
+            self.reset_law_state();
+        }
+        Ok(checksum)
+    }
+
+    /// Arm the uploaded mode table; returns the checksum of `p`. Slots outside `p.slots`
+    /// are dropped; every slot inside must be uploaded and all share one control rate.
+    pub fn arm_modes(&mut self, p: &ModeManagerParams) -> Result<u32, ParamError> {
+        let bad = |reason| ParamError { field: ParamField::ModeTable, reason };
+        p.validate()?;
+        let checksum = p.checksum()?;
+        if !self.table {
+            return Err(bad(ParamReason::OutOfRange));
+        }
+        let mut configured = [false; MODE_COUNT];
+        let mut dt_s = None;
+        for (i, (slot, c)) in self.slots.iter().zip(configured.iter_mut()).enumerate() {
+            if p.slots & (1 << i) == 0 {
+                continue;
+            }
+            let Some(cfg) = slot else {
+                return Err(bad(ParamReason::OutOfRange));
+            };
+            if dt_s.is_some_and(|d| d != cfg.dt_s) {
+                return Err(ParamError { field: ParamField::ControlRate, reason: ParamReason::OutOfRange });
+            }
+            dt_s = Some(cfg.dt_s);
+            *c = true;
+        }
+        let mgr = ModeManager::new(*p, configured, dt_s.unwrap_or(0.0)).ok_or(bad(ParamReason::OutOfRange))?;
+        for (slot, used) in self.slots.iter_mut().zip(configured) {
+            if !used {
+                *slot = None;
+            }
+        }
+        self.active = p.initial.index();
+        self.manager = Some(mgr);
+        self.reset_law_state();
+        Ok(checksum)
+    }
+
+    /// A ground mode command; returns the mode in force afterwards.
+    pub fn command_mode(&mut self, r: ModeRequest) -> Result<Mode, ModeError> {
+        let mgr = self.manager.as_mut().ok_or(ModeError::NotArmed)?;
+        let before = mgr.mode;
+        if !mgr.command(r) {
+            return Err(ModeError::NoSuchMode);
+        }
+        let now = mgr.mode;
+        if now != before {
+            self.active = now.index();
+            self.reset_law_state();
+        }
+        Ok(now)
+    }
+
+    /// The armed mode manager, if any (mode, reason, transition count).
+    pub fn mode_manager(&self) -> Option<&ModeManager> {
+        self.manager.as_ref()
+    }
+
+    /// Fresh state for the law that takes over (integrators, filters, estimator).
+    fn reset_law_state(&mut self) {
+        self.control.reset();
+        self.bdot.reset();
+        self.dmcs.reset();
+        self.torque_last = Vec3::zeros();
+        self.saturated_last = false;
+        if let Some(Some(cfg)) = self.slots.get_mut(self.active)
+            && let Law::Lqg(_, est) = &mut cfg.law
+        {
+            est.reset();
+        }
+    }
+
+    fn build(p: &FlightParams) -> Result<(Configured, u32), ParamError> {
         p.validate()?;
         let checksum = p.checksum()?;
         let q_target = quat_normalized(&quat_from_xyzw(p.target_q_xyzw))
@@ -190,34 +326,45 @@ impl Fsw {
         if p.target_frame == TargetFrame::Reference {
             required |= valid::REFERENCE;
         }
-        self.cfg = Some(Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required });
-        self.control.reset();
-        self.bdot.reset();
-        self.dmcs.reset();
-        self.torque_last = Vec3::zeros();
-        self.saturated_last = false;
-        Ok(checksum)
+        let cfg = Configured { params: *p, inertia: p.inertia(), law, dt_s, q_target, actuators, required };
+        Ok((cfg, checksum))
     }
 
+    /// The parameter set in force.
     pub fn params(&self) -> Option<&FlightParams> {
-        self.cfg.as_ref().map(|c| &c.params)
+        self.active_cfg().map(|c| &c.params)
+    }
+
+    fn active_cfg(&self) -> Option<&Configured> {
+        if self.table && self.manager.is_none() {
+            return None;
+        }
+        self.slots.get(self.active).and_then(Option::as_ref)
     }
 
     pub fn is_configured(&self) -> bool {
-        self.cfg.is_some()
+        self.active_cfg().is_some()
     }
 
     /// Change the commanded attitude (the integral state is kept: the set point moved,
-    /// the disturbance did not).
+    /// the disturbance did not). With a mode table the manoeuvre and hold targets change
+    /// (the mission target); detumble and stabilise keep theirs.
     pub fn set_target(&mut self, q_xyzw: [f32; 4]) -> Result<(), ParamError> {
         let bad = ParamError { field: ParamField::Target, reason: ParamReason::NotUnitQuaternion };
         let q = quat_from_xyzw(q_xyzw);
         if !q.coords.iter().all(|x| x.is_finite()) || (q.norm() - 1.0).abs() > 1e-3 {
             return Err(bad);
         }
-        let cfg = self.cfg.as_mut().ok_or(bad)?;
-        cfg.q_target = quat_normalized(&q).ok_or(bad)?;
-        Ok(())
+        let q = quat_normalized(&q).ok_or(bad)?;
+        let mut any = false;
+        for (i, slot) in self.slots.iter_mut().enumerate() {
+            let mission = !self.table || i == Mode::Manoeuvre.index() || i == Mode::Hold.index();
+            if let Some(cfg) = slot.as_mut().filter(|_| mission) {
+                cfg.q_target = q;
+                any = true;
+            }
+        }
+        if any { Ok(()) } else { Err(bad) }
     }
 
     /// The command to hold when there is no trustworthy input: every actuator idle.
@@ -227,16 +374,47 @@ impl Fsw {
 
     /// One control step.
     pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
-        let Some(cfg) = self.cfg.as_mut() else {
+        let mut cmd = self.step_active(f);
+        if let Some(mgr) = &self.manager {
+            cmd.mode = mgr.mode.code();
+            cmd.mode_reason = mgr.reason as u8;
+            cmd.mode_transitions = mgr.transitions;
+        }
+        cmd
+    }
+
+    /// Mode logic on the active mode's view of the measurements; switches `active`.
+    fn update_mode(&mut self, f: &SensorFrame) {
+        let (Some(mgr), Some(Some(cfg))) = (self.manager.as_mut(), self.slots.get(self.active)) else {
+            return;
+        };
+        let Some(m) = check_frame(f, cfg.required) else {
+            return;
+        };
+        let (q_cmd, w_cmd) = command_frame(cfg, &m);
+        let inputs = ModeInputs {
+            rate_rad_s: m.w.norm(),
+            rel_rate_rad_s: (m.w - w_cmd).norm(),
+            error_rad: rotation_angle(&attitude_error(&m.q, &q_cmd)),
+        };
+        if let Some((mode, _)) = mgr.update(&inputs) {
+            self.active = mode.index();
+            self.reset_law_state();
+        }
+    }
+
+    fn step_active(&mut self, f: &SensorFrame) -> ActuatorCommand {
+        if self.table && self.manager.is_none() {
+            return Self::safe_command(f.seq, status::NOT_CONFIGURED);
+        }
+        self.update_mode(f);
+        let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
             return Self::safe_command(f.seq, status::NOT_CONFIGURED);
         };
         let Some(m) = check_frame(f, cfg.required) else {
             return Self::safe_command(f.seq, status::BAD_INPUT);
         };
-        let (q_cmd, w_cmd) = match cfg.params.target_frame {
-            TargetFrame::Inertial => (cfg.q_target, Vec3::zeros()),
-            TargetFrame::Reference => (m.q_ref * cfg.q_target, rotate_ref_to_body(&m.q, &m.ref_rate)),
-        };
+        let (q_cmd, w_cmd) = command_frame(cfg, &m);
         let mut cmd = ActuatorCommand { seq: f.seq, ..Default::default() };
         // Actuator momentum for the gyroscopic term, and CMG trig reused by the steering.
         let (h_act, trig) = match &cfg.actuators {
@@ -343,6 +521,14 @@ impl Fsw {
                 | status::UNREALISED)
             != 0;
         cmd
+    }
+}
+
+/// Commanded attitude and rate (body axes) of a configuration for these measurements.
+fn command_frame(cfg: &Configured, m: &Measured) -> (Quat, Vec3) {
+    match cfg.params.target_frame {
+        TargetFrame::Inertial => (cfg.q_target, Vec3::zeros()),
+        TargetFrame::Reference => (m.q_ref * cfg.q_target, rotate_ref_to_body(&m.q, &m.ref_rate)),
     }
 }
 
@@ -564,5 +750,81 @@ mod tests {
         let perp = d - b * (d.dot(&b) / b.norm_squared());
         assert!((Vec3::from(c.torque_realised_nm) - perp).norm() < 1e-4 * perp.norm());
         assert!(Vec3::from(c.dipole_cmd_am2).norm() > 0.0);
+    }
+
+    fn table_params() -> ModeManagerParams {
+        ModeManagerParams {
+            slots: 0b0101,
+            initial: Mode::Detumble,
+            detumble_enter_rate_rad_s: 0.05,
+            detumble_exit_rate_rad_s: 0.01,
+            stabilise_exit_error_rad: 0.1,
+            stabilise_exit_rate_rad_s: 0.01,
+            hold_enter_error_rad: 0.01,
+            hold_enter_rate_rad_s: 0.01,
+            hold_exit_error_rad: 0.05,
+            dwell_s: 0.1,
+            trigger_persistence_s: 0.02,
+        }
+    }
+
+    #[test]
+    fn mode_table_upload_arm_and_switch() {
+        let mut f = Fsw::new();
+        let base = FlightParams::default();
+        // Arming needs an uploaded table.
+        assert_eq!(f.arm_modes(&table_params()).unwrap_err().field, ParamField::ModeTable);
+        assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
+        f.configure_mode(Mode::Detumble, &base).unwrap();
+        // Uploaded but not armed: nothing commands.
+        assert_eq!(f.step(&frame(Quat::identity())).status, status::NOT_CONFIGURED);
+        // The mask names manoeuvre, which was not uploaded.
+        assert_eq!(f.arm_modes(&table_params()).unwrap_err().field, ParamField::ModeTable);
+        f.configure_mode(Mode::Manoeuvre, &base).unwrap();
+        // A stale hold slot outside the mask is dropped at arming.
+        f.configure_mode(Mode::Hold, &base).unwrap();
+        f.arm_modes(&table_params()).unwrap();
+        assert_eq!(f.command_mode(ModeRequest::Enter(Mode::Hold)), Err(ModeError::NoSuchMode));
+        // At rest on target: detumble converges (rate 0 < exit) after dwell = 10 steps at 100 Hz
+        // (the 10th step already runs the next mode: the switch comes before the law).
+        let mut modes = Vec::new();
+        for _ in 0..12 {
+            let c = f.step(&frame(Quat::identity()));
+            modes.push(c.mode);
+        }
+        assert_eq!(modes.first(), Some(&Mode::Detumble.code()));
+        assert_eq!(modes.last(), Some(&Mode::Manoeuvre.code()));
+        assert_eq!(modes.iter().filter(|m| **m == Mode::Detumble.code()).count(), 9);
+        let mut fr = frame(Quat::identity());
+        // A high rate sends it back to detumble after the 2-step persistence.
+        fr.rate_rad_s = [0.1, 0.0, 0.0];
+        let c: Vec<u8> = (0..3).map(|_| f.step(&fr).mode).collect();
+        assert_eq!(c, [Mode::Manoeuvre.code(), Mode::Detumble.code(), Mode::Detumble.code()]);
+        assert_eq!(f.mode_manager().map(|m| m.transitions), Some(2));
+        // Lock manoeuvre: the high rate no longer switches.
+        assert_eq!(f.command_mode(ModeRequest::Lock(Mode::Manoeuvre)), Ok(Mode::Manoeuvre));
+        assert!((0..10).all(|_| f.step(&fr).mode == Mode::Manoeuvre.code()));
+        // A single parameter set replaces the table.
+        f.configure(&base).unwrap();
+        assert_eq!(f.step(&fr).mode, crate::modes::MODE_NONE);
+        assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
+    }
+
+    #[test]
+    fn set_target_moves_only_the_mission_modes() {
+        let mut f = Fsw::new();
+        let base = FlightParams::default();
+        f.configure_mode(Mode::Stabilise, &base).unwrap();
+        f.configure_mode(Mode::Hold, &base).unwrap();
+        f.arm_modes(&ModeManagerParams { slots: 0b1010, initial: Mode::Stabilise, ..table_params() }).unwrap();
+        let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
+        f.set_target(quat_to_xyzw(&q)).unwrap();
+        // Stabilise still points at identity: zero error at identity.
+        let c = f.step(&frame(Quat::identity()));
+        assert!(c.attitude_error_rad < 1e-6, "{}", c.attitude_error_rad);
+        f.command_mode(ModeRequest::Lock(Mode::Hold)).unwrap();
+        let c = f.step(&frame(Quat::identity()));
+        assert!((c.attitude_error_rad - 0.5).abs() < 1e-4, "{}", c.attitude_error_rad);
+        assert!(f.set_target([0.0, 0.0, 0.0, 2.0]).is_err());
     }
 }

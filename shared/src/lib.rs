@@ -11,6 +11,7 @@
 //! - [`steering`]: maps a body torque onto an actuator set (CMG pyramid here).
 //! - [`params`]: the typed, versioned, checksummed flight parameter set.
 //! - [`protocol`]: wire messages and the COBS + CRC framing of the host link.
+//! - [`modes`]: the mode manager (detumble → stabilise → manoeuvre → hold).
 //! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
@@ -25,6 +26,7 @@ pub mod control;
 pub mod estimation;
 pub mod fsw;
 pub mod math;
+pub mod modes;
 pub mod params;
 pub mod protocol;
 pub mod session;

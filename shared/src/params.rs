@@ -307,6 +307,8 @@ pub enum ParamField {
     NullMotion,
     /// The control law does not fit the actuator family (B-dot needs magnetorquers).
     Controller,
+    /// Mode-manager thresholds or the mode table (missing slot, mismatched rates).
+    ModeTable,
 }
 
 /// Why it was rejected.
@@ -730,7 +732,9 @@ mod tests {
         let p = FlightParams { controller: lqg, actuator: ActuatorParams::Thrusters(thr), ..base };
         assert_eq!(p.validate(), Ok(()));
         let mut buf = [0u8; 2048];
-        let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf).unwrap().len();
+        // The mode-table upload carries one more byte (the mode) than `UploadParams`.
+        let msg = crate::protocol::HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: p };
+        let n = postcard::to_slice(&msg, &mut buf).unwrap().len();
         assert!(n <= crate::protocol::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
         for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {
             let p = FlightParams { actuator: a, ..base };

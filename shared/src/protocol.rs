@@ -5,17 +5,20 @@
 //! zero. [`FrameAccumulator`] does that, counts every bad frame by kind and goes on.
 //!
 //! Session: host sends `Hello` (protocol version and schema hash must match), then
-//! `UploadParams` (validated; rejected with the offending field), then one `Sensor`
-//! frame per control step; the flight side answers each with a `Step` report.
+//! `UploadParams` (validated; rejected with the offending field) — or, for a mode table,
+//! one `UploadModeParams` per mode and `ArmModes` — then one `Sensor` frame per control
+//! step; the flight side answers each with a `Step` report. Every other message gets
+//! exactly one reply.
 //!
 //! Wire types are plain arrays of f32/u32 so that no layout depends on a math library.
 
+use crate::modes::{Mode, ModeManagerParams, ModeRequest};
 use crate::params::{CRC32, FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 8;
+pub const PROTOCOL_VERSION: u16 = 9;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -144,6 +147,12 @@ pub struct ActuatorCommand {
     pub saturated: u32,
     /// [`status`] bits.
     pub status: u16,
+    /// Mode in force ([`Mode::code`](crate::modes::Mode::code)); 0 without a mode table.
+    pub mode: u8,
+    /// Why it was entered ([`Reason`](crate::modes::Reason) as `u8`).
+    pub mode_reason: u8,
+    /// Mode transitions since the table was armed (saturating).
+    pub mode_transitions: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.
@@ -162,10 +171,18 @@ pub struct StepReport {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum LinkError {
-    ProtocolVersion { flight: u16 },
-    SchemaHash { flight: u32 },
+    ProtocolVersion {
+        flight: u16,
+    },
+    SchemaHash {
+        flight: u32,
+    },
     NotConfigured,
     UnexpectedMessage,
+    /// A target that is not a unit quaternion.
+    BadTarget,
+    /// A mode command without an armed table, or for a mode the table does not have.
+    NoSuchMode,
 }
 
 /// Host → flight computer.
@@ -176,11 +193,23 @@ pub enum HostMsg {
         protocol_version: u16,
         schema_hash: u32,
     },
+    /// A single parameter set (no mode manager). Reply: `ParamsAccepted`/`ParamsRejected`.
     UploadParams(FlightParams),
     Sensor(SensorFrame),
+    /// New mission target (the manoeuvre/hold target with a mode table). Reply: `Ack`.
     SetTarget {
         target_q_xyzw: [f32; 4],
     },
+    /// One mode's parameter set of a mode table (one message per mode keeps every message
+    /// within `MAX_PAYLOAD`). Reply: `ParamsAccepted`/`ParamsRejected`.
+    UploadModeParams {
+        mode: Mode,
+        params: FlightParams,
+    },
+    /// Arm the uploaded table with its transition thresholds. Reply: `ModesArmed`/`ParamsRejected`.
+    ArmModes(ModeManagerParams),
+    /// Ground mode command. Reply: `ModeAccepted`/`Error(NoSuchMode)`.
+    CommandMode(ModeRequest),
     /// Real-time mode only: start pacing steps with the flight computer's own clock.
     StartRealTime,
 }
@@ -202,6 +231,14 @@ pub enum FswMsg {
         checksum: u32,
     },
     ParamsRejected(ParamError),
+    ModesArmed {
+        checksum: u32,
+    },
+    ModeAccepted {
+        mode: Mode,
+    },
+    /// Success of a message that has no other reply (`SetTarget`).
+    Ack,
     Step(StepReport),
     Error(LinkError),
 }

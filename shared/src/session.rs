@@ -58,10 +58,22 @@ impl Session {
                 let t1 = counter();
                 Some(FswMsg::Step(self.report(cmd, t1.wrapping_sub(t0), frames_dropped)))
             }
-            HostMsg::SetTarget { target_q_xyzw } => match self.fsw.set_target(*target_q_xyzw) {
-                Ok(()) => None,
-                Err(_) => Some(FswMsg::Error(LinkError::UnexpectedMessage)),
-            },
+            HostMsg::SetTarget { target_q_xyzw } => Some(match self.fsw.set_target(*target_q_xyzw) {
+                Ok(()) => FswMsg::Ack,
+                Err(_) => FswMsg::Error(LinkError::BadTarget),
+            }),
+            HostMsg::UploadModeParams { mode, params } => Some(match self.fsw.configure_mode(*mode, params) {
+                Ok(checksum) => FswMsg::ParamsAccepted { checksum },
+                Err(e) => FswMsg::ParamsRejected(e),
+            }),
+            HostMsg::ArmModes(p) => Some(match self.fsw.arm_modes(p) {
+                Ok(checksum) => FswMsg::ModesArmed { checksum },
+                Err(e) => FswMsg::ParamsRejected(e),
+            }),
+            HostMsg::CommandMode(r) => Some(match self.fsw.command_mode(*r) {
+                Ok(mode) => FswMsg::ModeAccepted { mode },
+                Err(_) => FswMsg::Error(LinkError::NoSuchMode),
+            }),
             HostMsg::StartRealTime => {
                 if self.fsw.is_configured() {
                     self.real_time = true;

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use sim_host::link::{self, LinkKind, LinkOptions};
-use sim_host::scenario::Scenario;
+use sim_host::scenario::{Controller, Scenario};
 use sim_host::{output, runner};
 use std::io::Write;
 use std::path::PathBuf;
@@ -82,7 +82,7 @@ fn main() -> Result<()> {
     match Cli::parse().cmd {
         Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
             let sc = Scenario::load(&scenario)?;
-            let open_loop = matches!(sc.controller, sim_host::scenario::Controller::None);
+            let open_loop = !sc.closed_loop();
             let kind = match (link, &sc.link.kind) {
                 _ if open_loop => LinkKind::InProcess,
                 (Some(k), _) => k,
@@ -115,23 +115,49 @@ fn main() -> Result<()> {
             line += &opt("max pulses", s.max_pulses.map(f64::from), "");
             line += &opt("max instructions/step", s.max_step_instructions.map(|x| x as f64), "");
             say!("{line}");
+            for m in &s.mode_transitions {
+                say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
+            }
             for f in files {
                 say!("  wrote {}", f.display());
             }
         }
         Cmd::Lqr { scenario } => {
             let sc = Scenario::load(&scenario)?;
-            let d = sc.lqr_design()?;
-            say!("{}: LQR on the {} model, K (N m per [rad, rad, rad, rad/s, rad/s, rad/s]):", sc.name, d.model);
-            for row in d.gain {
-                say!("  [{}]", row.map(|x| format!("{x:>12.5e}")).join(", "));
+            // The scenario's controller, or every LQR/LQG mode of its mode table.
+            let mut laws = Vec::new();
+            if let Some(c) = &sc.controller {
+                laws.push((String::new(), c.clone()));
             }
-            if !d.closed_loop_eigenvalues.is_empty() {
-                say!("closed-loop eigenvalues of A - B K:");
-                for e in &d.closed_loop_eigenvalues {
-                    say!("  {:>12.5e} {:+.5e} i", e.re, e.im);
+            if let Some(m) = &sc.modes {
+                for (mode, spec) in m.slots() {
+                    if let Some(s) =
+                        spec.filter(|s| matches!(s.controller, Controller::Lqr { .. } | Controller::Lqg { .. }))
+                    {
+                        laws.push((format!(" (mode {})", mode.name()), s.controller.clone()));
+                    }
                 }
-                say!("relative CARE residual {:.2e}", d.residual);
+            }
+            if laws.is_empty() {
+                anyhow::bail!("{}: no lqr or lqg controller", sc.name);
+            }
+            for (label, c) in laws {
+                let d = sc.lqr_design_of(&c)?;
+                say!(
+                    "{}{label}: LQR on the {} model, K (N m per [rad, rad, rad, rad/s, rad/s, rad/s]):",
+                    sc.name,
+                    d.model
+                );
+                for row in d.gain {
+                    say!("  [{}]", row.map(|x| format!("{x:>12.5e}")).join(", "));
+                }
+                if !d.closed_loop_eigenvalues.is_empty() {
+                    say!("closed-loop eigenvalues of A - B K:");
+                    for e in &d.closed_loop_eigenvalues {
+                        say!("  {:>12.5e} {:+.5e} i", e.re, e.im);
+                    }
+                    say!("relative CARE residual {:.2e}", d.residual);
+                }
             }
         }
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
@@ -153,14 +179,21 @@ fn main() -> Result<()> {
         }
         Cmd::Check { scenario } => {
             let sc = Scenario::load(&scenario)?;
-            let p = sc.flight_params()?;
-            say!(
-                "{}: ok ({} steps); parameter checksum {:#010x}",
-                sc.name,
-                sc.steps(),
-                p.checksum().map_err(|e| anyhow::anyhow!("{e}"))?
-            );
-            say!("{p:#?}");
+            let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| anyhow::anyhow!("{e}"));
+            if let Some(t) = sc.mode_table()? {
+                say!("{}: ok ({} steps); mode table of {} modes", sc.name, sc.steps(), t.slots.len());
+                for (mode, p) in &t.slots {
+                    say!("mode {}: parameter checksum {:#010x}", mode.name(), sum(p)?);
+                    say!("{p:#?}");
+                }
+                say!("{:#?}", t.manager);
+            } else if sc.closed_loop() {
+                let p = sc.flight_params()?;
+                say!("{}: ok ({} steps); parameter checksum {:#010x}", sc.name, sc.steps(), sum(&p)?);
+                say!("{p:#?}");
+            } else {
+                say!("{}: ok ({} steps); open loop, no flight parameters", sc.name, sc.steps());
+            }
         }
     }
     Ok(())

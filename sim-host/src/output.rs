@@ -172,6 +172,30 @@ pub fn figures() -> Vec<Figure<'static>> {
             )],
         },
         Figure {
+            file_name: "modes.png",
+            title: "Mode manager: mode, attitude error to the mission target, body rates",
+            x: "t_s",
+            x_label: "time [s]",
+            panels: vec![
+                panel("mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold", "mode", vec![s("mode", "mode", false)]),
+                Panel {
+                    title: "attitude error",
+                    y_label: "deg",
+                    series: vec![s("error_deg", "error", false)],
+                    log_y: true,
+                },
+                panel(
+                    "body rate",
+                    "rad/s",
+                    vec![
+                        s("rate_x_rad_s", "ωx", false),
+                        s("rate_y_rad_s", "ωy", false),
+                        s("rate_z_rad_s", "ωz", false),
+                    ],
+                ),
+            ],
+        },
+        Figure {
             file_name: "adaptive.png",
             title: "DMCS adaptive feed-forward gains Δk_u",
             x: "t_s",

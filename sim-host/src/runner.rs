@@ -14,9 +14,10 @@ use crate::plant::thrusters::ThrusterState;
 use crate::plant::{Input, MAX_WHEELS};
 use crate::scenario::{Controller, OpenLoopRow, RefFrame, Scenario};
 use crate::sensors::SensorSuite;
+use acs_flight::modes::{Mode, Reason};
 use acs_flight::params::MAX_THRUSTERS;
-use acs_flight::protocol::{ActuatorCommand, status};
-use anyhow::{Context, Result};
+use acs_flight::protocol::{ActuatorCommand, FswMsg, status};
+use anyhow::{Context, Result, bail};
 use serde::Serialize;
 use std::time::{Duration, Instant};
 
@@ -81,11 +82,29 @@ pub struct Summary {
     /// LP allocation, PWPF — the LP dominates), µs, on the link's clock.
     pub allocation_us_per_call: Option<f64>,
     pub status_counts: StatusCounts,
+    /// Every change of the flight mode (empty without `[modes]`).
+    pub mode_transitions: Vec<ModeTransition>,
+    pub final_mode: Option<String>,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
     /// Wall time of the closed loop only (no file output), s.
     pub wall_time_s: f64,
     pub real_time_factor: f64,
+}
+
+/// A change of the flight mode as reported in telemetry.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ModeTransition {
+    /// Time of the first step the new mode commanded, s.
+    pub t_s: f64,
+    pub from: String,
+    pub to: String,
+    /// Why the flight code switched (`acs_flight::modes::Reason`).
+    pub reason: String,
+}
+
+fn mode_name(code: u8) -> String {
+    Mode::from_code(code).map_or("none", Mode::name).into()
 }
 
 pub struct RunResult {
@@ -110,8 +129,11 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
         v.extend(["x", "y", "z"].map(|a| format!("torque_{g}_{a}_nm")));
     }
     v.extend(s(&["error_deg", "status", "step_cost_insns"]));
-    if matches!(sc.controller, Controller::Dmcs { .. }) {
+    if matches!(sc.controller, Some(Controller::Dmcs { .. })) {
         v.extend(["x", "y", "z"].map(|a| format!("adaptive_gain_{a}")));
+    }
+    if sc.modes.is_some() {
+        v.push("mode".into());
     }
     if sc.actuators.cmg.is_some() {
         v.extend((1..=4).map(|i| format!("gimbal{i}_deg")));
@@ -181,10 +203,13 @@ fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
 /// Run the scenario. Closed loop: against an already-opened link; open loop
 /// (`controller.type = "none"`): the link is not used.
 pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<RunResult> {
-    let closed_loop = !matches!(sc.controller, Controller::None);
+    let closed_loop = sc.closed_loop();
     let info: Option<LinkInfo> = if closed_loop {
         let info = link.hello().context("hello")?;
-        link.upload(&sc.flight_params()?).context("parameter upload")?;
+        match sc.mode_table()? {
+            Some(table) => link.upload_modes(&table).context("mode table upload")?,
+            None => link.upload(&sc.flight_params()?).context("parameter upload")?,
+        };
         Some(info)
     } else {
         None
@@ -205,9 +230,12 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let mut thr_state = ThrusterState::new(n_thr);
     let mut sensors = SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz);
     let mut rod_dipole = [0.0f64; 3];
-    let q_target_rel = sc.target.quaternion();
+    let mut q_target_rel = sc.target.quaternion();
+    let mut pending_commands = sc.commands.iter().peekable();
+    let mut mode_transitions: Vec<ModeTransition> = Vec::new();
+    let mut mode_now: Option<u8> = None;
     let seq = sc.target.euler_sequence.into();
-    let target_euler_deg = euler_from_quat(&q_target_rel, seq).map(f64::to_degrees);
+    let mut target_euler_deg = euler_from_quat(&q_target_rel, seq).map(f64::to_degrees);
     let target_frame = |snap: Option<&EnvSnapshot>| -> Quat {
         match (sc.target.frame, snap.and_then(|s| s.q_lvlh)) {
             (RefFrame::Lvlh, Some(q)) => q,
@@ -240,10 +268,33 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         if k > 0 {
             snap = snapshot(&mut craft, t)?;
         }
+        while let Some(c) = pending_commands.next_if(|c| c.at_s <= t + 1e-9) {
+            for msg in sc.command_messages(c) {
+                match link.request(&msg).with_context(|| format!("command at t = {t:.3} s"))? {
+                    FswMsg::Ack | FswMsg::ModeAccepted { .. } => {}
+                    other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
+                }
+            }
+            if let Some(tg) = &c.target {
+                q_target_rel = tg.quaternion();
+                target_euler_deg = euler_from_quat(&q_target_rel, seq).map(f64::to_degrees);
+            }
+        }
         let frame = sensors.sample(k as u32, t, &state, &craft, snap.as_ref(), &rod_dipole);
         let (cmd, ticks) = if closed_loop {
             let report = link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
             frames_dropped_flight = report.frames_dropped;
+            if sc.modes.is_some() && mode_now != Some(report.cmd.mode) {
+                if let Some(from) = mode_now {
+                    mode_transitions.push(ModeTransition {
+                        t_s: t,
+                        from: mode_name(from),
+                        to: mode_name(report.cmd.mode),
+                        reason: Reason::from_code(report.cmd.mode_reason).map_or("unknown", Reason::name).into(),
+                    });
+                }
+                mode_now = Some(report.cmd.mode);
+            }
             (report.cmd, report.step_cost_ticks)
         } else {
             (open_loop_command(open_loop_at(open_rows, t), k as u32), 0)
@@ -325,8 +376,11 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             row.push(err_deg);
             row.push(s as f64);
             row.push(info.as_ref().and_then(|i| i.instructions_per_tick).map_or(f64::NAN, |f| ticks as f64 * f));
-            if matches!(sc.controller, Controller::Dmcs { .. }) {
+            if matches!(sc.controller, Some(Controller::Dmcs { .. })) {
                 row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
+            }
+            if sc.modes.is_some() {
+                row.push(cmd.mode as f64);
             }
             if sc.actuators.cmg.is_some() {
                 row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
@@ -455,6 +509,8 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         max_step_us: hz.map(|h| max_ticks as f64 / h * 1e6),
         allocation_us_per_call: hz.filter(|_| n_thr > 0).map(|h| sum_ticks / n_ticks as f64 / h * 1e6),
         status_counts: counts,
+        mode_transitions,
+        final_mode: mode_now.map(mode_name),
         frames_dropped_flight,
         frames_dropped_host: if closed_loop { link.frames_dropped_host() } else { 0 },
         wall_time_s: wall,

@@ -7,7 +7,7 @@ use sim_host::scenario::Controller;
 #[test]
 fn rate_limited_quaternion_feedback_respects_the_slew_rate_and_arrives() {
     let mut sc = scenario("paper002/gsr-manoeuvre.toml");
-    let Controller::QuaternionFeedback { max_slew_rate_deg_s, .. } = &mut sc.controller else { panic!() };
+    let Some(Controller::QuaternionFeedback { max_slew_rate_deg_s, .. }) = &mut sc.controller else { panic!() };
     *max_slew_rate_deg_s = Some(3.0);
     sc.duration_s = 60.0;
     let r = run_in_process(&sc);

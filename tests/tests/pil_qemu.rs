@@ -83,3 +83,41 @@ fn firmware_drops_corrupt_frames_and_keeps_answering() {
     let mut link = QemuLink::start(None).unwrap();
     acs_tests::corrupt_frames_are_dropped_and_counted(link.framed());
 }
+
+#[test]
+fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
+    if !qemu_available() {
+        return;
+    }
+    firmware();
+    // The mission's four-mode table (B-dot, LQR, two quaternion feedbacks) uploaded one
+    // mode per message, armed, then commanded: lock manoeuvre, retarget, auto (the
+    // tumble then sends it back to detumble).
+    let mut sc = scenario("modes/cubesat-mission.toml");
+    sc.duration_s = 40.0;
+    use sim_host::scenario::{AttitudeSpec, CommandSpec};
+    let cmd = |at_s, mode: Option<&str>, lock| CommandSpec { at_s, target: None, mode: mode.map(Into::into), lock };
+    let mut retarget = cmd(15.0, None, false);
+    retarget.target = Some(AttitudeSpec { euler_deg: Some([10.0, 0.0, 0.0]), ..sc.target.clone() });
+    sc.commands = vec![cmd(5.0, Some("manoeuvre"), true), retarget, cmd(20.0, Some("auto"), false)];
+    let sil = run_in_process(&sc);
+    let mut link = QemuLink::start(None).unwrap();
+    let pil = runner::run(&sc, &mut link, false).unwrap();
+    let names = |r: &sim_host::runner::RunResult| -> Vec<(String, String, String, f64)> {
+        r.summary.mode_transitions.iter().map(|m| (m.from.clone(), m.to.clone(), m.reason.clone(), m.t_s)).collect()
+    };
+    eprintln!("PIL mode transitions: {:?}", names(&pil));
+    assert_eq!(names(&sil), names(&pil));
+    let expected = [("detumble", "manoeuvre", "commanded", 5.0), ("manoeuvre", "detumble", "rate_high", 24.5)];
+    assert_eq!(names(&pil).len(), expected.len());
+    for ((f, t, why, at), (ef, et, ewhy, eat)) in names(&pil).iter().zip(expected) {
+        assert_eq!((f.as_str(), t.as_str(), why.as_str()), (ef, et, ewhy));
+        assert!((at - eat).abs() < 1e-9, "{at} vs {eat}");
+    }
+    for name in ["q_x", "q_y", "q_z", "q_w", "rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"] {
+        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+        let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+        assert!(worst <= 1e-6, "{name}: SIL and PIL differ by {worst:e}");
+    }
+    assert_eq!(pil.summary.frames_dropped_flight + pil.summary.frames_dropped_host, 0);
+}

@@ -1,7 +1,6 @@
 //! The flight protocol over a byte stream (see `acs_flight::protocol`).
 
 use super::{FlightLink, LinkInfo};
-use acs_flight::params::FlightParams;
 use acs_flight::protocol::{
     FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport, encode_frame, schema_hash,
 };
@@ -132,20 +131,14 @@ impl<S: Read + Write> FlightLink for Framed<S> {
         }
     }
 
-    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
-        self.send(&HostMsg::UploadParams(*params))?;
-        match self.recv()? {
-            FswMsg::ParamsAccepted { checksum } => {
-                let mine = params.checksum().map_err(|e| anyhow!("{e}"))?;
-                if checksum != mine {
-                    bail!("{}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name);
-                }
-                Ok(checksum)
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        self.send(msg)?;
+        loop {
+            match self.recv()? {
+                // A late answer to a sensor frame sent before this request.
+                FswMsg::Step(_) => continue,
+                reply => return Ok(reply),
             }
-            FswMsg::ParamsRejected(e) => {
-                bail!("{}: flight code rejected the parameters: {e}", self.name)
-            }
-            other => bail!("{}: unexpected reply to the parameter upload: {other:?}", self.name),
         }
     }
 

@@ -11,8 +11,8 @@ pub mod qemu;
 pub mod serve;
 
 use acs_flight::params::FlightParams;
-use acs_flight::protocol::{SensorFrame, StepReport};
-use anyhow::{Result, bail};
+use acs_flight::protocol::{FswMsg, HostMsg, SensorFrame, StepReport};
+use anyhow::{Result, anyhow, bail};
 use std::path::PathBuf;
 
 /// What the flight side said at hello.
@@ -29,12 +29,50 @@ pub struct LinkInfo {
 pub trait FlightLink {
     fn name(&self) -> String;
     fn hello(&mut self) -> Result<LinkInfo>;
-    /// Upload and have the flight side validate the parameters; returns the checksum it computed.
-    fn upload(&mut self, params: &FlightParams) -> Result<u32>;
+    /// Send a message that is not a sensor frame and return the flight side's one reply.
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg>;
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport>;
+    /// Upload and have the flight side validate the parameters; returns the checksum it
+    /// computed (checked against the host's).
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        let reply = self.request(&HostMsg::UploadParams(*params))?;
+        accepted(&self.name(), params, reply)
+    }
+    /// Upload a mode table (one message per mode) and arm it.
+    fn upload_modes(&mut self, table: &crate::scenario::ModeTable) -> Result<u32> {
+        for (mode, params) in &table.slots {
+            let reply = self.request(&HostMsg::UploadModeParams { mode: *mode, params: *params })?;
+            accepted(&self.name(), params, reply).map_err(|e| anyhow!("mode {}: {e}", mode.name()))?;
+        }
+        match self.request(&HostMsg::ArmModes(table.manager))? {
+            FswMsg::ModesArmed { checksum } => {
+                let mine = table.manager.checksum().map_err(|e| anyhow!("{e}"))?;
+                if checksum != mine {
+                    bail!("{}: mode table checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name());
+                }
+                Ok(checksum)
+            }
+            FswMsg::ParamsRejected(e) => bail!("{}: flight code rejected the mode table: {e}", self.name()),
+            other => bail!("{}: unexpected reply to ArmModes: {other:?}", self.name()),
+        }
+    }
     /// Frames the host side dropped (CRC, COBS, ...).
     fn frames_dropped_host(&self) -> u32 {
         0
+    }
+}
+
+fn accepted(name: &str, params: &FlightParams, reply: FswMsg) -> Result<u32> {
+    match reply {
+        FswMsg::ParamsAccepted { checksum } => {
+            let mine = params.checksum().map_err(|e| anyhow!("{e}"))?;
+            if checksum != mine {
+                bail!("{name}: parameter checksum mismatch: flight {checksum:#010x}, host {mine:#010x}");
+            }
+            Ok(checksum)
+        }
+        FswMsg::ParamsRejected(e) => bail!("{name}: flight code rejected the parameters: {e}"),
+        other => bail!("{name}: unexpected reply to the parameter upload: {other:?}"),
     }
 }
 

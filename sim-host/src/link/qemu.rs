@@ -5,8 +5,7 @@
 
 use super::framed::Framed;
 use super::{FlightLink, LinkInfo};
-use acs_flight::params::FlightParams;
-use acs_flight::protocol::{SensorFrame, StepReport};
+use acs_flight::protocol::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Context, Result, bail};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
@@ -139,8 +138,8 @@ impl FlightLink for QemuLink {
         let r = self.link.hello();
         self.with_log(r)
     }
-    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
-        let r = self.link.upload(params);
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        let r = self.link.request(msg);
         self.with_log(r)
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {

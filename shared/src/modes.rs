@@ -1,0 +1,458 @@
+//! Mode manager: detumble → stabilise → manoeuvre → hold.
+//!
+//! Each mode is a complete, separately validated [`FlightParams`](crate::params::FlightParams)
+//! (its own control law, actuator family and target), uploaded one by one
+//! (`HostMsg::UploadModeParams`) so that no single message has to hold every law; the
+//! table is then armed with [`ModeManagerParams`] (`HostMsg::ArmModes`).
+//!
+//! Automatic transitions (evaluated every step on the validated measurements, before the
+//! law runs, so the new mode commands the same step):
+//! - any mode but detumble → detumble: `|ω| > detumble_enter_rate` for
+//!   `trigger_persistence_s` (the safety net after separation or a failure);
+//! - detumble → next: `|ω| < detumble_exit_rate` for `dwell_s`;
+//! - stabilise → next: error to the stabilise target `< stabilise_exit_error` and
+//!   `|ω - ω_c| < stabilise_exit_rate` for `dwell_s`;
+//! - manoeuvre → hold: error `< hold_enter_error` and `|ω - ω_c| < hold_enter_rate` for
+//!   `dwell_s`;
+//! - hold → manoeuvre: error `> hold_exit_error` for `trigger_persistence_s` (e.g. after a
+//!   new target was commanded).
+//!
+//! Hysteresis: every enter threshold is strictly beyond its exit threshold (validated),
+//! and conditions must persist, so noise at a threshold cannot make the mode chatter.
+//! "next" skips modes that have no parameter set (a table without stabilise goes from
+//! detumble straight to manoeuvre). Commands over the link: `Enter(mode)` switches now
+//! and automatic transitions go on from there; `Lock(mode)` switches and suspends them
+//! (ground tests, anomaly handling); `Auto` resumes them.
+//!
+//! Counters are in control steps, saturating: the loop has no unbounded state.
+
+use crate::params::{ParamError, ParamField, ParamReason};
+use postcard_schema::Schema;
+use serde::{Deserialize, Serialize};
+
+/// Number of modes (slots of the mode table).
+pub const MODE_COUNT: usize = 4;
+
+/// `ActuatorCommand::mode` when no mode table is armed (a single parameter set runs);
+/// modes are reported as [`Mode::code`] = slot index + 1.
+pub const MODE_NONE: u8 = 0;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode {
+    Detumble,
+    Stabilise,
+    Manoeuvre,
+    Hold,
+}
+
+impl Mode {
+    pub const ALL: [Mode; MODE_COUNT] = [Mode::Detumble, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold];
+
+    /// Slot index (also the telemetry code).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Telemetry code (`ActuatorCommand::mode`): 1 … 4; 0 is [`MODE_NONE`].
+    pub const fn code(self) -> u8 {
+        self as u8 + 1
+    }
+
+    pub fn from_code(c: u8) -> Option<Mode> {
+        Mode::ALL.get(usize::from(c).checked_sub(1)?).copied()
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Mode::Detumble => "detumble",
+            Mode::Stabilise => "stabilise",
+            Mode::Manoeuvre => "manoeuvre",
+            Mode::Hold => "hold",
+        }
+    }
+}
+
+/// Why the current mode was entered (`ActuatorCommand::mode_reason`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Reason {
+    /// The initial mode of the armed table.
+    Armed = 0,
+    /// Body rate above `detumble_enter_rate`.
+    RateHigh = 1,
+    /// Body rate below `detumble_exit_rate`.
+    Detumbled = 2,
+    /// Stabilise converged.
+    Stabilised = 3,
+    /// Manoeuvre converged.
+    OnTarget = 4,
+    /// Hold error above `hold_exit_error` (new target or disturbance).
+    OffTarget = 5,
+    /// Commanded over the link.
+    Commanded = 6,
+}
+
+impl Reason {
+    pub fn from_code(c: u8) -> Option<Reason> {
+        [
+            Reason::Armed,
+            Reason::RateHigh,
+            Reason::Detumbled,
+            Reason::Stabilised,
+            Reason::OnTarget,
+            Reason::OffTarget,
+            Reason::Commanded,
+        ]
+        .get(c as usize)
+        .copied()
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Reason::Armed => "armed",
+            Reason::RateHigh => "rate_high",
+            Reason::Detumbled => "detumbled",
+            Reason::Stabilised => "stabilised",
+            Reason::OnTarget => "on_target",
+            Reason::OffTarget => "off_target",
+            Reason::Commanded => "commanded",
+        }
+    }
+}
+
+/// A mode command from the ground.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModeRequest {
+    /// Switch now; automatic transitions continue from there.
+    Enter(Mode),
+    /// Switch now and suspend automatic transitions.
+    Lock(Mode),
+    /// Resume automatic transitions.
+    Auto,
+}
+
+/// Thresholds of the automatic transitions (rad, rad/s, s).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModeManagerParams {
+    /// Bit `i`: the table uses slot `i` (`Mode::index`). Every such slot must have been
+    /// uploaded; slots outside the mask are dropped when the table is armed, so a table
+    /// left on the flight computer by an earlier session cannot leak into this one.
+    pub slots: u8,
+    pub initial: Mode,
+    pub detumble_enter_rate_rad_s: f32,
+    pub detumble_exit_rate_rad_s: f32,
+    pub stabilise_exit_error_rad: f32,
+    pub stabilise_exit_rate_rad_s: f32,
+    pub hold_enter_error_rad: f32,
+    pub hold_enter_rate_rad_s: f32,
+    pub hold_exit_error_rad: f32,
+    /// How long a convergence condition must hold before the mode moves on.
+    pub dwell_s: f32,
+    /// How long a fault condition (rate high, off target) must hold before it acts.
+    pub trigger_persistence_s: f32,
+}
+
+impl ModeManagerParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let bad = |reason| Err(ParamError { field: ParamField::ModeTable, reason });
+        let all = [
+            self.detumble_enter_rate_rad_s,
+            self.detumble_exit_rate_rad_s,
+            self.stabilise_exit_error_rad,
+            self.stabilise_exit_rate_rad_s,
+            self.hold_enter_error_rad,
+            self.hold_enter_rate_rad_s,
+            self.hold_exit_error_rad,
+            self.dwell_s,
+            self.trigger_persistence_s,
+        ];
+        if !all.iter().all(|x| x.is_finite()) {
+            return bad(ParamReason::NotFinite);
+        }
+        if !all.iter().all(|x| *x >= 0.0 && *x <= 1.0e6) {
+            return bad(ParamReason::OutOfRange);
+        }
+        // Hysteresis: the band between exit and enter must be open.
+        if !(self.detumble_enter_rate_rad_s > self.detumble_exit_rate_rad_s)
+            || !(self.hold_exit_error_rad > self.hold_enter_error_rad)
+            || !(self.detumble_exit_rate_rad_s > 0.0)
+        {
+            return bad(ParamReason::OutOfRange);
+        }
+        if self.slots & (1 << self.initial.index()) == 0 || self.slots >> MODE_COUNT != 0 {
+            return bad(ParamReason::OutOfRange);
+        }
+        Ok(())
+    }
+
+    /// CRC-32 of the postcard encoding (what the flight side reports when it arms).
+    pub fn checksum(&self) -> Result<u32, ParamError> {
+        let mut buf = [0u8; 64];
+        let used = postcard::to_slice(self, &mut buf)
+            .map_err(|_| ParamError { field: ParamField::ModeTable, reason: ParamReason::TooLarge })?;
+        Ok(crate::params::CRC32.checksum(used))
+    }
+}
+
+/// What the manager looks at each step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeInputs {
+    /// `|ω|`, inertial body rate, rad/s.
+    pub rate_rad_s: f32,
+    /// `|ω - ω_c|`, rate relative to the active mode's commanded rate, rad/s.
+    pub rel_rate_rad_s: f32,
+    /// Attitude error to the active mode's target, rad.
+    pub error_rad: f32,
+}
+
+/// Transition state. `configured[i]`: slot `i` has a parameter set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeManager {
+    pub params: ModeManagerParams,
+    pub mode: Mode,
+    pub reason: Reason,
+    pub locked: bool,
+    configured: [bool; MODE_COUNT],
+    dwell_steps: u32,
+    trigger_steps: u32,
+    /// Consecutive steps the convergence (resp. fault) condition of the mode has held.
+    converged_for: u32,
+    faulty_for: u32,
+    rate_high_for: u32,
+    /// Transitions so far (saturating).
+    pub transitions: u16,
+}
+
+fn steps_for(seconds: f32, dt_s: f32) -> u32 {
+    let n = libm::ceilf(seconds / dt_s);
+    // Validated inputs keep this finite; `as` saturates anyway.
+    if n.is_finite() { n as u32 } else { u32::MAX }
+}
+
+impl ModeManager {
+    /// `None` if the initial mode has no parameter set or `dt_s` is not positive.
+    pub fn new(params: ModeManagerParams, configured: [bool; MODE_COUNT], dt_s: f32) -> Option<Self> {
+        if !configured.get(params.initial.index()).copied().unwrap_or(false) || !(dt_s > 0.0) {
+            return None;
+        }
+        Some(Self {
+            params,
+            mode: params.initial,
+            reason: Reason::Armed,
+            locked: false,
+            configured,
+            dwell_steps: steps_for(params.dwell_s, dt_s).max(1),
+            trigger_steps: steps_for(params.trigger_persistence_s, dt_s).max(1),
+            converged_for: 0,
+            faulty_for: 0,
+            rate_high_for: 0,
+            transitions: 0,
+        })
+    }
+
+    fn is_configured(&self, m: Mode) -> bool {
+        self.configured.get(m.index()).copied().unwrap_or(false)
+    }
+
+    /// The first configured mode after `m` in the nominal sequence.
+    fn next_after(&self, m: Mode) -> Option<Mode> {
+        Mode::ALL.iter().copied().filter(|x| *x > m).find(|x| self.is_configured(*x))
+    }
+
+    fn switch(&mut self, to: Mode, why: Reason) -> Option<(Mode, Reason)> {
+        self.mode = to;
+        self.reason = why;
+        self.converged_for = 0;
+        self.faulty_for = 0;
+        self.rate_high_for = 0;
+        self.transitions = self.transitions.saturating_add(1);
+        Some((to, why))
+    }
+
+    /// Apply a ground command. `false` (and nothing changes) if the mode has no slot.
+    pub fn command(&mut self, r: ModeRequest) -> bool {
+        match r {
+            ModeRequest::Auto => {
+                self.locked = false;
+                true
+            }
+            ModeRequest::Enter(m) | ModeRequest::Lock(m) => {
+                if !self.is_configured(m) {
+                    return false;
+                }
+                self.locked = matches!(r, ModeRequest::Lock(_));
+                if m != self.mode {
+                    self.switch(m, Reason::Commanded);
+                }
+                true
+            }
+        }
+    }
+
+    /// One step of the automatic logic; returns the new mode and why when it changed.
+    /// Non-finite inputs count as "not converged" and never trigger a fault on their own
+    /// (`!(x < y)` / `x > y` comparisons), so a bad estimate cannot switch modes.
+    pub fn update(&mut self, x: &ModeInputs) -> Option<(Mode, Reason)> {
+        if self.locked {
+            return None;
+        }
+        let p = self.params;
+        let sat = |c: u32, on: bool| if on { c.saturating_add(1) } else { 0 };
+        if self.mode != Mode::Detumble && self.is_configured(Mode::Detumble) {
+            self.rate_high_for = sat(self.rate_high_for, x.rate_rad_s > p.detumble_enter_rate_rad_s);
+            if self.rate_high_for >= self.trigger_steps {
+                return self.switch(Mode::Detumble, Reason::RateHigh);
+            }
+        }
+        let (converged, fault) = match self.mode {
+            Mode::Detumble => (x.rate_rad_s < p.detumble_exit_rate_rad_s, false),
+            Mode::Stabilise => {
+                (x.error_rad < p.stabilise_exit_error_rad && x.rel_rate_rad_s < p.stabilise_exit_rate_rad_s, false)
+            }
+            Mode::Manoeuvre => {
+                (x.error_rad < p.hold_enter_error_rad && x.rel_rate_rad_s < p.hold_enter_rate_rad_s, false)
+            }
+            Mode::Hold => (false, x.error_rad > p.hold_exit_error_rad),
+        };
+        self.converged_for = sat(self.converged_for, converged);
+        self.faulty_for = sat(self.faulty_for, fault);
+        if self.faulty_for >= self.trigger_steps && self.is_configured(Mode::Manoeuvre) {
+            return self.switch(Mode::Manoeuvre, Reason::OffTarget);
+        }
+        if self.converged_for >= self.dwell_steps {
+            let why = match self.mode {
+                Mode::Detumble => Reason::Detumbled,
+                Mode::Stabilise => Reason::Stabilised,
+                _ => Reason::OnTarget,
+            };
+            let next = match self.mode {
+                Mode::Manoeuvre => Some(Mode::Hold).filter(|m| self.is_configured(*m)),
+                m => self.next_after(m),
+            };
+            if let Some(n) = next {
+                return self.switch(n, why);
+            }
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> ModeManagerParams {
+        ModeManagerParams {
+            slots: 0b1111,
+            initial: Mode::Detumble,
+            detumble_enter_rate_rad_s: 0.05,
+            detumble_exit_rate_rad_s: 0.01,
+            stabilise_exit_error_rad: 0.1,
+            stabilise_exit_rate_rad_s: 0.002,
+            hold_enter_error_rad: 0.01,
+            hold_enter_rate_rad_s: 0.001,
+            hold_exit_error_rad: 0.03,
+            dwell_s: 1.0,
+            trigger_persistence_s: 0.2,
+        }
+    }
+
+    const DT: f32 = 0.1;
+
+    fn run(m: &mut ModeManager, x: ModeInputs, steps: usize) -> Vec<(usize, Mode, Reason)> {
+        (0..steps).filter_map(|k| m.update(&x).map(|(a, b)| (k, a, b))).collect()
+    }
+
+    fn inputs(rate: f32, error: f32) -> ModeInputs {
+        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error }
+    }
+
+    #[test]
+    fn nominal_sequence_with_dwell_times() {
+        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        // Still tumbling: stays in detumble however long.
+        assert!(run(&mut m, inputs(0.03, 1.0), 500).is_empty());
+        // Rate below the exit threshold: leaves after exactly dwell_s / dt = 10 steps.
+        assert_eq!(run(&mut m, inputs(0.005, 1.0), 20), vec![(9, Mode::Stabilise, Reason::Detumbled)]);
+        assert_eq!(run(&mut m, inputs(0.001, 0.05), 20), vec![(9, Mode::Manoeuvre, Reason::Stabilised)]);
+        assert_eq!(run(&mut m, inputs(0.0005, 0.005), 20), vec![(9, Mode::Hold, Reason::OnTarget)]);
+        assert_eq!(m.transitions, 3);
+        // A new target: the error jumps; hold → manoeuvre after the 2-step persistence.
+        assert_eq!(run(&mut m, inputs(0.0005, 0.5), 5), vec![(1, Mode::Manoeuvre, Reason::OffTarget)]);
+    }
+
+    #[test]
+    fn hysteresis_band_never_switches_and_noise_cannot_chatter() {
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        // Error between hold_enter (0.01) and hold_exit (0.03): hold stays hold.
+        assert!(run(&mut m, inputs(0.0, 0.02), 1000).is_empty());
+        // Error alternating across hold_exit every step never persists for 2 steps.
+        let mut switched = 0;
+        for k in 0..1000 {
+            let e = if k % 2 == 0 { 0.04 } else { 0.02 };
+            switched += usize::from(m.update(&inputs(0.0, e)).is_some());
+        }
+        assert_eq!(switched, 0);
+        // Same for the rate trigger around detumble_enter.
+        for k in 0..1000 {
+            let r = if k % 2 == 0 { 0.06 } else { 0.04 };
+            switched += usize::from(m.update(&inputs(r, 0.0)).is_some());
+        }
+        assert_eq!(switched, 0);
+    }
+
+    #[test]
+    fn rate_trigger_returns_to_detumble_from_any_mode() {
+        for start in [Mode::Stabilise, Mode::Manoeuvre, Mode::Hold] {
+            let mut m = ModeManager::new(ModeManagerParams { initial: start, ..params() }, [true; 4], DT).unwrap();
+            assert_eq!(run(&mut m, inputs(0.2, 0.0), 3), vec![(1, Mode::Detumble, Reason::RateHigh)]);
+        }
+    }
+
+    #[test]
+    fn missing_slots_are_skipped_and_commands_respect_them() {
+        let cfg = [true, false, true, false];
+        let mut m = ModeManager::new(params(), cfg, DT).unwrap();
+        assert_eq!(run(&mut m, inputs(0.005, 1.0), 20), vec![(9, Mode::Manoeuvre, Reason::Detumbled)]);
+        // No hold slot: manoeuvre is terminal.
+        assert!(run(&mut m, inputs(0.0, 0.0), 100).is_empty());
+        assert!(!m.command(ModeRequest::Enter(Mode::Hold)));
+        assert_eq!(m.mode, Mode::Manoeuvre);
+        assert!(ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, cfg, DT).is_none());
+    }
+
+    #[test]
+    fn lock_suspends_and_auto_resumes() {
+        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        assert!(m.command(ModeRequest::Lock(Mode::Manoeuvre)));
+        assert_eq!((m.mode, m.reason), (Mode::Manoeuvre, Reason::Commanded));
+        // Locked: neither convergence nor a high rate moves it.
+        assert!(run(&mut m, inputs(1.0, 0.0), 100).is_empty());
+        assert!(m.command(ModeRequest::Auto));
+        assert_eq!(run(&mut m, inputs(1.0, 0.0), 3), vec![(1, Mode::Detumble, Reason::RateHigh)]);
+    }
+
+    #[test]
+    fn nan_inputs_never_switch() {
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        assert!(run(&mut m, inputs(f32::NAN, f32::NAN), 100).is_empty());
+        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        assert!(run(&mut m, inputs(f32::NAN, f32::NAN), 100).is_empty());
+    }
+
+    #[test]
+    fn validation_requires_an_open_hysteresis_band() {
+        assert_eq!(params().validate(), Ok(()));
+        let e = |p: ModeManagerParams| p.validate().unwrap_err().reason;
+        assert_eq!(e(ModeManagerParams { hold_exit_error_rad: 0.01, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { detumble_enter_rate_rad_s: 0.01, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { dwell_s: f32::NAN, ..params() }), ParamReason::NotFinite);
+        assert_eq!(e(ModeManagerParams { dwell_s: -1.0, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { slots: 0b1110, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { slots: 0b11111, ..params() }), ParamReason::OutOfRange);
+    }
+}

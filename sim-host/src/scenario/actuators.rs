@@ -1,0 +1,716 @@
+//! Actuators of a scenario: CMG cluster and steering, reaction wheels, magnetorquers,
+//! thrusters — their TOML tables, validation, plant models and flight parameters.
+
+use super::*;
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Actuators {
+    #[serde(default)]
+    pub cmg: Option<CmgSpec>,
+    #[serde(default)]
+    pub wheels: Option<WheelsSpec>,
+    #[serde(default)]
+    pub magnetorquers: Option<MagnetorquersSpec>,
+    #[serde(default)]
+    pub thrusters: Option<ThrustersSpec>,
+}
+
+/// Reaction wheels.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct WheelsSpec {
+    /// "pyramid4" (paper 001 eq 9 with `pyramid_alpha_deg`, `pyramid_beta_deg`) or "axes".
+    #[serde(default = "pyramid4")]
+    pub layout: String,
+    #[serde(default = "default_alpha")]
+    pub pyramid_alpha_deg: f64,
+    #[serde(default = "default_beta")]
+    pub pyramid_beta_deg: f64,
+    /// Spin axes (body, unit) when `layout = "axes"`.
+    #[serde(default)]
+    pub axes: Vec<[f64; 3]>,
+    /// "ideal" (torque and speed limits) or "accurate" (paper 001 electrical model).
+    #[serde(default = "default_model")]
+    pub model: String,
+    /// Wheel data (defaults: paper 001): max torque 0.75 N m, 6000 rpm, 0.086 kg m².
+    #[serde(default)]
+    pub max_torque_nm: Option<f64>,
+    #[serde(default)]
+    pub max_speed_rpm: Option<f64>,
+    #[serde(default)]
+    pub inertia_kgm2: Option<f64>,
+    #[serde(default)]
+    pub initial_speed_rpm: Vec<f64>,
+    /// Flight null-space momentum management.
+    #[serde(default)]
+    pub null_gain_per_s: f64,
+    #[serde(default)]
+    pub bias_speed_rpm: Vec<f64>,
+    /// 1-based wheel numbers the flight code treats as failed (the plant still has them).
+    #[serde(default)]
+    pub failed: Vec<usize>,
+}
+
+fn default_alpha() -> f64 {
+    45.0
+}
+fn default_beta() -> f64 {
+    54.73
+}
+fn default_model() -> String {
+    "ideal".into()
+}
+
+/// Magnetorquer rods along the body axes.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetorquersSpec {
+    /// Largest positive and negative dipole per axis (magnitudes), A m².
+    pub max_dipole_am2: [f64; 3],
+    #[serde(default)]
+    pub min_dipole_am2: Option<[f64; 3]>,
+    /// Hysteresis dead band per axis (paper 003 rig: -1.26 … +1.86 A m²).
+    #[serde(default)]
+    pub deadband_am2: Option<[f64; 2]>,
+}
+
+/// Thrusters.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrustersSpec {
+    /// "paper004" (table 2), "matrix" (`torque_per_newton_m`) or "geometry"
+    /// (`positions_m`, `directions`, about `cg_m`).
+    #[serde(default = "paper004")]
+    pub layout: String,
+    /// Columns: torque per newton of each thruster, body axes, m.
+    #[serde(default)]
+    pub torque_per_newton_m: Vec<[f64; 3]>,
+    /// Nozzle positions and force directions (unit), body axes.
+    #[serde(default)]
+    pub positions_m: Vec<[f64; 3]>,
+    #[serde(default)]
+    pub directions: Vec<[f64; 3]>,
+    #[serde(default)]
+    pub cg_m: [f64; 3],
+    pub thrust_n: f64,
+    pub isp_s: f64,
+    #[serde(default)]
+    pub min_on_time_s: f64,
+    #[serde(default)]
+    pub open_delay_s: f64,
+    #[serde(default)]
+    pub close_delay_s: f64,
+    /// "direction_preserving" or "bodson".
+    #[serde(default = "default_method")]
+    pub method: String,
+    /// PWPF (paper 004 table 3 defaults: Km 4.5, Tm 0.15 s, Uon 0.45, Uoff 0.15).
+    #[serde(default = "default_pwpf")]
+    pub pwpf: [f64; 4],
+    #[serde(default)]
+    pub failures: Vec<ThrusterFailureSpec>,
+}
+
+fn paper004() -> String {
+    "paper004".into()
+}
+fn default_method() -> String {
+    "direction_preserving".into()
+}
+fn default_pwpf() -> [f64; 4] {
+    [4.5, 0.15, 0.45, 0.15]
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrusterFailureSpec {
+    /// 1-based thruster number.
+    pub thruster: usize,
+    #[serde(default)]
+    pub at_s: f64,
+    /// "off" or "stuck_on".
+    #[serde(default = "off")]
+    pub mode: String,
+    /// Whether the flight code is told (its allocation then excludes the thruster).
+    #[serde(default = "yes")]
+    pub known_to_flight: bool,
+}
+
+fn off() -> String {
+    "off".into()
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CmgSpec {
+    /// Only "pyramid4" for now.
+    #[serde(default = "pyramid4")]
+    pub layout: String,
+    pub skew_deg: f64,
+    /// Rotor momentum per unit; or give `rotor_speed_rpm` and `rotor_inertia_kgm2`.
+    #[serde(default)]
+    pub h0_nms: Option<f64>,
+    #[serde(default)]
+    pub rotor_speed_rpm: Option<f64>,
+    #[serde(default)]
+    pub rotor_inertia_kgm2: Option<f64>,
+    pub max_gimbal_rate_deg_s: f64,
+    /// Gimbal rate servo: first-order lag (s) and Coulomb friction on the gimbal bearing
+    /// (N m, with the gimbal inertia in kg m²). Absent: ideal rate servo.
+    #[serde(default)]
+    pub servo_time_constant_s: Option<f64>,
+    #[serde(default)]
+    pub gimbal_inertia_kgm2: Option<f64>,
+    #[serde(default)]
+    pub gimbal_friction_nm: f64,
+    /// Symmetric gimbal stop, deg; absent = unlimited.
+    #[serde(default)]
+    pub gimbal_limit_deg: Option<f64>,
+    #[serde(default)]
+    pub initial_gimbal_deg: [f64; 4],
+    /// 1-based CMGs the flight code treats as failed (locked, column removed).
+    #[serde(default)]
+    pub failed: Vec<usize>,
+}
+
+impl CmgSpec {
+    /// Rotor momentum per unit, N m s.
+    pub fn h0(&self) -> f64 {
+        self.h0_nms.unwrap_or_else(|| {
+            self.rotor_speed_rpm.unwrap_or(0.0) * std::f64::consts::PI / 30.0 * self.rotor_inertia_kgm2.unwrap_or(0.0)
+        })
+    }
+}
+
+fn pyramid4() -> String {
+    "pyramid4".into()
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Steering {
+    /// "mp" (Moore-Penrose), "sr" (singularity robust) or "gsr" (generalized SR).
+    pub law: String,
+    #[serde(default)]
+    pub alpha: Option<Alpha>,
+    /// GSR: `{ lambda0, mu, eps0, omega_rad_s }` (Wie: 0.01, 10, 0.01, π/2).
+    #[serde(default)]
+    pub gsr: Option<GsrSpec>,
+    #[serde(default = "default_singular_threshold")]
+    pub singular_threshold: f64,
+    /// Null motion towards `preferred_gimbal_deg`, 1/s (0 = off).
+    #[serde(default)]
+    pub null_gain_per_s: f64,
+    #[serde(default)]
+    pub preferred_gimbal_deg: [f64; 4],
+    /// Below this singularity measure the saturation (envelope) check runs.
+    #[serde(default = "default_saturation_check")]
+    pub saturation_check_m: f64,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GsrSpec {
+    pub lambda0: f64,
+    pub mu: f64,
+    pub eps0: f64,
+    pub omega_rad_s: f64,
+}
+
+fn default_saturation_check() -> f64 {
+    0.05
+}
+
+fn default_singular_threshold() -> f64 {
+    1e-6
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, tag = "schedule", rename_all = "snake_case")]
+pub enum Alpha {
+    /// eq 12
+    Quadratic { a0: f64, m0: f64, m_cr: f64 },
+    /// eq 13
+    Inverse { a0: f64, m_cr: f64, a_max: f64 },
+    /// eq 14
+    Exponential { a0: f64, mu: f64 },
+}
+
+impl Scenario {
+    pub(super) fn validate_actuators(&self) -> Result<()> {
+        let act = &self.actuators;
+        let families = [act.cmg.is_some(), act.wheels.is_some(), act.magnetorquers.is_some(), act.thrusters.is_some()];
+        let n_families = families.iter().filter(|x| **x).count();
+        if self.controller.as_ref().is_some_and(|c| !matches!(c, Controller::None)) && n_families != 1 {
+            return Err(bad(
+                "actuators",
+                format!("closed-loop control allocates to exactly one actuator family ({n_families} given)"),
+            ));
+        }
+        if let Some(cmg) = &act.cmg {
+            if cmg.layout != "pyramid4" {
+                return Err(bad(
+                    "actuators.cmg.layout",
+                    format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout),
+                ));
+            }
+            if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
+                return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
+            }
+            match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
+                (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
+                (None, Some(w), Some(i)) => {
+                    positive("actuators.cmg.rotor_speed_rpm", w)?;
+                    positive("actuators.cmg.rotor_inertia_kgm2", i)?;
+                }
+                _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
+            }
+            if let Some(tau) = cmg.servo_time_constant_s {
+                positive("actuators.cmg.servo_time_constant_s", tau)?;
+                positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
+            }
+            if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
+                return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
+            }
+            if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
+                return Err(bad(
+                    "actuators.cmg.gimbal_friction_nm",
+                    "needs servo_time_constant_s (friction acts on the servo)",
+                ));
+            }
+            positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
+            if let Some(l) = cmg.gimbal_limit_deg {
+                positive("actuators.cmg.gimbal_limit_deg", l)?;
+                if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
+                    return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
+                }
+            }
+            finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+            if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
+                return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
+            }
+            if self.closed_loop() && self.steering.is_none() {
+                return Err(bad("steering", "a CMG cluster under control needs [steering]"));
+            }
+            if let Some(st) = &self.steering {
+                match (st.law.as_str(), &st.alpha) {
+                    ("mp", None) => {}
+                    ("mp", Some(_)) => {
+                        return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
+                    }
+                    ("sr", Some(a)) => {
+                        let v = match a {
+                            Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
+                            Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
+                            Alpha::Exponential { a0, mu } => vec![*a0, *mu],
+                        };
+                        if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                            return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
+                        }
+                    }
+                    ("sr", None) => {
+                        return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
+                    }
+                    ("gsr", _) => {
+                        let g = st
+                            .gsr
+                            .as_ref()
+                            .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
+                        if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
+                            || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                        {
+                            return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
+                        }
+                    }
+                    (other, _) => {
+                        return Err(bad(
+                            "steering.law",
+                            format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"),
+                        ));
+                    }
+                }
+                positive("steering.singular_threshold", st.singular_threshold)?;
+                if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
+                    return Err(bad("steering.null_gain_per_s", "must be >= 0"));
+                }
+                finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
+            }
+        }
+        if let Some(w) = &act.wheels {
+            match w.layout.as_str() {
+                "pyramid4" => {
+                    finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+                    if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                        return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
+                    }
+                }
+                "axes" => {
+                    if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                        return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
+                    }
+                    for a in &w.axes {
+                        let n = Vec3::from(*a).norm();
+                        if !n.is_finite() || n < 1e-9 {
+                            return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
+                        }
+                    }
+                }
+                other => {
+                    return Err(bad(
+                        "actuators.wheels.layout",
+                        format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+                    ));
+                }
+            }
+            if !matches!(w.model.as_str(), "ideal" | "accurate") {
+                return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
+            }
+            for (k, v) in [
+                ("actuators.wheels.max_torque_nm", w.max_torque_nm),
+                ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
+                ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+            ] {
+                if let Some(v) = v {
+                    positive(k, v)?;
+                }
+            }
+            let n = self.wheel_axes(w).len();
+            for (k, v) in [
+                ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
+                ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
+            ] {
+                if !v.is_empty() && v.len() != n {
+                    return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
+                }
+                finite(k, v)?;
+            }
+            if w.failed.iter().any(|i| *i == 0 || *i > n) {
+                return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
+            }
+            if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
+                return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
+            }
+            for p in self.wheel_params()? {
+                p.validate().map_err(|e| bad("actuators.wheels", e))?;
+            }
+        }
+        if let Some(m) = &act.magnetorquers {
+            for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
+                positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+            }
+            if let Some([lo, hi]) = m.deadband_am2
+                && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
+            {
+                return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
+            }
+            if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
+                return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
+            }
+        }
+        if let Some(t) = &act.thrusters {
+            positive("actuators.thrusters.thrust_n", t.thrust_n)?;
+            positive("actuators.thrusters.isp_s", t.isp_s)?;
+            for (k, v) in [
+                ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
+                ("actuators.thrusters.open_delay_s", t.open_delay_s),
+                ("actuators.thrusters.close_delay_s", t.close_delay_s),
+            ] {
+                if !(v.is_finite() && v >= 0.0) {
+                    return Err(bad(k, "must be >= 0"));
+                }
+            }
+            match t.layout.as_str() {
+                "paper004" => {}
+                "matrix" => {
+                    if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
+                        return Err(bad(
+                            "actuators.thrusters.torque_per_newton_m",
+                            format!("needs 1..={MAX_THRUSTERS} columns"),
+                        ));
+                    }
+                    finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
+                }
+                "geometry" => {
+                    let n = t.positions_m.len();
+                    if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                        return Err(bad(
+                            "actuators.thrusters.positions_m",
+                            format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                        ));
+                    }
+                    finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+                    for d in &t.directions {
+                        let norm = Vec3::from(*d).norm();
+                        if !(norm.is_finite() && norm > 1e-9) {
+                            return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                        }
+                    }
+                }
+                other => {
+                    return Err(bad(
+                        "actuators.thrusters.layout",
+                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+                    ));
+                }
+            }
+            if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
+                return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
+            }
+            let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+            for f in &t.failures {
+                if f.thruster == 0 || f.thruster > n {
+                    return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
+                }
+                if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
+                    return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Spin axes of the wheels (unit, body).
+    pub fn wheel_axes(&self, w: &WheelsSpec) -> Vec<[f64; 3]> {
+        match w.layout.as_str() {
+            "axes" => w.axes.iter().map(|a| (Vec3::from(*a).normalize()).into()).collect(),
+            _ => {
+                // Paper 001 eq 9.
+                let (al, be) = (w.pyramid_alpha_deg.to_radians(), w.pyramid_beta_deg.to_radians());
+                let (ca, sa, cb, sb) = (al.cos(), al.sin(), be.cos(), be.sin());
+                vec![[ca * sb, sa * sb, cb], [-sa * sb, ca * sb, cb], [-ca * sb, -sa * sb, cb], [sa * sb, -ca * sb, cb]]
+            }
+        }
+    }
+
+    /// Plant models of the wheels.
+    pub fn wheel_params(&self) -> Result<Vec<WheelParams>> {
+        let Some(w) = &self.actuators.wheels else {
+            return Ok(Vec::new());
+        };
+        let base = WheelParams::paper001();
+        let rpm = std::f64::consts::PI / 30.0;
+        Ok(self
+            .wheel_axes(w)
+            .into_iter()
+            .map(|axis| {
+                let mut p = match w.model.as_str() {
+                    "accurate" => base.clone(),
+                    _ => WheelParams::ideal(
+                        w.max_torque_nm.unwrap_or(base.max_torque_nm),
+                        w.max_speed_rpm.map_or(base.max_speed_rad_s, |x| x * rpm),
+                        w.inertia_kgm2.unwrap_or(base.inertia_kgm2),
+                    ),
+                };
+                if let Some(t) = w.max_torque_nm {
+                    p.max_torque_nm = t;
+                }
+                if let Some(s) = w.max_speed_rpm {
+                    p.max_speed_rad_s = s * rpm;
+                }
+                if let Some(i) = w.inertia_kgm2 {
+                    p.inertia_kgm2 = i;
+                }
+                p.spin_axis = axis;
+                p
+            })
+            .collect())
+    }
+
+    /// Plant model of the magnetorquers (rods + residual dipole).
+    pub fn magnetorquer_set(&self) -> MagnetorquerSet {
+        let residual = self.spacecraft.residual_dipole_am2;
+        match &self.actuators.magnetorquers {
+            Some(m) => {
+                let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+                let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+                let rods = (0..3)
+                    .map(|i| {
+                        let mut axis = [0.0; 3];
+                        axis[i] = 1.0;
+                        MagnetorquerSpec {
+                            axis,
+                            max_pos_am2: m.max_dipole_am2[i],
+                            max_neg_am2: neg[i],
+                            deadband_lo_am2: lo,
+                            deadband_hi_am2: hi,
+                        }
+                    })
+                    .collect();
+                MagnetorquerSet { rods, residual_dipole_am2: residual }
+            }
+            None => MagnetorquerSet { rods: Vec::new(), residual_dipole_am2: residual },
+        }
+    }
+
+    /// Plant model of the thrusters, failures included.
+    pub fn thruster_set(&self) -> Option<ThrusterSet> {
+        let t = self.actuators.thrusters.as_ref()?;
+        let mut set = match t.layout.as_str() {
+            "geometry" => ThrusterSet {
+                thrusters: t
+                    .positions_m
+                    .iter()
+                    .zip(&t.directions)
+                    .map(|(p, d)| ThrusterSpec {
+                        position_m: *p,
+                        direction: Vec3::from(*d).normalize().into(),
+                        thrust_n: t.thrust_n,
+                        isp_s: t.isp_s,
+                        min_on_time_s: t.min_on_time_s,
+                        open_delay_s: t.open_delay_s,
+                        close_delay_s: t.close_delay_s,
+                        torque_per_n_m: None,
+                    })
+                    .collect(),
+                failures: Vec::new(),
+                cg_m: t.cg_m,
+            },
+            layout => {
+                let cols: Vec<[f64; 3]> = if layout == "matrix" {
+                    t.torque_per_newton_m.clone()
+                } else {
+                    ThrusterSet::paper004(1.0).torque_matrix()
+                };
+                ThrusterSet::from_torque_matrix(
+                    &cols,
+                    t.thrust_n,
+                    t.isp_s,
+                    t.min_on_time_s,
+                    t.open_delay_s,
+                    t.close_delay_s,
+                )
+            }
+        };
+        set.failures = t
+            .failures
+            .iter()
+            .map(|f| {
+                (
+                    f.thruster - 1,
+                    f.at_s,
+                    if f.mode == "stuck_on" { ThrusterFailure::StuckOn } else { ThrusterFailure::Off },
+                )
+            })
+            .collect();
+        Some(set)
+    }
+
+    /// Flight parameters of one actuator family ("cmg", "wheels", "magnetorquers",
+    /// "thrusters"); `None`: the first present in that order.
+    pub(super) fn actuator_params(&self, family: Option<&str>) -> Result<ActuatorParams> {
+        let act = &self.actuators;
+        let want = |f: &str| family.is_none_or(|x| x == f);
+        if let Some(cmg) = act.cmg.as_ref().filter(|_| want("cmg")) {
+            let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
+            let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
+            let law = match (st.law.as_str(), &st.alpha) {
+                ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
+                        a0: *a0 as f32,
+                        m0: *m0 as f32,
+                        m_cr: *m_cr as f32,
+                    })
+                }
+                ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
+                        a0: *a0 as f32,
+                        m_cr: *m_cr as f32,
+                        a_max: *a_max as f32,
+                    })
+                }
+                ("sr", Some(Alpha::Exponential { a0, mu })) => {
+                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
+                }
+                ("gsr", _) => match &st.gsr {
+                    Some(g) => SteeringLaw::GeneralizedSr {
+                        lambda0: g.lambda0 as f32,
+                        mu: g.mu as f32,
+                        eps0: g.eps0 as f32,
+                        omega_rad_s: g.omega_rad_s as f32,
+                    },
+                    None => bail!("invalid value for `steering.gsr`: missing"),
+                },
+                _ => SteeringLaw::MoorePenrose,
+            };
+            return Ok(ActuatorParams::Cmg {
+                cmg: CmgParams {
+                    skew_rad: cmg.skew_deg.to_radians() as f32,
+                    h0_nms: cmg.h0() as f32,
+                    max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
+                    gimbal_min_rad: -lim as f32,
+                    gimbal_max_rad: lim as f32,
+                    failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
+                },
+                steering: SteeringParams {
+                    law,
+                    singular_threshold: st.singular_threshold as f32,
+                    null_gain_per_s: st.null_gain_per_s as f32,
+                    preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
+                    saturation_check_m: st.saturation_check_m as f32,
+                },
+            });
+        }
+        if let Some(w) = act.wheels.as_ref().filter(|_| want("wheels")) {
+            let plant = self.wheel_params()?;
+            let mut axes = [[0.0f32; 3]; MAX_WHEELS];
+            let mut bias = [0.0f32; MAX_WHEELS];
+            let rpm = std::f64::consts::PI / 30.0;
+            for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
+                axes[i] = p.spin_axis.map(|x| x as f32);
+                bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
+            }
+            let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+            let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
+            return Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
+                count: plant.len() as u8,
+                axes,
+                max_torque_nm: p0.max_torque_nm as f32,
+                max_speed_rad_s: p0.max_speed_rad_s as f32,
+                inertia_kgm2: p0.inertia_kgm2 as f32,
+                null_gain_per_s: w.null_gain_per_s as f32,
+                bias_speed_rad_s: bias,
+                failed_mask,
+            }));
+        }
+        if let Some(m) = act.magnetorquers.as_ref().filter(|_| want("magnetorquers")) {
+            let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+            let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+            return Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
+                max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
+                min_dipole_am2: neg.map(|x| x as f32),
+                deadband_lo_am2: [lo as f32; 3],
+                deadband_hi_am2: [hi as f32; 3],
+                min_field_t: 1e-7,
+            }));
+        }
+        if let Some(t) = act.thrusters.as_ref().filter(|_| want("thrusters")) {
+            let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
+            let b = set.torque_matrix();
+            let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
+            for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
+                for k in 0..3 {
+                    torque_nm[k][j] = col[k] as f32;
+                }
+            }
+            let failed_mask = t
+                .failures
+                .iter()
+                .filter(|f| f.known_to_flight && f.mode == "off")
+                .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
+            return Ok(ActuatorParams::Thrusters(ThrusterParams {
+                count: b.len() as u8,
+                torque_nm,
+                method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
+                pwpf_km: t.pwpf[0] as f32,
+                pwpf_tm_s: t.pwpf[1] as f32,
+                pwpf_u_on: t.pwpf[2] as f32,
+                pwpf_u_off: t.pwpf[3] as f32,
+                failed_mask,
+            }));
+        }
+        match family {
+            Some(f) => bail!("invalid value for `actuators`: no [actuators.{f}] to control"),
+            None => bail!("invalid value for `actuators`: no actuator to control"),
+        }
+    }
+}

@@ -1,0 +1,377 @@
+//! Control laws of a scenario: the `[controller]` table, its flight parameters and the
+//! LQR/LQG designs computed at load.
+
+use super::*;
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, tag = "type", rename_all = "snake_case")]
+pub enum Controller {
+    /// `u = -K q_e - D ω - Ki ∫q_e` with `K = 2 ωn² I`, `D = 2 ζ ωn I`, `Ki = ki_per_s K`
+    /// (paper 000 eqs 15-18), or explicit diagonal gains.
+    QuaternionFeedback {
+        #[serde(default)]
+        zeta: Option<f64>,
+        #[serde(default)]
+        wn_rad_s: Option<f64>,
+        /// Explicit diagonal K (N m) instead of ζ, ωn.
+        #[serde(default)]
+        k_diag_nm: Option<[f64; 3]>,
+        /// Explicit diagonal D (N m s) instead of ζ, ωn.
+        #[serde(default)]
+        d_diag_nms: Option<[f64; 3]>,
+        #[serde(default)]
+        ki_per_s: f64,
+        #[serde(default = "default_integral_limit")]
+        integral_limit_s: f64,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+        #[serde(default)]
+        gyro_compensation: bool,
+        /// Eigen-axis slew-rate limit (Wie & Lu 1995), deg/s; absent = none.
+        #[serde(default)]
+        max_slew_rate_deg_s: Option<f64>,
+    },
+    /// PD on the DCM error (paper 004 eqs 25-27): `M = Kp ∘ [a32-a23, a13-a31, a21-a12] + Kd ∘ ω`.
+    DcmPd {
+        kp_nm: [f64; 3],
+        kd_nms: [f64; 3],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// PD on Euler-angle errors (paper 003 eq 23): `T = -Kp ∘ e - Kd ∘ ω`.
+    EulerPd {
+        kp_nm: [f64; 3],
+        kd_nms: [f64; 3],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// LQR `u = -K [e; ω - ω_c]`: an explicit 3×6 `gain`, or `q_diag` (6) and `r_diag` (3)
+    /// with the gain computed at load (CARE) on the linearised `model`: "free" (rigid
+    /// body), "orbit" (gravity gradient about LVLH at the scenario's orbit rate) or "rig"
+    /// (pendulum of `[rig]`); default from the scenario.
+    Lqr {
+        #[serde(default)]
+        gain: Option<[[f64; 6]; 3]>,
+        #[serde(default)]
+        q_diag: Option<[f64; 6]>,
+        #[serde(default)]
+        r_diag: Option<[f64; 3]>,
+        #[serde(default)]
+        model: Option<String>,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// LQG (paper 002 eq 13): the LQR of `q_diag`, `r_diag`, `model` on the estimate of a
+    /// steady-state Kalman filter designed on the same model discretised at the control
+    /// period, with `process_noise` (6, per control step) and `measurement_noise` (6:
+    /// angle errors in rad, rates in rad/s) variances.
+    Lqg {
+        q_diag: [f64; 6],
+        r_diag: [f64; 3],
+        #[serde(default)]
+        model: Option<String>,
+        process_noise: [f64; 6],
+        measurement_noise: [f64; 6],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// Adaptive DMCS (paper 001 eqs 31-51).
+    Dmcs {
+        wn_rad_s: f64,
+        zeta: f64,
+        model_inertia_kgm2: [f64; 3],
+        alpha: f64,
+        beta: f64,
+        #[serde(default = "default_dmcs_q")]
+        q_weights: [f64; 2],
+        #[serde(default = "default_gain_limit")]
+        gain_limit: f64,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
+    /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
+    Bdot {
+        gain_am2_s_per_t: f64,
+        #[serde(default)]
+        filter_time_constant_s: f64,
+    },
+    /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
+    None,
+}
+
+fn default_dmcs_q() -> [f64; 2] {
+    [0.1, 1.0]
+}
+fn default_gain_limit() -> f64 {
+    1.0e6
+}
+
+fn default_integral_limit() -> f64 {
+    1.0
+}
+fn default_torque_limit() -> [f64; 3] {
+    [1.0e3; 3]
+}
+
+/// An LQR design: the gain and what it was computed from.
+#[derive(Clone, Debug)]
+pub struct LqrDesign {
+    pub gain: [[f64; 6]; 3],
+    /// "given" for an explicit gain, else the model name.
+    pub model: String,
+    /// Closed-loop eigenvalues of `A - B K` (empty for a given gain).
+    pub closed_loop_eigenvalues: Vec<nalgebra::Complex<f64>>,
+    /// Relative CARE residual (0 for a given gain).
+    pub residual: f64,
+    /// The continuous linear model `ẋ = A x + B u` (zeros for a given gain).
+    pub a: nalgebra::DMatrix<f64>,
+    pub b: nalgebra::DMatrix<f64>,
+}
+
+impl Scenario {
+    /// The LQR gain of `controller.type = "lqr"`, computed at load when not given.
+    pub fn lqr_design(&self) -> Result<LqrDesign> {
+        self.lqr_design_of(self.controller.as_ref().ok_or_else(|| bad("controller", "missing"))?)
+    }
+
+    /// The LQR design of a law (`lqr` or `lqg`).
+    pub fn lqr_design_of(&self, c: &Controller) -> Result<LqrDesign> {
+        use crate::design::models::{AttitudeModel, circular_orbit_rate};
+        use crate::design::riccati;
+        use nalgebra::DMatrix;
+        let (q, r, model) = match c {
+            Controller::Lqr { gain: Some(k), .. } => {
+                return Ok(LqrDesign {
+                    gain: *k,
+                    model: "given".into(),
+                    closed_loop_eigenvalues: Vec::new(),
+                    residual: 0.0,
+                    a: DMatrix::zeros(6, 6),
+                    b: DMatrix::zeros(6, 3),
+                });
+            }
+            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, .. } => (q, r, model),
+            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
+            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag, model),
+            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
+        };
+        let default_model = if self.rig.is_some() {
+            "rig"
+        } else if self.orbit.is_some() {
+            "orbit"
+        } else {
+            "free"
+        };
+        let model = model.clone().unwrap_or_else(|| default_model.into());
+        let orbit_rate = match self.orbit.as_ref().map(|o| o.elements()).transpose()? {
+            Some(OrbitKind::Circular { altitude_km, .. }) => circular_orbit_rate(altitude_km * 1e3),
+            Some(OrbitKind::Kepler { a_km, .. }) => (3.986004418e14 / (a_km * 1e3).powi(3)).sqrt(),
+            _ => 0.0,
+        };
+        let mgr = self.spacecraft()?.rig.map_or(Vec3::zeros(), |r| r.mgr_nm);
+        let m = AttitudeModel {
+            inertia: self.inertia(),
+            orbit_rate: if model == "orbit" { orbit_rate } else { 0.0 },
+            gravity_gradient: model == "orbit",
+            mgr: if model == "rig" { mgr } else { Vec3::zeros() },
+            stored_momentum: Vec3::zeros(),
+            input: DMatrix::identity(3, 3),
+        };
+        if !matches!(model.as_str(), "free" | "orbit" | "rig") {
+            return Err(bad(
+                "controller.model",
+                format!("unknown model {model:?} (known: \"free\", \"orbit\", \"rig\")"),
+            ));
+        }
+        let (a, b) = m.linear();
+        let qm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(q));
+        let rm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(r));
+        let (k, x) =
+            riccati::lqr(&a, &b, &qm, &rm).map_err(|e| bad("controller", format!("LQR design failed: {e:?}")))?;
+        let residual = riccati::care_residual_rel(&a, &b, &qm, &rm, &x).unwrap_or(f64::NAN);
+        let closed = &a - &b * &k;
+        let gain = std::array::from_fn(|i| std::array::from_fn(|j| k[(i, j)]));
+        Ok(LqrDesign {
+            gain,
+            model,
+            closed_loop_eigenvalues: riccati::eigenvalues(&closed).unwrap_or_default(),
+            residual,
+            a,
+            b,
+        })
+    }
+
+    /// LQG: the LQR design, the model discretised at the control period, and the
+    /// steady-state Kalman gain for `z = x`.
+    pub fn lqg_design(&self) -> Result<acs_flight::params::LqgParams> {
+        self.lqg_design_of(self.controller.as_ref().ok_or_else(|| bad("controller", "missing"))?)
+    }
+
+    /// The LQG design of an `lqg` law.
+    pub fn lqg_design_of(&self, c: &Controller) -> Result<acs_flight::params::LqgParams> {
+        use crate::design::{discretize::c2d, kalman::steady_state_kalman};
+        use nalgebra::DMatrix;
+        let Controller::Lqg { process_noise, measurement_noise, torque_limit_nm, .. } = c else {
+            bail!("controller.type is not \"lqg\"");
+        };
+        let d = self.lqr_design_of(c)?;
+        let (ad, bd) = c2d(&d.a, &d.b, self.control_dt()).map_err(|e| bad("controller", format!("c2d: {e:?}")))?;
+        let c = DMatrix::<f64>::identity(6, 6);
+        let qn = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(process_noise));
+        let rn = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(measurement_noise));
+        let (l, _p) = steady_state_kalman(&ad, &c, &qn, &rn)
+            .map_err(|e| bad("controller", format!("Kalman design failed: {e:?}")))?;
+        let f6 =
+            |m: &DMatrix<f64>| -> [[f32; 6]; 6] { std::array::from_fn(|r| std::array::from_fn(|k| m[(r, k)] as f32)) };
+        Ok(acs_flight::params::LqgParams {
+            k: d.gain.map(|row| row.map(|x| x as f32)),
+            a: f6(&ad),
+            b: std::array::from_fn(|r| std::array::from_fn(|k| bd[(r, k)] as f32)),
+            l: f6(&l),
+            torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+        })
+    }
+}
+
+impl Scenario {
+    /// Reject impossible controller values, naming the key (`key` = "controller" or
+    /// "modes.<mode>.controller").
+    pub(super) fn validate_controller(&self, c: &Controller, key: &str) -> Result<()> {
+        if let Controller::QuaternionFeedback {
+            zeta,
+            wn_rad_s,
+            k_diag_nm,
+            d_diag_nms,
+            ki_per_s,
+            integral_limit_s,
+            torque_limit_nm,
+            ..
+        } = c
+        {
+            match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
+                (Some(z), Some(w), None, None) => {
+                    positive(&format!("{key}.zeta"), *z)?;
+                    positive(&format!("{key}.wn_rad_s"), *w)?;
+                }
+                (None, None, Some(k), Some(d)) => {
+                    finite(&format!("{key}.k_diag_nm"), k)?;
+                    finite(&format!("{key}.d_diag_nms"), d)?;
+                }
+                _ => {
+                    return Err(bad(key, "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
+                }
+            }
+            if let Controller::QuaternionFeedback { max_slew_rate_deg_s: Some(r), .. } = c {
+                positive(&format!("{key}.max_slew_rate_deg_s"), *r)?;
+            }
+            if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
+                return Err(bad(&format!("{key}.ki_per_s"), "must be >= 0"));
+            }
+            if !(integral_limit_s.is_finite() && *integral_limit_s >= 0.0) {
+                return Err(bad(&format!("{key}.integral_limit_s"), "must be >= 0"));
+            }
+            for t in torque_limit_nm {
+                positive(&format!("{key}.torque_limit_nm"), *t)?;
+            }
+        }
+        if let Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm }
+        | Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } = c
+        {
+            finite(&format!("{key}.kp_nm"), kp_nm)?;
+            finite(&format!("{key}.kd_nms"), kd_nms)?;
+            for t in torque_limit_nm {
+                positive(&format!("{key}.torque_limit_nm"), *t)?;
+            }
+        }
+        if let Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } = c {
+            positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;
+            if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
+                return Err(bad(&format!("{key}.filter_time_constant_s"), "must be >= 0"));
+            }
+            if self.actuators.magnetorquers.is_none() {
+                return Err(bad(key, "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The flight parameters of a control law (gains designed here when asked).
+    pub(super) fn controller_params(&self, c: &Controller) -> Result<ControllerParams> {
+        let inertia = self.inertia();
+        let f =
+            |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
+        let p = match c {
+            Controller::QuaternionFeedback {
+                zeta,
+                wn_rad_s,
+                k_diag_nm,
+                d_diag_nms,
+                ki_per_s,
+                integral_limit_s,
+                torque_limit_nm,
+                gyro_compensation,
+                max_slew_rate_deg_s,
+            } => {
+                let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
+                    (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
+                    (_, _, Some(k), Some(d)) => {
+                        (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into()))
+                    }
+                    _ => return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms")),
+                };
+                ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
+                    k_att_nm: f(&k),
+                    d_rate_nms: f(&d),
+                    ki_att_nm_s: f(&(k * *ki_per_s)),
+                    integral_limit_s: *integral_limit_s as f32,
+                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+                    gyro_compensation: *gyro_compensation,
+                    max_slew_rate_rad_s: max_slew_rate_deg_s.map_or(0.0, |r| r.to_radians() as f32),
+                })
+            }
+            Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::DcmPd(DcmPdParams {
+                kp_nm: kp_nm.map(|x| x as f32),
+                kd_nms: kd_nms.map(|x| x as f32),
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
+            Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::EulerPd(DcmPdParams {
+                kp_nm: kp_nm.map(|x| x as f32),
+                kd_nms: kd_nms.map(|x| x as f32),
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
+            Controller::Lqr { torque_limit_nm, .. } => {
+                let k = self.lqr_design_of(c)?.gain;
+                ControllerParams::Lqr {
+                    k: k.map(|row| row.map(|x| x as f32)),
+                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+                }
+            }
+            Controller::Lqg { .. } => ControllerParams::Lqg(self.lqg_design_of(c)?),
+            Controller::Dmcs {
+                wn_rad_s,
+                zeta,
+                model_inertia_kgm2,
+                alpha,
+                beta,
+                q_weights,
+                gain_limit,
+                torque_limit_nm,
+            } => ControllerParams::Dmcs(acs_flight::params::DmcsParams {
+                wn_rad_s: *wn_rad_s as f32,
+                zeta: *zeta as f32,
+                model_inertia_kgm2: model_inertia_kgm2.map(|x| x as f32),
+                alpha: *alpha as f32,
+                beta: *beta as f32,
+                q_weights: q_weights.map(|x| x as f32),
+                gain_limit: *gain_limit as f32,
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            }),
+            Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
+                gain_am2_s_per_t: *gain_am2_s_per_t as f32,
+                filter_time_constant_s: *filter_time_constant_s as f32,
+            },
+            Controller::None => bail!("controller.type = \"none\" uploads no flight parameters"),
+        };
+        Ok(p)
+    }
+}

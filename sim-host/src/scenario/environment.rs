@@ -1,0 +1,244 @@
+//! Orbit, environment models and the air-bearing rig of a scenario.
+
+use super::*;
+
+/// Orbit elements, by kind.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OrbitKind {
+    Circular { altitude_km: f64, inclination_deg: f64, raan_deg: f64, arg_lat_deg: f64 },
+    Kepler { a_km: f64, e: f64, inclination_deg: f64, raan_deg: f64, argp_deg: f64, true_anomaly_deg: f64 },
+    Tle { line1: String, line2: String },
+}
+
+/// Orbit: `kind = "circular"` (altitude_km, inclination_deg, raan_deg, arg_lat_deg),
+/// `"kepler"` (a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg) or `"tle"`
+/// (line1, line2).
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OrbitSpec {
+    pub kind: String,
+    #[serde(default)]
+    pub altitude_km: Option<f64>,
+    #[serde(default)]
+    pub a_km: Option<f64>,
+    #[serde(default)]
+    pub e: Option<f64>,
+    #[serde(default)]
+    pub inclination_deg: Option<f64>,
+    #[serde(default)]
+    pub raan_deg: f64,
+    /// Circular: argument of latitude at t = 0.
+    #[serde(default)]
+    pub arg_lat_deg: f64,
+    #[serde(default)]
+    pub argp_deg: f64,
+    #[serde(default)]
+    pub true_anomaly_deg: f64,
+    #[serde(default)]
+    pub line1: Option<String>,
+    #[serde(default)]
+    pub line2: Option<String>,
+    /// Numerical J2 propagation (circular/Kepler).
+    #[serde(default)]
+    pub j2: bool,
+    /// UTC epoch of t = 0, "YYYY-MM-DDThh:mm:ss" (Earth rotation, WMM date, Sun).
+    #[serde(default = "default_epoch")]
+    pub epoch_utc: String,
+}
+
+impl OrbitSpec {
+    /// The elements of the chosen kind, or an error naming the missing key.
+    pub fn elements(&self) -> Result<OrbitKind> {
+        let need = |k: &str, v: Option<f64>| {
+            v.ok_or_else(|| bad(&format!("orbit.{k}"), format!("required for kind = {:?}", self.kind)))
+        };
+        Ok(match self.kind.as_str() {
+            "circular" => OrbitKind::Circular {
+                altitude_km: need("altitude_km", self.altitude_km)?,
+                inclination_deg: need("inclination_deg", self.inclination_deg)?,
+                raan_deg: self.raan_deg,
+                arg_lat_deg: self.arg_lat_deg,
+            },
+            "kepler" => OrbitKind::Kepler {
+                a_km: need("a_km", self.a_km)?,
+                e: need("e", self.e)?,
+                inclination_deg: need("inclination_deg", self.inclination_deg)?,
+                raan_deg: self.raan_deg,
+                argp_deg: self.argp_deg,
+                true_anomaly_deg: self.true_anomaly_deg,
+            },
+            "tle" => OrbitKind::Tle {
+                line1: self.line1.clone().ok_or_else(|| bad("orbit.line1", "required for kind = \"tle\""))?,
+                line2: self.line2.clone().ok_or_else(|| bad("orbit.line2", "required for kind = \"tle\""))?,
+            },
+            other => {
+                return Err(bad(
+                    "orbit.kind",
+                    format!("unknown kind {other:?} (known: \"circular\", \"kepler\", \"tle\")"),
+                ));
+            }
+        })
+    }
+}
+
+fn default_epoch() -> String {
+    "2026-01-01T00:00:00".into()
+}
+
+/// Environment models.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct EnvironmentSpec {
+    /// "none", "dipole" (tilted dipole) or "wmm" (World Magnetic Model), along the orbit.
+    #[serde(default = "default_field")]
+    pub magnetic_field: String,
+    /// A constant field in the reference (lab) frame, T — for rigs without an orbit.
+    #[serde(default)]
+    pub lab_field_t: Option<[f64; 3]>,
+    #[serde(default = "yes")]
+    pub gravity_gradient: bool,
+    /// "none", "exponential" (Vallado table) or a fixed density via `density_kg_m3`.
+    #[serde(default = "default_atmosphere")]
+    pub atmosphere: String,
+    #[serde(default)]
+    pub density_kg_m3: Option<f64>,
+    /// Solar radiation pressure on the `box_m` plates.
+    #[serde(default)]
+    pub solar_pressure: bool,
+}
+
+impl Default for EnvironmentSpec {
+    fn default() -> Self {
+        Self {
+            magnetic_field: default_field(),
+            lab_field_t: None,
+            gravity_gradient: true,
+            atmosphere: default_atmosphere(),
+            density_kg_m3: None,
+            solar_pressure: false,
+        }
+    }
+}
+
+fn default_field() -> String {
+    "dipole".into()
+}
+fn default_atmosphere() -> String {
+    "none".into()
+}
+
+/// Air-bearing rig.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigSpec {
+    /// "paper003" (m g r of eq 28, ±40° roll and pitch) or "paper000" (no pendulum term
+    /// given, ±45° roll and pitch); explicit keys below override the preset.
+    #[serde(default)]
+    pub preset: Option<String>,
+    /// `m g r`, body axes, N m (paper 003 eq 28: [-0.004, -0.001, 0.5]).
+    #[serde(default)]
+    pub mgr_nm: Option<[f64; 3]>,
+    #[serde(default)]
+    pub roll_limit_deg: Option<f64>,
+    #[serde(default)]
+    pub pitch_limit_deg: Option<f64>,
+}
+
+impl Scenario {
+    /// The environment of the run (`None`: free space without a field, or a rig without one).
+    pub fn environment(&self) -> Result<Option<Environment>> {
+        let sc = &self.spacecraft;
+        let inertia = self.inertia();
+        let external = match &sc.harmonic_torque {
+            Some(h) => HarmonicTorque {
+                a: Vec3::zeros(),
+                b: Vec3::from(h.amplitude_nm),
+                omega: Vec3::from(h.frequency_hz) * std::f64::consts::TAU,
+                phi: Vec3::from(h.phase_rad),
+            },
+            None => HarmonicTorque::default(),
+        };
+        let plates = sc.box_m.map(|b| box_plates(b[0], b[1], b[2], Vec3::zeros()));
+        let env = &self.environment;
+        let Some(o) = &self.orbit else {
+            if env.lab_field_t.is_none() && sc.harmonic_torque.is_none() {
+                return Ok(None);
+            }
+            let disturbances = Disturbances {
+                inertia,
+                gravity_gradient: false,
+                drag: None,
+                srp: None,
+                residual_dipole_am2: Vec3::zeros(),
+                external,
+            };
+            let field = env.lab_field_t.map_or(FieldSource::None, |b| FieldSource::Fixed(Vec3::from(b)));
+            return Ok(Some(Environment {
+                orbit: None,
+                earth: EarthRotation::Simple { theta0_rad: 0.0 },
+                field,
+                disturbances,
+            }));
+        };
+        let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        let model = match &o.elements()? {
+            OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
+                altitude_m: altitude_km * 1e3,
+                inclination_rad: inclination_deg.to_radians(),
+                raan_rad: raan_deg.to_radians(),
+                arg_lat0_rad: arg_lat_deg.to_radians(),
+            },
+            OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
+                OrbitModel::Kepler {
+                    a_m: a_km * 1e3,
+                    e: *e,
+                    i: inclination_deg.to_radians(),
+                    raan: raan_deg.to_radians(),
+                    argp: argp_deg.to_radians(),
+                    nu0: true_anomaly_deg.to_radians(),
+                }
+            }
+            OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
+        };
+        let prop = OrbitPropagator::new(&model, PropagatorOptions { j2: o.j2, step_s: 10.0 })
+            .map_err(|e| bad("orbit", format!("{e:?}")))?;
+        // A TLE brings its own epoch.
+        let jd = prop.epoch_jd_utc().unwrap_or(jd);
+        let earth = EarthRotation::Gmst { jd_ut1_epoch: jd };
+        let field = match env.magnetic_field.as_str() {
+            "dipole" => FieldSource::Model(MagneticField::new(FieldModel::default_dipole(), earth)),
+            "wmm" => FieldSource::Model(MagneticField::new(
+                FieldModel::Wmm { decimal_year: 2000.0 + (jd - 2_451_544.5) / 365.25 },
+                earth,
+            )),
+            _ => FieldSource::None,
+        };
+        let geometry = match (sc.drag_area_m2, &plates) {
+            (Some(a), _) => Some(DragGeometry::CopOffset { area_m2: a, cop_b: Vec3::from(sc.cp_offset_m) }),
+            (None, Some(p)) => Some(DragGeometry::Plates(p.clone())),
+            _ => None,
+        };
+        let atmosphere = match env.atmosphere.as_str() {
+            "exponential" => Some(Atmosphere::ExponentialVallado),
+            "fixed" => env.density_kg_m3.map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
+            _ => None,
+        };
+        let drag = match (geometry, atmosphere) {
+            (Some(geometry), Some(atmosphere)) => Some(DragModel { geometry, cd: sc.drag_coefficient, atmosphere }),
+            _ => None,
+        };
+        let srp = match (&plates, env.solar_pressure) {
+            (Some(p), true) => Some(SrpModel { plates: p.clone(), pressure_n_m2: 4.56e-6, jd_epoch: jd }),
+            _ => None,
+        };
+        let disturbances = Disturbances {
+            inertia,
+            gravity_gradient: env.gravity_gradient,
+            drag,
+            srp,
+            residual_dipole_am2: Vec3::zeros(),
+            external,
+        };
+        Ok(Some(Environment { orbit: Some(prop), earth, field, disturbances }))
+    }
+}

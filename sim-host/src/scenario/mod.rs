@@ -1,0 +1,785 @@
+//! Scenario files (TOML). The format is documented in `docs/scenario.md`; every table
+//! rejects unknown keys, and [`Scenario::validate`] rejects impossible values naming
+//! the key, before anything runs.
+
+use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body};
+use crate::environment::frames::{EarthRotation, julian_date};
+use crate::environment::magnetic::{FieldModel, MagneticField};
+use crate::environment::model::{EnvSnapshot, Environment, FieldSource};
+use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
+use crate::environment::torques::{
+    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
+};
+use crate::plant::cmg::GimbalServo;
+use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
+use crate::plant::rig::Rig;
+use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
+use crate::plant::wheel::{WheelParams, WheelState};
+use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
+use acs_flight::math::EulerSeq;
+use acs_flight::params::{
+    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, DcmPdParams, FlightParams, MAX_THRUSTERS,
+    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
+    ThrusterMethod, ThrusterParams,
+};
+use anyhow::{Context, Result, anyhow, bail};
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+mod actuators;
+mod controller;
+mod environment;
+mod modes;
+pub use actuators::*;
+pub use controller::*;
+pub use environment::*;
+pub use modes::*;
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub duration_s: f64,
+    pub timing: Timing,
+    pub spacecraft: SpacecraftSpec,
+    pub initial: InitialState,
+    pub target: AttitudeSpec,
+    pub actuators: Actuators,
+    /// The control law (absent with `[modes]`).
+    #[serde(default)]
+    pub controller: Option<Controller>,
+    /// Mode manager: a law, actuator family and target per mode, and the thresholds of
+    /// the transitions (instead of `[controller]`).
+    #[serde(default)]
+    pub modes: Option<ModesSpec>,
+    /// Timed ground commands sent over the link (new target, mode commands).
+    #[serde(default)]
+    pub commands: Vec<CommandSpec>,
+    /// CMG steering law (required with a CMG cluster under closed-loop control).
+    #[serde(default)]
+    pub steering: Option<Steering>,
+    /// Orbit; absent: free space (or the lab, with `[rig]`).
+    #[serde(default)]
+    pub orbit: Option<OrbitSpec>,
+    #[serde(default)]
+    pub environment: EnvironmentSpec,
+    /// Air-bearing test rig (pendulum torque, travel stops); excludes `[orbit]`.
+    #[serde(default)]
+    pub rig: Option<RigSpec>,
+    /// Open-loop actuator command profile (with `controller.type = "none"`).
+    #[serde(default)]
+    pub open_loop: Option<OpenLoop>,
+    #[serde(default)]
+    pub sensors: Sensors,
+    #[serde(default)]
+    pub link: LinkSpec,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Timing {
+    pub control_rate_hz: f64,
+    /// RK4 steps per control period (dynamics rate = control rate × this).
+    #[serde(default = "one")]
+    pub dynamics_substeps: u32,
+    /// Record every Nth control step in timeseries.csv and the plots.
+    #[serde(default = "one")]
+    pub output_every: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpacecraftSpec {
+    /// Row-major, kg m².
+    pub inertia_kgm2: [[f64; 3]; 3],
+    #[serde(default)]
+    pub mass_kg: Option<f64>,
+    /// Constant external torque, body axes.
+    #[serde(default)]
+    pub external_torque_nm: [f64; 3],
+    /// Harmonic disturbance `a sin(2π f t + φ)` per body axis, added to the constant one.
+    #[serde(default)]
+    pub harmonic_torque: Option<HarmonicSpec>,
+    /// A step change of the inertia during the run (paper 001 injects one at 100 s).
+    #[serde(default)]
+    pub inertia_change: Option<InertiaChange>,
+    /// Residual magnetic dipole, body axes, A m² (paper 003: [0, 0, 0.001]).
+    #[serde(default)]
+    pub residual_dipole_am2: [f64; 3],
+    /// Outer dimensions of a box-shaped body centred on the CoM, m (drag and SRP plates).
+    #[serde(default)]
+    pub box_m: Option<[f64; 3]>,
+    /// Drag reference area and centre-of-pressure offset from the CoM (instead of `box_m`).
+    #[serde(default)]
+    pub drag_area_m2: Option<f64>,
+    #[serde(default)]
+    pub cp_offset_m: [f64; 3],
+    #[serde(default = "default_cd")]
+    pub drag_coefficient: f64,
+}
+
+fn default_cd() -> f64 {
+    2.2
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InertiaChange {
+    pub at_s: f64,
+    /// The whole inertia is multiplied by this (1.2: +20 %).
+    pub factor: f64,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct HarmonicSpec {
+    pub amplitude_nm: [f64; 3],
+    pub frequency_hz: [f64; 3],
+    #[serde(default)]
+    pub phase_rad: [f64; 3],
+}
+
+/// Open-loop command table: each row holds from its time until the next row.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpenLoop {
+    #[serde(default)]
+    pub commands: Vec<OpenLoopRow>,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct OpenLoopRow {
+    pub t_s: f64,
+    #[serde(default)]
+    pub gimbal_rate_rad_s: Option<[f64; 4]>,
+    #[serde(default)]
+    pub wheel_torque_nm: Option<Vec<f64>>,
+    #[serde(default)]
+    pub dipole_am2: Option<[f64; 3]>,
+    /// 1-based thruster numbers that are on.
+    #[serde(default)]
+    pub thrusters_on: Option<Vec<usize>>,
+}
+
+/// An attitude: Euler angles `[roll, pitch, yaw]` in degrees with a sequence, or a quaternion.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeSpec {
+    /// "inertial" (default) or "lvlh" (the orbit frame: z nadir, y = -orbit normal).
+    #[serde(default)]
+    pub frame: RefFrame,
+    #[serde(default)]
+    pub euler_deg: Option<[f64; 3]>,
+    #[serde(default)]
+    pub euler_sequence: EulerSequence,
+    #[serde(default)]
+    pub quaternion_xyzw: Option<[f64; 4]>,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum RefFrame {
+    #[default]
+    Inertial,
+    Lvlh,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+pub enum EulerSequence {
+    #[default]
+    #[serde(rename = "321")]
+    Zyx321,
+    #[serde(rename = "123")]
+    Xyz123,
+}
+
+impl From<EulerSequence> for EulerSeq {
+    fn from(s: EulerSequence) -> Self {
+        match s {
+            EulerSequence::Zyx321 => EulerSeq::Zyx321,
+            EulerSequence::Xyz123 => EulerSeq::Xyz123,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialState {
+    #[serde(flatten)]
+    pub attitude: AttitudeSpec,
+    #[serde(default)]
+    pub rate_rad_s: [f64; 3],
+    /// Add the rate that keeps the body fixed in LVLH (needs `[orbit]`).
+    #[serde(default)]
+    pub orbit_synchronous: bool,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sensors {
+    #[serde(default)]
+    pub seed: u64,
+    /// 1σ attitude noise per axis (small rotation), deg. Paper 000's AHRS: ~2 deg.
+    #[serde(default)]
+    pub attitude_noise_deg: f64,
+    /// 1σ white rate noise per axis, rad/s.
+    #[serde(default)]
+    pub rate_noise_rad_s: f64,
+    /// Constant rate bias, rad/s.
+    #[serde(default)]
+    pub rate_bias_rad_s: [f64; 3],
+    /// 1σ gimbal-angle encoder noise, deg.
+    #[serde(default)]
+    pub gimbal_noise_deg: f64,
+    /// 1σ magnetometer noise per axis, T.
+    #[serde(default)]
+    pub magnetometer_noise_t: f64,
+    /// 1σ wheel tachometer noise, rad/s.
+    #[serde(default)]
+    pub wheel_speed_noise_rad_s: f64,
+    /// Detailed models (replace the shortcuts above when given).
+    #[serde(default)]
+    pub gyro: Option<GyroSensorSpec>,
+    #[serde(default)]
+    pub star_tracker: Option<StarTrackerSpec>,
+    #[serde(default)]
+    pub magnetometer: Option<MagnetometerSensorSpec>,
+    #[serde(default)]
+    pub sun: Option<SunSensorSpecToml>,
+}
+
+/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroSensorSpec {
+    /// Sample rate (default: the control rate).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub arw_rad_s_rthz: f64,
+    #[serde(default)]
+    pub rrw_rad_s2_rthz: f64,
+    #[serde(default)]
+    pub bias_rad_s: [f64; 3],
+    #[serde(default)]
+    pub scale_factor_ppm: f64,
+}
+
+/// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StarTrackerSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    #[serde(default)]
+    pub bias_deg: [f64; 3],
+}
+
+/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetometerSensorSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_t: f64,
+    #[serde(default)]
+    pub bias_t: [f64; 3],
+    #[serde(default)]
+    pub coupling_t_per_am2: [[f64; 3]; 3],
+}
+
+/// Sun sensor: angular noise, field of view around a boresight, eclipse.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunSensorSpecToml {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    pub boresight_body: [f64; 3],
+    pub fov_half_angle_deg: f64,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkSpec {
+    /// Default link: "in-process", "qemu", "tcp:ADDR" or "serial:DEV[@BAUD]"; the CLI
+    /// `--link` overrides it.
+    #[serde(default)]
+    pub kind: Option<String>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn bad(key: &str, why: impl std::fmt::Display) -> anyhow::Error {
+    anyhow!("invalid value for `{key}`: {why}")
+}
+
+fn finite(key: &str, xs: &[f64]) -> Result<()> {
+    if xs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(bad(key, "must be finite")) }
+}
+
+fn positive(key: &str, x: f64) -> Result<()> {
+    if x.is_finite() && x > 0.0 { Ok(()) } else { Err(bad(key, format!("must be > 0 (got {x})"))) }
+}
+
+impl AttitudeSpec {
+    fn validate(&self, key: &str) -> Result<()> {
+        match (&self.euler_deg, &self.quaternion_xyzw) {
+            (Some(e), None) => finite(&format!("{key}.euler_deg"), e),
+            (None, Some(q)) => {
+                let k = format!("{key}.quaternion_xyzw");
+                finite(&k, q)?;
+                let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+                if (n - 1.0).abs() > 1e-6 {
+                    return Err(bad(&k, format!("must have unit norm (got {n})")));
+                }
+                Ok(())
+            }
+            (Some(_), Some(_)) => Err(bad(key, "give either euler_deg or quaternion_xyzw, not both")),
+            (None, None) => Err(bad(key, "needs euler_deg or quaternion_xyzw")),
+        }
+    }
+
+    pub fn quaternion(&self) -> Quat {
+        match (&self.euler_deg, &self.quaternion_xyzw) {
+            (_, Some(q)) => from_xyzw(*q).normalize(),
+            (Some(e), None) => quat_from_euler(e.map(f64::to_radians), self.euler_sequence.into()),
+            (None, None) => Quat::identity(),
+        }
+    }
+}
+
+impl Scenario {
+    pub fn from_toml(text: &str) -> Result<Self> {
+        let s: Scenario = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        Self::from_toml(&text).with_context(|| format!("scenario {}", path.display()))
+    }
+
+    pub fn inertia(&self) -> Matrix3<f64> {
+        Matrix3::from_fn(|r, c| self.spacecraft.inertia_kgm2[r][c])
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        positive("duration_s", self.duration_s)?;
+        positive("timing.control_rate_hz", self.timing.control_rate_hz)?;
+        if self.timing.control_rate_hz > 10_000.0 {
+            return Err(bad("timing.control_rate_hz", "must be <= 10000"));
+        }
+        if self.timing.dynamics_substeps == 0 {
+            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
+        }
+        if self.timing.output_every == 0 {
+            return Err(bad("timing.output_every", "must be >= 1"));
+        }
+        let i = self.inertia();
+        finite("spacecraft.inertia_kgm2", i.as_slice())?;
+        if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
+            return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
+        }
+        let e = i.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
+            return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
+        }
+        let (a, b, c) = (e[0], e[1], e[2]);
+        if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
+            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
+        }
+        let sc = &self.spacecraft;
+        if let Some(m) = sc.mass_kg {
+            positive("spacecraft.mass_kg", m)?;
+        }
+        finite("spacecraft.external_torque_nm", &sc.external_torque_nm)?;
+        finite("spacecraft.residual_dipole_am2", &sc.residual_dipole_am2)?;
+        if let Some(c) = &sc.inertia_change {
+            positive("spacecraft.inertia_change.factor", c.factor)?;
+            finite("spacecraft.inertia_change.at_s", &[c.at_s])?;
+        }
+        finite("spacecraft.cp_offset_m", &sc.cp_offset_m)?;
+        positive("spacecraft.drag_coefficient", sc.drag_coefficient)?;
+        if let Some(bx) = sc.box_m {
+            for x in bx {
+                positive("spacecraft.box_m", x)?;
+            }
+        }
+        if let Some(a) = sc.drag_area_m2 {
+            positive("spacecraft.drag_area_m2", a)?;
+        }
+        if let Some(h) = &sc.harmonic_torque {
+            finite("spacecraft.harmonic_torque", &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat())?;
+        }
+        self.initial.attitude.validate("initial")?;
+        finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
+        self.target.validate("target")?;
+        let needs_orbit =
+            |k: &str| -> Result<()> { if self.orbit.is_none() { Err(bad(k, "needs an [orbit]")) } else { Ok(()) } };
+        if self.initial.attitude.frame == RefFrame::Lvlh {
+            needs_orbit("initial.frame")?;
+        }
+        if self.initial.orbit_synchronous {
+            needs_orbit("initial.orbit_synchronous")?;
+        }
+        if self.target.frame == RefFrame::Lvlh {
+            needs_orbit("target.frame")?;
+        }
+        if let Some(o) = &self.orbit {
+            if self.rig.is_some() {
+                return Err(bad("rig", "a rig sits in a lab: remove [orbit] or [rig]"));
+            }
+            match &o.elements()? {
+                OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
+                    positive("orbit.altitude_km", *altitude_km)?;
+                    finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
+                }
+                OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
+                    if !(a_km.is_finite() && *a_km > 6378.137) {
+                        return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
+                    }
+                    if !(0.0..1.0).contains(e) {
+                        return Err(bad("orbit.e", "must be in [0, 1)"));
+                    }
+                    if a_km * (1.0 - e) <= 6378.137 {
+                        return Err(bad("orbit.e", "perigee below the Earth's surface"));
+                    }
+                    finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
+                }
+                OrbitKind::Tle { .. } => {}
+            }
+            parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        }
+        let env = &self.environment;
+        match env.magnetic_field.as_str() {
+            "none" => {}
+            "dipole" | "wmm" => {}
+            other => {
+                return Err(bad(
+                    "environment.magnetic_field",
+                    format!("unknown model {other:?} (known: \"none\", \"dipole\", \"wmm\")"),
+                ));
+            }
+        }
+        if let Some(b) = env.lab_field_t {
+            finite("environment.lab_field_t", &b)?;
+            if self.orbit.is_some() {
+                return Err(bad("environment.lab_field_t", "only without an [orbit]"));
+            }
+        }
+        match env.atmosphere.as_str() {
+            "none" | "exponential" => {}
+            "fixed" => positive("environment.density_kg_m3", env.density_kg_m3.unwrap_or(f64::NAN))?,
+            other => {
+                return Err(bad(
+                    "environment.atmosphere",
+                    format!("unknown model {other:?} (known: \"none\", \"exponential\", \"fixed\")"),
+                ));
+            }
+        }
+        if env.atmosphere != "none" && sc.box_m.is_none() && sc.drag_area_m2.is_none() {
+            return Err(bad("environment.atmosphere", "drag needs spacecraft.box_m or spacecraft.drag_area_m2"));
+        }
+        if env.solar_pressure && sc.box_m.is_none() {
+            return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
+        }
+        if let Some(r) = &self.rig {
+            if let Some(p) = &r.preset {
+                if !matches!(p.as_str(), "paper003" | "paper000") {
+                    return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
+                }
+            } else if r.mgr_nm.is_none() {
+                return Err(bad("rig.mgr_nm", "required without a preset"));
+            }
+            finite("rig.mgr_nm", &r.mgr_nm.unwrap_or_default())?;
+            for (k, l) in [("rig.roll_limit_deg", r.roll_limit_deg), ("rig.pitch_limit_deg", r.pitch_limit_deg)] {
+                if let Some(l) = l {
+                    positive(k, l)?;
+                }
+            }
+        }
+        self.validate_actuators()?;
+        if let Some(c) = &self.controller {
+            self.validate_controller(c, "controller")?;
+        }
+        let s = &self.sensors;
+        for (k, v) in [
+            ("sensors.attitude_noise_deg", s.attitude_noise_deg),
+            ("sensors.rate_noise_rad_s", s.rate_noise_rad_s),
+            ("sensors.gimbal_noise_deg", s.gimbal_noise_deg),
+            ("sensors.magnetometer_noise_t", s.magnetometer_noise_t),
+            ("sensors.wheel_speed_noise_rad_s", s.wheel_speed_noise_rad_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, "must be >= 0"));
+            }
+        }
+        finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
+        if let Some(ol) = &self.open_loop {
+            if self.closed_loop() {
+                return Err(bad("open_loop", "needs controller.type = \"none\""));
+            }
+            let mut last = f64::NEG_INFINITY;
+            for (k, row) in ol.commands.iter().enumerate() {
+                let key = format!("open_loop.commands[{k}]");
+                if !(row.t_s.is_finite() && row.t_s >= last) {
+                    return Err(bad(&key, "t_s must be finite and non-decreasing"));
+                }
+                last = row.t_s;
+                let n_w = self.actuators.wheels.as_ref().map_or(0, |w| self.wheel_axes(w).len());
+                if let Some(w) = &row.wheel_torque_nm {
+                    if w.len() != n_w {
+                        return Err(bad(&key, format!("wheel_torque_nm has {} entries for {n_w} wheels", w.len())));
+                    }
+                    finite(&key, w)?;
+                }
+                if row.gimbal_rate_rad_s.is_some() && self.actuators.cmg.is_none() {
+                    return Err(bad(&key, "gimbal_rate_rad_s without [actuators.cmg]"));
+                }
+                if row.dipole_am2.is_some() && self.actuators.magnetorquers.is_none() {
+                    return Err(bad(&key, "dipole_am2 without [actuators.magnetorquers]"));
+                }
+                if let Some(t) = &row.thrusters_on {
+                    let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+                    if t.iter().any(|i| *i == 0 || *i > n) {
+                        return Err(bad(&key, format!("thrusters_on must be 1..={n}")));
+                    }
+                }
+            }
+        }
+        match (&self.controller, &self.modes) {
+            (Some(_), Some(_)) => return Err(bad("modes", "give [controller] or [modes], not both")),
+            (None, None) => return Err(bad("controller", "missing (or give [modes])")),
+            (Some(Controller::None), None) => {}
+            (Some(_), None) => {
+                // Last line of defence: the flight code's own validation must accept the upload.
+                self.flight_params()?.validate().map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+            }
+            (None, Some(m)) => self.validate_modes(m)?,
+        }
+        self.validate_commands()?;
+        Ok(())
+    }
+
+    /// The plant described by the scenario.
+    pub fn spacecraft(&self) -> Result<Spacecraft> {
+        let cmg = self.actuators.cmg.as_ref().map(|c| {
+            let mut cl = CmgCluster::pyramid(
+                c.skew_deg.to_radians(),
+                c.h0(),
+                c.max_gimbal_rate_deg_s.to_radians(),
+                c.gimbal_limit_deg.map(|l| (-l.to_radians(), l.to_radians())),
+            );
+            cl.servo = c.servo_time_constant_s.map(|tau| GimbalServo {
+                time_constant_s: tau,
+                gimbal_inertia_kgm2: c.gimbal_inertia_kgm2.unwrap_or(1.0),
+                friction_nm: c.gimbal_friction_nm,
+            });
+            cl
+        });
+        let wheels = self.wheel_params()?;
+        // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
+        let mut j = self.inertia();
+        for w in &wheels {
+            let a = Vec3::from(w.spin_axis);
+            j -= a * a.transpose() * w.inertia_kgm2;
+        }
+        let mut sc = Spacecraft::new(j, cmg)
+            .ok_or_else(|| bad("spacecraft.inertia_kgm2", "singular once the wheels' axial inertia is removed"))?;
+        sc.wheels = wheels;
+        sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
+        sc.env = self.environment()?;
+        sc.rig = self.rig.as_ref().map(|r| {
+            let base = match r.preset.as_deref() {
+                Some("paper003") => Rig::paper003().1,
+                Some("paper000") => Rig::paper000(),
+                _ => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
+            };
+            Rig {
+                mgr_nm: r.mgr_nm.map_or(base.mgr_nm, Vec3::from),
+                roll_limit_rad: r.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
+                pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
+            }
+        });
+        Ok(sc)
+    }
+
+    /// Initial state; `env` is needed for attitudes or rates given relative to LVLH.
+    pub fn initial_state(&self, craft: &Spacecraft, env0: Option<&EnvSnapshot>) -> State {
+        let mut g = [0.0; MAX_GIMBALS];
+        if let Some(c) = &self.actuators.cmg {
+            for (x, d) in g.iter_mut().zip(c.initial_gimbal_deg) {
+                *x = d.to_radians();
+            }
+        }
+        let q_lvlh = env0.and_then(|e| e.q_lvlh).unwrap_or_else(Quat::identity);
+        let mut q = self.initial.attitude.quaternion();
+        if self.initial.attitude.frame == RefFrame::Lvlh {
+            q = q_lvlh * q;
+        }
+        let mut w = Vec3::from(self.initial.rate_rad_s);
+        if self.initial.orbit_synchronous {
+            w += rotate_ref_to_body(&q, &env0.map_or(Vec3::zeros(), |e| e.lvlh_rate_ref));
+        }
+        let mut wheels = [WheelState::default(); MAX_WHEELS];
+        let rpm = std::f64::consts::PI / 30.0;
+        let speeds = self.actuators.wheels.as_ref().map_or(Vec::new(), |w| w.initial_speed_rpm.clone());
+        for (i, p) in craft.wheels.iter().enumerate() {
+            wheels[i] = WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
+        }
+        State { q, w, gimbal_rad: g, gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels }
+    }
+
+    /// The parameter set uploaded to the flight code (single `[controller]`).
+    pub fn flight_params(&self) -> Result<FlightParams> {
+        let c = self.controller.as_ref().ok_or_else(|| bad("controller", "missing (or use [modes])"))?;
+        self.params_for(c, None, &self.target)
+    }
+
+    /// A parameter set for one law, on one actuator family (`None`: the only one
+    /// present), pointing at `target`.
+    pub fn params_for(&self, c: &Controller, family: Option<&str>, target: &AttitudeSpec) -> Result<FlightParams> {
+        let inertia = self.inertia();
+        let f =
+            |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
+        let controller = self.controller_params(c)?;
+        let q = target.quaternion();
+        Ok(FlightParams {
+            version: PARAMS_VERSION,
+            control_rate_hz: self.timing.control_rate_hz as f32,
+            inertia_kgm2: f(&inertia),
+            controller,
+            actuator: self.actuator_params(family)?,
+            target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
+            target_frame: match target.frame {
+                RefFrame::Inertial => TargetFrame::Inertial,
+                RefFrame::Lvlh => TargetFrame::Reference,
+            },
+            hold_after_missed_frames: 10,
+        })
+    }
+
+    /// Whether the flight code runs (a controller other than "none", or a mode table).
+    pub fn closed_loop(&self) -> bool {
+        self.modes.is_some() || self.controller.as_ref().is_some_and(|c| !matches!(c, Controller::None))
+    }
+
+    pub fn control_dt(&self) -> f64 {
+        1.0 / self.timing.control_rate_hz
+    }
+
+    pub fn steps(&self) -> u64 {
+        (self.duration_s * self.timing.control_rate_hz).round() as u64
+    }
+}
+
+/// Julian date of a UTC time "YYYY-MM-DDThh:mm:ss" (seconds may have a fraction).
+pub fn parse_epoch(s: &str) -> std::result::Result<f64, String> {
+    let err = || format!("{s:?} is not YYYY-MM-DDThh:mm:ss");
+    let (date, time) = s.split_once('T').ok_or_else(err)?;
+    let d: Vec<&str> = date.split('-').collect();
+    let t: Vec<&str> = time.split(':').collect();
+    if d.len() != 3 || t.len() != 3 {
+        return Err(err());
+    }
+    let y: i32 = d[0].parse().map_err(|_| err())?;
+    let mo: u32 = d[1].parse().map_err(|_| err())?;
+    let da: u32 = d[2].parse().map_err(|_| err())?;
+    let h: u32 = t[0].parse().map_err(|_| err())?;
+    let mi: u32 = t[1].parse().map_err(|_| err())?;
+    let se: f64 = t[2].parse().map_err(|_| err())?;
+    if !(1..=12).contains(&mo) || !(1..=31).contains(&da) || h > 23 || mi > 59 || !(0.0..61.0).contains(&se) {
+        return Err(err());
+    }
+    Ok(julian_date(y, mo, da, h, mi, se))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    pub const MINIMAL: &str = r#"
+name = "t"
+duration_s = 10.0
+[timing]
+control_rate_hz = 100.0
+[spacecraft]
+inertia_kgm2 = [[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]
+[initial]
+euler_deg = [0, 0, 0]
+[target]
+euler_deg = [0, 0, 50]
+[actuators.cmg]
+skew_deg = 54.73
+h0_nms = 0.623
+max_gimbal_rate_deg_s = 60
+[controller]
+type = "quaternion_feedback"
+zeta = 0.47
+wn_rad_s = 0.7
+[steering]
+law = "sr"
+alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
+"#;
+
+    #[test]
+    fn minimal_scenario_loads_and_makes_valid_params() {
+        let s = Scenario::from_toml(MINIMAL).unwrap();
+        let p = s.flight_params().unwrap();
+        assert_eq!(p.validate(), Ok(()));
+        // K = 2 ωn² I (eq 17)
+        let ControllerParams::QuaternionFeedback(c) = &p.controller else { panic!("quaternion feedback") };
+        assert!((c.k_att_nm[2][2] - 2.0 * 0.49 * 5.8).abs() < 1e-5);
+        assert_eq!(s.steps(), 1000);
+    }
+
+    fn err_of(text: &str) -> String {
+        format!("{:#}", Scenario::from_toml(text).unwrap_err())
+    }
+
+    #[test]
+    fn unknown_keys_are_rejected_with_their_name() {
+        let e = err_of(&MINIMAL.replace("h0_nms = 0.623", "h0_nms = 0.623\nh0_typo = 1"));
+        assert!(e.contains("h0_typo"), "{e}");
+        let e = err_of(&MINIMAL.replace("duration_s = 10.0", "duration_s = 10.0\ndurashun = 3"));
+        assert!(e.contains("durashun"), "{e}");
+    }
+
+    #[test]
+    fn impossible_values_are_rejected_with_the_key() {
+        let cases = [
+            (
+                "[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]",
+                "[[-3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]",
+                "spacecraft.inertia_kgm2",
+            ),
+            ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[1, 0, 0], [0, 1, 0], [0, 0, 5.8]]", "triangle"),
+            ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[3.1, 1, 0], [0, 3.1, 0], [0, 0, 5.8]]", "symmetric"),
+            ("h0_nms = 0.623", "h0_nms = -1", "actuators.cmg.h0_nms"),
+            ("duration_s = 10.0", "duration_s = 0", "duration_s"),
+            ("law = \"sr\"", "law = \"xx\"", "steering.law"),
+            ("zeta = 0.47", "zeta = -0.47", "controller.zeta"),
+            ("control_rate_hz = 100.0", "control_rate_hz = nan", "timing.control_rate_hz"),
+        ];
+        for (from, to, key) in cases {
+            let e = err_of(&MINIMAL.replace(from, to));
+            assert!(e.contains(key), "expected {key} in: {e}");
+        }
+    }
+}

@@ -1,0 +1,304 @@
+//! The mode manager of a scenario (`[modes]`) and timed ground commands (`[[commands]]`).
+//!
+//! ```toml
+//! [modes]
+//! initial = "detumble"
+//! detumble_enter_rate_deg_s = 3.0   # any mode → detumble above this rate …
+//! detumble_exit_rate_deg_s = 0.5    # … and back out below this one
+//! stabilise_exit_error_deg = 5.0
+//! stabilise_exit_rate_deg_s = 0.1
+//! hold_enter_error_deg = 0.5
+//! hold_enter_rate_deg_s = 0.05
+//! hold_exit_error_deg = 2.0
+//! dwell_s = 30.0
+//! trigger_persistence_s = 2.0
+//! [modes.detumble]
+//! actuator = "magnetorquers"
+//! controller = { type = "bdot", gain_am2_s_per_t = 2e4 }
+//! [modes.stabilise]
+//! actuator = "wheels"
+//! target = { frame = "lvlh", euler_deg = [0, 0, 0] }
+//! controller = { type = "lqr", q_diag = [...], r_diag = [...] }
+//! ```
+//! Manoeuvre and hold point at the scenario's `[target]` (the mission target, which
+//! `[[commands]]` may change); detumble and stabilise may have their own.
+
+use super::*;
+use acs_flight::modes::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModesSpec {
+    #[serde(default = "default_initial")]
+    pub initial: String,
+    pub detumble_enter_rate_deg_s: f64,
+    pub detumble_exit_rate_deg_s: f64,
+    #[serde(default)]
+    pub stabilise_exit_error_deg: f64,
+    #[serde(default)]
+    pub stabilise_exit_rate_deg_s: f64,
+    pub hold_enter_error_deg: f64,
+    pub hold_enter_rate_deg_s: f64,
+    pub hold_exit_error_deg: f64,
+    pub dwell_s: f64,
+    pub trigger_persistence_s: f64,
+    #[serde(default)]
+    pub detumble: Option<ModeSpec>,
+    #[serde(default)]
+    pub stabilise: Option<ModeSpec>,
+    #[serde(default)]
+    pub manoeuvre: Option<ModeSpec>,
+    #[serde(default)]
+    pub hold: Option<ModeSpec>,
+}
+
+fn default_initial() -> String {
+    "detumble".into()
+}
+
+/// One mode: its law, the actuator family it commands and (detumble, stabilise) its target.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModeSpec {
+    pub controller: Controller,
+    /// "cmg", "wheels", "magnetorquers" or "thrusters"; may be omitted with one family.
+    #[serde(default)]
+    pub actuator: Option<String>,
+    /// Default: the scenario's `[target]`. Not allowed for manoeuvre and hold.
+    #[serde(default)]
+    pub target: Option<AttitudeSpec>,
+}
+
+/// A ground command at `at_s`: a new mission target and/or a mode command.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CommandSpec {
+    pub at_s: f64,
+    /// New mission target, in the frame of `[target]`.
+    #[serde(default)]
+    pub target: Option<AttitudeSpec>,
+    /// "detumble", "stabilise", "manoeuvre", "hold" (enter) or "auto" (resume automatic
+    /// transitions).
+    #[serde(default)]
+    pub mode: Option<String>,
+    /// With a mode: stay there (automatic transitions suspended until "auto").
+    #[serde(default)]
+    pub lock: bool,
+}
+
+pub fn parse_mode(s: &str) -> Option<Mode> {
+    Mode::ALL.into_iter().find(|m| m.name() == s)
+}
+
+/// What the runner uploads: one parameter set per mode, then the thresholds.
+#[derive(Clone, Debug)]
+pub struct ModeTable {
+    pub slots: Vec<(Mode, FlightParams)>,
+    pub manager: ModeManagerParams,
+}
+
+impl ModesSpec {
+    pub fn slots(&self) -> [(Mode, Option<&ModeSpec>); MODE_COUNT] {
+        [
+            (Mode::Detumble, self.detumble.as_ref()),
+            (Mode::Stabilise, self.stabilise.as_ref()),
+            (Mode::Manoeuvre, self.manoeuvre.as_ref()),
+            (Mode::Hold, self.hold.as_ref()),
+        ]
+    }
+}
+
+impl Scenario {
+    pub(super) fn validate_modes(&self, m: &ModesSpec) -> Result<()> {
+        let initial = parse_mode(&m.initial)
+            .ok_or_else(|| bad("modes.initial", "must be \"detumble\", \"stabilise\", \"manoeuvre\" or \"hold\""))?;
+        for (k, v) in [
+            ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s),
+            ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s),
+            ("modes.stabilise_exit_error_deg", m.stabilise_exit_error_deg),
+            ("modes.stabilise_exit_rate_deg_s", m.stabilise_exit_rate_deg_s),
+            ("modes.hold_enter_error_deg", m.hold_enter_error_deg),
+            ("modes.hold_enter_rate_deg_s", m.hold_enter_rate_deg_s),
+            ("modes.hold_exit_error_deg", m.hold_exit_error_deg),
+            ("modes.dwell_s", m.dwell_s),
+            ("modes.trigger_persistence_s", m.trigger_persistence_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, "must be >= 0"));
+            }
+        }
+        if !(m.detumble_enter_rate_deg_s > m.detumble_exit_rate_deg_s && m.detumble_exit_rate_deg_s > 0.0) {
+            return Err(bad(
+                "modes.detumble_enter_rate_deg_s",
+                "must exceed detumble_exit_rate_deg_s (> 0): hysteresis",
+            ));
+        }
+        if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
+            return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
+        }
+        let n_families = [
+            self.actuators.cmg.is_some(),
+            self.actuators.wheels.is_some(),
+            self.actuators.magnetorquers.is_some(),
+            self.actuators.thrusters.is_some(),
+        ]
+        .iter()
+        .filter(|x| **x)
+        .count();
+        for (mode, spec) in m.slots() {
+            let Some(spec) = spec else {
+                if mode == initial {
+                    return Err(bad("modes.initial", format!("no [modes.{}]", mode.name())));
+                }
+                continue;
+            };
+            let key = format!("modes.{}", mode.name());
+            match spec.actuator.as_deref() {
+                None if n_families != 1 => {
+                    return Err(bad(&format!("{key}.actuator"), "required with several actuator families"));
+                }
+                None => {}
+                Some(f @ ("cmg" | "wheels" | "magnetorquers" | "thrusters")) => {
+                    let present = match f {
+                        "cmg" => self.actuators.cmg.is_some(),
+                        "wheels" => self.actuators.wheels.is_some(),
+                        "magnetorquers" => self.actuators.magnetorquers.is_some(),
+                        _ => self.actuators.thrusters.is_some(),
+                    };
+                    if !present {
+                        return Err(bad(&format!("{key}.actuator"), format!("no [actuators.{f}]")));
+                    }
+                }
+                Some(other) => {
+                    return Err(bad(
+                        &format!("{key}.actuator"),
+                        format!(
+                            "unknown family {other:?} (known: \"cmg\", \"wheels\", \"magnetorquers\", \"thrusters\")"
+                        ),
+                    ));
+                }
+            }
+            if matches!(spec.controller, Controller::None) {
+                return Err(bad(&format!("{key}.controller"), "a mode needs a control law"));
+            }
+            if let Some(t) = &spec.target {
+                if matches!(mode, Mode::Manoeuvre | Mode::Hold) {
+                    return Err(bad(&format!("{key}.target"), "manoeuvre and hold point at [target]"));
+                }
+                t.validate(&format!("{key}.target"))?;
+                if t.frame == RefFrame::Lvlh && self.orbit.is_none() {
+                    return Err(bad(&format!("{key}.target.frame"), "needs an [orbit]"));
+                }
+            }
+            self.validate_controller(&spec.controller, &format!("{key}.controller"))?;
+        }
+        let table = self.mode_table()?.ok_or_else(|| bad("modes", "missing"))?;
+        for (mode, p) in &table.slots {
+            p.validate().map_err(|e| anyhow!("flight parameters of mode {} rejected: {e}", mode.name()))?;
+        }
+        table.manager.validate().map_err(|e| anyhow!("mode manager rejected: {e}"))?;
+        Ok(())
+    }
+
+    pub(super) fn validate_commands(&self) -> Result<()> {
+        let mut last = f64::NEG_INFINITY;
+        for (k, c) in self.commands.iter().enumerate() {
+            let key = format!("commands[{k}]");
+            if !(c.at_s.is_finite() && c.at_s >= last && c.at_s >= 0.0) {
+                return Err(bad(&key, "at_s must be finite, >= 0 and non-decreasing"));
+            }
+            last = c.at_s;
+            if !self.closed_loop() {
+                return Err(bad(&key, "commands go to the flight code: needs a controller or [modes]"));
+            }
+            if let Some(t) = &c.target {
+                t.validate(&format!("{key}.target"))?;
+                if t.frame != self.target.frame {
+                    return Err(bad(&format!("{key}.target.frame"), "must be the frame of [target]"));
+                }
+            }
+            match (c.mode.as_deref(), &self.modes) {
+                (None, _) => {
+                    if c.target.is_none() {
+                        return Err(bad(&key, "give a target and/or a mode"));
+                    }
+                    if c.lock {
+                        return Err(bad(&format!("{key}.lock"), "needs a mode"));
+                    }
+                }
+                (Some(_), None) => return Err(bad(&format!("{key}.mode"), "needs [modes]")),
+                (Some("auto"), Some(_)) => {
+                    if c.lock {
+                        return Err(bad(&format!("{key}.lock"), "\"auto\" cannot be locked"));
+                    }
+                }
+                (Some(m), Some(spec)) => {
+                    let mode =
+                        parse_mode(m).ok_or_else(|| bad(&format!("{key}.mode"), format!("unknown mode {m:?}")))?;
+                    if spec.slots().iter().all(|(x, s)| *x != mode || s.is_none()) {
+                        return Err(bad(&format!("{key}.mode"), format!("no [modes.{m}]")));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The mode table to upload (`None` without `[modes]`).
+    pub fn mode_table(&self) -> Result<Option<ModeTable>> {
+        let Some(m) = &self.modes else {
+            return Ok(None);
+        };
+        let mut slots = Vec::new();
+        let mut mask = 0u8;
+        for (mode, spec) in m.slots() {
+            if let Some(spec) = spec {
+                let target = spec.target.as_ref().unwrap_or(&self.target);
+                let p = self
+                    .params_for(&spec.controller, spec.actuator.as_deref(), target)
+                    .with_context(|| format!("modes.{}", mode.name()))?;
+                slots.push((mode, p));
+                mask |= 1 << mode.index();
+            }
+        }
+        let deg = |x: f64| x.to_radians() as f32;
+        let manager = ModeManagerParams {
+            slots: mask,
+            initial: parse_mode(&m.initial).ok_or_else(|| bad("modes.initial", "unknown mode"))?,
+            detumble_enter_rate_rad_s: deg(m.detumble_enter_rate_deg_s),
+            detumble_exit_rate_rad_s: deg(m.detumble_exit_rate_deg_s),
+            stabilise_exit_error_rad: deg(m.stabilise_exit_error_deg),
+            stabilise_exit_rate_rad_s: deg(m.stabilise_exit_rate_deg_s),
+            hold_enter_error_rad: deg(m.hold_enter_error_deg),
+            hold_enter_rate_rad_s: deg(m.hold_enter_rate_deg_s),
+            hold_exit_error_rad: deg(m.hold_exit_error_deg),
+            dwell_s: m.dwell_s as f32,
+            trigger_persistence_s: m.trigger_persistence_s as f32,
+        };
+        Ok(Some(ModeTable { slots, manager }))
+    }
+
+    /// The link messages of a command, in order.
+    pub fn command_messages(&self, c: &CommandSpec) -> Vec<acs_flight::protocol::HostMsg> {
+        use acs_flight::protocol::HostMsg;
+        let mut v = Vec::new();
+        if let Some(t) = &c.target {
+            let q = t.quaternion();
+            v.push(HostMsg::SetTarget { target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32] });
+        }
+        match c.mode.as_deref() {
+            Some("auto") => v.push(HostMsg::CommandMode(ModeRequest::Auto)),
+            Some(m) => {
+                if let Some(mode) = parse_mode(m) {
+                    v.push(HostMsg::CommandMode(if c.lock {
+                        ModeRequest::Lock(mode)
+                    } else {
+                        ModeRequest::Enter(mode)
+                    }));
+                }
+            }
+            None => {}
+        }
+        v
+    }
+}
