@@ -300,7 +300,12 @@ impl Fsw {
             }
             ControllerParams::Lqg(g) => Law::Lqg(
                 LqrGains { k: g.k, torque_limit_nm: Vec3::from(g.torque_limit_nm) },
-                LqgEstimator::new(&g.a, &g.b, &g.l),
+                if g.time_varying {
+                    LqgEstimator::time_varying(&g.a, &g.b, &g.process_noise, &g.measurement_noise, &g.p0_diag)
+                        .ok_or(ParamError { field: ParamField::RateGain, reason: ParamReason::NotFinite })?
+                } else {
+                    LqgEstimator::new(&g.a, &g.b, &g.l)
+                },
             ),
         };
         let mut required = valid::ATTITUDE | valid::RATE;

@@ -10,7 +10,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 8;
+pub const PARAMS_VERSION: u16 = 9;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 768;
@@ -105,8 +105,16 @@ pub struct LqgParams {
     pub k: [[f32; 6]; 3],
     pub a: [[f32; 6]; 6],
     pub b: [[f32; 3]; 6],
+    /// Steady-state Kalman gain (used when `time_varying` is false).
     pub l: [[f32; 6]; 6],
     pub torque_limit_nm: [f32; 3],
+    /// Time-varying filter: propagate the covariance from `p0_diag` with the diagonal
+    /// process (per step) and measurement noise variances below (Joseph-form update,
+    /// `estimation::kalman`); `l` is then unused. False: the steady-state gain `l`.
+    pub time_varying: bool,
+    pub process_noise: [f32; 6],
+    pub measurement_noise: [f32; 6],
+    pub p0_diag: [f32; 6],
 }
 
 /// Per-axis PD gains. DCM PD: `M = Kp ∘ [a32 - a23, a13 - a31, a21 - a12] + Kd ∘ ω`
@@ -554,6 +562,15 @@ impl FlightParams {
                 for row in &g.b {
                     check_finite(F::RateGain, row)?;
                 }
+                if g.time_varying {
+                    for v in g.process_noise.iter().chain(g.p0_diag.iter()) {
+                        check_range(F::RateGain, *v, 0.0, 1.0e6)?;
+                    }
+                    // The innovation covariance P⁻ + R must stay positive definite.
+                    for v in g.measurement_noise {
+                        check_range(F::RateGain, v, 1e-30, 1.0e6)?;
+                    }
+                }
                 for t in g.torque_limit_nm {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
                 }
@@ -728,6 +745,10 @@ mod tests {
             b: [[1.0; 3]; 6],
             l: [[1.0; 6]; 6],
             torque_limit_nm: [1.0; 3],
+            time_varying: true,
+            process_noise: [1.0; 6],
+            measurement_noise: [1.0; 6],
+            p0_diag: [1.0; 6],
         });
         let p = FlightParams { controller: lqg, actuator: ActuatorParams::Thrusters(thr), ..base };
         assert_eq!(p.validate(), Ok(()));

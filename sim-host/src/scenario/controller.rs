@@ -74,6 +74,13 @@ pub enum Controller {
         measurement_noise: [f64; 6],
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
+        /// Run the time-varying filter in flight (covariance propagated from
+        /// `initial_covariance`, default `measurement_noise`: the first estimate is the
+        /// first measurement) instead of the steady-state gain.
+        #[serde(default)]
+        time_varying: bool,
+        #[serde(default)]
+        initial_covariance: Option<[f64; 6]>,
     },
     /// Adaptive DMCS (paper 001 eqs 31-51).
     Dmcs {
@@ -211,7 +218,10 @@ impl Scenario {
     pub fn lqg_design_of(&self, c: &Controller) -> Result<acs_flight::params::LqgParams> {
         use crate::design::{discretize::c2d, kalman::steady_state_kalman};
         use nalgebra::DMatrix;
-        let Controller::Lqg { process_noise, measurement_noise, torque_limit_nm, .. } = c else {
+        let Controller::Lqg {
+            process_noise, measurement_noise, torque_limit_nm, time_varying, initial_covariance, ..
+        } = c
+        else {
             bail!("controller.type is not \"lqg\"");
         };
         let d = self.lqr_design_of(c)?;
@@ -229,6 +239,10 @@ impl Scenario {
             b: std::array::from_fn(|r| std::array::from_fn(|k| bd[(r, k)] as f32)),
             l: f6(&l),
             torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            time_varying: *time_varying,
+            process_noise: process_noise.map(|x| x as f32),
+            measurement_noise: measurement_noise.map(|x| x as f32),
+            p0_diag: initial_covariance.unwrap_or(*measurement_noise).map(|x| x as f32),
         })
     }
 }
