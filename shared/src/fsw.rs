@@ -3,7 +3,8 @@
 //!
 //! `Fsw::step(&SensorFrame) -> ActuatorCommand`:
 //! 1. reject bad input (missing validity bits for what the configuration needs, NaN/inf,
-//!    quaternion norm off by > 10 %, rates > 50 rad/s): the safe command (all actuators
+//!    quaternion norm off by > 10 %, rates > 50 rad/s, field components > 1e-2 T, wheel
+//!    speeds > 1e4 rad/s): the safe command (all actuators
 //!    idle: gimbals stop, wheel torques, dipoles and thrusters zero) with `BAD_INPUT`;
 //! 2. the control law → body-torque demand;
 //! 3. allocation to the configured actuator family → commands, the torque they realise,
@@ -30,6 +31,11 @@ use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig};
 
 /// Largest body rate the flight code accepts as a measurement, rad/s.
 pub const MAX_RATE_RAD_S: f32 = 50.0;
+/// Largest magnetometer component accepted, T (Earth's field is < 7e-5 T; a lab
+/// Helmholtz cage a few 1e-4 T).
+pub const MAX_FIELD_T: f32 = 1.0e-2;
+/// Largest wheel speed accepted, rad/s (≈ 95,000 rpm).
+pub const MAX_WHEEL_SPEED_RAD_S: f32 = 1.0e4;
 
 /// Thruster allocator at the configured capacity (`N + 1` LP columns: thrusters and λ).
 pub type ThrusterAllocator = Allocator<MAX_THRUSTERS, { MAX_THRUSTERS + 1 }>;
@@ -451,7 +457,19 @@ impl Fsw {
                 lqr_from_state(g, &x, angle)
             }
         };
-        let u = demand.torque_nm;
+        let mut u = demand.torque_nm;
+        let law_fault = !u.iter().all(|x| x.is_finite());
+        if law_fault {
+            // Documented fallback: allocate nothing; integrators and filters start afresh.
+            u = Vec3::zeros();
+            cmd.status |= status::LAW_FAULT;
+            self.control.reset();
+            self.bdot.reset();
+            self.dmcs.reset();
+            if let Law::Lqg(_, est) = &mut cfg.law {
+                est.reset();
+            }
+        }
         let dt = cfg.dt_s;
         let alloc: AllocResult<4> = match &mut cfg.actuators {
             Actuators::Cmg { pyramid, limits, steering } => {
@@ -618,10 +636,11 @@ fn check_frame(f: &SensorFrame, required: u16) -> Option<Measured> {
     if required & valid::GIMBALS != 0 && !f.gimbal_angle_rad.iter().all(|x| x.is_finite() && libm::fabsf(*x) < 1.0e3) {
         return None;
     }
-    if required & valid::WHEELS != 0 && !finite(&f.wheel_speed_rad_s) {
+    let within = |xs: &[f32], limit: f32| xs.iter().all(|x| libm::fabsf(*x) <= limit);
+    if required & valid::WHEELS != 0 && !within(&f.wheel_speed_rad_s, MAX_WHEEL_SPEED_RAD_S) {
         return None;
     }
-    if required & valid::MAG != 0 && !finite(&f.mag_field_t) {
+    if required & valid::MAG != 0 && !within(&f.mag_field_t, MAX_FIELD_T) {
         return None;
     }
     let (q_ref, ref_rate) = if required & valid::REFERENCE != 0 {
@@ -679,6 +698,7 @@ mod tests {
             nan(|f| f.rate_rad_s[1] = 1e6),
             nan(|f| f.gimbal_angle_rad[3] = f32::NAN),
             nan(|f| f.valid = valid::RATE),
+            nan(|f| f.gimbal_angle_rad[0] = 1e30),
             nan(|f| f.valid = valid::ATTITUDE | valid::RATE), // CMG configuration needs gimbals
         ];
         for b in bad {

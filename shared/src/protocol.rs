@@ -65,6 +65,9 @@ pub mod status {
     /// CMG cluster at its momentum envelope (saturation singularity): no more torque
     /// along the singular direction; momentum must be dumped.
     pub const MOMENTUM_SATURATION: u16 = 1 << 10;
+    /// The control law produced a non-finite demand (overflow from extreme gains or
+    /// states): zero torque was allocated and the law's state reset.
+    pub const LAW_FAULT: u16 = 1 << 11;
 }
 
 /// One sample of everything the flight code reads, taken at `time_us`.

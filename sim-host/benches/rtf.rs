@@ -1,7 +1,7 @@
 //! `cargo bench -p sim-host --bench rtf`: in-process real-time factors of paper 000 test 3
 //! (100 Hz control, 100 Hz RK4, output decimated to 20 Hz), the paper-001 1200 s
 //! reaction-wheel slew (accurate wheel model, 10 Hz control, 200 Hz RK4) and 5-orbit
-//! paper-003 cubesat runs (magnetorquer hold; free), and, when QEMU and the firmware are
+//! paper-003 cubesat runs (magnetorquer hold; free), the 7200 s mode-manager mission, and, when QEMU and the firmware are
 //! available, the flight step's instruction count on the emulated Cortex-M4F.
 //!
 //! Not a test: it prints figures. Real-time factor = simulated time / wall time of the
@@ -92,9 +92,12 @@ fn main() {
         rtf[reps - 1]
     );
 
-    for (file, reps) in
-        [("paper001/wheel-slew.toml", 3), ("paper003/orbit-mtq-hold.toml", 3), ("paper003/orbit-free.toml", 3)]
-    {
+    for (file, reps) in [
+        ("paper001/wheel-slew.toml", 3),
+        ("paper003/orbit-mtq-hold.toml", 3),
+        ("paper003/orbit-free.toml", 3),
+        ("modes/cubesat-mission.toml", 5),
+    ] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenarios").join(file);
         let sc = Scenario::load(&path).expect("scenario");
         let mut rtf: Vec<f64> = (0..reps)

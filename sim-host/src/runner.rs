@@ -34,6 +34,7 @@ pub struct StatusCounts {
     pub torque_shortfall: u64,
     pub alloc_fallback: u64,
     pub unrealised: u64,
+    pub law_fault: u64,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -340,6 +341,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             (status::TORQUE_SHORTFALL, &mut counts.torque_shortfall),
             (status::ALLOC_FALLBACK, &mut counts.alloc_fallback),
             (status::UNREALISED, &mut counts.unrealised),
+            (status::LAW_FAULT, &mut counts.law_fault),
         ] {
             *c += u64::from(s & bit != 0);
         }

@@ -26,6 +26,11 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
         return r;
     }
     let m: [f32; 3] = (b_body_t.cross(torque_nm) / b2).into();
+    // Finite but huge inputs can overflow |B|² or B × T (then inf/inf = NaN).
+    if !(b2.is_finite() && m.iter().all(|x| x.is_finite())) {
+        r.status = AllocStatus::NonFinite;
+        return r;
+    }
     // Asymmetric per-axis limits: scale the whole vector.
     let mut s = 1.0f32;
     for ((mi, hi), lo) in m.iter().zip(p.max_dipole_am2.iter()).zip(p.min_dipole_am2.iter()) {
@@ -53,6 +58,10 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
     }
     let eff = Vec3::from(eff);
     let realised = eff.cross(b_body_t);
+    if !realised.iter().all(|x| x.is_finite()) {
+        r.status = AllocStatus::NonFinite;
+        return r;
+    }
     let short = torque_nm - realised;
     let tn = torque_nm.norm_squared();
     r.u = m;
@@ -129,5 +138,9 @@ mod tests {
             allocate(&rig(), &Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::new(1e-4, 0.0, 0.0)).status,
             AllocStatus::NonFinite
         );
+        // Finite but overflowing (found by tests/tests/flight_fuzz.rs): no NaN dipoles.
+        let r = allocate(&rig(), &Vec3::new(4e-5, 0.0, 6e32), &Vec3::new(-2.6e32, -6e31, 1e-5));
+        assert_eq!(r.status, AllocStatus::NonFinite);
+        assert!(r.u.iter().chain(r.realised.iter()).all(|x| x.is_finite() && *x == 0.0), "{r:?}");
     }
 }

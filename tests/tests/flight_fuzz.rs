@@ -1,0 +1,128 @@
+//! The flight side of the link under random message sequences: real parameter sets (the
+//! mode mission's four modes, a CMG set, a thruster LP set), mode commands, targets and
+//! sensor frames, each with a chance of random byte corruption that still decodes (so
+//! NaN, huge, negative or nonsensical fields reach validation and the step). Asserts: no
+//! panic, one reply per message, every step answers its frame with finite commands, the
+//! mode code is one of the five, and a safe command is all-idle.
+
+use acs_flight::modes::{Mode, ModeRequest};
+use acs_flight::protocol::{
+    ActuatorCommand, FswMsg, HostMsg, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
+};
+use acs_flight::session::{Session, board};
+use acs_tests::scenario;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn finite(c: &ActuatorCommand) -> bool {
+    c.gimbal_rate_cmd_rad_s
+        .iter()
+        .chain(&c.wheel_torque_cmd_nm)
+        .chain(&c.dipole_cmd_am2)
+        .chain(&c.thruster_level)
+        .chain(&c.torque_demand_nm)
+        .chain(&c.torque_realised_nm)
+        .chain(&c.law_telemetry)
+        .chain(&[c.attitude_error_rad, c.singularity_measure, c.steering_alpha])
+        .all(|x| x.is_finite())
+}
+
+fn frame(rng: &mut ChaCha8Rng, seq: u32) -> SensorFrame {
+    let mut q: [f32; 4] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
+    let n = q.iter().map(|x| x * x).sum::<f32>().sqrt().max(1e-3);
+    q.iter_mut().for_each(|x| *x /= n);
+    SensorFrame {
+        q_ib_xyzw: q,
+        rate_rad_s: std::array::from_fn(|_| rng.random_range(-0.2..0.2)),
+        gimbal_angle_rad: std::array::from_fn(|_| rng.random_range(-3.0..3.0)),
+        wheel_speed_rad_s: std::array::from_fn(|_| rng.random_range(-500.0..500.0)),
+        mag_field_t: std::array::from_fn(|_| rng.random_range(-5e-5..5e-5)),
+        q_ref_xyzw: [0.0, 0.0, 0.0, 1.0],
+        valid: valid::ALL,
+        ..SensorFrame::empty(seq, seq as u64 * 500_000)
+    }
+}
+
+#[test]
+fn random_message_sequences_never_break_the_flight_side() {
+    // More seeds for a longer local campaign: ACS_FUZZ_SEEDS=1000 cargo test ...
+    let seeds: u64 = std::env::var("ACS_FUZZ_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
+    for seed in 0..seeds {
+        fuzz(seed);
+    }
+}
+
+fn fuzz(seed: u64) {
+    let mission = scenario("modes/cubesat-mission.toml").mode_table().unwrap().unwrap();
+    let cmg = scenario("paper002/lqg.toml").flight_params().unwrap();
+    let thr = scenario("paper004/dp-nominal.toml").flight_params().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(0xF100 + seed);
+    let mut s = Session::new(board::HOST, 1);
+    let mut counter = || 0u32;
+    let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) = (0u32, 0u32, 0u32, 0u32, [0u32; 5]);
+    for k in 0..30_000u32 {
+        let msg = match rng.random_range(0..100) {
+            0 => HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
+            1..=10 => {
+                let (mode, params) = mission.slots[rng.random_range(0..mission.slots.len())];
+                HostMsg::UploadModeParams { mode, params }
+            }
+            11..=16 => HostMsg::ArmModes(mission.manager),
+            17 => HostMsg::UploadParams(if rng.random_bool(0.5) { cmg } else { thr }),
+            18..=21 => {
+                let m = Mode::ALL[rng.random_range(0..4)];
+                HostMsg::CommandMode(match rng.random_range(0..3) {
+                    0 => ModeRequest::Enter(m),
+                    1 => ModeRequest::Lock(m),
+                    _ => ModeRequest::Auto,
+                })
+            }
+            22..=23 => HostMsg::SetTarget { target_q_xyzw: frame(&mut rng, 0).q_ib_xyzw },
+            _ => HostMsg::Sensor(frame(&mut rng, k)),
+        };
+        let mut bytes = postcard::to_allocvec(&msg).unwrap();
+        if rng.random_bool(0.3) {
+            for _ in 0..rng.random_range(1..4) {
+                let i = rng.random_range(0..bytes.len());
+                bytes[i] = rng.random();
+            }
+        }
+        let Ok(decoded) = postcard::from_bytes::<HostMsg>(&bytes) else {
+            continue;
+        };
+        corrupted += u32::from(decoded != msg);
+        let msg = decoded;
+        let reply = s.handle(&msg, 0, &mut counter);
+        match (&msg, reply) {
+            (HostMsg::Sensor(f), Some(FswMsg::Step(r))) => {
+                steps += 1;
+                let c = r.cmd;
+                assert_eq!(c.seq, f.seq);
+                assert!(finite(&c), "non-finite command for {f:?}: {c:?}");
+                assert!(c.mode <= 4, "{}", c.mode);
+                mode_seen[c.mode as usize] += 1;
+                if c.status & (status::NOT_CONFIGURED | status::BAD_INPUT) != 0 {
+                    // All idle; the mode telemetry still reports the mode in force.
+                    let idle = ActuatorCommand {
+                        mode: c.mode,
+                        mode_reason: c.mode_reason,
+                        mode_transitions: c.mode_transitions,
+                        ..acs_flight::Fsw::safe_command(c.seq, c.status)
+                    };
+                    assert_eq!(c, idle, "safe command not idle");
+                }
+            }
+            (HostMsg::Sensor(_), other) => panic!("a sensor frame got {other:?}"),
+            (HostMsg::StartRealTime, _) => {}
+            (_, Some(FswMsg::ParamsRejected(_) | FswMsg::Error(_))) => rejected += 1,
+            (_, Some(FswMsg::ModesArmed { .. })) => armed += 1,
+            (_, Some(_)) => {}
+            (m, None) => panic!("no reply to {m:?}"),
+        }
+    }
+    eprintln!(
+        "seed {seed}: {steps} steps, {corrupted} corrupted messages decoded, {rejected} rejected, armed {armed} times, modes seen {mode_seen:?}"
+    );
+    assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100);
+    assert!(mode_seen.iter().all(|n| *n > 0), "every mode (and none) was exercised: {mode_seen:?}");
+}
