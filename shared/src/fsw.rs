@@ -27,7 +27,7 @@ use crate::params::{
     SteeringLaw, SteeringParams, TargetFrame, ThrusterMethod, ThrusterParams,
 };
 use crate::protocol::{ActuatorCommand, SensorFrame, status, valid};
-use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig};
+use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig, limit_rates};
 
 /// Largest body rate the flight code accepts as a measurement, rad/s.
 pub const MAX_RATE_RAD_S: f32 = 50.0;
@@ -64,6 +64,8 @@ enum Law {
     EulerPd(EulerPdGains),
     Bdot(BdotGains),
     Lqr(LqrGains),
+    /// Gimbal rates straight from the state (4×6 gain), no steering.
+    LqrGimbalRate([[f32; 6]; 4]),
     Lqg(LqrGains, LqgEstimator),
     Dmcs(DmcsGains),
 }
@@ -288,6 +290,7 @@ impl Fsw {
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 Law::Lqr(LqrGains { k: *k, torque_limit_nm: Vec3::from(*torque_limit_nm) })
             }
+            ControllerParams::LqrGimbalRate { k } => Law::LqrGimbalRate(*k),
             ControllerParams::Dmcs(d) => {
                 let bad = ParamError { field: ParamField::AttitudeGain, reason: ParamReason::OutOfRange };
                 let (p21, p22) =
@@ -442,6 +445,8 @@ impl Fsw {
             }
             _ => (Vec3::zeros(), None),
         };
+        // Laws that command the gimbal rates themselves (no torque demand to steer).
+        let mut direct_rates: Option<[f32; 4]> = None;
         let demand = match &mut cfg.law {
             Law::QuaternionFeedback(g) => {
                 self.control.update(g, &cfg.inertia, &m.q, &q_cmd, &m.w, &w_cmd, &h_act, cfg.dt_s, self.saturated_last)
@@ -450,6 +455,11 @@ impl Fsw {
             Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
             Law::Lqr(g) => lqr(g, &m.q, &q_cmd, &m.w, &w_cmd),
+            Law::LqrGimbalRate(k) => {
+                let (x, angle) = lqr_state(&m.q, &q_cmd, &m.w, &w_cmd);
+                direct_rates = Some(k.map(|row| -row.iter().zip(x.iter()).map(|(k, x)| k * x).sum::<f32>()));
+                crate::control::TorqueDemand { torque_nm: Vec3::zeros(), limited: false, error_angle_rad: angle }
+            }
             Law::Dmcs(g) => self.dmcs.update(g, &m.q, &q_cmd, &m.w, cfg.dt_s),
             Law::Lqg(g, est) => {
                 let (z, angle) = lqr_state(&m.q, &q_cmd, &m.w, &w_cmd);
@@ -458,10 +468,12 @@ impl Fsw {
             }
         };
         let mut u = demand.torque_nm;
-        let law_fault = !u.iter().all(|x| x.is_finite());
+        let law_fault =
+            !u.iter().all(|x| x.is_finite()) || direct_rates.is_some_and(|r| !r.iter().all(|x| x.is_finite()));
         if law_fault {
             // Documented fallback: allocate nothing; integrators and filters start afresh.
             u = Vec3::zeros();
+            direct_rates = direct_rates.map(|_| [0.0; 4]);
             cmd.status |= status::LAW_FAULT;
             self.control.reset();
             self.bdot.reset();
@@ -476,14 +488,38 @@ impl Fsw {
                 let Some(t) = trig.as_ref() else {
                     return Self::safe_command(f.seq, status::BAD_INPUT);
                 };
-                let out =
-                    pyramid.steer(steering, limits, t, &m.gimbals, &m.w, &u, dt, dither_time_s(steering, f.time_us));
-                let realised = pyramid.torque_on_body(t, &m.w, &out.gimbal_rate_rad_s);
-                cmd.gimbal_rate_cmd_rad_s = out.gimbal_rate_rad_s;
-                cmd.singularity_measure = out.singularity_measure;
-                cmd.steering_alpha = out.alpha;
-                cmd.status |= out.status;
-                cmg_result(out.gimbal_rate_rad_s, &realised, &u)
+                if let Some(mut r) = direct_rates {
+                    for (i, x) in r.iter_mut().enumerate() {
+                        if limits.failed_mask & (1 << i) != 0 {
+                            *x = 0.0;
+                        }
+                    }
+                    cmd.status |= limit_rates(&mut r, &m.gimbals, limits, dt);
+                    let realised = pyramid.torque_on_body(t, &m.w, &r);
+                    cmd.gimbal_rate_cmd_rad_s = r;
+                    let j1 = pyramid.unit_jacobian(t);
+                    cmd.singularity_measure = (j1 * j1.transpose()).determinant();
+                    // The law's demand is what its rates do.
+                    u = realised;
+                    cmg_result(r, &realised, &realised)
+                } else {
+                    let out = pyramid.steer(
+                        steering,
+                        limits,
+                        t,
+                        &m.gimbals,
+                        &m.w,
+                        &u,
+                        dt,
+                        dither_time_s(steering, f.time_us),
+                    );
+                    let realised = pyramid.torque_on_body(t, &m.w, &out.gimbal_rate_rad_s);
+                    cmd.gimbal_rate_cmd_rad_s = out.gimbal_rate_rad_s;
+                    cmd.singularity_measure = out.singularity_measure;
+                    cmd.steering_alpha = out.alpha;
+                    cmd.status |= out.status;
+                    cmg_result(out.gimbal_rate_rad_s, &realised, &u)
+                }
             }
             Actuators::Wheels(w) => {
                 let r = wheels::allocate(w, &m.wheels, &u);
@@ -851,5 +887,40 @@ mod tests {
         let c = f.step(&frame(Quat::identity()));
         assert!((c.attitude_error_rad - 0.5).abs() < 1e-4, "{}", c.attitude_error_rad);
         assert!(f.set_target([0.0, 0.0, 0.0, 2.0]).is_err());
+    }
+
+    #[test]
+    fn gimbal_rate_lqr_commands_minus_k_x_without_steering() {
+        let mut k = [[0.0f32; 6]; 4];
+        for (i, row) in k.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                *x = 0.1 * (i as f32 + 1.0) - 0.05 * j as f32;
+            }
+        }
+        let p = FlightParams { controller: ControllerParams::LqrGimbalRate { k }, ..FlightParams::default() };
+        let mut f = Fsw::new();
+        f.configure(&p).unwrap();
+        let (r, pi, y) = (0.01f32, -0.02, 0.015);
+        let mut fr = frame(quat_from_euler([r, pi, y], EulerSeq::Zyx321));
+        fr.rate_rad_s = [0.001, -0.002, 0.003];
+        let c = f.step(&fr);
+        let x = [r, pi, y, 0.001, -0.002, 0.003];
+        for (i, row) in k.iter().enumerate() {
+            let expect: f32 = -row.iter().zip(&x).map(|(k, x)| k * x).sum::<f32>();
+            assert!((c.gimbal_rate_cmd_rad_s[i] - expect).abs() < 1e-6, "{i}: {:?}", c.gimbal_rate_cmd_rad_s);
+        }
+        // The reported demand is what those rates do: no shortfall is claimed.
+        assert_eq!(c.status & status::TORQUE_SHORTFALL, 0);
+        assert!(Vec3::from(c.torque_demand_nm).norm() > 0.0);
+        // A gimbal-rate law on wheels is refused.
+        let mut bad = p;
+        bad.actuator = ActuatorParams::Magnetorquers(MagnetorquerParams {
+            max_dipole_am2: [1.0; 3],
+            min_dipole_am2: [1.0; 3],
+            deadband_lo_am2: [0.0; 3],
+            deadband_hi_am2: [0.0; 3],
+            min_field_t: 1e-7,
+        });
+        assert_eq!(f.configure(&bad).unwrap_err().field, ParamField::Controller);
     }
 }

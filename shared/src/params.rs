@@ -73,6 +73,13 @@ pub enum ControllerParams {
         k: [[f32; 6]; 3],
         torque_limit_nm: [f32; 3],
     },
+    /// LQR with the gimbal rates as its input (paper 002 eqs 8-11: `δ̇ = -K [e; ω - ω_c]`,
+    /// K row-major 4×6, rad/s per rad and per rad/s, designed on the body + CMG model
+    /// linearised at fixed gimbal angles). No steering law: the rates go to the gimbals
+    /// after the failure mask and the rate and angle limits. CMG only.
+    LqrGimbalRate {
+        k: [[f32; 6]; 4],
+    },
     /// LQG: the LQR gain on the estimate of a steady-state Kalman filter on the discrete
     /// model `x⁺ = A x + B u` with `z = x` measured ([e; ω - ω_c]) and gain L
     /// (`x̂ ← x̂⁻ + L (z - x̂⁻)`, paper 002 eq 13).
@@ -581,6 +588,14 @@ impl FlightParams {
                 }
                 for t in torque_limit_nm {
                     check_range(F::TorqueLimit, *t, 1e-9, 1.0e6)?;
+                }
+            }
+            ControllerParams::LqrGimbalRate { k } => {
+                for row in k {
+                    check_finite(F::AttitudeGain, row)?;
+                }
+                if !matches!(self.actuator, ActuatorParams::Cmg { .. }) {
+                    return Err(err(F::Controller, R::OutOfRange));
                 }
             }
             ControllerParams::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {

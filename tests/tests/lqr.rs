@@ -127,3 +127,26 @@ fn time_varying_lqg_filter_converges_to_the_steady_state_gain_and_flies_the_same
     assert!(varying.summary.settle_time_s.unwrap() < 18.0);
     assert!((a - b).abs() < 0.1 * b, "{a} vs {b}");
 }
+
+#[test]
+fn paper002_lqr_on_gimbal_rates_as_the_paper_formulates_it_stabilises_within_18_s() {
+    // The paper's own form: inputs are the four gimbal rates, no steering law.
+    let sc = scenario("paper002/lqr-gimbal-rates.toml");
+    let d = sc.lqr_design().unwrap();
+    assert_eq!((d.input.as_str(), d.gain.len()), ("gimbal_rates", 4));
+    assert!(d.residual < 1e-9, "CARE residual {}", d.residual);
+    assert!(d.closed_loop_eigenvalues.iter().all(|e| e.re < 0.0));
+    let r = run_in_process(&sc);
+    let torque_form = run_in_process(&scenario("paper002/lqr.toml"));
+    let s = &r.summary;
+    eprintln!(
+        "paper 002 LQR on gimbal rates: settles {:?} s, final {:.2e} deg, peak gimbal rate {:.3} rad/s (torque form + SR: {:?} s)",
+        s.settle_time_s,
+        s.final_error_deg,
+        s.max_gimbal_rate_rad_s.unwrap(),
+        torque_form.summary.settle_time_s
+    );
+    assert!(s.settle_time_s.unwrap() < 18.0 && s.final_error_deg < 0.2, "paper: < 18 s, < 0.2 deg");
+    assert!(s.max_gimbal_rate_rad_s.unwrap() <= 0.12 + 1e-6, "rate limit");
+    assert_eq!(s.status_counts.singular + s.status_counts.law_fault, 0);
+}

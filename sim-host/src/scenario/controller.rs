@@ -48,14 +48,19 @@ pub enum Controller {
     /// LQR `u = -K [e; ω - ω_c]`: an explicit 3×6 `gain`, or `q_diag` (6) and `r_diag` (3)
     /// with the gain computed at load (CARE) on the linearised `model`: "free" (rigid
     /// body), "orbit" (gravity gradient about LVLH at the scenario's orbit rate) or "rig"
-    /// (pendulum of `[rig]`); default from the scenario.
+    /// (pendulum of `[rig]`); default from the scenario. `input = "gimbal_rates"` (CMG
+    /// only, paper 002): u is the 4 gimbal rates, designed on the body + pyramid model at
+    /// the initial gimbal angles (`T = -J(δ₀) δ̇`, stored momentum `h(δ₀)`), `r_diag` (4).
     Lqr {
         #[serde(default)]
         gain: Option<[[f64; 6]; 3]>,
         #[serde(default)]
         q_diag: Option<[f64; 6]>,
         #[serde(default)]
-        r_diag: Option<[f64; 3]>,
+        r_diag: Option<Vec<f64>>,
+        /// "torque" (default) or "gimbal_rates".
+        #[serde(default)]
+        input: Option<String>,
         #[serde(default)]
         model: Option<String>,
         #[serde(default = "default_torque_limit")]
@@ -123,7 +128,10 @@ fn default_torque_limit() -> [f64; 3] {
 /// An LQR design: the gain and what it was computed from.
 #[derive(Clone, Debug)]
 pub struct LqrDesign {
-    pub gain: [[f64; 6]; 3],
+    /// One row per input (3 torques or 4 gimbal rates).
+    pub gain: Vec<[f64; 6]>,
+    /// "torque" or "gimbal_rates".
+    pub input: String,
     /// "given" for an explicit gain, else the model name.
     pub model: String,
     /// Closed-loop eigenvalues of `A - B K` (empty for a given gain).
@@ -146,10 +154,11 @@ impl Scenario {
         use crate::design::models::{AttitudeModel, circular_orbit_rate};
         use crate::design::riccati;
         use nalgebra::DMatrix;
-        let (q, r, model) = match c {
+        let (q, r, model, input): (&[f64; 6], &[f64], _, _) = match c {
             Controller::Lqr { gain: Some(k), .. } => {
                 return Ok(LqrDesign {
-                    gain: *k,
+                    gain: k.to_vec(),
+                    input: "torque".into(),
                     model: "given".into(),
                     closed_loop_eigenvalues: Vec::new(),
                     residual: 0.0,
@@ -157,9 +166,11 @@ impl Scenario {
                     b: DMatrix::zeros(6, 3),
                 });
             }
-            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, .. } => (q, r, model),
+            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, input, .. } => {
+                (q, r.as_slice(), model, input.as_deref().unwrap_or("torque"))
+            }
             Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
-            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag, model),
+            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag.as_slice(), model, "torque"),
             _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
         };
         let default_model = if self.rig.is_some() {
@@ -176,7 +187,7 @@ impl Scenario {
             _ => 0.0,
         };
         let mgr = self.spacecraft()?.rig.map_or(Vec3::zeros(), |r| r.mgr_nm);
-        let m = AttitudeModel {
+        let mut m = AttitudeModel {
             inertia: self.inertia(),
             orbit_rate: if model == "orbit" { orbit_rate } else { 0.0 },
             gravity_gradient: model == "orbit",
@@ -184,6 +195,30 @@ impl Scenario {
             stored_momentum: Vec3::zeros(),
             input: DMatrix::identity(3, 3),
         };
+        match input {
+            "torque" => {}
+            "gimbal_rates" => {
+                let cmg = self
+                    .actuators
+                    .cmg
+                    .as_ref()
+                    .ok_or_else(|| bad("controller.input", "\"gimbal_rates\" needs [actuators.cmg]"))?;
+                let pyramid = crate::design::models::CmgPyramid { beta: cmg.skew_deg.to_radians(), h0: cmg.h0() };
+                let d0 = cmg.initial_gimbal_deg.map(f64::to_radians);
+                let j = pyramid.jacobian(&d0);
+                m.stored_momentum = pyramid.momentum(&d0);
+                m.input = DMatrix::from_fn(3, 4, |r, c| -j[(r, c)]);
+            }
+            other => {
+                return Err(bad(
+                    "controller.input",
+                    format!("unknown input {other:?} (known: \"torque\", \"gimbal_rates\")"),
+                ));
+            }
+        }
+        if r.len() != m.m() {
+            return Err(bad("controller.r_diag", format!("needs {} entries for input {input:?}", m.m())));
+        }
         if !matches!(model.as_str(), "free" | "orbit" | "rig") {
             return Err(bad(
                 "controller.model",
@@ -197,9 +232,10 @@ impl Scenario {
             riccati::lqr(&a, &b, &qm, &rm).map_err(|e| bad("controller", format!("LQR design failed: {e:?}")))?;
         let residual = riccati::care_residual_rel(&a, &b, &qm, &rm, &x).unwrap_or(f64::NAN);
         let closed = &a - &b * &k;
-        let gain = std::array::from_fn(|i| std::array::from_fn(|j| k[(i, j)]));
+        let gain = (0..k.nrows()).map(|i| std::array::from_fn(|j| k[(i, j)])).collect();
         Ok(LqrDesign {
             gain,
+            input: input.into(),
             model,
             closed_loop_eigenvalues: riccati::eigenvalues(&closed).unwrap_or_default(),
             residual,
@@ -234,7 +270,7 @@ impl Scenario {
         let f6 =
             |m: &DMatrix<f64>| -> [[f32; 6]; 6] { std::array::from_fn(|r| std::array::from_fn(|k| m[(r, k)] as f32)) };
         Ok(acs_flight::params::LqgParams {
-            k: d.gain.map(|row| row.map(|x| x as f32)),
+            k: std::array::from_fn(|i| d.gain.get(i).copied().unwrap_or_default().map(|x| x as f32)),
             a: f6(&ad),
             b: std::array::from_fn(|r| std::array::from_fn(|k| bd[(r, k)] as f32)),
             l: f6(&l),
@@ -354,9 +390,13 @@ impl Scenario {
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
             }),
             Controller::Lqr { torque_limit_nm, .. } => {
-                let k = self.lqr_design_of(c)?.gain;
+                let d = self.lqr_design_of(c)?;
+                let row = |i: usize| d.gain.get(i).copied().unwrap_or_default().map(|x| x as f32);
+                if d.input == "gimbal_rates" {
+                    return Ok(ControllerParams::LqrGimbalRate { k: std::array::from_fn(row) });
+                }
                 ControllerParams::Lqr {
-                    k: k.map(|row| row.map(|x| x as f32)),
+                    k: std::array::from_fn(row),
                     torque_limit_nm: torque_limit_nm.map(|x| x as f32),
                 }
             }
