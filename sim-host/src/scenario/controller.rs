@@ -348,8 +348,7 @@ impl Scenario {
     /// The flight parameters of a control law (gains designed here when asked).
     pub(super) fn controller_params(&self, c: &Controller) -> Result<ControllerParams> {
         let inertia = self.inertia();
-        let f =
-            |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
+        let f = f32_rows;
         let p = match c {
             Controller::QuaternionFeedback {
                 zeta,

@@ -320,6 +320,11 @@ pub struct LinkSpec {
     pub kind: Option<String>,
 }
 
+/// A 3×3 matrix as the flight code's row-major f32 array.
+fn f32_rows(m: &Matrix3<f64>) -> [[f32; 3]; 3] {
+    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32))
+}
+
 fn yes() -> bool {
     true
 }
@@ -656,8 +661,7 @@ impl Scenario {
     /// present), pointing at `target`.
     pub fn params_for(&self, c: &Controller, family: Option<&str>, target: &AttitudeSpec) -> Result<FlightParams> {
         let inertia = self.inertia();
-        let f =
-            |m: &Matrix3<f64>| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32)) };
+        let f = f32_rows;
         let controller = self.controller_params(c)?;
         let q = target.quaternion();
         Ok(FlightParams {
