@@ -317,7 +317,8 @@ impl Fsw {
                 },
             ),
         };
-        let mut required = valid::ATTITUDE | valid::RATE;
+        // B-dot needs no attitude (star trackers lose lock while tumbling).
+        let mut required = if matches!(law, Law::Bdot(_)) { valid::RATE } else { valid::ATTITUDE | valid::RATE };
         let actuators = match &p.actuator {
             ActuatorParams::Cmg { cmg, steering } => {
                 required |= valid::GIMBALS;
@@ -397,20 +398,30 @@ impl Fsw {
         cmd
     }
 
-    /// Mode logic on the active mode's view of the measurements; switches `active`.
+    /// Mode logic on the active mode's view of the measurements; switches `active`. The
+    /// rate trigger needs only the gyro: a tumble that blinds the star tracker must still
+    /// reach detumble. Without the active mode's inputs, error and relative rate are NaN
+    /// (never converged, never off target).
     fn update_mode(&mut self, f: &SensorFrame) {
         let (Some(mgr), Some(Some(cfg))) = (self.manager.as_mut(), self.slots.get(self.active)) else {
             return;
         };
-        let Some(m) = check_frame(f, cfg.required) else {
+        let w = Vec3::from(f.rate_rad_s);
+        if f.valid & valid::RATE == 0 || !finite(&f.rate_rad_s) || w.amax() > MAX_RATE_RAD_S {
             return;
+        }
+        let (error_rad, rel_rate_rad_s) = match check_frame(f, cfg.required | valid::ATTITUDE) {
+            Some(m) => {
+                let (q_cmd, w_cmd) = command_frame(cfg, &m);
+                (rotation_angle(&attitude_error(&m.q, &q_cmd)), (m.w - w_cmd).norm())
+            }
+            None => (f32::NAN, f32::NAN),
         };
-        let (q_cmd, w_cmd) = command_frame(cfg, &m);
-        let inputs = ModeInputs {
-            rate_rad_s: m.w.norm(),
-            rel_rate_rad_s: (m.w - w_cmd).norm(),
-            error_rad: rotation_angle(&attitude_error(&m.q, &q_cmd)),
-        };
+        let mut inputs_ok = [false; MODE_COUNT];
+        for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
+            *ok = slot.as_ref().is_some_and(|c| check_frame(f, c.required).is_some());
+        }
+        let inputs = ModeInputs { rate_rad_s: w.norm(), rel_rate_rad_s, error_rad, inputs_ok };
         if let Some((mode, _)) = mgr.update(&inputs) {
             self.active = mode.index();
             self.reset_law_state();
@@ -664,7 +675,13 @@ fn check_frame(f: &SensorFrame, required: u16) -> Option<Measured> {
     if f.valid & required != required {
         return None;
     }
-    let q = unit_quat(f.q_ib_xyzw)?;
+    // An attitude flagged valid must be a unit quaternion; one the law does not need may
+    // be absent (identity then, unused).
+    let q = if f.valid & valid::ATTITUDE != 0 || required & valid::ATTITUDE != 0 {
+        unit_quat(f.q_ib_xyzw)?
+    } else {
+        Quat::identity()
+    };
     let w = Vec3::from(f.rate_rad_s);
     if !finite(&f.rate_rad_s) || w.amax() > MAX_RATE_RAD_S {
         return None;
@@ -922,5 +939,40 @@ mod tests {
             min_field_t: 1e-7,
         });
         assert_eq!(f.configure(&bad).unwrap_err().field, ParamField::Controller);
+    }
+
+    #[test]
+    fn a_tumble_that_blinds_the_star_tracker_still_reaches_detumble() {
+        let mtq = MagnetorquerParams {
+            max_dipole_am2: [0.1; 3],
+            min_dipole_am2: [0.1; 3],
+            deadband_lo_am2: [0.0; 3],
+            deadband_hi_am2: [0.0; 3],
+            min_field_t: 1e-7,
+        };
+        let bdot = FlightParams {
+            controller: ControllerParams::Bdot { gain_am2_s_per_t: 1e4, filter_time_constant_s: 0.0 },
+            actuator: ActuatorParams::Magnetorquers(mtq),
+            ..FlightParams::default()
+        };
+        let mut f = Fsw::new();
+        f.configure_mode(Mode::Detumble, &bdot).unwrap();
+        f.configure_mode(Mode::Hold, &FlightParams::default()).unwrap();
+        f.arm_modes(&ModeManagerParams { slots: 0b1001, initial: Mode::Hold, ..table_params() }).unwrap();
+        // Gyro and magnetometer valid, attitude lost, tumbling at 0.1 rad/s.
+        let mut fr = frame(Quat::identity());
+        fr.valid = valid::RATE | valid::MAG | valid::GIMBALS;
+        fr.q_ib_xyzw = [0.0; 4];
+        fr.rate_rad_s = [0.1, 0.0, 0.0];
+        let c1 = f.step(&fr);
+        // Hold cannot run blind…
+        assert_eq!((c1.status, c1.mode), (status::BAD_INPUT, Mode::Hold.code()));
+        // … but the rate trigger fires (2-step persistence) and B-dot needs no attitude.
+        let c2 = f.step(&fr);
+        assert_eq!(c2.mode, Mode::Detumble.code());
+        assert_eq!(c2.status & status::BAD_INPUT, 0);
+        fr.mag_field_t = [2.1e-5, -1.0e-5, 3.0e-5];
+        let c3 = f.step(&fr);
+        assert!(Vec3::from(c3.dipole_cmd_am2).norm() > 0.0, "B-dot acts on the field change");
     }
 }

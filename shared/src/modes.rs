@@ -15,7 +15,10 @@
 //! - manoeuvre → hold: error `< hold_enter_error` and `|ω - ω_c| < hold_enter_rate` for
 //!   `dwell_s`;
 //! - hold → manoeuvre: error `> hold_exit_error` for `trigger_persistence_s` (e.g. after a
-//!   new target was commanded).
+//!   new target was commanded);
+//! - any mode but detumble → detumble: the mode's inputs missing (a star tracker blinded
+//!   by a tumble) while detumble's are there, for `trigger_persistence_s`;
+//! - no convergence transition goes into a mode whose inputs this frame lacks.
 //!
 //! Hysteresis: every enter threshold is strictly beyond its exit threshold (validated),
 //! and conditions must persist, so noise at a threshold cannot make the mode chatter.
@@ -92,6 +95,9 @@ pub enum Reason {
     OffTarget = 5,
     /// Commanded over the link.
     Commanded = 6,
+    /// The mode's sensors were missing (e.g. star tracker blinded by a tumble) while
+    /// detumble's were available.
+    InputLost = 7,
 }
 
 impl Reason {
@@ -104,6 +110,7 @@ impl Reason {
             Reason::OnTarget,
             Reason::OffTarget,
             Reason::Commanded,
+            Reason::InputLost,
         ]
         .get(c as usize)
         .copied()
@@ -118,6 +125,7 @@ impl Reason {
             Reason::OnTarget => "on_target",
             Reason::OffTarget => "off_target",
             Reason::Commanded => "commanded",
+            Reason::InputLost => "input_lost",
         }
     }
 }
@@ -205,8 +213,10 @@ pub struct ModeInputs {
     pub rate_rad_s: f32,
     /// `|ω - ω_c|`, rate relative to the active mode's commanded rate, rad/s.
     pub rel_rate_rad_s: f32,
-    /// Attitude error to the active mode's target, rad.
+    /// Attitude error to the active mode's target, rad (NaN when unknown).
     pub error_rad: f32,
+    /// Per mode: this frame carries every input that mode's law needs.
+    pub inputs_ok: [bool; MODE_COUNT],
 }
 
 /// Transition state. `configured[i]`: slot `i` has a parameter set.
@@ -223,6 +233,7 @@ pub struct ModeManager {
     converged_for: u32,
     faulty_for: u32,
     rate_high_for: u32,
+    blind_for: u32,
     /// Transitions so far (saturating).
     pub transitions: u16,
 }
@@ -250,6 +261,7 @@ impl ModeManager {
             converged_for: 0,
             faulty_for: 0,
             rate_high_for: 0,
+            blind_for: 0,
             transitions: 0,
         })
     }
@@ -269,6 +281,7 @@ impl ModeManager {
         self.converged_for = 0;
         self.faulty_for = 0;
         self.rate_high_for = 0;
+        self.blind_for = 0;
         self.transitions = self.transitions.saturating_add(1);
         Some((to, why))
     }
@@ -302,10 +315,15 @@ impl ModeManager {
         }
         let p = self.params;
         let sat = |c: u32, on: bool| if on { c.saturating_add(1) } else { 0 };
+        let ok = |m: Mode| x.inputs_ok.get(m.index()).copied().unwrap_or(false);
         if self.mode != Mode::Detumble && self.is_configured(Mode::Detumble) {
             self.rate_high_for = sat(self.rate_high_for, x.rate_rad_s > p.detumble_enter_rate_rad_s);
+            self.blind_for = sat(self.blind_for, !ok(self.mode) && ok(Mode::Detumble));
             if self.rate_high_for >= self.trigger_steps {
                 return self.switch(Mode::Detumble, Reason::RateHigh);
+            }
+            if self.blind_for >= self.trigger_steps {
+                return self.switch(Mode::Detumble, Reason::InputLost);
             }
         }
         let (converged, fault) = match self.mode {
@@ -332,7 +350,9 @@ impl ModeManager {
             let next = match self.mode {
                 Mode::Manoeuvre => Some(Mode::Hold).filter(|m| self.is_configured(*m)),
                 m => self.next_after(m),
-            };
+            }
+            // Never into a mode that could not run on this frame.
+            .filter(|m| ok(*m));
             if let Some(n) = next {
                 return self.switch(n, why);
             }
@@ -368,7 +388,7 @@ mod tests {
     }
 
     fn inputs(rate: f32, error: f32) -> ModeInputs {
-        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error }
+        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error, inputs_ok: [true; 4] }
     }
 
     #[test]
@@ -454,5 +474,20 @@ mod tests {
         assert_eq!(e(ModeManagerParams { dwell_s: -1.0, ..params() }), ParamReason::OutOfRange);
         assert_eq!(e(ModeManagerParams { slots: 0b1110, ..params() }), ParamReason::OutOfRange);
         assert_eq!(e(ModeManagerParams { slots: 0b11111, ..params() }), ParamReason::OutOfRange);
+    }
+
+    #[test]
+    fn lost_inputs_fall_back_to_detumble_which_waits_for_the_next_modes_inputs() {
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        // Star tracker blind: hold cannot run, detumble (gyro + magnetometer) can.
+        let blind = ModeInputs { inputs_ok: [true, false, false, false], ..inputs(0.02, f32::NAN) };
+        assert_eq!(run(&mut m, blind, 3), vec![(1, Mode::Detumble, Reason::InputLost)]);
+        // Slow enough to leave detumble, but stabilise still lacks its inputs: wait.
+        let slow_blind = ModeInputs { inputs_ok: [true, false, false, false], ..inputs(0.005, f32::NAN) };
+        assert!(run(&mut m, slow_blind, 100).is_empty());
+        assert_eq!(run(&mut m, inputs(0.005, 1.0), 1), vec![(0, Mode::Stabilise, Reason::Detumbled)]);
+        // Detumble's own inputs missing too: stay (nothing better to go to).
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        assert!(run(&mut m, ModeInputs { inputs_ok: [false; 4], ..inputs(0.02, f32::NAN) }, 100).is_empty());
     }
 }

@@ -283,6 +283,9 @@ pub struct StarTrackerSpec {
     pub noise_deg: f64,
     #[serde(default)]
     pub bias_deg: [f64; 3],
+    /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
+    #[serde(default)]
+    pub max_rate_deg_s: Option<f64>,
 }
 
 /// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
@@ -536,6 +539,9 @@ impl Scenario {
             }
         }
         finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
+        if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
+            positive("sensors.star_tracker.max_rate_deg_s", m)?;
+        }
         if let Some(ol) = &self.open_loop {
             if self.closed_loop() {
                 return Err(bad("open_loop", "needs controller.type = \"none\""));

@@ -60,11 +60,13 @@ impl SensorSuite {
                 rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
                 noise_rad: [a.noise_deg.to_radians(); 3],
                 bias_rad: a.bias_deg.map(f64::to_radians),
+                max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
             },
             None => AttitudeSensorSpec {
                 rate_hz: control_rate_hz,
                 noise_rad: [s.attitude_noise_deg.to_radians(); 3],
                 bias_rad: [0.0; 3],
+                max_rate_rad_s: None,
             },
         };
         let mag = match &s.magnetometer {
@@ -125,11 +127,14 @@ impl SensorSuite {
         rod_dipole_am2: &[f64; 3],
     ) -> SensorFrame {
         let mut f = SensorFrame::empty(seq, (t_s * 1e6).round() as u64);
-        let att = self.attitude.update(t_s, &s.q);
+        let att = self.attitude.update(t_s, &s.q, &s.w);
         f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
         let g = self.gyro.update(t_s, &s.w.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
-        f.valid = valid::ATTITUDE | valid::RATE;
+        f.valid = valid::RATE;
+        if att.valid {
+            f.valid |= valid::ATTITUDE;
+        }
         if let Some(c) = &craft.cmg {
             for i in 0..c.len().min(4) {
                 f.gimbal_angle_rad[i] = (s.gimbal_rad[i] + self.gauss(self.gimbal_sigma_rad)) as f32;

@@ -162,6 +162,9 @@ pub struct AttitudeSensorSpec {
     pub noise_rad: [f64; 3],
     /// Constant misalignment, rotation vector in body axes, rad (zero = none).
     pub bias_rad: [f64; 3],
+    /// Above this body rate the tracker loses its stars (the reading is invalid), rad/s;
+    /// `None` = no limit.
+    pub max_rate_rad_s: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -191,12 +194,14 @@ impl AttitudeSensor {
         }
     }
 
-    /// Discrete: true `q_ib` at `t`; samples if due, returns the held reading.
-    pub fn update(&mut self, t_s: f64, q_ib_true: &Quat) -> AttitudeReading {
+    /// Discrete: true `q_ib` (and body rate, for the rate limit) at `t`; samples if due,
+    /// returns the held reading.
+    pub fn update(&mut self, t_s: f64, q_ib_true: &Quat, rate_rad_s: &Vec3) -> AttitudeReading {
         if self.clock.due(t_s).is_some() {
             let n = gauss3(&mut self.rng, &self.spec.noise_rad);
             let q = q_ib_true.normalize() * small_rot(&Vec3::from(self.spec.bias_rad)) * small_rot(&n);
-            self.last = AttitudeReading { t_s, q_ib: q, valid: true };
+            let valid = self.spec.max_rate_rad_s.is_none_or(|m| rate_rad_s.norm() <= m);
+            self.last = AttitudeReading { t_s, q_ib: q, valid };
         }
         self.last
     }
@@ -496,18 +501,23 @@ mod tests {
         let q_true = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1).into_inner();
         // Bias only: exact.
         let bias = [0.01, -0.02, 0.005];
-        let mut s = AttitudeSensor::new(AttitudeSensorSpec { rate_hz: 5.0, noise_rad: [0.0; 3], bias_rad: bias }, 3, 1);
-        let r = s.update(0.0, &q_true);
+        let spec = AttitudeSensorSpec { rate_hz: 5.0, noise_rad: [0.0; 3], bias_rad: bias, max_rate_rad_s: Some(0.03) };
+        let mut s = AttitudeSensor::new(spec, 3, 1);
+        let r = s.update(0.0, &q_true, &Vec3::new(0.0, 0.02, 0.0));
+        assert!(r.valid);
         let err =
             (UnitQuaternion::from_quaternion(q_true).inverse() * UnitQuaternion::from_quaternion(r.q_ib)).scaled_axis();
         assert!((err - Vec3::from(bias)).norm() < 1e-15);
         // Noise: per-axis rms of the body-frame error rotation.
         let sig = [1e-3, 2e-3, 4e-4];
-        let mut s = AttitudeSensor::new(AttitudeSensorSpec { rate_hz: 5.0, noise_rad: sig, bias_rad: [0.0; 3] }, 3, 1);
+        // Beyond its rate limit the tracker's reading is invalid.
+        assert!(!s.update(1.0, &q_true, &Vec3::new(0.0, 0.02, 0.025)).valid);
+        let spec = AttitudeSensorSpec { rate_hz: 5.0, noise_rad: sig, bias_rad: [0.0; 3], max_rate_rad_s: None };
+        let mut s = AttitudeSensor::new(spec, 3, 1);
         let n = 20_000;
         let mut ss = Vec3::zeros();
         for k in 0..n {
-            let r = s.update(k as f64 / 5.0, &q_true);
+            let r = s.update(k as f64 / 5.0, &q_true, &Vec3::new(1.0, 0.0, 0.0));
             let e = (UnitQuaternion::from_quaternion(q_true).inverse() * UnitQuaternion::from_quaternion(r.q_ib))
                 .scaled_axis();
             ss += e.component_mul(&e);
