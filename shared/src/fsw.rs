@@ -16,7 +16,7 @@ use crate::allocation::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams}
 use crate::allocation::{AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::control::{
     Bdot, BdotGains, DcmPdGains, Dmcs, DmcsGains, EulerPdGains, LqgEstimator, LqrGains, QuaternionFeedback,
-    QuaternionFeedbackGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state,
+    QuaternionFeedbackGains, RateDampingGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state, rate_damping,
 };
 use crate::math::{
     Mat3, Quat, Vec3, attitude_error, quat_from_xyzw, quat_normalized, rotate_ref_to_body, rotation_angle,
@@ -63,6 +63,7 @@ enum Law {
     DcmPd(DcmPdGains),
     EulerPd(EulerPdGains),
     Bdot(BdotGains),
+    RateDamping(RateDampingGains),
     Lqr(LqrGains),
     /// Gimbal rates straight from the state (4×6 gain), no steering.
     LqrGimbalRate([[f32; 6]; 4]),
@@ -291,6 +292,10 @@ impl Fsw {
                 Law::Lqr(LqrGains { k: *k, torque_limit_nm: Vec3::from(*torque_limit_nm) })
             }
             ControllerParams::LqrGimbalRate { k } => Law::LqrGimbalRate(*k),
+            ControllerParams::RateDamping { kd_nms, torque_limit_nm } => Law::RateDamping(RateDampingGains {
+                kd_nms: Vec3::from(*kd_nms),
+                torque_limit_nm: Vec3::from(*torque_limit_nm),
+            }),
             ControllerParams::Dmcs(d) => {
                 let bad = ParamError { field: ParamField::AttitudeGain, reason: ParamReason::OutOfRange };
                 let (p21, p22) =
@@ -317,8 +322,9 @@ impl Fsw {
                 },
             ),
         };
-        // B-dot needs no attitude (star trackers lose lock while tumbling).
-        let mut required = if matches!(law, Law::Bdot(_)) { valid::RATE } else { valid::ATTITUDE | valid::RATE };
+        // Detumbling laws need no attitude (star trackers lose lock while tumbling).
+        let mut required =
+            if matches!(law, Law::Bdot(_) | Law::RateDamping(_)) { valid::RATE } else { valid::ATTITUDE | valid::RATE };
         let actuators = match &p.actuator {
             ActuatorParams::Cmg { cmg, steering } => {
                 required |= valid::GIMBALS;
@@ -465,6 +471,7 @@ impl Fsw {
             Law::DcmPd(g) => dcm_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::EulerPd(g) => euler_pd(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::Bdot(g) => self.bdot.torque_demand(g, &m.mag, cfg.dt_s),
+            Law::RateDamping(g) => rate_damping(g, &m.w),
             Law::Lqr(g) => lqr(g, &m.q, &q_cmd, &m.w, &w_cmd),
             Law::LqrGimbalRate(k) => {
                 let (x, angle) = lqr_state(&m.q, &q_cmd, &m.w, &w_cmd);

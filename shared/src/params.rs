@@ -63,6 +63,11 @@ pub enum ControllerParams {
     DcmPd(DcmPdParams),
     /// PD on Euler-angle errors (paper 003 eq 23), usually with magnetorquers.
     EulerPd(DcmPdParams),
+    /// Rate damping `T = -Kd ∘ ω` (gyro only): detumbling without magnetorquers.
+    RateDamping {
+        kd_nms: [f32; 3],
+        torque_limit_nm: [f32; 3],
+    },
     /// B-dot detumbling `m = -k dB/dt` (magnetorquers only).
     Bdot {
         gain_am2_s_per_t: f32,
@@ -585,6 +590,14 @@ impl FlightParams {
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 for row in k {
                     check_finite(F::AttitudeGain, row)?;
+                }
+                for t in torque_limit_nm {
+                    check_range(F::TorqueLimit, *t, 1e-9, 1.0e6)?;
+                }
+            }
+            ControllerParams::RateDamping { kd_nms, torque_limit_nm } => {
+                for kd in kd_nms {
+                    check_range(F::RateGain, *kd, 0.0, 1.0e6)?;
                 }
                 for t in torque_limit_nm {
                     check_range(F::TorqueLimit, *t, 1e-9, 1.0e6)?;

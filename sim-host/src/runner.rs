@@ -136,6 +136,10 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
     if sc.modes.is_some() {
         v.push("mode".into());
     }
+    if sc.closed_loop() {
+        // The flight code's own error to the target of the law in force (per mode).
+        v.push("flight_error_deg".into());
+    }
     if sc.actuators.cmg.is_some() {
         v.extend((1..=4).map(|i| format!("gimbal{i}_deg")));
         v.extend((1..=4).map(|i| format!("gimbal_rate{i}_rad_s")));
@@ -383,6 +387,9 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             }
             if sc.modes.is_some() {
                 row.push(cmd.mode as f64);
+            }
+            if closed_loop {
+                row.push((cmd.attitude_error_rad as f64).to_degrees());
             }
             if sc.actuators.cmg.is_some() {
                 row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));

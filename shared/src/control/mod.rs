@@ -6,11 +6,13 @@ pub mod dmcs;
 pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
+pub mod rate_damping;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};
 pub use lqr::{LqgEstimator, LqrGains, lqr, lqr_from_state, lqr_state};
 pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
+pub use rate_damping::{RateDampingGains, rate_damping};
 
 use crate::math::Vec3;
 

@@ -101,6 +101,12 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// Rate damping `T = -Kd ∘ ω` (gyro only): detumbling without magnetorquers.
+    RateDamping {
+        kd_nms: [f64; 3],
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+    },
     /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
     Bdot {
         gain_am2_s_per_t: f64,
@@ -333,6 +339,16 @@ impl Scenario {
                 positive(&format!("{key}.torque_limit_nm"), *t)?;
             }
         }
+        if let Controller::RateDamping { kd_nms, torque_limit_nm } = c {
+            for k in kd_nms {
+                if !(k.is_finite() && *k >= 0.0) {
+                    return Err(bad(&format!("{key}.kd_nms"), "must be >= 0"));
+                }
+            }
+            for t in torque_limit_nm {
+                positive(&format!("{key}.torque_limit_nm"), *t)?;
+            }
+        }
         if let Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } = c {
             positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;
             if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
@@ -419,6 +435,10 @@ impl Scenario {
                 gain_limit: *gain_limit as f32,
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
             }),
+            Controller::RateDamping { kd_nms, torque_limit_nm } => ControllerParams::RateDamping {
+                kd_nms: kd_nms.map(|x| x as f32),
+                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+            },
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
                 gain_am2_s_per_t: *gain_am2_s_per_t as f32,
                 filter_time_constant_s: *filter_time_constant_s as f32,
