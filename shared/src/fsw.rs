@@ -246,16 +246,10 @@ impl Fsw {
 
     /// Fresh state for the law that takes over (integrators, filters, estimator).
     fn reset_law_state(&mut self) {
-        self.control.reset();
-        self.bdot.reset();
-        self.dmcs.reset();
+        let law = self.slots.get_mut(self.active).and_then(Option::as_mut).map(|c| &mut c.law);
+        reset_laws(&mut self.control, &mut self.bdot, &mut self.dmcs, law);
         self.torque_last = Vec3::zeros();
         self.saturated_last = false;
-        if let Some(Some(cfg)) = self.slots.get_mut(self.active)
-            && let Law::Lqg(_, est) = &mut cfg.law
-        {
-            est.reset();
-        }
     }
 
     fn build(p: &FlightParams) -> Result<(Configured, u32), ParamError> {
@@ -493,12 +487,7 @@ impl Fsw {
             u = Vec3::zeros();
             direct_rates = direct_rates.map(|_| [0.0; 4]);
             cmd.status |= status::LAW_FAULT;
-            self.control.reset();
-            self.bdot.reset();
-            self.dmcs.reset();
-            if let Law::Lqg(_, est) = &mut cfg.law {
-                est.reset();
-            }
+            reset_laws(&mut self.control, &mut self.bdot, &mut self.dmcs, Some(&mut cfg.law));
         }
         let dt = cfg.dt_s;
         let alloc: AllocResult<4> = match &mut cfg.actuators {
@@ -598,6 +587,16 @@ impl Fsw {
                 | status::UNREALISED)
             != 0;
         cmd
+    }
+}
+
+/// Reset every law's internal state (integrator, B-dot filter, DMCS gains, LQG estimate).
+fn reset_laws(control: &mut QuaternionFeedback, bdot: &mut Bdot, dmcs: &mut Dmcs, law: Option<&mut Law>) {
+    control.reset();
+    bdot.reset();
+    dmcs.reset();
+    if let Some(Law::Lqg(_, est)) = law {
+        est.reset();
     }
 }
 
@@ -821,20 +820,23 @@ mod tests {
         assert!((Vec3::from(c.torque_realised_nm) - d).norm() < 1e-5 * d.norm());
         // Body torque = -Σ a_i u_i: with the identity layout u = -T.
         assert!((c.wheel_torque_cmd_nm[0] + d.x).abs() < 1e-6);
-        let mt = MagnetorquerParams {
-            max_dipole_am2: [1e6; 3],
-            min_dipole_am2: [1e6; 3],
-            deadband_lo_am2: [0.0; 3],
-            deadband_hi_am2: [0.0; 3],
-            min_field_t: 1e-7,
-        };
-        let mut fm = other_family(ActuatorParams::Magnetorquers(mt));
+        let mut fm = other_family(ActuatorParams::Magnetorquers(mtq(1e6)));
         let c = fm.step(&frame(q));
         let b = Vec3::new(2e-5, -1e-5, 3e-5);
         let d = Vec3::from(c.torque_demand_nm);
         let perp = d - b * (d.dot(&b) / b.norm_squared());
         assert!((Vec3::from(c.torque_realised_nm) - perp).norm() < 1e-4 * perp.norm());
         assert!(Vec3::from(c.dipole_cmd_am2).norm() > 0.0);
+    }
+
+    fn mtq(max_am2: f32) -> MagnetorquerParams {
+        MagnetorquerParams {
+            max_dipole_am2: [max_am2; 3],
+            min_dipole_am2: [max_am2; 3],
+            deadband_lo_am2: [0.0; 3],
+            deadband_hi_am2: [0.0; 3],
+            min_field_t: 1e-7,
+        }
     }
 
     fn table_params() -> ModeManagerParams {
@@ -938,28 +940,15 @@ mod tests {
         assert!(Vec3::from(c.torque_demand_nm).norm() > 0.0);
         // A gimbal-rate law on wheels is refused.
         let mut bad = p;
-        bad.actuator = ActuatorParams::Magnetorquers(MagnetorquerParams {
-            max_dipole_am2: [1.0; 3],
-            min_dipole_am2: [1.0; 3],
-            deadband_lo_am2: [0.0; 3],
-            deadband_hi_am2: [0.0; 3],
-            min_field_t: 1e-7,
-        });
+        bad.actuator = ActuatorParams::Magnetorquers(mtq(1.0));
         assert_eq!(f.configure(&bad).unwrap_err().field, ParamField::Controller);
     }
 
     #[test]
     fn a_tumble_that_blinds_the_star_tracker_still_reaches_detumble() {
-        let mtq = MagnetorquerParams {
-            max_dipole_am2: [0.1; 3],
-            min_dipole_am2: [0.1; 3],
-            deadband_lo_am2: [0.0; 3],
-            deadband_hi_am2: [0.0; 3],
-            min_field_t: 1e-7,
-        };
         let bdot = FlightParams {
             controller: ControllerParams::Bdot { gain_am2_s_per_t: 1e4, filter_time_constant_s: 0.0 },
-            actuator: ActuatorParams::Magnetorquers(mtq),
+            actuator: ActuatorParams::Magnetorquers(mtq(0.1)),
             ..FlightParams::default()
         };
         let mut f = Fsw::new();

@@ -125,11 +125,6 @@ impl LqgEstimator {
         self.x = SVector::zeros();
         self.initialised = false;
     }
-
-    /// Covariance of the time-varying filter (`None` in steady-state mode).
-    pub fn covariance(&self) -> Option<&SMatrix<f32, 6, 6>> {
-        self.filter.as_ref().map(|(kf, _)| kf.covariance())
-    }
 }
 
 #[cfg(test)]
