@@ -12,14 +12,14 @@ bin=${CARGO_TARGET_DIR:-target}/release/sim-host
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 out="$tmp/fingerprints"
 # Fields that depend on the host's clock, not on the simulation.
-wall='del(.wall_time_s, .real_time_factor, .mean_step_us, .max_step_us, .allocation_us_per_call)'
+wall='del(.wall_time_s, .real_time_factor, .mean_step_us, .max_step_us, .allocation_us_per_call, .max_step_ticks)'
 run_one() {
   local sc=$1 name dir
   name=$(echo "$sc" | tr '/' '_')
   dir="$tmp/$name"
   "$bin" run "$sc" --out "$dir" --no-plots --quiet --link in-process >/dev/null
   printf '%s\t%s\t%s\n' "$sc" "$(sha256sum "$dir/timeseries.csv" | cut -c1-64)" \
-    "$(python3 -c "import json,sys; d=json.load(open(sys.argv[1])); [d.pop(k,None) for k in ('wall_time_s','real_time_factor','mean_step_us','max_step_us','allocation_us_per_call')]; print(json.dumps(d,sort_keys=True))" "$dir/summary.json")"
+    "$(python3 -c "import json,sys; d=json.load(open(sys.argv[1])); [d.pop(k,None) for k in ('wall_time_s','real_time_factor','mean_step_us','max_step_us','allocation_us_per_call','max_step_ticks')]; print(json.dumps(d,sort_keys=True))" "$dir/summary.json")"
   rm -rf "$dir"
 }
 export -f run_one; export bin tmp
