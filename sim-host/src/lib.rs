@@ -9,6 +9,7 @@
 
 pub mod analysis;
 pub mod attitude;
+pub mod decimate;
 pub mod design;
 pub mod environment;
 pub mod link;
@@ -18,3 +19,5 @@ pub mod plots;
 pub mod runner;
 pub mod scenario;
 pub mod sensors;
+pub mod series;
+pub mod summary;

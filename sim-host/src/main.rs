@@ -78,6 +78,15 @@ enum Cmd {
     },
 }
 
+/// `SIM_HOST_ASSUME_FREE_BYTES`: free space to assume on the output filesystem instead of
+/// asking it (tests of the disk-space refusal).
+fn assumed_free_bytes() -> Result<Option<u64>> {
+    match std::env::var("SIM_HOST_ASSUME_FREE_BYTES") {
+        Ok(v) => Ok(Some(v.trim().parse().with_context(|| format!("SIM_HOST_ASSUME_FREE_BYTES = {v:?}"))?)),
+        Err(_) => Ok(None),
+    }
+}
+
 fn main() -> Result<()> {
     match Cli::parse().cmd {
         Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
@@ -90,10 +99,11 @@ fn main() -> Result<()> {
                 (None, None) => LinkKind::InProcess,
             };
             let mut l = link::open(&kind, &LinkOptions { firmware })?;
-            let r = runner::run(&sc, l.as_mut(), !quiet)?;
+            let mut rec = output::RunOutput::new(&out, !no_plots).assume_free_bytes(assumed_free_bytes()?);
+            let summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
             drop(l);
-            let files = output::write_all(&out, &r, !no_plots)?;
-            let s = &r.summary;
+            let files = rec.finish(&summary)?;
+            let s = &summary;
             let mut line = format!(
                 "{}: {} steps over {:.1} s on {}; final error {:.4} deg, settle {}, RTF {:.0}x",
                 s.scenario,

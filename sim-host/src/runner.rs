@@ -9,105 +9,24 @@
 use crate::attitude::{Quat, error_angle, euler_from_quat, rotate_ref_to_body};
 use crate::environment::model::EnvSnapshot;
 use crate::link::{FlightLink, LinkInfo};
-use crate::output::TimeSeries;
 use crate::plant::thrusters::ThrusterState;
 use crate::plant::{Input, MAX_WHEELS};
 use crate::scenario::{Controller, OpenLoopRow, RefFrame, Scenario};
 use crate::sensors::SensorSuite;
+use crate::series::{Recorder, TimeSeries};
+use crate::summary::ErrorStats;
+pub use crate::summary::{ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
 use acs_flight::modes::{Mode, Reason};
 use acs_flight::params::MAX_THRUSTERS;
 use acs_flight::protocol::{ActuatorCommand, FswMsg, status};
 use anyhow::{Context, Result, bail};
-use serde::Serialize;
 use std::time::{Duration, Instant};
-
-/// Attitude-error bound that defines the settle time, deg.
-pub const SETTLE_BOUND_DEG: f64 = 1.0;
-
-#[derive(Clone, Debug, Default, Serialize, PartialEq)]
-pub struct StatusCounts {
-    pub torque_limited: u64,
-    pub rate_scaled: u64,
-    pub angle_limited: u64,
-    pub singular: u64,
-    pub bad_input: u64,
-    pub torque_shortfall: u64,
-    pub alloc_fallback: u64,
-    pub unrealised: u64,
-    pub law_fault: u64,
-}
-
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct Summary {
-    pub scenario: String,
-    pub link: String,
-    /// 0 in-process, 1 QEMU mps2-an386, 2 STM32F405; null for open-loop runs.
-    pub board: Option<u8>,
-    pub steps: u64,
-    pub sim_time_s: f64,
-    pub control_rate_hz: f64,
-    pub dynamics_rate_hz: f64,
-    /// Principal angle between the true and the target attitude at the end, deg.
-    pub final_error_deg: f64,
-    /// Time after which the error stays below `SETTLE_BOUND_DEG`; `null` if it never does.
-    pub settle_time_s: Option<f64>,
-    pub settle_bound_deg: f64,
-    pub max_error_after_settle_deg: Option<f64>,
-    /// Mean error over the whole run, deg.
-    pub mean_error_deg: f64,
-    /// RMS error after the settle time (whole run if it never settles), deg.
-    pub rms_error_deg: f64,
-    /// Euler angles relative to the target's frame (inertial, lab or LVLH), deg.
-    pub final_euler_deg: [f64; 3],
-    pub target_euler_deg: [f64; 3],
-    pub final_rate_rad_s: [f64; 3],
-    /// Largest commanded gimbal rate, rad/s (null without CMGs).
-    pub max_gimbal_rate_rad_s: Option<f64>,
-    /// Smallest `det(J₁ J₁ᵀ)` of the true gimbal angles (unit rotor momentum).
-    pub min_singularity_measure: Option<f64>,
-    pub max_wheel_speed_rpm: Option<f64>,
-    pub max_wheel_power_w: Option<f64>,
-    pub max_wheel_current_a: Option<f64>,
-    pub propellant_kg: Option<f64>,
-    /// Most valve openings of any single thruster.
-    pub max_pulses: Option<u32>,
-    /// Largest `Fsw::step` cost in instructions (QEMU) — `null` when not measured.
-    pub max_step_instructions: Option<u64>,
-    pub mean_step_instructions: Option<f64>,
-    /// Largest `Fsw::step` cost in raw counter ticks (any board that measures).
-    pub max_step_ticks: Option<u32>,
-    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs.
-    pub mean_step_us: Option<f64>,
-    pub max_step_us: Option<f64>,
-    /// With thrusters: mean time per control step of the flight code (control law,
-    /// LP allocation, PWPF — the LP dominates), µs, on the link's clock.
-    pub allocation_us_per_call: Option<f64>,
-    pub status_counts: StatusCounts,
-    /// Every change of the flight mode (empty without `[modes]`).
-    pub mode_transitions: Vec<ModeTransition>,
-    pub final_mode: Option<String>,
-    pub frames_dropped_flight: u32,
-    pub frames_dropped_host: u32,
-    /// Wall time of the closed loop only (no file output), s.
-    pub wall_time_s: f64,
-    pub real_time_factor: f64,
-}
-
-/// A change of the flight mode as reported in telemetry.
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct ModeTransition {
-    /// Time of the first step the new mode commanded, s.
-    pub t_s: f64,
-    pub from: String,
-    pub to: String,
-    /// Why the flight code switched (`acs_flight::modes::Reason`).
-    pub reason: String,
-}
 
 fn mode_name(code: u8) -> String {
     Mode::from_code(code).map_or("none", Mode::name).into()
 }
 
+/// A run recorded in memory (tests, benches, library use).
 pub struct RunResult {
     pub summary: Summary,
     pub series: TimeSeries,
@@ -205,9 +124,28 @@ fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
     c
 }
 
-/// Run the scenario. Closed loop: against an already-opened link; open loop
-/// (`controller.type = "none"`): the link is not used.
+/// Run the scenario and keep the recorded rows in memory (see [`run_recorded`]).
 pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<RunResult> {
+    let mut series = TimeSeries::default();
+    let summary = run_recorded(sc, link, progress, &mut series)?;
+    Ok(RunResult { summary, series })
+}
+
+/// Rows a run of `steps` control steps records with `output_every = every` (every
+/// `every`-th step and the last).
+pub fn recorded_rows(steps: u64, every: u64) -> u64 {
+    steps / every + 1 + u64::from(!steps.is_multiple_of(every))
+}
+
+/// Run the scenario, pushing the recorded rows into `rec` as the run goes. Closed loop:
+/// against an already-opened link; open loop (`controller.type = "none"`): the link is
+/// not used.
+pub fn run_recorded(
+    sc: &Scenario,
+    link: &mut dyn FlightLink,
+    progress: bool,
+    rec: &mut dyn Recorder,
+) -> Result<Summary> {
     let closed_loop = sc.closed_loop();
     let info: Option<LinkInfo> = if closed_loop {
         let info = link.hello().context("hello")?;
@@ -254,14 +192,14 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     let every = sc.timing.output_every as u64;
     let open_rows: &[OpenLoopRow] = sc.open_loop.as_ref().map_or(&[], |o| o.commands.as_slice());
 
-    let mut ts = TimeSeries::with_columns(column_names(sc, n_wheels, n_thr), (steps / every + 2) as usize);
-    let mut row = Vec::with_capacity(ts.names.len());
+    let names = column_names(sc, n_wheels, n_thr);
+    rec.start(&names, recorded_rows(steps, every))?;
+    let mut row = Vec::with_capacity(names.len());
     let mut counts = StatusCounts::default();
     let (mut max_rate, mut min_m) = (0.0f64, f64::INFINITY);
     let (mut max_wheel_rpm, mut max_wheel_w, mut max_wheel_a) = (0.0f64, 0.0f64, 0.0f64);
     let (mut max_ticks, mut sum_ticks, mut n_ticks) = (0u32, 0f64, 0u64);
-    let mut last_above: Option<f64> = Some(0.0);
-    let mut errors = Vec::with_capacity(steps as usize + 1);
+    let mut error_stats = ErrorStats::new(dt, SETTLE_BOUND_DEG);
     let mut frames_dropped_flight = 0;
     let mut bar: Option<indicatif::ProgressBar> = None;
     let mut snap = snap0;
@@ -321,10 +259,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         let q_frame = target_frame(snap.as_ref());
         let q_target = q_frame * q_target_rel;
         let err_deg = error_angle(&state.q, &q_target).to_degrees();
-        errors.push((t, err_deg));
-        if err_deg >= SETTLE_BOUND_DEG {
-            last_above = Some(t);
-        }
+        error_stats.push(t, err_deg);
         if let Some(c) = &craft.cmg {
             min_m = min_m.min(c.singularity_measure(&state.gimbal_rad));
             max_rate = cmd.gimbal_rate_cmd_rad_s.iter().fold(max_rate, |a, r| a.max(r.abs() as f64));
@@ -435,7 +370,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
                     row.extend(v.iter());
                 }
             }
-            ts.push_row(&row);
+            rec.record(&row)?;
         }
         if k == steps {
             break;
@@ -476,14 +411,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
     }
 
     let sim_time = steps as f64 * dt;
-    let final_error_deg = errors.last().map_or(f64::NAN, |e| e.1);
-    let settle_time_s = match last_above {
-        None => Some(0.0),
-        Some(t) if t < sim_time => Some(t + dt),
-        Some(_) => None,
-    };
-    let after: Vec<f64> = errors.iter().filter(|(t, _)| settle_time_s.is_none_or(|s| *t >= s)).map(|e| e.1).collect();
-    let rms_error_deg = (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt();
+    let ef = error_stats.figures(sim_time);
     let final_q_rel = target_frame(snap.as_ref()).conjugate() * state.q;
     let ipt = info.as_ref().and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
     let hz = info.as_ref().map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
@@ -495,12 +423,12 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         sim_time_s: sim_time,
         control_rate_hz: sc.timing.control_rate_hz,
         dynamics_rate_hz: sc.timing.control_rate_hz * sub as f64,
-        final_error_deg,
-        settle_time_s,
+        final_error_deg: ef.final_error_deg,
+        settle_time_s: ef.settle_time_s,
         settle_bound_deg: SETTLE_BOUND_DEG,
-        max_error_after_settle_deg: settle_time_s.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
-        mean_error_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
-        rms_error_deg,
+        max_error_after_settle_deg: ef.max_error_after_settle_deg,
+        mean_error_deg: ef.mean_error_deg,
+        rms_error_deg: ef.rms_error_deg,
         final_euler_deg: euler_from_quat(&final_q_rel, seq).map(f64::to_degrees),
         target_euler_deg,
         final_rate_rad_s: state.w.into(),
@@ -525,5 +453,5 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         wall_time_s: wall,
         real_time_factor: sim_time / wall.max(1e-9),
     };
-    Ok(RunResult { summary, series: ts })
+    Ok(summary)
 }

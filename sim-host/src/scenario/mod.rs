@@ -36,6 +36,9 @@ pub use controller::*;
 pub use environment::*;
 pub use modes::*;
 
+/// Most control steps of a run: the sensor frame numbers them with a `u32`.
+pub const MAX_STEPS: u64 = u32::MAX as u64;
+
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scenario {
@@ -398,6 +401,17 @@ impl Scenario {
         }
         if self.timing.output_every == 0 {
             return Err(bad("timing.output_every", "must be >= 1"));
+        }
+        let steps = self.duration_s * self.timing.control_rate_hz;
+        if steps.round() > MAX_STEPS as f64 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
+                     (the step counter of the sensor frame is 32-bit)",
+                    self.duration_s, self.timing.control_rate_hz
+                ),
+            ));
         }
         let i = self.inertia();
         finite("spacecraft.inertia_kgm2", i.as_slice())?;
@@ -783,6 +797,8 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
             ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[3.1, 1, 0], [0, 3.1, 0], [0, 0, 5.8]]", "symmetric"),
             ("h0_nms = 0.623", "h0_nms = -1", "actuators.cmg.h0_nms"),
             ("duration_s = 10.0", "duration_s = 0", "duration_s"),
+            ("duration_s = 10.0", "duration_s = 1e12", "duration_s"),
+            ("duration_s = 10.0", "duration_s = inf", "duration_s"),
             ("law = \"sr\"", "law = \"xx\"", "steering.law"),
             ("zeta = 0.47", "zeta = -0.47", "controller.zeta"),
             ("control_rate_hz = 100.0", "control_rate_hz = nan", "timing.control_rate_hz"),
