@@ -9,6 +9,7 @@
 
 pub mod analysis;
 pub mod attitude;
+pub mod columns;
 pub mod decimate;
 pub mod design;
 pub mod environment;
@@ -20,4 +21,5 @@ pub mod runner;
 pub mod scenario;
 pub mod sensors;
 pub mod series;
+pub mod simulation;
 pub mod summary;
