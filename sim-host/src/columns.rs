@@ -101,7 +101,7 @@ pub struct Layout {
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
-    ["x", "y", "z"].map(|a| f(a))
+    ["x", "y", "z"].map(f)
 }
 
 impl Layout {

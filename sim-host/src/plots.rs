@@ -19,8 +19,11 @@
 
 use plotters::coord::ranged1d::{BoldPoints, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
-use plotters::element::DashedPathElement;
-use plotters::prelude::*;
+use plotters::element::{DashedPathElement, IntoDynElement};
+use plotters::prelude::{
+    BitMapBackend, Cartesian2d, ChartBuilder, ChartContext, Color, DrawingBackend, FontStyle, IntoDrawingArea,
+    IntoFont, IntoLogRange, PathElement, RGBColor, Ranged, SeriesLabelPosition, TextStyle, WHITE,
+};
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::io;
 use std::path::{Path, PathBuf};

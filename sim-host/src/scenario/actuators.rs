@@ -1,7 +1,18 @@
 //! Actuators of a scenario: CMG cluster and steering, reaction wheels, magnetorquers,
 //! thrusters — their TOML tables, validation, plant models and flight parameters.
 
-use super::*;
+use super::{Controller, Scenario, bad, finite, positive, yes};
+use crate::attitude::Vec3;
+use crate::plant::MAX_WHEELS;
+use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
+use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
+use crate::plant::wheel::WheelParams;
+use acs_flight::params::{
+    ActuatorParams, AlphaSchedule, CmgParams, MAX_THRUSTERS, MagnetorquerParams, SteeringLaw, SteeringParams,
+    ThrusterMethod, ThrusterParams,
+};
+use anyhow::{Result, bail};
+use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]

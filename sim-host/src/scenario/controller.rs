@@ -1,7 +1,12 @@
 //! Control laws of a scenario: the `[controller]` table, its flight parameters and the
 //! LQR/LQG designs computed at load.
 
-use super::*;
+use super::{OrbitKind, Scenario, bad, f32_rows, finite, positive};
+use crate::attitude::Vec3;
+use acs_flight::params::{ControllerParams, DcmPdParams, QuaternionFeedbackParams};
+use anyhow::{Result, bail};
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, tag = "type", rename_all = "snake_case")]

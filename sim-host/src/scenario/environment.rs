@@ -1,6 +1,16 @@
 //! Orbit, environment models and the air-bearing rig of a scenario.
 
-use super::*;
+use super::{Scenario, bad, parse_epoch, yes};
+use crate::attitude::Vec3;
+use crate::environment::frames::EarthRotation;
+use crate::environment::magnetic::{FieldModel, MagneticField};
+use crate::environment::model::{Environment, FieldSource};
+use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
+use crate::environment::torques::{
+    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
+};
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
 
 /// Orbit elements, by kind.
 #[derive(Clone, Debug, PartialEq)]

@@ -3,38 +3,31 @@
 //! the key, before anything runs.
 
 use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body};
-use crate::environment::frames::{EarthRotation, julian_date};
-use crate::environment::magnetic::{FieldModel, MagneticField};
-use crate::environment::model::{EnvSnapshot, Environment, FieldSource};
-use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
-use crate::environment::torques::{
-    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
-};
+use crate::environment::frames::julian_date;
+use crate::environment::model::EnvSnapshot;
 use crate::plant::cmg::GimbalServo;
-use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
 use crate::plant::rig::Rig;
-use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
-use crate::plant::wheel::{WheelParams, WheelState};
+use crate::plant::wheel::WheelState;
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
-use acs_flight::params::{
-    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, DcmPdParams, FlightParams, MAX_THRUSTERS,
-    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
-    ThrusterMethod, ThrusterParams,
-};
-use anyhow::{Context, Result, anyhow, bail};
+use acs_flight::params::{FlightParams, PARAMS_VERSION, TargetFrame};
+use anyhow::{Context, Result, anyhow};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+pub use crate::sensors::config::{GyroSensorSpec, MagnetometerSensorSpec, Sensors, StarTrackerSpec, SunSensorSpecToml};
 
 mod actuators;
 mod controller;
 mod environment;
 mod modes;
-pub use actuators::*;
-pub use controller::*;
-pub use environment::*;
-pub use modes::*;
+pub use actuators::{
+    Actuators, Alpha, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
+};
+pub use controller::{Controller, LqrDesign};
+pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
+pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
@@ -223,98 +216,6 @@ pub struct InitialState {
     /// Add the rate that keeps the body fixed in LVLH (needs `[orbit]`).
     #[serde(default)]
     pub orbit_synchronous: bool,
-}
-
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct Sensors {
-    #[serde(default)]
-    pub seed: u64,
-    /// 1σ attitude noise per axis (small rotation), deg. Paper 000's AHRS: ~2 deg.
-    #[serde(default)]
-    pub attitude_noise_deg: f64,
-    /// 1σ white rate noise per axis, rad/s.
-    #[serde(default)]
-    pub rate_noise_rad_s: f64,
-    /// Constant rate bias, rad/s.
-    #[serde(default)]
-    pub rate_bias_rad_s: [f64; 3],
-    /// 1σ gimbal-angle encoder noise, deg.
-    #[serde(default)]
-    pub gimbal_noise_deg: f64,
-    /// 1σ magnetometer noise per axis, T.
-    #[serde(default)]
-    pub magnetometer_noise_t: f64,
-    /// 1σ wheel tachometer noise, rad/s.
-    #[serde(default)]
-    pub wheel_speed_noise_rad_s: f64,
-    /// Detailed models (replace the shortcuts above when given).
-    #[serde(default)]
-    pub gyro: Option<GyroSensorSpec>,
-    #[serde(default)]
-    pub star_tracker: Option<StarTrackerSpec>,
-    #[serde(default)]
-    pub magnetometer: Option<MagnetometerSensorSpec>,
-    #[serde(default)]
-    pub sun: Option<SunSensorSpecToml>,
-}
-
-/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct GyroSensorSpec {
-    /// Sample rate (default: the control rate).
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub arw_rad_s_rthz: f64,
-    #[serde(default)]
-    pub rrw_rad_s2_rthz: f64,
-    #[serde(default)]
-    pub bias_rad_s: [f64; 3],
-    #[serde(default)]
-    pub scale_factor_ppm: f64,
-}
-
-/// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct StarTrackerSpec {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_deg: f64,
-    #[serde(default)]
-    pub bias_deg: [f64; 3],
-    /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
-    #[serde(default)]
-    pub max_rate_deg_s: Option<f64>,
-}
-
-/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MagnetometerSensorSpec {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_t: f64,
-    #[serde(default)]
-    pub bias_t: [f64; 3],
-    #[serde(default)]
-    pub coupling_t_per_am2: [[f64; 3]; 3],
-}
-
-/// Sun sensor: angular noise, field of view around a boresight, eclipse.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SunSensorSpecToml {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_deg: f64,
-    pub boresight_body: [f64; 3],
-    pub fov_half_angle_deg: f64,
 }
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -737,6 +638,7 @@ pub fn parse_epoch(s: &str) -> std::result::Result<f64, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use acs_flight::params::ControllerParams;
 
     pub const MINIMAL: &str = r#"
 name = "t"

@@ -23,7 +23,11 @@
 //! Manoeuvre and hold point at the scenario's `[target]` (the mission target, which
 //! `[[commands]]` may change); detumble and stabilise may have their own.
 
-use super::*;
+use super::{AttitudeSpec, Controller, RefFrame, Scenario, bad};
+use anyhow::{Context, Result, anyhow};
+use serde::{Deserialize, Serialize};
+
+pub use crate::link::ModeTable;
 use acs_flight::modes::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -88,13 +92,6 @@ pub struct CommandSpec {
 
 pub fn parse_mode(s: &str) -> Option<Mode> {
     Mode::ALL.into_iter().find(|m| m.name() == s)
-}
-
-/// What the runner uploads: one parameter set per mode, then the thresholds.
-#[derive(Clone, Debug)]
-pub struct ModeTable {
-    pub slots: Vec<(Mode, FlightParams)>,
-    pub manager: ModeManagerParams,
 }
 
 impl ModesSpec {
