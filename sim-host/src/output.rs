@@ -53,12 +53,6 @@ pub fn figures() -> Vec<Figure> {
         let applied = s(&format!("torque_applied_{a}_nm"), "applied", false);
         panel(a, "N m", vec![applied, s(&format!("torque_demand_{a}_nm"), "demand", true)])
     };
-    let mut dipoles = xyz("dipole", "am2");
-    dipoles.extend(xyz("dipole_cmd", "am2").into_iter().map(|x| Series {
-        dashed: true,
-        label: format!("{} cmd", x.label),
-        ..x
-    }));
     vec![
         figure("attitude.png", "Euler angles and target", vec![euler("roll"), euler("pitch"), euler("yaw"), error()]),
         figure(
@@ -92,6 +86,22 @@ pub fn figures() -> Vec<Figure> {
                 panel("body rate", "rad/s", rates()),
             ],
         ),
+    ]
+    .into_iter()
+    .chain(actuator_figures())
+    .collect()
+}
+
+/// The figures of the DMCS law, the actuator families and the environment.
+fn actuator_figures() -> Vec<Figure> {
+    let s = line;
+    let mut dipoles = xyz("dipole", "am2");
+    dipoles.extend(xyz("dipole_cmd", "am2").into_iter().map(|x| Series {
+        dashed: true,
+        label: format!("{} cmd", x.label),
+        ..x
+    }));
+    vec![
         figure(
             "adaptive.png",
             "DMCS adaptive feed-forward gains Δk_u",
