@@ -583,7 +583,7 @@ impl Scenario {
     pub fn params_for(&self, c: &Controller, family: Option<&str>, target: &AttitudeSpec) -> Result<FlightParams> {
         let inertia = self.inertia();
         let f = f32_rows;
-        let controller = self.controller_params(c)?;
+        let controller = self.controller_params(c, "controller")?;
         let q = target.quaternion();
         Ok(FlightParams {
             version: PARAMS_VERSION,
