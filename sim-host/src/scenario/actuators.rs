@@ -259,222 +259,246 @@ impl Scenario {
             ));
         }
         if let Some(cmg) = &act.cmg {
-            if cmg.layout != "pyramid4" {
-                return Err(bad(
-                    "actuators.cmg.layout",
-                    format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout),
-                ));
-            }
-            if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
-                return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
-            }
-            match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
-                (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
-                (None, Some(w), Some(i)) => {
-                    positive("actuators.cmg.rotor_speed_rpm", w)?;
-                    positive("actuators.cmg.rotor_inertia_kgm2", i)?;
-                }
-                _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
-            }
-            if let Some(tau) = cmg.servo_time_constant_s {
-                positive("actuators.cmg.servo_time_constant_s", tau)?;
-                positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
-            }
-            if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
-                return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
-            }
-            if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
-                return Err(bad(
-                    "actuators.cmg.gimbal_friction_nm",
-                    "needs servo_time_constant_s (friction acts on the servo)",
-                ));
-            }
-            positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
-            if let Some(l) = cmg.gimbal_limit_deg {
-                positive("actuators.cmg.gimbal_limit_deg", l)?;
-                if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
-                    return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
-                }
-            }
-            finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
-            if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
-                return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
-            }
-            if self.closed_loop() && self.steering.is_none() {
-                return Err(bad("steering", "a CMG cluster under control needs [steering]"));
-            }
-            if let Some(st) = &self.steering {
-                match (st.law.as_str(), &st.alpha) {
-                    ("mp", None) => {}
-                    ("mp", Some(_)) => {
-                        return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
-                    }
-                    ("sr", Some(a)) => {
-                        let v = match a {
-                            Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
-                            Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
-                            Alpha::Exponential { a0, mu } => vec![*a0, *mu],
-                        };
-                        if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                            return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
-                        }
-                    }
-                    ("sr", None) => {
-                        return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
-                    }
-                    ("gsr", _) => {
-                        let g = st
-                            .gsr
-                            .as_ref()
-                            .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
-                        if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
-                            || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-                        {
-                            return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
-                        }
-                    }
-                    (other, _) => {
-                        return Err(bad(
-                            "steering.law",
-                            format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"),
-                        ));
-                    }
-                }
-                positive("steering.singular_threshold", st.singular_threshold)?;
-                if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
-                    return Err(bad("steering.null_gain_per_s", "must be >= 0"));
-                }
-                finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
-            }
+            self.validate_cmg(cmg)?;
         }
         if let Some(w) = &act.wheels {
-            match w.layout.as_str() {
-                "pyramid4" => {
-                    finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
-                    if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
-                        return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
-                    }
-                }
-                "axes" => {
-                    if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
-                        return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
-                    }
-                    for a in &w.axes {
-                        let n = Vec3::from(*a).norm();
-                        if !n.is_finite() || n < 1e-9 {
-                            return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
-                        }
-                    }
-                }
-                other => {
-                    return Err(bad(
-                        "actuators.wheels.layout",
-                        format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
-                    ));
-                }
-            }
-            if !matches!(w.model.as_str(), "ideal" | "accurate") {
-                return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
-            }
-            for (k, v) in [
-                ("actuators.wheels.max_torque_nm", w.max_torque_nm),
-                ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
-                ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
-            ] {
-                if let Some(v) = v {
-                    positive(k, v)?;
-                }
-            }
-            let n = self.wheel_axes(w).len();
-            for (k, v) in [
-                ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
-                ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
-            ] {
-                if !v.is_empty() && v.len() != n {
-                    return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
-                }
-                finite(k, v)?;
-            }
-            if w.failed.iter().any(|i| *i == 0 || *i > n) {
-                return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
-            }
-            if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
-                return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
-            }
-            for p in self.wheel_params()? {
-                p.validate().map_err(|e| bad("actuators.wheels", e))?;
-            }
+            self.validate_wheels(w)?;
         }
         if let Some(m) = &act.magnetorquers {
-            for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
-                positive("actuators.magnetorquers.max_dipole_am2", *x)?;
-            }
-            if let Some([lo, hi]) = m.deadband_am2
-                && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
-            {
-                return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
-            }
-            if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
-                return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
-            }
+            self.validate_magnetorquers(m)?;
         }
         if let Some(t) = &act.thrusters {
-            positive("actuators.thrusters.thrust_n", t.thrust_n)?;
-            positive("actuators.thrusters.isp_s", t.isp_s)?;
-            for (k, v) in [
-                ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
-                ("actuators.thrusters.open_delay_s", t.open_delay_s),
-                ("actuators.thrusters.close_delay_s", t.close_delay_s),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(bad(k, "must be >= 0"));
+            self.validate_thrusters(t)?;
+        }
+        Ok(())
+    }
+
+    /// `[actuators.cmg]` (and `[steering]` with it).
+    fn validate_cmg(&self, cmg: &CmgSpec) -> Result<()> {
+        if cmg.layout != "pyramid4" {
+            return Err(bad("actuators.cmg.layout", format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout)));
+        }
+        if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
+            return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
+        }
+        match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
+            (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
+            (None, Some(w), Some(i)) => {
+                positive("actuators.cmg.rotor_speed_rpm", w)?;
+                positive("actuators.cmg.rotor_inertia_kgm2", i)?;
+            }
+            _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
+        }
+        if let Some(tau) = cmg.servo_time_constant_s {
+            positive("actuators.cmg.servo_time_constant_s", tau)?;
+            positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
+        }
+        if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
+            return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
+        }
+        if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
+            return Err(bad(
+                "actuators.cmg.gimbal_friction_nm",
+                "needs servo_time_constant_s (friction acts on the servo)",
+            ));
+        }
+        positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
+        if let Some(l) = cmg.gimbal_limit_deg {
+            positive("actuators.cmg.gimbal_limit_deg", l)?;
+            if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
+                return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
+            }
+        }
+        finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+        if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
+            return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
+        }
+        if self.closed_loop() && self.steering.is_none() {
+            return Err(bad("steering", "a CMG cluster under control needs [steering]"));
+        }
+        if let Some(st) = &self.steering {
+            self.validate_steering(st)?;
+        }
+        Ok(())
+    }
+
+    /// `[steering]`.
+    fn validate_steering(&self, st: &Steering) -> Result<()> {
+        match (st.law.as_str(), &st.alpha) {
+            ("mp", None) => {}
+            ("mp", Some(_)) => {
+                return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
+            }
+            ("sr", Some(a)) => {
+                let v = match a {
+                    Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
+                    Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
+                    Alpha::Exponential { a0, mu } => vec![*a0, *mu],
+                };
+                if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                    return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
                 }
             }
-            match t.layout.as_str() {
-                "paper004" => {}
-                "matrix" => {
-                    if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
-                        return Err(bad(
-                            "actuators.thrusters.torque_per_newton_m",
-                            format!("needs 1..={MAX_THRUSTERS} columns"),
-                        ));
-                    }
-                    finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
+            ("sr", None) => {
+                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
+            }
+            ("gsr", _) => {
+                let g = st
+                    .gsr
+                    .as_ref()
+                    .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
+                if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
+                    || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                {
+                    return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
                 }
-                "geometry" => {
-                    let n = t.positions_m.len();
-                    if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
-                        return Err(bad(
-                            "actuators.thrusters.positions_m",
-                            format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
-                        ));
-                    }
-                    finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
-                    for d in &t.directions {
-                        let norm = Vec3::from(*d).norm();
-                        if !(norm.is_finite() && norm > 1e-9) {
-                            return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
-                        }
+            }
+            (other, _) => {
+                return Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")")));
+            }
+        }
+        positive("steering.singular_threshold", st.singular_threshold)?;
+        if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
+            return Err(bad("steering.null_gain_per_s", "must be >= 0"));
+        }
+        finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
+        Ok(())
+    }
+
+    /// `[actuators.wheels]`.
+    fn validate_wheels(&self, w: &WheelsSpec) -> Result<()> {
+        match w.layout.as_str() {
+            "pyramid4" => {
+                finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+                if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                    return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
+                }
+            }
+            "axes" => {
+                if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                    return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
+                }
+                for a in &w.axes {
+                    let n = Vec3::from(*a).norm();
+                    if !n.is_finite() || n < 1e-9 {
+                        return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
                     }
                 }
-                other => {
+            }
+            other => {
+                return Err(bad(
+                    "actuators.wheels.layout",
+                    format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+                ));
+            }
+        }
+        if !matches!(w.model.as_str(), "ideal" | "accurate") {
+            return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
+        }
+        for (k, v) in [
+            ("actuators.wheels.max_torque_nm", w.max_torque_nm),
+            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
+            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+        ] {
+            if let Some(v) = v {
+                positive(k, v)?;
+            }
+        }
+        let n = self.wheel_axes(w).len();
+        for (k, v) in [
+            ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
+            ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
+        ] {
+            if !v.is_empty() && v.len() != n {
+                return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
+            }
+            finite(k, v)?;
+        }
+        if w.failed.iter().any(|i| *i == 0 || *i > n) {
+            return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
+        }
+        if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
+            return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
+        }
+        for p in self.wheel_params()? {
+            p.validate().map_err(|e| bad("actuators.wheels", e))?;
+        }
+        Ok(())
+    }
+
+    /// `[actuators.magnetorquers]`.
+    fn validate_magnetorquers(&self, m: &MagnetorquersSpec) -> Result<()> {
+        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
+            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+        }
+        if let Some([lo, hi]) = m.deadband_am2
+            && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
+        {
+            return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
+        }
+        if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
+            return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
+        }
+        Ok(())
+    }
+
+    /// `[actuators.thrusters]`.
+    fn validate_thrusters(&self, t: &ThrustersSpec) -> Result<()> {
+        positive("actuators.thrusters.thrust_n", t.thrust_n)?;
+        positive("actuators.thrusters.isp_s", t.isp_s)?;
+        for (k, v) in [
+            ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
+            ("actuators.thrusters.open_delay_s", t.open_delay_s),
+            ("actuators.thrusters.close_delay_s", t.close_delay_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, "must be >= 0"));
+            }
+        }
+        match t.layout.as_str() {
+            "paper004" => {}
+            "matrix" => {
+                if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
                     return Err(bad(
-                        "actuators.thrusters.layout",
-                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+                        "actuators.thrusters.torque_per_newton_m",
+                        format!("needs 1..={MAX_THRUSTERS} columns"),
                     ));
                 }
+                finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
             }
-            if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
-                return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
+            "geometry" => {
+                let n = t.positions_m.len();
+                if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                    return Err(bad(
+                        "actuators.thrusters.positions_m",
+                        format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                    ));
+                }
+                finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+                for d in &t.directions {
+                    let norm = Vec3::from(*d).norm();
+                    if !(norm.is_finite() && norm > 1e-9) {
+                        return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                    }
+                }
             }
-            let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
-            for f in &t.failures {
-                if f.thruster == 0 || f.thruster > n {
-                    return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
-                }
-                if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
-                    return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
-                }
+            other => {
+                return Err(bad(
+                    "actuators.thrusters.layout",
+                    format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+                ));
+            }
+        }
+        if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
+            return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
+        }
+        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+        for f in &t.failures {
+            if f.thruster == 0 || f.thruster > n {
+                return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
+            }
+            if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
+                return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
             }
         }
         Ok(())

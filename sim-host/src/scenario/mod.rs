@@ -292,6 +292,21 @@ impl Scenario {
     }
 
     pub fn validate(&self) -> Result<()> {
+        self.validate_timing()?;
+        self.validate_spacecraft()?;
+        self.validate_frames_and_orbit()?;
+        self.validate_environment()?;
+        self.validate_actuators()?;
+        if let Some(c) = &self.controller {
+            self.validate_controller(c, "controller")?;
+        }
+        self.validate_sensors()?;
+        self.validate_control_source()?;
+        Ok(())
+    }
+
+    /// `duration_s` and `[timing]`.
+    fn validate_timing(&self) -> Result<()> {
         positive("duration_s", self.duration_s)?;
         positive("timing.control_rate_hz", self.timing.control_rate_hz)?;
         if self.timing.control_rate_hz > 10_000.0 {
@@ -314,6 +329,11 @@ impl Scenario {
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// `[spacecraft]`.
+    fn validate_spacecraft(&self) -> Result<()> {
         let i = self.inertia();
         finite("spacecraft.inertia_kgm2", i.as_slice())?;
         if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
@@ -350,6 +370,11 @@ impl Scenario {
         if let Some(h) = &sc.harmonic_torque {
             finite("spacecraft.harmonic_torque", &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat())?;
         }
+        Ok(())
+    }
+
+    /// `[initial]`, `[target]` and `[orbit]`.
+    fn validate_frames_and_orbit(&self) -> Result<()> {
         self.initial.attitude.validate("initial")?;
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
         self.target.validate("target")?;
@@ -389,6 +414,12 @@ impl Scenario {
             }
             parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
         }
+        Ok(())
+    }
+
+    /// `[environment]` and `[rig]`.
+    fn validate_environment(&self) -> Result<()> {
+        let sc = &self.spacecraft;
         let env = &self.environment;
         match env.magnetic_field.as_str() {
             "none" => {}
@@ -437,10 +468,11 @@ impl Scenario {
                 }
             }
         }
-        self.validate_actuators()?;
-        if let Some(c) = &self.controller {
-            self.validate_controller(c, "controller")?;
-        }
+        Ok(())
+    }
+
+    /// `[sensors]`.
+    fn validate_sensors(&self) -> Result<()> {
         let s = &self.sensors;
         for (k, v) in [
             ("sensors.attitude_noise_deg", s.attitude_noise_deg),
@@ -457,6 +489,11 @@ impl Scenario {
         if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
             positive("sensors.star_tracker.max_rate_deg_s", m)?;
         }
+        Ok(())
+    }
+
+    /// `[open_loop]`, the controller or mode table, and the ground commands.
+    fn validate_control_source(&self) -> Result<()> {
         if let Some(ol) = &self.open_loop {
             if self.closed_loop() {
                 return Err(bad("open_loop", "needs controller.type = \"none\""));
