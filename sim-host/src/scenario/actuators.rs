@@ -636,116 +636,136 @@ impl Scenario {
         let act = &self.actuators;
         let want = |f: &str| family.is_none_or(|x| x == f);
         if let Some(cmg) = act.cmg.as_ref().filter(|_| want("cmg")) {
-            let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
-            let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
-            let law = match (st.law.as_str(), &st.alpha) {
-                ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
-                        a0: *a0 as f32,
-                        m0: *m0 as f32,
-                        m_cr: *m_cr as f32,
-                    })
-                }
-                ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
-                        a0: *a0 as f32,
-                        m_cr: *m_cr as f32,
-                        a_max: *a_max as f32,
-                    })
-                }
-                ("sr", Some(Alpha::Exponential { a0, mu })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
-                }
-                ("gsr", _) => match &st.gsr {
-                    Some(g) => SteeringLaw::GeneralizedSr {
-                        lambda0: g.lambda0 as f32,
-                        mu: g.mu as f32,
-                        eps0: g.eps0 as f32,
-                        omega_rad_s: g.omega_rad_s as f32,
-                    },
-                    None => bail!("invalid value for `steering.gsr`: missing"),
-                },
-                _ => SteeringLaw::MoorePenrose,
-            };
-            return Ok(ActuatorParams::Cmg {
-                cmg: CmgParams {
-                    skew_rad: cmg.skew_deg.to_radians() as f32,
-                    h0_nms: cmg.h0() as f32,
-                    max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
-                    gimbal_min_rad: -lim as f32,
-                    gimbal_max_rad: lim as f32,
-                    failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
-                },
-                steering: SteeringParams {
-                    law,
-                    singular_threshold: st.singular_threshold as f32,
-                    null_gain_per_s: st.null_gain_per_s as f32,
-                    preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
-                    saturation_check_m: st.saturation_check_m as f32,
-                },
-            });
+            return self.cmg_flight_params(cmg);
         }
         if let Some(w) = act.wheels.as_ref().filter(|_| want("wheels")) {
-            let plant = self.wheel_params()?;
-            let mut axes = [[0.0f32; 3]; MAX_WHEELS];
-            let mut bias = [0.0f32; MAX_WHEELS];
-            let rpm = std::f64::consts::PI / 30.0;
-            for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
-                axes[i] = p.spin_axis.map(|x| x as f32);
-                bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
-            }
-            let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
-            let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
-            return Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
-                count: plant.len() as u8,
-                axes,
-                max_torque_nm: p0.max_torque_nm as f32,
-                max_speed_rad_s: p0.max_speed_rad_s as f32,
-                inertia_kgm2: p0.inertia_kgm2 as f32,
-                null_gain_per_s: w.null_gain_per_s as f32,
-                bias_speed_rad_s: bias,
-                failed_mask,
-            }));
+            return self.wheel_flight_params(w);
         }
         if let Some(m) = act.magnetorquers.as_ref().filter(|_| want("magnetorquers")) {
-            let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
-            let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
-            return Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
-                max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
-                min_dipole_am2: neg.map(|x| x as f32),
-                deadband_lo_am2: [lo as f32; 3],
-                deadband_hi_am2: [hi as f32; 3],
-                min_field_t: 1e-7,
-            }));
+            return self.magnetorquer_flight_params(m);
         }
         if let Some(t) = act.thrusters.as_ref().filter(|_| want("thrusters")) {
-            let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
-            let b = set.torque_matrix();
-            let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
-            for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
-                for k in 0..3 {
-                    torque_nm[k][j] = col[k] as f32;
-                }
-            }
-            let failed_mask = t
-                .failures
-                .iter()
-                .filter(|f| f.known_to_flight && f.mode == "off")
-                .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
-            return Ok(ActuatorParams::Thrusters(ThrusterParams {
-                count: b.len() as u8,
-                torque_nm,
-                method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
-                pwpf_km: t.pwpf[0] as f32,
-                pwpf_tm_s: t.pwpf[1] as f32,
-                pwpf_u_on: t.pwpf[2] as f32,
-                pwpf_u_off: t.pwpf[3] as f32,
-                failed_mask,
-            }));
+            return self.thruster_flight_params(t);
         }
         match family {
             Some(f) => bail!("invalid value for `actuators`: no [actuators.{f}] to control"),
             None => bail!("invalid value for `actuators`: no actuator to control"),
         }
+    }
+
+    /// The CMG cluster and its steering law.
+    fn cmg_flight_params(&self, cmg: &CmgSpec) -> Result<ActuatorParams> {
+        let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
+        let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
+        let law = match (st.law.as_str(), &st.alpha) {
+            ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
+                    a0: *a0 as f32,
+                    m0: *m0 as f32,
+                    m_cr: *m_cr as f32,
+                })
+            }
+            ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
+                    a0: *a0 as f32,
+                    m_cr: *m_cr as f32,
+                    a_max: *a_max as f32,
+                })
+            }
+            ("sr", Some(Alpha::Exponential { a0, mu })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
+            }
+            ("gsr", _) => match &st.gsr {
+                Some(g) => SteeringLaw::GeneralizedSr {
+                    lambda0: g.lambda0 as f32,
+                    mu: g.mu as f32,
+                    eps0: g.eps0 as f32,
+                    omega_rad_s: g.omega_rad_s as f32,
+                },
+                None => bail!("invalid value for `steering.gsr`: missing"),
+            },
+            _ => SteeringLaw::MoorePenrose,
+        };
+        Ok(ActuatorParams::Cmg {
+            cmg: CmgParams {
+                skew_rad: cmg.skew_deg.to_radians() as f32,
+                h0_nms: cmg.h0() as f32,
+                max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
+                gimbal_min_rad: -lim as f32,
+                gimbal_max_rad: lim as f32,
+                failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
+            },
+            steering: SteeringParams {
+                law,
+                singular_threshold: st.singular_threshold as f32,
+                null_gain_per_s: st.null_gain_per_s as f32,
+                preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
+                saturation_check_m: st.saturation_check_m as f32,
+            },
+        })
+    }
+
+    /// The reaction wheels.
+    fn wheel_flight_params(&self, w: &WheelsSpec) -> Result<ActuatorParams> {
+        let plant = self.wheel_params()?;
+        let mut axes = [[0.0f32; 3]; MAX_WHEELS];
+        let mut bias = [0.0f32; MAX_WHEELS];
+        let rpm = std::f64::consts::PI / 30.0;
+        for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
+            axes[i] = p.spin_axis.map(|x| x as f32);
+            bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
+        }
+        let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+        let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
+        Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
+            count: plant.len() as u8,
+            axes,
+            max_torque_nm: p0.max_torque_nm as f32,
+            max_speed_rad_s: p0.max_speed_rad_s as f32,
+            inertia_kgm2: p0.inertia_kgm2 as f32,
+            null_gain_per_s: w.null_gain_per_s as f32,
+            bias_speed_rad_s: bias,
+            failed_mask,
+        }))
+    }
+
+    /// The magnetorquers.
+    fn magnetorquer_flight_params(&self, m: &MagnetorquersSpec) -> Result<ActuatorParams> {
+        let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+        let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+        Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
+            max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
+            min_dipole_am2: neg.map(|x| x as f32),
+            deadband_lo_am2: [lo as f32; 3],
+            deadband_hi_am2: [hi as f32; 3],
+            min_field_t: 1e-7,
+        }))
+    }
+
+    /// The thrusters (torque matrix of the set as built).
+    fn thruster_flight_params(&self, t: &ThrustersSpec) -> Result<ActuatorParams> {
+        let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
+        let b = set.torque_matrix();
+        let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
+        for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
+            for k in 0..3 {
+                torque_nm[k][j] = col[k] as f32;
+            }
+        }
+        let failed_mask = t
+            .failures
+            .iter()
+            .filter(|f| f.known_to_flight && f.mode == "off")
+            .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
+        Ok(ActuatorParams::Thrusters(ThrusterParams {
+            count: b.len() as u8,
+            torque_nm,
+            method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
+            pwpf_km: t.pwpf[0] as f32,
+            pwpf_tm_s: t.pwpf[1] as f32,
+            pwpf_u_on: t.pwpf[2] as f32,
+            pwpf_u_off: t.pwpf[3] as f32,
+            failed_mask,
+        }))
     }
 }
