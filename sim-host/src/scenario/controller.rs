@@ -160,30 +160,14 @@ impl Scenario {
         self.lqr_design_of(self.controller.as_ref().ok_or_else(|| bad("controller", "missing"))?)
     }
 
-    /// The LQR design of a law (`lqr` or `lqg`).
-    pub fn lqr_design_of(&self, c: &Controller) -> Result<LqrDesign> {
-        use crate::design::models::{AttitudeModel, circular_orbit_rate};
-        use crate::design::riccati;
+    /// The linear model an LQR is designed on (`model`: "free", "orbit" or "rig", default
+    /// from the scenario; `input`: "torque" or "gimbal_rates").
+    fn design_model(
+        &self,
+        model: &Option<String>,
+        input: &str,
+    ) -> Result<(String, crate::design::models::AttitudeModel)> {
         use nalgebra::DMatrix;
-        let (q, r, model, input): (&[f64; 6], &[f64], _, _) = match c {
-            Controller::Lqr { gain: Some(k), .. } => {
-                return Ok(LqrDesign {
-                    gain: k.to_vec(),
-                    input: "torque".into(),
-                    model: "given".into(),
-                    closed_loop_eigenvalues: Vec::new(),
-                    residual: 0.0,
-                    a: DMatrix::zeros(6, 6),
-                    b: DMatrix::zeros(6, 3),
-                });
-            }
-            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, input, .. } => {
-                (q, r.as_slice(), model, input.as_deref().unwrap_or("torque"))
-            }
-            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
-            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag.as_slice(), model, "torque"),
-            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
-        };
         let default_model = if self.rig.is_some() {
             "rig"
         } else if self.orbit.is_some() {
@@ -193,12 +177,14 @@ impl Scenario {
         };
         let model = model.clone().unwrap_or_else(|| default_model.into());
         let orbit_rate = match self.orbit.as_ref().map(|o| o.elements()).transpose()? {
-            Some(OrbitKind::Circular { altitude_km, .. }) => circular_orbit_rate(altitude_km * 1e3),
+            Some(OrbitKind::Circular { altitude_km, .. }) => {
+                crate::design::models::circular_orbit_rate(altitude_km * 1e3)
+            }
             Some(OrbitKind::Kepler { a_km, .. }) => (3.986004418e14 / (a_km * 1e3).powi(3)).sqrt(),
             _ => 0.0,
         };
         let mgr = self.spacecraft()?.rig.map_or(Vec3::zeros(), |r| r.mgr_nm);
-        let mut m = AttitudeModel {
+        let mut m = crate::design::models::AttitudeModel {
             inertia: self.inertia(),
             orbit_rate: if model == "orbit" { orbit_rate } else { 0.0 },
             gravity_gradient: model == "orbit",
@@ -227,6 +213,33 @@ impl Scenario {
                 ));
             }
         }
+        Ok((model, m))
+    }
+
+    /// The LQR design of a law (`lqr` or `lqg`).
+    pub fn lqr_design_of(&self, c: &Controller) -> Result<LqrDesign> {
+        use crate::design::riccati;
+        use nalgebra::DMatrix;
+        let (q, r, model, input): (&[f64; 6], &[f64], _, _) = match c {
+            Controller::Lqr { gain: Some(k), .. } => {
+                return Ok(LqrDesign {
+                    gain: k.to_vec(),
+                    input: "torque".into(),
+                    model: "given".into(),
+                    closed_loop_eigenvalues: Vec::new(),
+                    residual: 0.0,
+                    a: DMatrix::zeros(6, 6),
+                    b: DMatrix::zeros(6, 3),
+                });
+            }
+            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, input, .. } => {
+                (q, r.as_slice(), model, input.as_deref().unwrap_or("torque"))
+            }
+            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
+            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag.as_slice(), model, "torque"),
+            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
+        };
+        let (model, m) = self.design_model(model, input)?;
         if r.len() != m.m() {
             return Err(bad("controller.r_diag", format!("needs {} entries for input {input:?}", m.m())));
         }
