@@ -70,7 +70,8 @@ pub struct Summary {
     pub final_mode: Option<String>,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
-    /// Wall time of the closed loop only (no file output), s.
+    /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
+    /// records to disk; plots and summary excluded).
     pub wall_time_s: f64,
     pub real_time_factor: f64,
 }
