@@ -14,7 +14,7 @@ use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
-use crate::scenario::{Controller, OpenLoopRow, RefFrame, Scenario};
+use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Scenario};
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
@@ -249,9 +249,7 @@ pub struct Simulation<'a> {
     row: Vec<f64>,
     /// The next control step.
     k: u64,
-    steps: u64,
-    dt: f64,
-    every: u64,
+    clock: Clock,
 }
 
 impl<'a> Simulation<'a> {
@@ -289,7 +287,7 @@ impl<'a> Simulation<'a> {
         target.set(sc.target.quaternion());
         let layout = layout(sc, craft.wheels.len(), n_thr);
         let columns = layout.names();
-        let dt = sc.control_dt();
+        let clock = Clock::try_from(sc)?;
         Ok(Self {
             sc,
             link,
@@ -302,14 +300,12 @@ impl<'a> Simulation<'a> {
             target,
             next_command: 0,
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
-            errors: ErrorStats::new(dt, SETTLE_BOUND_DEG),
+            errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
             row: Vec::with_capacity(columns.len()),
             layout,
             columns,
             k: 0,
-            steps: sc.steps(),
-            dt,
-            every: sc.timing.output_every as u64,
+            clock,
         })
     }
 
@@ -319,11 +315,11 @@ impl<'a> Simulation<'a> {
 
     /// Rows the whole run records.
     pub fn recorded_rows(&self) -> u64 {
-        recorded_rows(self.steps, self.every)
+        recorded_rows(self.clock.steps, self.clock.output_every)
     }
 
     pub fn steps(&self) -> u64 {
-        self.steps
+        self.clock.steps
     }
 
     /// Control steps done so far.
@@ -333,18 +329,18 @@ impl<'a> Simulation<'a> {
 
     /// Whether every control step (0..=steps) has run.
     pub fn finished(&self) -> bool {
-        self.k > self.steps
+        self.k > self.clock.steps
     }
 
     pub fn sim_time_s(&self) -> f64 {
-        self.steps as f64 * self.dt
+        self.clock.steps as f64 * self.clock.dt
     }
 
     /// One control step at `t_k`: ground commands, sensors, flight code (or the open-loop
     /// table), statistics, the recorded row, then the plant over `[t_k, t_k+1)`.
     pub fn step(&mut self, rec: &mut dyn Recorder) -> Result<()> {
         let k = self.k;
-        let t = k as f64 * self.dt;
+        let t = k as f64 * self.clock.dt;
         if k > 0 {
             self.snap = match self.craft.env.as_mut() {
                 Some(e) => Some(e.snapshot(t)?),
@@ -361,11 +357,11 @@ impl<'a> Simulation<'a> {
 
         // Thruster valves over the first dynamics step decide what is recorded as applied.
         let thr_mask = u32::from(cmd.thruster_on);
-        let h = self.dt / self.sc.timing.dynamics_substeps as f64;
-        if k < self.steps {
+        let h = self.clock.h();
+        if k < self.clock.steps {
             input.thruster_torque_nm = self.act.thruster_torque(thr_mask, t, h);
         }
-        if k.is_multiple_of(self.every) || k == self.steps {
+        if k.is_multiple_of(self.clock.output_every) || k == self.clock.steps {
             let v = StepView {
                 t,
                 cmd: &cmd,
@@ -379,7 +375,7 @@ impl<'a> Simulation<'a> {
             self.fill_row(&v);
             rec.record(&self.row)?;
         }
-        if k < self.steps {
+        if k < self.clock.steps {
             self.advance(t, &mut input, thr_mask);
         }
         self.k += 1;
@@ -448,14 +444,13 @@ impl<'a> Simulation<'a> {
     fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) {
         if let Some(c) = &self.sc.spacecraft.inertia_change
             && t < c.at_s
-            && t + self.dt >= c.at_s
+            && t + self.clock.dt >= c.at_s
         {
             let j = self.craft.inertia * c.factor;
             self.craft.set_inertia(j);
         }
-        let sub = self.sc.timing.dynamics_substeps;
-        let h = self.dt / sub as f64;
-        for j in 0..sub {
+        let h = self.clock.h();
+        for j in 0..self.clock.substeps {
             let tj = t + j as f64 * h;
             if j > 0 {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
@@ -549,7 +544,7 @@ impl<'a> Simulation<'a> {
             scenario: sc.name.clone(),
             link: if info.is_some() { self.link.name() } else { "open-loop".into() },
             board: info.map(|i| i.board),
-            steps: self.steps,
+            steps: self.clock.steps,
             sim_time_s: sim_time,
             control_rate_hz: sc.timing.control_rate_hz,
             dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,

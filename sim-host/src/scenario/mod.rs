@@ -305,31 +305,9 @@ impl Scenario {
         Ok(())
     }
 
-    /// `duration_s` and `[timing]`.
+    /// `duration_s` and `[timing]` (see [`Clock`]).
     fn validate_timing(&self) -> Result<()> {
-        positive("duration_s", self.duration_s)?;
-        positive("timing.control_rate_hz", self.timing.control_rate_hz)?;
-        if self.timing.control_rate_hz > 10_000.0 {
-            return Err(bad("timing.control_rate_hz", "must be <= 10000"));
-        }
-        if self.timing.dynamics_substeps == 0 {
-            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
-        }
-        if self.timing.output_every == 0 {
-            return Err(bad("timing.output_every", "must be >= 1"));
-        }
-        let steps = self.duration_s * self.timing.control_rate_hz;
-        if steps.round() > MAX_STEPS as f64 {
-            return Err(bad(
-                "duration_s",
-                format!(
-                    "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
-                     (the step counter of the sensor frame is 32-bit)",
-                    self.duration_s, self.timing.control_rate_hz
-                ),
-            ));
-        }
-        Ok(())
+        Clock::try_from(self).map(|_| ())
     }
 
     /// `[spacecraft]`.
@@ -643,11 +621,76 @@ impl Scenario {
     }
 
     pub fn control_dt(&self) -> f64 {
-        1.0 / self.timing.control_rate_hz
+        Clock::dt_of(self)
     }
 
     pub fn steps(&self) -> u64 {
-        (self.duration_s * self.timing.control_rate_hz).round() as u64
+        Clock::steps_of(self)
+    }
+}
+
+/// The run's clock, parsed once from `duration_s` and `[timing]` (every value checked,
+/// errors naming the key).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clock {
+    /// Control period, s.
+    pub dt: f64,
+    /// Control steps after t = 0 (the run samples steps 0..=steps).
+    pub steps: u64,
+    /// RK4 steps per control period.
+    pub substeps: u32,
+    /// Every `output_every`-th step (and the last) is recorded.
+    pub output_every: u64,
+}
+
+impl Clock {
+    fn dt_of(sc: &Scenario) -> f64 {
+        1.0 / sc.timing.control_rate_hz
+    }
+
+    fn steps_of(sc: &Scenario) -> u64 {
+        (sc.duration_s * sc.timing.control_rate_hz).round() as u64
+    }
+
+    /// Length of one RK4 step, s.
+    pub fn h(&self) -> f64 {
+        self.dt / self.substeps as f64
+    }
+}
+
+impl TryFrom<&Scenario> for Clock {
+    type Error = anyhow::Error;
+
+    fn try_from(sc: &Scenario) -> Result<Self> {
+        let t = &sc.timing;
+        positive("duration_s", sc.duration_s)?;
+        positive("timing.control_rate_hz", t.control_rate_hz)?;
+        if t.control_rate_hz > 10_000.0 {
+            return Err(bad("timing.control_rate_hz", "must be <= 10000"));
+        }
+        if t.dynamics_substeps == 0 {
+            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
+        }
+        if t.output_every == 0 {
+            return Err(bad("timing.output_every", "must be >= 1"));
+        }
+        let steps = sc.duration_s * t.control_rate_hz;
+        if steps.round() > MAX_STEPS as f64 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
+                     (the step counter of the sensor frame is 32-bit)",
+                    sc.duration_s, t.control_rate_hz
+                ),
+            ));
+        }
+        Ok(Self {
+            dt: Self::dt_of(sc),
+            steps: Self::steps_of(sc),
+            substeps: t.dynamics_substeps,
+            output_every: t.output_every as u64,
+        })
     }
 }
 
@@ -710,6 +753,18 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         let ControllerParams::QuaternionFeedback(c) = &p.controller else { panic!("quaternion feedback") };
         assert!((c.k_att_nm[2][2] - 2.0 * 0.49 * 5.8).abs() < 1e-5);
         assert_eq!(s.steps(), 1000);
+    }
+
+    #[test]
+    fn the_clock_is_parsed_once_from_duration_and_timing() {
+        let text = MINIMAL
+            .replace("control_rate_hz = 100.0", "control_rate_hz = 40.0\ndynamics_substeps = 4\noutput_every = 3");
+        let c = Clock::try_from(&Scenario::from_toml(&text).unwrap()).unwrap();
+        // 10 s at 40 Hz: 400 steps of 25 ms, RK4 every 6.25 ms.
+        assert_eq!((c.steps, c.substeps, c.output_every), (400, 4, 3));
+        assert!((c.dt - 0.025).abs() < 1e-15 && (c.h() - 0.00625).abs() < 1e-15);
+        let s = Scenario::from_toml(&text).unwrap();
+        assert_eq!((s.steps(), s.control_dt()), (c.steps, c.dt));
     }
 
     fn err_of(text: &str) -> String {
