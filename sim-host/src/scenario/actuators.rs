@@ -367,141 +367,17 @@ impl Scenario {
 
     /// `[actuators.wheels]`.
     fn validate_wheels(&self, w: &WheelsSpec) -> Result<()> {
-        match w.layout.as_str() {
-            "pyramid4" => {
-                finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
-                if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
-                    return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
-                }
-            }
-            "axes" => {
-                if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
-                    return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
-                }
-                for a in &w.axes {
-                    let n = Vec3::from(*a).norm();
-                    if !n.is_finite() || n < 1e-9 {
-                        return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
-                    }
-                }
-            }
-            other => {
-                return Err(bad(
-                    "actuators.wheels.layout",
-                    format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
-                ));
-            }
-        }
-        if !matches!(w.model.as_str(), "ideal" | "accurate") {
-            return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
-        }
-        for (k, v) in [
-            ("actuators.wheels.max_torque_nm", w.max_torque_nm),
-            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
-            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
-        ] {
-            if let Some(v) = v {
-                positive(k, v)?;
-            }
-        }
-        let n = self.wheel_axes(w).len();
-        for (k, v) in [
-            ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
-            ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
-        ] {
-            if !v.is_empty() && v.len() != n {
-                return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
-            }
-            finite(k, v)?;
-        }
-        if w.failed.iter().any(|i| *i == 0 || *i > n) {
-            return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
-        }
-        if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
-            return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
-        }
-        for p in self.wheel_params()? {
-            p.validate().map_err(|e| bad("actuators.wheels", e))?;
-        }
-        Ok(())
+        self.wheel_flight_params(w).map(|_| ())
     }
 
     /// `[actuators.magnetorquers]`.
     fn validate_magnetorquers(&self, m: &MagnetorquersSpec) -> Result<()> {
-        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
-            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
-        }
-        if let Some([lo, hi]) = m.deadband_am2
-            && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
-        {
-            return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
-        }
-        if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
-            return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
-        }
-        Ok(())
+        self.magnetorquer_flight_params(m).map(|_| ())
     }
 
     /// `[actuators.thrusters]`.
     fn validate_thrusters(&self, t: &ThrustersSpec) -> Result<()> {
-        positive("actuators.thrusters.thrust_n", t.thrust_n)?;
-        positive("actuators.thrusters.isp_s", t.isp_s)?;
-        for (k, v) in [
-            ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
-            ("actuators.thrusters.open_delay_s", t.open_delay_s),
-            ("actuators.thrusters.close_delay_s", t.close_delay_s),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(k, "must be >= 0"));
-            }
-        }
-        match t.layout.as_str() {
-            "paper004" => {}
-            "matrix" => {
-                if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
-                    return Err(bad(
-                        "actuators.thrusters.torque_per_newton_m",
-                        format!("needs 1..={MAX_THRUSTERS} columns"),
-                    ));
-                }
-                finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
-            }
-            "geometry" => {
-                let n = t.positions_m.len();
-                if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
-                    return Err(bad(
-                        "actuators.thrusters.positions_m",
-                        format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
-                    ));
-                }
-                finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
-                for d in &t.directions {
-                    let norm = Vec3::from(*d).norm();
-                    if !(norm.is_finite() && norm > 1e-9) {
-                        return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
-                    }
-                }
-            }
-            other => {
-                return Err(bad(
-                    "actuators.thrusters.layout",
-                    format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
-                ));
-            }
-        }
-        if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
-            return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
-        }
-        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
-        for f in &t.failures {
-            if f.thruster == 0 || f.thruster > n {
-                return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
-            }
-            if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
-                return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
-            }
-        }
-        Ok(())
+        self.thruster_flight_params(t).map(|_| ())
     }
 
     /// Spin axes of the wheels (unit, body).
@@ -707,6 +583,62 @@ impl Scenario {
 
     /// The reaction wheels.
     fn wheel_flight_params(&self, w: &WheelsSpec) -> Result<ActuatorParams> {
+        match w.layout.as_str() {
+            "pyramid4" => {
+                finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+                if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                    return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
+                }
+            }
+            "axes" => {
+                if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                    return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
+                }
+                for a in &w.axes {
+                    let n = Vec3::from(*a).norm();
+                    if !n.is_finite() || n < 1e-9 {
+                        return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
+                    }
+                }
+            }
+            other => {
+                return Err(bad(
+                    "actuators.wheels.layout",
+                    format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+                ));
+            }
+        }
+        if !matches!(w.model.as_str(), "ideal" | "accurate") {
+            return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
+        }
+        for (k, v) in [
+            ("actuators.wheels.max_torque_nm", w.max_torque_nm),
+            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
+            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+        ] {
+            if let Some(v) = v {
+                positive(k, v)?;
+            }
+        }
+        let n = self.wheel_axes(w).len();
+        for (k, v) in [
+            ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
+            ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
+        ] {
+            if !v.is_empty() && v.len() != n {
+                return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
+            }
+            finite(k, v)?;
+        }
+        if w.failed.iter().any(|i| *i == 0 || *i > n) {
+            return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
+        }
+        if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
+            return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
+        }
+        for p in self.wheel_params()? {
+            p.validate().map_err(|e| bad("actuators.wheels", e))?;
+        }
         let plant = self.wheel_params()?;
         let mut axes = [[0.0f32; 3]; MAX_WHEELS];
         let mut bias = [0.0f32; MAX_WHEELS];
@@ -731,6 +663,17 @@ impl Scenario {
 
     /// The magnetorquers.
     fn magnetorquer_flight_params(&self, m: &MagnetorquersSpec) -> Result<ActuatorParams> {
+        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
+            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+        }
+        if let Some([lo, hi]) = m.deadband_am2
+            && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
+        {
+            return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
+        }
+        if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
+            return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
+        }
         let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
         let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
         Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
@@ -744,6 +687,63 @@ impl Scenario {
 
     /// The thrusters (torque matrix of the set as built).
     fn thruster_flight_params(&self, t: &ThrustersSpec) -> Result<ActuatorParams> {
+        positive("actuators.thrusters.thrust_n", t.thrust_n)?;
+        positive("actuators.thrusters.isp_s", t.isp_s)?;
+        for (k, v) in [
+            ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
+            ("actuators.thrusters.open_delay_s", t.open_delay_s),
+            ("actuators.thrusters.close_delay_s", t.close_delay_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, "must be >= 0"));
+            }
+        }
+        match t.layout.as_str() {
+            "paper004" => {}
+            "matrix" => {
+                if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
+                    return Err(bad(
+                        "actuators.thrusters.torque_per_newton_m",
+                        format!("needs 1..={MAX_THRUSTERS} columns"),
+                    ));
+                }
+                finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
+            }
+            "geometry" => {
+                let n = t.positions_m.len();
+                if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                    return Err(bad(
+                        "actuators.thrusters.positions_m",
+                        format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                    ));
+                }
+                finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+                for d in &t.directions {
+                    let norm = Vec3::from(*d).norm();
+                    if !(norm.is_finite() && norm > 1e-9) {
+                        return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                    }
+                }
+            }
+            other => {
+                return Err(bad(
+                    "actuators.thrusters.layout",
+                    format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+                ));
+            }
+        }
+        if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
+            return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
+        }
+        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+        for f in &t.failures {
+            if f.thruster == 0 || f.thruster > n {
+                return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
+            }
+            if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
+                return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
+            }
+        }
         let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
         let b = set.torque_matrix();
         let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
