@@ -698,40 +698,7 @@ impl Scenario {
                 return Err(bad(k, "must be >= 0"));
             }
         }
-        match t.layout.as_str() {
-            "paper004" => {}
-            "matrix" => {
-                if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
-                    return Err(bad(
-                        "actuators.thrusters.torque_per_newton_m",
-                        format!("needs 1..={MAX_THRUSTERS} columns"),
-                    ));
-                }
-                finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
-            }
-            "geometry" => {
-                let n = t.positions_m.len();
-                if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
-                    return Err(bad(
-                        "actuators.thrusters.positions_m",
-                        format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
-                    ));
-                }
-                finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
-                for d in &t.directions {
-                    let norm = Vec3::from(*d).norm();
-                    if !(norm.is_finite() && norm > 1e-9) {
-                        return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
-                    }
-                }
-            }
-            other => {
-                return Err(bad(
-                    "actuators.thrusters.layout",
-                    format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
-                ));
-            }
-        }
+        thruster_layout(t)?;
         if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
             return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
         }
@@ -768,4 +735,43 @@ impl Scenario {
             failed_mask,
         }))
     }
+}
+
+/// The thruster layout keys (`layout` and its matrix or geometry).
+fn thruster_layout(t: &ThrustersSpec) -> Result<()> {
+    match t.layout.as_str() {
+        "paper004" => {}
+        "matrix" => {
+            if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
+                return Err(bad(
+                    "actuators.thrusters.torque_per_newton_m",
+                    format!("needs 1..={MAX_THRUSTERS} columns"),
+                ));
+            }
+            finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
+        }
+        "geometry" => {
+            let n = t.positions_m.len();
+            if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                return Err(bad(
+                    "actuators.thrusters.positions_m",
+                    format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                ));
+            }
+            finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+            for d in &t.directions {
+                let norm = Vec3::from(*d).norm();
+                if !(norm.is_finite() && norm > 1e-9) {
+                    return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                }
+            }
+        }
+        other => {
+            return Err(bad(
+                "actuators.thrusters.layout",
+                format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+            ));
+        }
+    }
+    Ok(())
 }
