@@ -9,6 +9,8 @@
 
 pub mod analysis;
 pub mod attitude;
+pub mod columns;
+pub mod decimate;
 pub mod design;
 pub mod environment;
 pub mod link;
@@ -18,3 +20,6 @@ pub mod plots;
 pub mod runner;
 pub mod scenario;
 pub mod sensors;
+pub mod series;
+pub mod simulation;
+pub mod summary;

@@ -4,9 +4,10 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::{Controller, Scenario};
+use sim_host::summary::Summary;
 use sim_host::{output, runner};
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `println!` that does not panic when stdout is a closed pipe (`sim-host … | head`).
 macro_rules! say {
@@ -78,123 +79,153 @@ enum Cmd {
     },
 }
 
+/// `SIM_HOST_ASSUME_FREE_BYTES`: free space to assume on the output filesystem instead of
+/// asking it (tests of the disk-space refusal).
+fn assumed_free_bytes() -> Result<Option<u64>> {
+    match std::env::var("SIM_HOST_ASSUME_FREE_BYTES") {
+        Ok(v) => Ok(Some(v.trim().parse().with_context(|| format!("SIM_HOST_ASSUME_FREE_BYTES = {v:?}"))?)),
+        Err(_) => Ok(None),
+    }
+}
+
 fn main() -> Result<()> {
     match Cli::parse().cmd {
         Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
-            let sc = Scenario::load(&scenario)?;
-            let open_loop = !sc.closed_loop();
-            let kind = match (link, &sc.link.kind) {
-                _ if open_loop => LinkKind::InProcess,
-                (Some(k), _) => k,
-                (None, Some(s)) => s.parse().context("scenario link.kind")?,
-                (None, None) => LinkKind::InProcess,
-            };
-            let mut l = link::open(&kind, &LinkOptions { firmware })?;
-            let r = runner::run(&sc, l.as_mut(), !quiet)?;
-            drop(l);
-            let files = output::write_all(&out, &r, !no_plots)?;
-            let s = &r.summary;
-            let mut line = format!(
-                "{}: {} steps over {:.1} s on {}; final error {:.4} deg, settle {}, RTF {:.0}x",
-                s.scenario,
-                s.steps,
-                s.sim_time_s,
-                s.link,
-                s.final_error_deg,
-                s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
-                s.real_time_factor
-            );
-            let opt = |name: &str, v: Option<f64>, unit: &str| {
-                v.map(|x| format!("; {name} {x:.4}{unit}")).unwrap_or_default()
-            };
-            line += &opt("min m", s.min_singularity_measure, "");
-            line += &opt("max gimbal rate", s.max_gimbal_rate_rad_s, " rad/s");
-            line += &opt("max wheel speed", s.max_wheel_speed_rpm, " rpm");
-            line += &opt("max wheel power", s.max_wheel_power_w, " W");
-            line += &opt("propellant", s.propellant_kg, " kg");
-            line += &opt("max pulses", s.max_pulses.map(f64::from), "");
-            line += &opt("max instructions/step", s.max_step_instructions.map(|x| x as f64), "");
-            say!("{line}");
-            for m in &s.mode_transitions {
-                say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
-            }
-            for f in files {
-                say!("  wrote {}", f.display());
-            }
+            run(&scenario, &out, link, firmware, no_plots, quiet)
         }
-        Cmd::Lqr { scenario } => {
-            let sc = Scenario::load(&scenario)?;
-            // The scenario's controller, or every LQR/LQG mode of its mode table.
-            let mut laws = Vec::new();
-            if let Some(c) = &sc.controller {
-                laws.push((String::new(), c.clone()));
-            }
-            if let Some(m) = &sc.modes {
-                for (mode, spec) in m.slots() {
-                    if let Some(s) =
-                        spec.filter(|s| matches!(s.controller, Controller::Lqr { .. } | Controller::Lqg { .. }))
-                    {
-                        laws.push((format!(" (mode {})", mode.name()), s.controller.clone()));
-                    }
-                }
-            }
-            if laws.is_empty() {
-                anyhow::bail!("{}: no lqr or lqg controller", sc.name);
-            }
-            for (label, c) in laws {
-                let d = sc.lqr_design_of(&c)?;
-                say!(
-                    "{}{label}: LQR on the {} model, K (N m per [rad, rad, rad, rad/s, rad/s, rad/s]):",
-                    sc.name,
-                    d.model
-                );
-                for row in d.gain {
-                    say!("  [{}]", row.map(|x| format!("{x:>12.5e}")).join(", "));
-                }
-                if !d.closed_loop_eigenvalues.is_empty() {
-                    say!("closed-loop eigenvalues of A - B K:");
-                    for e in &d.closed_loop_eigenvalues {
-                        say!("  {:>12.5e} {:+.5e} i", e.re, e.im);
-                    }
-                    say!("relative CARE residual {:.2e}", d.residual);
-                }
-            }
-        }
+        Cmd::Lqr { scenario } => lqr(&scenario),
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
-            let sc = Scenario::load(&scenario)?;
-            let set = sc.thruster_set().context("the scenario has no [actuators.thrusters]")?;
-            let b = set.torque_matrix();
-            let table = sim_host::analysis::thrusters::failure_table(&b, &vec![1.0; b.len()], max_failed.min(b.len()));
-            if json {
-                say!("{}", serde_json::to_string_pretty(&table)?);
-            } else {
-                say!("{}: {} thrusters, torque at full thrust (N m)", sc.name, b.len());
-                say!("{}", sim_host::analysis::thrusters::render_table(&table));
-            }
+            analyze_thrusters(&scenario, json, max_failed)
         }
         Cmd::Serve { listen } => {
             let l = std::net::TcpListener::bind(&listen).with_context(|| format!("binding {listen}"))?;
             eprintln!("flight code listening on {}", l.local_addr()?);
-            link::serve::serve(l, None)?;
+            link::serve::serve(l, None)
         }
-        Cmd::Check { scenario } => {
-            let sc = Scenario::load(&scenario)?;
-            let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| anyhow::anyhow!("{e}"));
-            if let Some(t) = sc.mode_table()? {
-                say!("{}: ok ({} steps); mode table of {} modes", sc.name, sc.steps(), t.slots.len());
-                for (mode, p) in &t.slots {
-                    say!("mode {}: parameter checksum {:#010x}", mode.name(), sum(p)?);
-                    say!("{p:#?}");
-                }
-                say!("{:#?}", t.manager);
-            } else if sc.closed_loop() {
-                let p = sc.flight_params()?;
-                say!("{}: ok ({} steps); parameter checksum {:#010x}", sc.name, sc.steps(), sum(&p)?);
-                say!("{p:#?}");
-            } else {
-                say!("{}: ok ({} steps); open loop, no flight parameters", sc.name, sc.steps());
+        Cmd::Check { scenario } => check(&scenario),
+    }
+}
+
+/// `sim-host run`: the run streamed into `out`, then the one-line summary.
+fn run(
+    scenario: &Path,
+    out: &Path,
+    link: Option<LinkKind>,
+    firmware: Option<PathBuf>,
+    no_plots: bool,
+    quiet: bool,
+) -> Result<()> {
+    let sc = Scenario::load(scenario)?;
+    let open_loop = !sc.closed_loop();
+    let kind = match (link, &sc.link.kind) {
+        _ if open_loop => LinkKind::InProcess,
+        (Some(k), _) => k,
+        (None, Some(s)) => s.parse().context("scenario link.kind")?,
+        (None, None) => LinkKind::InProcess,
+    };
+    let mut l = link::open(&kind, &LinkOptions { firmware })?;
+    let mut rec = output::RunOutput::new(out, !no_plots).assume_free_bytes(assumed_free_bytes()?);
+    let summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
+    drop(l);
+    let files = rec.finish(&summary)?;
+    say!("{}", summary_line(&summary));
+    for m in &summary.mode_transitions {
+        say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
+    }
+    for f in files {
+        say!("  wrote {}", f.display());
+    }
+    Ok(())
+}
+
+fn summary_line(s: &Summary) -> String {
+    let mut line = format!(
+        "{}: {} steps over {:.1} s on {}; final error {:.4} deg, settle {}, RTF {:.0}x",
+        s.scenario,
+        s.steps,
+        s.sim_time_s,
+        s.link,
+        s.final_error_deg,
+        s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
+        s.real_time_factor
+    );
+    let opt = |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {x:.4}{unit}")).unwrap_or_default();
+    line += &opt("min m", s.min_singularity_measure, "");
+    line += &opt("max gimbal rate", s.max_gimbal_rate_rad_s, " rad/s");
+    line += &opt("max wheel speed", s.max_wheel_speed_rpm, " rpm");
+    line += &opt("max wheel power", s.max_wheel_power_w, " W");
+    line += &opt("propellant", s.propellant_kg, " kg");
+    line += &opt("max pulses", s.max_pulses.map(f64::from), "");
+    line += &opt("max instructions/step", s.max_step_instructions.map(|x| x as f64), "");
+    line
+}
+
+/// `sim-host lqr`: the scenario's controller, or every LQR/LQG mode of its mode table.
+fn lqr(scenario: &Path) -> Result<()> {
+    let sc = Scenario::load(scenario)?;
+    let mut laws = Vec::new();
+    if let Some(c) = &sc.controller {
+        laws.push((String::new(), c.clone()));
+    }
+    if let Some(m) = &sc.modes {
+        for (mode, spec) in m.slots() {
+            if let Some(s) = spec.filter(|s| matches!(s.controller, Controller::Lqr { .. } | Controller::Lqg { .. })) {
+                laws.push((format!(" (mode {})", mode.name()), s.controller.clone()));
             }
         }
+    }
+    if laws.is_empty() {
+        anyhow::bail!("{}: no lqr or lqg controller", sc.name);
+    }
+    for (label, c) in laws {
+        let d = sc.lqr_design_of(&c)?;
+        say!("{}{label}: LQR on the {} model, K (N m per [rad, rad, rad, rad/s, rad/s, rad/s]):", sc.name, d.model);
+        for row in d.gain {
+            say!("  [{}]", row.map(|x| format!("{x:>12.5e}")).join(", "));
+        }
+        if !d.closed_loop_eigenvalues.is_empty() {
+            say!("closed-loop eigenvalues of A - B K:");
+            for e in &d.closed_loop_eigenvalues {
+                say!("  {:>12.5e} {:+.5e} i", e.re, e.im);
+            }
+            say!("relative CARE residual {:.2e}", d.residual);
+        }
+    }
+    Ok(())
+}
+
+/// `sim-host analyze thrusters`.
+fn analyze_thrusters(scenario: &Path, json: bool, max_failed: usize) -> Result<()> {
+    let sc = Scenario::load(scenario)?;
+    let set = sc.thruster_set().context("the scenario has no [actuators.thrusters]")?;
+    let b = set.torque_matrix();
+    let table = sim_host::analysis::thrusters::failure_table(&b, &vec![1.0; b.len()], max_failed.min(b.len()));
+    if json {
+        say!("{}", serde_json::to_string_pretty(&table)?);
+    } else {
+        say!("{}: {} thrusters, torque at full thrust (N m)", sc.name, b.len());
+        say!("{}", sim_host::analysis::thrusters::render_table(&table));
+    }
+    Ok(())
+}
+
+/// `sim-host check`: the flight parameters (or mode table) the scenario uploads.
+fn check(scenario: &Path) -> Result<()> {
+    let sc = Scenario::load(scenario)?;
+    let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| anyhow::anyhow!("{e}"));
+    if let Some(t) = sc.mode_table()? {
+        say!("{}: ok ({} steps); mode table of {} modes", sc.name, sc.steps(), t.slots.len());
+        for (mode, p) in &t.slots {
+            say!("mode {}: parameter checksum {:#010x}", mode.name(), sum(p)?);
+            say!("{p:#?}");
+        }
+        say!("{:#?}", t.manager);
+    } else if sc.closed_loop() {
+        let p = sc.flight_params()?;
+        say!("{}: ok ({} steps); parameter checksum {:#010x}", sc.name, sc.steps(), sum(&p)?);
+        say!("{p:#?}");
+    } else {
+        say!("{}: ok ({} steps); open loop, no flight parameters", sc.name, sc.steps());
     }
     Ok(())
 }

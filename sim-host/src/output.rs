@@ -1,286 +1,259 @@
-//! Run outputs: `timeseries.csv`, `summary.json` and the PNG figures.
+//! Run outputs: `timeseries.csv` (streamed to disk as the run goes), `summary.json` and
+//! the PNG figures (drawn from a bounded min/max decimation of the recorded rows).
 
+use crate::decimate::Envelope;
 use crate::plots::{self, Figure, Panel, Series};
-use crate::runner::RunResult;
-use anyhow::{Context, Result};
-use std::io::Write;
+use crate::series::{Recorder, write_csv_row};
+use crate::summary::Summary;
+use anyhow::{Context, Result, bail};
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-/// Column store of a run's recorded (decimated) samples. Every column has the same length.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TimeSeries {
-    pub names: Vec<String>,
-    pub cols: Vec<Vec<f64>>,
-}
-
-impl TimeSeries {
-    pub fn with_columns(names: Vec<String>, capacity: usize) -> Self {
-        let cols = names.iter().map(|_| Vec::with_capacity(capacity)).collect();
-        Self { names, cols }
-    }
-
-    pub fn col(&self, name: &str) -> Option<&[f64]> {
-        self.names.iter().position(|n| n == name).map(|i| self.cols[i].as_slice())
-    }
-
-    pub fn push_row(&mut self, row: &[f64]) {
-        for (c, x) in self.cols.iter_mut().zip(row) {
-            c.push(*x);
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.cols.first().map_or(0, Vec::len)
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// CSV with a header line; numbers in Rust's shortest round-trip form, NaN as empty.
-    pub fn write_csv(&self, w: &mut impl Write) -> std::io::Result<()> {
-        writeln!(w, "{}", self.names.join(","))?;
-        let mut line = String::new();
-        for r in 0..self.len() {
-            line.clear();
-            for (i, c) in self.cols.iter().enumerate() {
-                if i > 0 {
-                    line.push(',');
-                }
-                let x = c[r];
-                if x.is_finite() {
-                    line.push_str(&format!("{x}"));
-                }
-            }
-            writeln!(w, "{line}")?;
-        }
-        Ok(())
-    }
-}
-
-fn leak(s: String) -> &'static str {
-    Box::leak(s.into_boxed_str())
-}
-
 /// One series per wheel / thruster (missing columns are skipped by the renderer).
-fn per_unit(prefix: &str, quantity: &str, label: &str, n: usize) -> Vec<Series<'static>> {
-    (1..=n)
-        .map(|i| Series {
-            column: leak(format!("{prefix}{i}_{quantity}")),
-            label: leak(format!("{label}{i}")),
-            dashed: false,
-        })
-        .collect()
+fn per_unit(prefix: &str, quantity: &str, label: &str, n: usize) -> Vec<Series> {
+    (1..=n).map(|i| line(&format!("{prefix}{i}_{quantity}"), &format!("{label}{i}"), false)).collect()
 }
 
-fn xyz(prefix: &str, suffix: &str) -> Vec<Series<'static>> {
-    ["x", "y", "z"]
-        .iter()
-        .map(|a| Series { column: leak(format!("{prefix}_{a}_{suffix}")), label: leak(a.to_string()), dashed: false })
-        .collect()
+fn xyz(prefix: &str, suffix: &str) -> Vec<Series> {
+    ["x", "y", "z"].iter().map(|a| line(&format!("{prefix}_{a}_{suffix}"), a, false)).collect()
 }
 
-fn xyz_plain(prefix: &str) -> Vec<Series<'static>> {
-    ["x", "y", "z"]
-        .iter()
-        .map(|a| Series { column: leak(format!("{prefix}_{a}")), label: leak(a.to_string()), dashed: false })
-        .collect()
+fn xyz_plain(prefix: &str) -> Vec<Series> {
+    ["x", "y", "z"].iter().map(|a| line(&format!("{prefix}_{a}"), a, false)).collect()
+}
+
+fn line(column: &str, label: &str, dashed: bool) -> Series {
+    Series { column: column.into(), label: label.into(), dashed }
+}
+
+fn panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { title: title.into(), y_label: y_label.into(), series, log_y: false }
+}
+
+fn log_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { log_y: true, ..panel(title, y_label, series) }
+}
+
+fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
+    Figure { file_name: file_name.into(), title: title.into(), x: "t_s".into(), x_label: "time [s]".into(), panels }
 }
 
 /// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
 /// and one figure per actuator family or environment present (figures whose columns are
 /// absent are skipped).
-pub fn figures() -> Vec<Figure<'static>> {
-    let s = |column, label, dashed| Series { column, label, dashed };
-    let panel = |title, y_label, series| Panel { title, y_label, series, log_y: false };
+pub fn figures() -> Vec<Figure> {
+    let s = line;
+    let rates = || vec![s("rate_x_rad_s", "ωx", false), s("rate_y_rad_s", "ωy", false), s("rate_z_rad_s", "ωz", false)];
+    let error = || log_panel("attitude error", "deg", vec![s("error_deg", "error", false)]);
+    let euler = |a: &str| {
+        panel(a, "deg", vec![s(&format!("{a}_deg"), a, false), s(&format!("{a}_target_deg"), "target", true)])
+    };
+    let torque = |a: &str| {
+        let applied = s(&format!("torque_applied_{a}_nm"), "applied", false);
+        panel(a, "N m", vec![applied, s(&format!("torque_demand_{a}_nm"), "demand", true)])
+    };
     vec![
-        Figure {
-            file_name: "attitude.png",
-            title: "Euler angles and target",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
-                panel("roll", "deg", vec![s("roll_deg", "roll", false), s("roll_target_deg", "target", true)]),
-                panel("pitch", "deg", vec![s("pitch_deg", "pitch", false), s("pitch_target_deg", "target", true)]),
-                panel("yaw", "deg", vec![s("yaw_deg", "yaw", false), s("yaw_target_deg", "target", true)]),
-                Panel {
-                    title: "attitude error",
-                    y_label: "deg",
-                    series: vec![s("error_deg", "error", false)],
-                    log_y: true,
-                },
-            ],
-        },
-        Figure {
-            file_name: "gimbals.png",
-            title: "CMG gimbal angles and rates",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
+        figure("attitude.png", "Euler angles and target", vec![euler("roll"), euler("pitch"), euler("yaw"), error()]),
+        figure(
+            "gimbals.png",
+            "CMG gimbal angles and rates",
+            vec![
                 panel("gimbal angles", "deg", per_unit("gimbal", "deg", "δ", 4)),
-                panel(
-                    "commanded gimbal rates",
-                    "rad/s",
-                    (1..=4)
-                        .map(|i| Series {
-                            column: leak(format!("gimbal_rate{i}_rad_s")),
-                            label: leak(format!("δ{i}")),
-                            dashed: false,
-                        })
-                        .collect(),
-                ),
+                panel("commanded gimbal rates", "rad/s", per_unit("gimbal_rate", "rad_s", "δ", 4)),
             ],
-        },
-        Figure {
-            file_name: "torque.png",
-            title: "Control torque: demanded (dashed) and applied by the actuators",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: ["x", "y", "z"]
-                .iter()
-                .map(|a| {
-                    panel(
-                        leak(a.to_string()),
-                        "N m",
-                        vec![
-                            Series { column: leak(format!("torque_applied_{a}_nm")), label: "applied", dashed: false },
-                            Series { column: leak(format!("torque_demand_{a}_nm")), label: "demand", dashed: true },
-                        ],
-                    )
-                })
-                .collect(),
-        },
-        Figure {
-            file_name: "singularity.png",
-            title: "Singularity measure m = det(J Jᵀ) and SR weight",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
+        ),
+        figure(
+            "torque.png",
+            "Control torque: demanded (dashed) and applied by the actuators",
+            vec![torque("x"), torque("y"), torque("z")],
+        ),
+        figure(
+            "singularity.png",
+            "Singularity measure m = det(J Jᵀ) and SR weight",
+            vec![
                 panel("singularity measure", "m", vec![s("singularity_m", "m", false)]),
                 panel("SR weight α", "α", vec![s("steering_alpha", "α", false)]),
             ],
-        },
-        Figure {
-            file_name: "rates.png",
-            title: "Body rates",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![panel(
-                "body rate",
-                "rad/s",
-                vec![s("rate_x_rad_s", "ωx", false), s("rate_y_rad_s", "ωy", false), s("rate_z_rad_s", "ωz", false)],
-            )],
-        },
-        Figure {
-            file_name: "modes.png",
-            title: "Mode manager: mode, attitude error to the mission target, body rates",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
+        ),
+        figure("rates.png", "Body rates", vec![panel("body rate", "rad/s", rates())]),
+        figure(
+            "modes.png",
+            "Mode manager: mode, attitude error to the mission target, body rates",
+            vec![
                 panel("mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold", "mode", vec![s("mode", "mode", false)]),
-                Panel {
-                    title: "attitude error",
-                    y_label: "deg",
-                    series: vec![s("error_deg", "error", false)],
-                    log_y: true,
-                },
-                panel(
-                    "body rate",
-                    "rad/s",
-                    vec![
-                        s("rate_x_rad_s", "ωx", false),
-                        s("rate_y_rad_s", "ωy", false),
-                        s("rate_z_rad_s", "ωz", false),
-                    ],
-                ),
+                error(),
+                panel("body rate", "rad/s", rates()),
             ],
-        },
-        Figure {
-            file_name: "adaptive.png",
-            title: "DMCS adaptive feed-forward gains Δk_u",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![panel("adaptive gain", "-", xyz_plain("adaptive_gain"))],
-        },
-        Figure {
-            file_name: "wheels.png",
-            title: "Reaction wheels",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
+        ),
+    ]
+    .into_iter()
+    .chain(actuator_figures())
+    .collect()
+}
+
+/// The figures of the DMCS law, the actuator families and the environment.
+fn actuator_figures() -> Vec<Figure> {
+    let s = line;
+    let mut dipoles = xyz("dipole", "am2");
+    dipoles.extend(xyz("dipole_cmd", "am2").into_iter().map(|x| Series {
+        dashed: true,
+        label: format!("{} cmd", x.label),
+        ..x
+    }));
+    vec![
+        figure(
+            "adaptive.png",
+            "DMCS adaptive feed-forward gains Δk_u",
+            vec![panel("adaptive gain", "-", xyz_plain("adaptive_gain"))],
+        ),
+        figure(
+            "wheels.png",
+            "Reaction wheels",
+            vec![
                 panel("speed", "rpm", per_unit("wheel", "speed_rpm", "w", 6)),
                 panel("motor current", "A", per_unit("wheel", "current_a", "w", 6)),
                 panel("electrical power", "W", per_unit("wheel", "power_w", "w", 6)),
                 panel("torque on the body", "N m", per_unit("wheel", "torque_nm", "w", 6)),
             ],
-        },
-        Figure {
-            file_name: "magnetorquers.png",
-            title: "Magnetorquer dipoles (commanded dashed) and field",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
-                panel("dipole", "A m²", {
-                    let mut v = xyz("dipole", "am2");
-                    v.extend(xyz("dipole_cmd", "am2").into_iter().map(|mut x| {
-                        x.dashed = true;
-                        x.label = leak(format!("{} cmd", x.label));
-                        x
-                    }));
-                    v
-                }),
-                panel("field in body axes", "T", xyz("b_body", "t")),
-            ],
-        },
-        Figure {
-            file_name: "thrusters.png",
-            title: "Thrusters",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
-                panel(
-                    "allocated level (PWPF input)",
-                    "-",
-                    (1..=12)
-                        .map(|i| Series {
-                            column: leak(format!("thruster{i}_level")),
-                            label: leak(format!("T{i}")),
-                            dashed: false,
-                        })
-                        .collect(),
-                ),
+        ),
+        figure(
+            "magnetorquers.png",
+            "Magnetorquer dipoles (commanded dashed) and field",
+            vec![panel("dipole", "A m²", dipoles), panel("field in body axes", "T", xyz("b_body", "t"))],
+        ),
+        figure(
+            "thrusters.png",
+            "Thrusters",
+            vec![
+                panel("allocated level (PWPF input)", "-", per_unit("thruster", "level", "T", 12)),
                 panel("propellant used", "kg", vec![s("propellant_kg", "propellant", false)]),
                 panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
             ],
-        },
-        Figure {
-            file_name: "environment.png",
-            title: "Environment torques, body axes",
-            x: "t_s",
-            x_label: "time [s]",
-            panels: vec![
+        ),
+        figure(
+            "environment.png",
+            "Environment torques, body axes",
+            vec![
                 panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
                 panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
                 panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
                 panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
                 panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
             ],
-        },
+        ),
     ]
 }
 
-/// Write everything a run produces into `dir`; returns the files written.
-pub fn write_all(dir: &Path, r: &RunResult, with_plots: bool) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let csv = dir.join("timeseries.csv");
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&csv)?);
-    r.series.write_csv(&mut w)?;
-    w.flush()?;
-    let json = dir.join("summary.json");
-    std::fs::write(&json, serde_json::to_string_pretty(&r.summary)? + "\n")?;
-    let mut files = vec![csv, json];
-    if with_plots {
-        files.extend(plots::render(dir, &r.series, &figures()).context("rendering plots")?);
+/// Estimated bytes of one CSV value: a full-precision value in Rust's shortest round-trip
+/// form is ~20 characters (more for small magnitudes, which never use an exponent), plus
+/// the separator.
+pub const CSV_BYTES_PER_VALUE: u64 = 24;
+/// Headroom kept free besides the CSV (summary, plots, the rest of the system).
+pub const DISK_RESERVE_BYTES: u64 = 64 << 20;
+
+/// Estimated size of `timeseries.csv`, bytes.
+pub fn estimated_csv_bytes(rows: u64, columns: usize) -> u64 {
+    rows.saturating_mul(columns as u64).saturating_mul(CSV_BYTES_PER_VALUE)
+}
+
+/// Free bytes for an unprivileged user on the filesystem of `dir` (which must exist).
+pub fn free_bytes(dir: &Path) -> Result<u64> {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).context("output path contains a NUL byte")?;
+    // SAFETY: `c` is a valid NUL-terminated path and `st` a properly sized out-parameter.
+    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
+    if unsafe { libc::statvfs(c.as_ptr(), &mut st) } != 0 {
+        return Err(std::io::Error::last_os_error()).with_context(|| format!("statvfs {}", dir.display()));
     }
-    Ok(files)
+    Ok((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
+}
+
+/// Refuses a run whose CSV would not fit in `free` bytes (keeping [`DISK_RESERVE_BYTES`]).
+pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<()> {
+    let need = estimated_csv_bytes(rows, columns).saturating_add(DISK_RESERVE_BYTES);
+    if need > free {
+        bail!(
+            "the run would record {rows} rows of {columns} columns (~{:.1} GB of timeseries.csv) but {} has {:.1} GB \
+             free: raise timing.output_every or shorten duration_s",
+            need as f64 / 1e9,
+            dir.display(),
+            free as f64 / 1e9
+        );
+    }
+    Ok(())
+}
+
+/// The outputs of a run in `dir`: streams `timeseries.csv`, keeps the plot decimation, and
+/// on [`RunOutput::finish`] writes `summary.json` and the figures.
+pub struct RunOutput {
+    dir: PathBuf,
+    with_plots: bool,
+    /// Free space to assume instead of asking the filesystem (tests).
+    free_bytes: Option<u64>,
+    csv: Option<BufWriter<File>>,
+    plot: Envelope,
+}
+
+impl RunOutput {
+    pub fn new(dir: &Path, with_plots: bool) -> Self {
+        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, plot: Envelope::new() }
+    }
+
+    /// Assume `bytes` free on the output filesystem (instead of `statvfs`).
+    pub fn assume_free_bytes(mut self, bytes: Option<u64>) -> Self {
+        self.free_bytes = bytes;
+        self
+    }
+
+    fn csv_path(&self) -> PathBuf {
+        self.dir.join("timeseries.csv")
+    }
+
+    /// Flushes the CSV, writes the summary and the figures; returns the files written.
+    pub fn finish(mut self, summary: &Summary) -> Result<Vec<PathBuf>> {
+        let csv = self.csv_path();
+        let mut w = self.csv.take().context("the run recorded nothing")?;
+        w.flush().with_context(|| format!("writing {}", csv.display()))?;
+        drop(w);
+        let json = self.dir.join("summary.json");
+        std::fs::write(&json, serde_json::to_string_pretty(summary)? + "\n")?;
+        let mut files = vec![csv, json];
+        if self.with_plots {
+            files.extend(plots::render(&self.dir, &self.plot.series(), &figures()).context("rendering plots")?);
+        }
+        Ok(files)
+    }
+}
+
+impl Recorder for RunOutput {
+    fn start(&mut self, columns: &[String], rows: u64) -> Result<()> {
+        let dir = &self.dir;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let free = match self.free_bytes {
+            Some(b) => b,
+            None => free_bytes(dir)?,
+        };
+        check_space(dir, rows, columns.len(), free)?;
+        let csv = self.csv_path();
+        let mut w = BufWriter::with_capacity(
+            1 << 16,
+            File::create(&csv).with_context(|| format!("creating {}", csv.display()))?,
+        );
+        writeln!(w, "{}", columns.join(","))?;
+        self.csv = Some(w);
+        if self.with_plots {
+            self.plot.start(columns, rows)?;
+        }
+        Ok(())
+    }
+
+    fn record(&mut self, row: &[f64]) -> Result<()> {
+        let w = self.csv.as_mut().context("record before start")?;
+        write_csv_row(w, row).with_context(|| format!("writing {}", self.dir.join("timeseries.csv").display()))?;
+        if self.with_plots {
+            self.plot.record(row)?;
+        }
+        Ok(())
+    }
 }

@@ -19,34 +19,37 @@
 
 use plotters::coord::ranged1d::{BoldPoints, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
-use plotters::element::DashedPathElement;
-use plotters::prelude::*;
+use plotters::element::{DashedPathElement, IntoDynElement};
+use plotters::prelude::{
+    BitMapBackend, Cartesian2d, ChartBuilder, ChartContext, Color, DrawingBackend, FontStyle, IntoDrawingArea,
+    IntoFont, IntoLogRange, PathElement, RGBColor, Ranged, SeriesLabelPosition, TextStyle, WHITE,
+};
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::io;
 use std::path::{Path, PathBuf};
 
-pub use crate::output::TimeSeries;
+pub use crate::series::TimeSeries;
 
 /// One line on a panel: column name and legend label; `dashed` for targets/commands.
-pub struct Series<'a> {
-    pub column: &'a str,
-    pub label: &'a str,
+pub struct Series {
+    pub column: String,
+    pub label: String,
     pub dashed: bool,
 }
 /// One panel (sub-plot) with a y-axis label; `log_y` for quantities like attitude error.
-pub struct Panel<'a> {
-    pub title: &'a str,
-    pub y_label: &'a str,
-    pub series: Vec<Series<'a>>,
+pub struct Panel {
+    pub title: String,
+    pub y_label: String,
+    pub series: Vec<Series>,
     pub log_y: bool,
 }
 /// A figure: panels stacked vertically sharing the x axis (column `x`, usually "t_s", label "time [s]").
-pub struct Figure<'a> {
-    pub file_name: &'a str,
-    pub title: &'a str,
-    pub x: &'a str,
-    pub x_label: &'a str,
-    pub panels: Vec<Panel<'a>>,
+pub struct Figure {
+    pub file_name: String,
+    pub title: String,
+    pub x: String,
+    pub x_label: String,
+    pub panels: Vec<Panel>,
 }
 
 const WIDTH: u32 = 1200;
@@ -71,7 +74,7 @@ const PALETTE: [RGBColor; 7] = [
 ];
 
 /// A series resolved against the store: (palette index, series, y column).
-type Line<'a> = (usize, &'a Series<'a>, &'a [f64]);
+type Line<'a> = (usize, &'a Series, &'a [f64]);
 
 /// Registers the embedded font with plotters once per process.
 fn ensure_font() -> io::Result<()> {
@@ -97,14 +100,14 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
     ensure_font()?;
     let mut written = Vec::new();
     for fig in figures {
-        let Some(x) = ts.col(fig.x) else { continue };
+        let Some(x) = ts.col(&fig.x) else { continue };
         // Resolve columns up front: (colour index, series, data).
         let panels: Vec<(&Panel, Vec<Line>)> = fig
             .panels
             .iter()
             .map(|p| {
                 let s = p.series.iter().enumerate();
-                (p, s.filter_map(|(i, s)| Some((i, s, ts.col(s.column)?))).collect::<Vec<_>>())
+                (p, s.filter_map(|(i, s)| Some((i, s, ts.col(&s.column)?))).collect::<Vec<_>>())
             })
             .filter(|(_, s)| !s.is_empty())
             .collect();
@@ -119,7 +122,7 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
             let (top, mut area) = root.split_vertically(TITLE_H);
             let centre = Pos::new(HPos::Center, VPos::Center);
             let title_style = TextStyle::from((FONT, 28).into_font()).pos(centre);
-            top.draw_text(fig.title, &title_style, ((w / 2) as i32, (TITLE_H / 2) as i32)).map_err(err)?;
+            top.draw_text(&fig.title, &title_style, ((w / 2) as i32, (TITLE_H / 2) as i32)).map_err(err)?;
             let x_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
             let x_range = if x_range.1 > x_range.0 { x_range } else { pad(x_range, 0.0) };
             for (k, (panel, series)) in panels.iter().enumerate() {
@@ -129,11 +132,11 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
                 let mut cb = ChartBuilder::on(&cell);
                 cb.margin(8)
                     .margin_right(30)
-                    .caption(panel.title, (FONT, 20))
+                    .caption(&panel.title, (FONT, 20))
                     .x_label_area_size(if last { 62 } else { 32 })
                     .y_label_area_size(95);
                 let x_rng = x_range.0..x_range.1;
-                let x_desc = last.then_some(fig.x_label);
+                let x_desc = last.then_some(fig.x_label.as_str());
                 let ys = series.iter().flat_map(|(_, _, c)| c.iter().copied());
                 if panel.log_y {
                     let (lo, hi) = finite_range(ys.filter(|v| *v > 0.0)).unwrap_or((0.1, 10.0));
@@ -150,7 +153,7 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec
             }
             root.present().map_err(err)?;
         }
-        let path = dir.join(fig.file_name);
+        let path = dir.join(&fig.file_name);
         write_png(&path, w, h, &buf)?;
         written.push(path);
     }
@@ -173,7 +176,7 @@ where
 {
     let x_fmt = tick_formatter(x_lo, x_hi, X_TICKS);
     let mut mesh = chart.configure_mesh();
-    mesh.y_desc(panel.y_label)
+    mesh.y_desc(&panel.y_label)
         .x_labels(X_TICKS)
         .y_labels(Y_TICKS)
         .x_label_formatter(&x_fmt)
@@ -208,7 +211,7 @@ where
             chart.draw_series(runs.into_iter().map(|r| PathElement::new(r, style))).map_err(err)?
         };
         let dashed = s.dashed;
-        anno.label(s.label).legend(move |(lx, ly)| {
+        anno.label(&s.label).legend(move |(lx, ly)| {
             let pts = vec![(lx, ly), (lx + 24, ly)];
             if dashed {
                 DashedPathElement::new(pts, 7, 4, style).into_dyn()

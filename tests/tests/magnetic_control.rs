@@ -3,7 +3,7 @@
 
 use acs_tests::{run_in_process, scenario};
 
-fn rms_after(ts: &sim_host::output::TimeSeries, col: &str, t0: f64) -> f64 {
+fn rms_after(ts: &sim_host::series::TimeSeries, col: &str, t0: f64) -> f64 {
     let (t, x) = (ts.col("t_s").unwrap(), ts.col(col).unwrap());
     let v: Vec<f64> = t.iter().zip(x).filter(|(t, _)| **t >= t0).map(|(_, x)| *x).collect();
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()

@@ -10,10 +10,18 @@ pub mod in_process;
 pub mod qemu;
 pub mod serve;
 
+use acs_flight::modes::{Mode, ModeManagerParams};
 use acs_flight::params::FlightParams;
 use acs_flight::protocol::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Result, anyhow, bail};
 use std::path::PathBuf;
+
+/// A mode table as uploaded: one parameter set per mode, then the thresholds.
+#[derive(Clone, Debug)]
+pub struct ModeTable {
+    pub slots: Vec<(Mode, FlightParams)>,
+    pub manager: ModeManagerParams,
+}
 
 /// What the flight side said at hello.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,7 +47,7 @@ pub trait FlightLink {
         accepted(&self.name(), params, reply)
     }
     /// Upload a mode table (one message per mode) and arm it.
-    fn upload_modes(&mut self, table: &crate::scenario::ModeTable) -> Result<u32> {
+    fn upload_modes(&mut self, table: &ModeTable) -> Result<u32> {
         for (mode, params) in &table.slots {
             let reply = self.request(&HostMsg::UploadModeParams { mode: *mode, params: *params })?;
             accepted(&self.name(), params, reply).map_err(|e| anyhow!("mode {}: {e}", mode.name()))?;

@@ -1,7 +1,18 @@
 //! Actuators of a scenario: CMG cluster and steering, reaction wheels, magnetorquers,
 //! thrusters — their TOML tables, validation, plant models and flight parameters.
 
-use super::*;
+use super::{Controller, Scenario, bad, finite, positive, yes};
+use crate::attitude::Vec3;
+use crate::plant::MAX_WHEELS;
+use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
+use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
+use crate::plant::wheel::WheelParams;
+use acs_flight::params::{
+    ActuatorParams, AlphaSchedule, CmgParams, MAX_THRUSTERS, MagnetorquerParams, SteeringLaw, SteeringParams,
+    ThrusterMethod, ThrusterParams,
+};
+use anyhow::{Result, bail};
+use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -248,225 +259,125 @@ impl Scenario {
             ));
         }
         if let Some(cmg) = &act.cmg {
-            if cmg.layout != "pyramid4" {
-                return Err(bad(
-                    "actuators.cmg.layout",
-                    format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout),
-                ));
-            }
-            if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
-                return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
-            }
-            match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
-                (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
-                (None, Some(w), Some(i)) => {
-                    positive("actuators.cmg.rotor_speed_rpm", w)?;
-                    positive("actuators.cmg.rotor_inertia_kgm2", i)?;
-                }
-                _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
-            }
-            if let Some(tau) = cmg.servo_time_constant_s {
-                positive("actuators.cmg.servo_time_constant_s", tau)?;
-                positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
-            }
-            if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
-                return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
-            }
-            if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
-                return Err(bad(
-                    "actuators.cmg.gimbal_friction_nm",
-                    "needs servo_time_constant_s (friction acts on the servo)",
-                ));
-            }
-            positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
-            if let Some(l) = cmg.gimbal_limit_deg {
-                positive("actuators.cmg.gimbal_limit_deg", l)?;
-                if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
-                    return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
-                }
-            }
-            finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
-            if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
-                return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
-            }
-            if self.closed_loop() && self.steering.is_none() {
-                return Err(bad("steering", "a CMG cluster under control needs [steering]"));
-            }
-            if let Some(st) = &self.steering {
-                match (st.law.as_str(), &st.alpha) {
-                    ("mp", None) => {}
-                    ("mp", Some(_)) => {
-                        return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
-                    }
-                    ("sr", Some(a)) => {
-                        let v = match a {
-                            Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
-                            Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
-                            Alpha::Exponential { a0, mu } => vec![*a0, *mu],
-                        };
-                        if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                            return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
-                        }
-                    }
-                    ("sr", None) => {
-                        return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
-                    }
-                    ("gsr", _) => {
-                        let g = st
-                            .gsr
-                            .as_ref()
-                            .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
-                        if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
-                            || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-                        {
-                            return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
-                        }
-                    }
-                    (other, _) => {
-                        return Err(bad(
-                            "steering.law",
-                            format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"),
-                        ));
-                    }
-                }
-                positive("steering.singular_threshold", st.singular_threshold)?;
-                if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
-                    return Err(bad("steering.null_gain_per_s", "must be >= 0"));
-                }
-                finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
-            }
+            self.validate_cmg(cmg)?;
         }
         if let Some(w) = &act.wheels {
-            match w.layout.as_str() {
-                "pyramid4" => {
-                    finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
-                    if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
-                        return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
-                    }
-                }
-                "axes" => {
-                    if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
-                        return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
-                    }
-                    for a in &w.axes {
-                        let n = Vec3::from(*a).norm();
-                        if !n.is_finite() || n < 1e-9 {
-                            return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
-                        }
-                    }
-                }
-                other => {
-                    return Err(bad(
-                        "actuators.wheels.layout",
-                        format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
-                    ));
-                }
-            }
-            if !matches!(w.model.as_str(), "ideal" | "accurate") {
-                return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
-            }
-            for (k, v) in [
-                ("actuators.wheels.max_torque_nm", w.max_torque_nm),
-                ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
-                ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
-            ] {
-                if let Some(v) = v {
-                    positive(k, v)?;
-                }
-            }
-            let n = self.wheel_axes(w).len();
-            for (k, v) in [
-                ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
-                ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
-            ] {
-                if !v.is_empty() && v.len() != n {
-                    return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
-                }
-                finite(k, v)?;
-            }
-            if w.failed.iter().any(|i| *i == 0 || *i > n) {
-                return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
-            }
-            if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
-                return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
-            }
-            for p in self.wheel_params()? {
-                p.validate().map_err(|e| bad("actuators.wheels", e))?;
-            }
+            self.validate_wheels(w)?;
         }
         if let Some(m) = &act.magnetorquers {
-            for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
-                positive("actuators.magnetorquers.max_dipole_am2", *x)?;
-            }
-            if let Some([lo, hi]) = m.deadband_am2
-                && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
-            {
-                return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
-            }
-            if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
-                return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
-            }
+            self.validate_magnetorquers(m)?;
         }
         if let Some(t) = &act.thrusters {
-            positive("actuators.thrusters.thrust_n", t.thrust_n)?;
-            positive("actuators.thrusters.isp_s", t.isp_s)?;
-            for (k, v) in [
-                ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
-                ("actuators.thrusters.open_delay_s", t.open_delay_s),
-                ("actuators.thrusters.close_delay_s", t.close_delay_s),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(bad(k, "must be >= 0"));
-                }
-            }
-            match t.layout.as_str() {
-                "paper004" => {}
-                "matrix" => {
-                    if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
-                        return Err(bad(
-                            "actuators.thrusters.torque_per_newton_m",
-                            format!("needs 1..={MAX_THRUSTERS} columns"),
-                        ));
-                    }
-                    finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
-                }
-                "geometry" => {
-                    let n = t.positions_m.len();
-                    if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
-                        return Err(bad(
-                            "actuators.thrusters.positions_m",
-                            format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
-                        ));
-                    }
-                    finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
-                    for d in &t.directions {
-                        let norm = Vec3::from(*d).norm();
-                        if !(norm.is_finite() && norm > 1e-9) {
-                            return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
-                        }
-                    }
-                }
-                other => {
-                    return Err(bad(
-                        "actuators.thrusters.layout",
-                        format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
-                    ));
-                }
-            }
-            if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
-                return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
-            }
-            let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
-            for f in &t.failures {
-                if f.thruster == 0 || f.thruster > n {
-                    return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
-                }
-                if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
-                    return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
-                }
-            }
+            self.validate_thrusters(t)?;
         }
         Ok(())
+    }
+
+    /// `[actuators.cmg]` (and `[steering]` with it).
+    fn validate_cmg(&self, cmg: &CmgSpec) -> Result<()> {
+        if cmg.layout != "pyramid4" {
+            return Err(bad("actuators.cmg.layout", format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout)));
+        }
+        if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
+            return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
+        }
+        match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
+            (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
+            (None, Some(w), Some(i)) => {
+                positive("actuators.cmg.rotor_speed_rpm", w)?;
+                positive("actuators.cmg.rotor_inertia_kgm2", i)?;
+            }
+            _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
+        }
+        if let Some(tau) = cmg.servo_time_constant_s {
+            positive("actuators.cmg.servo_time_constant_s", tau)?;
+            positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
+        }
+        if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
+            return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
+        }
+        if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
+            return Err(bad(
+                "actuators.cmg.gimbal_friction_nm",
+                "needs servo_time_constant_s (friction acts on the servo)",
+            ));
+        }
+        positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
+        if let Some(l) = cmg.gimbal_limit_deg {
+            positive("actuators.cmg.gimbal_limit_deg", l)?;
+            if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
+                return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
+            }
+        }
+        finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+        if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
+            return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
+        }
+        if self.closed_loop() && self.steering.is_none() {
+            return Err(bad("steering", "a CMG cluster under control needs [steering]"));
+        }
+        if let Some(st) = &self.steering {
+            self.validate_steering(st)?;
+        }
+        Ok(())
+    }
+
+    /// `[steering]`.
+    fn validate_steering(&self, st: &Steering) -> Result<()> {
+        match (st.law.as_str(), &st.alpha) {
+            ("mp", None) => {}
+            ("mp", Some(_)) => {
+                return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
+            }
+            ("sr", Some(a)) => {
+                let v = match a {
+                    Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
+                    Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
+                    Alpha::Exponential { a0, mu } => vec![*a0, *mu],
+                };
+                if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                    return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
+                }
+            }
+            ("sr", None) => {
+                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
+            }
+            ("gsr", _) => {
+                let g = st
+                    .gsr
+                    .as_ref()
+                    .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
+                if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
+                    || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+                {
+                    return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
+                }
+            }
+            (other, _) => {
+                return Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")")));
+            }
+        }
+        positive("steering.singular_threshold", st.singular_threshold)?;
+        if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
+            return Err(bad("steering.null_gain_per_s", "must be >= 0"));
+        }
+        finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
+        Ok(())
+    }
+
+    /// `[actuators.wheels]`.
+    fn validate_wheels(&self, w: &WheelsSpec) -> Result<()> {
+        self.wheel_flight_params(w).map(|_| ())
+    }
+
+    /// `[actuators.magnetorquers]`.
+    fn validate_magnetorquers(&self, m: &MagnetorquersSpec) -> Result<()> {
+        self.magnetorquer_flight_params(m).map(|_| ())
+    }
+
+    /// `[actuators.thrusters]`.
+    fn validate_thrusters(&self, t: &ThrustersSpec) -> Result<()> {
+        self.thruster_flight_params(t).map(|_| ())
     }
 
     /// Spin axes of the wheels (unit, body).
@@ -601,116 +512,266 @@ impl Scenario {
         let act = &self.actuators;
         let want = |f: &str| family.is_none_or(|x| x == f);
         if let Some(cmg) = act.cmg.as_ref().filter(|_| want("cmg")) {
-            let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
-            let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
-            let law = match (st.law.as_str(), &st.alpha) {
-                ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
-                        a0: *a0 as f32,
-                        m0: *m0 as f32,
-                        m_cr: *m_cr as f32,
-                    })
-                }
-                ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
-                        a0: *a0 as f32,
-                        m_cr: *m_cr as f32,
-                        a_max: *a_max as f32,
-                    })
-                }
-                ("sr", Some(Alpha::Exponential { a0, mu })) => {
-                    SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
-                }
-                ("gsr", _) => match &st.gsr {
-                    Some(g) => SteeringLaw::GeneralizedSr {
-                        lambda0: g.lambda0 as f32,
-                        mu: g.mu as f32,
-                        eps0: g.eps0 as f32,
-                        omega_rad_s: g.omega_rad_s as f32,
-                    },
-                    None => bail!("invalid value for `steering.gsr`: missing"),
-                },
-                _ => SteeringLaw::MoorePenrose,
-            };
-            return Ok(ActuatorParams::Cmg {
-                cmg: CmgParams {
-                    skew_rad: cmg.skew_deg.to_radians() as f32,
-                    h0_nms: cmg.h0() as f32,
-                    max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
-                    gimbal_min_rad: -lim as f32,
-                    gimbal_max_rad: lim as f32,
-                    failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
-                },
-                steering: SteeringParams {
-                    law,
-                    singular_threshold: st.singular_threshold as f32,
-                    null_gain_per_s: st.null_gain_per_s as f32,
-                    preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
-                    saturation_check_m: st.saturation_check_m as f32,
-                },
-            });
+            return self.cmg_flight_params(cmg);
         }
         if let Some(w) = act.wheels.as_ref().filter(|_| want("wheels")) {
-            let plant = self.wheel_params()?;
-            let mut axes = [[0.0f32; 3]; MAX_WHEELS];
-            let mut bias = [0.0f32; MAX_WHEELS];
-            let rpm = std::f64::consts::PI / 30.0;
-            for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
-                axes[i] = p.spin_axis.map(|x| x as f32);
-                bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
-            }
-            let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
-            let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
-            return Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
-                count: plant.len() as u8,
-                axes,
-                max_torque_nm: p0.max_torque_nm as f32,
-                max_speed_rad_s: p0.max_speed_rad_s as f32,
-                inertia_kgm2: p0.inertia_kgm2 as f32,
-                null_gain_per_s: w.null_gain_per_s as f32,
-                bias_speed_rad_s: bias,
-                failed_mask,
-            }));
+            return self.wheel_flight_params(w);
         }
         if let Some(m) = act.magnetorquers.as_ref().filter(|_| want("magnetorquers")) {
-            let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
-            let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
-            return Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
-                max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
-                min_dipole_am2: neg.map(|x| x as f32),
-                deadband_lo_am2: [lo as f32; 3],
-                deadband_hi_am2: [hi as f32; 3],
-                min_field_t: 1e-7,
-            }));
+            return self.magnetorquer_flight_params(m);
         }
         if let Some(t) = act.thrusters.as_ref().filter(|_| want("thrusters")) {
-            let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
-            let b = set.torque_matrix();
-            let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
-            for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
-                for k in 0..3 {
-                    torque_nm[k][j] = col[k] as f32;
-                }
-            }
-            let failed_mask = t
-                .failures
-                .iter()
-                .filter(|f| f.known_to_flight && f.mode == "off")
-                .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
-            return Ok(ActuatorParams::Thrusters(ThrusterParams {
-                count: b.len() as u8,
-                torque_nm,
-                method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
-                pwpf_km: t.pwpf[0] as f32,
-                pwpf_tm_s: t.pwpf[1] as f32,
-                pwpf_u_on: t.pwpf[2] as f32,
-                pwpf_u_off: t.pwpf[3] as f32,
-                failed_mask,
-            }));
+            return self.thruster_flight_params(t);
         }
         match family {
             Some(f) => bail!("invalid value for `actuators`: no [actuators.{f}] to control"),
             None => bail!("invalid value for `actuators`: no actuator to control"),
         }
     }
+
+    /// The CMG cluster and its steering law.
+    fn cmg_flight_params(&self, cmg: &CmgSpec) -> Result<ActuatorParams> {
+        let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
+        let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
+        let law = match (st.law.as_str(), &st.alpha) {
+            ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
+                    a0: *a0 as f32,
+                    m0: *m0 as f32,
+                    m_cr: *m_cr as f32,
+                })
+            }
+            ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
+                    a0: *a0 as f32,
+                    m_cr: *m_cr as f32,
+                    a_max: *a_max as f32,
+                })
+            }
+            ("sr", Some(Alpha::Exponential { a0, mu })) => {
+                SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
+            }
+            ("gsr", _) => match &st.gsr {
+                Some(g) => SteeringLaw::GeneralizedSr {
+                    lambda0: g.lambda0 as f32,
+                    mu: g.mu as f32,
+                    eps0: g.eps0 as f32,
+                    omega_rad_s: g.omega_rad_s as f32,
+                },
+                None => bail!("invalid value for `steering.gsr`: missing"),
+            },
+            _ => SteeringLaw::MoorePenrose,
+        };
+        Ok(ActuatorParams::Cmg {
+            cmg: CmgParams {
+                skew_rad: cmg.skew_deg.to_radians() as f32,
+                h0_nms: cmg.h0() as f32,
+                max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
+                gimbal_min_rad: -lim as f32,
+                gimbal_max_rad: lim as f32,
+                failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
+            },
+            steering: SteeringParams {
+                law,
+                singular_threshold: st.singular_threshold as f32,
+                null_gain_per_s: st.null_gain_per_s as f32,
+                preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
+                saturation_check_m: st.saturation_check_m as f32,
+            },
+        })
+    }
+
+    /// The reaction wheels.
+    fn wheel_flight_params(&self, w: &WheelsSpec) -> Result<ActuatorParams> {
+        match w.layout.as_str() {
+            "pyramid4" => {
+                finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+                if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                    return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
+                }
+            }
+            "axes" => {
+                if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                    return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
+                }
+                for a in &w.axes {
+                    let n = Vec3::from(*a).norm();
+                    if !n.is_finite() || n < 1e-9 {
+                        return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
+                    }
+                }
+            }
+            other => {
+                return Err(bad(
+                    "actuators.wheels.layout",
+                    format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+                ));
+            }
+        }
+        if !matches!(w.model.as_str(), "ideal" | "accurate") {
+            return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
+        }
+        for (k, v) in [
+            ("actuators.wheels.max_torque_nm", w.max_torque_nm),
+            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
+            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+        ] {
+            if let Some(v) = v {
+                positive(k, v)?;
+            }
+        }
+        let n = self.wheel_axes(w).len();
+        for (k, v) in [
+            ("actuators.wheels.initial_speed_rpm", &w.initial_speed_rpm),
+            ("actuators.wheels.bias_speed_rpm", &w.bias_speed_rpm),
+        ] {
+            if !v.is_empty() && v.len() != n {
+                return Err(bad(k, format!("has {} entries for {n} wheels", v.len())));
+            }
+            finite(k, v)?;
+        }
+        if w.failed.iter().any(|i| *i == 0 || *i > n) {
+            return Err(bad("actuators.wheels.failed", format!("wheel numbers are 1..={n}")));
+        }
+        if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
+            return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
+        }
+        for p in self.wheel_params()? {
+            p.validate().map_err(|e| bad("actuators.wheels", e))?;
+        }
+        let plant = self.wheel_params()?;
+        let mut axes = [[0.0f32; 3]; MAX_WHEELS];
+        let mut bias = [0.0f32; MAX_WHEELS];
+        let rpm = std::f64::consts::PI / 30.0;
+        for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
+            axes[i] = p.spin_axis.map(|x| x as f32);
+            bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
+        }
+        let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+        let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
+        Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
+            count: plant.len() as u8,
+            axes,
+            max_torque_nm: p0.max_torque_nm as f32,
+            max_speed_rad_s: p0.max_speed_rad_s as f32,
+            inertia_kgm2: p0.inertia_kgm2 as f32,
+            null_gain_per_s: w.null_gain_per_s as f32,
+            bias_speed_rad_s: bias,
+            failed_mask,
+        }))
+    }
+
+    /// The magnetorquers.
+    fn magnetorquer_flight_params(&self, m: &MagnetorquersSpec) -> Result<ActuatorParams> {
+        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
+            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+        }
+        if let Some([lo, hi]) = m.deadband_am2
+            && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
+        {
+            return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
+        }
+        if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
+            return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));
+        }
+        let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
+        let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+        Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
+            max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
+            min_dipole_am2: neg.map(|x| x as f32),
+            deadband_lo_am2: [lo as f32; 3],
+            deadband_hi_am2: [hi as f32; 3],
+            min_field_t: 1e-7,
+        }))
+    }
+
+    /// The thrusters (torque matrix of the set as built).
+    fn thruster_flight_params(&self, t: &ThrustersSpec) -> Result<ActuatorParams> {
+        positive("actuators.thrusters.thrust_n", t.thrust_n)?;
+        positive("actuators.thrusters.isp_s", t.isp_s)?;
+        for (k, v) in [
+            ("actuators.thrusters.min_on_time_s", t.min_on_time_s),
+            ("actuators.thrusters.open_delay_s", t.open_delay_s),
+            ("actuators.thrusters.close_delay_s", t.close_delay_s),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(k, "must be >= 0"));
+            }
+        }
+        thruster_layout(t)?;
+        if !matches!(t.method.as_str(), "direction_preserving" | "bodson") {
+            return Err(bad("actuators.thrusters.method", "must be \"direction_preserving\" or \"bodson\""));
+        }
+        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+        for f in &t.failures {
+            if f.thruster == 0 || f.thruster > n {
+                return Err(bad("actuators.thrusters.failures", format!("thruster numbers are 1..={n}")));
+            }
+            if !(matches!(f.mode.as_str(), "off" | "stuck_on") && f.at_s.is_finite() && f.at_s >= 0.0) {
+                return Err(bad("actuators.thrusters.failures", "mode \"off\" or \"stuck_on\", at_s >= 0"));
+            }
+        }
+        let set = self.thruster_set().ok_or_else(|| bad("actuators.thrusters", "missing"))?;
+        let b = set.torque_matrix();
+        let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
+        for (j, col) in b.iter().enumerate().take(MAX_THRUSTERS) {
+            for k in 0..3 {
+                torque_nm[k][j] = col[k] as f32;
+            }
+        }
+        let failed_mask = t
+            .failures
+            .iter()
+            .filter(|f| f.known_to_flight && f.mode == "off")
+            .fold(0u16, |m, f| m | (1 << (f.thruster - 1)));
+        Ok(ActuatorParams::Thrusters(ThrusterParams {
+            count: b.len() as u8,
+            torque_nm,
+            method: if t.method == "bodson" { ThrusterMethod::Bodson } else { ThrusterMethod::DirectionPreserving },
+            pwpf_km: t.pwpf[0] as f32,
+            pwpf_tm_s: t.pwpf[1] as f32,
+            pwpf_u_on: t.pwpf[2] as f32,
+            pwpf_u_off: t.pwpf[3] as f32,
+            failed_mask,
+        }))
+    }
+}
+
+/// The thruster layout keys (`layout` and its matrix or geometry).
+fn thruster_layout(t: &ThrustersSpec) -> Result<()> {
+    match t.layout.as_str() {
+        "paper004" => {}
+        "matrix" => {
+            if t.torque_per_newton_m.is_empty() || t.torque_per_newton_m.len() > MAX_THRUSTERS {
+                return Err(bad(
+                    "actuators.thrusters.torque_per_newton_m",
+                    format!("needs 1..={MAX_THRUSTERS} columns"),
+                ));
+            }
+            finite("actuators.thrusters.torque_per_newton_m", &t.torque_per_newton_m.concat())?;
+        }
+        "geometry" => {
+            let n = t.positions_m.len();
+            if n == 0 || n > MAX_THRUSTERS || t.directions.len() != n {
+                return Err(bad(
+                    "actuators.thrusters.positions_m",
+                    format!("needs 1..={MAX_THRUSTERS} positions and as many directions"),
+                ));
+            }
+            finite("actuators.thrusters.positions_m", &t.positions_m.concat())?;
+            for d in &t.directions {
+                let norm = Vec3::from(*d).norm();
+                if !(norm.is_finite() && norm > 1e-9) {
+                    return Err(bad("actuators.thrusters.directions", "zero-norm or non-finite direction"));
+                }
+            }
+        }
+        other => {
+            return Err(bad(
+                "actuators.thrusters.layout",
+                format!("unknown layout {other:?} (known: \"paper004\", \"matrix\", \"geometry\")"),
+            ));
+        }
+    }
+    Ok(())
 }

@@ -1,7 +1,12 @@
 //! Control laws of a scenario: the `[controller]` table, its flight parameters and the
 //! LQR/LQG designs computed at load.
 
-use super::*;
+use super::{OrbitKind, Scenario, bad, f32_rows, finite, positive};
+use crate::attitude::Vec3;
+use acs_flight::params::{ControllerParams, DcmPdParams, QuaternionFeedbackParams};
+use anyhow::{Result, bail};
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields, tag = "type", rename_all = "snake_case")]
@@ -155,30 +160,14 @@ impl Scenario {
         self.lqr_design_of(self.controller.as_ref().ok_or_else(|| bad("controller", "missing"))?)
     }
 
-    /// The LQR design of a law (`lqr` or `lqg`).
-    pub fn lqr_design_of(&self, c: &Controller) -> Result<LqrDesign> {
-        use crate::design::models::{AttitudeModel, circular_orbit_rate};
-        use crate::design::riccati;
+    /// The linear model an LQR is designed on (`model`: "free", "orbit" or "rig", default
+    /// from the scenario; `input`: "torque" or "gimbal_rates").
+    fn design_model(
+        &self,
+        model: &Option<String>,
+        input: &str,
+    ) -> Result<(String, crate::design::models::AttitudeModel)> {
         use nalgebra::DMatrix;
-        let (q, r, model, input): (&[f64; 6], &[f64], _, _) = match c {
-            Controller::Lqr { gain: Some(k), .. } => {
-                return Ok(LqrDesign {
-                    gain: k.to_vec(),
-                    input: "torque".into(),
-                    model: "given".into(),
-                    closed_loop_eigenvalues: Vec::new(),
-                    residual: 0.0,
-                    a: DMatrix::zeros(6, 6),
-                    b: DMatrix::zeros(6, 3),
-                });
-            }
-            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, input, .. } => {
-                (q, r.as_slice(), model, input.as_deref().unwrap_or("torque"))
-            }
-            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
-            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag.as_slice(), model, "torque"),
-            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
-        };
         let default_model = if self.rig.is_some() {
             "rig"
         } else if self.orbit.is_some() {
@@ -188,12 +177,14 @@ impl Scenario {
         };
         let model = model.clone().unwrap_or_else(|| default_model.into());
         let orbit_rate = match self.orbit.as_ref().map(|o| o.elements()).transpose()? {
-            Some(OrbitKind::Circular { altitude_km, .. }) => circular_orbit_rate(altitude_km * 1e3),
+            Some(OrbitKind::Circular { altitude_km, .. }) => {
+                crate::design::models::circular_orbit_rate(altitude_km * 1e3)
+            }
             Some(OrbitKind::Kepler { a_km, .. }) => (3.986004418e14 / (a_km * 1e3).powi(3)).sqrt(),
             _ => 0.0,
         };
         let mgr = self.spacecraft()?.rig.map_or(Vec3::zeros(), |r| r.mgr_nm);
-        let mut m = AttitudeModel {
+        let mut m = crate::design::models::AttitudeModel {
             inertia: self.inertia(),
             orbit_rate: if model == "orbit" { orbit_rate } else { 0.0 },
             gravity_gradient: model == "orbit",
@@ -222,6 +213,33 @@ impl Scenario {
                 ));
             }
         }
+        Ok((model, m))
+    }
+
+    /// The LQR design of a law (`lqr` or `lqg`).
+    pub fn lqr_design_of(&self, c: &Controller) -> Result<LqrDesign> {
+        use crate::design::riccati;
+        use nalgebra::DMatrix;
+        let (q, r, model, input): (&[f64; 6], &[f64], _, _) = match c {
+            Controller::Lqr { gain: Some(k), .. } => {
+                return Ok(LqrDesign {
+                    gain: k.to_vec(),
+                    input: "torque".into(),
+                    model: "given".into(),
+                    closed_loop_eigenvalues: Vec::new(),
+                    residual: 0.0,
+                    a: DMatrix::zeros(6, 6),
+                    b: DMatrix::zeros(6, 3),
+                });
+            }
+            Controller::Lqr { q_diag: Some(q), r_diag: Some(r), model, input, .. } => {
+                (q, r.as_slice(), model, input.as_deref().unwrap_or("torque"))
+            }
+            Controller::Lqr { .. } => return Err(bad("controller", "lqr needs `gain`, or `q_diag` and `r_diag`")),
+            Controller::Lqg { q_diag, r_diag, model, .. } => (q_diag, r_diag.as_slice(), model, "torque"),
+            _ => bail!("controller.type is not \"lqr\" or \"lqg\""),
+        };
+        let (model, m) = self.design_model(model, input)?;
         if r.len() != m.m() {
             return Err(bad("controller.r_diag", format!("needs {} entries for input {input:?}", m.m())));
         }
@@ -291,9 +309,19 @@ impl Scenario {
 
 impl Scenario {
     /// Reject impossible controller values, naming the key (`key` = "controller" or
-    /// "modes.<mode>.controller").
+    /// "modes.<mode>.controller"). The checks live in [`Self::controller_params`], the one
+    /// place that validates and builds a law; LQR and LQG gains are designed (and their
+    /// designs checked) when the flight parameters are built.
     pub(super) fn validate_controller(&self, c: &Controller, key: &str) -> Result<()> {
-        if let Controller::QuaternionFeedback {
+        match c {
+            Controller::Lqr { .. } | Controller::Lqg { .. } | Controller::None => Ok(()),
+            _ => self.controller_params(c, key).map(|_| ()),
+        }
+    }
+
+    /// Quaternion feedback: gains from (ζ, ωn) and the inertia, or given diagonals.
+    fn quaternion_feedback_params(&self, c: &Controller, key: &str) -> Result<ControllerParams> {
+        let Controller::QuaternionFeedback {
             zeta,
             wn_rad_s,
             k_diag_nm,
@@ -301,109 +329,58 @@ impl Scenario {
             ki_per_s,
             integral_limit_s,
             torque_limit_nm,
-            ..
+            gyro_compensation,
+            max_slew_rate_deg_s,
         } = c
-        {
-            match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
-                (Some(z), Some(w), None, None) => {
-                    positive(&format!("{key}.zeta"), *z)?;
-                    positive(&format!("{key}.wn_rad_s"), *w)?;
-                }
-                (None, None, Some(k), Some(d)) => {
-                    finite(&format!("{key}.k_diag_nm"), k)?;
-                    finite(&format!("{key}.d_diag_nms"), d)?;
-                }
-                _ => {
-                    return Err(bad(key, "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms"));
-                }
+        else {
+            bail!("{key}: not a quaternion-feedback law");
+        };
+        let inertia = self.inertia();
+        let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
+            (Some(z), Some(w), None, None) => {
+                positive(&format!("{key}.zeta"), *z)?;
+                positive(&format!("{key}.wn_rad_s"), *w)?;
+                (inertia * (2.0 * w * w), inertia * (2.0 * z * w))
             }
-            if let Controller::QuaternionFeedback { max_slew_rate_deg_s: Some(r), .. } = c {
-                positive(&format!("{key}.max_slew_rate_deg_s"), *r)?;
+            (None, None, Some(k), Some(d)) => {
+                finite(&format!("{key}.k_diag_nm"), k)?;
+                finite(&format!("{key}.d_diag_nms"), d)?;
+                (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into()))
             }
-            if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
-                return Err(bad(&format!("{key}.ki_per_s"), "must be >= 0"));
-            }
-            if !(integral_limit_s.is_finite() && *integral_limit_s >= 0.0) {
-                return Err(bad(&format!("{key}.integral_limit_s"), "must be >= 0"));
-            }
-            for t in torque_limit_nm {
-                positive(&format!("{key}.torque_limit_nm"), *t)?;
-            }
+            _ => return Err(bad(key, "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms")),
+        };
+        if let Some(r) = max_slew_rate_deg_s {
+            positive(&format!("{key}.max_slew_rate_deg_s"), *r)?;
         }
-        if let Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm }
-        | Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } = c
-        {
-            finite(&format!("{key}.kp_nm"), kp_nm)?;
-            finite(&format!("{key}.kd_nms"), kd_nms)?;
-            for t in torque_limit_nm {
-                positive(&format!("{key}.torque_limit_nm"), *t)?;
-            }
+        if !(ki_per_s.is_finite() && *ki_per_s >= 0.0) {
+            return Err(bad(&format!("{key}.ki_per_s"), "must be >= 0"));
         }
-        if let Controller::RateDamping { kd_nms, torque_limit_nm } = c {
-            for k in kd_nms {
-                if !(k.is_finite() && *k >= 0.0) {
-                    return Err(bad(&format!("{key}.kd_nms"), "must be >= 0"));
-                }
-            }
-            for t in torque_limit_nm {
-                positive(&format!("{key}.torque_limit_nm"), *t)?;
-            }
+        if !(integral_limit_s.is_finite() && *integral_limit_s >= 0.0) {
+            return Err(bad(&format!("{key}.integral_limit_s"), "must be >= 0"));
         }
-        if let Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } = c {
-            positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;
-            if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
-                return Err(bad(&format!("{key}.filter_time_constant_s"), "must be >= 0"));
-            }
-            if self.actuators.magnetorquers.is_none() {
-                return Err(bad(key, "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
-            }
-        }
-        Ok(())
+        let f = f32_rows;
+        Ok(ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
+            k_att_nm: f(&k),
+            d_rate_nms: f(&d),
+            ki_att_nm_s: f(&(k * *ki_per_s)),
+            integral_limit_s: *integral_limit_s as f32,
+            torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+            gyro_compensation: *gyro_compensation,
+            max_slew_rate_rad_s: max_slew_rate_deg_s.map_or(0.0, |r| r.to_radians() as f32),
+        }))
     }
 
-    /// The flight parameters of a control law (gains designed here when asked).
-    pub(super) fn controller_params(&self, c: &Controller) -> Result<ControllerParams> {
-        let inertia = self.inertia();
-        let f = f32_rows;
+    /// The flight parameters of a control law (gains designed here when asked): validated,
+    /// naming `key`, and built in this one place.
+    pub(super) fn controller_params(&self, c: &Controller, key: &str) -> Result<ControllerParams> {
         let p = match c {
-            Controller::QuaternionFeedback {
-                zeta,
-                wn_rad_s,
-                k_diag_nm,
-                d_diag_nms,
-                ki_per_s,
-                integral_limit_s,
-                torque_limit_nm,
-                gyro_compensation,
-                max_slew_rate_deg_s,
-            } => {
-                let (k, d) = match (zeta, wn_rad_s, k_diag_nm, d_diag_nms) {
-                    (Some(z), Some(w), _, _) => (inertia * (2.0 * w * w), inertia * (2.0 * z * w)),
-                    (_, _, Some(k), Some(d)) => {
-                        (Matrix3::from_diagonal(&(*k).into()), Matrix3::from_diagonal(&(*d).into()))
-                    }
-                    _ => return Err(bad("controller", "give zeta and wn_rad_s, or k_diag_nm and d_diag_nms")),
-                };
-                ControllerParams::QuaternionFeedback(QuaternionFeedbackParams {
-                    k_att_nm: f(&k),
-                    d_rate_nms: f(&d),
-                    ki_att_nm_s: f(&(k * *ki_per_s)),
-                    integral_limit_s: *integral_limit_s as f32,
-                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-                    gyro_compensation: *gyro_compensation,
-                    max_slew_rate_rad_s: max_slew_rate_deg_s.map_or(0.0, |r| r.to_radians() as f32),
-                })
+            Controller::QuaternionFeedback { .. } => self.quaternion_feedback_params(c, key)?,
+            Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } => {
+                ControllerParams::DcmPd(pd_params(key, kp_nm, kd_nms, torque_limit_nm)?)
             }
-            Controller::DcmPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::DcmPd(DcmPdParams {
-                kp_nm: kp_nm.map(|x| x as f32),
-                kd_nms: kd_nms.map(|x| x as f32),
-                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-            }),
-            Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } => ControllerParams::EulerPd(DcmPdParams {
-                kp_nm: kp_nm.map(|x| x as f32),
-                kd_nms: kd_nms.map(|x| x as f32),
-                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-            }),
+            Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } => {
+                ControllerParams::EulerPd(pd_params(key, kp_nm, kd_nms, torque_limit_nm)?)
+            }
             Controller::Lqr { torque_limit_nm, .. } => {
                 let d = self.lqr_design_of(c)?;
                 let row = |i: usize| d.gain.get(i).copied().unwrap_or_default().map(|x| x as f32);
@@ -435,16 +412,49 @@ impl Scenario {
                 gain_limit: *gain_limit as f32,
                 torque_limit_nm: torque_limit_nm.map(|x| x as f32),
             }),
-            Controller::RateDamping { kd_nms, torque_limit_nm } => ControllerParams::RateDamping {
-                kd_nms: kd_nms.map(|x| x as f32),
-                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-            },
-            Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => ControllerParams::Bdot {
-                gain_am2_s_per_t: *gain_am2_s_per_t as f32,
-                filter_time_constant_s: *filter_time_constant_s as f32,
-            },
+            Controller::RateDamping { kd_nms, torque_limit_nm } => {
+                if !kd_nms.iter().all(|k| k.is_finite() && *k >= 0.0) {
+                    return Err(bad(&format!("{key}.kd_nms"), "must be >= 0"));
+                }
+                ControllerParams::RateDamping {
+                    kd_nms: kd_nms.map(|x| x as f32),
+                    torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+                }
+            }
+            Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
+                positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;
+                if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
+                    return Err(bad(&format!("{key}.filter_time_constant_s"), "must be >= 0"));
+                }
+                if self.actuators.magnetorquers.is_none() {
+                    return Err(bad(key, "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
+                }
+                ControllerParams::Bdot {
+                    gain_am2_s_per_t: *gain_am2_s_per_t as f32,
+                    filter_time_constant_s: *filter_time_constant_s as f32,
+                }
+            }
             Controller::None => bail!("controller.type = \"none\" uploads no flight parameters"),
         };
         Ok(p)
     }
+}
+
+/// Torque limits of a law: each > 0.
+fn torque_limits(key: &str, t: &[f64; 3]) -> Result<[f32; 3]> {
+    for x in t {
+        positive(&format!("{key}.torque_limit_nm"), *x)?;
+    }
+    Ok(t.map(|x| x as f32))
+}
+
+/// DCM-PD and Euler-PD gains.
+fn pd_params(key: &str, kp_nm: &[f64; 3], kd_nms: &[f64; 3], torque_limit_nm: &[f64; 3]) -> Result<DcmPdParams> {
+    finite(&format!("{key}.kp_nm"), kp_nm)?;
+    finite(&format!("{key}.kd_nms"), kd_nms)?;
+    Ok(DcmPdParams {
+        kp_nm: kp_nm.map(|x| x as f32),
+        kd_nms: kd_nms.map(|x| x as f32),
+        torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+    })
 }

@@ -1,6 +1,16 @@
 //! Orbit, environment models and the air-bearing rig of a scenario.
 
-use super::*;
+use super::{Scenario, bad, parse_epoch, yes};
+use crate::attitude::Vec3;
+use crate::environment::frames::EarthRotation;
+use crate::environment::magnetic::{FieldModel, MagneticField};
+use crate::environment::model::{Environment, FieldSource};
+use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
+use crate::environment::torques::{
+    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, Plate, SrpModel, box_plates,
+};
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
 
 /// Orbit elements, by kind.
 #[derive(Clone, Debug, PartialEq)]
@@ -181,25 +191,7 @@ impl Scenario {
             }));
         };
         let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
-        let model = match &o.elements()? {
-            OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
-                altitude_m: altitude_km * 1e3,
-                inclination_rad: inclination_deg.to_radians(),
-                raan_rad: raan_deg.to_radians(),
-                arg_lat0_rad: arg_lat_deg.to_radians(),
-            },
-            OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
-                OrbitModel::Kepler {
-                    a_m: a_km * 1e3,
-                    e: *e,
-                    i: inclination_deg.to_radians(),
-                    raan: raan_deg.to_radians(),
-                    argp: argp_deg.to_radians(),
-                    nu0: true_anomaly_deg.to_radians(),
-                }
-            }
-            OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
-        };
+        let model = orbit_model(o)?;
         let prop = OrbitPropagator::new(&model, PropagatorOptions { j2: o.j2, step_s: 10.0 })
             .map_err(|e| bad("orbit", format!("{e:?}")))?;
         // A TLE brings its own epoch.
@@ -213,20 +205,7 @@ impl Scenario {
             )),
             _ => FieldSource::None,
         };
-        let geometry = match (sc.drag_area_m2, &plates) {
-            (Some(a), _) => Some(DragGeometry::CopOffset { area_m2: a, cop_b: Vec3::from(sc.cp_offset_m) }),
-            (None, Some(p)) => Some(DragGeometry::Plates(p.clone())),
-            _ => None,
-        };
-        let atmosphere = match env.atmosphere.as_str() {
-            "exponential" => Some(Atmosphere::ExponentialVallado),
-            "fixed" => env.density_kg_m3.map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
-            _ => None,
-        };
-        let drag = match (geometry, atmosphere) {
-            (Some(geometry), Some(atmosphere)) => Some(DragModel { geometry, cd: sc.drag_coefficient, atmosphere }),
-            _ => None,
-        };
+        let drag = self.drag_model(plates.as_ref());
         let srp = match (&plates, env.solar_pressure) {
             (Some(p), true) => Some(SrpModel { plates: p.clone(), pressure_n_m2: 4.56e-6, jd_epoch: jd }),
             _ => None,
@@ -241,4 +220,45 @@ impl Scenario {
         };
         Ok(Some(Environment { orbit: Some(prop), earth, field, disturbances }))
     }
+
+    /// Drag: a reference area with a centre-of-pressure offset, or the box's plates; with
+    /// an atmosphere (`None` without either).
+    fn drag_model(&self, plates: Option<&Vec<Plate>>) -> Option<DragModel> {
+        let (sc, env) = (&self.spacecraft, &self.environment);
+        let geometry = match (sc.drag_area_m2, &plates) {
+            (Some(a), _) => Some(DragGeometry::CopOffset { area_m2: a, cop_b: Vec3::from(sc.cp_offset_m) }),
+            (None, Some(p)) => Some(DragGeometry::Plates((*p).clone())),
+            _ => None,
+        };
+        let atmosphere = match env.atmosphere.as_str() {
+            "exponential" => Some(Atmosphere::ExponentialVallado),
+            "fixed" => env.density_kg_m3.map(|rho| Atmosphere::Fixed { rho_kg_m3: rho }),
+            _ => None,
+        };
+        match (geometry, atmosphere) {
+            (Some(geometry), Some(atmosphere)) => Some(DragModel { geometry, cd: sc.drag_coefficient, atmosphere }),
+            _ => None,
+        }
+    }
+}
+
+/// The orbit model of `[orbit]` (circular, Kepler elements or TLE).
+fn orbit_model(o: &OrbitSpec) -> Result<OrbitModel> {
+    Ok(match &o.elements()? {
+        OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
+            altitude_m: altitude_km * 1e3,
+            inclination_rad: inclination_deg.to_radians(),
+            raan_rad: raan_deg.to_radians(),
+            arg_lat0_rad: arg_lat_deg.to_radians(),
+        },
+        OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => OrbitModel::Kepler {
+            a_m: a_km * 1e3,
+            e: *e,
+            i: inclination_deg.to_radians(),
+            raan: raan_deg.to_radians(),
+            argp: argp_deg.to_radians(),
+            nu0: true_anomaly_deg.to_radians(),
+        },
+        OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
+    })
 }

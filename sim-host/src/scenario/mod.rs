@@ -3,38 +3,34 @@
 //! the key, before anything runs.
 
 use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body};
-use crate::environment::frames::{EarthRotation, julian_date};
-use crate::environment::magnetic::{FieldModel, MagneticField};
-use crate::environment::model::{EnvSnapshot, Environment, FieldSource};
-use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
-use crate::environment::torques::{
-    Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, SrpModel, box_plates,
-};
+use crate::environment::frames::julian_date;
+use crate::environment::model::EnvSnapshot;
 use crate::plant::cmg::GimbalServo;
-use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
 use crate::plant::rig::Rig;
-use crate::plant::thrusters::{Failure as ThrusterFailure, ThrusterSet, ThrusterSpec};
-use crate::plant::wheel::{WheelParams, WheelState};
+use crate::plant::wheel::WheelState;
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
-use acs_flight::params::{
-    ActuatorParams, AlphaSchedule, CmgParams, ControllerParams, DcmPdParams, FlightParams, MAX_THRUSTERS,
-    MagnetorquerParams, PARAMS_VERSION, QuaternionFeedbackParams, SteeringLaw, SteeringParams, TargetFrame,
-    ThrusterMethod, ThrusterParams,
-};
-use anyhow::{Context, Result, anyhow, bail};
+use acs_flight::params::{FlightParams, PARAMS_VERSION, TargetFrame};
+use anyhow::{Context, Result, anyhow};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+pub use crate::sensors::config::{GyroSensorSpec, MagnetometerSensorSpec, Sensors, StarTrackerSpec, SunSensorSpecToml};
 
 mod actuators;
 mod controller;
 mod environment;
 mod modes;
-pub use actuators::*;
-pub use controller::*;
-pub use environment::*;
-pub use modes::*;
+pub use actuators::{
+    Actuators, Alpha, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
+};
+pub use controller::{Controller, LqrDesign};
+pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
+pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
+
+/// Most control steps of a run: the sensor frame numbers them with a `u32`.
+pub const MAX_STEPS: u64 = u32::MAX as u64;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -224,98 +220,6 @@ pub struct InitialState {
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-pub struct Sensors {
-    #[serde(default)]
-    pub seed: u64,
-    /// 1σ attitude noise per axis (small rotation), deg. Paper 000's AHRS: ~2 deg.
-    #[serde(default)]
-    pub attitude_noise_deg: f64,
-    /// 1σ white rate noise per axis, rad/s.
-    #[serde(default)]
-    pub rate_noise_rad_s: f64,
-    /// Constant rate bias, rad/s.
-    #[serde(default)]
-    pub rate_bias_rad_s: [f64; 3],
-    /// 1σ gimbal-angle encoder noise, deg.
-    #[serde(default)]
-    pub gimbal_noise_deg: f64,
-    /// 1σ magnetometer noise per axis, T.
-    #[serde(default)]
-    pub magnetometer_noise_t: f64,
-    /// 1σ wheel tachometer noise, rad/s.
-    #[serde(default)]
-    pub wheel_speed_noise_rad_s: f64,
-    /// Detailed models (replace the shortcuts above when given).
-    #[serde(default)]
-    pub gyro: Option<GyroSensorSpec>,
-    #[serde(default)]
-    pub star_tracker: Option<StarTrackerSpec>,
-    #[serde(default)]
-    pub magnetometer: Option<MagnetometerSensorSpec>,
-    #[serde(default)]
-    pub sun: Option<SunSensorSpecToml>,
-}
-
-/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct GyroSensorSpec {
-    /// Sample rate (default: the control rate).
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub arw_rad_s_rthz: f64,
-    #[serde(default)]
-    pub rrw_rad_s2_rthz: f64,
-    #[serde(default)]
-    pub bias_rad_s: [f64; 3],
-    #[serde(default)]
-    pub scale_factor_ppm: f64,
-}
-
-/// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct StarTrackerSpec {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_deg: f64,
-    #[serde(default)]
-    pub bias_deg: [f64; 3],
-    /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
-    #[serde(default)]
-    pub max_rate_deg_s: Option<f64>,
-}
-
-/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct MagnetometerSensorSpec {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_t: f64,
-    #[serde(default)]
-    pub bias_t: [f64; 3],
-    #[serde(default)]
-    pub coupling_t_per_am2: [[f64; 3]; 3],
-}
-
-/// Sun sensor: angular noise, field of view around a boresight, eclipse.
-#[derive(Clone, Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct SunSensorSpecToml {
-    #[serde(default)]
-    pub rate_hz: Option<f64>,
-    #[serde(default)]
-    pub noise_deg: f64,
-    pub boresight_body: [f64; 3],
-    pub fov_half_angle_deg: f64,
-}
-
-#[derive(Clone, Debug, Default, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
 pub struct LinkSpec {
     /// Default link: "in-process", "qemu", "tcp:ADDR" or "serial:DEV[@BAUD]"; the CLI
     /// `--link` overrides it.
@@ -388,17 +292,26 @@ impl Scenario {
     }
 
     pub fn validate(&self) -> Result<()> {
-        positive("duration_s", self.duration_s)?;
-        positive("timing.control_rate_hz", self.timing.control_rate_hz)?;
-        if self.timing.control_rate_hz > 10_000.0 {
-            return Err(bad("timing.control_rate_hz", "must be <= 10000"));
+        self.validate_timing()?;
+        self.validate_spacecraft()?;
+        self.validate_frames_and_orbit()?;
+        self.validate_environment()?;
+        self.validate_actuators()?;
+        if let Some(c) = &self.controller {
+            self.validate_controller(c, "controller")?;
         }
-        if self.timing.dynamics_substeps == 0 {
-            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
-        }
-        if self.timing.output_every == 0 {
-            return Err(bad("timing.output_every", "must be >= 1"));
-        }
+        self.validate_sensors()?;
+        self.validate_control_source()?;
+        Ok(())
+    }
+
+    /// `duration_s` and `[timing]` (see [`Clock`]).
+    fn validate_timing(&self) -> Result<()> {
+        Clock::try_from(self).map(|_| ())
+    }
+
+    /// `[spacecraft]`.
+    fn validate_spacecraft(&self) -> Result<()> {
         let i = self.inertia();
         finite("spacecraft.inertia_kgm2", i.as_slice())?;
         if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
@@ -435,6 +348,11 @@ impl Scenario {
         if let Some(h) = &sc.harmonic_torque {
             finite("spacecraft.harmonic_torque", &[h.amplitude_nm, h.frequency_hz, h.phase_rad].concat())?;
         }
+        Ok(())
+    }
+
+    /// `[initial]`, `[target]` and `[orbit]`.
+    fn validate_frames_and_orbit(&self) -> Result<()> {
         self.initial.attitude.validate("initial")?;
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
         self.target.validate("target")?;
@@ -474,6 +392,12 @@ impl Scenario {
             }
             parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
         }
+        Ok(())
+    }
+
+    /// `[environment]` and `[rig]`.
+    fn validate_environment(&self) -> Result<()> {
+        let sc = &self.spacecraft;
         let env = &self.environment;
         match env.magnetic_field.as_str() {
             "none" => {}
@@ -522,10 +446,11 @@ impl Scenario {
                 }
             }
         }
-        self.validate_actuators()?;
-        if let Some(c) = &self.controller {
-            self.validate_controller(c, "controller")?;
-        }
+        Ok(())
+    }
+
+    /// `[sensors]`.
+    fn validate_sensors(&self) -> Result<()> {
         let s = &self.sensors;
         for (k, v) in [
             ("sensors.attitude_noise_deg", s.attitude_noise_deg),
@@ -542,6 +467,11 @@ impl Scenario {
         if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
             positive("sensors.star_tracker.max_rate_deg_s", m)?;
         }
+        Ok(())
+    }
+
+    /// `[open_loop]`, the controller or mode table, and the ground commands.
+    fn validate_control_source(&self) -> Result<()> {
         if let Some(ol) = &self.open_loop {
             if self.closed_loop() {
                 return Err(bad("open_loop", "needs controller.type = \"none\""));
@@ -668,7 +598,7 @@ impl Scenario {
     pub fn params_for(&self, c: &Controller, family: Option<&str>, target: &AttitudeSpec) -> Result<FlightParams> {
         let inertia = self.inertia();
         let f = f32_rows;
-        let controller = self.controller_params(c)?;
+        let controller = self.controller_params(c, "controller")?;
         let q = target.quaternion();
         Ok(FlightParams {
             version: PARAMS_VERSION,
@@ -691,11 +621,76 @@ impl Scenario {
     }
 
     pub fn control_dt(&self) -> f64 {
-        1.0 / self.timing.control_rate_hz
+        Clock::dt_of(self)
     }
 
     pub fn steps(&self) -> u64 {
-        (self.duration_s * self.timing.control_rate_hz).round() as u64
+        Clock::steps_of(self)
+    }
+}
+
+/// The run's clock, parsed once from `duration_s` and `[timing]` (every value checked,
+/// errors naming the key).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clock {
+    /// Control period, s.
+    pub dt: f64,
+    /// Control steps after t = 0 (the run samples steps 0..=steps).
+    pub steps: u64,
+    /// RK4 steps per control period.
+    pub substeps: u32,
+    /// Every `output_every`-th step (and the last) is recorded.
+    pub output_every: u64,
+}
+
+impl Clock {
+    fn dt_of(sc: &Scenario) -> f64 {
+        1.0 / sc.timing.control_rate_hz
+    }
+
+    fn steps_of(sc: &Scenario) -> u64 {
+        (sc.duration_s * sc.timing.control_rate_hz).round() as u64
+    }
+
+    /// Length of one RK4 step, s.
+    pub fn h(&self) -> f64 {
+        self.dt / self.substeps as f64
+    }
+}
+
+impl TryFrom<&Scenario> for Clock {
+    type Error = anyhow::Error;
+
+    fn try_from(sc: &Scenario) -> Result<Self> {
+        let t = &sc.timing;
+        positive("duration_s", sc.duration_s)?;
+        positive("timing.control_rate_hz", t.control_rate_hz)?;
+        if t.control_rate_hz > 10_000.0 {
+            return Err(bad("timing.control_rate_hz", "must be <= 10000"));
+        }
+        if t.dynamics_substeps == 0 {
+            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
+        }
+        if t.output_every == 0 {
+            return Err(bad("timing.output_every", "must be >= 1"));
+        }
+        let steps = sc.duration_s * t.control_rate_hz;
+        if steps.round() > MAX_STEPS as f64 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
+                     (the step counter of the sensor frame is 32-bit)",
+                    sc.duration_s, t.control_rate_hz
+                ),
+            ));
+        }
+        Ok(Self {
+            dt: Self::dt_of(sc),
+            steps: Self::steps_of(sc),
+            substeps: t.dynamics_substeps,
+            output_every: t.output_every as u64,
+        })
     }
 }
 
@@ -723,6 +718,7 @@ pub fn parse_epoch(s: &str) -> std::result::Result<f64, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use acs_flight::params::ControllerParams;
 
     pub const MINIMAL: &str = r#"
 name = "t"
@@ -759,6 +755,18 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         assert_eq!(s.steps(), 1000);
     }
 
+    #[test]
+    fn the_clock_is_parsed_once_from_duration_and_timing() {
+        let text = MINIMAL
+            .replace("control_rate_hz = 100.0", "control_rate_hz = 40.0\ndynamics_substeps = 4\noutput_every = 3");
+        let c = Clock::try_from(&Scenario::from_toml(&text).unwrap()).unwrap();
+        // 10 s at 40 Hz: 400 steps of 25 ms, RK4 every 6.25 ms.
+        assert_eq!((c.steps, c.substeps, c.output_every), (400, 4, 3));
+        assert!((c.dt - 0.025).abs() < 1e-15 && (c.h() - 0.00625).abs() < 1e-15);
+        let s = Scenario::from_toml(&text).unwrap();
+        assert_eq!((s.steps(), s.control_dt()), (c.steps, c.dt));
+    }
+
     fn err_of(text: &str) -> String {
         format!("{:#}", Scenario::from_toml(text).unwrap_err())
     }
@@ -783,6 +791,8 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
             ("[[3.1, 0, 0], [0, 3.1, 0], [0, 0, 5.8]]", "[[3.1, 1, 0], [0, 3.1, 0], [0, 0, 5.8]]", "symmetric"),
             ("h0_nms = 0.623", "h0_nms = -1", "actuators.cmg.h0_nms"),
             ("duration_s = 10.0", "duration_s = 0", "duration_s"),
+            ("duration_s = 10.0", "duration_s = 1e12", "duration_s"),
+            ("duration_s = 10.0", "duration_s = inf", "duration_s"),
             ("law = \"sr\"", "law = \"xx\"", "steering.law"),
             ("zeta = 0.47", "zeta = -0.47", "controller.zeta"),
             ("control_rate_hz = 100.0", "control_rate_hz = nan", "timing.control_rate_hz"),

@@ -23,7 +23,11 @@
 //! Manoeuvre and hold point at the scenario's `[target]` (the mission target, which
 //! `[[commands]]` may change); detumble and stabilise may have their own.
 
-use super::*;
+use super::{AttitudeSpec, Controller, RefFrame, Scenario, bad};
+use anyhow::{Context, Result, anyhow};
+use serde::{Deserialize, Serialize};
+
+pub use crate::link::ModeTable;
 use acs_flight::modes::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -90,13 +94,6 @@ pub fn parse_mode(s: &str) -> Option<Mode> {
     Mode::ALL.into_iter().find(|m| m.name() == s)
 }
 
-/// What the runner uploads: one parameter set per mode, then the thresholds.
-#[derive(Clone, Debug)]
-pub struct ModeTable {
-    pub slots: Vec<(Mode, FlightParams)>,
-    pub manager: ModeManagerParams,
-}
-
 impl ModesSpec {
     pub fn slots(&self) -> [(Mode, Option<&ModeSpec>); MODE_COUNT] {
         [
@@ -152,51 +149,55 @@ impl Scenario {
                 }
                 continue;
             };
-            let key = format!("modes.{}", mode.name());
-            match spec.actuator.as_deref() {
-                None if n_families != 1 => {
-                    return Err(bad(&format!("{key}.actuator"), "required with several actuator families"));
-                }
-                None => {}
-                Some(f @ ("cmg" | "wheels" | "magnetorquers" | "thrusters")) => {
-                    let present = match f {
-                        "cmg" => self.actuators.cmg.is_some(),
-                        "wheels" => self.actuators.wheels.is_some(),
-                        "magnetorquers" => self.actuators.magnetorquers.is_some(),
-                        _ => self.actuators.thrusters.is_some(),
-                    };
-                    if !present {
-                        return Err(bad(&format!("{key}.actuator"), format!("no [actuators.{f}]")));
-                    }
-                }
-                Some(other) => {
-                    return Err(bad(
-                        &format!("{key}.actuator"),
-                        format!(
-                            "unknown family {other:?} (known: \"cmg\", \"wheels\", \"magnetorquers\", \"thrusters\")"
-                        ),
-                    ));
-                }
-            }
-            if matches!(spec.controller, Controller::None) {
-                return Err(bad(&format!("{key}.controller"), "a mode needs a control law"));
-            }
-            if let Some(t) = &spec.target {
-                if matches!(mode, Mode::Manoeuvre | Mode::Hold) {
-                    return Err(bad(&format!("{key}.target"), "manoeuvre and hold point at [target]"));
-                }
-                t.validate(&format!("{key}.target"))?;
-                if t.frame == RefFrame::Lvlh && self.orbit.is_none() {
-                    return Err(bad(&format!("{key}.target.frame"), "needs an [orbit]"));
-                }
-            }
-            self.validate_controller(&spec.controller, &format!("{key}.controller"))?;
+            self.validate_mode_spec(mode, spec, n_families)?;
         }
         let table = self.mode_table()?.ok_or_else(|| bad("modes", "missing"))?;
         for (mode, p) in &table.slots {
             p.validate().map_err(|e| anyhow!("flight parameters of mode {} rejected: {e}", mode.name()))?;
         }
         table.manager.validate().map_err(|e| anyhow!("mode manager rejected: {e}"))?;
+        Ok(())
+    }
+
+    /// One `[modes.<mode>]` table (`n_families`: actuator families present).
+    fn validate_mode_spec(&self, mode: Mode, spec: &ModeSpec, n_families: usize) -> Result<()> {
+        let key = format!("modes.{}", mode.name());
+        match spec.actuator.as_deref() {
+            None if n_families != 1 => {
+                return Err(bad(&format!("{key}.actuator"), "required with several actuator families"));
+            }
+            None => {}
+            Some(f @ ("cmg" | "wheels" | "magnetorquers" | "thrusters")) => {
+                let present = match f {
+                    "cmg" => self.actuators.cmg.is_some(),
+                    "wheels" => self.actuators.wheels.is_some(),
+                    "magnetorquers" => self.actuators.magnetorquers.is_some(),
+                    _ => self.actuators.thrusters.is_some(),
+                };
+                if !present {
+                    return Err(bad(&format!("{key}.actuator"), format!("no [actuators.{f}]")));
+                }
+            }
+            Some(other) => {
+                return Err(bad(
+                    &format!("{key}.actuator"),
+                    format!("unknown family {other:?} (known: \"cmg\", \"wheels\", \"magnetorquers\", \"thrusters\")"),
+                ));
+            }
+        }
+        if matches!(spec.controller, Controller::None) {
+            return Err(bad(&format!("{key}.controller"), "a mode needs a control law"));
+        }
+        if let Some(t) = &spec.target {
+            if matches!(mode, Mode::Manoeuvre | Mode::Hold) {
+                return Err(bad(&format!("{key}.target"), "manoeuvre and hold point at [target]"));
+            }
+            t.validate(&format!("{key}.target"))?;
+            if t.frame == RefFrame::Lvlh && self.orbit.is_none() {
+                return Err(bad(&format!("{key}.target.frame"), "needs an [orbit]"));
+            }
+        }
+        self.validate_controller(&spec.controller, &format!("{key}.controller"))?;
         Ok(())
     }
 

@@ -7,6 +7,7 @@
 //! derived from the scenario seed, so the same scenario and seed give the same bits and
 //! adding a sensor does not change another's noise.
 
+pub mod config;
 pub mod models;
 
 use crate::attitude::{Vec3, rotate_ref_to_body, to_xyzw};
@@ -14,8 +15,8 @@ use crate::environment::frames::EarthRotation;
 use crate::environment::model::EnvSnapshot;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
 use crate::plant::{Spacecraft, State};
-use crate::scenario::Sensors as SensorSpec;
 use acs_flight::protocol::{SensorFrame, valid};
+use config::Sensors as SensorSpec;
 use models::{
     AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
 };

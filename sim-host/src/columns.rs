@@ -1,0 +1,170 @@
+//! The columns of `timeseries.csv`: a fixed block ([`Col`]) then one optional group per
+//! actuator family and environment model present ([`Layout`]). The names and the order of
+//! the values in a row are defined here only.
+
+/// The columns every run records, in order (index = position in the row).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(usize)]
+pub enum Col {
+    T,
+    Qx,
+    Qy,
+    Qz,
+    Qw,
+    Roll,
+    Pitch,
+    Yaw,
+    RollTarget,
+    PitchTarget,
+    YawTarget,
+    RateX,
+    RateY,
+    RateZ,
+    DemandX,
+    DemandY,
+    DemandZ,
+    RealisedX,
+    RealisedY,
+    RealisedZ,
+    AppliedX,
+    AppliedY,
+    AppliedZ,
+    Error,
+    Status,
+    StepCost,
+}
+
+impl Col {
+    /// Number of fixed columns.
+    pub const COUNT: usize = Col::StepCost as usize + 1;
+
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+}
+
+const FIXED: [&str; Col::COUNT] = [
+    "t_s",
+    "q_x",
+    "q_y",
+    "q_z",
+    "q_w",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "roll_target_deg",
+    "pitch_target_deg",
+    "yaw_target_deg",
+    "rate_x_rad_s",
+    "rate_y_rad_s",
+    "rate_z_rad_s",
+    "torque_demand_x_nm",
+    "torque_demand_y_nm",
+    "torque_demand_z_nm",
+    "torque_realised_x_nm",
+    "torque_realised_y_nm",
+    "torque_realised_z_nm",
+    "torque_applied_x_nm",
+    "torque_applied_y_nm",
+    "torque_applied_z_nm",
+    "error_deg",
+    "status",
+    "step_cost_insns",
+];
+
+/// Per-wheel quantities, in column order.
+pub const WHEEL_QUANTITIES: [&str; 6] = ["speed_rpm", "current_a", "voltage_v", "power_w", "friction_nm", "torque_nm"];
+/// Environment torque groups, in column order.
+pub const ENV_TORQUES: [&str; 6] = ["gravity_gradient", "drag", "srp", "magnetic", "rig", "external"];
+
+/// Which optional groups a run records (in this order after the fixed block).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Layout {
+    /// DMCS adaptive gains (3).
+    pub adaptive_gains: bool,
+    /// Flight mode (1).
+    pub mode: bool,
+    /// The flight code's own attitude error (closed loop) (1).
+    pub flight_error: bool,
+    /// CMG gimbal angles, rates, singularity measure, SR weight (10).
+    pub cmg: bool,
+    /// Six quantities per wheel.
+    pub wheels: usize,
+    /// Commanded and realised magnetorquer dipoles (6).
+    pub magnetorquers: bool,
+    /// Valve mask, propellant, pulses and one level per thruster (0 = none).
+    pub thrusters: usize,
+    /// Magnetic field in body axes (3).
+    pub field: bool,
+    /// Environment and rig torque breakdown (18).
+    pub env_torques: bool,
+}
+
+fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
+    ["x", "y", "z"].map(f)
+}
+
+impl Layout {
+    pub fn names(&self) -> Vec<String> {
+        let mut v: Vec<String> = FIXED.iter().map(|s| s.to_string()).collect();
+        if self.adaptive_gains {
+            v.extend(xyz(|a| format!("adaptive_gain_{a}")));
+        }
+        if self.mode {
+            v.push("mode".into());
+        }
+        if self.flight_error {
+            v.push("flight_error_deg".into());
+        }
+        if self.cmg {
+            v.extend((1..=4).map(|i| format!("gimbal{i}_deg")));
+            v.extend((1..=4).map(|i| format!("gimbal_rate{i}_rad_s")));
+            v.extend(["singularity_m".into(), "steering_alpha".into()]);
+        }
+        for i in 1..=self.wheels {
+            v.extend(WHEEL_QUANTITIES.map(|q| format!("wheel{i}_{q}")));
+        }
+        if self.magnetorquers {
+            v.extend(xyz(|a| format!("dipole_cmd_{a}_am2")));
+            v.extend(xyz(|a| format!("dipole_{a}_am2")));
+        }
+        if self.thrusters > 0 {
+            v.extend(["thrusters_on".into(), "propellant_kg".into(), "pulses_total".into()]);
+            v.extend((1..=self.thrusters).map(|i| format!("thruster{i}_level")));
+        }
+        if self.field {
+            v.extend(xyz(|a| format!("b_body_{a}_t")));
+        }
+        if self.env_torques {
+            for g in ENV_TORQUES {
+                v.extend(xyz(|a| format!("torque_{g}_{a}_nm")));
+            }
+        }
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_indices_match_the_names() {
+        let names = Layout::default().names();
+        assert_eq!(names.len(), Col::COUNT);
+        assert_eq!(names[Col::T.index()], "t_s");
+        assert_eq!(names[Col::Error.index()], "error_deg");
+        assert_eq!(names[Col::AppliedZ.index()], "torque_applied_z_nm");
+        assert_eq!(names[Col::StepCost.index()], "step_cost_insns");
+    }
+
+    #[test]
+    fn groups_follow_in_order() {
+        let l = Layout { cmg: true, wheels: 2, thrusters: 1, env_torques: true, ..Layout::default() };
+        let names = l.names();
+        assert_eq!(names.len(), Col::COUNT + 10 + 12 + 4 + 18);
+        assert_eq!(names[Col::COUNT], "gimbal1_deg");
+        assert_eq!(names[Col::COUNT + 10 + 6], "wheel2_speed_rpm");
+        assert_eq!(names.last().unwrap(), "torque_external_z_nm");
+    }
+}

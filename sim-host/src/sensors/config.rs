@@ -1,0 +1,95 @@
+//! The `[sensors]` table of a scenario: the sensor suite's own configuration.
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sensors {
+    #[serde(default)]
+    pub seed: u64,
+    /// 1σ attitude noise per axis (small rotation), deg. Paper 000's AHRS: ~2 deg.
+    #[serde(default)]
+    pub attitude_noise_deg: f64,
+    /// 1σ white rate noise per axis, rad/s.
+    #[serde(default)]
+    pub rate_noise_rad_s: f64,
+    /// Constant rate bias, rad/s.
+    #[serde(default)]
+    pub rate_bias_rad_s: [f64; 3],
+    /// 1σ gimbal-angle encoder noise, deg.
+    #[serde(default)]
+    pub gimbal_noise_deg: f64,
+    /// 1σ magnetometer noise per axis, T.
+    #[serde(default)]
+    pub magnetometer_noise_t: f64,
+    /// 1σ wheel tachometer noise, rad/s.
+    #[serde(default)]
+    pub wheel_speed_noise_rad_s: f64,
+    /// Detailed models (replace the shortcuts above when given).
+    #[serde(default)]
+    pub gyro: Option<GyroSensorSpec>,
+    #[serde(default)]
+    pub star_tracker: Option<StarTrackerSpec>,
+    #[serde(default)]
+    pub magnetometer: Option<MagnetometerSensorSpec>,
+    #[serde(default)]
+    pub sun: Option<SunSensorSpecToml>,
+}
+
+/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroSensorSpec {
+    /// Sample rate (default: the control rate).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub arw_rad_s_rthz: f64,
+    #[serde(default)]
+    pub rrw_rad_s2_rthz: f64,
+    #[serde(default)]
+    pub bias_rad_s: [f64; 3],
+    #[serde(default)]
+    pub scale_factor_ppm: f64,
+}
+
+/// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct StarTrackerSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    #[serde(default)]
+    pub bias_deg: [f64; 3],
+    /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
+    #[serde(default)]
+    pub max_rate_deg_s: Option<f64>,
+}
+
+/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetometerSensorSpec {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_t: f64,
+    #[serde(default)]
+    pub bias_t: [f64; 3],
+    #[serde(default)]
+    pub coupling_t_per_am2: [[f64; 3]; 3],
+}
+
+/// Sun sensor: angular noise, field of view around a boresight, eclipse.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SunSensorSpecToml {
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    #[serde(default)]
+    pub noise_deg: f64,
+    pub boresight_body: [f64; 3],
+    pub fov_half_angle_deg: f64,
+}

@@ -1,0 +1,582 @@
+//! One run as a value: [`Simulation`] owns the plant, its environment, the sensors, the
+//! link to the flight code and the run's statistics; [`Simulation::step`] advances one
+//! control period and hands the recorded row to a [`Recorder`].
+//!
+//! Timing: the frame sampled at `t_k` is answered with commands that the plant holds over
+//! `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
+//! every dynamics step (minimum on-time, delays, failures) with exact impulse.
+
+use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_body};
+use crate::columns::Layout;
+use crate::environment::model::EnvSnapshot;
+use crate::link::{FlightLink, LinkInfo};
+use crate::plant::magnetorquers::MagnetorquerSet;
+use crate::plant::thrusters::{ThrusterSet, ThrusterState};
+use crate::plant::wheel::WheelOutput;
+use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
+use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Scenario};
+use crate::sensors::SensorSuite;
+use crate::series::Recorder;
+use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
+use acs_flight::math::EulerSeq;
+use acs_flight::modes::{Mode, Reason};
+use acs_flight::params::MAX_THRUSTERS;
+use acs_flight::protocol::{ActuatorCommand, FswMsg, status};
+use anyhow::{Context, Result, bail};
+
+/// Rows a run of `steps` control steps records with `output_every = every` (every
+/// `every`-th step and the last).
+pub fn recorded_rows(steps: u64, every: u64) -> u64 {
+    steps / every + 1 + u64::from(!steps.is_multiple_of(every))
+}
+
+fn mode_name(code: u8) -> String {
+    Mode::from_code(code).map_or("none", Mode::name).into()
+}
+
+/// The columns a scenario records (see [`Layout`]).
+pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
+    Layout {
+        adaptive_gains: matches!(sc.controller, Some(Controller::Dmcs { .. })),
+        mode: sc.modes.is_some(),
+        flight_error: sc.closed_loop(),
+        cmg: sc.actuators.cmg.is_some(),
+        wheels: n_wheels,
+        magnetorquers: sc.actuators.magnetorquers.is_some(),
+        thrusters: n_thrusters,
+        field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
+        env_torques: has_environment(sc),
+    }
+}
+
+/// The column names a scenario records.
+pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
+    layout(sc, n_wheels, n_thrusters).names()
+}
+
+/// Whether any environment or rig torque can act (the torque breakdown is recorded then).
+fn has_environment(sc: &Scenario) -> bool {
+    sc.orbit.is_some()
+        || sc.rig.is_some()
+        || sc.environment.lab_field_t.is_some()
+        || sc.spacecraft.harmonic_torque.is_some()
+        || sc.spacecraft.external_torque_nm != [0.0; 3]
+}
+
+/// The open-loop row in force at `t`.
+fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
+    rows.iter().take_while(|r| r.t_s <= t + 1e-12).last()
+}
+
+fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
+    let mut c = ActuatorCommand { seq, ..Default::default() };
+    if let Some(r) = row {
+        if let Some(g) = r.gimbal_rate_rad_s {
+            c.gimbal_rate_cmd_rad_s = g.map(|x| x as f32);
+        }
+        if let Some(w) = &r.wheel_torque_nm {
+            for (d, s) in c.wheel_torque_cmd_nm.iter_mut().zip(w) {
+                *d = *s as f32;
+            }
+        }
+        if let Some(d) = r.dipole_am2 {
+            c.dipole_cmd_am2 = d.map(|x| x as f32);
+        }
+        if let Some(t) = &r.thrusters_on {
+            c.thruster_on = t.iter().fold(0u16, |m, i| m | (1 << (i - 1)));
+        }
+    }
+    c
+}
+
+/// The attitude target: relative to its frame (inertial, or LVLH when the scenario says so).
+struct Target {
+    q_rel: Quat,
+    euler_deg: [f64; 3],
+    seq: EulerSeq,
+    lvlh: bool,
+}
+
+impl Target {
+    fn set(&mut self, q_rel: Quat) {
+        self.q_rel = q_rel;
+        self.euler_deg = euler_from_quat(&q_rel, self.seq).map(f64::to_degrees);
+    }
+
+    /// The target's frame at this snapshot.
+    fn frame(&self, snap: Option<&EnvSnapshot>) -> Quat {
+        match (self.lvlh, snap.and_then(|s| s.q_lvlh)) {
+            (true, Some(q)) => q,
+            _ => Quat::identity(),
+        }
+    }
+}
+
+/// Magnetorquers and thrusters: command → what the plant receives.
+struct Actuation {
+    mtq: MagnetorquerSet,
+    thrusters: Option<ThrusterSet>,
+    thr_state: ThrusterState,
+    n_thr: usize,
+    rod_dipole: [f64; 3],
+}
+
+impl Actuation {
+    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`]).
+    fn input(&mut self, cmd: &ActuatorCommand) -> (Input, [f64; 3]) {
+        let mut input = Input::default();
+        for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
+            *d = s as f64;
+        }
+        for (d, s) in input.wheel_torque_cmd_nm.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
+            *d = s as f64;
+        }
+        let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
+        if !self.mtq.rods.is_empty() {
+            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&dipole_cmd));
+        }
+        input.dipole_am2 = self.rod_dipole.into();
+        input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
+        (input, dipole_cmd)
+    }
+
+    /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
+    fn thruster_torque(&mut self, mask: u32, t0: f64, h: f64) -> Vec3 {
+        match &self.thrusters {
+            Some(set) => set.wrench(&set.step(&mut self.thr_state, mask, t0, h)).1.into(),
+            None => Vec3::zeros(),
+        }
+    }
+}
+
+/// Extremes and counters over the run.
+#[derive(Default)]
+struct Metrics {
+    counts: StatusCounts,
+    max_gimbal_rate: f64,
+    min_singularity: f64,
+    max_wheel_rpm: f64,
+    max_wheel_w: f64,
+    max_wheel_a: f64,
+    max_ticks: u32,
+    sum_ticks: f64,
+    n_ticks: u64,
+    frames_dropped_flight: u32,
+    mode_now: Option<u8>,
+    mode_transitions: Vec<ModeTransition>,
+}
+
+impl Metrics {
+    fn status(&mut self, s: u16) {
+        let c = &mut self.counts;
+        for (bit, n) in [
+            (status::TORQUE_LIMITED, &mut c.torque_limited),
+            (status::RATE_SCALED, &mut c.rate_scaled),
+            (status::ANGLE_LIMITED, &mut c.angle_limited),
+            (status::SINGULAR, &mut c.singular),
+            (status::BAD_INPUT, &mut c.bad_input),
+            (status::TORQUE_SHORTFALL, &mut c.torque_shortfall),
+            (status::ALLOC_FALLBACK, &mut c.alloc_fallback),
+            (status::UNREALISED, &mut c.unrealised),
+            (status::LAW_FAULT, &mut c.law_fault),
+        ] {
+            *n += u64::from(s & bit != 0);
+        }
+    }
+
+    fn ticks(&mut self, ticks: u32) {
+        if ticks > 0 {
+            self.max_ticks = self.max_ticks.max(ticks);
+            self.sum_ticks += ticks as f64;
+            self.n_ticks += 1;
+        }
+    }
+
+    fn wheels(&mut self, out: &[WheelOutput]) {
+        for o in out {
+            self.max_wheel_rpm = self.max_wheel_rpm.max(o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
+            self.max_wheel_w = self.max_wheel_w.max(o.power_w.abs());
+            self.max_wheel_a = self.max_wheel_a.max(o.current_a.abs());
+        }
+    }
+
+    /// Logs a change of the flight mode reported at `t`.
+    fn mode(&mut self, t: f64, cmd: &ActuatorCommand) {
+        if self.mode_now == Some(cmd.mode) {
+            return;
+        }
+        if let Some(from) = self.mode_now {
+            self.mode_transitions.push(ModeTransition {
+                t_s: t,
+                from: mode_name(from),
+                to: mode_name(cmd.mode),
+                reason: Reason::from_code(cmd.mode_reason).map_or("unknown", Reason::name).into(),
+            });
+        }
+        self.mode_now = Some(cmd.mode);
+    }
+}
+
+/// What one control step saw, for the recorded row.
+struct StepView<'a> {
+    t: f64,
+    cmd: &'a ActuatorCommand,
+    ticks: u32,
+    err_deg: f64,
+    q_frame: Quat,
+    input: &'a Input,
+    dipole_cmd: [f64; 3],
+    wheel_out: &'a [WheelOutput],
+}
+
+/// A run in progress.
+pub struct Simulation<'a> {
+    sc: &'a Scenario,
+    link: &'a mut dyn FlightLink,
+    info: Option<LinkInfo>,
+    craft: Spacecraft,
+    state: State,
+    snap: Option<EnvSnapshot>,
+    sensors: SensorSuite,
+    act: Actuation,
+    target: Target,
+    /// Index of the next ground command in `sc.commands`.
+    next_command: usize,
+    metrics: Metrics,
+    errors: ErrorStats,
+    layout: Layout,
+    columns: Vec<String>,
+    row: Vec<f64>,
+    /// The next control step.
+    k: u64,
+    clock: Clock,
+}
+
+impl<'a> Simulation<'a> {
+    /// Opens the flight side (closed loop: hello and parameter or mode-table upload),
+    /// builds the plant in its initial state and the sensors.
+    pub fn new(sc: &'a Scenario, link: &'a mut dyn FlightLink) -> Result<Self> {
+        let info = if sc.closed_loop() {
+            let info = link.hello().context("hello")?;
+            match sc.mode_table()? {
+                Some(table) => link.upload_modes(&table).context("mode table upload")?,
+                None => link.upload(&sc.flight_params()?).context("parameter upload")?,
+            };
+            Some(info)
+        } else {
+            None
+        };
+        let mut craft = sc.spacecraft()?;
+        let snap = match craft.env.as_mut() {
+            Some(e) => Some(e.snapshot(0.0)?),
+            None => None,
+        };
+        let state = sc.initial_state(&craft, snap.as_ref());
+        let thrusters = sc.thruster_set();
+        let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
+        let act = Actuation {
+            mtq: sc.magnetorquer_set(),
+            thrusters,
+            thr_state: ThrusterState::new(n_thr),
+            n_thr,
+            rod_dipole: [0.0; 3],
+        };
+        let seq = sc.target.euler_sequence.into();
+        let mut target =
+            Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh: sc.target.frame == RefFrame::Lvlh };
+        target.set(sc.target.quaternion());
+        let layout = layout(sc, craft.wheels.len(), n_thr);
+        let columns = layout.names();
+        let clock = Clock::try_from(sc)?;
+        Ok(Self {
+            sc,
+            link,
+            info,
+            sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
+            craft,
+            state,
+            snap,
+            act,
+            target,
+            next_command: 0,
+            metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
+            errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
+            row: Vec::with_capacity(columns.len()),
+            layout,
+            columns,
+            k: 0,
+            clock,
+        })
+    }
+
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    /// Rows the whole run records.
+    pub fn recorded_rows(&self) -> u64 {
+        recorded_rows(self.clock.steps, self.clock.output_every)
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.clock.steps
+    }
+
+    /// Control steps done so far.
+    pub fn steps_done(&self) -> u64 {
+        self.k
+    }
+
+    /// Whether every control step (0..=steps) has run.
+    pub fn finished(&self) -> bool {
+        self.k > self.clock.steps
+    }
+
+    pub fn sim_time_s(&self) -> f64 {
+        self.clock.steps as f64 * self.clock.dt
+    }
+
+    /// One control step at `t_k`: ground commands, sensors, flight code (or the open-loop
+    /// table), statistics, the recorded row, then the plant over `[t_k, t_k+1)`.
+    pub fn step(&mut self, rec: &mut dyn Recorder) -> Result<()> {
+        let k = self.k;
+        let t = k as f64 * self.clock.dt;
+        if k > 0 {
+            self.snap = match self.craft.env.as_mut() {
+                Some(e) => Some(e.snapshot(t)?),
+                None => None,
+            };
+        }
+        self.ground_commands(t)?;
+        let (cmd, ticks) = self.flight_command(k, t)?;
+        let (mut input, dipole_cmd) = self.act.input(&cmd);
+        let q_frame = self.target.frame(self.snap.as_ref());
+        let err_deg = error_angle(&self.state.q, &(q_frame * self.target.q_rel)).to_degrees();
+        let wheel_out = self.observe(t, &cmd, ticks, &input, err_deg);
+        let n_wheels = self.craft.wheels.len();
+
+        // Thruster valves over the first dynamics step decide what is recorded as applied.
+        let thr_mask = u32::from(cmd.thruster_on);
+        let h = self.clock.h();
+        if k < self.clock.steps {
+            input.thruster_torque_nm = self.act.thruster_torque(thr_mask, t, h);
+        }
+        if k.is_multiple_of(self.clock.output_every) || k == self.clock.steps {
+            let v = StepView {
+                t,
+                cmd: &cmd,
+                ticks,
+                err_deg,
+                q_frame,
+                input: &input,
+                dipole_cmd,
+                wheel_out: &wheel_out[..n_wheels],
+            };
+            self.fill_row(&v);
+            rec.record(&self.row)?;
+        }
+        if k < self.clock.steps {
+            self.advance(t, &mut input, thr_mask);
+        }
+        self.k += 1;
+        Ok(())
+    }
+
+    /// Sends the ground commands due at `t` and follows their new targets.
+    fn ground_commands(&mut self, t: f64) -> Result<()> {
+        let sc = self.sc;
+        while let Some(c) = sc.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
+            self.next_command += 1;
+            for msg in sc.command_messages(c) {
+                match self.link.request(&msg).with_context(|| format!("command at t = {t:.3} s"))? {
+                    FswMsg::Ack | FswMsg::ModeAccepted { .. } => {}
+                    other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
+                }
+            }
+            if let Some(tg) = &c.target {
+                self.target.set(tg.quaternion());
+            }
+        }
+        Ok(())
+    }
+
+    /// The actuator command of step `k`: the flight code's answer to the sampled sensor
+    /// frame (closed loop) or the open-loop table's; with the flight step's cost in ticks.
+    fn flight_command(&mut self, k: u64, t: f64) -> Result<(ActuatorCommand, u32)> {
+        let frame =
+            self.sensors.sample(k as u32, t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
+        if self.info.is_none() {
+            let rows: &[OpenLoopRow] = self.sc.open_loop.as_ref().map_or(&[], |o| o.commands.as_slice());
+            return Ok((open_loop_command(open_loop_at(rows, t), k as u32), 0));
+        }
+        let report = self.link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
+        self.metrics.frames_dropped_flight = report.frames_dropped;
+        if self.sc.modes.is_some() {
+            self.metrics.mode(t, &report.cmd);
+        }
+        Ok((report.cmd, report.step_cost_ticks))
+    }
+
+    /// Statistics of step at `t`; returns the wheel outputs (zero without wheels).
+    fn observe(
+        &mut self,
+        t: f64,
+        cmd: &ActuatorCommand,
+        ticks: u32,
+        input: &Input,
+        err_deg: f64,
+    ) -> [WheelOutput; MAX_WHEELS] {
+        self.errors.push(t, err_deg);
+        let m = &mut self.metrics;
+        if let Some(c) = &self.craft.cmg {
+            m.min_singularity = m.min_singularity.min(c.singularity_measure(&self.state.gimbal_rad));
+            m.max_gimbal_rate = cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| a.max(r.abs() as f64));
+        }
+        let n_wheels = self.craft.wheels.len();
+        let wheel_out = if n_wheels > 0 { self.craft.wheel_outputs(&self.state, input) } else { Default::default() };
+        m.wheels(&wheel_out[..n_wheels]);
+        m.status(cmd.status);
+        m.ticks(ticks);
+        wheel_out
+    }
+
+    /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
+    fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) {
+        if let Some(c) = &self.sc.spacecraft.inertia_change
+            && t < c.at_s
+            && t + self.clock.dt >= c.at_s
+        {
+            let j = self.craft.inertia * c.factor;
+            self.craft.set_inertia(j);
+        }
+        let h = self.clock.h();
+        for j in 0..self.clock.substeps {
+            let tj = t + j as f64 * h;
+            if j > 0 {
+                input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
+            }
+            // ===== THE PLANT INTEGRATOR CALL (the only one): RK4 over [tj, tj + h) with the
+            // environment snapshot taken at the control step's t. =====
+            self.state = self.craft.rk4(tj, &self.state, input, h, self.snap.as_ref());
+        }
+    }
+
+    /// Builds the recorded row of one step (column order: [`Layout::names`]).
+    fn fill_row(&mut self, v: &StepView) {
+        let (state, cmd, l) = (&self.state, v.cmd, &self.layout);
+        let tq = self.craft.torques(v.t, state, v.input, self.snap.as_ref());
+        let row = &mut self.row;
+        row.clear();
+        row.push(v.t);
+        row.extend([state.q.i, state.q.j, state.q.k, state.q.w]);
+        row.extend(euler_from_quat(&(v.q_frame.conjugate() * state.q), self.target.seq).map(f64::to_degrees));
+        row.extend(self.target.euler_deg);
+        row.extend(state.w.iter());
+        row.extend(cmd.torque_demand_nm.iter().map(|x| *x as f64));
+        row.extend(cmd.torque_realised_nm.iter().map(|x| *x as f64));
+        row.extend((tq.actuators_nm + tq.magnetic_nm + tq.thrusters_nm).iter());
+        row.push(v.err_deg);
+        row.push(cmd.status as f64);
+        let ipt = self.info.as_ref().and_then(|i| i.instructions_per_tick);
+        row.push(ipt.map_or(f64::NAN, |f| v.ticks as f64 * f));
+        if l.adaptive_gains {
+            row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
+        }
+        if l.mode {
+            row.push(cmd.mode as f64);
+        }
+        if l.flight_error {
+            row.push((cmd.attitude_error_rad as f64).to_degrees());
+        }
+        if l.cmg {
+            row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
+            row.extend(cmd.gimbal_rate_cmd_rad_s.iter().map(|x| *x as f64));
+            row.push(self.craft.cmg.as_ref().map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)));
+            row.push(cmd.steering_alpha as f64);
+        }
+        for o in v.wheel_out {
+            let rpm = o.speed_rad_s * 30.0 / std::f64::consts::PI;
+            row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
+        }
+        self.fill_tail(v, &tq);
+    }
+
+    /// The actuator-family and environment groups at the end of the row.
+    fn fill_tail(&mut self, v: &StepView, tq: &TorqueReport) {
+        let (state, l, act, row) = (&self.state, &self.layout, &self.act, &mut self.row);
+        if l.magnetorquers {
+            row.extend(v.dipole_cmd);
+            row.extend(act.rod_dipole);
+        }
+        if l.thrusters > 0 {
+            row.push(u32::from(v.cmd.thruster_on) as f64);
+            row.push(act.thr_state.total_propellant_kg());
+            row.push(act.thr_state.pulses.iter().sum::<u32>() as f64);
+            row.extend(v.cmd.thruster_level.iter().take(act.n_thr).map(|x| *x as f64));
+        }
+        if l.field {
+            let b =
+                self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::repeat(f64::NAN), |b| rotate_ref_to_body(&state.q, &b));
+            row.extend(b.iter());
+        }
+        if l.env_torques {
+            let e = &tq.env;
+            let external = e.external + self.craft.external_torque_nm;
+            for v in [e.gravity_gradient, e.drag, e.srp, tq.magnetic_nm, tq.rig_nm, external] {
+                row.extend(v.iter());
+            }
+        }
+    }
+
+    /// The summary of the finished run; `wall_s` is the wall time of the loop.
+    pub fn summary(self, wall_s: f64) -> Summary {
+        let (sc, m, info) = (self.sc, &self.metrics, self.info.as_ref());
+        let sim_time = self.sim_time_s();
+        let ef = self.errors.figures(sim_time);
+        let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
+        let n_ticks = m.n_ticks;
+        let ipt = info.and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
+        let hz = info.map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
+        let mean_us = hz.map(|h| m.sum_ticks / n_ticks as f64 / h * 1e6);
+        let (n_wheels, n_thr, cmg) = (self.craft.wheels.len(), self.act.n_thr, self.craft.cmg.is_some());
+        let thr = &self.act.thr_state;
+        Summary {
+            scenario: sc.name.clone(),
+            link: if info.is_some() { self.link.name() } else { "open-loop".into() },
+            board: info.map(|i| i.board),
+            steps: self.clock.steps,
+            sim_time_s: sim_time,
+            control_rate_hz: sc.timing.control_rate_hz,
+            dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
+            final_error_deg: ef.final_error_deg,
+            settle_time_s: ef.settle_time_s,
+            settle_bound_deg: SETTLE_BOUND_DEG,
+            max_error_after_settle_deg: ef.max_error_after_settle_deg,
+            mean_error_deg: ef.mean_error_deg,
+            rms_error_deg: ef.rms_error_deg,
+            final_euler_deg: euler_from_quat(&final_q_rel, self.target.seq).map(f64::to_degrees),
+            target_euler_deg: self.target.euler_deg,
+            final_rate_rad_s: self.state.w.into(),
+            max_gimbal_rate_rad_s: cmg.then_some(m.max_gimbal_rate),
+            min_singularity_measure: cmg.then_some(m.min_singularity),
+            max_wheel_speed_rpm: (n_wheels > 0).then_some(m.max_wheel_rpm),
+            max_wheel_power_w: (n_wheels > 0).then_some(m.max_wheel_w),
+            max_wheel_current_a: (n_wheels > 0).then_some(m.max_wheel_a),
+            propellant_kg: (n_thr > 0).then(|| thr.total_propellant_kg()),
+            max_pulses: (n_thr > 0).then(|| thr.pulses.iter().copied().max().unwrap_or(0)),
+            max_step_instructions: ipt.map(|f| (m.max_ticks as f64 * f).round() as u64),
+            mean_step_instructions: ipt.map(|f| m.sum_ticks / n_ticks as f64 * f),
+            max_step_ticks: (n_ticks > 0).then_some(m.max_ticks),
+            mean_step_us: mean_us,
+            max_step_us: hz.map(|h| m.max_ticks as f64 / h * 1e6),
+            allocation_us_per_call: mean_us.filter(|_| n_thr > 0),
+            status_counts: m.counts.clone(),
+            mode_transitions: m.mode_transitions.clone(),
+            final_mode: m.mode_now.map(mode_name),
+            frames_dropped_flight: m.frames_dropped_flight,
+            frames_dropped_host: if info.is_some() { self.link.frames_dropped_host() } else { 0 },
+            wall_time_s: wall_s,
+            real_time_factor: sim_time / wall_s.max(1e-9),
+        }
+    }
+}

@@ -1,0 +1,229 @@
+//! A run's summary (`summary.json`) and the online statistics of the attitude error it
+//! reports, computed as the run goes (no stored history).
+
+use serde::Serialize;
+
+/// Attitude-error bound that defines the settle time, deg.
+pub const SETTLE_BOUND_DEG: f64 = 1.0;
+
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct StatusCounts {
+    pub torque_limited: u64,
+    pub rate_scaled: u64,
+    pub angle_limited: u64,
+    pub singular: u64,
+    pub bad_input: u64,
+    pub torque_shortfall: u64,
+    pub alloc_fallback: u64,
+    pub unrealised: u64,
+    pub law_fault: u64,
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Summary {
+    pub scenario: String,
+    pub link: String,
+    /// 0 in-process, 1 QEMU mps2-an386, 2 STM32F405; null for open-loop runs.
+    pub board: Option<u8>,
+    pub steps: u64,
+    pub sim_time_s: f64,
+    pub control_rate_hz: f64,
+    pub dynamics_rate_hz: f64,
+    /// Principal angle between the true and the target attitude at the end, deg.
+    pub final_error_deg: f64,
+    /// Time after which the error stays below `SETTLE_BOUND_DEG`; `null` if it never does.
+    pub settle_time_s: Option<f64>,
+    pub settle_bound_deg: f64,
+    pub max_error_after_settle_deg: Option<f64>,
+    /// Mean error over the whole run, deg.
+    pub mean_error_deg: f64,
+    /// RMS error after the settle time (whole run if it never settles), deg.
+    pub rms_error_deg: f64,
+    /// Euler angles relative to the target's frame (inertial, lab or LVLH), deg.
+    pub final_euler_deg: [f64; 3],
+    pub target_euler_deg: [f64; 3],
+    pub final_rate_rad_s: [f64; 3],
+    /// Largest commanded gimbal rate, rad/s (null without CMGs).
+    pub max_gimbal_rate_rad_s: Option<f64>,
+    /// Smallest `det(J₁ J₁ᵀ)` of the true gimbal angles (unit rotor momentum).
+    pub min_singularity_measure: Option<f64>,
+    pub max_wheel_speed_rpm: Option<f64>,
+    pub max_wheel_power_w: Option<f64>,
+    pub max_wheel_current_a: Option<f64>,
+    pub propellant_kg: Option<f64>,
+    /// Most valve openings of any single thruster.
+    pub max_pulses: Option<u32>,
+    /// Largest `Fsw::step` cost in instructions (QEMU) — `null` when not measured.
+    pub max_step_instructions: Option<u64>,
+    pub mean_step_instructions: Option<f64>,
+    /// Largest `Fsw::step` cost in raw counter ticks (any board that measures).
+    pub max_step_ticks: Option<u32>,
+    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs.
+    pub mean_step_us: Option<f64>,
+    pub max_step_us: Option<f64>,
+    /// With thrusters: mean time per control step of the flight code (control law,
+    /// LP allocation, PWPF — the LP dominates), µs, on the link's clock.
+    pub allocation_us_per_call: Option<f64>,
+    pub status_counts: StatusCounts,
+    /// Every change of the flight mode (empty without `[modes]`).
+    pub mode_transitions: Vec<ModeTransition>,
+    pub final_mode: Option<String>,
+    pub frames_dropped_flight: u32,
+    pub frames_dropped_host: u32,
+    /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
+    /// records to disk; plots and summary excluded).
+    pub wall_time_s: f64,
+    pub real_time_factor: f64,
+}
+
+/// A change of the flight mode as reported in telemetry.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ModeTransition {
+    /// Time of the first step the new mode commanded, s.
+    pub t_s: f64,
+    pub from: String,
+    pub to: String,
+    /// Why the flight code switched (`acs_flight::modes::Reason`).
+    pub reason: String,
+}
+
+/// Online statistics of the attitude error: final, mean, settle time (the time after
+/// which the error stays below the bound: one control period after the last sample at or
+/// above it) and, after the settle time, the RMS and the maximum. The accumulators after
+/// the settle time restart at every exceedance, and sums run in time order, so the figures
+/// are bit-identical to those of the whole stored history.
+#[derive(Clone, Debug)]
+pub struct ErrorStats {
+    dt: f64,
+    bound: f64,
+    /// Time of the last sample at or above the bound (the run starts "above": 0).
+    last_above: f64,
+    /// Samples at `t >= settle_from` count as settled (`last_above + dt`).
+    settle_from: f64,
+    last: f64,
+    n: u64,
+    sum: f64,
+    sum_sq: f64,
+    n_after: u64,
+    sum_sq_after: f64,
+    max_after: f64,
+}
+
+/// The error figures of a run (see [`ErrorStats`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorFigures {
+    pub final_error_deg: f64,
+    pub settle_time_s: Option<f64>,
+    pub max_error_after_settle_deg: Option<f64>,
+    pub mean_error_deg: f64,
+    pub rms_error_deg: f64,
+}
+
+impl ErrorStats {
+    pub fn new(dt: f64, bound: f64) -> Self {
+        Self {
+            dt,
+            bound,
+            last_above: 0.0,
+            settle_from: 0.0 + dt,
+            last: f64::NAN,
+            n: 0,
+            sum: 0.0,
+            sum_sq: 0.0,
+            n_after: 0,
+            sum_sq_after: 0.0,
+            max_after: 0.0,
+        }
+    }
+
+    /// The error at time `t` (non-decreasing from call to call).
+    pub fn push(&mut self, t: f64, err: f64) {
+        self.last = err;
+        self.n += 1;
+        self.sum += err;
+        self.sum_sq += err * err;
+        if err >= self.bound {
+            self.last_above = t;
+            self.settle_from = t + self.dt;
+            (self.n_after, self.sum_sq_after, self.max_after) = (0, 0.0, 0.0);
+        } else if t >= self.settle_from {
+            self.n_after += 1;
+            self.sum_sq_after += err * err;
+            self.max_after = self.max_after.max(err);
+        }
+    }
+
+    /// The figures of a run that ended at `sim_time` (the time of the last sample).
+    pub fn figures(&self, sim_time: f64) -> ErrorFigures {
+        let settle_time_s = (self.last_above < sim_time).then_some(self.settle_from);
+        let (n, sum_sq) = match settle_time_s {
+            Some(_) => (self.n_after, self.sum_sq_after),
+            None => (self.n, self.sum_sq),
+        };
+        ErrorFigures {
+            final_error_deg: if self.n == 0 { f64::NAN } else { self.last },
+            settle_time_s,
+            max_error_after_settle_deg: settle_time_s.map(|_| self.max_after),
+            mean_error_deg: self.sum / self.n.max(1) as f64,
+            rms_error_deg: (sum_sq / n.max(1) as f64).sqrt(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The definitions applied to the whole stored history (what a run reported before
+    /// the statistics were computed online).
+    fn from_history(errors: &[(f64, f64)], dt: f64, bound: f64, sim_time: f64) -> ErrorFigures {
+        let last_above = errors.iter().filter(|e| e.1 >= bound).map(|e| e.0).fold(0.0, f64::max);
+        let settle = (last_above < sim_time).then_some(last_above + dt);
+        let after: Vec<f64> = errors.iter().filter(|(t, _)| settle.is_none_or(|s| *t >= s)).map(|e| e.1).collect();
+        ErrorFigures {
+            final_error_deg: errors.last().map_or(f64::NAN, |e| e.1),
+            settle_time_s: settle,
+            max_error_after_settle_deg: settle.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
+            mean_error_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
+            rms_error_deg: (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt(),
+        }
+    }
+
+    #[test]
+    fn online_figures_equal_those_of_the_history_bit_for_bit() {
+        let dt = 0.1;
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..40 {
+            let steps = 1 + case * 37;
+            // A decaying error with noise that crosses the 1-degree bound now and then;
+            // in some cases the last sample is above the bound (never settles).
+            let errors: Vec<(f64, f64)> = (0..=steps)
+                .map(|k| {
+                    let t = k as f64 * dt;
+                    let base = 5.0 * (-(k as f64) / (steps as f64 / 3.0)).exp();
+                    let last_up = case % 4 == 0 && k == steps;
+                    (t, if last_up { 2.0 } else { base + 1.5 * rnd() * rnd() })
+                })
+                .collect();
+            let sim_time = steps as f64 * dt;
+            let mut s = ErrorStats::new(dt, 1.0);
+            for (t, e) in &errors {
+                s.push(*t, *e);
+            }
+            let (a, b) = (s.figures(sim_time), from_history(&errors, dt, 1.0, sim_time));
+            assert_eq!(a.settle_time_s, b.settle_time_s, "case {case}");
+            for (x, y) in [
+                (a.final_error_deg, b.final_error_deg),
+                (a.mean_error_deg, b.mean_error_deg),
+                (a.rms_error_deg, b.rms_error_deg),
+                (a.max_error_after_settle_deg.unwrap_or(-1.0), b.max_error_after_settle_deg.unwrap_or(-1.0)),
+            ] {
+                assert_eq!(x.to_bits(), y.to_bits(), "case {case}: {x} vs {y}");
+            }
+        }
+    }
+}

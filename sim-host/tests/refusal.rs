@@ -1,0 +1,75 @@
+//! The simulator refuses, before the first step and with exit code 1 (not an abort), a run
+//! of absurd duration or one whose output would not fit on the disk; the error names the
+//! scenario key to change.
+
+use sim_host::output::estimated_csv_bytes;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// paper 000 test 3 (30 s at 100 Hz, every 5th step recorded) with `from` replaced by `to`.
+fn scenario(dir: &Path, from: &str, to: &str) -> PathBuf {
+    let text = std::fs::read_to_string(repo().join("scenarios/paper000/test3.toml")).unwrap();
+    assert!(text.contains(from), "{from}");
+    let p = dir.join("sc.toml");
+    std::fs::write(&p, text.replace(from, to)).unwrap();
+    p
+}
+
+fn run(sc: &Path, out: &Path, free: Option<&str>) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_sim-host"));
+    c.args(["run", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots", "--quiet"]);
+    c.args(["--link", "in-process"]);
+    match free {
+        Some(f) => c.env("SIM_HOST_ASSUME_FREE_BYTES", f),
+        None => c.env_remove("SIM_HOST_ASSUME_FREE_BYTES"),
+    };
+    c.output().unwrap()
+}
+
+#[test]
+fn an_absurd_duration_is_refused_naming_the_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    for d in ["1e12", "1e300", "inf"] {
+        let sc = scenario(tmp.path(), "duration_s = 30.0", &format!("duration_s = {d}"));
+        let out = tmp.path().join("out");
+        let r = run(&sc, &out, None);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{d}: {err}");
+        assert!(err.contains("duration_s"), "{d}: {err}");
+        assert!(!out.join("timeseries.csv").exists(), "{d}");
+    }
+}
+
+#[test]
+fn a_run_that_would_not_fit_on_the_disk_is_refused_and_the_estimate_covers_the_real_size() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Every step recorded: 3001 rows.
+    let sc = scenario(tmp.path(), "output_every = 5 ", "output_every = 1 ");
+    let out = tmp.path().join("out");
+    let r = run(&sc, &out, None);
+    assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let (rows, cols) = (csv.lines().count() as u64 - 1, csv.lines().next().unwrap().split(',').count());
+    assert_eq!(rows, 3001);
+    // The estimate is an upper bound of the real size, and not a wild one.
+    let est = estimated_csv_bytes(rows, cols);
+    let real = csv.len() as u64;
+    assert!(est >= real && est <= 3 * real, "estimate {est} B, real {real} B");
+
+    // 1 MB free: refused before anything is written.
+    let out2 = tmp.path().join("out2");
+    let r = run(&sc, &out2, Some("1000000"));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(err.contains("timing.output_every") && err.contains("duration_s"), "{err}");
+    assert!(!out2.join("timeseries.csv").exists());
+    // Plenty free: runs, same bytes.
+    let out3 = tmp.path().join("out3");
+    let r = run(&sc, &out3, Some("1000000000000"));
+    assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(std::fs::read_to_string(out3.join("timeseries.csv")).unwrap(), csv);
+}
