@@ -159,14 +159,7 @@ pub fn estimated_csv_bytes(rows: u64, columns: usize) -> u64 {
 
 /// Free bytes for an unprivileged user on the filesystem of `dir` (which must exist).
 pub fn free_bytes(dir: &Path) -> Result<u64> {
-    use std::os::unix::ffi::OsStrExt;
-    let c = std::ffi::CString::new(dir.as_os_str().as_bytes()).context("output path contains a NUL byte")?;
-    // SAFETY: `c` is a valid NUL-terminated path and `st` a properly sized out-parameter.
-    let mut st: libc::statvfs = unsafe { std::mem::zeroed() };
-    if unsafe { libc::statvfs(c.as_ptr(), &mut st) } != 0 {
-        return Err(std::io::Error::last_os_error()).with_context(|| format!("statvfs {}", dir.display()));
-    }
-    Ok((st.f_bavail as u64).saturating_mul(st.f_frsize as u64))
+    fs4::available_space(dir).with_context(|| format!("free space of {}", dir.display()))
 }
 
 /// Refuses a run whose CSV would not fit in `free` bytes (keeping [`DISK_RESERVE_BYTES`]).
