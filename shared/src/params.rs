@@ -20,8 +20,8 @@ pub const MAX_WHEELS: usize = 6;
 /// Capacity of the thruster set.
 pub const MAX_THRUSTERS: usize = 12;
 
-/// CRC used for frames and the parameter checksum: CRC-32/ISO-HDLC (the zlib CRC).
-pub const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+/// The project CRC (defined in [`crate::checksum`]), re-exported for parameter users.
+pub use crate::checksum::CRC32;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
