@@ -98,7 +98,9 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         let missed_in_step = periods_elapsed(release, Instant::now(), period);
         let report = {
             let mut s = session.lock().await;
-            s.deadline_misses = s.deadline_misses.saturating_add(missed_in_step as u32);
+            // A miss count beyond u32 saturates the (saturating) counter.
+            let n = u32::try_from(missed_in_step).unwrap_or(u32::MAX);
+            s.deadline_misses = s.deadline_misses.saturating_add(n);
             s.report(cmd, cost, state::frames_dropped())
         };
         state::send(tx, &FswMsg::Step(report)).await;
@@ -107,9 +109,8 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         let missed = periods_elapsed(release, Instant::now(), period);
         if missed > missed_in_step {
             let mut s = session.lock().await;
-            s.deadline_misses = s
-                .deadline_misses
-                .saturating_add((missed - missed_in_step) as u32);
+            let n = u32::try_from(missed.saturating_sub(missed_in_step)).unwrap_or(u32::MAX);
+            s.deadline_misses = s.deadline_misses.saturating_add(n);
         }
         if missed > 0 {
             defmt::warn!("deadline missed: {=u64} period(s)", missed);

@@ -21,10 +21,36 @@
 //!   (`protocol` and `session` are its historical paths);
 //! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
-// `!(x > y)` is used on purpose in numerical code: it is also true for NaN (fail-safe).
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Flight rules on top of the workspace baseline (`[workspace.lints]` in the root
+// Cargo.toml; a crate cannot extend that table, hence crate attributes): no panics
+// (unwrap/expect/panic/out-of-range indexing), no truncating, sign-losing or wrapping
+// casts (`try_from` with a documented fallback instead), no unchecked integer arithmetic
+// (checked/saturating forms). nalgebra's float operators are exempt from
+// `arithmetic_side_effects` (shared/clippy.toml). The firmware repeats these in its
+// `[lints]` table. Unit tests may unwrap and index.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::arithmetic_side_effects
+)]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::arithmetic_side_effects
+    )
+)]
 // No heap in flight code: large enum variants cannot be boxed, and they are all `Copy` data.
 #![allow(clippy::large_enum_variant)]
 

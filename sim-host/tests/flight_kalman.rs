@@ -255,7 +255,12 @@ fn steady_state_mode_matches_converged_covariance_mode() {
 
 /// The flight LQR `u = -K (x - x_ref)` (`control::lqr::state_feedback`), then the
 /// whole-vector gimbal-rate limit `max |u_i| <= u_max` (`math::scale_to_peak`).
-fn lqr_flight(k: &SMatrix<f32, 4, 6>, x: &SVector<f32, 6>, x_ref: &SVector<f32, 6>, u_max: Option<f32>) -> SVector<f32, 4> {
+fn lqr_flight(
+    k: &SMatrix<f32, 4, 6>,
+    x: &SVector<f32, 6>,
+    x_ref: &SVector<f32, 6>,
+    u_max: Option<f32>,
+) -> SVector<f32, 4> {
     let rows: [[f32; 6]; 4] = std::array::from_fn(|i| std::array::from_fn(|j| k[(i, j)]));
     let dx: [f32; 6] = std::array::from_fn(|i| x[i] - x_ref[i]);
     let mut u = state_feedback(&rows, &dx);

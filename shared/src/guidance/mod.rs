@@ -42,8 +42,10 @@ impl Target {
 pub fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
     match p.law {
         SteeringLaw::GeneralizedSr { omega_rad_s, .. } if omega_rad_s > 0.0 => {
+            // Float → integer `as` saturates (and maps NaN to 0); ω > 0 keeps it positive.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let period_us = ((core::f32::consts::TAU / omega_rad_s) * 1.0e6) as u64;
-            (time_us % period_us.max(1)) as f32 * 1.0e-6
+            time_us.checked_rem(period_us.max(1)).unwrap_or(0) as f32 * 1.0e-6
         }
         _ => 0.0,
     }

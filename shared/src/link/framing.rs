@@ -53,7 +53,7 @@ pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a 
     let n = postcard::to_slice(msg, &mut raw).map_err(|_| FrameError::BufferTooSmall)?.len();
     let (body, _) = raw.split_at_mut(n.min(MAX_PAYLOAD));
     let crc = CRC32.checksum(body).to_le_bytes();
-    let total = n + 4;
+    let total = n.saturating_add(4);
     let Some(dst) = raw.get_mut(n..total) else {
         return Err(FrameError::BufferTooSmall);
     };
@@ -61,7 +61,7 @@ pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a 
     let Some(src) = raw.get(..total) else {
         return Err(FrameError::BufferTooSmall);
     };
-    if out.len() < cobs::max_encoding_length(total) + 1 {
+    if out.len() < cobs::max_encoding_length(total).saturating_add(1) {
         return Err(FrameError::BufferTooSmall);
     }
     let enc = cobs::encode(src, out);
@@ -69,7 +69,7 @@ pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a 
         return Err(FrameError::BufferTooSmall);
     };
     *delim = 0;
-    out.get(..enc + 1).ok_or(FrameError::BufferTooSmall)
+    out.get(..enc.saturating_add(1)).ok_or(FrameError::BufferTooSmall)
 }
 
 /// Receive side: push bytes one at a time; every delimiter yields a message or a counted
@@ -104,7 +104,7 @@ impl<const N: usize> FrameAccumulator<N> {
             match self.buf.get_mut(self.len) {
                 Some(slot) => {
                     *slot = byte;
-                    self.len += 1;
+                    self.len = self.len.saturating_add(1);
                 }
                 None => self.overflow = true,
             }
@@ -141,7 +141,7 @@ impl<const N: usize> FrameAccumulator<N> {
         if n < 5 {
             return Err(FrameError::Short);
         }
-        let (body, crc) = data.split_at(n - 4);
+        let (body, crc) = data.split_at(n.saturating_sub(4));
         let mut c = [0u8; 4];
         c.copy_from_slice(crc);
         if CRC32.checksum(body) != u32::from_le_bytes(c) {

@@ -92,6 +92,11 @@ pub struct Failures {
     pub stuck_on: u32,
 }
 
+/// Bit `i` of a `u32` actuator mask (0 for `i >= 32`: no such actuator, no bit).
+pub fn bit_of(i: usize) -> u32 {
+    u32::try_from(i).ok().and_then(|s| 1u32.checked_shl(s)).unwrap_or(0)
+}
+
 impl Failures {
     pub const NONE: Self = Self { failed: 0, stuck_on: 0 };
     /// Failed-off thrusters from 1-based indices (as in the paper's text).
@@ -99,7 +104,7 @@ impl Failures {
         let mut failed = 0u32;
         for id in ids {
             if (1..=32).contains(id) {
-                failed |= 1u32 << (id - 1);
+                failed |= 1u32.checked_shl(u32::try_from(id.saturating_sub(1)).unwrap_or(u32::MAX)).unwrap_or(0);
             }
         }
         Self { failed, stuck_on: 0 }
@@ -161,7 +166,7 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
                 return None;
             };
             let p = g(&prow, c);
-            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c + 1) {
+            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c.saturating_add(1)) {
                 let f = g(row, c) / p;
                 for (x, y) in row.iter_mut().zip(prow.iter()) {
                     *x -= f * y;
@@ -173,7 +178,7 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
         for c in (0..3usize).rev() {
             let row = m.get(c).copied().unwrap_or([0.0; 3]);
             let mut acc = g(&v, c);
-            for (k, zk) in z.iter().enumerate().skip(c + 1) {
+            for (k, zk) in z.iter().enumerate().skip(c.saturating_add(1)) {
                 acc -= g(&row, k) * zk;
             }
             if let Some(zc) = z.get_mut(c) {
@@ -285,7 +290,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             }
         }
         for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
-            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            let bit = bit_of(i);
             if failures.failed & bit != 0 {
                 let v = if failures.stuck_on & bit != 0 { g(&self.u_max, i) } else { 0.0 };
                 *lo = v;
@@ -350,7 +355,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 *x = *hi;
             }
             let tol = SAT_TOL * (hi - lo);
-            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            let bit = bit_of(i);
             if *x <= lo + tol {
                 sat_low |= bit;
             }
@@ -390,7 +395,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
     pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N + 1);
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N.saturating_add(1));
         for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
             let mut acc = 0.0f32;
             for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
@@ -453,7 +458,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 }
                 *bi = -acc;
             }
-            r += 1;
+            r = r.saturating_add(1);
         }
         let sign = if maximise { -1.0 } else { 1.0 };
         for (l, ((c, h), (lo, hi))) in
@@ -486,7 +491,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 if let Some(f) = free.get_mut(nf) {
                     *f = j;
                 }
-                nf += 1;
+                nf = nf.saturating_add(1);
             }
         }
         if nf != 2 {

@@ -70,6 +70,8 @@ const SINGULAR_TOL: f32 = 1e-9;
 /// Default iteration cap `4 (rows + cols)`, saturating at `u16::MAX`.
 pub const fn default_iteration_cap(rows: usize, cols: usize) -> u16 {
     let k = 4usize.saturating_mul(rows.saturating_add(cols));
+    // `TryFrom` is not const: the comparison guards the narrowing.
+    #[allow(clippy::cast_possible_truncation)]
     if k > u16::MAX as usize { u16::MAX } else { k as u16 }
 }
 
@@ -597,7 +599,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             for (i, row) in bm.iter_mut().enumerate().take(m) {
                 let v = if *var < N {
                     self.a.get(i).map_or(0.0, |r| g(r, *var))
-                } else if *var - N == i {
+                } else if var.checked_sub(N) == Some(i) {
                     1.0
                 } else {
                     0.0
@@ -726,7 +728,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(m) {
                 let coef = if *var < N {
                     g(arow, *var)
-                } else if *var - N == i {
+                } else if var.checked_sub(N) == Some(i) {
                     1.0
                 } else {
                     0.0
