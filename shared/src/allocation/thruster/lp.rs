@@ -388,6 +388,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         match s {
             LpStatus::IterationCap => AllocStatus::IterationCap,
             LpStatus::NonFinite => AllocStatus::NonFinite,
+            LpStatus::InternalError => AllocStatus::InternalError,
             // Unbounded cannot occur (all h finite); treated as infeasible.
             LpStatus::Infeasible | LpStatus::Unbounded | LpStatus::Optimal => AllocStatus::Infeasible,
         }
@@ -562,6 +563,9 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         // Attainable: stage 2, minimum propellant with B u = m_d.
         let s2 = self.fuel_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
         it = it.saturating_add(s2.iterations);
+        if s2.status == LpStatus::InternalError {
+            return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+        }
         let u2 = Self::u_from_x(&s2.x, bd);
         let u = if s2.status == LpStatus::Optimal && self.fuel(&u2) <= self.fuel(&u1) {
             u2
