@@ -154,7 +154,7 @@ impl<const M: usize, const N: usize> Default for Lp<M, N> {
 /// An index outside its array inside the solver: a logic error, reported as
 /// [`LpStatus::InternalError`] (never a silent 0 or a dropped write).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Fault;
+pub struct Fault;
 
 impl From<Fault> for LpStatus {
     fn from(_: Fault) -> Self {
@@ -164,7 +164,7 @@ impl From<Fault> for LpStatus {
 
 /// `v[i]`, or [`Fault`].
 #[inline(always)]
-fn at<T: Copy, const K: usize>(v: &[T; K], i: usize) -> Result<T, Fault> {
+pub(crate) fn at<T: Copy, const K: usize>(v: &[T; K], i: usize) -> Result<T, Fault> {
     v.get(i).copied().ok_or(Fault)
 }
 
@@ -880,5 +880,23 @@ mod tests {
         assert_eq!(lp.solve().status, LpStatus::Unbounded);
         lp.b = [f32::NAN];
         assert_eq!(lp.solve().status, LpStatus::NonFinite);
+    }
+}
+
+#[cfg(test)]
+mod internal_error_tests {
+    use super::*;
+    use crate::allocation::AllocStatus;
+
+    #[test]
+    fn an_index_out_of_range_is_an_internal_error_not_a_plausible_number() {
+        assert_eq!(at(&[1.0f32; 2], 2), Err(Fault));
+        let mut v = [0.0f32; 2];
+        assert_eq!(put(&mut v, 5, 1.0), Err(Fault));
+        assert_eq!(v, [0.0; 2]);
+        assert_eq!(LpStatus::from(Fault), LpStatus::InternalError);
+        let al = crate::allocation::thruster::paper::paper_allocator(1.0);
+        assert_eq!(al.bodson_lp(&[1.0, 0.0, 0.0], 3, &al.nominal_bounds(), true).err(), Some(Fault));
+        assert_eq!(crate::fsw::report::alloc_status(AllocStatus::InternalError), crate::types::Status::ALLOC_FALLBACK);
     }
 }
