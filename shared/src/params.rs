@@ -522,23 +522,62 @@ impl ThrusterParams {
     }
 }
 
-impl FlightParams {
-    /// Check every field; the first offending field is reported.
+impl DmcsParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         use ParamField as F;
+        let d = self;
+        check_range(F::AttitudeGain, d.wn_rad_s, 1e-6, 1.0e3)?;
+        check_range(F::AttitudeGain, d.zeta, 1e-6, 1.0e3)?;
+        for i in d.model_inertia_kgm2 {
+            check_range(F::Inertia, i, 1e-9, 1.0e9)?;
+        }
+        check_range(F::RateGain, d.alpha, 0.0, 1.0e9)?;
+        check_range(F::RateGain, d.beta, 0.0, 1.0e9)?;
+        for q in d.q_weights {
+            check_range(F::RateGain, q, 1e-12, 1.0e9)?;
+        }
+        check_range(F::IntegralLimit, d.gain_limit, 1e-6, 1.0e12)?;
+        for t in d.torque_limit_nm {
+            check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+        }
+        Ok(())
+    }
+}
+
+impl LqgParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        let g = self;
+        for row in &g.k {
+            check_finite(F::AttitudeGain, row)?;
+        }
+        for row in g.a.iter().chain(g.l.iter()) {
+            check_finite(F::RateGain, row)?;
+        }
+        for row in &g.b {
+            check_finite(F::RateGain, row)?;
+        }
+        if g.time_varying {
+            for v in g.process_noise.iter().chain(g.p0_diag.iter()) {
+                check_range(F::RateGain, *v, 0.0, 1.0e6)?;
+            }
+            // The innovation covariance P⁻ + R must stay positive definite.
+            for v in g.measurement_noise {
+                check_range(F::RateGain, v, 1e-30, 1.0e6)?;
+            }
+        }
+        for t in g.torque_limit_nm {
+            check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
+        }
+        Ok(())
+    }
+}
+
+impl FlightParams {
+    /// The controller's gains and limits, and that it fits the actuator family.
+    fn validate_controller(&self) -> Result<(), ParamError> {
+        use ParamField as F;
         use ParamReason as R;
-        if self.version != PARAMS_VERSION {
-            return Err(err(F::Version, R::UnsupportedVersion));
-        }
-        check_range(F::ControlRate, self.control_rate_hz, 0.01, 10_000.0)?;
-        check_finite(F::Inertia, &flat(&self.inertia_kgm2))?;
-        let inertia = mat(&self.inertia_kgm2);
-        if !is_symmetric(&inertia) {
-            return Err(err(F::Inertia, R::NotSymmetric));
-        }
-        if !is_spd(&inertia) {
-            return Err(err(F::Inertia, R::NotPositiveDefinite));
-        }
         match &self.controller {
             ControllerParams::QuaternionFeedback(c) => c.validate()?,
             ControllerParams::DcmPd(c) | ControllerParams::EulerPd(c) => {
@@ -548,45 +587,8 @@ impl FlightParams {
                     check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
                 }
             }
-            ControllerParams::Dmcs(d) => {
-                check_range(F::AttitudeGain, d.wn_rad_s, 1e-6, 1.0e3)?;
-                check_range(F::AttitudeGain, d.zeta, 1e-6, 1.0e3)?;
-                for i in d.model_inertia_kgm2 {
-                    check_range(F::Inertia, i, 1e-9, 1.0e9)?;
-                }
-                check_range(F::RateGain, d.alpha, 0.0, 1.0e9)?;
-                check_range(F::RateGain, d.beta, 0.0, 1.0e9)?;
-                for q in d.q_weights {
-                    check_range(F::RateGain, q, 1e-12, 1.0e9)?;
-                }
-                check_range(F::IntegralLimit, d.gain_limit, 1e-6, 1.0e12)?;
-                for t in d.torque_limit_nm {
-                    check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
-                }
-            }
-            ControllerParams::Lqg(g) => {
-                for row in &g.k {
-                    check_finite(F::AttitudeGain, row)?;
-                }
-                for row in g.a.iter().chain(g.l.iter()) {
-                    check_finite(F::RateGain, row)?;
-                }
-                for row in &g.b {
-                    check_finite(F::RateGain, row)?;
-                }
-                if g.time_varying {
-                    for v in g.process_noise.iter().chain(g.p0_diag.iter()) {
-                        check_range(F::RateGain, *v, 0.0, 1.0e6)?;
-                    }
-                    // The innovation covariance P⁻ + R must stay positive definite.
-                    for v in g.measurement_noise {
-                        check_range(F::RateGain, v, 1e-30, 1.0e6)?;
-                    }
-                }
-                for t in g.torque_limit_nm {
-                    check_range(F::TorqueLimit, t, 1e-9, 1.0e6)?;
-                }
-            }
+            ControllerParams::Dmcs(d) => d.validate()?,
+            ControllerParams::Lqg(g) => g.validate()?,
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 for row in k {
                     check_finite(F::AttitudeGain, row)?;
@@ -619,6 +621,26 @@ impl FlightParams {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// Check every field; the first offending field is reported.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        use ParamReason as R;
+        if self.version != PARAMS_VERSION {
+            return Err(err(F::Version, R::UnsupportedVersion));
+        }
+        check_range(F::ControlRate, self.control_rate_hz, 0.01, 10_000.0)?;
+        check_finite(F::Inertia, &flat(&self.inertia_kgm2))?;
+        let inertia = mat(&self.inertia_kgm2);
+        if !is_symmetric(&inertia) {
+            return Err(err(F::Inertia, R::NotSymmetric));
+        }
+        if !is_spd(&inertia) {
+            return Err(err(F::Inertia, R::NotPositiveDefinite));
+        }
+        self.validate_controller()?;
         match &self.actuator {
             ActuatorParams::Cmg { cmg, steering } => validate_cmg(cmg, steering)?,
             ActuatorParams::Wheels(w) => w.validate()?,

@@ -97,7 +97,19 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
         active &= !newly_blocked;
         r.unrealised |= newly_blocked;
     }
-    // Torque limit: scale everything (body-torque direction kept, null part stays null).
+    limit_and_report(p, n, u, torque_nm, status, r)
+}
+
+/// Torque limit (everything scaled: body-torque direction kept, null part stays null),
+/// then the realised torque, saturation and status of the commands `u`.
+fn limit_and_report(
+    p: &WheelParams,
+    n: usize,
+    mut u: [f32; MAX_WHEELS],
+    torque_nm: &Vec3,
+    status: AllocStatus,
+    mut r: AllocResult<MAX_WHEELS>,
+) -> AllocResult<MAX_WHEELS> {
     let peak = u.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
     let s = if peak > p.max_torque_nm { p.max_torque_nm / peak } else { 1.0 };
     let mut realised = Vec3::zeros();

@@ -198,6 +198,23 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
     })
 }
 
+/// `k = argmax |m_i|` (first on ties), `|m_k|` and `m̂ = m_d / |m_k|`.
+fn normalised_demand(m_d: &[f32; AXES]) -> (usize, f32, [f32; AXES]) {
+    let mut k = 0usize;
+    let mut mk = 0.0f32;
+    for (i, v) in m_d.iter().enumerate() {
+        if v.abs() > mk {
+            mk = v.abs();
+            k = i;
+        }
+    }
+    let mut m_hat = [0.0f32; AXES];
+    for (h, v) in m_hat.iter_mut().zip(m_d.iter()) {
+        *h = v / mk;
+    }
+    (k, mk, m_hat)
+}
+
 /// The allocator: effectiveness matrix `B` (3 × N, moment per unit command) and
 /// nominal limits. `NV` must equal `N + 1` (the λ column of eq 16); this is checked
 /// at compile time. `N <= 32` (bitmasks).
@@ -575,6 +592,19 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Bodson's direction-preserving method (reduced LP, solution scaled from the
     /// boundary). See the module docs.
+    /// Zero (or subnormal) demand: zero command if admissible, else the least-fuel
+    /// admissible command with zero moment.
+    fn zero_demand(&self, m_d: &[f32; AXES], bd: &Bounds<N>, zero_ok: bool) -> AllocResult<N> {
+        if zero_ok {
+            return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
+        }
+        let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
+        if s.status != LpStatus::Optimal {
+            return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
+        }
+        self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations)
+    }
+
     pub fn bodson(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
         if !self.inputs_finite(m_d, bd) {
             return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
@@ -583,19 +613,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let zero_ok = Self::zero_admissible(bd);
-        // k = argmax |m_i| (first on ties), m̂ = m_d / |m_k|.
-        let mut k = 0usize;
-        let mut mk = 0.0f32;
-        for (i, v) in m_d.iter().enumerate() {
-            if v.abs() > mk {
-                mk = v.abs();
-                k = i;
-            }
-        }
-        let mut m_hat = [0.0f32; AXES];
-        for (h, v) in m_hat.iter_mut().zip(m_d.iter()) {
-            *h = v / mk;
-        }
+        let (k, mk, m_hat) = normalised_demand(m_d);
         let mm: f32 = m_hat.iter().map(|v| v * v).sum();
         let lambda_of = |u: &[f32; N]| -> f32 {
             let bu = self.moment(u);
@@ -603,15 +621,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             p / mm / mk
         };
         if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
-            // Zero (or subnormal) demand.
-            if zero_ok {
-                return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
-            }
-            let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
-            if s.status != LpStatus::Optimal {
-                return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
-            }
-            return self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations);
+            return self.zero_demand(m_d, bd, zero_ok);
         }
         let Ok(lp_hi) = self.bodson_lp(&m_hat, k, bd, true) else {
             return self.fallback(m_d, bd, AllocStatus::InternalError, 0);

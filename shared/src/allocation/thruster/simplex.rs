@@ -200,36 +200,74 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         self.solve_with_cap(default_iteration_cap(m, n))
     }
 
-    /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
-    pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
-        let m = if self.rows < M { self.rows } else { M };
-        let n = if self.cols < N { self.cols } else { N };
-
-        // ---- validation ------------------------------------------------------
+    /// Input validation: `Err` with the status to report (no iterations).
+    fn check_inputs(&self, m: usize, n: usize) -> Result<(), LpStatus> {
         for (row, bi) in self.a.iter().zip(self.b.iter()).take(m) {
             if !bi.is_finite() || row.iter().take(n).any(|v| !v.is_finite()) {
-                return LpSolution::failed(LpStatus::NonFinite, 0);
+                return Err(LpStatus::NonFinite);
             }
         }
         for (cj, hj) in self.c.iter().zip(self.h.iter()).take(n) {
             if !cj.is_finite() || hj.is_nan() || *hj == f32::NEG_INFINITY {
-                return LpSolution::failed(LpStatus::NonFinite, 0);
+                return Err(LpStatus::NonFinite);
             }
         }
         if self.h.iter().take(n).any(|hj| *hj < 0.0) {
-            return LpSolution::failed(LpStatus::Infeasible, 0);
+            return Err(LpStatus::Infeasible);
+        }
+        Ok(())
+    }
+
+    /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
+    pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
+        let m = if self.rows < M { self.rows } else { M };
+        let n = if self.cols < N { self.cols } else { N };
+        if let Err(e) = self.check_inputs(m, n) {
+            return LpSolution::failed(e, 0);
+        }
+        let (mut sv, s, bmax) = match self.scaled(m, n, cap) {
+            Ok(x) => x,
+            Err(e) => return LpSolution::failed(e, 0),
+        };
+
+        // ---- phase 1 ---------------------------------------------------------
+        sv.phase1 = true;
+        if let Err(e) = sv.run_phase() {
+            return sv.extract(e, &s, self);
+        }
+        let mut infeas = 0.0f32;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
+            if *var >= N {
+                infeas += *xb;
+            }
+        }
+        if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
+            return sv.extract(LpStatus::Infeasible, &s, self);
         }
 
-        // ---- scaling ---------------------------------------------------------
+        // ---- phase 2 ---------------------------------------------------------
+        sv.phase1 = false;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter_mut()).take(m) {
+            if *var >= N {
+                *xb = 0.0;
+            }
+        }
+        match sv.run_phase() {
+            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
+            Err(e) => sv.extract(e, &s, self),
+        }
+    }
+
+    /// The scaled problem (see the module docs) in a fresh solver with the artificial
+    /// basis: `(solver, column scales s, max scaled b)`.
+    fn scaled(&self, m: usize, n: usize, cap: u16) -> Result<(Solver<M, N>, [f32; N], f32), LpStatus> {
         let mut s = [1.0f32; N]; // x_j = s_j y_j
         let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
         for (j, ((sj, hsj), &hj)) in s.iter_mut().zip(hs.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
             if hj == f32::INFINITY {
                 let mut colmax = 0.0f32;
                 for row in self.a.iter().take(m) {
-                    let Ok(v) = at(row, j) else {
-                        return LpSolution::failed(LpStatus::InternalError, 0);
-                    };
+                    let v = at(row, j)?;
                     if v.abs() > colmax {
                         colmax = v.abs();
                     }
@@ -286,38 +324,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             && sv.c.iter().all(|v| v.is_finite())
             && s.iter().all(|v| v.is_finite());
         if !scaled_ok {
-            return LpSolution::failed(LpStatus::NonFinite, 0);
+            return Err(LpStatus::NonFinite);
         }
-        if sv.init_basis().is_err() {
-            return LpSolution::failed(LpStatus::InternalError, 0);
-        }
-
-        // ---- phase 1 ---------------------------------------------------------
-        sv.phase1 = true;
-        if let Err(e) = sv.run_phase() {
-            return sv.extract(e, &s, self);
-        }
-        let mut infeas = 0.0f32;
-        for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
-            if *var >= N {
-                infeas += *xb;
-            }
-        }
-        if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
-            return sv.extract(LpStatus::Infeasible, &s, self);
-        }
-
-        // ---- phase 2 ---------------------------------------------------------
-        sv.phase1 = false;
-        for (var, xb) in sv.basis.iter().zip(sv.xb.iter_mut()).take(m) {
-            if *var >= N {
-                *xb = 0.0;
-            }
-        }
-        match sv.run_phase() {
-            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
-            Err(e) => sv.extract(e, &s, self),
-        }
+        sv.init_basis()?;
+        Ok((sv, s, bmax))
     }
 }
 
@@ -587,9 +597,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(())
     }
 
-    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
-    /// Returns false (and changes nothing) if the basis matrix is numerically singular.
-    fn refactor(&mut self) -> Result<bool, Fault> {
+    /// `B⁻¹` of the current basis by Gauss-Jordan with partial pivoting; `None` if
+    /// numerically singular or not finite.
+    fn basis_inverse(&self) -> Result<Option<[[f32; M]; M]>, Fault> {
         let m = self.m;
         // Basis matrix, column k = column of basis[k].
         let mut bm = [[0.0f32; M]; M];
@@ -621,7 +631,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
             if !(best > SINGULAR_TOL) {
-                return Ok(false);
+                return Ok(None);
             }
             if p != col {
                 bm.swap(p, col);
@@ -649,8 +659,18 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             }
         }
         if !inv.iter().all(|r| r.iter().all(|v| v.is_finite())) {
-            return Ok(false);
+            return Ok(None);
         }
+        Ok(Some(inv))
+    }
+
+    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
+    /// Returns false (and changes nothing) if the basis matrix is numerically singular.
+    fn refactor(&mut self) -> Result<bool, Fault> {
+        let m = self.m;
+        let Some(inv) = self.basis_inverse()? else {
+            return Ok(false);
+        };
         // rhs = b - Σ_{nonbasic at upper} a_j h_j
         let mut rhs = self.b;
         for (ri, row) in rhs.iter_mut().zip(self.a.iter()).take(m) {
