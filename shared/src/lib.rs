@@ -64,7 +64,6 @@ pub mod link;
 pub mod math;
 pub mod modes;
 pub mod params;
-pub mod steering;
 pub mod types;
 
 /// Historical paths of the link modules (callers in the simulator and firmware).

@@ -3,6 +3,7 @@
 //! returns one [`Allocation`]: the family's commands in full, the torque they realise,
 //! saturation and status. CMG steering is one family like the others.
 
+use super::cmg::{CmgPyramid, GimbalLimits, GimbalTrig, limit_rates};
 use super::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use super::{AXES, AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::math::Vec3;
@@ -10,7 +11,6 @@ use crate::params::{
     ActuatorParams, MAX_THRUSTERS, MAX_WHEELS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
     ThrusterMethod, ThrusterParams, WheelParams,
 };
-use crate::steering::cmg::{CmgPyramid, GimbalLimits, GimbalTrig, limit_rates};
 use crate::types::{Demand, Measurements, Setpoint, Status, Valid};
 
 /// Thruster allocator at the configured capacity (`N + 1` LP columns: thrusters and λ).

@@ -4,11 +4,13 @@
 //!
 //! - [`wheels`]: reaction-wheel pseudo-inverse with null-space momentum management;
 //! - [`magnetorquers`]: the cross-product dipole law (paper 003 eqs 21-22);
+//! - [`cmg`]: the CMG pyramid (paper 000 eqs 6-8) and its steering laws (eqs 11-14, GSR);
 //! - [`thruster`]: bounded-variable simplex LP (paper 004) and PWPF modulation.
 //!
 //! [`family`] puts every family behind one trait ([`family::ActuatorFamily`]) with one
-//! result ([`family::Allocation`]); the CMG steering (`crate::steering::cmg`) is one of them.
+//! result ([`family::Allocation`]); the CMG steering ([`cmg`]) is one of them.
 
+pub mod cmg;
 pub mod family;
 pub mod magnetorquers;
 pub mod thruster;
