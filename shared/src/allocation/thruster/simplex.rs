@@ -225,7 +225,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         if let Err(e) = self.check_inputs(m, n) {
             return LpSolution::failed(e, 0);
         }
-        let (mut sv, s, bmax) = match self.scaled(m, n, cap) {
+        // Built in place and filled by reference: the solver is ~0.5 kB, and moving it
+        // through a return value costs a memcpy per solve on the MCU.
+        let mut sv = Solver::<M, N>::new(m, n, cap);
+        let (s, bmax) = match self.scale_into(&mut sv, m, n) {
             Ok(x) => x,
             Err(e) => return LpSolution::failed(e, 0),
         };
@@ -258,9 +261,9 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         }
     }
 
-    /// The scaled problem (see the module docs) in a fresh solver with the artificial
-    /// basis: `(solver, column scales s, max scaled b)`.
-    fn scaled(&self, m: usize, n: usize, cap: u16) -> Result<(Solver<M, N>, [f32; N], f32), LpStatus> {
+    /// The scaled problem (see the module docs) into the fresh solver `sv`, with the
+    /// artificial basis: `(column scales s, max scaled b)`.
+    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<([f32; N], f32), LpStatus> {
         let mut s = [1.0f32; N]; // x_j = s_j y_j
         let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
         for (j, ((sj, hsj), &hj)) in s.iter_mut().zip(hs.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
@@ -282,7 +285,6 @@ impl<const M: usize, const N: usize> Lp<M, N> {
                 *hsj = 0.0;
             }
         }
-        let mut sv = Solver::<M, N>::new(m, n, cap);
         sv.dantzig = self.pricing == Pricing::DantzigBland;
         sv.h = hs;
         let mut bmax = 0.0f32;
@@ -327,7 +329,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             return Err(LpStatus::NonFinite);
         }
         sv.init_basis()?;
-        Ok((sv, s, bmax))
+        Ok((s, bmax))
     }
 }
 
