@@ -623,10 +623,11 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
             return self.zero_demand(m_d, bd, zero_ok);
         }
-        let Ok(lp_hi) = self.bodson_lp(&m_hat, k, bd, true) else {
-            return self.fallback(m_d, bd, AllocStatus::InternalError, 0);
+        // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
+        let s_hi = match &self.bodson_lp(&m_hat, k, bd, true) {
+            Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+            Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
         };
-        let s_hi = lp_hi.solve_with_cap(self.lp_iteration_cap);
         let mut it = s_hi.iterations;
         if s_hi.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s_hi.status), it);
@@ -646,10 +647,10 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (u_lo, l_lo) = if zero_ok {
             ([0.0f32; N], 0.0f32)
         } else {
-            let Ok(lp_lo) = self.bodson_lp(&m_hat, k, bd, false) else {
-                return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+            let s_lo = match &self.bodson_lp(&m_hat, k, bd, false) {
+                Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+                Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, it),
             };
-            let s_lo = lp_lo.solve_with_cap(self.lp_iteration_cap);
             it = it.saturating_add(s_lo.iterations);
             if s_lo.status != LpStatus::Optimal {
                 return self.fallback(m_d, bd, Self::lp_fail(s_lo.status), it);
