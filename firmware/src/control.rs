@@ -20,7 +20,15 @@ use crate::state::{self, SharedSession, SharedTx};
 /// Control period for a validated rate (0.01 … 10 000 Hz), rounded to whole µs ticks.
 fn period_of(rate_hz: f32) -> Duration {
     let us = 1.0e6f64 / f64::from(rate_hz.max(0.01)) + 0.5;
-    Duration::from_micros((us as u64).max(1))
+    // Float → integer `as` saturates; `us` is positive and far below u64::MAX.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let us = us as u64;
+    Duration::from_micros(us.max(1))
+}
+
+/// `t + d`, saturating at the end of time (embassy's `+` panics on overflow).
+fn advance(t: Instant, d: Duration) -> Instant {
+    t.checked_add(d).unwrap_or(Instant::MAX)
 }
 
 /// Periods that ended in `(release, now]`, i.e. deadlines missed by work released at
@@ -28,7 +36,7 @@ fn period_of(rate_hz: f32) -> Duration {
 fn periods_elapsed(release: Instant, now: Instant, period: Duration) -> u64 {
     let p = period.as_ticks().max(1);
     now.checked_duration_since(release)
-        .map_or(0, |d| d.as_ticks() / p)
+        .map_or(0, |d| d.as_ticks().checked_div(p).unwrap_or(0))
 }
 
 #[embassy_executor::task]
@@ -50,7 +58,7 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
     // Nominal release time of the period the next tick starts.
     let mut release = Instant::now();
     ticker.reset_at(release);
-    release += period;
+    release = advance(release, period);
     defmt::info!(
         "control task: {=f32} Hz, period {=u64} us",
         rate_hz,
@@ -98,7 +106,9 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         let missed_in_step = periods_elapsed(release, Instant::now(), period);
         let report = {
             let mut s = session.lock().await;
-            s.deadline_misses = s.deadline_misses.saturating_add(missed_in_step as u32);
+            // A miss count beyond u32 saturates the (saturating) counter.
+            let n = u32::try_from(missed_in_step).unwrap_or(u32::MAX);
+            s.deadline_misses = s.deadline_misses.saturating_add(n);
             s.report(cmd, cost, state::frames_dropped())
         };
         state::send(tx, &FswMsg::Step(report)).await;
@@ -107,18 +117,17 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         let missed = periods_elapsed(release, Instant::now(), period);
         if missed > missed_in_step {
             let mut s = session.lock().await;
-            s.deadline_misses = s
-                .deadline_misses
-                .saturating_add((missed - missed_in_step) as u32);
+            let n = u32::try_from(missed.saturating_sub(missed_in_step)).unwrap_or(u32::MAX);
+            s.deadline_misses = s.deadline_misses.saturating_add(n);
         }
         if missed > 0 {
             defmt::warn!("deadline missed: {=u64} period(s)", missed);
             let skip = Duration::from_ticks(period.as_ticks().saturating_mul(missed));
-            release += skip;
+            release = advance(release, skip);
             // Next tick at the first boundary still ahead of us.
             ticker.reset_at(release);
         }
-        release += period;
+        release = advance(release, period);
 
         if new_rate.to_bits() != rate_hz.to_bits() {
             rate_hz = new_rate;
@@ -126,7 +135,7 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
             ticker = Ticker::every(period);
             release = Instant::now();
             ticker.reset_at(release);
-            release += period;
+            release = advance(release, period);
             defmt::info!("control rate now {=f32} Hz", rate_hz);
         }
     }

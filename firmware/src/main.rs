@@ -9,12 +9,7 @@
 //! - `control::control_task` runs the real-time loop after `StartRealTime`.
 #![no_std]
 #![no_main]
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
+// Lints: the `[lints]` table of firmware/Cargo.toml (flight rules).
 
 mod board;
 mod control;

@@ -5,31 +5,69 @@
 //! host build and the MCU build produce the same bits.
 //!
 //! Architecture:
-//! - [`math`]: the one quaternion convention of the project and Euler conversions.
-//! - [`control`]: control laws producing a desired body torque.
-//! - [`estimation`]: state estimators (linear Kalman filter) and LQR state feedback.
-//! - [`steering`]: maps a body torque onto an actuator set (CMG pyramid here).
-//! - [`params`]: the typed, versioned, checksummed flight parameter set.
-//! - [`protocol`]: wire messages and the COBS + CRC framing of the host link.
-//! - [`modes`]: the mode manager (detumble → stabilise → manoeuvre → hold).
+//! The module tree is the data path of one step (`Fsw::step`: validate → mode → estimate
+//! → guide → control → allocate → report):
+//! - [`types`]: what the algorithms exchange (measurements, set point, demand, the typed
+//!   flag sets [`types::Valid`] and [`types::Status`]);
+//! - [`math`]: the one quaternion convention of the project and Euler conversions;
+//! - [`modes`]: the mode manager (detumble → stabilise → manoeuvre → hold);
+//! - [`estimation`]: state estimators (linear Kalman filter, the LQG estimator);
+//! - [`guidance`]: target and reference frames, the GSR dither clock;
+//! - [`control`]: attitude laws behind one trait, each owning its state;
+//! - [`allocation`]: every actuator family (CMG steering included) behind one trait with
+//!   one result type;
+//! - [`params`]: the typed, versioned, checksummed flight parameter set;
+//! - [`link`]: wire messages, COBS + CRC framing, the flight side of a session
+//!   (`protocol` and `session` are its historical paths);
 //! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
 #![cfg_attr(not(feature = "std"), no_std)]
-#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
-#![cfg_attr(test, allow(clippy::unwrap_used, clippy::expect_used, clippy::indexing_slicing, clippy::panic))]
-// `!(x > y)` is used on purpose in numerical code: it is also true for NaN (fail-safe).
-#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Flight rules on top of the workspace baseline (`[workspace.lints]` in the root
+// Cargo.toml; a crate cannot extend that table, hence crate attributes): no panics
+// (unwrap/expect/panic/out-of-range indexing), no truncating, sign-losing or wrapping
+// casts (`try_from` with a documented fallback instead), no unchecked integer arithmetic
+// (checked/saturating forms). nalgebra's float operators are exempt from
+// `arithmetic_side_effects` (shared/clippy.toml). The firmware repeats these in its
+// `[lints]` table. Unit tests may unwrap and index.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::cast_possible_truncation,
+    clippy::cast_sign_loss,
+    clippy::cast_possible_wrap,
+    clippy::arithmetic_side_effects
+)]
+#![cfg_attr(
+    test,
+    allow(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::indexing_slicing,
+        clippy::panic,
+        clippy::cast_possible_truncation,
+        clippy::cast_sign_loss,
+        clippy::cast_possible_wrap,
+        clippy::arithmetic_side_effects
+    )
+)]
 // No heap in flight code: large enum variants cannot be boxed, and they are all `Copy` data.
 #![allow(clippy::large_enum_variant)]
 
 pub mod allocation;
+pub mod checksum;
 pub mod control;
 pub mod estimation;
 pub mod fsw;
+pub mod guidance;
+pub mod link;
 pub mod math;
 pub mod modes;
 pub mod params;
-pub mod protocol;
-pub mod session;
-pub mod steering;
+pub mod types;
+
+/// Historical paths of the link modules (callers in the simulator and firmware).
+pub use link as protocol;
+pub use link::session;
 
 pub use fsw::Fsw;

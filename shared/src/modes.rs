@@ -59,7 +59,7 @@ impl Mode {
 
     /// Telemetry code (`ActuatorCommand::mode`): 1 … 4; 0 is [`MODE_NONE`].
     pub const fn code(self) -> u8 {
-        self as u8 + 1
+        (self as u8).saturating_add(1)
     }
 
     pub fn from_code(c: u8) -> Option<Mode> {
@@ -240,7 +240,9 @@ pub struct ModeManager {
 
 fn steps_for(seconds: f32, dt_s: f32) -> u32 {
     let n = libm::ceilf(seconds / dt_s);
-    // Validated inputs keep this finite; `as` saturates anyway.
+    // Validated inputs keep this finite and positive; float → integer `as` saturates
+    // (negative → 0) anyway.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     if n.is_finite() { n as u32 } else { u32::MAX }
 }
 

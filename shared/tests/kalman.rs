@@ -2,7 +2,9 @@
 //! filter untouched, singular innovation, mode switching, limited LQR. The comparisons
 //! against the f64 DARE, Monte Carlo NEES and the LQG loop are in
 //! `sim-host/tests/flight_kalman.rs` (they need `sim_host::design`).
-use acs_flight::estimation::kalman::{KalmanFilter, KfError, LinearModel, lqr_apply, lqr_apply_limited};
+use acs_flight::control::lqr::state_feedback;
+use acs_flight::estimation::kalman::{KalmanFilter, KfError, LinearModel};
+use acs_flight::math::scale_to_peak;
 use nalgebra::{SMatrix, SVector};
 
 /// Double integrator, dt = 0.1 s, closed-form ZOH and Van Loan noise (acceleration PSD q).
@@ -93,15 +95,16 @@ fn steady_state_mode_and_back() {
 }
 
 #[test]
-fn lqr_apply_limited_scales_the_whole_command() {
-    let k = SMatrix::<f32, 2, 2>::new(2.0, 1.0, -1.0, 3.0);
-    let x = SVector::from([1.0, 0.5]);
-    let xr = SVector::from([0.5, 0.0]);
-    let u = lqr_apply(&k, &x, &xr);
-    assert_eq!(u, SVector::from([-1.5, -1.0]));
-    assert_eq!(lqr_apply_limited(&k, &x, &xr, 10.0), Ok(u));
-    let ul = lqr_apply_limited(&k, &x, &xr, 0.3).unwrap();
-    assert!((ul - u * 0.2).norm() < 1e-6);
-    assert_eq!(lqr_apply_limited(&k, &x, &xr, f32::NAN), Err(KfError::NonFiniteParameter));
-    assert_eq!(lqr_apply_limited(&k, &SVector::from([f32::NAN, 0.0]), &xr, 1.0), Err(KfError::NonFiniteInput));
+fn lqr_feedback_and_peak_limit_scale_the_whole_command() {
+    // The flight LQR (`control::lqr`) with the whole-vector limiter the gimbal rates use.
+    let k = [[2.0f32, 1.0], [-1.0, 3.0]];
+    let (x, xr) = ([1.0f32, 0.5], [0.5f32, 0.0]);
+    let u = state_feedback(&k, &[x[0] - xr[0], x[1] - xr[1]]);
+    assert_eq!(u, [-1.5, -1.0]);
+    let mut ul = u;
+    assert!(!scale_to_peak(&mut ul, 10.0));
+    assert_eq!(ul, u);
+    let mut ul = u;
+    assert!(scale_to_peak(&mut ul, 0.3));
+    assert!(ul.iter().zip(u).all(|(a, b)| (a - b * 0.2).abs() < 1e-6));
 }

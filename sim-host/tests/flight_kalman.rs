@@ -1,6 +1,8 @@
 //! The f32 flight filter against the f64 design tools: covariance convergence to the DARE,
 //! NEES consistency over Monte Carlo runs, rejection of bad data, steady-state mode, LQR.
-use acs_flight::estimation::kalman::{KalmanFilter, KfError, LinearModel, lqr_apply, lqr_apply_limited};
+use acs_flight::control::lqr::state_feedback;
+use acs_flight::estimation::kalman::{KalmanFilter, KfError, LinearModel};
+use acs_flight::math::scale_to_peak;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, dmatrix};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -251,6 +253,23 @@ fn steady_state_mode_matches_converged_covariance_mode() {
     assert!(worst < 1e-2);
 }
 
+/// The flight LQR `u = -K (x - x_ref)` (`control::lqr::state_feedback`), then the
+/// whole-vector gimbal-rate limit `max |u_i| <= u_max` (`math::scale_to_peak`).
+fn lqr_flight(
+    k: &SMatrix<f32, 4, 6>,
+    x: &SVector<f32, 6>,
+    x_ref: &SVector<f32, 6>,
+    u_max: Option<f32>,
+) -> SVector<f32, 4> {
+    let rows: [[f32; 6]; 4] = std::array::from_fn(|i| std::array::from_fn(|j| k[(i, j)]));
+    let dx: [f32; 6] = std::array::from_fn(|i| x[i] - x_ref[i]);
+    let mut u = state_feedback(&rows, &dx);
+    if let Some(m) = u_max {
+        scale_to_peak(&mut u, m);
+    }
+    SVector::from(u)
+}
+
 #[test]
 fn lqr_apply_matches_design_and_limits() {
     let plant = Plant::paper002();
@@ -263,16 +282,17 @@ fn lqr_apply_matches_design_and_limits() {
     let u64v = -(&k * (&x - &xr));
     let xf = SVector::<f32, 6>::from_fn(|i, _| x[i] as f32);
     let xrf = SVector::<f32, 6>::from_fn(|i, _| xr[i] as f32);
-    let u = lqr_apply(&kf32, &xf, &xrf);
+    let u = lqr_flight(&kf32, &xf, &xrf, None);
     for i in 0..4 {
         assert!((u[i] as f64 - u64v[i]).abs() <= 1e-5 * u64v.abs().max());
     }
-    let ul = lqr_apply_limited(&kf32, &xf, &xrf, 0.12).unwrap();
+    let ul = lqr_flight(&kf32, &xf, &xrf, Some(0.12));
     let peak = ul.abs().max();
     assert!(peak <= 0.12 + 1e-7 && (u.normalize() - ul.normalize()).norm() < 1e-5);
     let mut bad = xf;
     bad[2] = f32::NAN;
-    assert_eq!(lqr_apply_limited(&kf32, &bad, &xrf, 0.12), Err(KfError::NonFiniteInput));
+    // Non-finite state: the command is non-finite, which `Fsw::step` reports as LAW_FAULT.
+    assert!(!lqr_flight(&kf32, &bad, &xrf, Some(0.12)).iter().all(|v| v.is_finite()));
 }
 
 /// LQG on the discretised paper-002 plant, all flight-side maths in f32: steady-state
@@ -300,7 +320,7 @@ fn lqg_closed_loop_paper002() {
     for step in 0..1200 {
         let z = &plant.c * &x + gauss(&mut rng, &lr);
         f.update(&SVector::<f32, 3>::from_fn(|i, _| z[i] as f32)).unwrap();
-        let u = lqr_apply_limited(&kf32, f.state(), &SVector::zeros(), paper002::GIMBAL_RATE_MAX as f32).unwrap();
+        let u = lqr_flight(&kf32, f.state(), &SVector::zeros(), Some(paper002::GIMBAL_RATE_MAX as f32));
         let ud = DVector::from_fn(4, |i, _| u[i] as f64);
         x = &plant.ad * &x + &plant.bd * &ud + gauss(&mut rng, &lq);
         f.predict(&u).unwrap();

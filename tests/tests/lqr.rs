@@ -74,7 +74,7 @@ fn paper002_lqg_with_sensor_noise_performs_nearly_as_lqr() {
 
 #[test]
 fn time_varying_lqg_filter_converges_to_the_steady_state_gain_and_flies_the_same() {
-    use acs_flight::control::LqgEstimator;
+    use acs_flight::estimation::LqgEstimator;
     use acs_flight::math::Vec3;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};

@@ -233,7 +233,9 @@ extern "C" fn uart0_rx_isr() {
             RX_PAUSED.store(true, Ordering::Release);
             break;
         }
-        RX_RING.push(rd(UART_DATA) as u8);
+        // The received character is the low byte of DATA.
+        let [byte, ..] = rd(UART_DATA).to_le_bytes();
+        RX_RING.push(byte);
     }
     RX_WAKER.wake();
 }
@@ -256,12 +258,12 @@ pub struct LinkTx {
 
 impl LinkRx {
     fn drain(&mut self, buf: &mut [u8]) -> usize {
-        let mut n = 0;
+        let mut n = 0usize;
         for slot in buf.iter_mut() {
             match RX_RING.pop() {
                 Some(b) => {
                     *slot = b;
-                    n += 1;
+                    n = n.saturating_add(1);
                 }
                 None => break,
             }
@@ -408,7 +410,8 @@ impl QemuTimeDriver {
                 next = queue.next_expiration(now);
                 continue;
             }
-            let ticks = (next - now)
+            let ticks = next
+                .saturating_sub(now)
                 .saturating_mul(COUNTER_TICKS_PER_US)
                 .clamp(2, SYST_MAX_RELOAD + 1);
             // Fires after `ticks` 40 ns periods: never before `next` (now_us rounds down).

@@ -4,11 +4,14 @@
 //!
 //! - [`wheels`]: reaction-wheel pseudo-inverse with null-space momentum management;
 //! - [`magnetorquers`]: the cross-product dipole law (paper 003 eqs 21-22);
+//! - [`cmg`]: the CMG pyramid (paper 000 eqs 6-8) and its steering laws (eqs 11-14, GSR);
 //! - [`thruster`]: bounded-variable simplex LP (paper 004) and PWPF modulation.
 //!
-//! CMG steering (gimbal rates) lives in `crate::steering` and reports through the same
-//! [`AllocResult`].
+//! [`family`] puts every family behind one trait ([`family::ActuatorFamily`]) with one
+//! result ([`family::Allocation`]); the CMG steering ([`cmg`]) is one of them.
 
+pub mod cmg;
+pub mod family;
 pub mod magnetorquers;
 pub mod thruster;
 pub mod wheels;
@@ -34,6 +37,9 @@ pub enum AllocStatus {
     /// The actuator geometry cannot produce torque about some axis (rank < 3: CMG
     /// singularity, too few healthy wheels, |B| ≈ 0 for magnetorquers). Best effort.
     Singular,
+    /// A logic error inside the allocator (an index out of range): detected, not turned
+    /// into a plausible wrong number. Fallback used, reported as `ALLOC_FALLBACK`.
+    InternalError,
 }
 
 /// Result of every allocation method.

@@ -35,12 +35,14 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
         r.status = AllocStatus::NonFinite;
         return r;
     }
-    let mut active: u32 = ((1u32 << n) - 1) & !u32::from(p.failed_mask);
+    // n <= MAX_WHEELS < 32: the shift cannot overflow (a full mask otherwise).
+    let all = 1u32.checked_shl(u32::try_from(n).unwrap_or(u32::MAX)).map_or(u32::MAX, |b| b.wrapping_sub(1));
+    let mut active: u32 = all & !u32::from(p.failed_mask);
     let mut u = [0.0f32; MAX_WHEELS];
     let mut status = AllocStatus::Ok;
     // Bounded: each pass removes at least one wheel or ends.
     for pass in 0..=MAX_WHEELS {
-        r.iterations = pass as u16 + 1;
+        r.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
         let mut m = Mat3::zeros();
         for i in 0..n {
             if active & (1 << i) != 0 {
@@ -95,7 +97,19 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
         active &= !newly_blocked;
         r.unrealised |= newly_blocked;
     }
-    // Torque limit: scale everything (body-torque direction kept, null part stays null).
+    limit_and_report(p, n, u, torque_nm, status, r)
+}
+
+/// Torque limit (everything scaled: body-torque direction kept, null part stays null),
+/// then the realised torque, saturation and status of the commands `u`.
+fn limit_and_report(
+    p: &WheelParams,
+    n: usize,
+    mut u: [f32; MAX_WHEELS],
+    torque_nm: &Vec3,
+    status: AllocStatus,
+    mut r: AllocResult<MAX_WHEELS>,
+) -> AllocResult<MAX_WHEELS> {
     let peak = u.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
     let s = if peak > p.max_torque_nm { p.max_torque_nm / peak } else { 1.0 };
     let mut realised = Vec3::zeros();

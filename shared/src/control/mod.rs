@@ -1,17 +1,21 @@
 //! Control laws. Each produces a desired body torque (N m, body axes) from the attitude
-//! estimate; steering/allocation turns it into actuator commands.
+//! estimate; allocation turns it into actuator commands. [`law`] puts them behind one
+//! interface ([`AttitudeLaw`]) with their state.
 
 pub mod dcm_pd;
 pub mod dmcs;
+pub mod law;
 pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
 pub mod rate_damping;
+pub use crate::types::TorqueDemand;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};
-pub use lqr::{LqgEstimator, LqrGains, lqr, lqr_from_state, lqr_state};
+pub use law::{AttitudeLaw, Law, LawInputs, LawOutput};
+pub use lqr::{LqrGains, lqr, lqr_from_state, lqr_state, state_feedback};
 pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
-pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains, TorqueDemand};
+pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains};
 pub use rate_damping::{RateDampingGains, rate_damping};
 
 use crate::math::Vec3;

@@ -17,6 +17,7 @@
 
 use super::scale_to_box;
 use crate::math::{Mat3, Quat, Vec3, attitude_error, rotation_angle};
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct QuaternionFeedbackGains {
@@ -33,16 +34,6 @@ pub struct QuaternionFeedbackGains {
 pub struct QuaternionFeedback {
     /// `∫ q_e,v dt`, s.
     pub integral: Vec3,
-}
-
-/// Result of one control update.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TorqueDemand {
-    pub torque_nm: Vec3,
-    /// The demand hit `torque_limit_nm` and was scaled.
-    pub limited: bool,
-    /// Rotation angle of the attitude error, rad.
-    pub error_angle_rad: f32,
 }
 
 impl QuaternionFeedback {

@@ -1,4 +1,5 @@
-//! Flight-side linear Kalman filter and LQR state feedback (paper 002 eq 13, LQG).
+//! Flight-side linear Kalman filter (paper 002 eq 13, LQG; the LQR feedback is
+//! `crate::control::lqr`).
 //!
 //! `no_std`, no heap, no panics, f32, fixed sizes: every loop is over a const-generic
 //! dimension. Plant `x_{k+1} = A x_k + B u_k + w_k`, `z_k = C x_k + v_k`,
@@ -193,36 +194,4 @@ impl<const N: usize, const M: usize, const P: usize> KalmanFilter<N, M, P> {
         self.cov = p;
         Ok(UpdateInfo { innovation: y, nis })
     }
-}
-
-/// LQR state feedback `u = −K (x − x_ref)`. Angular components of `x − x_ref` are not
-/// wrapped: wrap them (e.g. yaw to (−π, π]) before calling when the reference can be far.
-pub fn lqr_apply<const N: usize, const M: usize>(
-    k: &SMatrix<f32, M, N>,
-    x: &SVector<f32, N>,
-    x_ref: &SVector<f32, N>,
-) -> SVector<f32, M> {
-    -(k * (x - x_ref))
-}
-
-/// [`lqr_apply`] that rejects non-finite data and scales the whole command so that
-/// `max |u_i| ≤ u_max` (direction preserved, as the project's gimbal-rate limiter does).
-pub fn lqr_apply_limited<const N: usize, const M: usize>(
-    k: &SMatrix<f32, M, N>,
-    x: &SVector<f32, N>,
-    x_ref: &SVector<f32, N>,
-    u_max: f32,
-) -> Result<SVector<f32, M>, KfError> {
-    if !(finite(x) && finite(x_ref)) {
-        return Err(KfError::NonFiniteInput);
-    }
-    if !(finite(k) && u_max.is_finite() && u_max >= 0.0) {
-        return Err(KfError::NonFiniteParameter);
-    }
-    let u = lqr_apply(k, x, x_ref);
-    if !finite(&u) {
-        return Err(KfError::NonFiniteResult);
-    }
-    let peak = u.iter().fold(0.0f32, |acc, v| acc.max(libm::fabsf(*v)));
-    Ok(if peak > u_max { u * (u_max / peak) } else { u })
 }

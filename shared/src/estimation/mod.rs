@@ -2,6 +2,10 @@
 //!
 //! - [`kalman`]: linear Kalman filter `KalmanFilter<N, M, P>` (Joseph-form covariance mode
 //!   and a fixed-gain steady-state mode, the gain designed on the host by
-//!   `sim_host::design::steady_state_kalman`) and LQR state feedback [`kalman::lqr_apply`].
+//!   `sim_host::design::steady_state_kalman`);
+//! - [`lqg`]: [`LqgEstimator`], that filter on the LQR state (steady-state or time-varying).
+//!   The LQR feedback itself is [`crate::control::lqr`].
 
 pub mod kalman;
+pub mod lqg;
+pub use lqg::LqgEstimator;

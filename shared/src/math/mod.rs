@@ -31,3 +31,16 @@ pub type Quat = nalgebra::Quaternion<f32>;
 pub fn all_finite(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
+
+/// Scale `v` so that `max |v_i| <= max_abs`, keeping its direction (one factor for the
+/// whole vector). Returns whether scaling happened.
+pub fn scale_to_peak<const N: usize>(v: &mut [f32; N], max_abs: f32) -> bool {
+    let peak = v.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
+    if peak > max_abs {
+        let s = max_abs / peak;
+        v.iter_mut().for_each(|x| *x *= s);
+        true
+    } else {
+        false
+    }
+}

@@ -58,7 +58,7 @@
 //! bounds are non-finite or inverted. `λ = 0`; `realised = B u` and
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
-use super::simplex::{Dot2, Lp, LpSolution, LpStatus, default_iteration_cap};
+use super::simplex::{Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
 pub use crate::allocation::{AXES, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
@@ -92,6 +92,11 @@ pub struct Failures {
     pub stuck_on: u32,
 }
 
+/// Bit `i` of a `u32` actuator mask (0 for `i >= 32`: no such actuator, no bit).
+pub fn bit_of(i: usize) -> u32 {
+    u32::try_from(i).ok().and_then(|s| 1u32.checked_shl(s)).unwrap_or(0)
+}
+
 impl Failures {
     pub const NONE: Self = Self { failed: 0, stuck_on: 0 };
     /// Failed-off thrusters from 1-based indices (as in the paper's text).
@@ -99,7 +104,7 @@ impl Failures {
         let mut failed = 0u32;
         for id in ids {
             if (1..=32).contains(id) {
-                failed |= 1u32 << (id - 1);
+                failed |= 1u32.checked_shl(u32::try_from(id.saturating_sub(1)).unwrap_or(u32::MAX)).unwrap_or(0);
             }
         }
         Self { failed, stuck_on: 0 }
@@ -119,31 +124,23 @@ pub(crate) fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
     }
 }
 
-#[inline(always)]
-fn g<const K: usize>(v: &[f32; K], i: usize) -> f32 {
-    match v.get(i) {
-        Some(x) => *x,
-        None => 0.0,
-    }
-}
-
 /// Solve the 3×3 system `a z = r` by Gaussian elimination with partial pivoting,
 /// plus one step of iterative refinement with a compensated residual ([`Dot2`]).
-/// `None` if singular (pivot < 1e-12 · max |a|) or non-finite.
-fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
+/// `Ok(None)` if singular (pivot < 1e-12 · max |a|) or non-finite.
+fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
     let amax = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     if !(amax > 0.0) || !amax.is_finite() {
-        return None;
+        return Ok(None);
     }
-    let elim = |rhs: &[f32; 3]| -> Option<[f32; 3]> {
+    let elim = |rhs: &[f32; 3]| -> Result<Option<[f32; 3]>, Fault> {
         let mut m = *a;
         let mut v = *rhs;
         // column 0..2 pivoting, written out (no runtime indexing)
-        let piv = |m: &mut [[f32; 3]; 3], v: &mut [f32; 3], c: usize| {
+        let piv = |m: &mut [[f32; 3]; 3], v: &mut [f32; 3], c: usize| -> Result<f32, Fault> {
             let mut best = c;
             let mut bv = 0.0f32;
             for (i, row) in m.iter().enumerate().skip(c) {
-                let x = g(row, c).abs();
+                let x = at(row, c)?.abs();
                 if x > bv {
                     bv = x;
                     best = i;
@@ -151,18 +148,16 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
             }
             m.swap(c.min(2), best.min(2));
             v.swap(c.min(2), best.min(2));
-            bv
+            Ok(bv)
         };
         for c in 0..3usize {
-            if !(piv(&mut m, &mut v, c) > 1e-12 * amax) {
-                return None;
+            if !(piv(&mut m, &mut v, c)? > 1e-12 * amax) {
+                return Ok(None);
             }
-            let (Some(prow), Some(pv)) = (m.get(c).copied(), v.get(c).copied()) else {
-                return None;
-            };
-            let p = g(&prow, c);
-            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c + 1) {
-                let f = g(row, c) / p;
+            let (prow, pv) = (at(&m, c)?, at(&v, c)?);
+            let p = at(&prow, c)?;
+            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c.saturating_add(1)) {
+                let f = at(row, c)? / p;
                 for (x, y) in row.iter_mut().zip(prow.iter()) {
                     *x -= f * y;
                 }
@@ -171,18 +166,18 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
         }
         let mut z = [0.0f32; 3];
         for c in (0..3usize).rev() {
-            let row = m.get(c).copied().unwrap_or([0.0; 3]);
-            let mut acc = g(&v, c);
-            for (k, zk) in z.iter().enumerate().skip(c + 1) {
-                acc -= g(&row, k) * zk;
+            let row = at(&m, c)?;
+            let mut acc = at(&v, c)?;
+            for (k, zk) in z.iter().enumerate().skip(c.saturating_add(1)) {
+                acc -= at(&row, k)? * zk;
             }
-            if let Some(zc) = z.get_mut(c) {
-                *zc = acc / g(&row, c);
-            }
+            *z.get_mut(c).ok_or(Fault)? = acc / at(&row, c)?;
         }
-        if z.iter().all(|x| x.is_finite()) { Some(z) } else { None }
+        Ok(if z.iter().all(|x| x.is_finite()) { Some(z) } else { None })
     };
-    let z = elim(r)?;
+    let Some(z) = elim(r)? else {
+        return Ok(None);
+    };
     let mut res = [0.0f32; 3];
     for ((ri, row), rhs) in res.iter_mut().zip(a.iter()).zip(r.iter()) {
         let mut acc = Dot2::new(*rhs);
@@ -191,7 +186,7 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
         }
         *ri = acc.value();
     }
-    match elim(&res) {
+    Ok(match elim(&res)? {
         Some(dz) => {
             let mut out = z;
             for (o, d) in out.iter_mut().zip(dz.iter()) {
@@ -200,7 +195,24 @@ fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Option<[f32; 3]> {
             Some(out)
         }
         None => Some(z),
+    })
+}
+
+/// `k = argmax |m_i|` (first on ties), `|m_k|` and `m̂ = m_d / |m_k|`.
+fn normalised_demand(m_d: &[f32; AXES]) -> (usize, f32, [f32; AXES]) {
+    let mut k = 0usize;
+    let mut mk = 0.0f32;
+    for (i, v) in m_d.iter().enumerate() {
+        if v.abs() > mk {
+            mk = v.abs();
+            k = i;
+        }
     }
+    let mut m_hat = [0.0f32; AXES];
+    for (h, v) in m_hat.iter_mut().zip(m_d.iter()) {
+        *h = v / mk;
+    }
+    (k, mk, m_hat)
 }
 
 /// The allocator: effectiveness matrix `B` (3 × N, moment per unit command) and
@@ -262,9 +274,11 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     pub fn bounds(&self, rate: Option<&RateLimit<N>>, failures: Failures) -> Bounds<N> {
         let mut out = self.nominal_bounds();
         if let Some(rl) = rate {
-            for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
-                let (up, rmin, rmax) = (g(&rl.u_prev, i), g(&rl.rho_min, i), g(&rl.rho_max, i));
-                let (umin, umax) = (g(&self.u_min, i), g(&self.u_max, i));
+            let limits = self.u_min.iter().zip(self.u_max.iter());
+            let rates = rl.u_prev.iter().zip(rl.rho_min.iter()).zip(rl.rho_max.iter());
+            for ((lo, hi), ((&umin, &umax), ((&up, &rmin), &rmax))) in
+                out.lo.iter_mut().zip(out.hi.iter_mut()).zip(limits.zip(rates))
+            {
                 let a = up + rl.dt * rmin;
                 let bb = up + rl.dt * rmax;
                 if !(a.is_finite() && bb.is_finite()) {
@@ -284,10 +298,10 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 }
             }
         }
-        for (i, (lo, hi)) in out.lo.iter_mut().zip(out.hi.iter_mut()).enumerate() {
-            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+        for (i, ((lo, hi), &umax)) in out.lo.iter_mut().zip(out.hi.iter_mut()).zip(self.u_max.iter()).enumerate() {
+            let bit = bit_of(i);
             if failures.failed & bit != 0 {
-                let v = if failures.stuck_on & bit != 0 { g(&self.u_max, i) } else { 0.0 };
+                let v = if failures.stuck_on & bit != 0 { umax } else { 0.0 };
                 *lo = v;
                 *hi = v;
             }
@@ -350,7 +364,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 *x = *hi;
             }
             let tol = SAT_TOL * (hi - lo);
-            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            let bit = bit_of(i);
             if *x <= lo + tol {
                 sat_low |= bit;
             }
@@ -383,6 +397,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         match s {
             LpStatus::IterationCap => AllocStatus::IterationCap,
             LpStatus::NonFinite => AllocStatus::NonFinite,
+            LpStatus::InternalError => AllocStatus::InternalError,
             // Unbounded cannot occur (all h finite); treated as infeasible.
             LpStatus::Infeasible | LpStatus::Unbounded | LpStatus::Optimal => AllocStatus::Infeasible,
         }
@@ -390,7 +405,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
     pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N + 1);
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N.saturating_add(1));
         for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
             let mut acc = 0.0f32;
             for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
@@ -436,24 +451,29 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Bodson's reduced LP (2 rows): `B u ∥ m̂`, `max` (or `min`) `m̂ᵀ B u`.
     /// `k` is the index of the largest `|m̂|` (`|m̂_k| = 1`).
-    pub fn bodson_lp(&self, m_hat: &[f32; AXES], k: usize, bd: &Bounds<N>, maximise: bool) -> Lp<AXES, NV> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES - 1, N);
-        let bk = self.b.get(k).copied().unwrap_or([0.0; N]);
-        let mk = g(m_hat, k);
+    /// `Err` if `k >= AXES` (a logic error of the caller).
+    pub fn bodson_lp(
+        &self,
+        m_hat: &[f32; AXES],
+        k: usize,
+        bd: &Bounds<N>,
+        maximise: bool,
+    ) -> Result<Lp<AXES, NV>, Fault> {
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES.saturating_sub(1), N);
+        let (bk, mk) = (at(&self.b, k)?, at(m_hat, k)?);
         let mut r = 0usize;
         for (j, (brow, mj)) in self.b.iter().zip(m_hat.iter()).enumerate() {
             if j == k {
                 continue;
             }
-            if let (Some(arow), Some(bi)) = (lp.a.get_mut(r), lp.b.get_mut(r)) {
-                let mut acc = 0.0f32;
-                for (((a, bkl), bjl), lo) in arow.iter_mut().zip(bk.iter()).zip(brow.iter()).zip(bd.lo.iter()) {
-                    *a = mj * bkl - mk * bjl;
-                    acc += *a * lo;
-                }
-                *bi = -acc;
+            let (arow, bi) = (lp.a.get_mut(r).ok_or(Fault)?, lp.b.get_mut(r).ok_or(Fault)?);
+            let mut acc = 0.0f32;
+            for (((a, bkl), bjl), lo) in arow.iter_mut().zip(bk.iter()).zip(brow.iter()).zip(bd.lo.iter()) {
+                *a = mj * bkl - mk * bjl;
+                acc += *a * lo;
             }
-            r += 1;
+            *bi = -acc;
+            r = r.saturating_add(1);
         }
         let sign = if maximise { -1.0 } else { 1.0 };
         for (l, ((c, h), (lo, hi))) in
@@ -461,12 +481,12 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         {
             let mut proj = 0.0f32;
             for (brow, mi) in self.b.iter().zip(m_hat.iter()) {
-                proj += mi * g(brow, l);
+                proj += mi * at(brow, l)?;
             }
             *c = sign * proj;
             *h = hi - lo;
         }
-        lp
+        Ok(lp)
     }
 
     /// Accuracy polish of a Bodson boundary solution: the reduced LP's rows
@@ -477,26 +497,28 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     /// refinement, with the unrounded demand `m_d` (the rounding of `m̂ = m_d/|m_k|`
     /// alone moves λ by `ε ×` the ray/facet grazing factor). Kept only if finite and inside the bounds (± 1e-5 of the span);
     /// otherwise (degenerate vertex) `u` is left unchanged.
-    fn polish_bodson(&self, u: &mut [f32; N], m_d: &[f32; AXES], bd: &Bounds<N>) {
+    /// `Err` only on an index out of range (a logic error).
+    fn polish_bodson(&self, u: &mut [f32; N], m_d: &[f32; AXES], bd: &Bounds<N>) -> Result<(), Fault> {
         let mut free = [usize::MAX; 2];
         let mut nf = 0usize;
         for (j, ((x, lo), hi)) in u.iter().zip(bd.lo.iter()).zip(bd.hi.iter()).enumerate() {
             let tol = 1e-5 * (hi - lo);
             if *x > lo + tol && *x < hi - tol {
+                // More than two free thrusters: degenerate for the polish, not an error.
                 if let Some(f) = free.get_mut(nf) {
                     *f = j;
                 }
-                nf += 1;
+                nf = nf.saturating_add(1);
             }
         }
         if nf != 2 {
-            return;
+            return Ok(());
         }
         let [f1, f2] = free;
         let mut a = [[0.0f32; 3]; 3];
         let mut r = [0.0f32; 3];
         for ((arow, ri), (brow, mi)) in a.iter_mut().zip(r.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
-            *arow = [g(brow, f1), g(brow, f2), -mi];
+            *arow = [at(brow, f1)?, at(brow, f2)?, -mi];
             let mut acc = Dot2::new(0.0);
             for (j, (bij, x)) in brow.iter().zip(u.iter()).enumerate() {
                 if j != f1 && j != f2 {
@@ -505,23 +527,20 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             }
             *ri = acc.value();
         }
-        let Some(z) = solve3(&a, &r) else {
-            return;
+        let Some(z) = solve3(&a, &r)? else {
+            return Ok(());
         };
-        let ok = |j: usize, v: f32| {
-            let (lo, hi) = (g(&bd.lo, j), g(&bd.hi, j));
+        let (lo1, hi1, lo2, hi2) = (at(&bd.lo, f1)?, at(&bd.hi, f1)?, at(&bd.lo, f2)?, at(&bd.hi, f2)?);
+        let ok = |v: f32, lo: f32, hi: f32| {
             let tol = 1e-5 * (hi - lo);
             v >= lo - tol && v <= hi + tol
         };
         let [z1, z2, _] = z;
-        if ok(f1, z1) && ok(f2, z2) {
-            if let Some(x) = u.get_mut(f1) {
-                *x = clampf(z1, g(&bd.lo, f1), g(&bd.hi, f1));
-            }
-            if let Some(x) = u.get_mut(f2) {
-                *x = clampf(z2, g(&bd.lo, f2), g(&bd.hi, f2));
-            }
+        if ok(z1, lo1, hi1) && ok(z2, lo2, hi2) {
+            *u.get_mut(f1).ok_or(Fault)? = clampf(z1, lo1, hi1);
+            *u.get_mut(f2).ok_or(Fault)? = clampf(z2, lo2, hi2);
         }
+        Ok(())
     }
 
     fn u_from_x(x: &[f32; NV], bd: &Bounds<N>) -> [f32; N] {
@@ -549,7 +568,9 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
         }
-        let lambda = g(&s1.x, N);
+        let Ok(lambda) = at(&s1.x, N) else {
+            return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+        };
         let u1 = Self::u_from_x(&s1.x, bd);
         if lambda < 1.0 - LAMBDA_TOL {
             return self.finish(m_d, bd, u1, lambda, AllocStatus::Scaled, it);
@@ -557,6 +578,9 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         // Attainable: stage 2, minimum propellant with B u = m_d.
         let s2 = self.fuel_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
         it = it.saturating_add(s2.iterations);
+        if s2.status == LpStatus::InternalError {
+            return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+        }
         let u2 = Self::u_from_x(&s2.x, bd);
         let u = if s2.status == LpStatus::Optimal && self.fuel(&u2) <= self.fuel(&u1) {
             u2
@@ -568,6 +592,19 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
 
     /// Bodson's direction-preserving method (reduced LP, solution scaled from the
     /// boundary). See the module docs.
+    /// Zero (or subnormal) demand: zero command if admissible, else the least-fuel
+    /// admissible command with zero moment.
+    fn zero_demand(&self, m_d: &[f32; AXES], bd: &Bounds<N>, zero_ok: bool) -> AllocResult<N> {
+        if zero_ok {
+            return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
+        }
+        let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
+        if s.status != LpStatus::Optimal {
+            return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
+        }
+        self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations)
+    }
+
     pub fn bodson(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
         if !self.inputs_finite(m_d, bd) {
             return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
@@ -576,19 +613,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let zero_ok = Self::zero_admissible(bd);
-        // k = argmax |m_i| (first on ties), m̂ = m_d / |m_k|.
-        let mut k = 0usize;
-        let mut mk = 0.0f32;
-        for (i, v) in m_d.iter().enumerate() {
-            if v.abs() > mk {
-                mk = v.abs();
-                k = i;
-            }
-        }
-        let mut m_hat = [0.0f32; AXES];
-        for (h, v) in m_hat.iter_mut().zip(m_d.iter()) {
-            *h = v / mk;
-        }
+        let (k, mk, m_hat) = normalised_demand(m_d);
         let mm: f32 = m_hat.iter().map(|v| v * v).sum();
         let lambda_of = |u: &[f32; N]| -> f32 {
             let bu = self.moment(u);
@@ -596,23 +621,21 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             p / mm / mk
         };
         if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
-            // Zero (or subnormal) demand.
-            if zero_ok {
-                return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
-            }
-            let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
-            if s.status != LpStatus::Optimal {
-                return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
-            }
-            return self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations);
+            return self.zero_demand(m_d, bd, zero_ok);
         }
-        let s_hi = self.bodson_lp(&m_hat, k, bd, true).solve_with_cap(self.lp_iteration_cap);
+        // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
+        let s_hi = match &self.bodson_lp(&m_hat, k, bd, true) {
+            Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+            Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
+        };
         let mut it = s_hi.iterations;
         if s_hi.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s_hi.status), it);
         }
         let mut u_hi = Self::u_from_x(&s_hi.x, bd);
-        self.polish_bodson(&mut u_hi, m_d, bd);
+        if self.polish_bodson(&mut u_hi, m_d, bd).is_err() {
+            return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+        }
         let l_hi = lambda_of(&u_hi);
         if !l_hi.is_finite() || l_hi < -LAMBDA_TOL {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, it);
@@ -624,13 +647,18 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (u_lo, l_lo) = if zero_ok {
             ([0.0f32; N], 0.0f32)
         } else {
-            let s_lo = self.bodson_lp(&m_hat, k, bd, false).solve_with_cap(self.lp_iteration_cap);
+            let s_lo = match &self.bodson_lp(&m_hat, k, bd, false) {
+                Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+                Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, it),
+            };
             it = it.saturating_add(s_lo.iterations);
             if s_lo.status != LpStatus::Optimal {
                 return self.fallback(m_d, bd, Self::lp_fail(s_lo.status), it);
             }
             let mut u = Self::u_from_x(&s_lo.x, bd);
-            self.polish_bodson(&mut u, m_d, bd);
+            if self.polish_bodson(&mut u, m_d, bd).is_err() {
+                return self.fallback(m_d, bd, AllocStatus::InternalError, it);
+            }
             (u, lambda_of(&u))
         };
         if !l_lo.is_finite() || l_lo > 1.0 + LAMBDA_TOL {

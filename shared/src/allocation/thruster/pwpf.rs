@@ -161,7 +161,7 @@ impl<const N: usize> Pwpf<N> {
         let mut mask = 0u32;
         let lim = INPUT_LIMIT * self.p.u_m;
         for (i, ((f, comp), ri)) in self.f.iter_mut().zip(self.comp.iter_mut()).zip(r.iter()).enumerate() {
-            let bit = 1u32.checked_shl(i as u32).unwrap_or(0);
+            let bit = super::lp::bit_of(i);
             let was_on = self.on & bit != 0;
             let on = if *f >= self.p.u_on {
                 true

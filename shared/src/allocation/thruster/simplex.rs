@@ -70,6 +70,8 @@ const SINGULAR_TOL: f32 = 1e-9;
 /// Default iteration cap `4 (rows + cols)`, saturating at `u16::MAX`.
 pub const fn default_iteration_cap(rows: usize, cols: usize) -> u16 {
     let k = 4usize.saturating_mul(rows.saturating_add(cols));
+    // `TryFrom` is not const: the comparison guards the narrowing.
+    #[allow(clippy::cast_possible_truncation)]
     if k > u16::MAX as usize { u16::MAX } else { k as u16 }
 }
 
@@ -100,6 +102,8 @@ pub enum LpStatus {
     IterationCap,
     /// A non-finite input, or scaling / objective overflow.
     NonFinite,
+    /// A logic error inside the solver (an index out of range): detected, `x = 0`.
+    InternalError,
 }
 
 /// Solution of [`Lp::solve`].
@@ -147,34 +151,28 @@ impl<const M: usize, const N: usize> Default for Lp<M, N> {
     }
 }
 
-#[inline(always)]
-fn g<const K: usize>(v: &[f32; K], i: usize) -> f32 {
-    match v.get(i) {
-        Some(x) => *x,
-        None => 0.0,
+/// An index outside its array inside the solver: a logic error, reported as
+/// [`LpStatus::InternalError`] (never a silent 0 or a dropped write).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fault;
+
+impl From<Fault> for LpStatus {
+    fn from(_: Fault) -> Self {
+        LpStatus::InternalError
     }
 }
 
+/// `v[i]`, or [`Fault`].
 #[inline(always)]
-fn set<const K: usize>(v: &mut [f32; K], i: usize, x: f32) {
-    if let Some(e) = v.get_mut(i) {
-        *e = x;
-    }
+pub(crate) fn at<T: Copy, const K: usize>(v: &[T; K], i: usize) -> Result<T, Fault> {
+    v.get(i).copied().ok_or(Fault)
 }
 
+/// `v[i] = x`, or [`Fault`].
 #[inline(always)]
-fn gb<const K: usize>(v: &[bool; K], i: usize) -> bool {
-    match v.get(i) {
-        Some(x) => *x,
-        None => false,
-    }
-}
-
-#[inline(always)]
-fn setb<const K: usize>(v: &mut [bool; K], i: usize, x: bool) {
-    if let Some(e) = v.get_mut(i) {
-        *e = x;
-    }
+fn put<T, const K: usize>(v: &mut [T; K], i: usize, x: T) -> Result<(), Fault> {
+    *v.get_mut(i).ok_or(Fault)? = x;
+    Ok(())
 }
 
 /// `2^-e` for `v = m 2^e`, `m ∈ [1, 2)`: an exact power-of-two reciprocal scale.
@@ -202,35 +200,77 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         self.solve_with_cap(default_iteration_cap(m, n))
     }
 
-    /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
-    pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
-        let m = if self.rows < M { self.rows } else { M };
-        let n = if self.cols < N { self.cols } else { N };
-
-        // ---- validation ------------------------------------------------------
+    /// Input validation: `Err` with the status to report (no iterations).
+    fn check_inputs(&self, m: usize, n: usize) -> Result<(), LpStatus> {
         for (row, bi) in self.a.iter().zip(self.b.iter()).take(m) {
             if !bi.is_finite() || row.iter().take(n).any(|v| !v.is_finite()) {
-                return LpSolution::failed(LpStatus::NonFinite, 0);
+                return Err(LpStatus::NonFinite);
             }
         }
         for (cj, hj) in self.c.iter().zip(self.h.iter()).take(n) {
             if !cj.is_finite() || hj.is_nan() || *hj == f32::NEG_INFINITY {
-                return LpSolution::failed(LpStatus::NonFinite, 0);
+                return Err(LpStatus::NonFinite);
             }
         }
         if self.h.iter().take(n).any(|hj| *hj < 0.0) {
-            return LpSolution::failed(LpStatus::Infeasible, 0);
+            return Err(LpStatus::Infeasible);
+        }
+        Ok(())
+    }
+
+    /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
+    pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
+        let m = if self.rows < M { self.rows } else { M };
+        let n = if self.cols < N { self.cols } else { N };
+        if let Err(e) = self.check_inputs(m, n) {
+            return LpSolution::failed(e, 0);
+        }
+        // Built in place and filled by reference: the solver is ~0.5 kB, and moving it
+        // through a return value costs a memcpy per solve on the MCU.
+        let mut sv = Solver::<M, N>::new(m, n, cap);
+        let (s, bmax) = match self.scale_into(&mut sv, m, n) {
+            Ok(x) => x,
+            Err(e) => return LpSolution::failed(e, 0),
+        };
+
+        // ---- phase 1 ---------------------------------------------------------
+        sv.phase1 = true;
+        if let Err(e) = sv.run_phase() {
+            return sv.extract(e, &s, self);
+        }
+        let mut infeas = 0.0f32;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
+            if *var >= N {
+                infeas += *xb;
+            }
+        }
+        if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
+            return sv.extract(LpStatus::Infeasible, &s, self);
         }
 
-        // ---- scaling ---------------------------------------------------------
+        // ---- phase 2 ---------------------------------------------------------
+        sv.phase1 = false;
+        for (var, xb) in sv.basis.iter().zip(sv.xb.iter_mut()).take(m) {
+            if *var >= N {
+                *xb = 0.0;
+            }
+        }
+        match sv.run_phase() {
+            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
+            Err(e) => sv.extract(e, &s, self),
+        }
+    }
+
+    /// The scaled problem (see the module docs) into the fresh solver `sv`, with the
+    /// artificial basis: `(column scales s, max scaled b)`.
+    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<([f32; N], f32), LpStatus> {
         let mut s = [1.0f32; N]; // x_j = s_j y_j
         let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
-        for (j, (sj, hsj)) in s.iter_mut().zip(hs.iter_mut()).enumerate().take(n) {
-            let hj = g(&self.h, j);
+        for (j, ((sj, hsj), &hj)) in s.iter_mut().zip(hs.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
             if hj == f32::INFINITY {
                 let mut colmax = 0.0f32;
                 for row in self.a.iter().take(m) {
-                    let v = g(row, j);
+                    let v = at(row, j)?;
                     if v.abs() > colmax {
                         colmax = v.abs();
                     }
@@ -245,7 +285,6 @@ impl<const M: usize, const N: usize> Lp<M, N> {
                 *hsj = 0.0;
             }
         }
-        let mut sv = Solver::<M, N>::new(m, n, cap);
         sv.dantzig = self.pricing == Pricing::DantzigBland;
         sv.h = hs;
         let mut bmax = 0.0f32;
@@ -287,36 +326,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             && sv.c.iter().all(|v| v.is_finite())
             && s.iter().all(|v| v.is_finite());
         if !scaled_ok {
-            return LpSolution::failed(LpStatus::NonFinite, 0);
+            return Err(LpStatus::NonFinite);
         }
-        sv.init_basis();
-
-        // ---- phase 1 ---------------------------------------------------------
-        sv.phase1 = true;
-        if let Err(e) = sv.run_phase() {
-            return sv.extract(e, &s, self);
-        }
-        let mut infeas = 0.0f32;
-        for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
-            if *var >= N {
-                infeas += *xb;
-            }
-        }
-        if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
-            return sv.extract(LpStatus::Infeasible, &s, self);
-        }
-
-        // ---- phase 2 ---------------------------------------------------------
-        sv.phase1 = false;
-        for (var, xb) in sv.basis.iter().zip(sv.xb.iter_mut()).take(m) {
-            if *var >= N {
-                *xb = 0.0;
-            }
-        }
-        match sv.run_phase() {
-            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
-            Err(e) => sv.extract(e, &s, self),
-        }
+        sv.init_basis()?;
+        Ok((s, bmax))
     }
 }
 
@@ -368,115 +381,117 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
     }
 
-    fn init_basis(&mut self) {
+    fn init_basis(&mut self) -> Result<(), Fault> {
         self.t = self.a;
         for (i, ((row, var), (xb, bi))) in
             self.binv.iter_mut().zip(self.basis.iter_mut()).zip(self.xb.iter_mut().zip(self.b.iter())).enumerate()
         {
             *row = [0.0; M];
-            set(row, i, 1.0);
+            put(row, i, 1.0)?;
             *var = N.saturating_add(i);
             *xb = *bi;
         }
+        Ok(())
     }
 
     /// Cost of a basic variable in the current phase.
     #[inline]
-    fn cost_of(&self, var: usize) -> f32 {
-        if var < N {
-            if self.phase1 { 0.0 } else { g(&self.c, var) }
+    fn cost_of(&self, var: usize) -> Result<f32, Fault> {
+        Ok(if var < N {
+            if self.phase1 { 0.0 } else { at(&self.c, var)? }
         } else if self.phase1 {
             1.0
         } else {
             0.0
-        }
+        })
     }
 
     /// Upper bound of a basic variable in the current phase.
     #[inline]
-    fn upper_of(&self, var: usize) -> f32 {
-        if var < N {
-            g(&self.h, var)
+    fn upper_of(&self, var: usize) -> Result<f32, Fault> {
+        Ok(if var < N {
+            at(&self.h, var)?
         } else if self.phase1 {
             f32::INFINITY
         } else {
             0.0
-        }
+        })
     }
 
     #[inline]
-    fn reduced_cost(&self, j: usize) -> f32 {
-        let cj = if self.phase1 { 0.0 } else { g(&self.c, j) };
+    fn reduced_cost(&self, j: usize) -> Result<f32, Fault> {
+        let cj = if self.phase1 { 0.0 } else { at(&self.c, j)? };
         let mut z = 0.0f32;
         for (row, var) in self.t.iter().zip(self.basis.iter()).take(self.m) {
-            z += self.cost_of(*var) * g(row, j);
+            z += self.cost_of(*var)? * at(row, j)?;
         }
-        cj - z
+        Ok(cj - z)
     }
 
     /// Improvement rate of entering `j` (> DUAL_TOL ⇒ eligible), 0 if not movable.
     #[inline]
-    fn gain(&self, j: usize) -> f32 {
-        if gb(&self.basic, j) || !(g(&self.h, j) > 0.0) {
-            return 0.0;
+    fn gain(&self, j: usize) -> Result<f32, Fault> {
+        if at(&self.basic, j)? || !(at(&self.h, j)? > 0.0) {
+            return Ok(0.0);
         }
-        let d = self.reduced_cost(j);
-        if gb(&self.upper, j) { d } else { -d }
+        let d = self.reduced_cost(j)?;
+        Ok(if at(&self.upper, j)? { d } else { -d })
     }
 
     /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
     /// lowest index on ties), see [`Pricing`].
-    fn price(&self) -> Option<usize> {
+    fn price(&self) -> Result<Option<usize>, Fault> {
         if !self.dantzig || self.bland_now {
-            return (0..self.n).find(|&j| self.gain(j) > DUAL_TOL);
+            for j in 0..self.n {
+                if self.gain(j)? > DUAL_TOL {
+                    return Ok(Some(j));
+                }
+            }
+            return Ok(None);
         }
         let mut best: Option<(usize, f32)> = None;
         for j in 0..self.n {
-            let gj = self.gain(j);
+            let gj = self.gain(j)?;
             if gj > DUAL_TOL && best.is_none_or(|(_, gb)| gj > gb) {
                 best = Some((j, gj));
             }
         }
-        best.map(|(j, _)| j)
+        Ok(best.map(|(j, _)| j))
     }
 
     /// Ratio-test limit of row `i` for entering column `j` moving in direction `s`:
     /// `(step, hits_upper)`.
     #[inline]
-    fn row_limit(&self, i: usize, j: usize, s: f32) -> Option<(f32, bool)> {
-        let alpha = s * self.t.get(i).map_or(0.0, |r| g(r, j));
-        let x = g(&self.xb, i);
-        if alpha > PIVOT_TOL {
+    fn row_limit(&self, i: usize, j: usize, s: f32) -> Result<Option<(f32, bool)>, Fault> {
+        let alpha = s * at(self.t.get(i).ok_or(Fault)?, j)?;
+        let x = at(&self.xb, i)?;
+        Ok(if alpha > PIVOT_TOL {
             Some((x.max(0.0) / alpha, false))
         } else if alpha < -PIVOT_TOL {
-            let var = match self.basis.get(i) {
-                Some(v) => *v,
-                None => return None,
-            };
-            let ub = self.upper_of(var);
+            let ub = self.upper_of(at(&self.basis, i)?)?;
             if ub.is_finite() { Some(((ub - x).max(0.0) / -alpha, true)) } else { None }
         } else {
             None
-        }
+        })
     }
 
     /// One iteration. `Ok(true)`: pivoted/flipped; `Ok(false)`: optimal.
     fn iterate(&mut self) -> Result<bool, LpStatus> {
-        let Some(j) = self.price() else {
+        let Some(j) = self.price()? else {
             return Ok(false);
         };
         if self.iters >= self.cap {
             return Err(LpStatus::IterationCap);
         }
         self.iters = self.iters.saturating_add(1);
-        let at_upper = gb(&self.upper, j);
+        let at_upper = at(&self.upper, j)?;
         let s = if at_upper { -1.0f32 } else { 1.0 };
-        let hj = g(&self.h, j);
+        let hj = at(&self.h, j)?;
 
         // Pass 1: the minimum ratio (bound flip included).
         let mut tmin = hj;
         for i in 0..self.m {
-            if let Some((lim, _)) = self.row_limit(i, j, s)
+            if let Some((lim, _)) = self.row_limit(i, j, s)?
                 && lim < tmin
             {
                 tmin = lim;
@@ -495,8 +510,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             flip = true;
         }
         for i in 0..self.m {
-            if let Some((lim, up)) = self.row_limit(i, j, s) {
-                let var = self.basis.get(i).copied().unwrap_or(usize::MAX);
+            if let Some((lim, up)) = self.row_limit(i, j, s)? {
+                let var = at(&self.basis, i)?;
                 if lim <= window && var < choice_var {
                     choice = Some((i, lim, up));
                     choice_var = var;
@@ -508,10 +523,10 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         if flip {
             self.bland_now = false; // a flip moves by h_j > 0: never degenerate
             for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
-                *xb -= s * hj * g(row, j);
+                *xb -= s * hj * at(row, j)?;
             }
-            setb(&mut self.upper, j, !at_upper);
-            self.snap();
+            put(&mut self.upper, j, !at_upper)?;
+            self.snap()?;
             return Ok(true);
         }
         let Some((r, theta, hits_upper)) = choice else {
@@ -520,46 +535,43 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         };
         self.bland_now = !(theta > 0.0);
         for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
-            *xb -= s * theta * g(row, j);
+            *xb -= s * theta * at(row, j)?;
         }
-        set(&mut self.xb, r, if at_upper { hj } else { 0.0 } + s * theta);
-        let leaving = self.basis.get(r).copied().unwrap_or(usize::MAX);
-        self.pivot(r, j);
+        put(&mut self.xb, r, if at_upper { hj } else { 0.0 } + s * theta)?;
+        let leaving = at(&self.basis, r)?;
+        self.pivot(r, j)?;
         if leaving < N {
-            setb(&mut self.basic, leaving, false);
-            setb(&mut self.upper, leaving, hits_upper);
+            put(&mut self.basic, leaving, false)?;
+            put(&mut self.upper, leaving, hits_upper)?;
         }
-        if let Some(v) = self.basis.get_mut(r) {
-            *v = j;
-        }
-        setb(&mut self.basic, j, true);
-        setb(&mut self.upper, j, false);
-        self.snap();
+        put(&mut self.basis, r, j)?;
+        put(&mut self.basic, j, true)?;
+        put(&mut self.upper, j, false)?;
+        self.snap()?;
         Ok(true)
     }
 
     /// Gauss-Jordan pivot of the tableau and `B⁻¹` on row `r`, column `j`.
-    fn pivot(&mut self, r: usize, j: usize) {
-        let (Some(prow), Some(pbin)) = (self.t.get(r).copied(), self.binv.get(r).copied()) else {
-            return;
-        };
-        let piv = g(&prow, j);
+    fn pivot(&mut self, r: usize, j: usize) -> Result<(), Fault> {
+        let (prow, pbin) = (at(&self.t, r)?, at(&self.binv, r)?);
+        let piv = at(&prow, j)?;
         if piv == 0.0 {
-            return;
+            // Unreachable: the ratio test only pivots on |α| > PIVOT_TOL.
+            return Ok(());
         }
         let inv = 1.0 / piv;
         let mut prow_n = prow;
         let mut pbin_n = pbin;
         prow_n.iter_mut().for_each(|v| *v *= inv);
         pbin_n.iter_mut().for_each(|v| *v *= inv);
-        set(&mut prow_n, j, 1.0);
+        put(&mut prow_n, j, 1.0)?;
         for (i, (row, brow)) in self.t.iter_mut().zip(self.binv.iter_mut()).enumerate().take(self.m) {
             if i == r {
                 *row = prow_n;
                 *brow = pbin_n;
                 continue;
             }
-            let f = g(row, j);
+            let f = at(row, j)?;
             if f != 0.0 {
                 for (v, p) in row.iter_mut().zip(prow_n.iter()) {
                     *v -= f * p;
@@ -568,85 +580,67 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     *v -= f * p;
                 }
             }
-            set(row, j, 0.0);
+            put(row, j, 0.0)?;
         }
+        Ok(())
     }
 
     /// Snap basic values onto their bounds (clears f32 drift; exact degenerate ties).
-    fn snap(&mut self) {
+    fn snap(&mut self) -> Result<(), Fault> {
         for i in 0..self.m {
-            let var = self.basis.get(i).copied().unwrap_or(usize::MAX);
-            let ub = self.upper_of(var);
-            if let Some(x) = self.xb.get_mut(i) {
-                if *x < SNAP_TOL {
-                    *x = 0.0;
-                } else if ub.is_finite() && *x > ub - SNAP_TOL {
-                    *x = ub;
-                }
+            let ub = self.upper_of(at(&self.basis, i)?)?;
+            let x = self.xb.get_mut(i).ok_or(Fault)?;
+            if *x < SNAP_TOL {
+                *x = 0.0;
+            } else if ub.is_finite() && *x > ub - SNAP_TOL {
+                *x = ub;
             }
         }
+        Ok(())
     }
 
-    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
-    /// Returns false (and changes nothing) if the basis matrix is numerically singular.
-    fn refactor(&mut self) -> bool {
+    /// `B⁻¹` of the current basis by Gauss-Jordan with partial pivoting; `None` if
+    /// numerically singular or not finite.
+    fn basis_inverse(&self) -> Result<Option<[[f32; M]; M]>, Fault> {
         let m = self.m;
         // Basis matrix, column k = column of basis[k].
         let mut bm = [[0.0f32; M]; M];
         for (k, var) in self.basis.iter().enumerate().take(m) {
             for (i, row) in bm.iter_mut().enumerate().take(m) {
                 let v = if *var < N {
-                    self.a.get(i).map_or(0.0, |r| g(r, *var))
-                } else if *var - N == i {
+                    at(self.a.get(i).ok_or(Fault)?, *var)?
+                } else if var.checked_sub(N) == Some(i) {
                     1.0
                 } else {
                     0.0
                 };
-                set(row, k, v);
+                put(row, k, v)?;
             }
         }
         let mut inv = [[0.0f32; M]; M];
         for (i, row) in inv.iter_mut().enumerate() {
-            set(row, i, 1.0);
+            put(row, i, 1.0)?;
         }
         for col in 0..m {
             // partial pivoting
             let mut p = col;
             let mut best = 0.0f32;
             for (i, row) in bm.iter().enumerate().take(m).skip(col) {
-                let v = g(row, col).abs();
+                let v = at(row, col)?.abs();
                 if v > best {
                     best = v;
                     p = i;
                 }
             }
             if !(best > SINGULAR_TOL) {
-                return false;
+                return Ok(None);
             }
             if p != col {
-                let (Some(rp), Some(rc)) = (bm.get(p).copied(), bm.get(col).copied()) else {
-                    return false;
-                };
-                let (Some(ip), Some(ic)) = (inv.get(p).copied(), inv.get(col).copied()) else {
-                    return false;
-                };
-                if let Some(x) = bm.get_mut(p) {
-                    *x = rc;
-                }
-                if let Some(x) = bm.get_mut(col) {
-                    *x = rp;
-                }
-                if let Some(x) = inv.get_mut(p) {
-                    *x = ic;
-                }
-                if let Some(x) = inv.get_mut(col) {
-                    *x = ip;
-                }
+                bm.swap(p, col);
+                inv.swap(p, col);
             }
-            let (Some(mut pr), Some(mut pi)) = (bm.get(col).copied(), inv.get(col).copied()) else {
-                return false;
-            };
-            let d = 1.0 / g(&pr, col);
+            let (mut pr, mut pi) = (at(&bm, col)?, at(&inv, col)?);
+            let d = 1.0 / at(&pr, col)?;
             pr.iter_mut().for_each(|v| *v *= d);
             pi.iter_mut().for_each(|v| *v *= d);
             for (i, (row, irow)) in bm.iter_mut().zip(inv.iter_mut()).enumerate().take(m) {
@@ -655,7 +649,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     *irow = pi;
                     continue;
                 }
-                let f = g(row, col);
+                let f = at(row, col)?;
                 if f != 0.0 {
                     for (v, p) in row.iter_mut().zip(pr.iter()) {
                         *v -= f * p;
@@ -667,14 +661,24 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             }
         }
         if !inv.iter().all(|r| r.iter().all(|v| v.is_finite())) {
-            return false;
+            return Ok(None);
         }
+        Ok(Some(inv))
+    }
+
+    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
+    /// Returns false (and changes nothing) if the basis matrix is numerically singular.
+    fn refactor(&mut self) -> Result<bool, Fault> {
+        let m = self.m;
+        let Some(inv) = self.basis_inverse()? else {
+            return Ok(false);
+        };
         // rhs = b - Σ_{nonbasic at upper} a_j h_j
         let mut rhs = self.b;
         for (ri, row) in rhs.iter_mut().zip(self.a.iter()).take(m) {
             for (j, aij) in row.iter().enumerate().take(self.n) {
-                if !gb(&self.basic, j) && gb(&self.upper, j) {
-                    *ri -= aij * g(&self.h, j);
+                if !at(&self.basic, j)? && at(&self.upper, j)? {
+                    *ri -= aij * at(&self.h, j)?;
                 }
             }
         }
@@ -683,7 +687,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             for (j, tv) in trow.iter_mut().enumerate().take(self.n) {
                 let mut acc = 0.0f32;
                 for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
-                    acc += ik * g(arow, j);
+                    acc += ik * at(arow, j)?;
                 }
                 *tv = acc;
             }
@@ -693,18 +697,18 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             }
             *xb = acc;
         }
-        self.refine(&inv);
+        self.refine(&inv)?;
         // Exact unit columns for the basic structurals.
         for (k, var) in self.basis.iter().enumerate().take(m) {
             if *var < N {
                 for (i, trow) in self.t.iter_mut().enumerate().take(m) {
-                    set(trow, *var, if i == k { 1.0 } else { 0.0 });
+                    put(trow, *var, if i == k { 1.0 } else { 0.0 })?;
                 }
             }
         }
         self.binv = inv;
-        self.snap();
-        true
+        self.snap()?;
+        Ok(true)
     }
 
     /// One step of iterative refinement of the basic values with a compensated
@@ -713,20 +717,20 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// working precision, then `x_B += B⁻¹ r`. This brings the basic solution (and so
     /// λ) from `cond(B)·ε` to ~`ε` accuracy for `cond(B) << 1/ε`. Skipped if anything
     /// is non-finite (huge data).
-    fn refine(&mut self, inv: &[[f32; M]; M]) {
+    fn refine(&mut self, inv: &[[f32; M]; M]) -> Result<(), Fault> {
         let m = self.m;
         let mut r = [0.0f32; M];
         for (i, (ri, (arow, bi))) in r.iter_mut().zip(self.a.iter().zip(self.b.iter())).enumerate().take(m) {
             let mut acc = Dot2::new(*bi);
             for (j, aij) in arow.iter().enumerate().take(self.n) {
-                if !gb(&self.basic, j) && gb(&self.upper, j) {
-                    acc.add_prod(-*aij, g(&self.h, j));
+                if !at(&self.basic, j)? && at(&self.upper, j)? {
+                    acc.add_prod(-*aij, at(&self.h, j)?);
                 }
             }
             for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(m) {
                 let coef = if *var < N {
-                    g(arow, *var)
-                } else if *var - N == i {
+                    at(arow, *var)?
+                } else if var.checked_sub(N) == Some(i) {
                     1.0
                 } else {
                     0.0
@@ -736,7 +740,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             *ri = acc.value();
         }
         if !r.iter().all(|v| v.is_finite()) {
-            return;
+            return Ok(());
         }
         let mut upd = [0.0f32; M];
         for (u, irow) in upd.iter_mut().zip(inv.iter()).take(m) {
@@ -747,9 +751,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 *x += u;
             }
         }
+        Ok(())
     }
 
-    /// Pivot to optimality, refactor, re-check.
     fn run_phase(&mut self) -> Result<(), LpStatus> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
@@ -757,7 +761,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             match self.iterate() {
                 Ok(true) => continue,
                 Ok(false) => {
-                    if self.refactor() && self.price().is_some() {
+                    if self.refactor()? && self.price()?.is_some() {
                         continue;
                     }
                     return Ok(());
@@ -768,17 +772,24 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     }
 
     fn extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> LpSolution<N> {
+        if status == LpStatus::InternalError {
+            return LpSolution::failed(status, self.iters);
+        }
+        self.try_extract(status, s, lp).unwrap_or(LpSolution::failed(LpStatus::InternalError, self.iters))
+    }
+
+    fn try_extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> Result<LpSolution<N>, Fault> {
         let mut y = [0.0f32; N];
         for (j, yj) in y.iter_mut().enumerate().take(self.n) {
-            if !gb(&self.basic, j) && gb(&self.upper, j) {
-                *yj = g(&self.h, j);
+            if !at(&self.basic, j)? && at(&self.upper, j)? {
+                *yj = at(&self.h, j)?;
             }
         }
         let mut primal_margin = f32::INFINITY;
         for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(self.m) {
             if *var < N {
-                set(&mut y, *var, *xb);
-                let ub = g(&self.h, *var);
+                put(&mut y, *var, *xb)?;
+                let ub = at(&self.h, *var)?;
                 let gap = if ub.is_finite() { xb.min(ub - xb) } else { *xb };
                 if gap < primal_margin {
                     primal_margin = gap;
@@ -788,8 +799,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         let mut dual_margin = f32::INFINITY;
         if status == LpStatus::Optimal {
             for j in 0..self.n {
-                if !gb(&self.basic, j) && g(&self.h, j) > 0.0 {
-                    let d = self.reduced_cost(j).abs();
+                if !at(&self.basic, j)? && at(&self.h, j)? > 0.0 {
+                    let d = self.reduced_cost(j)?.abs();
                     if d < dual_margin {
                         dual_margin = d;
                     }
@@ -801,16 +812,16 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
         for (j, ((xj, yj), sj)) in x.iter_mut().zip(y.iter()).zip(s.iter()).enumerate().take(self.n) {
-            let hj = g(&lp.h, j);
+            let hj = at(&lp.h, j)?;
             let v = (yj * sj).max(0.0);
             *xj = if v > hj { hj } else { v };
-            obj += g(&lp.c, j) * *xj;
+            obj += at(&lp.c, j)? * *xj;
         }
         if !(obj.is_finite() && x.iter().all(|v| v.is_finite())) {
             // overflow of finite-but-huge data: report it, never return inf/NaN
-            return LpSolution::failed(LpStatus::NonFinite, self.iters);
+            return Ok(LpSolution::failed(LpStatus::NonFinite, self.iters));
         }
-        LpSolution { x, objective: obj, iterations: self.iters, status, dual_margin, primal_margin }
+        Ok(LpSolution { x, objective: obj, iterations: self.iters, status, dual_margin, primal_margin })
     }
 }
 
@@ -891,5 +902,23 @@ mod tests {
         assert_eq!(lp.solve().status, LpStatus::Unbounded);
         lp.b = [f32::NAN];
         assert_eq!(lp.solve().status, LpStatus::NonFinite);
+    }
+}
+
+#[cfg(test)]
+mod internal_error_tests {
+    use super::*;
+    use crate::allocation::AllocStatus;
+
+    #[test]
+    fn an_index_out_of_range_is_an_internal_error_not_a_plausible_number() {
+        assert_eq!(at(&[1.0f32; 2], 2), Err(Fault));
+        let mut v = [0.0f32; 2];
+        assert_eq!(put(&mut v, 5, 1.0), Err(Fault));
+        assert_eq!(v, [0.0; 2]);
+        assert_eq!(LpStatus::from(Fault), LpStatus::InternalError);
+        let al = crate::allocation::thruster::paper::paper_allocator(1.0);
+        assert_eq!(al.bodson_lp(&[1.0, 0.0, 0.0], 3, &al.nominal_bounds(), true).err(), Some(Fault));
+        assert_eq!(crate::fsw::report::alloc_status(AllocStatus::InternalError), crate::types::Status::ALLOC_FALLBACK);
     }
 }

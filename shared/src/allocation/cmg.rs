@@ -18,7 +18,7 @@
 
 use crate::math::{Mat3, Vec3};
 use crate::params::{AlphaSchedule, CmgParams, SteeringLaw, SteeringParams};
-use crate::protocol::status;
+use crate::types::Status;
 use libm::{cosf, expf, sinf};
 use nalgebra::SMatrix;
 
@@ -39,8 +39,8 @@ pub struct SteeringOutput {
     pub singularity_measure: f32,
     /// α used (0 for Moore-Penrose).
     pub alpha: f32,
-    /// `protocol::status` bits: RATE_SCALED, ANGLE_LIMITED, SINGULAR.
-    pub status: u16,
+    /// RATE_SCALED, ANGLE_LIMITED, SINGULAR, MOMENTUM_SATURATION.
+    pub status: Status,
 }
 
 /// Gimbal rate and angle limits.
@@ -170,7 +170,7 @@ impl CmgPyramid {
         let m = jjt.determinant();
         // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
         let hdot = (-torque_nm - rate_rad_s.cross(&self.momentum(t))) / self.h0_nms;
-        let mut st = 0u16;
+        let mut st = Status::empty();
         let (alpha, weight) = match &p.law {
             SteeringLaw::MoorePenrose => (0.0, Mat3::identity()),
             SteeringLaw::SingularityRobust(s) => (alpha_of(s, m), Mat3::identity()),
@@ -192,7 +192,7 @@ impl CmgPyramid {
         let mut rates = match (m >= p.singular_threshold || alpha > 0.0, a.try_inverse()) {
             (true, Some(inv)) => j1.transpose() * (inv * hdot),
             _ => {
-                st |= status::SINGULAR;
+                st |= Status::SINGULAR;
                 nalgebra::Vector4::zeros()
             }
         };
@@ -207,11 +207,11 @@ impl CmgPyramid {
             rates += proj * p.null_gain_per_s;
         }
         if m < p.saturation_check_m && self.at_momentum_envelope(t, &jjt) {
-            st |= status::MOMENTUM_SATURATION;
+            st |= Status::MOMENTUM_SATURATION;
         }
         let mut r: [f32; 4] = rates.into();
         if !r.iter().all(|x| x.is_finite()) {
-            st |= status::SINGULAR;
+            st |= Status::SINGULAR;
             r = [0.0; 4];
         }
         for (i, x) in r.iter_mut().enumerate() {
@@ -250,22 +250,19 @@ pub fn alpha_of(s: &AlphaSchedule, m: f32) -> f32 {
 
 /// Enforce the rate limit by scaling the whole vector (direction kept), then stop any
 /// gimbal that would cross its angle limit within `dt`. Returns status bits.
-pub fn limit_rates(r: &mut [f32; 4], delta_rad: &[f32; 4], l: &GimbalLimits, dt_s: f32) -> u16 {
-    let mut st = 0;
-    let peak = r.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
-    if peak > l.max_rate_rad_s {
-        let s = l.max_rate_rad_s / peak;
-        r.iter_mut().for_each(|x| *x *= s);
-        st |= status::RATE_SCALED;
+pub fn limit_rates(r: &mut [f32; 4], delta_rad: &[f32; 4], l: &GimbalLimits, dt_s: f32) -> Status {
+    let mut st = Status::empty();
+    if crate::math::scale_to_peak(r, l.max_rate_rad_s) {
+        st |= Status::RATE_SCALED;
     }
     for (x, d) in r.iter_mut().zip(delta_rad.iter()) {
         let next = d + *x * dt_s;
         if next > l.max_angle_rad && *x > 0.0 {
             *x = ((l.max_angle_rad - d) / dt_s).max(0.0);
-            st |= status::ANGLE_LIMITED;
+            st |= Status::ANGLE_LIMITED;
         } else if next < l.min_angle_rad && *x < 0.0 {
             *x = ((l.min_angle_rad - d) / dt_s).min(0.0);
-            st |= status::ANGLE_LIMITED;
+            st |= Status::ANGLE_LIMITED;
         }
     }
     st
@@ -368,7 +365,7 @@ mod tests {
         let w = Vec3::new(0.01, -0.02, 0.03);
         let u = Vec3::new(0.05, -0.02, 0.08);
         let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &w, &u, 0.01, 0.0);
-        assert_eq!(mp.status, 0);
+        assert_eq!(mp.status, Status::empty());
         // MP realises the torque exactly (away from singularities).
         let got = p.torque_on_body(&t, &w, &mp.gimbal_rate_rad_s);
         assert!((got - u).norm() < 1e-5 * u.norm().max(1.0), "{got:?}");
@@ -401,7 +398,7 @@ mod tests {
         let u = Vec3::new(0.1, 0.0, 0.0);
         let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         assert!(mp.gimbal_rate_rad_s.iter().all(|x| x.is_finite()));
-        assert_ne!(mp.status & status::SINGULAR, 0);
+        assert!(mp.status.contains(Status::SINGULAR));
         let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
         let sr = p.steer(&sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         let peak = sr.gimbal_rate_rad_s.iter().fold(0.0f32, |a, x| a.max(x.abs()));
@@ -415,7 +412,7 @@ mod tests {
         let orig = Vector4::from(r);
         let l = GimbalLimits { max_rate_rad_s: 0.5, ..lim() };
         let st = limit_rates(&mut r, &[0.0; 4], &l, 0.01);
-        assert_ne!(st & status::RATE_SCALED, 0);
+        assert!(st.contains(Status::RATE_SCALED));
         let v = Vector4::from(r);
         assert!((v.amax() - 0.5).abs() < 1e-6);
         assert!((v.normalize().dot(&orig.normalize()) - 1.0).abs() < 1e-6);
@@ -426,7 +423,7 @@ mod tests {
         let mut r = [1.0f32, -1.0, 0.0, 0.0];
         let l = GimbalLimits { max_rate_rad_s: 10.0, min_angle_rad: -0.5, max_angle_rad: 0.5, failed_mask: 0 };
         let st = limit_rates(&mut r, &[0.495, -0.5, 0.0, 0.0], &l, 0.01);
-        assert_ne!(st & status::ANGLE_LIMITED, 0);
+        assert!(st.contains(Status::ANGLE_LIMITED));
         assert!((0.495 + r[0] * 0.01 - 0.5).abs() < 1e-6);
         assert_eq!(r[1], 0.0);
     }
@@ -507,7 +504,7 @@ mod tests {
             0.01,
             0.0,
         );
-        assert_ne!(out.status & status::MOMENTUM_SATURATION, 0);
+        assert!(out.status.contains(Status::MOMENTUM_SATURATION));
     }
 
     #[test]

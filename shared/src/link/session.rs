@@ -3,8 +3,8 @@
 //! [`HostMsg`]s and send back what it returns.
 
 use crate::fsw::Fsw;
+use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, StepReport, schema_hash};
 use crate::params::PARAMS_VERSION;
-use crate::protocol::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, StepReport, schema_hash};
 
 /// Board identifiers reported in `HelloAck`.
 pub mod board {
@@ -85,7 +85,7 @@ impl Session {
         }
     }
 
-    pub fn report(&self, cmd: crate::protocol::ActuatorCommand, ticks: u32, frames_dropped: u32) -> StepReport {
+    pub fn report(&self, cmd: crate::link::ActuatorCommand, ticks: u32, frames_dropped: u32) -> StepReport {
         StepReport { cmd, step_cost_ticks: ticks, deadline_misses: self.deadline_misses, frames_dropped }
     }
 }
@@ -93,8 +93,8 @@ impl Session {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::link::{SensorFrame, status, valid};
     use crate::params::FlightParams;
-    use crate::protocol::{SensorFrame, status, valid};
 
     #[test]
     fn hello_checks_version_and_schema() {

@@ -1,0 +1,403 @@
+//! The flight software step: the one function the firmware's control task and the
+//! simulator's in-process link both call.
+//!
+//! `Fsw::step(&SensorFrame) -> ActuatorCommand` runs the data path top-down:
+//! 1. validate: reject bad input ([`validate::check_frame`]): the safe command (all
+//!    actuators idle: gimbals stop, wheel torques, dipoles and thrusters zero) with
+//!    `BAD_INPUT`;
+//! 2. mode: the mode manager picks the parameter set in force ([`mode`]);
+//! 3. estimate: actuator momentum and geometry (the LQG law runs its estimator itself);
+//! 4. guide: commanded attitude and rate ([`crate::guidance`]);
+//! 5. control: the law → body-torque (or gimbal-rate) demand ([`crate::control::law`]);
+//! 6. allocate: the actuator family → commands, the torque they realise, saturation
+//!    ([`crate::allocation::family`]);
+//! 7. report: the wire command, and the saturation the laws use for anti-windup next
+//!    step ([`report`]).
+//!
+//! No heap, no panics, no loops without a fixed bound.
+
+mod config;
+mod mode;
+pub mod report;
+pub mod validate;
+
+use crate::allocation::family::{ActuatorFamily, Actuators};
+use crate::control::{AttitudeLaw, Law, LawInputs};
+use crate::guidance::Target;
+use crate::link::{ActuatorCommand, SensorFrame};
+use crate::math::{Mat3, Vec3};
+use crate::modes::{MODE_COUNT, ModeManager};
+use crate::params::FlightParams;
+use crate::types::{Status, Valid};
+
+pub use crate::allocation::family::ThrusterAllocator;
+pub use config::ModeError;
+pub use validate::{MAX_FIELD_T, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
+
+/// One validated parameter set, ready to run.
+#[derive(Clone, Debug)]
+struct Configured {
+    params: FlightParams,
+    inertia: Mat3,
+    /// The law with its own state.
+    law: Law,
+    dt_s: f32,
+    target: Target,
+    actuators: Actuators,
+    /// Validity bits a sensor frame must carry for this configuration.
+    required: Valid,
+}
+
+/// Flight software state. `Fsw::new()` is unconfigured; `configure` must accept a
+/// parameter set (or `configure_mode` + `arm_modes` a mode table) before `step` commands
+/// anything but the safe command.
+#[derive(Clone, Debug)]
+pub struct Fsw {
+    /// Single parameter set: slot 0. Mode table: slot `Mode::index()`.
+    slots: [Option<Configured>; MODE_COUNT],
+    /// Slot in force.
+    active: usize,
+    /// Slots hold a mode table (not a single parameter set).
+    table: bool,
+    /// The armed mode table's transition logic.
+    manager: Option<ModeManager>,
+    /// Torque realised last step (the LQG estimator's input).
+    torque_last: Vec3,
+    saturated_last: bool,
+}
+
+impl Default for Fsw {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Fsw {
+    pub const fn new() -> Self {
+        Self {
+            slots: [const { None }; MODE_COUNT],
+            active: 0,
+            table: false,
+            manager: None,
+            torque_last: nalgebra::Vector3::new(0.0, 0.0, 0.0),
+            saturated_last: false,
+        }
+    }
+
+    /// The command to hold when there is no trustworthy input: every actuator idle.
+    /// `status_bits`: wire [`crate::link::status`] bits.
+    pub fn safe_command(seq: u32, status_bits: u16) -> ActuatorCommand {
+        ActuatorCommand { seq, status: status_bits, ..Default::default() }
+    }
+
+    fn safe(seq: u32, status: Status) -> ActuatorCommand {
+        Self::safe_command(seq, status.bits())
+    }
+
+    /// One control step.
+    pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
+        let mut cmd = self.step_active(f);
+        if let Some(mgr) = &self.manager {
+            report::mode_telemetry(&mut cmd, mgr);
+        }
+        cmd
+    }
+
+    fn step_active(&mut self, f: &SensorFrame) -> ActuatorCommand {
+        if self.table && self.manager.is_none() {
+            return Self::safe(f.seq, Status::NOT_CONFIGURED);
+        }
+        // Mode: may switch the slot in force (and reset the law taking over).
+        self.update_mode(f);
+        let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
+            return Self::safe(f.seq, Status::NOT_CONFIGURED);
+        };
+        // Validate.
+        let Some(m) = validate::check_frame(f, cfg.required) else {
+            return Self::safe(f.seq, Status::BAD_INPUT);
+        };
+        // Estimate: actuator momentum (gyroscopic terms) and geometry.
+        let act = cfg.actuators.observe(&m);
+        // Guide.
+        let sp = cfg.target.setpoint(&m, cfg.actuators.steering(), f.time_us);
+        // Control.
+        let inputs = LawInputs {
+            m: &m,
+            sp: &sp,
+            inertia: &cfg.inertia,
+            h_act_nms: &act.momentum_nms,
+            torque_last_nm: &self.torque_last,
+            dt_s: cfg.dt_s,
+            saturated_last: self.saturated_last,
+        };
+        let mut out = cfg.law.update(&inputs);
+        let mut flags = Status::empty();
+        if !out.demand.is_finite() {
+            // Documented fallback: allocate nothing; the law's state starts afresh.
+            out.demand = out.demand.zeroed();
+            flags |= Status::LAW_FAULT;
+            cfg.law.reset();
+        }
+        // Allocate.
+        let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
+        // Report.
+        let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
+        self.torque_last = r.torque_for_estimator();
+        self.saturated_last = r.status.intersects(Status::SATURATING);
+        r.command(f.seq)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::{status, valid};
+    use crate::math::{EulerSeq, Quat, quat_from_euler, quat_to_xyzw};
+    use crate::modes::{Mode, ModeManagerParams, ModeRequest};
+    use crate::params::{ActuatorParams, ControllerParams, MAX_WHEELS, MagnetorquerParams, ParamField, WheelParams};
+
+    fn frame(q: Quat) -> SensorFrame {
+        SensorFrame {
+            q_ib_xyzw: quat_to_xyzw(&q),
+            gimbal_angle_rad: [0.1, 0.2, -0.1, 0.3],
+            mag_field_t: [2e-5, -1e-5, 3e-5],
+            valid: valid::ALL,
+            ..SensorFrame::empty(5, 0)
+        }
+    }
+
+    #[test]
+    fn unconfigured_and_bad_frames_get_the_safe_command() {
+        let mut f = Fsw::new();
+        let c = f.step(&frame(Quat::identity()));
+        assert_eq!(c.status, status::NOT_CONFIGURED);
+        assert_eq!(c.gimbal_rate_cmd_rad_s, [0.0; 4]);
+        f.configure(&FlightParams::default()).unwrap();
+        let nan = |g: fn(&mut SensorFrame)| {
+            let mut fr = frame(Quat::identity());
+            g(&mut fr);
+            fr
+        };
+        let bad = [
+            nan(|f| f.q_ib_xyzw[0] = f32::NAN),
+            nan(|f| f.q_ib_xyzw = [0.0; 4]),
+            nan(|f| f.q_ib_xyzw = [0.0, 0.0, 0.0, 3.0]),
+            nan(|f| f.rate_rad_s[2] = f32::INFINITY),
+            nan(|f| f.rate_rad_s[1] = 1e6),
+            nan(|f| f.gimbal_angle_rad[3] = f32::NAN),
+            nan(|f| f.valid = valid::RATE),
+            nan(|f| f.gimbal_angle_rad[0] = 1e30),
+            nan(|f| f.valid = valid::ATTITUDE | valid::RATE), // CMG configuration needs gimbals
+        ];
+        for b in bad {
+            let c = f.step(&b);
+            assert_eq!(c.status, status::BAD_INPUT, "{b:?}");
+            assert_eq!(c, Fsw::safe_command(5, status::BAD_INPUT));
+        }
+    }
+
+    #[test]
+    fn realised_torque_matches_demand_away_from_singularity() {
+        let mut f = Fsw::new();
+        f.configure(&FlightParams::default()).unwrap();
+        let q = quat_from_euler([0.01, -0.02, 0.05], EulerSeq::Zyx321);
+        let c = f.step(&frame(q));
+        let d = Vec3::from(c.torque_demand_nm);
+        let r = Vec3::from(c.torque_realised_nm);
+        assert!(d.norm() > 1e-3);
+        assert!((d - r).norm() < 0.01 * d.norm(), "{d:?} vs {r:?}");
+        assert!(c.singularity_measure > 0.1);
+    }
+
+    #[test]
+    fn rejected_parameters_keep_the_previous_configuration() {
+        let mut f = Fsw::new();
+        let good = FlightParams::default();
+        f.configure(&good).unwrap();
+        let mut bad = good;
+        bad.control_rate_hz = -1.0;
+        assert_eq!(f.configure(&bad).unwrap_err().field, ParamField::ControlRate);
+        assert_eq!(f.params(), Some(&good));
+    }
+
+    fn other_family(a: ActuatorParams) -> Fsw {
+        let mut f = Fsw::new();
+        f.configure(&FlightParams { actuator: a, ..FlightParams::default() }).unwrap();
+        f
+    }
+
+    #[test]
+    fn every_family_produces_torque_against_the_error() {
+        let q = quat_from_euler([0.02, -0.03, 0.05], EulerSeq::Zyx321);
+        let mut axes = [[0.0; 3]; MAX_WHEELS];
+        axes[0] = [1.0, 0.0, 0.0];
+        axes[1] = [0.0, 1.0, 0.0];
+        axes[2] = [0.0, 0.0, 1.0];
+        let w = WheelParams {
+            count: 3,
+            axes,
+            max_torque_nm: 10.0,
+            max_speed_rad_s: 600.0,
+            inertia_kgm2: 0.01,
+            null_gain_per_s: 0.0,
+            bias_speed_rad_s: [0.0; MAX_WHEELS],
+            failed_mask: 0,
+        };
+        let mut fw = other_family(ActuatorParams::Wheels(w));
+        let c = fw.step(&frame(q));
+        let d = Vec3::from(c.torque_demand_nm);
+        assert!((Vec3::from(c.torque_realised_nm) - d).norm() < 1e-5 * d.norm());
+        // Body torque = -Σ a_i u_i: with the identity layout u = -T.
+        assert!((c.wheel_torque_cmd_nm[0] + d.x).abs() < 1e-6);
+        let mut fm = other_family(ActuatorParams::Magnetorquers(mtq(1e6)));
+        let c = fm.step(&frame(q));
+        let b = Vec3::new(2e-5, -1e-5, 3e-5);
+        let d = Vec3::from(c.torque_demand_nm);
+        let perp = d - b * (d.dot(&b) / b.norm_squared());
+        assert!((Vec3::from(c.torque_realised_nm) - perp).norm() < 1e-4 * perp.norm());
+        assert!(Vec3::from(c.dipole_cmd_am2).norm() > 0.0);
+    }
+
+    fn mtq(max_am2: f32) -> MagnetorquerParams {
+        MagnetorquerParams {
+            max_dipole_am2: [max_am2; 3],
+            min_dipole_am2: [max_am2; 3],
+            deadband_lo_am2: [0.0; 3],
+            deadband_hi_am2: [0.0; 3],
+            min_field_t: 1e-7,
+        }
+    }
+
+    fn table_params() -> ModeManagerParams {
+        ModeManagerParams {
+            slots: 0b0101,
+            initial: Mode::Detumble,
+            detumble_enter_rate_rad_s: 0.05,
+            detumble_exit_rate_rad_s: 0.01,
+            stabilise_exit_error_rad: 0.1,
+            stabilise_exit_rate_rad_s: 0.01,
+            hold_enter_error_rad: 0.01,
+            hold_enter_rate_rad_s: 0.01,
+            hold_exit_error_rad: 0.05,
+            dwell_s: 0.1,
+            trigger_persistence_s: 0.02,
+        }
+    }
+
+    #[test]
+    fn mode_table_upload_arm_and_switch() {
+        let mut f = Fsw::new();
+        let base = FlightParams::default();
+        // Arming needs an uploaded table.
+        assert_eq!(f.arm_modes(&table_params()).unwrap_err().field, ParamField::ModeTable);
+        assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
+        f.configure_mode(Mode::Detumble, &base).unwrap();
+        // Uploaded but not armed: nothing commands.
+        assert_eq!(f.step(&frame(Quat::identity())).status, status::NOT_CONFIGURED);
+        // The mask names manoeuvre, which was not uploaded.
+        assert_eq!(f.arm_modes(&table_params()).unwrap_err().field, ParamField::ModeTable);
+        f.configure_mode(Mode::Manoeuvre, &base).unwrap();
+        // A stale hold slot outside the mask is dropped at arming.
+        f.configure_mode(Mode::Hold, &base).unwrap();
+        f.arm_modes(&table_params()).unwrap();
+        assert_eq!(f.command_mode(ModeRequest::Enter(Mode::Hold)), Err(ModeError::NoSuchMode));
+        // At rest on target: detumble converges (rate 0 < exit) after dwell = 10 steps at 100 Hz
+        // (the 10th step already runs the next mode: the switch comes before the law).
+        let mut modes = Vec::new();
+        for _ in 0..12 {
+            let c = f.step(&frame(Quat::identity()));
+            modes.push(c.mode);
+        }
+        assert_eq!(modes.first(), Some(&Mode::Detumble.code()));
+        assert_eq!(modes.last(), Some(&Mode::Manoeuvre.code()));
+        assert_eq!(modes.iter().filter(|m| **m == Mode::Detumble.code()).count(), 9);
+        let mut fr = frame(Quat::identity());
+        // A high rate sends it back to detumble after the 2-step persistence.
+        fr.rate_rad_s = [0.1, 0.0, 0.0];
+        let c: Vec<u8> = (0..3).map(|_| f.step(&fr).mode).collect();
+        assert_eq!(c, [Mode::Manoeuvre.code(), Mode::Detumble.code(), Mode::Detumble.code()]);
+        assert_eq!(f.mode_manager().map(|m| m.transitions), Some(2));
+        // Lock manoeuvre: the high rate no longer switches.
+        assert_eq!(f.command_mode(ModeRequest::Lock(Mode::Manoeuvre)), Ok(Mode::Manoeuvre));
+        assert!((0..10).all(|_| f.step(&fr).mode == Mode::Manoeuvre.code()));
+        // A single parameter set replaces the table.
+        f.configure(&base).unwrap();
+        assert_eq!(f.step(&fr).mode, crate::modes::MODE_NONE);
+        assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
+    }
+
+    #[test]
+    fn set_target_moves_only_the_mission_modes() {
+        let mut f = Fsw::new();
+        let base = FlightParams::default();
+        f.configure_mode(Mode::Stabilise, &base).unwrap();
+        f.configure_mode(Mode::Hold, &base).unwrap();
+        f.arm_modes(&ModeManagerParams { slots: 0b1010, initial: Mode::Stabilise, ..table_params() }).unwrap();
+        let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
+        f.set_target(quat_to_xyzw(&q)).unwrap();
+        // Stabilise still points at identity: zero error at identity.
+        let c = f.step(&frame(Quat::identity()));
+        assert!(c.attitude_error_rad < 1e-6, "{}", c.attitude_error_rad);
+        f.command_mode(ModeRequest::Lock(Mode::Hold)).unwrap();
+        let c = f.step(&frame(Quat::identity()));
+        assert!((c.attitude_error_rad - 0.5).abs() < 1e-4, "{}", c.attitude_error_rad);
+        assert!(f.set_target([0.0, 0.0, 0.0, 2.0]).is_err());
+    }
+
+    #[test]
+    fn gimbal_rate_lqr_commands_minus_k_x_without_steering() {
+        let mut k = [[0.0f32; 6]; 4];
+        for (i, row) in k.iter_mut().enumerate() {
+            for (j, x) in row.iter_mut().enumerate() {
+                *x = 0.1 * (i as f32 + 1.0) - 0.05 * j as f32;
+            }
+        }
+        let p = FlightParams { controller: ControllerParams::LqrGimbalRate { k }, ..FlightParams::default() };
+        let mut f = Fsw::new();
+        f.configure(&p).unwrap();
+        let (r, pi, y) = (0.01f32, -0.02, 0.015);
+        let mut fr = frame(quat_from_euler([r, pi, y], EulerSeq::Zyx321));
+        fr.rate_rad_s = [0.001, -0.002, 0.003];
+        let c = f.step(&fr);
+        let x = [r, pi, y, 0.001, -0.002, 0.003];
+        for (i, row) in k.iter().enumerate() {
+            let expect: f32 = -row.iter().zip(&x).map(|(k, x)| k * x).sum::<f32>();
+            assert!((c.gimbal_rate_cmd_rad_s[i] - expect).abs() < 1e-6, "{i}: {:?}", c.gimbal_rate_cmd_rad_s);
+        }
+        // The reported demand is what those rates do: no shortfall is claimed.
+        assert_eq!(c.status & status::TORQUE_SHORTFALL, 0);
+        assert!(Vec3::from(c.torque_demand_nm).norm() > 0.0);
+        // A gimbal-rate law on wheels is refused.
+        let mut bad = p;
+        bad.actuator = ActuatorParams::Magnetorquers(mtq(1.0));
+        assert_eq!(f.configure(&bad).unwrap_err().field, ParamField::Controller);
+    }
+
+    #[test]
+    fn a_tumble_that_blinds_the_star_tracker_still_reaches_detumble() {
+        let bdot = FlightParams {
+            controller: ControllerParams::Bdot { gain_am2_s_per_t: 1e4, filter_time_constant_s: 0.0 },
+            actuator: ActuatorParams::Magnetorquers(mtq(0.1)),
+            ..FlightParams::default()
+        };
+        let mut f = Fsw::new();
+        f.configure_mode(Mode::Detumble, &bdot).unwrap();
+        f.configure_mode(Mode::Hold, &FlightParams::default()).unwrap();
+        f.arm_modes(&ModeManagerParams { slots: 0b1001, initial: Mode::Hold, ..table_params() }).unwrap();
+        // Gyro and magnetometer valid, attitude lost, tumbling at 0.1 rad/s.
+        let mut fr = frame(Quat::identity());
+        fr.valid = valid::RATE | valid::MAG | valid::GIMBALS;
+        fr.q_ib_xyzw = [0.0; 4];
+        fr.rate_rad_s = [0.1, 0.0, 0.0];
+        let c1 = f.step(&fr);
+        // Hold cannot run blind…
+        assert_eq!((c1.status, c1.mode), (status::BAD_INPUT, Mode::Hold.code()));
+        // … but the rate trigger fires (2-step persistence) and B-dot needs no attitude.
+        let c2 = f.step(&fr);
+        assert_eq!(c2.mode, Mode::Detumble.code());
+        assert_eq!(c2.status & status::BAD_INPUT, 0);
+        fr.mag_field_t = [2.1e-5, -1.0e-5, 3.0e-5];
+        let c3 = f.step(&fr);
+        assert!(Vec3::from(c3.dipole_cmd_am2).norm() > 0.0, "B-dot acts on the field change");
+    }
+}

@@ -1,0 +1,287 @@
+//! Framing of the host link: a frame on the wire is `COBS(postcard(msg) ‖ crc32_le) ‖ 0x00`.
+//! The zero byte only ever appears as the delimiter, so a receiver that lost sync simply
+//! waits for the next zero. [`FrameAccumulator`] does that, counts every bad frame by kind
+//! and goes on.
+
+use super::messages::MAX_PAYLOAD;
+use crate::checksum::CRC32;
+use serde::{Deserialize, Serialize};
+
+/// Why a frame was dropped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameError {
+    /// Longer than the receive buffer before a delimiter arrived.
+    Oversize,
+    /// Not valid COBS.
+    Cobs,
+    /// Shorter than a CRC.
+    Short,
+    /// CRC mismatch.
+    Crc,
+    /// CRC fine but the payload is not a valid message.
+    Decode,
+    /// The output buffer is too small (encoder side).
+    BufferTooSmall,
+}
+
+/// Counters of a receiver.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LinkStats {
+    pub frames_ok: u32,
+    pub oversize: u32,
+    pub cobs: u32,
+    pub short: u32,
+    pub crc: u32,
+    pub decode: u32,
+}
+
+impl LinkStats {
+    pub fn dropped(&self) -> u32 {
+        self.oversize
+            .saturating_add(self.cobs)
+            .saturating_add(self.short)
+            .saturating_add(self.crc)
+            .saturating_add(self.decode)
+    }
+}
+
+/// Encode `msg` as one frame into `out`; returns the frame (delimiter included).
+pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a [u8], FrameError> {
+    let mut raw = [0u8; MAX_PAYLOAD + 4];
+    let n = postcard::to_slice(msg, &mut raw).map_err(|_| FrameError::BufferTooSmall)?.len();
+    let (body, _) = raw.split_at_mut(n.min(MAX_PAYLOAD));
+    let crc = CRC32.checksum(body).to_le_bytes();
+    let total = n.saturating_add(4);
+    let Some(dst) = raw.get_mut(n..total) else {
+        return Err(FrameError::BufferTooSmall);
+    };
+    dst.copy_from_slice(&crc);
+    let Some(src) = raw.get(..total) else {
+        return Err(FrameError::BufferTooSmall);
+    };
+    if out.len() < cobs::max_encoding_length(total).saturating_add(1) {
+        return Err(FrameError::BufferTooSmall);
+    }
+    let enc = cobs::encode(src, out);
+    let Some(delim) = out.get_mut(enc) else {
+        return Err(FrameError::BufferTooSmall);
+    };
+    *delim = 0;
+    out.get(..enc.saturating_add(1)).ok_or(FrameError::BufferTooSmall)
+}
+
+/// Receive side: push bytes one at a time; every delimiter yields a message or a counted
+/// error, after which the accumulator is in sync again. `N` is the buffer size.
+pub struct FrameAccumulator<const N: usize> {
+    buf: [u8; N],
+    len: usize,
+    overflow: bool,
+    pub stats: LinkStats,
+}
+
+impl<const N: usize> Default for FrameAccumulator<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> FrameAccumulator<N> {
+    pub const fn new() -> Self {
+        Self {
+            buf: [0; N],
+            len: 0,
+            overflow: false,
+            stats: LinkStats { frames_ok: 0, oversize: 0, cobs: 0, short: 0, crc: 0, decode: 0 },
+        }
+    }
+
+    /// Feed one byte. Returns `None` mid-frame (and for empty frames, which senders may
+    /// use to flush a half-received frame at the other end).
+    pub fn push<T: for<'de> Deserialize<'de>>(&mut self, byte: u8) -> Option<Result<T, FrameError>> {
+        if byte != 0 {
+            match self.buf.get_mut(self.len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len = self.len.saturating_add(1);
+                }
+                None => self.overflow = true,
+            }
+            return None;
+        }
+        let len = core::mem::replace(&mut self.len, 0);
+        if core::mem::replace(&mut self.overflow, false) {
+            self.stats.oversize = self.stats.oversize.saturating_add(1);
+            return Some(Err(FrameError::Oversize));
+        }
+        if len == 0 {
+            return None;
+        }
+        let r = self.decode(len);
+        match r {
+            Ok(_) => self.stats.frames_ok = self.stats.frames_ok.saturating_add(1),
+            Err(e) => {
+                let c = match e {
+                    FrameError::Cobs => &mut self.stats.cobs,
+                    FrameError::Short => &mut self.stats.short,
+                    FrameError::Crc => &mut self.stats.crc,
+                    _ => &mut self.stats.decode,
+                };
+                *c = c.saturating_add(1);
+            }
+        }
+        Some(r)
+    }
+
+    fn decode<T: for<'de> Deserialize<'de>>(&mut self, len: usize) -> Result<T, FrameError> {
+        let frame = self.buf.get_mut(..len).ok_or(FrameError::Oversize)?;
+        let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
+        let data = frame.get(..n).ok_or(FrameError::Cobs)?;
+        if n < 5 {
+            return Err(FrameError::Short);
+        }
+        let (body, crc) = data.split_at(n.saturating_sub(4));
+        let mut c = [0u8; 4];
+        c.copy_from_slice(crc);
+        if CRC32.checksum(body) != u32::from_le_bytes(c) {
+            return Err(FrameError::Crc);
+        }
+        postcard::from_bytes(body).map_err(|_| FrameError::Decode)
+    }
+
+    /// Drop a partly received frame (e.g. after a link timeout).
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.overflow = false;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::messages::*;
+    use crate::params::FlightParams;
+
+    fn sensor(seq: u32) -> HostMsg {
+        HostMsg::Sensor(SensorFrame {
+            q_ib_xyzw: [0.1, -0.2, 0.3, 0.927],
+            rate_rad_s: [0.01, 0.0, -0.02],
+            gimbal_angle_rad: [0.0, 0.5, -0.5, 0.0],
+            wheel_speed_rad_s: [10.0, -20.0, 30.0, 0.0, 0.0, 0.0],
+            mag_field_t: [2e-5, -1e-5, 3e-5],
+            valid: valid::ALL,
+            ..SensorFrame::empty(seq, 10_000 * seq as u64)
+        })
+    }
+
+    fn enc(m: &HostMsg) -> std::vec::Vec<u8> {
+        let mut out = [0u8; MAX_FRAME];
+        encode_frame(m, &mut out).unwrap().to_vec()
+    }
+
+    fn feed(acc: &mut FrameAccumulator<MAX_FRAME>, bytes: &[u8]) -> std::vec::Vec<Result<HostMsg, FrameError>> {
+        bytes.iter().filter_map(|b| acc.push::<HostMsg>(*b)).collect()
+    }
+
+    #[test]
+    fn round_trip_every_message_kind() {
+        let msgs = [
+            HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
+            HostMsg::UploadParams(FlightParams::default()),
+            sensor(7),
+            HostMsg::SetTarget { target_q_xyzw: [0.0, 0.0, 0.42, 0.9] },
+            HostMsg::StartRealTime,
+        ];
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+        for m in &msgs {
+            let f = enc(m);
+            assert_eq!(f.iter().filter(|b| **b == 0).count(), 1, "only the delimiter is zero");
+            assert!(f.len() <= MAX_FRAME);
+            let got = feed(&mut acc, &f);
+            assert_eq!(got, vec![Ok(m.clone())]);
+        }
+        assert_eq!(acc.stats.frames_ok, msgs.len() as u32);
+    }
+
+    #[test]
+    fn largest_messages_fit() {
+        let mut raw = [0u8; 2048];
+        let n = postcard::to_slice(&HostMsg::UploadParams(FlightParams::default()), &mut raw).unwrap().len();
+        assert!(n <= MAX_PAYLOAD, "{n}");
+        let step = FswMsg::Step(StepReport {
+            cmd: ActuatorCommand { seq: u32::MAX, status: u16::MAX, ..Default::default() },
+            step_cost_ticks: u32::MAX,
+            deadline_misses: u32::MAX,
+            frames_dropped: u32::MAX,
+        });
+        assert!(postcard::to_slice(&step, &mut raw).unwrap().len() <= MAX_PAYLOAD);
+    }
+
+    #[test]
+    fn every_single_bit_flip_is_dropped_and_the_next_frame_decodes() {
+        let good = enc(&sensor(1));
+        let next = enc(&sensor(2));
+        let body_len = good.len() - 1;
+        for byte in 0..body_len {
+            for bit in 0..8 {
+                let mut bad = good.clone();
+                bad[byte] ^= 1 << bit;
+                let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+                let mut stream = bad.clone();
+                stream.extend_from_slice(&next);
+                let got = feed(&mut acc, &stream);
+                // A flip may create an extra zero (splitting the frame): every piece before
+                // the good frame must be an error, and the good frame must come through.
+                let (last, before) = got.split_last().unwrap();
+                assert_eq!(last, &Ok(sensor(2)), "flip {byte}:{bit}");
+                assert!(before.iter().all(|r| r.is_err()), "flip {byte}:{bit} produced a message");
+                assert_eq!(acc.stats.dropped() as usize, before.len());
+                assert!(acc.stats.dropped() >= 1 || bad[byte] == 0);
+            }
+        }
+    }
+
+    #[test]
+    fn truncation_garbage_and_oversize_are_counted_then_resync() {
+        let good = enc(&sensor(3));
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+        // Truncated frame followed by its delimiter.
+        let mut s = good[..good.len() / 2].to_vec();
+        s.push(0);
+        // Garbage between frames (non-zero bytes, then a delimiter).
+        s.extend_from_slice(&[0x55, 0xAA, 0x13, 0x37, 0x00]);
+        // Oversize: more non-zero bytes than the buffer holds.
+        s.extend(std::iter::repeat_n(0x42, MAX_FRAME + 10));
+        s.push(0);
+        s.extend_from_slice(&good);
+        let got = feed(&mut acc, &s);
+        assert_eq!(got.len(), 4);
+        assert!(got[..3].iter().all(|r| r.is_err()));
+        assert_eq!(got[2], Err(FrameError::Oversize));
+        assert_eq!(got[3], Ok(sensor(3)));
+        assert_eq!(acc.stats.dropped(), 3);
+        assert_eq!(acc.stats.oversize, 1);
+    }
+
+    #[test]
+    fn valid_crc_but_wrong_payload_is_a_decode_error() {
+        // A frame with a correct CRC over bytes that are not a HostMsg (enum tag 200).
+        let body = [200u8, 1, 2, 3];
+        let mut raw = body.to_vec();
+        raw.extend_from_slice(&CRC32.checksum(&body).to_le_bytes());
+        let mut out = [0u8; 32];
+        let n = cobs::encode(&raw, &mut out);
+        let mut f = out[..n].to_vec();
+        f.push(0);
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+        assert_eq!(feed(&mut acc, &f), vec![Err(FrameError::Decode)]);
+        assert_eq!(acc.stats.decode, 1);
+    }
+
+    #[test]
+    fn schema_hash_is_stable_and_nonzero() {
+        assert_eq!(schema_hash(), schema_hash());
+        assert_ne!(schema_hash(), 0);
+    }
+}

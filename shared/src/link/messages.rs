@@ -1,0 +1,310 @@
+//! Host ↔ flight-computer link messages (framing: [`super::framing`]).
+//!
+//! Session: host sends `Hello` (protocol version and schema hash must match), then
+//! `UploadParams` (validated; rejected with the offending field) — or, for a mode table,
+//! one `UploadModeParams` per mode and `ArmModes` — then one `Sensor` frame per control
+//! step; the flight side answers each with a `Step` report. Every other message gets
+//! exactly one reply.
+//!
+//! Wire types are plain arrays of f32/u32 so that no layout depends on a math library.
+//! Flag fields stay `u16` on the wire; the flight code reads and writes them through the
+//! typed [`Valid`] and [`Status`] (`from_bits_retain` / `bits`, same bits) at this boundary.
+
+use crate::checksum::CRC32;
+use crate::modes::{Mode, ModeManagerParams, ModeRequest};
+use crate::params::{FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError};
+#[allow(unused_imports)] // doc links
+use crate::types::{Status, Valid};
+use postcard_schema::Schema;
+use serde::{Deserialize, Serialize};
+
+/// Bumped whenever a message changes; the schema hash catches forgotten bumps.
+pub const PROTOCOL_VERSION: u16 = 9;
+
+/// Largest postcard payload of any message (checked by a test).
+pub const MAX_PAYLOAD: usize = 768;
+/// Largest frame on the wire: COBS overhead + CRC + delimiter.
+pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
+
+/// `SensorFrame::valid` bits on the wire: the bits of [`Valid`] (one definition).
+pub mod valid {
+    use crate::types::Valid;
+    pub const ATTITUDE: u16 = Valid::ATTITUDE.bits();
+    pub const RATE: u16 = Valid::RATE.bits();
+    pub const GIMBALS: u16 = Valid::GIMBALS.bits();
+    pub const WHEELS: u16 = Valid::WHEELS.bits();
+    pub const MAG: u16 = Valid::MAG.bits();
+    pub const SUN: u16 = Valid::SUN.bits();
+    /// `q_ref_xyzw` and `ref_rate_rad_s` (navigation solution) are valid.
+    pub const REFERENCE: u16 = Valid::REFERENCE.bits();
+    pub const ALL: u16 = Valid::all().bits();
+}
+
+/// `ActuatorCommand::status` bits on the wire: the bits of [`Status`] (one definition,
+/// documented there).
+pub mod status {
+    use crate::types::Status;
+    pub const TORQUE_LIMITED: u16 = Status::TORQUE_LIMITED.bits();
+    pub const RATE_SCALED: u16 = Status::RATE_SCALED.bits();
+    pub const ANGLE_LIMITED: u16 = Status::ANGLE_LIMITED.bits();
+    pub const SINGULAR: u16 = Status::SINGULAR.bits();
+    pub const BAD_INPUT: u16 = Status::BAD_INPUT.bits();
+    pub const TORQUE_SHORTFALL: u16 = Status::TORQUE_SHORTFALL.bits();
+    pub const NOT_CONFIGURED: u16 = Status::NOT_CONFIGURED.bits();
+    pub const HOLD: u16 = Status::HOLD.bits();
+    pub const ALLOC_FALLBACK: u16 = Status::ALLOC_FALLBACK.bits();
+    pub const UNREALISED: u16 = Status::UNREALISED.bits();
+    pub const MOMENTUM_SATURATION: u16 = Status::MOMENTUM_SATURATION.bits();
+    pub const LAW_FAULT: u16 = Status::LAW_FAULT.bits();
+}
+
+/// One sample of everything the flight code reads, taken at `time_us`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SensorFrame {
+    pub seq: u32,
+    pub time_us: u64,
+    /// Measured attitude `q_ib`, scalar-last.
+    pub q_ib_xyzw: [f32; 4],
+    /// Measured body rate, body axes.
+    pub rate_rad_s: [f32; 3],
+    /// Measured gimbal angles of the four CMGs.
+    pub gimbal_angle_rad: [f32; 4],
+    /// Measured wheel speeds relative to the body.
+    pub wheel_speed_rad_s: [f32; MAX_WHEELS],
+    /// Magnetometer, body axes, T.
+    pub mag_field_t: [f32; 3],
+    /// Sun direction, body axes (unit).
+    pub sun_dir: [f32; 3],
+    /// Navigation solution: the reference frame (e.g. LVLH) relative to inertial,
+    /// scalar-last, and its angular velocity in inertial axes.
+    pub q_ref_xyzw: [f32; 4],
+    pub ref_rate_rad_s: [f32; 3],
+    /// [`valid`] bits.
+    pub valid: u16,
+}
+
+impl SensorFrame {
+    /// A frame with nothing valid yet (identity attitudes, zeros).
+    pub const fn empty(seq: u32, time_us: u64) -> Self {
+        Self {
+            seq,
+            time_us,
+            q_ib_xyzw: [0.0, 0.0, 0.0, 1.0],
+            rate_rad_s: [0.0; 3],
+            gimbal_angle_rad: [0.0; 4],
+            wheel_speed_rad_s: [0.0; MAX_WHEELS],
+            mag_field_t: [0.0; 3],
+            sun_dir: [0.0; 3],
+            q_ref_xyzw: [0.0, 0.0, 0.0, 1.0],
+            ref_rate_rad_s: [0.0; 3],
+            valid: 0,
+        }
+    }
+}
+
+/// What one control step decided, plus what it achieved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ActuatorCommand {
+    /// Sequence number of the sensor frame this answers.
+    pub seq: u32,
+    pub gimbal_rate_cmd_rad_s: [f32; 4],
+    /// Motor torque on each wheel rotor (the body receives the reaction), N m.
+    pub wheel_torque_cmd_nm: [f32; MAX_WHEELS],
+    /// Magnetorquer dipole command, body axes, A m².
+    pub dipole_cmd_am2: [f32; 3],
+    /// Bit i: thruster i open during the next control period (after PWPF).
+    pub thruster_on: u16,
+    /// Allocated thrust level in [0, 1] per thruster (the PWPF input).
+    pub thruster_level: [f32; MAX_THRUSTERS],
+    /// Torque the control law asked for (after its own limit), body axes.
+    pub torque_demand_nm: [f32; 3],
+    /// Torque the commands produce according to the flight code's actuator model
+    /// (CMG: eq 4 with `ω × h`; thrusters: the allocated level, before modulation).
+    pub torque_realised_nm: [f32; 3],
+    /// `det(J Jᵀ)` with unit rotor momentum.
+    pub singularity_measure: f32,
+    /// SR weight α used this step (0 for Moore-Penrose).
+    pub steering_alpha: f32,
+    /// Rotation angle of the attitude error, rad.
+    pub attitude_error_rad: f32,
+    /// Allocation iterations (simplex pivots, wheel re-allocation passes).
+    pub alloc_iterations: u16,
+    /// Internal state of the control law worth plotting (DMCS: the adaptive feed-forward
+    /// gains Δk_u per axis; other laws: 0).
+    pub law_telemetry: [f32; 3],
+    /// Bit i: actuator i at a limit (either side).
+    pub saturated: u32,
+    /// [`status`] bits.
+    pub status: u16,
+    /// Mode in force ([`Mode::code`](crate::modes::Mode::code)); 0 without a mode table.
+    pub mode: u8,
+    /// Why it was entered ([`Reason`](crate::modes::Reason) as `u8`).
+    pub mode_reason: u8,
+    /// Mode transitions since the table was armed (saturating).
+    pub mode_transitions: u16,
+}
+
+/// A step's command and what the flight computer measured while producing it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepReport {
+    pub cmd: ActuatorCommand,
+    /// Cost of `Fsw::step` in ticks of the cost counter (see `HelloAck`); 0 = not measured.
+    pub step_cost_ticks: u32,
+    /// Real-time mode: control periods that ended before the step finished.
+    pub deadline_misses: u32,
+    /// Frames the flight side dropped so far (CRC, COBS, decode, oversize).
+    pub frames_dropped: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum LinkError {
+    ProtocolVersion {
+        flight: u16,
+    },
+    SchemaHash {
+        flight: u32,
+    },
+    NotConfigured,
+    UnexpectedMessage,
+    /// A target that is not a unit quaternion.
+    BadTarget,
+    /// A mode command without an armed table, or for a mode the table does not have.
+    NoSuchMode,
+}
+
+/// Host → flight computer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HostMsg {
+    Hello {
+        protocol_version: u16,
+        schema_hash: u32,
+    },
+    /// A single parameter set (no mode manager). Reply: `ParamsAccepted`/`ParamsRejected`.
+    UploadParams(FlightParams),
+    Sensor(SensorFrame),
+    /// New mission target (the manoeuvre/hold target with a mode table). Reply: `Ack`.
+    SetTarget {
+        target_q_xyzw: [f32; 4],
+    },
+    /// One mode's parameter set of a mode table (one message per mode keeps every message
+    /// within `MAX_PAYLOAD`). Reply: `ParamsAccepted`/`ParamsRejected`.
+    UploadModeParams {
+        mode: Mode,
+        params: FlightParams,
+    },
+    /// Arm the uploaded table with its transition thresholds. Reply: `ModesArmed`/`ParamsRejected`.
+    ArmModes(ModeManagerParams),
+    /// Ground mode command. Reply: `ModeAccepted`/`Error(NoSuchMode)`.
+    CommandMode(ModeRequest),
+    /// Real-time mode only: start pacing steps with the flight computer's own clock.
+    StartRealTime,
+}
+
+/// Flight computer → host.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FswMsg {
+    HelloAck {
+        protocol_version: u16,
+        schema_hash: u32,
+        params_version: u16,
+        /// Frequency of the counter `step_cost_ticks` is read from, Hz.
+        cost_counter_hz: u32,
+        /// 0 = in-process (host), 1 = QEMU mps2-an386, 2 = STM32F405.
+        board: u8,
+    },
+    ParamsAccepted {
+        checksum: u32,
+    },
+    ParamsRejected(ParamError),
+    ModesArmed {
+        checksum: u32,
+    },
+    ModeAccepted {
+        mode: Mode,
+    },
+    /// Success of a message that has no other reply (`SetTarget`).
+    Ack,
+    Step(StepReport),
+    Error(LinkError),
+}
+
+/// A `postcard::ser_flavors::Flavor` that only feeds a CRC digest.
+struct CrcSink<'a>(crc::Digest<'a, u32>);
+
+impl postcard::ser_flavors::Flavor for CrcSink<'_> {
+    type Output = u32;
+    fn try_push(&mut self, data: u8) -> postcard::Result<()> {
+        self.0.update(&[data]);
+        Ok(())
+    }
+    fn try_extend(&mut self, data: &[u8]) -> postcard::Result<()> {
+        self.0.update(data);
+        Ok(())
+    }
+    fn finalize(self) -> postcard::Result<u32> {
+        Ok(self.0.finalize())
+    }
+}
+
+/// CRC-32 of the postcard-schema description of both message enums: any change of a
+/// field, type, order or name of a wire type changes it.
+pub fn schema_hash() -> u32 {
+    let mut d = CRC32.digest();
+    for s in [HostMsg::SCHEMA, FswMsg::SCHEMA] {
+        let sink = CrcSink(CRC32.digest());
+        if let Ok(h) = postcard::serialize_with_flavor(s, sink) {
+            d.update(&h.to_le_bytes());
+        }
+    }
+    d.finalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The typed flags keep the wire bits of protocol version 9 (literal values), and a
+    /// frame carrying them encodes to the same bytes as with the literal `u16`s.
+    #[test]
+    fn typed_flags_keep_the_wire_bits() {
+        assert_eq!(
+            [valid::ATTITUDE, valid::RATE, valid::GIMBALS, valid::WHEELS, valid::MAG, valid::SUN, valid::REFERENCE],
+            [1, 2, 4, 8, 16, 32, 64]
+        );
+        assert_eq!(valid::ALL, 0x7f);
+        let st = [
+            status::TORQUE_LIMITED,
+            status::RATE_SCALED,
+            status::ANGLE_LIMITED,
+            status::SINGULAR,
+            status::BAD_INPUT,
+            status::TORQUE_SHORTFALL,
+            status::NOT_CONFIGURED,
+            status::HOLD,
+            status::ALLOC_FALLBACK,
+            status::UNREALISED,
+            status::MOMENTUM_SATURATION,
+            status::LAW_FAULT,
+        ];
+        assert_eq!(st, core::array::from_fn(|i| 1u16 << i));
+        assert_eq!(Status::all().bits(), 0x0fff);
+        let typed = SensorFrame {
+            valid: (Valid::ATTITUDE | Valid::RATE | Valid::REFERENCE).bits(),
+            ..SensorFrame::empty(3, 7)
+        };
+        let literal = SensorFrame { valid: 0b100_0011, ..SensorFrame::empty(3, 7) };
+        let (mut a, mut b) = ([0u8; MAX_PAYLOAD], [0u8; MAX_PAYLOAD]);
+        let ea = postcard::to_slice(&typed, &mut a).unwrap();
+        let eb = postcard::to_slice(&literal, &mut b).unwrap();
+        assert_eq!(ea, eb);
+        let cmd = ActuatorCommand { status: (Status::LAW_FAULT | Status::SINGULAR).bits(), ..Default::default() };
+        let cmd_lit = ActuatorCommand { status: 0x0808, ..Default::default() };
+        assert_eq!(postcard::to_slice(&cmd, &mut a).unwrap(), postcard::to_slice(&cmd_lit, &mut b).unwrap());
+    }
+}

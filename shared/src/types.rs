@@ -1,0 +1,139 @@
+//! The data the algorithms exchange: measurements, set point, torque demand and typed flag
+//! sets. Algorithms use these; the link (`protocol`) converts at its boundary, never the
+//! reverse, so no algorithm depends on the wire format.
+
+use crate::math::{Quat, Vec3};
+use crate::params::MAX_WHEELS;
+
+bitflags::bitflags! {
+    /// What a sensor frame carries (`SensorFrame::valid` on the wire, same bits).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub struct Valid: u16 {
+        const ATTITUDE = 1 << 0;
+        const RATE = 1 << 1;
+        const GIMBALS = 1 << 2;
+        const WHEELS = 1 << 3;
+        const MAG = 1 << 4;
+        const SUN = 1 << 5;
+        /// `q_ref_xyzw` and `ref_rate_rad_s` (navigation solution) are valid.
+        const REFERENCE = 1 << 6;
+    }
+}
+
+bitflags::bitflags! {
+    /// What a control step did (`ActuatorCommand::status` on the wire, same bits).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+    pub struct Status: u16 {
+        /// The torque demand exceeded its limit and was scaled (direction kept).
+        const TORQUE_LIMITED = 1 << 0;
+        /// Gimbal rates were scaled to the rate limit (direction kept).
+        const RATE_SCALED = 1 << 1;
+        /// At least one gimbal sat at its angle limit and its rate was zeroed.
+        const ANGLE_LIMITED = 1 << 2;
+        /// The steering matrix was singular for the chosen law (MP): safe zero rates.
+        const SINGULAR = 1 << 3;
+        /// The sensor frame was invalid (NaN, non-unit quaternion, flags): safe command held.
+        const BAD_INPUT = 1 << 4;
+        /// The realised torque differs from the demand by more than 1 % of its norm.
+        const TORQUE_SHORTFALL = 1 << 5;
+        /// The flight code is not configured (no accepted parameters): safe command.
+        const NOT_CONFIGURED = 1 << 6;
+        /// Real-time mode: no fresh sensor frame, the safe command is held.
+        const HOLD = 1 << 7;
+        /// The allocation failed (infeasible, iteration cap, non-finite, internal error):
+        /// its documented safe fallback was commanded.
+        const ALLOC_FALLBACK = 1 << 8;
+        /// Some actuator cannot realise its command (magnetorquer dead band, wheel at its
+        /// speed limit).
+        const UNREALISED = 1 << 9;
+        /// CMG cluster at its momentum envelope (saturation singularity): no more torque
+        /// along the singular direction; momentum must be dumped.
+        const MOMENTUM_SATURATION = 1 << 10;
+        /// The control law produced a non-finite demand (overflow from extreme gains or
+        /// states): zero torque was allocated and the law's state reset.
+        const LAW_FAULT = 1 << 11;
+    }
+}
+
+impl Status {
+    /// Conditions after which the integrating laws freeze their integrators next step
+    /// (conditional integration, anti-windup).
+    pub const SATURATING: Self = Self::TORQUE_LIMITED
+        .union(Self::RATE_SCALED)
+        .union(Self::ANGLE_LIMITED)
+        .union(Self::TORQUE_SHORTFALL)
+        .union(Self::SINGULAR)
+        .union(Self::ALLOC_FALLBACK)
+        .union(Self::UNREALISED);
+}
+
+/// Validated, normalised measurements (what `Fsw::step` checked a sensor frame into).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measurements {
+    /// Attitude `q_ib` (identity when the configuration does not need it).
+    pub q: Quat,
+    /// Body rate, body axes, rad/s.
+    pub rate_rad_s: Vec3,
+    pub gimbal_angle_rad: [f32; 4],
+    pub wheel_speed_rad_s: [f32; MAX_WHEELS],
+    /// Magnetometer, body axes, T.
+    pub mag_field_t: Vec3,
+    /// Reference frame relative to inertial (identity when not needed).
+    pub q_ref: Quat,
+    /// Angular velocity of the reference frame, inertial axes, rad/s.
+    pub ref_rate_rad_s: Vec3,
+}
+
+/// Commanded attitude and rate (guidance output).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setpoint {
+    pub q_cmd: Quat,
+    /// Rate of the commanded frame, body axes, rad/s.
+    pub rate_cmd_rad_s: Vec3,
+    /// GSR dither clock, s (reduced modulo the dither period; 0 without GSR).
+    pub dither_time_s: f32,
+}
+
+/// Result of one control-law update.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TorqueDemand {
+    pub torque_nm: Vec3,
+    /// The demand hit `torque_limit_nm` and was scaled.
+    pub limited: bool,
+    /// Rotation angle of the attitude error, rad.
+    pub error_angle_rad: f32,
+}
+
+/// What a control law asks the actuators for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Demand {
+    /// A body torque, N m, body axes (steered/allocated to the configured family).
+    Torque(Vec3),
+    /// Gimbal rates straight from the law (gimbal-rate LQR), rad/s: no steering.
+    GimbalRates([f32; 4]),
+}
+
+impl Demand {
+    /// The torque asked for (zero for direct gimbal rates, which have no torque demand).
+    pub fn torque_nm(&self) -> Vec3 {
+        match self {
+            Self::Torque(u) => *u,
+            Self::GimbalRates(_) => Vec3::zeros(),
+        }
+    }
+
+    pub fn is_finite(&self) -> bool {
+        match self {
+            Self::Torque(u) => u.iter().all(|x| x.is_finite()),
+            Self::GimbalRates(r) => r.iter().all(|x| x.is_finite()),
+        }
+    }
+
+    /// The documented fallback after a law fault: the same kind of demand, all zero.
+    pub fn zeroed(&self) -> Self {
+        match self {
+            Self::Torque(_) => Self::Torque(Vec3::zeros()),
+            Self::GimbalRates(_) => Self::GimbalRates([0.0; 4]),
+        }
+    }
+}
