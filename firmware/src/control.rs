@@ -11,7 +11,7 @@
 //! 4. counts a deadline miss for every period boundary that passed before the step and
 //!    its report were done, and then skips the missed periods (no catch-up burst).
 
-use acs_flight::protocol::{status, FswMsg, SensorFrame};
+use acs_flight::link::{status, FswMsg, SensorFrame};
 use acs_flight::Fsw;
 use embassy_time::{Duration, Instant, Ticker};
 

@@ -17,7 +17,7 @@ mod executor;
 mod link;
 mod state;
 
-use acs_flight::session::Session;
+use acs_flight::link::session::Session;
 use embassy_sync::mutex::Mutex;
 use static_cell::StaticCell;
 

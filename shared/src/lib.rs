@@ -17,8 +17,7 @@
 //! - [`allocation`]: every actuator family (CMG steering included) behind one trait with
 //!   one result type;
 //! - [`params`]: the typed, versioned, checksummed flight parameter set;
-//! - [`link`]: wire messages, COBS + CRC framing, the flight side of a session
-//!   (`protocol` and `session` are its historical paths);
+//! - [`link`]: wire messages, COBS + CRC framing, the flight side of a session;
 //! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
 #![cfg_attr(not(feature = "std"), no_std)]
 // Flight rules on top of the workspace baseline (`[workspace.lints]` in the root
@@ -66,8 +65,5 @@ pub mod modes;
 pub mod params;
 pub mod types;
 
-/// Historical paths of the link modules (callers in the simulator and firmware).
-pub use link as protocol;
-pub use link::session;
 
 pub use fsw::Fsw;

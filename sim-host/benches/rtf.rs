@@ -7,7 +7,7 @@
 //! Not a test: it prints figures. Real-time factor = simulated time / wall time of the
 //! closed loop (no file output).
 
-use acs_flight::protocol::{SensorFrame, valid};
+use acs_flight::link::{SensorFrame, valid};
 use sim_host::link::FlightLink;
 use sim_host::link::in_process::InProcess;
 use sim_host::link::qemu::{QemuLink, default_firmware};

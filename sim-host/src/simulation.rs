@@ -21,7 +21,7 @@ use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts,
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::{Mode, Reason};
 use acs_flight::params::MAX_THRUSTERS;
-use acs_flight::protocol::{ActuatorCommand, FswMsg, status};
+use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use anyhow::{Context, Result, bail};
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every

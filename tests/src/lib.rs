@@ -1,6 +1,6 @@
 //! Helpers shared by the integration tests.
 
-use acs_flight::protocol::{HostMsg, MAX_FRAME, SensorFrame, encode_frame, valid};
+use acs_flight::link::{HostMsg, MAX_FRAME, SensorFrame, encode_frame, valid};
 use sim_host::link::FlightLink;
 use sim_host::link::framed::Framed;
 use sim_host::link::in_process::InProcess;

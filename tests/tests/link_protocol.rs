@@ -3,7 +3,7 @@
 //! in-process run bit for bit, and corrupt bytes on the wire must be dropped, counted and
 //! survived.
 
-use acs_flight::protocol::{FswMsg, HostMsg};
+use acs_flight::link::{FswMsg, HostMsg};
 use acs_tests::{corrupt_frames_are_dropped_and_counted, run_in_process, scenario};
 use sim_host::link::framed::Framed;
 use sim_host::link::{FlightLink, serve};

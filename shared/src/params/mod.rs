@@ -399,15 +399,15 @@ mod tests {
         assert_eq!(p.validate(), Ok(()));
         let mut buf = [0u8; 2048];
         // The mode-table upload carries one more byte (the mode) than `UploadParams`.
-        let msg = crate::protocol::HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: p };
+        let msg = crate::link::HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: p };
         let n = postcard::to_slice(&msg, &mut buf).unwrap().len();
-        assert!(n <= crate::protocol::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
+        assert!(n <= crate::link::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
         for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {
             let p = FlightParams { actuator: a, ..base };
             assert_eq!(p.validate(), Ok(()), "{a:?}");
             let mut buf = [0u8; 2048];
-            let n = postcard::to_slice(&crate::protocol::HostMsg::UploadParams(p), &mut buf).unwrap().len();
-            assert!(n <= crate::protocol::MAX_PAYLOAD, "{n} bytes");
+            let n = postcard::to_slice(&crate::link::HostMsg::UploadParams(p), &mut buf).unwrap().len();
+            assert!(n <= crate::link::MAX_PAYLOAD, "{n} bytes");
         }
         let mut w2 = wheels;
         w2.axes[1] = [0.0, 2.0, 0.0];

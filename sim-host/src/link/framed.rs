@@ -1,7 +1,7 @@
-//! The flight protocol over a byte stream (see `acs_flight::protocol`).
+//! The flight protocol over a byte stream (see `acs_flight::link`).
 
 use super::{FlightLink, LinkInfo};
-use acs_flight::protocol::{
+use acs_flight::link::{
     FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport, encode_frame, schema_hash,
 };
 use anyhow::{Context, Result, anyhow, bail};

@@ -5,7 +5,7 @@
 
 use super::framed::Framed;
 use super::{FlightLink, LinkInfo};
-use acs_flight::protocol::{FswMsg, HostMsg, SensorFrame, StepReport};
+use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Context, Result, bail};
 use std::net::{TcpListener, TcpStream};
 use std::path::{Path, PathBuf};

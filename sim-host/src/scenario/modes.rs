@@ -280,8 +280,8 @@ impl Scenario {
     }
 
     /// The link messages of a command, in order.
-    pub fn command_messages(&self, c: &CommandSpec) -> Vec<acs_flight::protocol::HostMsg> {
-        use acs_flight::protocol::HostMsg;
+    pub fn command_messages(&self, c: &CommandSpec) -> Vec<acs_flight::link::HostMsg> {
+        use acs_flight::link::HostMsg;
         let mut v = Vec::new();
         if let Some(t) = &c.target {
             let q = t.quaternion();

@@ -15,7 +15,7 @@ use crate::environment::frames::EarthRotation;
 use crate::environment::model::EnvSnapshot;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
 use crate::plant::{Spacecraft, State};
-use acs_flight::protocol::{SensorFrame, valid};
+use acs_flight::link::{SensorFrame, valid};
 use config::Sensors as SensorSpec;
 use models::{
     AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
