@@ -12,7 +12,7 @@ bin=${CARGO_TARGET_DIR:-target}/release/sim-host
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 out="$tmp/fingerprints"
 # Fields that depend on the host's clock, not on the simulation.
-wall='del(.wall_time_s, .real_time_factor, .mean_step_us, .max_step_us, .allocation_us_per_call, .max_step_ticks)'
+
 run_one() {
   local sc=$1 name dir
   name=$(echo "$sc" | tr '/' '_')
