@@ -220,12 +220,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
         None
     };
     let mut craft = sc.spacecraft()?;
-    let snapshot = |craft: &mut crate::plant::Spacecraft, t: f64| -> Result<Option<EnvSnapshot>> {
-        match craft.env.as_mut() {
-            Some(e) => Ok(Some(e.snapshot(t)?)),
-            None => Ok(None),
-        }
-    };
+    let snapshot = |craft: &mut crate::plant::Spacecraft, t: f64| -> Result<Option<EnvSnapshot>> { craft.env_at(t) };
     let snap0 = snapshot(&mut craft, 0.0)?;
     let mut state = sc.initial_state(&craft, snap0.as_ref());
     let n_wheels = craft.wheels.len();
@@ -452,7 +447,7 @@ pub fn run(sc: &Scenario, link: &mut dyn FlightLink, progress: bool) -> Result<R
             if j > 0 {
                 input.thruster_torque_nm = thr_torque(tj, &mut thr_state);
             }
-            state = craft.rk4(tj, &state, &input, h, snap.as_ref());
+            state = craft.rk4_env(tj, &state, &input, h)?;
         }
         if progress && k % 1024 == 0 {
             if bar.is_none() && start.elapsed() > Duration::from_secs(1) {

@@ -1,9 +1,15 @@
 //! The environment of one run: orbit (or none: a lab rig), Earth rotation, magnetic field
-//! and disturbance torques, sampled once per dynamics step into an [`EnvSnapshot`].
+//! and disturbance torques, sampled into an [`EnvSnapshot`] at a time.
 //!
-//! The orbit position changes by metres within a dynamics step, so torques that depend
-//! on it (gravity gradient, drag, SRP, the field) use the snapshot taken at the start of
-//! the step while the attitude inside the RK4 stages stays exact.
+//! Everything in a snapshot is a function of time only (position, velocity, field in the
+//! reference frame, LVLH); the torques combine it with the attitude of the moment. The
+//! plant integrates with a snapshot at every RK4 stage time — `t`, `t + h/2` (stages 2
+//! and 3), `t + h` (stage 4, which is the next step's stage 1) — so the environment
+//! torques are as accurate as the attitude: holding one snapshot over a step would make
+//! the error first order in the step (issue 9). [`SnapshotCache`] keeps the last
+//! snapshots so each of those times is evaluated once: two new evaluations per RK4 step,
+//! and the control step's own snapshot (the sensors') is the last stage of the step
+//! before.
 
 use super::frames::{EarthRotation, q_lvlh_to_eci};
 use super::magnetic::MagneticField;
@@ -33,7 +39,7 @@ pub struct Environment {
     pub disturbances: Disturbances,
 }
 
-/// The environment at the start of a dynamics step.
+/// The environment at one time.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EnvSnapshot {
     pub t_s: f64,
@@ -65,7 +71,18 @@ impl Environment {
         Ok(s)
     }
 
-    /// Environmental torques on the body at time `t_s` (inside a step) and attitude `q`.
+    /// [`Self::snapshot`] through `cache`.
+    pub fn snapshot_cached(&mut self, t_s: f64, cache: &mut SnapshotCache) -> Result<EnvSnapshot> {
+        if let Some(s) = cache.get(t_s) {
+            return Ok(s);
+        }
+        let s = self.snapshot(t_s)?;
+        cache.insert(s);
+        Ok(s)
+    }
+
+    /// Environmental torques on the body at time `t_s` and attitude `q`, with `snap` the
+    /// environment at `t_s` (the SRP Sun position is evaluated at `t_s` here).
     pub fn torques(&self, t_s: f64, q: &Quat, snap: &EnvSnapshot) -> TorqueBreakdown {
         let uq = UnitQuaternion::new_unchecked(*q);
         match snap.orbit {
@@ -75,5 +92,34 @@ impl Environment {
                 TorqueBreakdown { external: ext, total: ext, ..Default::default() }
             }
         }
+    }
+}
+
+/// The last few snapshots, by time: an RK4 step asks for `t`, `t + h/2`, `t + h` and the
+/// next step (or control step) starts at `t + h` again. Times within a relative 1e-12
+/// (a few thousand ulps: `t + j h` and `t + (j + 1) h` computed differently) are the same
+/// instant — at 10⁵ s that is 0.1 µs, under a millimetre of orbit. The cache belongs to
+/// one environment: clear it when the environment is replaced.
+#[derive(Clone, Debug, Default)]
+pub struct SnapshotCache {
+    entries: [Option<EnvSnapshot>; 3],
+    next: usize,
+}
+
+impl SnapshotCache {
+    const SAME_INSTANT_REL: f64 = 1e-12;
+
+    pub fn get(&self, t_s: f64) -> Option<EnvSnapshot> {
+        let tol = Self::SAME_INSTANT_REL * t_s.abs().max(1.0);
+        self.entries.iter().flatten().find(|e| (e.t_s - t_s).abs() <= tol).copied()
+    }
+
+    pub fn insert(&mut self, s: EnvSnapshot) {
+        self.entries[self.next] = Some(s);
+        self.next = (self.next + 1) % self.entries.len();
+    }
+
+    pub fn clear(&mut self) {
+        *self = Self::default();
     }
 }
