@@ -23,7 +23,7 @@ pub mod thrusters;
 pub mod wheel;
 
 use crate::attitude::{Quat, Vec3, dcm_body_to_ref, rotate_ref_to_body};
-use crate::environment::model::{EnvSnapshot, Environment, SnapshotCache};
+use crate::environment::model::{EnvSnapshot, Environment, Parts, SnapshotCache};
 use crate::environment::torques::TorqueBreakdown;
 use cmg::CmgCluster;
 use nalgebra::Matrix3;
@@ -248,8 +248,12 @@ impl Spacecraft {
     /// The environment at time `t` (None without one), through the stage-time cache: the
     /// snapshot the sensors see at a control step is the one the last RK4 stage used.
     pub fn env_at(&mut self, t: f64) -> anyhow::Result<Option<EnvSnapshot>> {
+        self.env_parts_at(t, Parts::ALL)
+    }
+
+    fn env_parts_at(&mut self, t: f64, parts: Parts) -> anyhow::Result<Option<EnvSnapshot>> {
         match self.env.as_mut() {
-            Some(e) => Ok(Some(e.snapshot_cached(t, &mut self.env_cache)?)),
+            Some(e) => Ok(Some(e.snapshot_cached(t, parts, &mut self.env_cache)?)),
             None => Ok(None),
         }
     }
@@ -257,14 +261,16 @@ impl Spacecraft {
     /// One classical RK4 step of length `h` from time `t` with the input held, the
     /// environment evaluated at each stage's time: `t` (stage 1), `t + h/2` (stages 2
     /// and 3), `t + h` (stage 4). Renormalises `q`. Without an environment this is
-    /// exactly `rk4(t, s, u, h, None)`.
+    /// exactly `rk4(t, s, u, h, None)`. The stages get what `deriv` uses: the orbit state,
+    /// and the field only when a dipole is on board (else `m × B` is zero whatever `B`).
     pub fn rk4_env(&mut self, t: f64, s: &State, u: &Input, h: f64) -> anyhow::Result<State> {
         if self.env.is_none() {
             return Ok(self.rk4(t, s, u, h, None));
         }
-        let e0 = self.env_at(t)?;
-        let e1 = self.env_at(t + 0.5 * h)?;
-        let e2 = self.env_at(t + h)?;
+        let parts = Parts { field: u.dipole_am2 != Vec3::zeros(), lvlh: false };
+        let e0 = self.env_parts_at(t, parts)?;
+        let e1 = self.env_parts_at(t + 0.5 * h, parts)?;
+        let e2 = self.env_parts_at(t + h, parts)?;
         Ok(self.rk4_stages(t, s, u, h, [e0.as_ref(), e1.as_ref(), e2.as_ref()]))
     }
 
