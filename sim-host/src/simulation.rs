@@ -267,10 +267,7 @@ impl<'a> Simulation<'a> {
             None
         };
         let mut craft = sc.spacecraft()?;
-        let snap = match craft.env.as_mut() {
-            Some(e) => Some(e.snapshot(0.0)?),
-            None => None,
-        };
+        let snap = craft.env_at(0.0)?;
         let state = sc.initial_state(&craft, snap.as_ref());
         let thrusters = sc.thruster_set();
         let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
@@ -342,10 +339,7 @@ impl<'a> Simulation<'a> {
         let k = self.k;
         let t = k as f64 * self.clock.dt;
         if k > 0 {
-            self.snap = match self.craft.env.as_mut() {
-                Some(e) => Some(e.snapshot(t)?),
-                None => None,
-            };
+            self.snap = self.craft.env_at(t)?;
         }
         self.ground_commands(t)?;
         let (cmd, ticks) = self.flight_command(k, t)?;
@@ -376,7 +370,7 @@ impl<'a> Simulation<'a> {
             rec.record(&self.row)?;
         }
         if k < self.clock.steps {
-            self.advance(t, &mut input, thr_mask);
+            self.advance(t, &mut input, thr_mask)?;
         }
         self.k += 1;
         Ok(())
@@ -441,7 +435,7 @@ impl<'a> Simulation<'a> {
     }
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
-    fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) {
+    fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) -> Result<()> {
         if let Some(c) = &self.sc.spacecraft.inertia_change
             && t < c.at_s
             && t + self.clock.dt >= c.at_s
@@ -455,10 +449,12 @@ impl<'a> Simulation<'a> {
             if j > 0 {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
             }
-            // ===== THE PLANT INTEGRATOR CALL (the only one): RK4 over [tj, tj + h) with the
-            // environment snapshot taken at the control step's t. =====
-            self.state = self.craft.rk4(tj, &self.state, input, h, self.snap.as_ref());
+            // The plant integrator (the only call): RK4 over [tj, tj + h) with the
+            // environment evaluated at every stage's own time (issue 9); the sensors keep
+            // the snapshot of the control step.
+            self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
         }
+        Ok(())
     }
 
     /// Builds the recorded row of one step (column order: [`Layout::names`]).

@@ -108,9 +108,13 @@ fn pqw_to_eci(i: f64, raan: f64, argp: f64) -> Matrix3<f64> {
 }
 
 /// Solve Kepler's equation `E - e sin E = M` by Newton's method (at most 30 iterations,
-/// |dE| < 1e-14; start E = M for e < 0.8, else pi; Vallado Algorithm 2).
+/// |dE| < 1e-14; start E = M for e < 0.8, else pi; Vallado Algorithm 2). A circle
+/// (e = 0) returns M without iterating: the Newton step from E = M is exactly zero.
 pub fn solve_kepler(m: f64, e: f64) -> f64 {
     let m = (m + PI).rem_euclid(TAU) - PI;
+    if e == 0.0 {
+        return m;
+    }
     let mut ea = if e < 0.8 { m } else { PI.copysign(m) };
     for _ in 0..30 {
         let d = (ea - e * ea.sin() - m) / (1.0 - e * ea.cos());

@@ -12,6 +12,9 @@
 //! External torques: environment (gravity gradient, drag, SRP, constant/harmonic), the
 //! rig's pendulum and stops, `m × B` of the spacecraft dipole (torquers + residual), and
 //! the thrusters' torque averaged over the step (exact impulse, see `thrusters`).
+//! With an environment, [`Spacecraft::rk4_env`] evaluates it at every RK4 stage time
+//! (`t`, `t + h/2`, `t + h`; cached, see `environment::model`), so the orbit-dependent
+//! torques are integrated at fourth order like the rest.
 
 pub mod cmg;
 pub mod magnetorquers;
@@ -20,7 +23,7 @@ pub mod thrusters;
 pub mod wheel;
 
 use crate::attitude::{Quat, Vec3, dcm_body_to_ref, rotate_ref_to_body};
-use crate::environment::model::{EnvSnapshot, Environment};
+use crate::environment::model::{EnvSnapshot, Environment, Parts, SnapshotCache};
 use crate::environment::torques::TorqueBreakdown;
 use cmg::CmgCluster;
 use nalgebra::Matrix3;
@@ -87,6 +90,8 @@ pub struct Spacecraft {
     pub env: Option<Environment>,
     /// Constant external torque, body axes, N m.
     pub external_torque_nm: Vec3,
+    /// Snapshots of `env` at the latest stage times (valid for this `env` only).
+    env_cache: SnapshotCache,
 }
 
 impl Spacecraft {
@@ -100,6 +105,7 @@ impl Spacecraft {
             rig: None,
             env: None,
             external_torque_nm: Vec3::zeros(),
+            env_cache: SnapshotCache::default(),
         })
     }
 
@@ -239,13 +245,49 @@ impl Spacecraft {
         State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
     }
 
-    /// One classical RK4 step of length `h` from time `t` with the input held;
-    /// renormalises `q`. `env`: the environment snapshot of this step (None: free space).
+    /// The environment at time `t` (None without one), through the stage-time cache: the
+    /// snapshot the sensors see at a control step is the one the last RK4 stage used.
+    pub fn env_at(&mut self, t: f64) -> anyhow::Result<Option<EnvSnapshot>> {
+        self.env_parts_at(t, Parts::ALL)
+    }
+
+    fn env_parts_at(&mut self, t: f64, parts: Parts) -> anyhow::Result<Option<EnvSnapshot>> {
+        match self.env.as_mut() {
+            Some(e) => Ok(Some(e.snapshot_cached(t, parts, &mut self.env_cache)?)),
+            None => Ok(None),
+        }
+    }
+
+    /// One classical RK4 step of length `h` from time `t` with the input held, the
+    /// environment evaluated at each stage's time: `t` (stage 1), `t + h/2` (stages 2
+    /// and 3), `t + h` (stage 4). Renormalises `q`. Without an environment this is
+    /// exactly `rk4(t, s, u, h, None)`. The stages get what `deriv` uses: the orbit state,
+    /// and the field only when a dipole is on board (else `m × B` is zero whatever `B`).
+    pub fn rk4_env(&mut self, t: f64, s: &State, u: &Input, h: f64) -> anyhow::Result<State> {
+        if self.env.is_none() {
+            return Ok(self.rk4(t, s, u, h, None));
+        }
+        let parts = Parts { field: u.dipole_am2 != Vec3::zeros(), lvlh: false };
+        let e0 = self.env_parts_at(t, parts)?;
+        let e1 = self.env_parts_at(t + 0.5 * h, parts)?;
+        let e2 = self.env_parts_at(t + h, parts)?;
+        Ok(self.rk4_stages(t, s, u, h, [e0.as_ref(), e1.as_ref(), e2.as_ref()]))
+    }
+
+    /// One classical RK4 step of length `h` from time `t` with the input and the
+    /// environment snapshot `env` held over the step (None: free space); renormalises
+    /// `q`. Holding an orbit environment makes the step first order in `h`: use
+    /// [`Self::rk4_env`] for that.
     pub fn rk4(&self, t: f64, s: &State, u: &Input, h: f64, env: Option<&EnvSnapshot>) -> State {
-        let k1 = self.deriv(t, s, u, env);
-        let k2 = self.deriv(t + 0.5 * h, &Self::add(s, &k1, 0.5 * h), u, env);
-        let k3 = self.deriv(t + 0.5 * h, &Self::add(s, &k2, 0.5 * h), u, env);
-        let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env);
+        self.rk4_stages(t, s, u, h, [env; 3])
+    }
+
+    /// RK4 with the environment at `t`, `t + h/2` and `t + h` given.
+    fn rk4_stages(&self, t: f64, s: &State, u: &Input, h: f64, env: [Option<&EnvSnapshot>; 3]) -> State {
+        let k1 = self.deriv(t, s, u, env[0]);
+        let k2 = self.deriv(t + 0.5 * h, &Self::add(s, &k1, 0.5 * h), u, env[1]);
+        let k3 = self.deriv(t + 0.5 * h, &Self::add(s, &k2, 0.5 * h), u, env[1]);
+        let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env[2]);
         let mut g = s.gimbal_rad;
         let mut gr = s.gimbal_rate_rad_s;
         for i in 0..MAX_GIMBALS {
