@@ -154,7 +154,7 @@ mod tests {
     use crate::link::{status, valid};
     use crate::math::{EulerSeq, Quat, quat_from_euler, quat_to_xyzw};
     use crate::modes::{Mode, ModeManagerParams, ModeRequest};
-    use crate::params::{ActuatorParams, ControllerParams, MAX_WHEELS, MagnetorquerParams, ParamField, WheelParams};
+    use crate::params::{ActuatorParams, ControllerParams, MagnetorquerParams, ParamField, WheelParams};
 
     fn frame(q: Quat) -> SensorFrame {
         SensorFrame {
@@ -229,20 +229,7 @@ mod tests {
     #[test]
     fn every_family_produces_torque_against_the_error() {
         let q = quat_from_euler([0.02, -0.03, 0.05], EulerSeq::Zyx321);
-        let mut axes = [[0.0; 3]; MAX_WHEELS];
-        axes[0] = [1.0, 0.0, 0.0];
-        axes[1] = [0.0, 1.0, 0.0];
-        axes[2] = [0.0, 0.0, 1.0];
-        let w = WheelParams {
-            count: 3,
-            axes,
-            max_torque_nm: 10.0,
-            max_speed_rad_s: 600.0,
-            inertia_kgm2: 0.01,
-            null_gain_per_s: 0.0,
-            bias_speed_rad_s: [0.0; MAX_WHEELS],
-            failed_mask: 0,
-        };
+        let w = WheelParams::body_axes_triad(10.0);
         let mut fw = other_family(ActuatorParams::Wheels(w));
         let c = fw.step(&frame(q));
         let d = Vec3::from(c.torque_demand_nm);

@@ -178,6 +178,25 @@ pub fn validate_cmg(g: &CmgParams, steering: &SteeringParams) -> Result<(), Para
 }
 
 impl WheelParams {
+    /// Test fixture: three wheels along the body axes, 600 rad/s, 0.01 kg m².
+    #[cfg(test)]
+    pub(crate) fn body_axes_triad(max_torque_nm: f32) -> Self {
+        let mut axes = [[0.0; 3]; MAX_WHEELS];
+        axes[0] = [1.0, 0.0, 0.0];
+        axes[1] = [0.0, 1.0, 0.0];
+        axes[2] = [0.0, 0.0, 1.0];
+        Self {
+            count: 3,
+            axes,
+            max_torque_nm,
+            max_speed_rad_s: 600.0,
+            inertia_kgm2: 0.01,
+            null_gain_per_s: 0.0,
+            bias_speed_rad_s: [0.0; MAX_WHEELS],
+            failed_mask: 0,
+        }
+    }
+
     pub fn validate(&self) -> Result<(), ParamError> {
         use ParamField as F;
         use ParamReason as R;

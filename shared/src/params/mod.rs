@@ -352,20 +352,7 @@ mod tests {
     #[test]
     fn every_actuator_family_validates_and_fits_the_frame() {
         let base = FlightParams::default();
-        let mut axes = [[0.0; 3]; MAX_WHEELS];
-        axes[0] = [1.0, 0.0, 0.0];
-        axes[1] = [0.0, 1.0, 0.0];
-        axes[2] = [0.0, 0.0, 1.0];
-        let wheels = WheelParams {
-            count: 3,
-            axes,
-            max_torque_nm: 0.1,
-            max_speed_rad_s: 600.0,
-            inertia_kgm2: 0.01,
-            null_gain_per_s: 0.0,
-            bias_speed_rad_s: [0.0; MAX_WHEELS],
-            failed_mask: 0,
-        };
+        let wheels = WheelParams::body_axes_triad(0.1);
         let mtq = MagnetorquerParams {
             max_dipole_am2: [12.26; 3],
             min_dipole_am2: [11.76; 3],
