@@ -88,8 +88,20 @@ fn assumed_free_bytes() -> Result<Option<u64>> {
     }
 }
 
-fn main() -> Result<()> {
-    match Cli::parse().cmd {
+/// Errors end the process with status 1 and their cause chain on one line (no backtrace,
+/// whatever `RUST_BACKTRACE` says: a bad scenario is the user's input, not a bug).
+fn main() -> std::process::ExitCode {
+    match dispatch(Cli::parse().cmd) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn dispatch(cmd: Cmd) -> Result<()> {
+    match cmd {
         Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
             run(&scenario, &out, link, firmware, no_plots, quiet)
         }
