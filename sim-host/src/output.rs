@@ -164,12 +164,13 @@ pub fn free_bytes(dir: &Path) -> Result<u64> {
 
 /// Refuses a run whose CSV would not fit in `free` bytes (keeping [`DISK_RESERVE_BYTES`]).
 pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<()> {
-    let need = estimated_csv_bytes(rows, columns).saturating_add(DISK_RESERVE_BYTES);
-    if need > free {
+    let csv = estimated_csv_bytes(rows, columns);
+    if csv.saturating_add(DISK_RESERVE_BYTES) > free {
         bail!(
-            "the run would record {rows} rows of {columns} columns (~{:.1} GB of timeseries.csv) but {} has {:.1} GB \
-             free: raise timing.output_every or shorten duration_s",
-            need as f64 / 1e9,
+            "the run would record {rows} rows of {columns} columns (~{:.3} GB of timeseries.csv, plus {:.3} GB kept \
+             free) but {} has {:.3} GB free: raise timing.output_every or shorten duration_s",
+            csv as f64 / 1e9,
+            DISK_RESERVE_BYTES as f64 / 1e9,
             dir.display(),
             free as f64 / 1e9
         );
