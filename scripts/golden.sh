@@ -4,6 +4,7 @@
 # not change any result is checked with `scripts/golden.sh check FILE`.
 #   scripts/golden.sh record FILE   write the fingerprints of this tree's build to FILE
 #   scripts/golden.sh check FILE    compare this tree's build with FILE (exit 1 on a difference)
+# scripts/golden-fingerprints.tsv holds the fingerprints of the committed tree on the project machine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:?record|check}; file=${2:?fingerprint file}
