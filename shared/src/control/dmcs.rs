@@ -86,7 +86,7 @@ impl Dmcs {
         let prevs = self.prev;
         let mut y = [0.0f32; 3];
         let mut uo = [0.0f32; 3];
-        let clamp = |v: f32| if v.is_finite() { v.clamp(-lim, lim) } else { 0.0 };
+        let clamp = |v: f32| if v.is_finite() { crate::math::clamp_abs(v, lim) } else { 0.0 };
         for ((((((dkp, dku), (yo, ui)), x_p), x_m), um), pv) in self
             .dkp
             .iter_mut()

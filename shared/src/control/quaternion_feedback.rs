@@ -57,7 +57,7 @@ impl QuaternionFeedback {
         let ev = e.imag();
         if !saturated_last {
             let lim = g.integral_limit_s;
-            self.integral = (self.integral + ev * dt_s).map(|x| x.clamp(-lim, lim));
+            self.integral = (self.integral + ev * dt_s).map(|x| crate::math::clamp_abs(x, lim));
         }
         let ev_sat = if g.max_slew_rate_rad_s > 0.0 {
             let (tk, td) = (g.k.trace(), g.d.trace());
@@ -181,5 +181,22 @@ mod tests {
         let q2 = quat_from_euler([0.0, 0.0, -0.5], EulerSeq::Zyx321);
         c.update(&g, &inertia, &q2, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, true);
         assert_eq!(c.integral, before, "frozen while saturated");
+    }
+
+    #[test]
+    fn a_nan_or_negative_integral_limit_never_panics_and_holds_the_integral_at_zero() {
+        // `f32::clamp` panics on such bounds; the law must not (it runs in the control step).
+        let inertia = Mat3::identity();
+        let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
+        for lim in [f32::NAN, -1.0, f32::NEG_INFINITY] {
+            let mut g = gains(&inertia, 0.9, 1.1);
+            g.ki = Mat3::identity() * 0.1;
+            g.integral_limit_s = lim;
+            let mut c = QuaternionFeedback::default();
+            let d =
+                c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
+            assert_eq!(c.integral, Vec3::zeros(), "limit {lim}");
+            assert!(d.torque_nm.iter().all(|x| x.is_finite()), "limit {lim}");
+        }
     }
 }

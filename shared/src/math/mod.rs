@@ -32,6 +32,22 @@ pub fn all_finite(v: &[f32]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
 
+/// `x` limited to `[-limit, limit]`. Unlike `f32::clamp` it never panics: a NaN or
+/// negative `limit` counts as 0 (the safe side for every gain and integral limit), and a
+/// NaN `x` stays NaN so that the caller's finiteness check still sees it. For finite `x`
+/// and `limit >= 0` the result is bit-identical to `x.clamp(-limit, limit)`.
+#[inline]
+pub fn clamp_abs(x: f32, limit: f32) -> f32 {
+    let l = if limit >= 0.0 { limit } else { 0.0 };
+    if x > l {
+        l
+    } else if x < -l {
+        -l
+    } else {
+        x
+    }
+}
+
 /// Scale `v` so that `max |v_i| <= max_abs`, keeping its direction (one factor for the
 /// whole vector). Returns whether scaling happened.
 pub fn scale_to_peak<const N: usize>(v: &mut [f32; N], max_abs: f32) -> bool {
@@ -42,5 +58,26 @@ pub fn scale_to_peak<const N: usize>(v: &mut [f32; N], max_abs: f32) -> bool {
         true
     } else {
         false
+    }
+}
+
+#[cfg(test)]
+mod clamp_tests {
+    use super::clamp_abs;
+
+    #[test]
+    fn clamp_abs_matches_clamp_where_clamp_is_defined_and_never_panics_elsewhere() {
+        let xs = [-3.0f32, -1.0, -0.5, -0.0, 0.0, 0.25, 1.0, 7.5, f32::INFINITY, f32::NEG_INFINITY, f32::MIN_POSITIVE];
+        for &x in &xs {
+            for &l in &[0.0f32, 0.5, 1.0, 10.0, f32::INFINITY] {
+                assert_eq!(clamp_abs(x, l).to_bits(), x.clamp(-l, l).to_bits(), "x {x} l {l}");
+            }
+            // Bounds on which f32::clamp panics: NaN or negative -> limit 0.
+            for &l in &[f32::NAN, -1.0, f32::NEG_INFINITY] {
+                assert_eq!(clamp_abs(x, l), 0.0, "x {x} l {l}");
+            }
+        }
+        assert!(clamp_abs(f32::NAN, 1.0).is_nan());
+        assert!(clamp_abs(f32::NAN, f32::NAN).is_nan());
     }
 }

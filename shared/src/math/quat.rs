@@ -85,7 +85,7 @@ pub fn euler_from_quat(q: &Quat, seq: EulerSeq) -> [f32; 3] {
     match seq {
         EulerSeq::Zyx321 => {
             let roll = atan2f(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
-            let sp = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0);
+            let sp = super::clamp_abs(2.0 * (w * y - z * x), 1.0);
             let pitch = libm::asinf(sp);
             let yaw = atan2f(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
             [roll, pitch, yaw]
@@ -93,7 +93,7 @@ pub fn euler_from_quat(q: &Quat, seq: EulerSeq) -> [f32; 3] {
         EulerSeq::Xyz123 => {
             // R = Rx(φ) Ry(θ) Rz(ψ): R[0][2] = sin θ.
             let roll = atan2f(2.0 * (w * x - y * z), 1.0 - 2.0 * (x * x + y * y));
-            let sp = (2.0 * (x * z + w * y)).clamp(-1.0, 1.0);
+            let sp = super::clamp_abs(2.0 * (x * z + w * y), 1.0);
             let pitch = libm::asinf(sp);
             let yaw = atan2f(2.0 * (w * z - x * y), 1.0 - 2.0 * (y * y + z * z));
             [roll, pitch, yaw]
