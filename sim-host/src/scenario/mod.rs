@@ -23,7 +23,8 @@ mod controller;
 mod environment;
 mod modes;
 pub use actuators::{
-    Actuators, Alpha, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
+    Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec,
+    WheelsSpec,
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
@@ -765,6 +766,22 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         assert!((c.dt - 0.025).abs() < 1e-15 && (c.h() - 0.00625).abs() < 1e-15);
         let s = Scenario::from_toml(&text).unwrap();
         assert_eq!((s.steps(), s.control_dt()), (c.steps, c.dt));
+    }
+
+    #[test]
+    fn a_cmg_is_checked_and_built_once_steering_optional_open_loop() {
+        let s = Scenario::from_toml(MINIMAL).unwrap();
+        let c = s.cmg_config(s.actuators.cmg.as_ref().unwrap()).unwrap();
+        assert!(c.steering.is_some());
+        assert!((c.cluster.h0_nms - 0.623).abs() < 1e-6);
+        let open = MINIMAL
+            .replace("type = \"quaternion_feedback\"\nzeta = 0.47\nwn_rad_s = 0.7", "type = \"none\"")
+            .replace("[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n", "");
+        let s = Scenario::from_toml(&open).unwrap();
+        assert!(s.steering.is_none());
+        assert_eq!(s.cmg_config(s.actuators.cmg.as_ref().unwrap()).unwrap().steering, None);
+        let e = err_of(&MINIMAL.replace("[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n", ""));
+        assert!(e.contains("`steering`"), "{e}");
     }
 
     fn err_of(text: &str) -> String {
