@@ -14,14 +14,14 @@ use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
-use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Scenario};
+use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Resolved, Scenario, Upload};
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
+use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::{Mode, Reason};
 use acs_flight::params::MAX_THRUSTERS;
-use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use anyhow::{Context, Result, bail};
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every
@@ -254,25 +254,25 @@ pub struct Simulation<'a> {
 
 impl<'a> Simulation<'a> {
     /// Opens the flight side (closed loop: hello and parameter or mode-table upload),
-    /// builds the plant in its initial state and the sensors.
-    pub fn new(sc: &'a Scenario, link: &'a mut dyn FlightLink) -> Result<Self> {
-        let info = if sc.closed_loop() {
-            let info = link.hello().context("hello")?;
-            match sc.mode_table()? {
-                Some(table) => link.upload_modes(&table).context("mode table upload")?,
-                None => link.upload(&sc.flight_params()?).context("parameter upload")?,
-            };
-            Some(info)
-        } else {
-            None
+    /// puts the resolved plant in its initial state and builds the sensors.
+    pub fn new(cfg: Resolved<'a>, link: &'a mut dyn FlightLink) -> Result<Self> {
+        let Resolved { scenario: sc, clock, upload, mut craft, thrusters, magnetorquers } = cfg;
+        let info = match &upload {
+            Some(up) => {
+                let info = link.hello().context("hello")?;
+                match up {
+                    Upload::Modes(table) => link.upload_modes(table).context("mode table upload")?,
+                    Upload::Params(p) => link.upload(p).context("parameter upload")?,
+                };
+                Some(info)
+            }
+            None => None,
         };
-        let mut craft = sc.spacecraft()?;
         let snap = craft.env_at(0.0)?;
         let state = sc.initial_state(&craft, snap.as_ref());
-        let thrusters = sc.thruster_set();
         let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
         let act = Actuation {
-            mtq: sc.magnetorquer_set(),
+            mtq: magnetorquers,
             thrusters,
             thr_state: ThrusterState::new(n_thr),
             n_thr,
@@ -284,7 +284,6 @@ impl<'a> Simulation<'a> {
         target.set(sc.target.quaternion());
         let layout = layout(sc, craft.wheels.len(), n_thr);
         let columns = layout.names();
-        let clock = Clock::try_from(sc)?;
         Ok(Self {
             sc,
             link,

@@ -22,6 +22,7 @@ mod actuators;
 mod controller;
 mod environment;
 mod modes;
+mod resolved;
 pub use actuators::{
     Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec,
     WheelsSpec,
@@ -29,6 +30,7 @@ pub use actuators::{
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
+pub use resolved::{Resolved, Upload};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
@@ -780,7 +782,11 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         let s = Scenario::from_toml(&open).unwrap();
         assert!(s.steering.is_none());
         assert_eq!(s.cmg_config(s.actuators.cmg.as_ref().unwrap()).unwrap().steering, None);
-        let e = err_of(&MINIMAL.replace("[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n", ""));
+        let e =
+            err_of(&MINIMAL.replace(
+                "[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n",
+                "",
+            ));
         assert!(e.contains("`steering`"), "{e}");
     }
 
