@@ -14,14 +14,13 @@ use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
-use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Resolved, Scenario, Upload};
+use crate::scenario::{Clock, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout};
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::{Mode, Reason};
-use acs_flight::params::MAX_THRUSTERS;
 use anyhow::{Context, Result, bail};
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every
@@ -34,33 +33,9 @@ fn mode_name(code: u8) -> String {
     Mode::from_code(code).map_or("none", Mode::name).into()
 }
 
-/// The columns a scenario records (see [`Layout`]).
-pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
-    Layout {
-        adaptive_gains: matches!(sc.controller, Some(Controller::Dmcs { .. })),
-        mode: sc.modes.is_some(),
-        flight_error: sc.closed_loop(),
-        cmg: sc.actuators.cmg.is_some(),
-        wheels: n_wheels,
-        magnetorquers: sc.actuators.magnetorquers.is_some(),
-        thrusters: n_thrusters,
-        field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
-        env_torques: has_environment(sc),
-    }
-}
-
 /// The column names a scenario records.
 pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
     layout(sc, n_wheels, n_thrusters).names()
-}
-
-/// Whether any environment or rig torque can act (the torque breakdown is recorded then).
-fn has_environment(sc: &Scenario) -> bool {
-    sc.orbit.is_some()
-        || sc.rig.is_some()
-        || sc.environment.lab_field_t.is_some()
-        || sc.spacecraft.harmonic_torque.is_some()
-        || sc.spacecraft.external_torque_nm != [0.0; 3]
 }
 
 /// The open-loop row in force at `t`.
@@ -238,6 +213,10 @@ pub struct Simulation<'a> {
     state: State,
     snap: Option<EnvSnapshot>,
     sensors: SensorSuite,
+    /// The step change of the inertia, if any.
+    inertia_change: Option<InertiaChange>,
+    /// The open-loop command table (empty: none).
+    open_loop: Vec<OpenLoopRow>,
     act: Actuation,
     target: Target,
     /// Index of the next ground command in `sc.commands`.
@@ -256,7 +235,20 @@ impl<'a> Simulation<'a> {
     /// Opens the flight side (closed loop: hello and parameter or mode-table upload),
     /// puts the resolved plant in its initial state and builds the sensors.
     pub fn new(cfg: Resolved<'a>, link: &'a mut dyn FlightLink) -> Result<Self> {
-        let Resolved { scenario: sc, clock, upload, mut craft, thrusters, magnetorquers } = cfg;
+        let Resolved {
+            scenario: sc,
+            clock,
+            upload,
+            mut craft,
+            thrusters,
+            n_thrusters: n_thr,
+            magnetorquers,
+            sensors,
+            target: TargetConfig { q_rel, seq, lvlh },
+            inertia_change,
+            open_loop,
+            layout,
+        } = cfg;
         let info = match &upload {
             Some(up) => {
                 let info = link.hello().context("hello")?;
@@ -270,7 +262,6 @@ impl<'a> Simulation<'a> {
         };
         let snap = craft.env_at(0.0)?;
         let state = sc.initial_state(&craft, snap.as_ref());
-        let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
         let act = Actuation {
             mtq: magnetorquers,
             thrusters,
@@ -278,17 +269,16 @@ impl<'a> Simulation<'a> {
             n_thr,
             rod_dipole: [0.0; 3],
         };
-        let seq = sc.target.euler_sequence.into();
-        let mut target =
-            Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh: sc.target.frame == RefFrame::Lvlh };
-        target.set(sc.target.quaternion());
-        let layout = layout(sc, craft.wheels.len(), n_thr);
+        let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
+        target.set(q_rel);
         let columns = layout.names();
         Ok(Self {
             sc,
             link,
             info,
-            sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
+            sensors,
+            inertia_change,
+            open_loop,
             craft,
             state,
             snap,
@@ -399,12 +389,11 @@ impl<'a> Simulation<'a> {
         let frame =
             self.sensors.sample(k as u32, t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
         if self.info.is_none() {
-            let rows: &[OpenLoopRow] = self.sc.open_loop.as_ref().map_or(&[], |o| o.commands.as_slice());
-            return Ok((open_loop_command(open_loop_at(rows, t), k as u32), 0));
+            return Ok((open_loop_command(open_loop_at(&self.open_loop, t), k as u32), 0));
         }
         let report = self.link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
         self.metrics.frames_dropped_flight = report.frames_dropped;
-        if self.sc.modes.is_some() {
+        if self.layout.mode {
             self.metrics.mode(t, &report.cmd);
         }
         Ok((report.cmd, report.step_cost_ticks))
@@ -435,7 +424,7 @@ impl<'a> Simulation<'a> {
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
     fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) -> Result<()> {
-        if let Some(c) = &self.sc.spacecraft.inertia_change
+        if let Some(c) = &self.inertia_change
             && t < c.at_s
             && t + self.clock.dt >= c.at_s
         {
