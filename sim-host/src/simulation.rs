@@ -14,7 +14,9 @@ use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
-use crate::scenario::{Clock, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout};
+use crate::scenario::{
+    Clock, GroundCommand, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout,
+};
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
@@ -206,7 +208,12 @@ struct StepView<'a> {
 
 /// A run in progress.
 pub struct Simulation<'a> {
-    sc: &'a Scenario,
+    /// The scenario's name and rates, for the summary.
+    name: String,
+    control_rate_hz: f64,
+    dynamics_rate_hz: f64,
+    /// The timed ground commands, in order.
+    commands: Vec<GroundCommand>,
     link: &'a mut dyn FlightLink,
     info: Option<LinkInfo>,
     craft: Spacecraft,
@@ -219,7 +226,7 @@ pub struct Simulation<'a> {
     open_loop: Vec<OpenLoopRow>,
     act: Actuation,
     target: Target,
-    /// Index of the next ground command in `sc.commands`.
+    /// Index of the next ground command in `commands`.
     next_command: usize,
     metrics: Metrics,
     errors: ErrorStats,
@@ -232,14 +239,18 @@ pub struct Simulation<'a> {
 }
 
 impl<'a> Simulation<'a> {
-    /// Opens the flight side (closed loop: hello and parameter or mode-table upload),
-    /// puts the resolved plant in its initial state and builds the sensors.
-    pub fn new(cfg: Resolved<'a>, link: &'a mut dyn FlightLink) -> Result<Self> {
+    /// Opens the flight side (closed loop: hello and parameter or mode-table upload) and
+    /// starts from the resolved scenario: plant in its initial state, sensors, actuators.
+    pub fn new(cfg: Resolved, link: &'a mut dyn FlightLink) -> Result<Self> {
         let Resolved {
-            scenario: sc,
+            name,
             clock,
+            control_rate_hz,
+            dynamics_rate_hz,
             upload,
-            mut craft,
+            craft,
+            snap0: snap,
+            initial: state,
             thrusters,
             n_thrusters: n_thr,
             magnetorquers,
@@ -247,6 +258,7 @@ impl<'a> Simulation<'a> {
             target: TargetConfig { q_rel, seq, lvlh },
             inertia_change,
             open_loop,
+            commands,
             layout,
         } = cfg;
         let info = match &upload {
@@ -260,8 +272,6 @@ impl<'a> Simulation<'a> {
             }
             None => None,
         };
-        let snap = craft.env_at(0.0)?;
-        let state = sc.initial_state(&craft, snap.as_ref());
         let act = Actuation {
             mtq: magnetorquers,
             thrusters,
@@ -273,7 +283,10 @@ impl<'a> Simulation<'a> {
         target.set(q_rel);
         let columns = layout.names();
         Ok(Self {
-            sc,
+            name,
+            control_rate_hz,
+            dynamics_rate_hz,
+            commands,
             link,
             info,
             sensors,
@@ -367,17 +380,16 @@ impl<'a> Simulation<'a> {
 
     /// Sends the ground commands due at `t` and follows their new targets.
     fn ground_commands(&mut self, t: f64) -> Result<()> {
-        let sc = self.sc;
-        while let Some(c) = sc.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
+        while let Some(c) = self.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
             self.next_command += 1;
-            for msg in sc.command_messages(c) {
-                match self.link.request(&msg).with_context(|| format!("command at t = {t:.3} s"))? {
+            for msg in &c.messages {
+                match self.link.request(msg).with_context(|| format!("command at t = {t:.3} s"))? {
                     FswMsg::Ack | FswMsg::ModeAccepted { .. } => {}
                     other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
                 }
             }
-            if let Some(tg) = &c.target {
-                self.target.set(tg.quaternion());
+            if let Some(q) = c.target {
+                self.target.set(q);
             }
         }
         Ok(())
@@ -514,7 +526,7 @@ impl<'a> Simulation<'a> {
 
     /// The summary of the finished run; `wall_s` is the wall time of the loop.
     pub fn summary(self, wall_s: f64) -> Summary {
-        let (sc, m, info) = (self.sc, &self.metrics, self.info.as_ref());
+        let (m, info) = (&self.metrics, self.info.as_ref());
         let sim_time = self.sim_time_s();
         let ef = self.errors.figures(sim_time);
         let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
@@ -525,13 +537,13 @@ impl<'a> Simulation<'a> {
         let (n_wheels, n_thr, cmg) = (self.craft.wheels.len(), self.act.n_thr, self.craft.cmg.is_some());
         let thr = &self.act.thr_state;
         Summary {
-            scenario: sc.name.clone(),
+            scenario: self.name.clone(),
             link: if info.is_some() { self.link.name() } else { "open-loop".into() },
             board: info.map(|i| i.board),
             steps: self.clock.steps,
             sim_time_s: sim_time,
-            control_rate_hz: sc.timing.control_rate_hz,
-            dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
+            control_rate_hz: self.control_rate_hz,
+            dynamics_rate_hz: self.dynamics_rate_hz,
             final_error_deg: ef.final_error_deg,
             settle_time_s: ef.settle_time_s,
             settle_bound_deg: SETTLE_BOUND_DEG,

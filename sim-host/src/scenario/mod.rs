@@ -30,7 +30,7 @@ pub use actuators::{
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
-pub use resolved::{Resolved, TargetConfig, Upload, layout};
+pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;

@@ -2,13 +2,15 @@
 //! validate"): the [`Clock`], the plant, the actuator models and what the flight side
 //! receives, each built by the one function that checks its tables.
 
-use super::{Clock, Controller, InertiaChange, ModeTable, OpenLoopRow, RefFrame, Scenario};
+use super::{AttitudeSpec, Clock, Controller, InertiaChange, ModeTable, OpenLoopRow, RefFrame, Scenario};
 use crate::attitude::Quat;
 use crate::columns::Layout;
-use crate::plant::Spacecraft;
+use crate::environment::model::EnvSnapshot;
 use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::ThrusterSet;
+use crate::plant::{Spacecraft, State};
 use crate::sensors::SensorSuite;
+use acs_flight::link::HostMsg;
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{FlightParams, MAX_THRUSTERS};
 use anyhow::Result;
@@ -33,16 +35,31 @@ pub struct TargetConfig {
     pub lvlh: bool,
 }
 
-/// A scenario whose every subsystem has been checked and built once.
-pub struct Resolved<'a> {
-    /// The schema, for what is used as given (name, rates, initial state, ground
-    /// commands); checked when it was loaded.
-    pub scenario: &'a Scenario,
+/// A ground command, resolved: when it is sent, its link messages in order, and the new
+/// target it sets (relative to the target's frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroundCommand {
+    pub at_s: f64,
+    pub messages: Vec<HostMsg>,
+    pub target: Option<Quat>,
+}
+
+/// A scenario whose every subsystem has been checked and built once; a run reads nothing
+/// else.
+pub struct Resolved {
+    /// The scenario's name (reported in the summary).
+    pub name: String,
     pub clock: Clock,
+    /// Control and dynamics (RK4) rates, Hz, as reported in the summary.
+    pub control_rate_hz: f64,
+    pub dynamics_rate_hz: f64,
     /// `None`: open loop (the flight code does not run).
     pub upload: Option<Upload>,
     /// The plant (body, CMGs, wheels, environment, rig) before its first step.
     pub craft: Spacecraft,
+    /// The environment at t = 0 (`None` without one) and the initial state of the plant.
+    pub snap0: Option<EnvSnapshot>,
+    pub initial: State,
     pub thrusters: Option<ThrusterSet>,
     /// Thrusters the flight side and the recorded columns see (at most `MAX_THRUSTERS`).
     pub n_thrusters: usize,
@@ -52,14 +69,16 @@ pub struct Resolved<'a> {
     pub inertia_change: Option<InertiaChange>,
     /// The open-loop command table (empty without `[open_loop]`).
     pub open_loop: Vec<OpenLoopRow>,
+    /// The timed ground commands, in order.
+    pub commands: Vec<GroundCommand>,
     /// The recorded columns.
     pub layout: Layout,
 }
 
-impl<'a> TryFrom<&'a Scenario> for Resolved<'a> {
+impl TryFrom<&Scenario> for Resolved {
     type Error = anyhow::Error;
 
-    fn try_from(sc: &'a Scenario) -> Result<Self> {
+    fn try_from(sc: &Scenario) -> Result<Self> {
         let upload = if sc.closed_loop() {
             Some(match sc.mode_table()? {
                 Some(table) => Upload::Modes(table),
@@ -68,7 +87,9 @@ impl<'a> TryFrom<&'a Scenario> for Resolved<'a> {
         } else {
             None
         };
-        let craft = sc.spacecraft()?;
+        let mut craft = sc.spacecraft()?;
+        let snap0 = craft.env_at(0.0)?;
+        let initial = sc.initial_state(&craft, snap0.as_ref());
         let thrusters = sc.thruster_set();
         let n_thrusters = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
         let target = TargetConfig {
@@ -76,12 +97,25 @@ impl<'a> TryFrom<&'a Scenario> for Resolved<'a> {
             seq: sc.target.euler_sequence.into(),
             lvlh: sc.target.frame == RefFrame::Lvlh,
         };
+        let commands = sc
+            .commands
+            .iter()
+            .map(|c| GroundCommand {
+                at_s: c.at_s,
+                messages: sc.command_messages(c),
+                target: c.target.as_ref().map(AttitudeSpec::quaternion),
+            })
+            .collect();
         Ok(Self {
-            scenario: sc,
+            name: sc.name.clone(),
             clock: Clock::try_from(sc)?,
+            control_rate_hz: sc.timing.control_rate_hz,
+            dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
             upload,
             layout: layout(sc, craft.wheels.len(), n_thrusters),
             craft,
+            snap0,
+            initial,
             thrusters,
             n_thrusters,
             magnetorquers: sc.magnetorquer_set(),
@@ -89,6 +123,7 @@ impl<'a> TryFrom<&'a Scenario> for Resolved<'a> {
             target,
             inertia_change: sc.spacecraft.inertia_change.clone(),
             open_loop: sc.open_loop.as_ref().map_or_else(Vec::new, |o| o.commands.clone()),
+            commands,
         })
     }
 }
@@ -132,5 +167,7 @@ mod tests {
         assert!(r.craft.cmg.is_some() && r.thrusters.is_none() && r.n_thrusters == 0);
         assert!(r.layout.cmg && r.layout.flight_error && !r.layout.mode);
         assert!(!r.target.lvlh && r.inertia_change.is_none() && r.open_loop.is_empty());
+        assert_eq!((r.name.as_str(), r.control_rate_hz, r.dynamics_rate_hz), ("t", 100.0, 100.0));
+        assert!(r.commands.is_empty() && r.snap0.is_none() && r.initial.w == crate::attitude::Vec3::zeros());
     }
 }
