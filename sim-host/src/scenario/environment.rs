@@ -1,6 +1,6 @@
 //! Orbit, environment models and the air-bearing rig of a scenario.
 
-use super::{Scenario, bad, parse_epoch, yes};
+use super::{Scenario, bad, finite, parse_epoch, positive, yes};
 use crate::attitude::Vec3;
 use crate::environment::frames::EarthRotation;
 use crate::environment::magnetic::{FieldModel, MagneticField};
@@ -9,6 +9,7 @@ use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
 use crate::environment::torques::{
     Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, Plate, SrpModel, box_plates,
 };
+use crate::plant::rig::Rig;
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
@@ -152,6 +153,33 @@ pub struct RigSpec {
     pub roll_limit_deg: Option<f64>,
     #[serde(default)]
     pub pitch_limit_deg: Option<f64>,
+}
+
+impl RigSpec {
+    /// `[rig]`, checked (errors naming the key) and built in one place: the preset's
+    /// pendulum term and travel stops, overridden by the keys given.
+    pub fn rig(&self) -> Result<Rig> {
+        let base = match self.preset.as_deref() {
+            Some("paper003") => Rig::paper003().1,
+            Some("paper000") => Rig::paper000(),
+            Some(p) => {
+                return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
+            }
+            None if self.mgr_nm.is_none() => return Err(bad("rig.mgr_nm", "required without a preset")),
+            None => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
+        };
+        finite("rig.mgr_nm", &self.mgr_nm.unwrap_or_default())?;
+        for (k, l) in [("rig.roll_limit_deg", self.roll_limit_deg), ("rig.pitch_limit_deg", self.pitch_limit_deg)] {
+            if let Some(l) = l {
+                positive(k, l)?;
+            }
+        }
+        Ok(Rig {
+            mgr_nm: self.mgr_nm.map_or(base.mgr_nm, Vec3::from),
+            roll_limit_rad: self.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
+            pitch_limit_rad: self.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
+        })
+    }
 }
 
 impl Scenario {

@@ -6,7 +6,6 @@ use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body
 use crate::environment::frames::julian_date;
 use crate::environment::model::EnvSnapshot;
 use crate::plant::cmg::GimbalServo;
-use crate::plant::rig::Rig;
 use crate::plant::wheel::WheelState;
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
@@ -294,6 +293,25 @@ impl Scenario {
         Matrix3::from_fn(|r, c| self.spacecraft.inertia_kgm2[r][c])
     }
 
+    /// `spacecraft.inertia_kgm2`, checked (finite, symmetric, positive definite, principal
+    /// moments obeying the triangle inequality): the one place the body inertia is accepted.
+    pub fn checked_inertia(&self) -> Result<Matrix3<f64>> {
+        let i = self.inertia();
+        finite("spacecraft.inertia_kgm2", i.as_slice())?;
+        if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
+            return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
+        }
+        let e = i.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
+            return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
+        }
+        let (a, b, c) = (e[0], e[1], e[2]);
+        if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
+            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
+        }
+        Ok(i)
+    }
+
     pub fn validate(&self) -> Result<()> {
         self.validate_timing()?;
         self.validate_spacecraft()?;
@@ -315,19 +333,7 @@ impl Scenario {
 
     /// `[spacecraft]`.
     fn validate_spacecraft(&self) -> Result<()> {
-        let i = self.inertia();
-        finite("spacecraft.inertia_kgm2", i.as_slice())?;
-        if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
-            return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
-        }
-        let e = i.symmetric_eigenvalues();
-        if e.min() <= 0.0 {
-            return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
-        }
-        let (a, b, c) = (e[0], e[1], e[2]);
-        if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
-            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
-        }
+        self.checked_inertia()?;
         let sc = &self.spacecraft;
         if let Some(m) = sc.mass_kg {
             positive("spacecraft.mass_kg", m)?;
@@ -435,19 +441,7 @@ impl Scenario {
             return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
         }
         if let Some(r) = &self.rig {
-            if let Some(p) = &r.preset {
-                if !matches!(p.as_str(), "paper003" | "paper000") {
-                    return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
-                }
-            } else if r.mgr_nm.is_none() {
-                return Err(bad("rig.mgr_nm", "required without a preset"));
-            }
-            finite("rig.mgr_nm", &r.mgr_nm.unwrap_or_default())?;
-            for (k, l) in [("rig.roll_limit_deg", r.roll_limit_deg), ("rig.pitch_limit_deg", r.pitch_limit_deg)] {
-                if let Some(l) = l {
-                    positive(k, l)?;
-                }
-            }
+            r.rig()?;
         }
         Ok(())
     }
@@ -539,7 +533,7 @@ impl Scenario {
         });
         let wheels = self.wheel_params()?;
         // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
-        let mut j = self.inertia();
+        let mut j = self.checked_inertia()?;
         for w in &wheels {
             let a = Vec3::from(w.spin_axis);
             j -= a * a.transpose() * w.inertia_kgm2;
@@ -549,18 +543,7 @@ impl Scenario {
         sc.wheels = wheels;
         sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
         sc.env = self.environment()?;
-        sc.rig = self.rig.as_ref().map(|r| {
-            let base = match r.preset.as_deref() {
-                Some("paper003") => Rig::paper003().1,
-                Some("paper000") => Rig::paper000(),
-                _ => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
-            };
-            Rig {
-                mgr_nm: r.mgr_nm.map_or(base.mgr_nm, Vec3::from),
-                roll_limit_rad: r.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
-                pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
-            }
-        });
+        sc.rig = self.rig.as_ref().map(RigSpec::rig).transpose()?;
         Ok(sc)
     }
 
