@@ -218,8 +218,7 @@ impl Scenario {
                 disturbances,
             }));
         };
-        let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
-        let model = orbit_model(o)?;
+        let (model, jd) = o.checked()?;
         let prop = OrbitPropagator::new(&model, PropagatorOptions { j2: o.j2, step_s: 10.0 })
             .map_err(|e| bad("orbit", format!("{e:?}")))?;
         // A TLE brings its own epoch.
@@ -271,8 +270,37 @@ impl Scenario {
 }
 
 /// The orbit model of `[orbit]` (circular, Kepler elements or TLE).
-fn orbit_model(o: &OrbitSpec) -> Result<OrbitModel> {
-    Ok(match &o.elements()? {
+impl OrbitSpec {
+    /// `[orbit]`, checked (errors naming the key) and built in one place: the orbit model
+    /// and the epoch (Julian date, UTC).
+    pub fn checked(&self) -> Result<(OrbitModel, f64)> {
+        let kind = self.elements()?;
+        match &kind {
+            OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
+                positive("orbit.altitude_km", *altitude_km)?;
+                finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
+            }
+            OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
+                if !(a_km.is_finite() && *a_km > 6378.137) {
+                    return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
+                }
+                if !(0.0..1.0).contains(e) {
+                    return Err(bad("orbit.e", "must be in [0, 1)"));
+                }
+                if a_km * (1.0 - e) <= 6378.137 {
+                    return Err(bad("orbit.e", "perigee below the Earth's surface"));
+                }
+                finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
+            }
+            OrbitKind::Tle { .. } => {}
+        }
+        let jd = parse_epoch(&self.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        Ok((orbit_model(&kind), jd))
+    }
+}
+
+fn orbit_model(kind: &OrbitKind) -> OrbitModel {
+    match kind {
         OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
             altitude_m: altitude_km * 1e3,
             inclination_rad: inclination_deg.to_radians(),
@@ -288,5 +316,5 @@ fn orbit_model(o: &OrbitSpec) -> Result<OrbitModel> {
             nu0: true_anomaly_deg.to_radians(),
         },
         OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
-    })
+    }
 }

@@ -380,26 +380,7 @@ impl Scenario {
             if self.rig.is_some() {
                 return Err(bad("rig", "a rig sits in a lab: remove [orbit] or [rig]"));
             }
-            match &o.elements()? {
-                OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
-                    positive("orbit.altitude_km", *altitude_km)?;
-                    finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
-                }
-                OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
-                    if !(a_km.is_finite() && *a_km > 6378.137) {
-                        return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
-                    }
-                    if !(0.0..1.0).contains(e) {
-                        return Err(bad("orbit.e", "must be in [0, 1)"));
-                    }
-                    if a_km * (1.0 - e) <= 6378.137 {
-                        return Err(bad("orbit.e", "perigee below the Earth's surface"));
-                    }
-                    finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
-                }
-                OrbitKind::Tle { .. } => {}
-            }
-            parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+            o.checked()?;
         }
         Ok(())
     }
