@@ -41,6 +41,23 @@ impl Col {
     pub const fn index(self) -> usize {
         self as usize
     }
+
+    /// The CSV header of the column.
+    pub const fn name(self) -> &'static str {
+        FIXED[self as usize]
+    }
+
+    /// Attitude quaternion, `[x, y, z, w]`.
+    pub const Q: [Col; 4] = [Col::Qx, Col::Qy, Col::Qz, Col::Qw];
+    /// Euler angles `[roll, pitch, yaw]`, deg, and their targets.
+    pub const EULER: [Col; 3] = [Col::Roll, Col::Pitch, Col::Yaw];
+    pub const EULER_TARGET: [Col; 3] = [Col::RollTarget, Col::PitchTarget, Col::YawTarget];
+    /// Body rate, x y z.
+    pub const RATE: [Col; 3] = [Col::RateX, Col::RateY, Col::RateZ];
+    /// Torque demanded by the flight code, realised by the actuators, applied to the body.
+    pub const DEMAND: [Col; 3] = [Col::DemandX, Col::DemandY, Col::DemandZ];
+    pub const REALISED: [Col; 3] = [Col::RealisedX, Col::RealisedY, Col::RealisedZ];
+    pub const APPLIED: [Col; 3] = [Col::AppliedX, Col::AppliedY, Col::AppliedZ];
 }
 
 const FIXED: [&str; Col::COUNT] = [
@@ -156,6 +173,11 @@ mod tests {
         assert_eq!(names[Col::Error.index()], "error_deg");
         assert_eq!(names[Col::AppliedZ.index()], "torque_applied_z_nm");
         assert_eq!(names[Col::StepCost.index()], "step_cost_insns");
+        for (i, n) in names.iter().enumerate() {
+            assert_eq!(FIXED[i], n);
+        }
+        assert_eq!(Col::RATE.map(Col::name), ["rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"]);
+        assert_eq!(Col::EULER_TARGET[2].name(), "yaw_target_deg");
     }
 
     #[test]

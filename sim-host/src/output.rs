@@ -1,6 +1,7 @@
 //! Run outputs: `timeseries.csv` (streamed to disk as the run goes), `summary.json` and
 //! the PNG figures (drawn from a bounded min/max decimation of the recorded rows).
 
+use crate::columns::Col;
 use crate::decimate::Envelope;
 use crate::plots::{self, Figure, Panel, Series};
 use crate::series::{Recorder, write_csv_row};
@@ -36,7 +37,13 @@ fn log_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
 }
 
 fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
-    Figure { file_name: file_name.into(), title: title.into(), x: "t_s".into(), x_label: "time [s]".into(), panels }
+    Figure {
+        file_name: file_name.into(),
+        title: title.into(),
+        x: Col::T.name().into(),
+        x_label: "time [s]".into(),
+        panels,
+    }
 }
 
 /// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
@@ -44,17 +51,21 @@ fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
 /// absent are skipped).
 pub fn figures() -> Vec<Figure> {
     let s = line;
-    let rates = || vec![s("rate_x_rad_s", "ωx", false), s("rate_y_rad_s", "ωy", false), s("rate_z_rad_s", "ωz", false)];
-    let error = || log_panel("attitude error", "deg", vec![s("error_deg", "error", false)]);
-    let euler = |a: &str| {
-        panel(a, "deg", vec![s(&format!("{a}_deg"), a, false), s(&format!("{a}_target_deg"), "target", true)])
+    let rates = || Col::RATE.iter().zip(["ωx", "ωy", "ωz"]).map(|(c, l)| s(c.name(), l, false)).collect();
+    let error = || log_panel("attitude error", "deg", vec![s(Col::Error.name(), "error", false)]);
+    let euler = |i: usize, a: &str| {
+        panel(a, "deg", vec![s(Col::EULER[i].name(), a, false), s(Col::EULER_TARGET[i].name(), "target", true)])
     };
-    let torque = |a: &str| {
-        let applied = s(&format!("torque_applied_{a}_nm"), "applied", false);
-        panel(a, "N m", vec![applied, s(&format!("torque_demand_{a}_nm"), "demand", true)])
+    let torque = |i: usize, a: &str| {
+        let applied = s(Col::APPLIED[i].name(), "applied", false);
+        panel(a, "N m", vec![applied, s(Col::DEMAND[i].name(), "demand", true)])
     };
     vec![
-        figure("attitude.png", "Euler angles and target", vec![euler("roll"), euler("pitch"), euler("yaw"), error()]),
+        figure(
+            "attitude.png",
+            "Euler angles and target",
+            vec![euler(0, "roll"), euler(1, "pitch"), euler(2, "yaw"), error()],
+        ),
         figure(
             "gimbals.png",
             "CMG gimbal angles and rates",
@@ -66,7 +77,7 @@ pub fn figures() -> Vec<Figure> {
         figure(
             "torque.png",
             "Control torque: demanded (dashed) and applied by the actuators",
-            vec![torque("x"), torque("y"), torque("z")],
+            vec![torque(0, "x"), torque(1, "y"), torque(2, "z")],
         ),
         figure(
             "singularity.png",

@@ -3,7 +3,7 @@
 //! The physics of one control step is in [`crate::simulation`].
 
 use crate::link::FlightLink;
-use crate::scenario::Scenario;
+use crate::scenario::{Resolved, Scenario};
 use crate::series::{Recorder, TimeSeries};
 pub use crate::simulation::{Simulation, column_names, recorded_rows};
 pub use crate::summary::{ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
@@ -32,7 +32,7 @@ pub fn run_recorded(
     progress: bool,
     rec: &mut dyn Recorder,
 ) -> Result<Summary> {
-    let mut sim = Simulation::new(sc, link)?;
+    let mut sim = Simulation::new(Resolved::try_from(sc)?, link)?;
     rec.start(sim.columns(), sim.recorded_rows())?;
     let mut bar = Progress::new(progress, sim.steps());
     let start = Instant::now();

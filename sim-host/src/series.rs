@@ -1,6 +1,7 @@
 //! Recorded samples: the [`Recorder`] a run pushes its rows into, and [`TimeSeries`], the
 //! in-memory column store (tests, library use, and the decimated plot data).
 
+use crate::columns::Col;
 use anyhow::Result;
 
 /// Where a run's recorded rows go. [`Recorder::start`] is called once, before the first
@@ -31,6 +32,13 @@ impl TimeSeries {
     /// The column called `name` (for tests and analyses; the run itself uses indices).
     pub fn col(&self, name: &str) -> Option<&[f64]> {
         self.names.iter().position(|n| n == name).map(|i| self.cols[i].as_slice())
+    }
+
+    /// A column of the fixed block, by its index (`None` if this store does not hold the
+    /// fixed block first).
+    pub fn fixed(&self, c: Col) -> Option<&[f64]> {
+        let i = c.index();
+        self.names.get(i).filter(|n| *n == c.name()).map(|_| self.cols[i].as_slice())
     }
 
     pub fn push_row(&mut self, row: &[f64]) {

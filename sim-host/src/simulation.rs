@@ -14,14 +14,15 @@ use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
-use crate::scenario::{Clock, Controller, OpenLoopRow, RefFrame, Scenario};
+use crate::scenario::{
+    Clock, GroundCommand, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout,
+};
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
+use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::{Mode, Reason};
-use acs_flight::params::MAX_THRUSTERS;
-use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use anyhow::{Context, Result, bail};
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every
@@ -34,33 +35,9 @@ fn mode_name(code: u8) -> String {
     Mode::from_code(code).map_or("none", Mode::name).into()
 }
 
-/// The columns a scenario records (see [`Layout`]).
-pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
-    Layout {
-        adaptive_gains: matches!(sc.controller, Some(Controller::Dmcs { .. })),
-        mode: sc.modes.is_some(),
-        flight_error: sc.closed_loop(),
-        cmg: sc.actuators.cmg.is_some(),
-        wheels: n_wheels,
-        magnetorquers: sc.actuators.magnetorquers.is_some(),
-        thrusters: n_thrusters,
-        field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
-        env_torques: has_environment(sc),
-    }
-}
-
 /// The column names a scenario records.
 pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
     layout(sc, n_wheels, n_thrusters).names()
-}
-
-/// Whether any environment or rig torque can act (the torque breakdown is recorded then).
-fn has_environment(sc: &Scenario) -> bool {
-    sc.orbit.is_some()
-        || sc.rig.is_some()
-        || sc.environment.lab_field_t.is_some()
-        || sc.spacecraft.harmonic_torque.is_some()
-        || sc.spacecraft.external_torque_nm != [0.0; 3]
 }
 
 /// The open-loop row in force at `t`.
@@ -231,16 +208,25 @@ struct StepView<'a> {
 
 /// A run in progress.
 pub struct Simulation<'a> {
-    sc: &'a Scenario,
+    /// The scenario's name and rates, for the summary.
+    name: String,
+    control_rate_hz: f64,
+    dynamics_rate_hz: f64,
+    /// The timed ground commands, in order.
+    commands: Vec<GroundCommand>,
     link: &'a mut dyn FlightLink,
     info: Option<LinkInfo>,
     craft: Spacecraft,
     state: State,
     snap: Option<EnvSnapshot>,
     sensors: SensorSuite,
+    /// The step change of the inertia, if any.
+    inertia_change: Option<InertiaChange>,
+    /// The open-loop command table (empty: none).
+    open_loop: Vec<OpenLoopRow>,
     act: Actuation,
     target: Target,
-    /// Index of the next ground command in `sc.commands`.
+    /// Index of the next ground command in `commands`.
     next_command: usize,
     metrics: Metrics,
     errors: ErrorStats,
@@ -253,43 +239,59 @@ pub struct Simulation<'a> {
 }
 
 impl<'a> Simulation<'a> {
-    /// Opens the flight side (closed loop: hello and parameter or mode-table upload),
-    /// builds the plant in its initial state and the sensors.
-    pub fn new(sc: &'a Scenario, link: &'a mut dyn FlightLink) -> Result<Self> {
-        let info = if sc.closed_loop() {
-            let info = link.hello().context("hello")?;
-            match sc.mode_table()? {
-                Some(table) => link.upload_modes(&table).context("mode table upload")?,
-                None => link.upload(&sc.flight_params()?).context("parameter upload")?,
-            };
-            Some(info)
-        } else {
-            None
+    /// Opens the flight side (closed loop: hello and parameter or mode-table upload) and
+    /// starts from the resolved scenario: plant in its initial state, sensors, actuators.
+    pub fn new(cfg: Resolved, link: &'a mut dyn FlightLink) -> Result<Self> {
+        let Resolved {
+            name,
+            clock,
+            control_rate_hz,
+            dynamics_rate_hz,
+            upload,
+            craft,
+            snap0: snap,
+            initial: state,
+            thrusters,
+            n_thrusters: n_thr,
+            magnetorquers,
+            sensors,
+            target: TargetConfig { q_rel, seq, lvlh },
+            inertia_change,
+            open_loop,
+            commands,
+            layout,
+        } = cfg;
+        let info = match &upload {
+            Some(up) => {
+                let info = link.hello().context("hello")?;
+                match up {
+                    Upload::Modes(table) => link.upload_modes(table).context("mode table upload")?,
+                    Upload::Params(p) => link.upload(p).context("parameter upload")?,
+                };
+                Some(info)
+            }
+            None => None,
         };
-        let mut craft = sc.spacecraft()?;
-        let snap = craft.env_at(0.0)?;
-        let state = sc.initial_state(&craft, snap.as_ref());
-        let thrusters = sc.thruster_set();
-        let n_thr = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
         let act = Actuation {
-            mtq: sc.magnetorquer_set(),
+            mtq: magnetorquers,
             thrusters,
             thr_state: ThrusterState::new(n_thr),
             n_thr,
             rod_dipole: [0.0; 3],
         };
-        let seq = sc.target.euler_sequence.into();
-        let mut target =
-            Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh: sc.target.frame == RefFrame::Lvlh };
-        target.set(sc.target.quaternion());
-        let layout = layout(sc, craft.wheels.len(), n_thr);
+        let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
+        target.set(q_rel);
         let columns = layout.names();
-        let clock = Clock::try_from(sc)?;
         Ok(Self {
-            sc,
+            name,
+            control_rate_hz,
+            dynamics_rate_hz,
+            commands,
             link,
             info,
-            sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
+            sensors,
+            inertia_change,
+            open_loop,
             craft,
             state,
             snap,
@@ -378,17 +380,16 @@ impl<'a> Simulation<'a> {
 
     /// Sends the ground commands due at `t` and follows their new targets.
     fn ground_commands(&mut self, t: f64) -> Result<()> {
-        let sc = self.sc;
-        while let Some(c) = sc.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
+        while let Some(c) = self.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
             self.next_command += 1;
-            for msg in sc.command_messages(c) {
-                match self.link.request(&msg).with_context(|| format!("command at t = {t:.3} s"))? {
+            for msg in &c.messages {
+                match self.link.request(msg).with_context(|| format!("command at t = {t:.3} s"))? {
                     FswMsg::Ack | FswMsg::ModeAccepted { .. } => {}
                     other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
                 }
             }
-            if let Some(tg) = &c.target {
-                self.target.set(tg.quaternion());
+            if let Some(q) = c.target {
+                self.target.set(q);
             }
         }
         Ok(())
@@ -400,12 +401,11 @@ impl<'a> Simulation<'a> {
         let frame =
             self.sensors.sample(k as u32, t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
         if self.info.is_none() {
-            let rows: &[OpenLoopRow] = self.sc.open_loop.as_ref().map_or(&[], |o| o.commands.as_slice());
-            return Ok((open_loop_command(open_loop_at(rows, t), k as u32), 0));
+            return Ok((open_loop_command(open_loop_at(&self.open_loop, t), k as u32), 0));
         }
         let report = self.link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
         self.metrics.frames_dropped_flight = report.frames_dropped;
-        if self.sc.modes.is_some() {
+        if self.layout.mode {
             self.metrics.mode(t, &report.cmd);
         }
         Ok((report.cmd, report.step_cost_ticks))
@@ -436,7 +436,7 @@ impl<'a> Simulation<'a> {
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
     fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) -> Result<()> {
-        if let Some(c) = &self.sc.spacecraft.inertia_change
+        if let Some(c) = &self.inertia_change
             && t < c.at_s
             && t + self.clock.dt >= c.at_s
         {
@@ -526,7 +526,7 @@ impl<'a> Simulation<'a> {
 
     /// The summary of the finished run; `wall_s` is the wall time of the loop.
     pub fn summary(self, wall_s: f64) -> Summary {
-        let (sc, m, info) = (self.sc, &self.metrics, self.info.as_ref());
+        let (m, info) = (&self.metrics, self.info.as_ref());
         let sim_time = self.sim_time_s();
         let ef = self.errors.figures(sim_time);
         let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
@@ -537,13 +537,13 @@ impl<'a> Simulation<'a> {
         let (n_wheels, n_thr, cmg) = (self.craft.wheels.len(), self.act.n_thr, self.craft.cmg.is_some());
         let thr = &self.act.thr_state;
         Summary {
-            scenario: sc.name.clone(),
+            scenario: self.name.clone(),
             link: if info.is_some() { self.link.name() } else { "open-loop".into() },
             board: info.map(|i| i.board),
             steps: self.clock.steps,
             sim_time_s: sim_time,
-            control_rate_hz: sc.timing.control_rate_hz,
-            dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
+            control_rate_hz: self.control_rate_hz,
+            dynamics_rate_hz: self.dynamics_rate_hz,
             final_error_deg: ef.final_error_deg,
             settle_time_s: ef.settle_time_s,
             settle_bound_deg: SETTLE_BOUND_DEG,

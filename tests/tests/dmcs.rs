@@ -3,6 +3,7 @@
 //! settle.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 
 #[test]
 fn dmcs_manoeuvres_converge_through_the_inertia_change_and_the_gains_settle() {
@@ -10,7 +11,7 @@ fn dmcs_manoeuvres_converge_through_the_inertia_change_and_the_gains_settle() {
         let r = run_in_process(&scenario(f));
         let s = &r.summary;
         let ts = &r.series;
-        let t = ts.col("t_s").unwrap();
+        let t = ts.fixed(Col::T).unwrap();
         // Gains over the last 200 s: settled (spread small against their size).
         let spread = ["x", "y", "z"]
             .iter()

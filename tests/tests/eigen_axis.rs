@@ -2,6 +2,7 @@
 //! manoeuvre with a 3 deg/s limit never turns faster, and still arrives.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 use sim_host::scenario::Controller;
 
 #[test]
@@ -13,7 +14,7 @@ fn rate_limited_quaternion_feedback_respects_the_slew_rate_and_arrives() {
     let r = run_in_process(&sc);
     let ts = &r.series;
     let peak = (0..ts.len())
-        .map(|i| ["rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"].map(|c| ts.col(c).unwrap()[i]))
+        .map(|i| Col::RATE.map(|c| ts.fixed(c).unwrap()[i]))
         .map(|w| (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().to_degrees())
         .fold(0.0f64, f64::max);
     eprintln!("rate-limited slew: peak body rate {peak:.2} deg/s (limit 3), settle {:?} s", r.summary.settle_time_s);

@@ -3,6 +3,7 @@
 //! paper 003 (air-bearing rig with its pendulum, magnetorquers).
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 
 #[test]
 fn paper002_lqr_stabilises_within_18_s_to_0_2_deg() {
@@ -25,7 +26,7 @@ fn paper003_rig_lqr_turns_101_deg_of_yaw_within_the_papers_accuracy() {
     let d = sc.lqr_design().unwrap();
     assert!(d.residual < 1e-9 && d.closed_loop_eigenvalues.iter().all(|e| e.re < 0.0));
     let r = run_in_process(&sc);
-    let (t, e) = (r.series.col("t_s").unwrap(), r.series.col("error_deg").unwrap());
+    let (t, e) = (r.series.fixed(Col::T).unwrap(), r.series.fixed(Col::Error).unwrap());
     let tail: Vec<f64> = t.iter().zip(e).filter(|(t, _)| **t >= 600.0).map(|(_, e)| *e).collect();
     let rms = (tail.iter().map(|x| x * x).sum::<f64>() / tail.len() as f64).sqrt();
     eprintln!("paper 003 rig LQR: steady RMS error {rms:.2} deg (paper, hardware: 2.95 deg; accuracy < 7 deg)");
@@ -37,12 +38,12 @@ fn paper003_rig_lqr_turns_101_deg_of_yaw_within_the_papers_accuracy() {
 fn paper003_three_axis_magnetic_lqr_keeps_every_axis_within_15_deg_over_5_orbits() {
     let r = run_in_process(&scenario("paper003/orbit-lqr.toml"));
     let ts = &r.series;
-    let t = ts.col("t_s").unwrap();
+    let t = ts.fixed(Col::T).unwrap();
     let orbit = 5822.4;
-    let peak = |c: &str| {
-        ts.col(c).unwrap().iter().zip(t).filter(|(_, t)| **t > orbit).fold(0.0f64, |m, (x, _)| m.max(x.abs()))
+    let peak = |c: Col| {
+        ts.fixed(c).unwrap().iter().zip(t).filter(|(_, t)| **t > orbit).fold(0.0f64, |m, (x, _)| m.max(x.abs()))
     };
-    let (r_, p_, y_) = (peak("roll_deg"), peak("pitch_deg"), peak("yaw_deg"));
+    let (r_, p_, y_) = (peak(Col::Roll), peak(Col::Pitch), peak(Col::Yaw));
     eprintln!(
         "paper 003 orbit LQR: peak |roll| {r_:.1}, |pitch| {p_:.1}, |yaw| {y_:.1} deg after the first orbit (paper: < 15 deg)"
     );
@@ -50,7 +51,7 @@ fn paper003_three_axis_magnetic_lqr_keeps_every_axis_within_15_deg_over_5_orbits
 }
 
 fn steady_rms(r: &sim_host::runner::RunResult, from_s: f64) -> f64 {
-    let (t, e) = (r.series.col("t_s").unwrap(), r.series.col("error_deg").unwrap());
+    let (t, e) = (r.series.fixed(Col::T).unwrap(), r.series.fixed(Col::Error).unwrap());
     let v: Vec<f64> = t.iter().zip(e).filter(|(t, _)| **t >= from_s).map(|(_, e)| *e).collect();
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }

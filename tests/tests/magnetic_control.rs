@@ -2,9 +2,10 @@
 //! with the torquers' dead band, and B-dot detumbling of the cubesat in orbit.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 
-fn rms_after(ts: &sim_host::series::TimeSeries, col: &str, t0: f64) -> f64 {
-    let (t, x) = (ts.col("t_s").unwrap(), ts.col(col).unwrap());
+fn rms_after(ts: &sim_host::series::TimeSeries, col: Col, t0: f64) -> f64 {
+    let (t, x) = (ts.fixed(Col::T).unwrap(), ts.fixed(col).unwrap());
     let v: Vec<f64> = t.iter().zip(x).filter(|(t, _)| **t >= t0).map(|(_, x)| *x).collect();
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
@@ -13,14 +14,14 @@ fn rms_after(ts: &sim_host::series::TimeSeries, col: &str, t0: f64) -> f64 {
 fn rig_pd_turns_97_deg_of_yaw_and_the_dead_band_sets_the_steady_error() {
     let sc = scenario("paper003/rig-pd.toml");
     let r = run_in_process(&sc);
-    let steady = rms_after(&r.series, "error_deg", 600.0);
-    let err = r.series.col("error_deg").unwrap();
-    let t = r.series.col("t_s").unwrap();
+    let steady = rms_after(&r.series, Col::Error, 600.0);
+    let err = r.series.fixed(Col::Error).unwrap();
+    let t = r.series.fixed(Col::T).unwrap();
     let at_500 = err[t.iter().position(|x| *x >= 500.0).unwrap()];
     // Without the dead band the same law points much closer.
     let mut ideal = sc.clone();
     ideal.actuators.magnetorquers.as_mut().unwrap().deadband_am2 = None;
-    let steady_ideal = rms_after(&run_in_process(&ideal).series, "error_deg", 600.0);
+    let steady_ideal = rms_after(&run_in_process(&ideal).series, Col::Error, 600.0);
     eprintln!(
         "rig PD: error {at_500:.2} deg at 500 s, steady RMS {steady:.2} deg with the dead band, {steady_ideal:.2} deg without (paper, hardware: 5.4 deg RMS)"
     );
@@ -34,17 +35,17 @@ fn rig_pd_turns_97_deg_of_yaw_and_the_dead_band_sets_the_steady_error() {
 fn bdot_detumbles_a_10_deg_s_tumble_to_twice_the_orbit_rate() {
     let r = run_in_process(&scenario("paper003/bdot.toml"));
     let ts = &r.series;
-    let t = ts.col("t_s").unwrap();
+    let t = ts.fixed(Col::T).unwrap();
     let rate_deg_s: Vec<f64> = (0..ts.len())
         .map(|i| {
-            let w = ["rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"].map(|c| ts.col(c).unwrap()[i]);
+            let w = Col::RATE.map(|c| ts.fixed(c).unwrap()[i]);
             (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt().to_degrees()
         })
         .collect();
     let orbit_s = 5822.4;
     let below_1 = t[rate_deg_s.iter().position(|w| *w < 1.0).unwrap()];
     let n_deg_s = (2.0 * std::f64::consts::PI / orbit_s).to_degrees();
-    let final_rate = rms_after(ts, "rate_y_rad_s", 2.0 * orbit_s).to_degrees();
+    let final_rate = rms_after(ts, Col::RateY, 2.0 * orbit_s).to_degrees();
     let tail: Vec<f64> = t.iter().zip(&rate_deg_s).filter(|(t, _)| **t > 2.0 * orbit_s).map(|(_, w)| *w).collect();
     let tail_mean = tail.iter().sum::<f64>() / tail.len() as f64;
     eprintln!(

@@ -6,6 +6,7 @@
 //! whole dwell before it, and no transition happened without one.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 use sim_host::runner::ModeTransition;
 
 struct Series {
@@ -17,15 +18,15 @@ struct Series {
 
 fn series(r: &sim_host::runner::RunResult) -> Series {
     let ts = &r.series;
-    let c = |n| ts.col(n).unwrap_or_else(|| panic!("column {n}")).to_vec();
-    let (wx, wy, wz) = (c("rate_x_rad_s"), c("rate_y_rad_s"), c("rate_z_rad_s"));
+    let c = |n: Col| ts.fixed(n).unwrap_or_else(|| panic!("column {}", n.name())).to_vec();
+    let (wx, wy, wz) = (c(Col::RateX), c(Col::RateY), c(Col::RateZ));
     Series {
-        t: c("t_s"),
+        t: c(Col::T),
         mode: ts.col("mode").map(<[f64]>::to_vec).unwrap_or_default(),
         rate_deg_s: (0..wx.len())
             .map(|i| (wx[i].powi(2) + wy[i].powi(2) + wz[i].powi(2)).sqrt().to_degrees())
             .collect(),
-        error_deg: c("error_deg"),
+        error_deg: c(Col::Error),
     }
 }
 

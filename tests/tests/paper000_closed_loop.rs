@@ -4,6 +4,7 @@
 //! (gimbal rate 60 deg/s), conservation of the cluster's reachable momentum.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 
 #[test]
 fn test1_and_test3_yaw_slews_reach_the_target_and_test3_is_about_three_times_faster() {
@@ -61,11 +62,11 @@ fn realised_torque_tracks_the_demand_when_no_limit_is_active() {
     // every recorded sample where no saturation flag is set.
     let r = run_in_process(&scenario("paper000/test1.toml"));
     let ts = &r.series;
-    let status = ts.col("status").unwrap();
+    let status = ts.fixed(Col::Status).unwrap();
     let mut checked = 0;
-    for axis in ["x", "y", "z"] {
-        let dem = ts.col(&format!("torque_realised_{axis}_nm")).unwrap();
-        let app = ts.col(&format!("torque_applied_{axis}_nm")).unwrap();
+    for (axis, (realised, applied)) in ["x", "y", "z"].into_iter().zip(Col::REALISED.into_iter().zip(Col::APPLIED)) {
+        let dem = ts.fixed(realised).unwrap();
+        let app = ts.fixed(applied).unwrap();
         for i in 0..ts.len() {
             if status[i] == 0.0 {
                 assert!(

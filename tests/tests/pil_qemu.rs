@@ -4,6 +4,7 @@
 //! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
 
 use acs_tests::{repo, run_in_process, scenario};
+use sim_host::columns::Col;
 use sim_host::link::qemu::{QemuLink, default_firmware};
 use sim_host::runner;
 
@@ -114,8 +115,8 @@ fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
         assert_eq!((f.as_str(), t.as_str(), why.as_str()), (ef, et, ewhy));
         assert!((at - eat).abs() < 1e-9, "{at} vs {eat}");
     }
-    for name in ["q_x", "q_y", "q_z", "q_w", "rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"] {
-        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+    for c in Col::Q.into_iter().chain(Col::RATE) {
+        let (name, a, b) = (c.name(), sil.series.fixed(c).unwrap(), pil.series.fixed(c).unwrap());
         let worst = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
         assert!(worst <= 1e-6, "{name}: SIL and PIL differ by {worst:e}");
     }

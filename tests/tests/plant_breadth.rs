@@ -4,6 +4,7 @@
 //! electrical limits.
 
 use acs_tests::{run_in_process, scenario};
+use sim_host::columns::Col;
 use sim_host::scenario::Scenario;
 
 /// Times of upward zero crossings of a sampled signal (linear interpolation).
@@ -33,7 +34,7 @@ fn rig_pendulum_period_matches_the_closed_form() {
     sc.duration_s = 60.0;
     let r = run_in_process(&sc);
     let ts = &r.series;
-    let period = mean_period(ts.col("t_s").unwrap(), ts.col("roll_deg").unwrap());
+    let period = mean_period(ts.fixed(Col::T).unwrap(), ts.fixed(Col::Roll).unwrap());
     let expect = 2.0 * std::f64::consts::PI * (1.76f64 / 0.5).sqrt();
     eprintln!("rig roll pendulum: period {period:.4} s, closed form {expect:.4} s");
     assert!((period / expect - 1.0).abs() < 2e-3, "{period} vs {expect}");
@@ -45,7 +46,7 @@ fn rig_open_loop_from_the_lab_state_swings_within_the_stops_under_the_pendulum_t
     // (amplitude about the release angle, below the 40° stops) driven by the rig torque.
     let r = run_in_process(&scenario("paper003/rig-open-loop.toml"));
     let ts = &r.series;
-    let pitch = ts.col("pitch_deg").unwrap();
+    let pitch = ts.fixed(Col::Pitch).unwrap();
     let max_pitch = pitch.iter().fold(0.0f64, |a, x| a.max(x.abs()));
     eprintln!("rig open loop: max |pitch| {max_pitch:.2} deg");
     assert!(max_pitch < 40.0 && max_pitch > 30.0);
@@ -69,7 +70,7 @@ fn gravity_gradient_pitch_libration_matches_n_sqrt_3_ix_minus_iz_over_iy() {
     sc.duration_s = 20_000.0;
     let r = run_in_process(&sc);
     let ts = &r.series;
-    let period = mean_period(ts.col("t_s").unwrap(), ts.col("pitch_deg").unwrap());
+    let period = mean_period(ts.fixed(Col::T).unwrap(), ts.fixed(Col::Pitch).unwrap());
     let n = (3.986004418e14f64 / (6378137.0f64 + 617e3).powi(3)).sqrt();
     let expect = 2.0 * std::f64::consts::PI / (n * (3.0 * (0.037 - 0.006) / 0.036f64).sqrt());
     eprintln!("gravity-gradient pitch libration: period {period:.1} s, closed form {expect:.1} s");

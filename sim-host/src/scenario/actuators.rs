@@ -275,94 +275,19 @@ impl Scenario {
 
     /// `[actuators.cmg]` (and `[steering]` with it).
     fn validate_cmg(&self, cmg: &CmgSpec) -> Result<()> {
-        if cmg.layout != "pyramid4" {
-            return Err(bad("actuators.cmg.layout", format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout)));
-        }
-        if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
-            return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
-        }
-        match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
-            (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
-            (None, Some(w), Some(i)) => {
-                positive("actuators.cmg.rotor_speed_rpm", w)?;
-                positive("actuators.cmg.rotor_inertia_kgm2", i)?;
-            }
-            _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
-        }
-        if let Some(tau) = cmg.servo_time_constant_s {
-            positive("actuators.cmg.servo_time_constant_s", tau)?;
-            positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
-        }
-        if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
-            return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
-        }
-        if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
-            return Err(bad(
-                "actuators.cmg.gimbal_friction_nm",
-                "needs servo_time_constant_s (friction acts on the servo)",
-            ));
-        }
-        positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
-        if let Some(l) = cmg.gimbal_limit_deg {
-            positive("actuators.cmg.gimbal_limit_deg", l)?;
-            if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
-                return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
-            }
-        }
-        finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
-        if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
-            return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
-        }
+        self.cmg_config(cmg).map(|_| ())
+    }
+
+    /// `[actuators.cmg]` and `[steering]`, checked and built in one place: the cluster's
+    /// flight parameters and, when given, the steering law (a CMG may run open loop
+    /// without `[steering]`; closed-loop control requires it).
+    pub fn cmg_config(&self, cmg: &CmgSpec) -> Result<CmgConfig> {
+        let cluster = cmg_params(cmg)?;
         if self.closed_loop() && self.steering.is_none() {
             return Err(bad("steering", "a CMG cluster under control needs [steering]"));
         }
-        if let Some(st) = &self.steering {
-            self.validate_steering(st)?;
-        }
-        Ok(())
-    }
-
-    /// `[steering]`.
-    fn validate_steering(&self, st: &Steering) -> Result<()> {
-        match (st.law.as_str(), &st.alpha) {
-            ("mp", None) => {}
-            ("mp", Some(_)) => {
-                return Err(bad("steering.alpha", "Moore-Penrose takes no alpha"));
-            }
-            ("sr", Some(a)) => {
-                let v = match a {
-                    Alpha::Quadratic { a0, m0, m_cr } => vec![*a0, *m0, *m_cr],
-                    Alpha::Inverse { a0, m_cr, a_max } => vec![*a0, *m_cr, *a_max],
-                    Alpha::Exponential { a0, mu } => vec![*a0, *mu],
-                };
-                if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                    return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
-                }
-            }
-            ("sr", None) => {
-                return Err(bad("steering.alpha", "SR steering needs an alpha schedule"));
-            }
-            ("gsr", _) => {
-                let g = st
-                    .gsr
-                    .as_ref()
-                    .ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
-                if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
-                    || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-                {
-                    return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
-                }
-            }
-            (other, _) => {
-                return Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")")));
-            }
-        }
-        positive("steering.singular_threshold", st.singular_threshold)?;
-        if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
-            return Err(bad("steering.null_gain_per_s", "must be >= 0"));
-        }
-        finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
-        Ok(())
+        let steering = self.steering.as_ref().map(steering_params).transpose()?;
+        Ok(CmgConfig { cluster, steering })
     }
 
     /// `[actuators.wheels]`.
@@ -531,54 +456,9 @@ impl Scenario {
 
     /// The CMG cluster and its steering law.
     fn cmg_flight_params(&self, cmg: &CmgSpec) -> Result<ActuatorParams> {
-        let st = self.steering.as_ref().ok_or_else(|| bad("steering", "missing"))?;
-        let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
-        let law = match (st.law.as_str(), &st.alpha) {
-            ("sr", Some(Alpha::Quadratic { a0, m0, m_cr })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Quadratic {
-                    a0: *a0 as f32,
-                    m0: *m0 as f32,
-                    m_cr: *m_cr as f32,
-                })
-            }
-            ("sr", Some(Alpha::Inverse { a0, m_cr, a_max })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Inverse {
-                    a0: *a0 as f32,
-                    m_cr: *m_cr as f32,
-                    a_max: *a_max as f32,
-                })
-            }
-            ("sr", Some(Alpha::Exponential { a0, mu })) => {
-                SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: *a0 as f32, mu: *mu as f32 })
-            }
-            ("gsr", _) => match &st.gsr {
-                Some(g) => SteeringLaw::GeneralizedSr {
-                    lambda0: g.lambda0 as f32,
-                    mu: g.mu as f32,
-                    eps0: g.eps0 as f32,
-                    omega_rad_s: g.omega_rad_s as f32,
-                },
-                None => bail!("invalid value for `steering.gsr`: missing"),
-            },
-            _ => SteeringLaw::MoorePenrose,
-        };
-        Ok(ActuatorParams::Cmg {
-            cmg: CmgParams {
-                skew_rad: cmg.skew_deg.to_radians() as f32,
-                h0_nms: cmg.h0() as f32,
-                max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
-                gimbal_min_rad: -lim as f32,
-                gimbal_max_rad: lim as f32,
-                failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
-            },
-            steering: SteeringParams {
-                law,
-                singular_threshold: st.singular_threshold as f32,
-                null_gain_per_s: st.null_gain_per_s as f32,
-                preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
-                saturation_check_m: st.saturation_check_m as f32,
-            },
-        })
+        let CmgConfig { cluster, steering } = self.cmg_config(cmg)?;
+        let steering = steering.ok_or_else(|| bad("steering", "missing"))?;
+        Ok(ActuatorParams::Cmg { cmg: cluster, steering })
     }
 
     /// The reaction wheels.
@@ -774,4 +654,123 @@ fn thruster_layout(t: &ThrustersSpec) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A CMG cluster, checked: its flight parameters and, under control, its steering law.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CmgConfig {
+    pub cluster: CmgParams,
+    /// `None`: no `[steering]` (allowed only open loop).
+    pub steering: Option<SteeringParams>,
+}
+
+/// `[actuators.cmg]`: every value checked (errors naming the key), then the flight parameters.
+fn cmg_params(cmg: &CmgSpec) -> Result<CmgParams> {
+    if cmg.layout != "pyramid4" {
+        return Err(bad("actuators.cmg.layout", format!("unknown layout {:?} (known: \"pyramid4\")", cmg.layout)));
+    }
+    if !(cmg.skew_deg > 0.0 && cmg.skew_deg < 90.0) {
+        return Err(bad("actuators.cmg.skew_deg", "must be in (0, 90)"));
+    }
+    match (cmg.h0_nms, cmg.rotor_speed_rpm, cmg.rotor_inertia_kgm2) {
+        (Some(h), None, None) => positive("actuators.cmg.h0_nms", h)?,
+        (None, Some(w), Some(i)) => {
+            positive("actuators.cmg.rotor_speed_rpm", w)?;
+            positive("actuators.cmg.rotor_inertia_kgm2", i)?;
+        }
+        _ => return Err(bad("actuators.cmg.h0_nms", "give h0_nms, or rotor_speed_rpm and rotor_inertia_kgm2")),
+    }
+    if let Some(tau) = cmg.servo_time_constant_s {
+        positive("actuators.cmg.servo_time_constant_s", tau)?;
+        positive("actuators.cmg.gimbal_inertia_kgm2", cmg.gimbal_inertia_kgm2.unwrap_or(f64::NAN))?;
+    }
+    if !(cmg.gimbal_friction_nm.is_finite() && cmg.gimbal_friction_nm >= 0.0) {
+        return Err(bad("actuators.cmg.gimbal_friction_nm", "must be >= 0"));
+    }
+    if cmg.gimbal_friction_nm > 0.0 && cmg.servo_time_constant_s.is_none() {
+        return Err(bad(
+            "actuators.cmg.gimbal_friction_nm",
+            "needs servo_time_constant_s (friction acts on the servo)",
+        ));
+    }
+    positive("actuators.cmg.max_gimbal_rate_deg_s", cmg.max_gimbal_rate_deg_s)?;
+    if let Some(l) = cmg.gimbal_limit_deg {
+        positive("actuators.cmg.gimbal_limit_deg", l)?;
+        if cmg.initial_gimbal_deg.iter().any(|d| d.abs() > l) {
+            return Err(bad("actuators.cmg.initial_gimbal_deg", "outside gimbal_limit_deg"));
+        }
+    }
+    finite("actuators.cmg.initial_gimbal_deg", &cmg.initial_gimbal_deg)?;
+    if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
+        return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
+    }
+    let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
+    Ok(CmgParams {
+        skew_rad: cmg.skew_deg.to_radians() as f32,
+        h0_nms: cmg.h0() as f32,
+        max_gimbal_rate_rad_s: cmg.max_gimbal_rate_deg_s.to_radians() as f32,
+        gimbal_min_rad: -lim as f32,
+        gimbal_max_rad: lim as f32,
+        failed_mask: cmg.failed.iter().fold(0u8, |m, i| m | (1 << (i - 1))),
+    })
+}
+
+/// `[steering]`: every value checked (errors naming the key), then the flight parameters.
+fn steering_params(st: &Steering) -> Result<SteeringParams> {
+    let law = steering_law(st)?;
+    positive("steering.singular_threshold", st.singular_threshold)?;
+    if !(st.null_gain_per_s.is_finite() && st.null_gain_per_s >= 0.0) {
+        return Err(bad("steering.null_gain_per_s", "must be >= 0"));
+    }
+    finite("steering.preferred_gimbal_deg", &st.preferred_gimbal_deg)?;
+    Ok(SteeringParams {
+        law,
+        singular_threshold: st.singular_threshold as f32,
+        null_gain_per_s: st.null_gain_per_s as f32,
+        preferred_gimbal_rad: st.preferred_gimbal_deg.map(|d| d.to_radians() as f32),
+        saturation_check_m: st.saturation_check_m as f32,
+    })
+}
+
+/// `steering.law` with its `alpha` schedule or `gsr` parameters.
+fn steering_law(st: &Steering) -> Result<SteeringLaw> {
+    match (st.law.as_str(), &st.alpha) {
+        ("mp", None) => Ok(SteeringLaw::MoorePenrose),
+        ("mp", Some(_)) => Err(bad("steering.alpha", "Moore-Penrose takes no alpha")),
+        ("sr", Some(a)) => {
+            let (v, schedule) = match *a {
+                Alpha::Quadratic { a0, m0, m_cr } => {
+                    (vec![a0, m0, m_cr], AlphaSchedule::Quadratic { a0: a0 as f32, m0: m0 as f32, m_cr: m_cr as f32 })
+                }
+                Alpha::Inverse { a0, m_cr, a_max } => (
+                    vec![a0, m_cr, a_max],
+                    AlphaSchedule::Inverse { a0: a0 as f32, m_cr: m_cr as f32, a_max: a_max as f32 },
+                ),
+                Alpha::Exponential { a0, mu } => {
+                    (vec![a0, mu], AlphaSchedule::Exponential { a0: a0 as f32, mu: mu as f32 })
+                }
+            };
+            if v.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(bad("steering.alpha", "parameters must be finite and >= 0"));
+            }
+            Ok(SteeringLaw::SingularityRobust(schedule))
+        }
+        ("sr", None) => Err(bad("steering.alpha", "SR steering needs an alpha schedule")),
+        ("gsr", _) => {
+            let g =
+                st.gsr.as_ref().ok_or_else(|| bad("steering.gsr", "GSR needs { lambda0, mu, eps0, omega_rad_s }"))?;
+            if [g.lambda0, g.mu, g.eps0].iter().any(|x| !x.is_finite() || *x < 0.0)
+                || g.omega_rad_s.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            {
+                return Err(bad("steering.gsr", "lambda0, mu, eps0 >= 0 and omega_rad_s > 0"));
+            }
+            Ok(SteeringLaw::GeneralizedSr {
+                lambda0: g.lambda0 as f32,
+                mu: g.mu as f32,
+                eps0: g.eps0 as f32,
+                omega_rad_s: g.omega_rad_s as f32,
+            })
+        }
+        (other, _) => Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"))),
+    }
 }

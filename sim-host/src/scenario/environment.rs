@@ -1,6 +1,6 @@
 //! Orbit, environment models and the air-bearing rig of a scenario.
 
-use super::{Scenario, bad, parse_epoch, yes};
+use super::{Scenario, bad, finite, parse_epoch, positive, yes};
 use crate::attitude::Vec3;
 use crate::environment::frames::EarthRotation;
 use crate::environment::magnetic::{FieldModel, MagneticField};
@@ -9,6 +9,7 @@ use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
 use crate::environment::torques::{
     Atmosphere, Disturbances, DragGeometry, DragModel, HarmonicTorque, Plate, SrpModel, box_plates,
 };
+use crate::plant::rig::Rig;
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
@@ -154,6 +155,33 @@ pub struct RigSpec {
     pub pitch_limit_deg: Option<f64>,
 }
 
+impl RigSpec {
+    /// `[rig]`, checked (errors naming the key) and built in one place: the preset's
+    /// pendulum term and travel stops, overridden by the keys given.
+    pub fn rig(&self) -> Result<Rig> {
+        let base = match self.preset.as_deref() {
+            Some("paper003") => Rig::paper003().1,
+            Some("paper000") => Rig::paper000(),
+            Some(p) => {
+                return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
+            }
+            None if self.mgr_nm.is_none() => return Err(bad("rig.mgr_nm", "required without a preset")),
+            None => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
+        };
+        finite("rig.mgr_nm", &self.mgr_nm.unwrap_or_default())?;
+        for (k, l) in [("rig.roll_limit_deg", self.roll_limit_deg), ("rig.pitch_limit_deg", self.pitch_limit_deg)] {
+            if let Some(l) = l {
+                positive(k, l)?;
+            }
+        }
+        Ok(Rig {
+            mgr_nm: self.mgr_nm.map_or(base.mgr_nm, Vec3::from),
+            roll_limit_rad: self.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
+            pitch_limit_rad: self.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
+        })
+    }
+}
+
 impl Scenario {
     /// The environment of the run (`None`: free space without a field, or a rig without one).
     pub fn environment(&self) -> Result<Option<Environment>> {
@@ -190,8 +218,7 @@ impl Scenario {
                 disturbances,
             }));
         };
-        let jd = parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
-        let model = orbit_model(o)?;
+        let (model, jd) = o.checked()?;
         let prop = OrbitPropagator::new(&model, PropagatorOptions { j2: o.j2, step_s: 10.0 })
             .map_err(|e| bad("orbit", format!("{e:?}")))?;
         // A TLE brings its own epoch.
@@ -243,8 +270,37 @@ impl Scenario {
 }
 
 /// The orbit model of `[orbit]` (circular, Kepler elements or TLE).
-fn orbit_model(o: &OrbitSpec) -> Result<OrbitModel> {
-    Ok(match &o.elements()? {
+impl OrbitSpec {
+    /// `[orbit]`, checked (errors naming the key) and built in one place: the orbit model
+    /// and the epoch (Julian date, UTC).
+    pub fn checked(&self) -> Result<(OrbitModel, f64)> {
+        let kind = self.elements()?;
+        match &kind {
+            OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
+                positive("orbit.altitude_km", *altitude_km)?;
+                finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
+            }
+            OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
+                if !(a_km.is_finite() && *a_km > 6378.137) {
+                    return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
+                }
+                if !(0.0..1.0).contains(e) {
+                    return Err(bad("orbit.e", "must be in [0, 1)"));
+                }
+                if a_km * (1.0 - e) <= 6378.137 {
+                    return Err(bad("orbit.e", "perigee below the Earth's surface"));
+                }
+                finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
+            }
+            OrbitKind::Tle { .. } => {}
+        }
+        let jd = parse_epoch(&self.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        Ok((orbit_model(&kind), jd))
+    }
+}
+
+fn orbit_model(kind: &OrbitKind) -> OrbitModel {
+    match kind {
         OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => OrbitModel::Circular {
             altitude_m: altitude_km * 1e3,
             inclination_rad: inclination_deg.to_radians(),
@@ -260,5 +316,5 @@ fn orbit_model(o: &OrbitSpec) -> Result<OrbitModel> {
             nu0: true_anomaly_deg.to_radians(),
         },
         OrbitKind::Tle { line1, line2 } => OrbitModel::Tle { line1: line1.clone(), line2: line2.clone() },
-    })
+    }
 }

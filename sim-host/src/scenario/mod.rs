@@ -6,7 +6,6 @@ use crate::attitude::{Quat, Vec3, from_xyzw, quat_from_euler, rotate_ref_to_body
 use crate::environment::frames::julian_date;
 use crate::environment::model::EnvSnapshot;
 use crate::plant::cmg::GimbalServo;
-use crate::plant::rig::Rig;
 use crate::plant::wheel::WheelState;
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
@@ -22,12 +21,15 @@ mod actuators;
 mod controller;
 mod environment;
 mod modes;
+mod resolved;
 pub use actuators::{
-    Actuators, Alpha, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
+    Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec,
+    WheelsSpec,
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
+pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
@@ -291,6 +293,25 @@ impl Scenario {
         Matrix3::from_fn(|r, c| self.spacecraft.inertia_kgm2[r][c])
     }
 
+    /// `spacecraft.inertia_kgm2`, checked (finite, symmetric, positive definite, principal
+    /// moments obeying the triangle inequality): the one place the body inertia is accepted.
+    pub fn checked_inertia(&self) -> Result<Matrix3<f64>> {
+        let i = self.inertia();
+        finite("spacecraft.inertia_kgm2", i.as_slice())?;
+        if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
+            return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
+        }
+        let e = i.symmetric_eigenvalues();
+        if e.min() <= 0.0 {
+            return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
+        }
+        let (a, b, c) = (e[0], e[1], e[2]);
+        if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
+            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
+        }
+        Ok(i)
+    }
+
     pub fn validate(&self) -> Result<()> {
         self.validate_timing()?;
         self.validate_spacecraft()?;
@@ -312,19 +333,7 @@ impl Scenario {
 
     /// `[spacecraft]`.
     fn validate_spacecraft(&self) -> Result<()> {
-        let i = self.inertia();
-        finite("spacecraft.inertia_kgm2", i.as_slice())?;
-        if (i - i.transpose()).abs().max() > 1e-9 * i.abs().max() {
-            return Err(bad("spacecraft.inertia_kgm2", "must be symmetric"));
-        }
-        let e = i.symmetric_eigenvalues();
-        if e.min() <= 0.0 {
-            return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
-        }
-        let (a, b, c) = (e[0], e[1], e[2]);
-        if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
-            return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
-        }
+        self.checked_inertia()?;
         let sc = &self.spacecraft;
         if let Some(m) = sc.mass_kg {
             positive("spacecraft.mass_kg", m)?;
@@ -371,26 +380,7 @@ impl Scenario {
             if self.rig.is_some() {
                 return Err(bad("rig", "a rig sits in a lab: remove [orbit] or [rig]"));
             }
-            match &o.elements()? {
-                OrbitKind::Circular { altitude_km, inclination_deg, raan_deg, arg_lat_deg } => {
-                    positive("orbit.altitude_km", *altitude_km)?;
-                    finite("orbit", &[*inclination_deg, *raan_deg, *arg_lat_deg])?;
-                }
-                OrbitKind::Kepler { a_km, e, inclination_deg, raan_deg, argp_deg, true_anomaly_deg } => {
-                    if !(a_km.is_finite() && *a_km > 6378.137) {
-                        return Err(bad("orbit.a_km", "must exceed the Earth's radius (6378.137 km)"));
-                    }
-                    if !(0.0..1.0).contains(e) {
-                        return Err(bad("orbit.e", "must be in [0, 1)"));
-                    }
-                    if a_km * (1.0 - e) <= 6378.137 {
-                        return Err(bad("orbit.e", "perigee below the Earth's surface"));
-                    }
-                    finite("orbit", &[*inclination_deg, *raan_deg, *argp_deg, *true_anomaly_deg])?;
-                }
-                OrbitKind::Tle { .. } => {}
-            }
-            parse_epoch(&o.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+            o.checked()?;
         }
         Ok(())
     }
@@ -432,19 +422,7 @@ impl Scenario {
             return Err(bad("environment.solar_pressure", "needs spacecraft.box_m"));
         }
         if let Some(r) = &self.rig {
-            if let Some(p) = &r.preset {
-                if !matches!(p.as_str(), "paper003" | "paper000") {
-                    return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
-                }
-            } else if r.mgr_nm.is_none() {
-                return Err(bad("rig.mgr_nm", "required without a preset"));
-            }
-            finite("rig.mgr_nm", &r.mgr_nm.unwrap_or_default())?;
-            for (k, l) in [("rig.roll_limit_deg", r.roll_limit_deg), ("rig.pitch_limit_deg", r.pitch_limit_deg)] {
-                if let Some(l) = l {
-                    positive(k, l)?;
-                }
-            }
+            r.rig()?;
         }
         Ok(())
     }
@@ -536,7 +514,7 @@ impl Scenario {
         });
         let wheels = self.wheel_params()?;
         // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
-        let mut j = self.inertia();
+        let mut j = self.checked_inertia()?;
         for w in &wheels {
             let a = Vec3::from(w.spin_axis);
             j -= a * a.transpose() * w.inertia_kgm2;
@@ -546,18 +524,7 @@ impl Scenario {
         sc.wheels = wheels;
         sc.external_torque_nm = self.spacecraft.external_torque_nm.into();
         sc.env = self.environment()?;
-        sc.rig = self.rig.as_ref().map(|r| {
-            let base = match r.preset.as_deref() {
-                Some("paper003") => Rig::paper003().1,
-                Some("paper000") => Rig::paper000(),
-                _ => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
-            };
-            Rig {
-                mgr_nm: r.mgr_nm.map_or(base.mgr_nm, Vec3::from),
-                roll_limit_rad: r.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
-                pitch_limit_rad: r.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),
-            }
-        });
+        sc.rig = self.rig.as_ref().map(RigSpec::rig).transpose()?;
         Ok(sc)
     }
 
@@ -765,6 +732,26 @@ alpha = { schedule = "exponential", a0 = 0.01, mu = 10.0 }
         assert!((c.dt - 0.025).abs() < 1e-15 && (c.h() - 0.00625).abs() < 1e-15);
         let s = Scenario::from_toml(&text).unwrap();
         assert_eq!((s.steps(), s.control_dt()), (c.steps, c.dt));
+    }
+
+    #[test]
+    fn a_cmg_is_checked_and_built_once_steering_optional_open_loop() {
+        let s = Scenario::from_toml(MINIMAL).unwrap();
+        let c = s.cmg_config(s.actuators.cmg.as_ref().unwrap()).unwrap();
+        assert!(c.steering.is_some());
+        assert!((c.cluster.h0_nms - 0.623).abs() < 1e-6);
+        let open = MINIMAL
+            .replace("type = \"quaternion_feedback\"\nzeta = 0.47\nwn_rad_s = 0.7", "type = \"none\"")
+            .replace("[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n", "");
+        let s = Scenario::from_toml(&open).unwrap();
+        assert!(s.steering.is_none());
+        assert_eq!(s.cmg_config(s.actuators.cmg.as_ref().unwrap()).unwrap().steering, None);
+        let e =
+            err_of(&MINIMAL.replace(
+                "[steering]\nlaw = \"sr\"\nalpha = { schedule = \"exponential\", a0 = 0.01, mu = 10.0 }\n",
+                "",
+            ));
+        assert!(e.contains("`steering`"), "{e}");
     }
 
     fn err_of(text: &str) -> String {
