@@ -328,7 +328,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         if !scaled_ok {
             return Err(LpStatus::NonFinite);
         }
-        sv.init_basis()?;
+        sv.init_basis();
         Ok((s, bmax))
     }
 }
@@ -341,8 +341,6 @@ struct Solver<const M: usize, const N: usize> {
     h: [f32; N],
     /// Tableau `B⁻¹ A`.
     t: [[f32; N]; M],
-    /// `B⁻¹` (= the tableau of the artificial columns).
-    binv: [[f32; M]; M],
     xb: [f32; M],
     basis: [usize; M],
     basic: [bool; N],
@@ -366,7 +364,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             c: [0.0; N],
             h: [0.0; N],
             t: [[0.0; N]; M],
-            binv: [[0.0; M]; M],
             xb: [0.0; M],
             basis: [0; M],
             basic: [false; N],
@@ -381,17 +378,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
     }
 
-    fn init_basis(&mut self) -> Result<(), Fault> {
+    fn init_basis(&mut self) {
         self.t = self.a;
-        for (i, ((row, var), (xb, bi))) in
-            self.binv.iter_mut().zip(self.basis.iter_mut()).zip(self.xb.iter_mut().zip(self.b.iter())).enumerate()
-        {
-            *row = [0.0; M];
-            put(row, i, 1.0)?;
+        for (i, (var, (xb, bi))) in self.basis.iter_mut().zip(self.xb.iter_mut().zip(self.b.iter())).enumerate() {
             *var = N.saturating_add(i);
             *xb = *bi;
         }
-        Ok(())
     }
 
     /// Cost of a basic variable in the current phase.
@@ -513,10 +505,14 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         let col = self.column(j)?;
         let m = self.m;
 
-        // Pass 1: the minimum ratio (bound flip included).
+        // Pass 1: the limit of every row, and the minimum ratio (bound flip included).
+        let mut lims: [Option<(f32, bool)>; M] = [None; M];
         let mut tmin = hj;
-        for (tij, (x, var)) in col.iter().zip(self.xb.iter().zip(self.basis.iter())).take(m) {
-            if let Some((lim, _)) = self.row_limit(*tij, *x, *var, s)?
+        for (lim_i, (tij, (x, var))) in
+            lims.iter_mut().zip(col.iter().zip(self.xb.iter().zip(self.basis.iter()))).take(m)
+        {
+            *lim_i = self.row_limit(*tij, *x, *var, s)?;
+            if let Some((lim, _)) = *lim_i
                 && lim < tmin
             {
                 tmin = lim;
@@ -534,8 +530,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             choice_var = j;
             flip = true;
         }
-        for (i, (tij, (x, &var))) in col.iter().zip(self.xb.iter().zip(self.basis.iter())).enumerate().take(m) {
-            if let Some((lim, up)) = self.row_limit(*tij, *x, var, s)?
+        for (i, (lim_i, &var)) in lims.iter().zip(self.basis.iter()).enumerate().take(m) {
+            if let Some((lim, up)) = *lim_i
                 && lim <= window
                 && var < choice_var
             {
@@ -576,9 +572,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(true)
     }
 
-    /// Gauss-Jordan pivot of the tableau and `B⁻¹` on row `r`, column `j`.
+    /// Gauss-Jordan pivot of the tableau on row `r`, column `j` (active columns only:
+    /// the inactive ones are zero and stay zero). `B⁻¹` is not kept: [`Self::refactor`]
+    /// rebuilds it from the basis when a phase ends.
     fn pivot(&mut self, r: usize, j: usize) -> Result<(), Fault> {
-        let (prow, pbin) = (at(&self.t, r)?, at(&self.binv, r)?);
+        let n = self.n;
+        let prow = at(&self.t, r)?;
         let piv = at(&prow, j)?;
         if piv == 0.0 {
             // Unreachable: the ratio test only pivots on |α| > PIVOT_TOL.
@@ -586,22 +585,16 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let inv = 1.0 / piv;
         let mut prow_n = prow;
-        let mut pbin_n = pbin;
-        prow_n.iter_mut().for_each(|v| *v *= inv);
-        pbin_n.iter_mut().for_each(|v| *v *= inv);
+        prow_n.iter_mut().take(n).for_each(|v| *v *= inv);
         put(&mut prow_n, j, 1.0)?;
-        for (i, (row, brow)) in self.t.iter_mut().zip(self.binv.iter_mut()).enumerate().take(self.m) {
+        for (i, row) in self.t.iter_mut().enumerate().take(self.m) {
             if i == r {
                 *row = prow_n;
-                *brow = pbin_n;
                 continue;
             }
             let f = at(row, j)?;
             if f != 0.0 {
-                for (v, p) in row.iter_mut().zip(prow_n.iter()) {
-                    *v -= f * p;
-                }
-                for (v, p) in brow.iter_mut().zip(pbin_n.iter()) {
+                for (v, p) in row.iter_mut().zip(prow_n.iter()).take(n) {
                     *v -= f * p;
                 }
             }
@@ -690,7 +683,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(Some(inv))
     }
 
-    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
+    /// Rebuild the tableau and the basic values from the scaled data and a fresh `B⁻¹`.
     /// Returns false (and changes nothing) if the basis matrix is numerically singular.
     fn refactor(&mut self) -> Result<bool, Fault> {
         let m = self.m;
@@ -732,7 +725,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        self.binv = inv;
         self.snap()?;
         Ok(true)
     }
