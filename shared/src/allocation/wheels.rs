@@ -32,7 +32,7 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
     let n = (p.count as usize).min(MAX_WHEELS);
     let mut r = AllocResult::<MAX_WHEELS>::nothing_realised(torque_nm);
     if !torque_nm.iter().all(|x| x.is_finite()) || !speed_rad_s.iter().take(n).all(|x| x.is_finite()) {
-        r.status = AllocStatus::NonFinite;
+        r.outcome.status = AllocStatus::NonFinite;
         return r;
     }
     // n <= MAX_WHEELS < 32: the shift cannot overflow (a full mask otherwise).
@@ -42,7 +42,7 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
     let mut status = AllocStatus::Ok;
     // Bounded: each pass removes at least one wheel or ends.
     for pass in 0..=MAX_WHEELS {
-        r.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
+        r.outcome.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
         let mut m = Mat3::zeros();
         for i in 0..n {
             if active & (1 << i) != 0 {
@@ -95,7 +95,7 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
             break;
         }
         active &= !newly_blocked;
-        r.unrealised |= newly_blocked;
+        r.outcome.unrealised |= newly_blocked;
     }
     limit_and_report(p, n, u, torque_nm, status, r)
 }
@@ -118,18 +118,18 @@ fn limit_and_report(
         *ui *= s;
         realised -= axis(p, i) * *ui;
         if *ui >= p.max_torque_nm * (1.0 - 1e-6) {
-            r.sat_high |= 1 << i;
+            r.outcome.sat_high |= 1 << i;
         } else if *ui <= -p.max_torque_nm * (1.0 - 1e-6) {
-            r.sat_low |= 1 << i;
+            r.outcome.sat_low |= 1 << i;
         }
     }
     let short = torque_nm - realised;
     r.u = u;
-    r.realised = realised.into();
-    r.shortfall = short.into();
+    r.outcome.realised = realised.into();
+    r.outcome.shortfall = short.into();
     let tn = torque_nm.norm_squared();
-    r.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
-    r.status = match status {
+    r.outcome.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
+    r.outcome.status = match status {
         AllocStatus::Ok if s < 1.0 || short.norm() > 1e-4 * libm::sqrtf(tn) + 1e-9 => AllocStatus::Scaled,
         other => other,
     };
