@@ -22,10 +22,6 @@ use crate::params::{MAX_WHEELS, WheelParams};
 /// declared unable to span three axes.
 const RANK_TOL: f32 = 1e-6;
 
-fn axis(p: &WheelParams, i: usize) -> Vec3 {
-    p.axes.get(i).map_or(Vec3::zeros(), |a| Vec3::from(*a))
-}
-
 /// Allocate the body torque demand `torque_nm` to the wheels.
 /// `speed_rad_s`: measured wheel speeds relative to the body.
 pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Vec3) -> AllocResult<MAX_WHEELS> {
@@ -44,9 +40,9 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
     for pass in 0..=MAX_WHEELS {
         r.outcome.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
         let mut m = Mat3::zeros();
-        for i in 0..n {
+        for (i, a) in p.axes.iter().enumerate().take(n) {
             if active & (1 << i) != 0 {
-                let a = axis(p, i);
+                let a = Vec3::from(*a);
                 m += a * a.transpose();
             }
         }
@@ -64,29 +60,26 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
         // Null-space term: projection of the speed error onto the null space of C.
         let mut e = [0.0f32; MAX_WHEELS];
         let mut ce = Vec3::zeros();
-        for i in 0..n {
+        let errors = e.iter_mut().zip(speed_rad_s.iter().zip(p.bias_speed_rad_s.iter()));
+        for (i, ((x, (speed, bias)), a)) in errors.zip(p.axes.iter()).enumerate().take(n) {
             if active & (1 << i) != 0 {
-                let err =
-                    speed_rad_s.get(i).copied().unwrap_or(0.0) - p.bias_speed_rad_s.get(i).copied().unwrap_or(0.0);
-                if let Some(x) = e.get_mut(i) {
-                    *x = err;
-                }
-                ce += axis(p, i) * err;
+                let err = speed - bias;
+                *x = err;
+                ce += Vec3::from(*a) * err;
             }
         }
         let back = inv * ce;
         let mut newly_blocked = 0u32;
-        for i in 0..n {
-            let Some(ui) = u.get_mut(i) else { continue };
+        let wheels = u.iter_mut().zip(e.iter().zip(speed_rad_s.iter())).zip(p.axes.iter());
+        for (i, ((ui, (ei, &speed)), a)) in wheels.enumerate().take(n) {
             if active & (1 << i) == 0 {
                 *ui = 0.0;
                 continue;
             }
-            let a = axis(p, i);
-            let null = e.get(i).copied().unwrap_or(0.0) - a.dot(&back);
+            let a = Vec3::from(*a);
+            let null = ei - a.dot(&back);
             *ui = -a.dot(&w) - p.null_gain_per_s * p.inertia_kgm2 * null;
             // A wheel at its speed limit cannot accelerate further in that direction.
-            let speed = speed_rad_s.get(i).copied().unwrap_or(0.0);
             if libm::fabsf(speed) >= p.max_speed_rad_s && *ui * speed > 0.0 {
                 newly_blocked |= 1 << i;
             }
@@ -113,10 +106,9 @@ fn limit_and_report(
     let peak = u.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
     let s = if peak > p.max_torque_nm { p.max_torque_nm / peak } else { 1.0 };
     let mut realised = Vec3::zeros();
-    for i in 0..n {
-        let Some(ui) = u.get_mut(i) else { continue };
+    for (i, (ui, a)) in u.iter_mut().zip(p.axes.iter()).enumerate().take(n) {
         *ui *= s;
-        realised -= axis(p, i) * *ui;
+        realised -= Vec3::from(*a) * *ui;
         if *ui >= p.max_torque_nm * (1.0 - 1e-6) {
             r.outcome.sat_high |= 1 << i;
         } else if *ui <= -p.max_torque_nm * (1.0 - 1e-6) {
