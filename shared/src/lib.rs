@@ -65,5 +65,4 @@ pub mod modes;
 pub mod params;
 pub mod types;
 
-
 pub use fsw::Fsw;

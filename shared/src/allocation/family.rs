@@ -5,7 +5,7 @@
 
 use super::cmg::{CmgPyramid, GimbalLimits, GimbalTrig, limit_rates};
 use super::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
-use super::{AXES, AllocResult, AllocStatus, magnetorquers, wheels};
+use super::{AllocOutcome, AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::math::Vec3;
 use crate::params::{
     ActuatorParams, MAX_THRUSTERS, MAX_WHEELS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
@@ -46,46 +46,30 @@ pub enum Commands {
     },
 }
 
-/// What an allocation produced, for every family.
+/// What an allocation produced, for every family: the commands, the demand and the
+/// [`AllocOutcome`] (read through `Deref`: `a.lambda` is `a.outcome.lambda`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Allocation {
     pub commands: Commands,
     /// The torque the allocation was asked for, N m (for direct gimbal-rate commands:
     /// what those rates do).
     pub demand_nm: Vec3,
-    /// Body torque the commands produce, N m.
-    pub realised_nm: [f32; AXES],
-    /// Demand minus realised, N m.
-    pub shortfall_nm: [f32; AXES],
-    /// Fraction of the demand achieved along its direction.
-    pub lambda: f32,
-    /// Bit `i`: actuator `i` at its lower / upper bound.
-    pub sat_low: u32,
-    pub sat_high: u32,
-    /// Bit `i`: actuator `i` cannot realise its command.
-    pub unrealised: u32,
-    pub iterations: u16,
-    pub status: AllocStatus,
+    pub outcome: AllocOutcome,
     /// Status bits the family reports itself (CMG: rate scaling, angle limits,
     /// singularities).
     pub flags: Status,
 }
 
+impl core::ops::Deref for Allocation {
+    type Target = AllocOutcome;
+    fn deref(&self) -> &AllocOutcome {
+        &self.outcome
+    }
+}
+
 impl Allocation {
     fn from_result<const N: usize>(commands: Commands, demand_nm: &Vec3, r: &AllocResult<N>) -> Self {
-        Self {
-            commands,
-            demand_nm: *demand_nm,
-            realised_nm: r.realised,
-            shortfall_nm: r.shortfall,
-            lambda: r.lambda,
-            sat_low: r.sat_low,
-            sat_high: r.sat_high,
-            unrealised: r.unrealised,
-            iterations: r.iterations,
-            status: r.status,
-            flags: Status::empty(),
-        }
+        Self { commands, demand_nm: *demand_nm, outcome: r.outcome, flags: Status::empty() }
     }
 }
 
@@ -265,19 +249,17 @@ impl ActuatorFamily for CmgCluster {
 fn cmg_allocation(commands: Commands, realised: &Vec3, demand: &Vec3, flags: Status) -> Allocation {
     let short = demand - realised;
     let dn = demand.norm_squared();
-    Allocation {
-        commands,
-        demand_nm: *demand,
-        realised_nm: (*realised).into(),
-        shortfall_nm: short.into(),
+    let outcome = AllocOutcome {
+        realised: (*realised).into(),
+        shortfall: short.into(),
         lambda: if dn > 0.0 { (realised.dot(demand) / dn).clamp(0.0, 1.0) } else { 1.0 },
         sat_low: 0,
         sat_high: 0,
         unrealised: 0,
         iterations: 1,
         status: AllocStatus::Ok,
-        flags,
-    }
+    };
+    Allocation { commands, demand_nm: *demand, outcome, flags }
 }
 
 impl ThrusterSet {

@@ -15,20 +15,20 @@ use crate::params::MagnetorquerParams;
 
 pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> AllocResult<3> {
     let mut r = AllocResult::<3>::nothing_realised(torque_nm);
-    r.iterations = 1;
+    r.outcome.iterations = 1;
     if !b_body_t.iter().chain(torque_nm.iter()).all(|x| x.is_finite()) {
-        r.status = AllocStatus::NonFinite;
+        r.outcome.status = AllocStatus::NonFinite;
         return r;
     }
     let b2 = b_body_t.norm_squared();
     if b2 < p.min_field_t * p.min_field_t || b2 <= 0.0 {
-        r.status = AllocStatus::Singular;
+        r.outcome.status = AllocStatus::Singular;
         return r;
     }
     let m: [f32; 3] = (b_body_t.cross(torque_nm) / b2).into();
     // Finite but huge inputs can overflow |B|² or B × T (then inf/inf = NaN).
     if !(b2.is_finite() && m.iter().all(|x| x.is_finite())) {
-        r.status = AllocStatus::NonFinite;
+        r.outcome.status = AllocStatus::NonFinite;
         return r;
     }
     // Asymmetric per-axis limits: scale the whole vector.
@@ -47,28 +47,28 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
         let (lo, hi) = (at(&p.deadband_lo_am2), at(&p.deadband_hi_am2));
         if *mi != 0.0 && *mi > lo && *mi < hi {
             *e = 0.0;
-            r.unrealised |= 1 << i;
+            r.outcome.unrealised |= 1 << i;
         }
         let (mx, mn) = (at(&p.max_dipole_am2), at(&p.min_dipole_am2));
         if *mi >= mx * (1.0 - 1e-6) && mx > 0.0 {
-            r.sat_high |= 1 << i;
+            r.outcome.sat_high |= 1 << i;
         } else if *mi <= -mn * (1.0 - 1e-6) && mn > 0.0 {
-            r.sat_low |= 1 << i;
+            r.outcome.sat_low |= 1 << i;
         }
     }
     let eff = Vec3::from(eff);
     let realised = eff.cross(b_body_t);
     if !realised.iter().all(|x| x.is_finite()) {
-        r.status = AllocStatus::NonFinite;
+        r.outcome.status = AllocStatus::NonFinite;
         return r;
     }
     let short = torque_nm - realised;
     let tn = torque_nm.norm_squared();
     r.u = m;
-    r.realised = realised.into();
-    r.shortfall = short.into();
-    r.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
-    r.status = if s < 1.0 || r.unrealised != 0 || short.norm() > 1e-3 * libm::sqrtf(tn) {
+    r.outcome.realised = realised.into();
+    r.outcome.shortfall = short.into();
+    r.outcome.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
+    r.outcome.status = if s < 1.0 || r.unrealised != 0 || short.norm() > 1e-3 * libm::sqrtf(tn) {
         AllocStatus::Scaled
     } else {
         AllocStatus::Ok

@@ -42,15 +42,14 @@ pub enum AllocStatus {
     InternalError,
 }
 
-/// Result of every allocation method.
+/// What an allocation achieved, for every method and family: everything but the
+/// commands. Embedded in [`AllocResult`] and [`family::Allocation`], which both
+/// dereference to it (`r.lambda`, `r.status`, … read the outcome).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AllocResult<const N: usize> {
-    /// Actuator commands: thrust levels (units of the bounds), wheel torques (N m on
-    /// the rotor), dipoles (A m²) or gimbal rates (rad/s).
-    pub u: [f32; N],
-    /// Body torque the commands produce (`B u` for thrusters).
+pub struct AllocOutcome {
+    /// Body torque the commands produce, N m (`B u` for thrusters).
     pub realised: [f32; AXES],
-    /// Demand minus realised.
+    /// Demand minus realised, N m.
     pub shortfall: [f32; AXES],
     /// Fraction of the demand achieved along its direction (1 when `Ok`).
     pub lambda: f32,
@@ -61,16 +60,16 @@ pub struct AllocResult<const N: usize> {
     /// Bit `i`: actuator `i` was commanded but cannot realise it (magnetorquer
     /// dead band, wheel at its speed limit); its share is missing from `realised`.
     pub unrealised: u32,
-    /// Simplex iterations (pivots + bound flips) over all LPs of the call.
+    /// Simplex iterations (pivots + bound flips) over all LPs of the call; passes of
+    /// the iterative wheel / magnetorquer laws; 1 for CMG steering.
     pub iterations: u16,
     pub status: AllocStatus,
 }
 
-impl<const N: usize> AllocResult<N> {
-    /// Nothing commanded yet: zero commands, the whole demand as shortfall, status `Ok`.
+impl AllocOutcome {
+    /// Nothing realised yet: the whole demand as shortfall, status `Ok`.
     pub fn nothing_realised(demand_nm: &crate::math::Vec3) -> Self {
         Self {
-            u: [0.0; N],
             realised: [0.0; AXES],
             shortfall: (*demand_nm).into(),
             lambda: 0.0,
@@ -80,5 +79,29 @@ impl<const N: usize> AllocResult<N> {
             iterations: 0,
             status: AllocStatus::Ok,
         }
+    }
+}
+
+/// Result of every allocation method: the commands and their [`AllocOutcome`]
+/// (read through `Deref`: `r.lambda` is `r.outcome.lambda`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AllocResult<const N: usize> {
+    /// Actuator commands: thrust levels (units of the bounds), wheel torques (N m on
+    /// the rotor), dipoles (A m²) or gimbal rates (rad/s).
+    pub u: [f32; N],
+    pub outcome: AllocOutcome,
+}
+
+impl<const N: usize> core::ops::Deref for AllocResult<N> {
+    type Target = AllocOutcome;
+    fn deref(&self) -> &AllocOutcome {
+        &self.outcome
+    }
+}
+
+impl<const N: usize> AllocResult<N> {
+    /// Nothing commanded yet: zero commands, the whole demand as shortfall, status `Ok`.
+    pub fn nothing_realised(demand_nm: &crate::math::Vec3) -> Self {
+        Self { u: [0.0; N], outcome: AllocOutcome::nothing_realised(demand_nm) }
     }
 }

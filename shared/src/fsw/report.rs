@@ -40,7 +40,7 @@ impl<'a> Report<'a> {
         if alloc.unrealised != 0 {
             status |= Status::UNREALISED;
         }
-        let (realised, demand) = (Vec3::from(alloc.realised_nm), alloc.demand_nm);
+        let (realised, demand) = (Vec3::from(alloc.realised), alloc.demand_nm);
         // Relative test: cubesat torques are ~1e-7 N m, so no absolute floor above round-off.
         if (realised - demand).norm() > 0.01 * demand.norm() + 1e-12 {
             status |= Status::TORQUE_SHORTFALL;
@@ -50,7 +50,7 @@ impl<'a> Report<'a> {
 
     /// The realised torque the LQG estimator propagates next step (zero if not finite).
     pub fn torque_for_estimator(&self) -> Vec3 {
-        let realised = Vec3::from(self.alloc.realised_nm);
+        let realised = Vec3::from(self.alloc.realised);
         if realised.iter().all(|x| x.is_finite()) { realised } else { Vec3::zeros() }
     }
 
@@ -60,7 +60,7 @@ impl<'a> Report<'a> {
         let mut cmd = ActuatorCommand {
             seq,
             torque_demand_nm: a.demand_nm.into(),
-            torque_realised_nm: a.realised_nm,
+            torque_realised_nm: a.realised,
             attitude_error_rad: self.out.error_angle_rad,
             alloc_iterations: a.iterations,
             law_telemetry: self.law_telemetry,

@@ -59,7 +59,7 @@
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
 use super::simplex::{Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
-pub use crate::allocation::{AXES, AllocResult, AllocStatus};
+pub use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
 pub const LAMBDA_TOL: f32 = 1e-5;
@@ -381,7 +381,10 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             let d = m - *r;
             *s = if d.is_finite() { d } else { 0.0 };
         }
-        AllocResult { u, realised, shortfall, lambda, sat_low, sat_high, iterations, status, unrealised: 0 }
+        AllocResult {
+            u,
+            outcome: AllocOutcome { realised, shortfall, lambda, sat_low, sat_high, iterations, status, unrealised: 0 },
+        }
     }
 
     /// The documented safe fallback (module docs).

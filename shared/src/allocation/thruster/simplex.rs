@@ -328,7 +328,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         if !scaled_ok {
             return Err(LpStatus::NonFinite);
         }
-        sv.init_basis()?;
+        sv.init_basis();
         Ok((s, bmax))
     }
 }
@@ -341,8 +341,6 @@ struct Solver<const M: usize, const N: usize> {
     h: [f32; N],
     /// Tableau `B⁻¹ A`.
     t: [[f32; N]; M],
-    /// `B⁻¹` (= the tableau of the artificial columns).
-    binv: [[f32; M]; M],
     xb: [f32; M],
     basis: [usize; M],
     basic: [bool; N],
@@ -366,7 +364,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             c: [0.0; N],
             h: [0.0; N],
             t: [[0.0; N]; M],
-            binv: [[0.0; M]; M],
             xb: [0.0; M],
             basis: [0; M],
             basic: [false; N],
@@ -381,17 +378,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
     }
 
-    fn init_basis(&mut self) -> Result<(), Fault> {
+    fn init_basis(&mut self) {
         self.t = self.a;
-        for (i, ((row, var), (xb, bi))) in
-            self.binv.iter_mut().zip(self.basis.iter_mut()).zip(self.xb.iter_mut().zip(self.b.iter())).enumerate()
-        {
-            *row = [0.0; M];
-            put(row, i, 1.0)?;
+        for (i, (var, (xb, bi))) in self.basis.iter_mut().zip(self.xb.iter_mut().zip(self.b.iter())).enumerate() {
             *var = N.saturating_add(i);
             *xb = *bi;
         }
-        Ok(())
     }
 
     /// Cost of a basic variable in the current phase.
@@ -409,70 +401,93 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// Upper bound of a basic variable in the current phase.
     #[inline]
     fn upper_of(&self, var: usize) -> Result<f32, Fault> {
+        Self::upper_of_in(self.phase1, &self.h, var)
+    }
+
+    /// [`Self::upper_of`] from the parts (for loops that borrow other fields mutably).
+    #[inline]
+    fn upper_of_in(phase1: bool, h: &[f32; N], var: usize) -> Result<f32, Fault> {
         Ok(if var < N {
-            at(&self.h, var)?
-        } else if self.phase1 {
+            at(h, var)?
+        } else if phase1 {
             f32::INFINITY
         } else {
             0.0
         })
     }
 
+    /// Costs of the basic variables, row by row, in the current phase.
     #[inline]
-    fn reduced_cost(&self, j: usize) -> Result<f32, Fault> {
+    fn basic_costs(&self) -> Result<[f32; M], Fault> {
+        let mut cb = [0.0f32; M];
+        for (c, var) in cb.iter_mut().zip(self.basis.iter()).take(self.m) {
+            *c = self.cost_of(*var)?;
+        }
+        Ok(cb)
+    }
+
+    /// Reduced cost of column `j` given the basic costs `cb`: `c_j - Σ_i cb_i t_ij`
+    /// (rows summed in order).
+    #[inline]
+    fn reduced_cost_with(&self, cb: &[f32; M], j: usize) -> Result<f32, Fault> {
         let cj = if self.phase1 { 0.0 } else { at(&self.c, j)? };
         let mut z = 0.0f32;
-        for (row, var) in self.t.iter().zip(self.basis.iter()).take(self.m) {
-            z += self.cost_of(*var)? * at(row, j)?;
+        for (row, cbi) in self.t.iter().zip(cb.iter()).take(self.m) {
+            z += cbi * at(row, j)?;
         }
         Ok(cj - z)
     }
 
-    /// Improvement rate of entering `j` (> DUAL_TOL ⇒ eligible), 0 if not movable.
-    #[inline]
-    fn gain(&self, j: usize) -> Result<f32, Fault> {
-        if at(&self.basic, j)? || !(at(&self.h, j)? > 0.0) {
-            return Ok(0.0);
-        }
-        let d = self.reduced_cost(j)?;
-        Ok(if at(&self.upper, j)? { d } else { -d })
-    }
-
     /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
-    /// lowest index on ties), see [`Pricing`].
+    /// lowest index on ties), see [`Pricing`]. The gain of a column is its
+    /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
     fn price(&self) -> Result<Option<usize>, Fault> {
-        if !self.dantzig || self.bland_now {
-            for j in 0..self.n {
-                if self.gain(j)? > DUAL_TOL {
+        let cb = self.basic_costs()?;
+        let bland = !self.dantzig || self.bland_now;
+        let mut best: Option<(usize, f32)> = None;
+        let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter());
+        for (j, ((&basic, &hj), &upper)) in cols.enumerate().take(self.n) {
+            if basic || !(hj > 0.0) {
+                continue;
+            }
+            let d = self.reduced_cost_with(&cb, j)?;
+            let gj = if upper { d } else { -d };
+            if gj > DUAL_TOL {
+                if bland {
                     return Ok(Some(j));
                 }
-            }
-            return Ok(None);
-        }
-        let mut best: Option<(usize, f32)> = None;
-        for j in 0..self.n {
-            let gj = self.gain(j)?;
-            if gj > DUAL_TOL && best.is_none_or(|(_, gb)| gj > gb) {
-                best = Some((j, gj));
+                if best.is_none_or(|(_, gb)| gj > gb) {
+                    best = Some((j, gj));
+                }
             }
         }
         Ok(best.map(|(j, _)| j))
     }
 
-    /// Ratio-test limit of row `i` for entering column `j` moving in direction `s`:
+    /// Ratio-test limit of a row with entering-column entry `t_ij`, basic value `x`
+    /// and basic variable `var`, for the entering column moving in direction `s`:
     /// `(step, hits_upper)`.
     #[inline]
-    fn row_limit(&self, i: usize, j: usize, s: f32) -> Result<Option<(f32, bool)>, Fault> {
-        let alpha = s * at(self.t.get(i).ok_or(Fault)?, j)?;
-        let x = at(&self.xb, i)?;
+    fn row_limit(&self, tij: f32, x: f32, var: usize, s: f32) -> Result<Option<(f32, bool)>, Fault> {
+        let alpha = s * tij;
         Ok(if alpha > PIVOT_TOL {
             Some((x.max(0.0) / alpha, false))
         } else if alpha < -PIVOT_TOL {
-            let ub = self.upper_of(at(&self.basis, i)?)?;
+            let ub = self.upper_of(var)?;
             if ub.is_finite() { Some(((ub - x).max(0.0) / -alpha, true)) } else { None }
         } else {
             None
         })
+    }
+
+    /// Column `j` of the tableau (active rows; 0 below).
+    #[inline]
+    fn column(&self, j: usize) -> Result<[f32; M], Fault> {
+        let mut col = [0.0f32; M];
+        for (dst, row) in col.iter_mut().zip(self.t.iter()).take(self.m) {
+            *dst = at(row, j)?;
+        }
+        Ok(col)
     }
 
     /// One iteration. `Ok(true)`: pivoted/flipped; `Ok(false)`: optimal.
@@ -487,11 +502,17 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         let at_upper = at(&self.upper, j)?;
         let s = if at_upper { -1.0f32 } else { 1.0 };
         let hj = at(&self.h, j)?;
+        let col = self.column(j)?;
+        let m = self.m;
 
-        // Pass 1: the minimum ratio (bound flip included).
+        // Pass 1: the limit of every row, and the minimum ratio (bound flip included).
+        let mut lims: [Option<(f32, bool)>; M] = [None; M];
         let mut tmin = hj;
-        for i in 0..self.m {
-            if let Some((lim, _)) = self.row_limit(i, j, s)?
+        for (lim_i, (tij, (x, var))) in
+            lims.iter_mut().zip(col.iter().zip(self.xb.iter().zip(self.basis.iter()))).take(m)
+        {
+            *lim_i = self.row_limit(*tij, *x, *var, s)?;
+            if let Some((lim, _)) = *lim_i
                 && lim < tmin
             {
                 tmin = lim;
@@ -509,21 +530,21 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             choice_var = j;
             flip = true;
         }
-        for i in 0..self.m {
-            if let Some((lim, up)) = self.row_limit(i, j, s)? {
-                let var = at(&self.basis, i)?;
-                if lim <= window && var < choice_var {
-                    choice = Some((i, lim, up));
-                    choice_var = var;
-                    flip = false;
-                }
+        for (i, (lim_i, &var)) in lims.iter().zip(self.basis.iter()).enumerate().take(m) {
+            if let Some((lim, up)) = *lim_i
+                && lim <= window
+                && var < choice_var
+            {
+                choice = Some((i, lim, up));
+                choice_var = var;
+                flip = false;
             }
         }
 
         if flip {
             self.bland_now = false; // a flip moves by h_j > 0: never degenerate
-            for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
-                *xb -= s * hj * at(row, j)?;
+            for (tij, xb) in col.iter().zip(self.xb.iter_mut()).take(m) {
+                *xb -= s * hj * tij;
             }
             put(&mut self.upper, j, !at_upper)?;
             self.snap()?;
@@ -534,8 +555,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             return Err(LpStatus::Unbounded);
         };
         self.bland_now = !(theta > 0.0);
-        for (row, xb) in self.t.iter().zip(self.xb.iter_mut()).take(self.m) {
-            *xb -= s * theta * at(row, j)?;
+        for (tij, xb) in col.iter().zip(self.xb.iter_mut()).take(m) {
+            *xb -= s * theta * tij;
         }
         put(&mut self.xb, r, if at_upper { hj } else { 0.0 } + s * theta)?;
         let leaving = at(&self.basis, r)?;
@@ -551,9 +572,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(true)
     }
 
-    /// Gauss-Jordan pivot of the tableau and `B⁻¹` on row `r`, column `j`.
+    /// Gauss-Jordan pivot of the tableau on row `r`, column `j` (active columns only:
+    /// the inactive ones are zero and stay zero). `B⁻¹` is not kept: [`Self::refactor`]
+    /// rebuilds it from the basis when a phase ends.
     fn pivot(&mut self, r: usize, j: usize) -> Result<(), Fault> {
-        let (prow, pbin) = (at(&self.t, r)?, at(&self.binv, r)?);
+        let n = self.n;
+        let prow = at(&self.t, r)?;
         let piv = at(&prow, j)?;
         if piv == 0.0 {
             // Unreachable: the ratio test only pivots on |α| > PIVOT_TOL.
@@ -561,22 +585,16 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let inv = 1.0 / piv;
         let mut prow_n = prow;
-        let mut pbin_n = pbin;
-        prow_n.iter_mut().for_each(|v| *v *= inv);
-        pbin_n.iter_mut().for_each(|v| *v *= inv);
+        prow_n.iter_mut().take(n).for_each(|v| *v *= inv);
         put(&mut prow_n, j, 1.0)?;
-        for (i, (row, brow)) in self.t.iter_mut().zip(self.binv.iter_mut()).enumerate().take(self.m) {
+        for (i, row) in self.t.iter_mut().enumerate().take(self.m) {
             if i == r {
                 *row = prow_n;
-                *brow = pbin_n;
                 continue;
             }
             let f = at(row, j)?;
             if f != 0.0 {
-                for (v, p) in row.iter_mut().zip(prow_n.iter()) {
-                    *v -= f * p;
-                }
-                for (v, p) in brow.iter_mut().zip(pbin_n.iter()) {
+                for (v, p) in row.iter_mut().zip(prow_n.iter()).take(n) {
                     *v -= f * p;
                 }
             }
@@ -587,9 +605,8 @@ impl<const M: usize, const N: usize> Solver<M, N> {
 
     /// Snap basic values onto their bounds (clears f32 drift; exact degenerate ties).
     fn snap(&mut self) -> Result<(), Fault> {
-        for i in 0..self.m {
-            let ub = self.upper_of(at(&self.basis, i)?)?;
-            let x = self.xb.get_mut(i).ok_or(Fault)?;
+        for (var, x) in self.basis.iter().zip(self.xb.iter_mut()).take(self.m) {
+            let ub = Self::upper_of_in(self.phase1, &self.h, *var)?;
             if *x < SNAP_TOL {
                 *x = 0.0;
             } else if ub.is_finite() && *x > ub - SNAP_TOL {
@@ -666,7 +683,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(Some(inv))
     }
 
-    /// Rebuild `B⁻¹`, the tableau and the basic values from the scaled data.
+    /// Rebuild the tableau and the basic values from the scaled data and a fresh `B⁻¹`.
     /// Returns false (and changes nothing) if the basis matrix is numerically singular.
     fn refactor(&mut self) -> Result<bool, Fault> {
         let m = self.m;
@@ -676,9 +693,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         // rhs = b - Σ_{nonbasic at upper} a_j h_j
         let mut rhs = self.b;
         for (ri, row) in rhs.iter_mut().zip(self.a.iter()).take(m) {
-            for (j, aij) in row.iter().enumerate().take(self.n) {
-                if !at(&self.basic, j)? && at(&self.upper, j)? {
-                    *ri -= aij * at(&self.h, j)?;
+            for (aij, ((basic, upper), hj)) in
+                row.iter().zip(self.basic.iter().zip(self.upper.iter()).zip(self.h.iter())).take(self.n)
+            {
+                if !basic && *upper {
+                    *ri -= aij * hj;
                 }
             }
         }
@@ -706,7 +725,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        self.binv = inv;
         self.snap()?;
         Ok(true)
     }
@@ -722,9 +740,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         let mut r = [0.0f32; M];
         for (i, (ri, (arow, bi))) in r.iter_mut().zip(self.a.iter().zip(self.b.iter())).enumerate().take(m) {
             let mut acc = Dot2::new(*bi);
-            for (j, aij) in arow.iter().enumerate().take(self.n) {
-                if !at(&self.basic, j)? && at(&self.upper, j)? {
-                    acc.add_prod(-*aij, at(&self.h, j)?);
+            for (aij, ((basic, upper), hj)) in
+                arow.iter().zip(self.basic.iter().zip(self.upper.iter()).zip(self.h.iter())).take(self.n)
+            {
+                if !basic && *upper {
+                    acc.add_prod(-*aij, *hj);
                 }
             }
             for (var, xb) in self.basis.iter().zip(self.xb.iter()).take(m) {
@@ -780,9 +800,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
 
     fn try_extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> Result<LpSolution<N>, Fault> {
         let mut y = [0.0f32; N];
-        for (j, yj) in y.iter_mut().enumerate().take(self.n) {
-            if !at(&self.basic, j)? && at(&self.upper, j)? {
-                *yj = at(&self.h, j)?;
+        for (yj, ((basic, upper), hj)) in
+            y.iter_mut().zip(self.basic.iter().zip(self.upper.iter()).zip(self.h.iter())).take(self.n)
+        {
+            if !basic && *upper {
+                *yj = *hj;
             }
         }
         let mut primal_margin = f32::INFINITY;
@@ -798,9 +820,10 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let mut dual_margin = f32::INFINITY;
         if status == LpStatus::Optimal {
-            for j in 0..self.n {
-                if !at(&self.basic, j)? && at(&self.h, j)? > 0.0 {
-                    let d = self.reduced_cost(j)?.abs();
+            let cb = self.basic_costs()?;
+            for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
+                if !basic && *hj > 0.0 {
+                    let d = self.reduced_cost_with(&cb, j)?.abs();
                     if d < dual_margin {
                         dual_margin = d;
                     }
@@ -811,11 +834,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
-        for (j, ((xj, yj), sj)) in x.iter_mut().zip(y.iter()).zip(s.iter()).enumerate().take(self.n) {
-            let hj = at(&lp.h, j)?;
+        for (((xj, yj), sj), (hj, cj)) in
+            x.iter_mut().zip(y.iter()).zip(s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
+        {
             let v = (yj * sj).max(0.0);
-            *xj = if v > hj { hj } else { v };
-            obj += at(&lp.c, j)? * *xj;
+            *xj = if v > *hj { *hj } else { v };
+            obj += cj * *xj;
         }
         if !(obj.is_finite() && x.iter().all(|v| v.is_finite())) {
             // overflow of finite-but-huge data: report it, never return inf/NaN

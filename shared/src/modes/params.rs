@@ -1,0 +1,70 @@
+//! Thresholds of the automatic mode transitions and their validation.
+
+use super::{MODE_COUNT, Mode};
+use crate::params::{ParamError, ParamField, ParamReason};
+use postcard_schema::Schema;
+use serde::{Deserialize, Serialize};
+
+/// Thresholds of the automatic transitions (rad, rad/s, s).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ModeManagerParams {
+    /// Bit `i`: the table uses slot `i` (`Mode::index`). Every such slot must have been
+    /// uploaded; slots outside the mask are dropped when the table is armed, so a table
+    /// left on the flight computer by an earlier session cannot leak into this one.
+    pub slots: u8,
+    pub initial: Mode,
+    pub detumble_enter_rate_rad_s: f32,
+    pub detumble_exit_rate_rad_s: f32,
+    pub stabilise_exit_error_rad: f32,
+    pub stabilise_exit_rate_rad_s: f32,
+    pub hold_enter_error_rad: f32,
+    pub hold_enter_rate_rad_s: f32,
+    pub hold_exit_error_rad: f32,
+    /// How long a convergence condition must hold before the mode moves on.
+    pub dwell_s: f32,
+    /// How long a fault condition (rate high, off target) must hold before it acts.
+    pub trigger_persistence_s: f32,
+}
+
+impl ModeManagerParams {
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let bad = |reason| Err(ParamError { field: ParamField::ModeTable, reason });
+        let all = [
+            self.detumble_enter_rate_rad_s,
+            self.detumble_exit_rate_rad_s,
+            self.stabilise_exit_error_rad,
+            self.stabilise_exit_rate_rad_s,
+            self.hold_enter_error_rad,
+            self.hold_enter_rate_rad_s,
+            self.hold_exit_error_rad,
+            self.dwell_s,
+            self.trigger_persistence_s,
+        ];
+        if !all.iter().all(|x| x.is_finite()) {
+            return bad(ParamReason::NotFinite);
+        }
+        if !all.iter().all(|x| *x >= 0.0 && *x <= 1.0e6) {
+            return bad(ParamReason::OutOfRange);
+        }
+        // Hysteresis: the band between exit and enter must be open.
+        if !(self.detumble_enter_rate_rad_s > self.detumble_exit_rate_rad_s)
+            || !(self.hold_exit_error_rad > self.hold_enter_error_rad)
+            || !(self.detumble_exit_rate_rad_s > 0.0)
+        {
+            return bad(ParamReason::OutOfRange);
+        }
+        if self.slots & (1 << self.initial.index()) == 0 || self.slots >> MODE_COUNT != 0 {
+            return bad(ParamReason::OutOfRange);
+        }
+        Ok(())
+    }
+
+    /// CRC-32 of the postcard encoding (what the flight side reports when it arms).
+    pub fn checksum(&self) -> Result<u32, ParamError> {
+        let mut buf = [0u8; 64];
+        let used = postcard::to_slice(self, &mut buf)
+            .map_err(|_| ParamError { field: ParamField::ModeTable, reason: ParamReason::TooLarge })?;
+        Ok(crate::params::CRC32.checksum(used))
+    }
+}
