@@ -248,11 +248,10 @@ impl ActuatorFamily for CmgCluster {
 /// allocation status proper is `Ok`.
 fn cmg_allocation(commands: Commands, realised: &Vec3, demand: &Vec3, flags: Status) -> Allocation {
     let short = demand - realised;
-    let dn = demand.norm_squared();
     let outcome = AllocOutcome {
         realised: (*realised).into(),
         shortfall: short.into(),
-        lambda: if dn > 0.0 { (realised.dot(demand) / dn).clamp(0.0, 1.0) } else { 1.0 },
+        lambda: AllocOutcome::fraction_along(realised, demand),
         sat_low: 0,
         sat_high: 0,
         unrealised: 0,

@@ -67,7 +67,7 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
     r.u = m;
     r.outcome.realised = realised.into();
     r.outcome.shortfall = short.into();
-    r.outcome.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
+    r.outcome.lambda = crate::allocation::AllocOutcome::fraction_along(&realised, torque_nm);
     r.outcome.status = if s < 1.0 || r.unrealised != 0 || short.norm() > 1e-3 * libm::sqrtf(tn) {
         AllocStatus::Scaled
     } else {

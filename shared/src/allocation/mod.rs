@@ -67,6 +67,27 @@ pub struct AllocOutcome {
 }
 
 impl AllocOutcome {
+    /// Fraction of `demand` realised along its direction, `realised·demand / |demand|²`
+    /// limited to [0, 1]; 1 for a zero demand. A NaN stays NaN (the caller's finiteness
+    /// checks see it); never panics.
+    // Written out: `f32::clamp` is disallowed in flight code (clippy.toml).
+    #[allow(clippy::manual_clamp)]
+    pub fn fraction_along(realised: &crate::math::Vec3, demand: &crate::math::Vec3) -> f32 {
+        let dn = demand.norm_squared();
+        if dn > 0.0 {
+            let f = realised.dot(demand) / dn;
+            if f > 1.0 {
+                1.0
+            } else if f < 0.0 {
+                0.0
+            } else {
+                f
+            }
+        } else {
+            1.0
+        }
+    }
+
     /// Nothing realised yet: the whole demand as shortfall, status `Ok`.
     pub fn nothing_realised(demand_nm: &crate::math::Vec3) -> Self {
         Self {
@@ -105,3 +126,23 @@ impl<const N: usize> AllocResult<N> {
         Self { u: [0.0; N], outcome: AllocOutcome::nothing_realised(demand_nm) }
     }
 }
+
+#[cfg(test)]
+mod fraction_tests {
+    use super::AllocOutcome;
+    use crate::math::Vec3;
+
+    #[test]
+    fn fraction_along_is_the_projection_limited_to_unit_and_never_panics() {
+        let d = Vec3::new(2.0, 0.0, 0.0);
+        // Projection 0.5 of the demand, plus a perpendicular part that does not count.
+        assert_eq!(AllocOutcome::fraction_along(&Vec3::new(1.0, 3.0, 0.0), &d), 0.5);
+        assert_eq!(AllocOutcome::fraction_along(&Vec3::new(5.0, 0.0, 0.0), &d), 1.0);
+        assert_eq!(AllocOutcome::fraction_along(&Vec3::new(-1.0, 0.0, 0.0), &d), 0.0);
+        assert_eq!(AllocOutcome::fraction_along(&Vec3::new(1.0, 0.0, 0.0), &Vec3::zeros()), 1.0);
+        assert!(AllocOutcome::fraction_along(&Vec3::new(f32::NAN, 0.0, 0.0), &d).is_nan());
+        // A NaN demand has no positive norm: treated as zero demand, no panic.
+        assert_eq!(AllocOutcome::fraction_along(&Vec3::zeros(), &Vec3::new(f32::NAN, 0.0, 0.0)), 1.0);
+    }
+}
+

@@ -123,7 +123,7 @@ fn limit_and_report(
     r.outcome.realised = realised.into();
     r.outcome.shortfall = short.into();
     let tn = torque_nm.norm_squared();
-    r.outcome.lambda = if tn > 0.0 { (realised.dot(torque_nm) / tn).clamp(0.0, 1.0) } else { 1.0 };
+    r.outcome.lambda = crate::allocation::AllocOutcome::fraction_along(&realised, torque_nm);
     r.outcome.status = match status {
         AllocStatus::Ok if s < 1.0 || short.norm() > 1e-4 * libm::sqrtf(tn) + 1e-9 => AllocStatus::Scaled,
         other => other,
