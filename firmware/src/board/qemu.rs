@@ -178,11 +178,7 @@ unsafe impl Sync for RxRing {}
 
 impl RxRing {
     const fn new() -> Self {
-        Self {
-            buf: UnsafeCell::new([0; RX_RING_LEN]),
-            head: AtomicUsize::new(0),
-            tail: AtomicUsize::new(0),
-        }
+        Self { buf: UnsafeCell::new([0; RX_RING_LEN]), head: AtomicUsize::new(0), tail: AtomicUsize::new(0) }
     }
 
     fn is_full(&self) -> bool {
@@ -348,9 +344,7 @@ extern "C" fn unexpected_irq() {
     exit_failure();
 }
 
-const UNUSED: Vector = Vector {
-    handler: unexpected_irq,
-};
+const UNUSED: Vector = Vector { handler: unexpected_irq };
 
 /// IRQ 0 = UART0 RX, IRQ 1 = UART0 TX; every other line is unused by this firmware.
 #[rustfmt::skip]
@@ -374,6 +368,10 @@ pub static __INTERRUPTS: [Vector; 32] = [
 
 const COUNTER_TICKS_PER_US: u64 = 25;
 const SYST_MAX_RELOAD: u64 = 0x00FF_FFFF;
+/// Shortest SysTick period programmed, ticks.
+const SYST_MIN_TICKS: u64 = 2;
+// `clamp(SYST_MIN_TICKS, SYST_MAX_RELOAD + 1)` panics only on inverted bounds: prove they are not.
+const _: () = assert!(SYST_MIN_TICKS <= SYST_MAX_RELOAD + 1);
 
 struct QemuTimeDriver {
     /// Last COUNTER value seen and the number of COUNTER wraps (extends it to 64 bits).
@@ -413,7 +411,7 @@ impl QemuTimeDriver {
             let ticks = next
                 .saturating_sub(now)
                 .saturating_mul(COUNTER_TICKS_PER_US)
-                .clamp(2, SYST_MAX_RELOAD + 1);
+                .clamp(SYST_MIN_TICKS, SYST_MAX_RELOAD + 1);
             // Fires after `ticks` 40 ns periods: never before `next` (now_us rounds down).
             systick_start(ticks as u32);
             return;
@@ -524,11 +522,7 @@ unsafe fn DefaultHandler(irqn: i16) {
 pub fn init() -> (LinkRx, LinkTx) {
     stop_watchdog();
     match measure_counter_per_10ms() {
-        Some(t) => defmt::info!(
-            "FPGAIO counter: {=u32} ticks per 10 ms (expect {=u32})",
-            t,
-            COST_COUNTER_HZ / 100
-        ),
+        Some(t) => defmt::info!("FPGAIO counter: {=u32} ticks per 10 ms (expect {=u32})", t, COST_COUNTER_HZ / 100),
         None => defmt::warn!("FPGAIO CLK100HZ does not advance"),
     }
 

@@ -51,7 +51,7 @@ impl LinkStats {
 pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a [u8], FrameError> {
     let mut raw = [0u8; MAX_PAYLOAD + 4];
     let n = postcard::to_slice(msg, &mut raw).map_err(|_| FrameError::BufferTooSmall)?.len();
-    let (body, _) = raw.split_at_mut(n.min(MAX_PAYLOAD));
+    let body = raw.get(..n).ok_or(FrameError::BufferTooSmall)?;
     let crc = CRC32.checksum(body).to_le_bytes();
     let total = n.saturating_add(4);
     let Some(dst) = raw.get_mut(n..total) else {
@@ -141,10 +141,9 @@ impl<const N: usize> FrameAccumulator<N> {
         if n < 5 {
             return Err(FrameError::Short);
         }
-        let (body, crc) = data.split_at(n.saturating_sub(4));
-        let mut c = [0u8; 4];
-        c.copy_from_slice(crc);
-        if CRC32.checksum(body) != u32::from_le_bytes(c) {
+        // Body and the trailing CRC-32 without an index that could panic.
+        let (body, crc) = data.split_last_chunk::<4>().ok_or(FrameError::Short)?;
+        if CRC32.checksum(body) != u32::from_le_bytes(*crc) {
             return Err(FrameError::Crc);
         }
         postcard::from_bytes(body).map_err(|_| FrameError::Decode)

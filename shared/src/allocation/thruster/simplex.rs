@@ -182,8 +182,9 @@ fn pow2_recip(v: f32) -> f32 {
     if !(v > 0.0) || field == 0 || field == 0xff {
         return 1.0;
     }
-    // 2^-(field-127) has exponent field 254 - field; keep it a normal number.
-    let nf = 254u32.saturating_sub(field).clamp(1, 254);
+    // 2^-(field-127) has exponent field 254 - field; keep it a normal number. `field` is
+    // in 1..=254 here, so 254 - field <= 253: only the lower bound can bind.
+    let nf = 254u32.saturating_sub(field).max(1);
     f32::from_bits(nf << 23)
 }
 
