@@ -5,7 +5,13 @@
 //! - `board-stm32f405`: the repository's top-level `memory.x`.
 // Host-side build script: aborting the build on a missing file is the right reaction,
 // so the flight rules of the [lints] table do not apply here.
-#![allow(clippy::expect_used, clippy::unwrap_used, clippy::panic, clippy::indexing_slicing, clippy::arithmetic_side_effects)]
+#![allow(
+    clippy::expect_used,
+    clippy::unwrap_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::arithmetic_side_effects
+)]
 
 use std::env;
 use std::fs;
@@ -26,8 +32,7 @@ fn main() {
         ),
         (false, false) => panic!("select a board: feature `board-qemu` or `board-stm32f405`"),
     };
-    let text = fs::read(&memory)
-        .unwrap_or_else(|e| panic!("cannot read memory map {}: {e}", memory.display()));
+    let text = fs::read(&memory).unwrap_or_else(|e| panic!("cannot read memory map {}: {e}", memory.display()));
     fs::write(out.join("memory.x"), text).expect("write memory.x");
     println!("cargo:rerun-if-changed={}", memory.display());
 
@@ -35,11 +40,8 @@ fn main() {
         // cortex-m-rt's `device` feature makes link.x `INCLUDE device.x`; the QEMU board has
         // no PAC, so its interrupt table (`__INTERRUPTS`) is defined in src/board/qemu.rs
         // and device.x only has to exist.
-        fs::write(
-            out.join("device.x"),
-            "/* mps2-an386: __INTERRUPTS is defined in src/board/qemu.rs */\n",
-        )
-        .expect("write device.x");
+        fs::write(out.join("device.x"), "/* mps2-an386: __INTERRUPTS is defined in src/board/qemu.rs */\n")
+            .expect("write device.x");
     }
 
     println!("cargo:rustc-link-search={}", out.display());

@@ -35,8 +35,7 @@ fn advance(t: Instant, d: Duration) -> Instant {
 /// `release`.
 fn periods_elapsed(release: Instant, now: Instant, period: Duration) -> u64 {
     let p = period.as_ticks().max(1);
-    now.checked_duration_since(release)
-        .map_or(0, |d| d.as_ticks().checked_div(p).unwrap_or(0))
+    now.checked_duration_since(release).map_or(0, |d| d.as_ticks().checked_div(p).unwrap_or(0))
 }
 
 #[embassy_executor::task]
@@ -47,23 +46,14 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
     let mut stale: u32 = 0;
     let mut holding = false;
 
-    let mut rate_hz = session
-        .lock()
-        .await
-        .fsw
-        .params()
-        .map_or(100.0, |p| p.control_rate_hz);
+    let mut rate_hz = session.lock().await.fsw.params().map_or(100.0, |p| p.control_rate_hz);
     let mut period = period_of(rate_hz);
     let mut ticker = Ticker::every(period);
     // Nominal release time of the period the next tick starts.
     let mut release = Instant::now();
     ticker.reset_at(release);
     release = advance(release, period);
-    defmt::info!(
-        "control task: {=f32} Hz, period {=u64} us",
-        rate_hz,
-        period.as_micros()
-    );
+    defmt::info!("control task: {=f32} Hz, period {=u64} us", rate_hz, period.as_micros());
 
     loop {
         ticker.next().await;
@@ -77,19 +67,14 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
 
         let (cmd, cost, new_rate) = {
             let mut s = session.lock().await;
-            let (hold_after, new_rate) = s.fsw.params().map_or((1, rate_hz), |p| {
-                (u32::from(p.hold_after_missed_frames), p.control_rate_hz)
-            });
+            let (hold_after, new_rate) =
+                s.fsw.params().map_or((1, rate_hz), |p| (u32::from(p.hold_after_missed_frames), p.control_rate_hz));
             match last {
                 Some(ref f) if stale < hold_after => {
                     let (cmd, cost) = state::measured_step(&mut s.fsw, f);
                     (cmd, cost, new_rate)
                 }
-                _ => (
-                    Fsw::safe_command(last.map_or(0, |f| f.seq), status::HOLD),
-                    0,
-                    new_rate,
-                ),
+                _ => (Fsw::safe_command(last.map_or(0, |f| f.seq), status::HOLD), 0, new_rate),
             }
         };
         let hold_now = cmd.status & status::HOLD != 0;

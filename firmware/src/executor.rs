@@ -32,10 +32,7 @@ pub struct Executor {
 
 impl Executor {
     pub fn new() -> Self {
-        Self {
-            inner: raw::Executor::new(core::ptr::null_mut()),
-            not_send: PhantomData,
-        }
+        Self { inner: raw::Executor::new(core::ptr::null_mut()), not_send: PhantomData }
     }
 
     /// Spawn the initial tasks with `init`, then run forever.

@@ -8,20 +8,14 @@
 
 use core::sync::atomic::Ordering;
 
+use acs_flight::link::{schema_hash, FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION};
 use acs_flight::params::PARAMS_VERSION;
-use acs_flight::link::{
-    schema_hash, FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION,
-};
 
 use crate::board;
 use crate::state::{self, SharedSession, SharedTx};
 
 #[embassy_executor::task]
-pub async fn link_task(
-    mut rx: board::LinkRx,
-    session: &'static SharedSession,
-    tx: &'static SharedTx,
-) {
+pub async fn link_task(mut rx: board::LinkRx, session: &'static SharedSession, tx: &'static SharedTx) {
     let mut acc = FrameAccumulator::<MAX_FRAME>::new();
     let mut buf = [0u8; 64];
     defmt::info!(
@@ -75,11 +69,9 @@ fn log(msg: &HostMsg, reply: Option<&FswMsg>) {
             defmt::trace!("step {=u32}: {=u32} ticks", f.seq, r.step_cost_ticks)
         }
         (_, Some(FswMsg::HelloAck { .. })) => defmt::info!("hello"),
-        (HostMsg::UploadParams(p), Some(FswMsg::ParamsAccepted { checksum })) => defmt::info!(
-            "params accepted: checksum {=u32:#010x}, {=f32} Hz",
-            checksum,
-            p.control_rate_hz
-        ),
+        (HostMsg::UploadParams(p), Some(FswMsg::ParamsAccepted { checksum })) => {
+            defmt::info!("params accepted: checksum {=u32:#010x}, {=f32} Hz", checksum, p.control_rate_hz)
+        }
         (_, Some(FswMsg::ParamsRejected(e))) => defmt::warn!("params rejected: {}", e),
         (HostMsg::SetTarget { .. }, Some(FswMsg::Ack)) => defmt::info!("target set"),
         (HostMsg::UploadModeParams { mode, .. }, Some(FswMsg::ParamsAccepted { checksum })) => {

@@ -38,11 +38,9 @@ fn main() -> ! {
     );
     let (rx, tx) = board::init();
     let session = Session::new(board::BOARD_ID, board::cost_counter_hz());
-    let (Some(session), Some(tx), Some(executor)) = (
-        SESSION.try_init(Mutex::new(session)),
-        TX.try_init(Mutex::new(tx)),
-        EXECUTOR.try_init(Executor::new()),
-    ) else {
+    let (Some(session), Some(tx), Some(executor)) =
+        (SESSION.try_init(Mutex::new(session)), TX.try_init(Mutex::new(tx)), EXECUTOR.try_init(Executor::new()))
+    else {
         defmt::error!("main entered twice");
         board::exit_failure()
     };

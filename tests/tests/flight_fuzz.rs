@@ -5,11 +5,9 @@
 //! panic, one reply per message, every step answers its frame with finite commands, the
 //! mode code is one of the five, and a safe command is all-idle.
 
-use acs_flight::modes::{Mode, ModeRequest};
-use acs_flight::link::{
-    ActuatorCommand, FswMsg, HostMsg, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
-};
 use acs_flight::link::session::{Session, board};
+use acs_flight::link::{ActuatorCommand, FswMsg, HostMsg, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid};
+use acs_flight::modes::{Mode, ModeRequest};
 use acs_tests::scenario;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -7,9 +7,7 @@
 //! - `exit_failure() -> !`, the defmt global logger and the panic handler.
 
 #[cfg(all(feature = "board-qemu", feature = "board-stm32f405"))]
-compile_error!(
-    "features `board-qemu` and `board-stm32f405` are exclusive (use --no-default-features)"
-);
+compile_error!("features `board-qemu` and `board-stm32f405` are exclusive (use --no-default-features)");
 
 #[cfg(feature = "board-qemu")]
 mod qemu;

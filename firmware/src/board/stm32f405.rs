@@ -119,8 +119,7 @@ pub fn init() -> (LinkRx, LinkTx) {
 
     let mut ucfg = usart::Config::default();
     ucfg.baudrate = LINK_BAUD;
-    let (Some(tx_buf), Some(rx_buf)) = (TX_BUF.try_init([0; 1024]), RX_BUF.try_init([0; 1024]))
-    else {
+    let (Some(tx_buf), Some(rx_buf)) = (TX_BUF.try_init([0; 1024]), RX_BUF.try_init([0; 1024])) else {
         defmt::error!("board init called twice");
         exit_failure()
     };

@@ -145,4 +145,3 @@ mod fraction_tests {
         assert_eq!(AllocOutcome::fraction_along(&Vec3::zeros(), &Vec3::new(f32::NAN, 0.0, 0.0)), 1.0);
     }
 }
-

@@ -193,8 +193,17 @@ mod tests {
             g.ki = Mat3::identity() * 0.1;
             g.integral_limit_s = lim;
             let mut c = QuaternionFeedback::default();
-            let d =
-                c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
+            let d = c.update(
+                &g,
+                &inertia,
+                &q,
+                &Quat::identity(),
+                &Vec3::zeros(),
+                &Vec3::zeros(),
+                &Vec3::zeros(),
+                0.01,
+                false,
+            );
             assert_eq!(c.integral, Vec3::zeros(), "limit {lim}");
             assert!(d.torque_nm.iter().all(|x| x.is_finite()), "limit {lim}");
         }

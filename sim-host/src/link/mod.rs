@@ -10,9 +10,9 @@ pub mod in_process;
 pub mod qemu;
 pub mod serve;
 
+use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use acs_flight::modes::{Mode, ModeManagerParams};
 use acs_flight::params::FlightParams;
-use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Result, anyhow, bail};
 use std::path::PathBuf;
 

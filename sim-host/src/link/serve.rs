@@ -3,8 +3,8 @@
 //! firmware runs, so `--link tcp:` can be exercised (and the framing tested end to end)
 //! without a board or QEMU. The cost counter is the host's nanosecond clock.
 
-use acs_flight::link::{FrameAccumulator, HostMsg, MAX_FRAME, encode_frame};
 use acs_flight::link::session::{Session, board};
+use acs_flight::link::{FrameAccumulator, HostMsg, MAX_FRAME, encode_frame};
 use anyhow::Result;
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpListener;
