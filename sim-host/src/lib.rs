@@ -9,6 +9,7 @@
 
 pub mod analysis;
 pub mod attitude;
+pub mod campaign;
 pub mod columns;
 pub mod decimate;
 pub mod design;

@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use sim_host::campaign::{Campaign, Shard};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::{Controller, Scenario};
 use sim_host::summary::Summary;
@@ -44,6 +45,53 @@ enum Analyze {
 }
 
 #[derive(Subcommand)]
+enum CampaignCmd {
+    /// Draw every run of a campaign file into DIR: manifest.json and runs/NNNNNN/scenario.toml.
+    Plan {
+        campaign: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// Number of runs instead of the file's `runs`.
+        #[arg(long)]
+        runs: Option<u32>,
+    },
+    /// Fly the pending runs of a planned campaign (resumable), in-process on --jobs threads.
+    Run {
+        dir: PathBuf,
+        /// Shard K of S (0-based, K < S): the runs i with i % S == K.
+        #[arg(long, default_value = "0/1")]
+        shard: Shard,
+        /// Threads (default: every core).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Statistics and requirement verdicts: campaign.json, report.md, plots/. Exit status 1
+    /// when a requirement is not met or runs are missing.
+    Merge {
+        dir: PathBuf,
+        #[arg(long)]
+        no_plots: bool,
+    },
+    /// Write a Slurm job array (one task per shard) and a dependent merge job into DIR/slurm.
+    Slurm {
+        dir: PathBuf,
+        #[arg(long)]
+        shards: u32,
+        #[arg(long)]
+        partition: Option<String>,
+        /// Time limit per array task, e.g. 00:30:00.
+        #[arg(long)]
+        time: Option<String>,
+        /// Threads per shard.
+        #[arg(long, default_value_t = 1)]
+        cpus_per_task: u32,
+    },
+}
+
+#[derive(Subcommand)]
 enum Cmd {
     /// Run a scenario and write timeseries.csv, summary.json and PNG plots into --out.
     Run {
@@ -71,6 +119,11 @@ enum Cmd {
     Analyze {
         #[command(subcommand)]
         what: Analyze,
+    },
+    /// Monte Carlo campaigns: plan, run (locally or per shard), merge, Slurm scripts.
+    Campaign {
+        #[command(subcommand)]
+        what: CampaignCmd,
     },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
     Serve {
@@ -115,7 +168,79 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             link::serve::serve(l, None)
         }
         Cmd::Check { scenario } => check(&scenario),
+        Cmd::Campaign { what } => campaign(what),
     }
+}
+
+/// `sim-host campaign …`.
+fn campaign(what: CampaignCmd) -> Result<()> {
+    match what {
+        CampaignCmd::Plan { campaign, out, runs } => {
+            let c = Campaign::load(&campaign)?;
+            let m = sim_host::campaign::plan(&c, &out, runs)?;
+            say!(
+                "{}: planned {} runs of {} ({} dispersions, {} requirements) in {}",
+                m.campaign.name,
+                m.runs.len(),
+                m.base_scenario,
+                m.campaign.dispersions.len(),
+                m.campaign.requirements.len(),
+                out.display()
+            );
+        }
+        CampaignCmd::Run { dir, shard, jobs, quiet } => {
+            let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let start = std::time::Instant::now();
+            let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
+            say!(
+                "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, {} errors",
+                shard.index,
+                shard.count,
+                r.assigned,
+                r.skipped,
+                r.ran,
+                start.elapsed().as_secs_f64(),
+                r.ok,
+                r.requirement_failed,
+                r.errors
+            );
+        }
+        CampaignCmd::Merge { dir, no_plots } => {
+            let m = sim_host::campaign::merge(&dir, !no_plots)?;
+            let r = &m.result;
+            say!(
+                "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} errors)",
+                r.campaign,
+                r.completed,
+                r.runs,
+                r.ok,
+                r.requirement_failed,
+                r.errors.len()
+            );
+            for q in &r.requirements {
+                say!("  {}", q.statement);
+            }
+            if !r.missing.is_empty() {
+                let shown: Vec<String> = r.missing.iter().take(20).map(u32::to_string).collect();
+                say!("  missing runs ({}): {}", r.missing.len(), shown.join(", "));
+            }
+            for f in &m.files {
+                say!("  wrote {}", f.display());
+            }
+            if !r.passed() {
+                anyhow::bail!("campaign {} failed: see {}", r.campaign, dir.join("report.md").display());
+            }
+        }
+        CampaignCmd::Slurm { dir, shards, partition, time, cpus_per_task } => {
+            let sim_host = std::env::current_exe().context("locating this sim-host")?;
+            let o = sim_host::campaign::slurm::SlurmOptions { shards, partition, time, cpus_per_task, sim_host };
+            for f in sim_host::campaign::slurm::write_scripts(&dir, &o)? {
+                say!("wrote {}", f.display());
+            }
+            say!("submit with: {}", dir.join("slurm/submit.sh").display());
+        }
+    }
+    Ok(())
 }
 
 /// `sim-host run`: the run streamed into `out`, then the one-line summary.

@@ -1,0 +1,222 @@
+//! `sim-host campaign run`: the pending runs of one shard, in-process, in parallel, each
+//! result written atomically (`runs/NNNNNN/result.json`) so that an interrupted shard
+//! resumes where it stopped.
+
+use super::plan::{Manifest, PlannedRun};
+use super::spec::Requirement;
+use super::{flatten, write_atomic};
+use crate::link::{self, LinkKind, LinkOptions};
+use crate::runner;
+use crate::scenario::Scenario;
+use crate::series::Recorder;
+use crate::summary::Summary;
+use anyhow::{Result, anyhow, bail};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// Shard `index` of `count` (0-based, as a job array's task index): runs `i` with
+/// `i % count == index`, so that every shard gets runs from the whole campaign.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    pub fn owns(&self, run: u32) -> bool {
+        run % self.count == self.index
+    }
+}
+
+impl FromStr for Shard {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let (k, n) = s.split_once('/').ok_or_else(|| anyhow!("--shard K/S (e.g. 0/4), got {s:?}"))?;
+        let index: u32 = k.trim().parse().map_err(|_| anyhow!("--shard: {k:?} is not a shard index"))?;
+        let count: u32 = n.trim().parse().map_err(|_| anyhow!("--shard: {n:?} is not a shard count"))?;
+        if count == 0 || index >= count {
+            bail!("--shard K/S needs 0 <= K < S (got {index}/{count})");
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// Flew and met every requirement.
+    Ok,
+    /// Flew, and missed at least one requirement.
+    RequirementFailed,
+    /// Did not fly to the end: invalid drawn scenario, simulation error or panic.
+    Error,
+}
+
+/// `runs/NNNNNN/result.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunRecord {
+    pub index: u32,
+    pub status: RunStatus,
+    #[serde(default)]
+    pub error: Option<String>,
+    /// Names of the requirements this run missed.
+    #[serde(default)]
+    pub failed_requirements: Vec<String>,
+    /// The run's `summary.json` (absent after an error).
+    #[serde(default)]
+    pub summary: Option<serde_json::Value>,
+    /// Wall time of the whole run (parse, set-up, flight), s.
+    pub wall_time_s: f64,
+}
+
+impl RunRecord {
+    pub fn path(dir: &Path, run: &PlannedRun) -> PathBuf {
+        dir.join(&run.scenario).with_file_name("result.json")
+    }
+
+    /// The completed result of `run`, if any (a file that does not parse is not one).
+    pub fn load(dir: &Path, run: &PlannedRun) -> Option<Self> {
+        let text = std::fs::read_to_string(Self::path(dir, run)).ok()?;
+        serde_json::from_str::<RunRecord>(&text).ok().filter(|r| r.index == run.index)
+    }
+}
+
+/// A recorder that keeps nothing (campaign runs keep only their summary).
+struct Discard;
+
+impl Recorder for Discard {
+    fn start(&mut self, _: &[String], _: u64) -> Result<()> {
+        Ok(())
+    }
+    fn record(&mut self, _: &[f64]) -> Result<()> {
+        Ok(())
+    }
+}
+
+/// Flies a scenario in-process, recording nothing.
+pub fn fly(sc: &Scenario) -> Result<Summary> {
+    let mut l = link::open(&LinkKind::InProcess, &LinkOptions::default())?;
+    runner::run_recorded(sc, l.as_mut(), false, &mut Discard)
+}
+
+fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
+    p.downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| p.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+/// One run, start to verdict; never fails (errors and panics become the record's status).
+pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> RunRecord {
+    let start = Instant::now();
+    let path = dir.join(&run.scenario);
+    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly(&sc)))
+        .unwrap_or_else(|p| Err(anyhow!("panic: {}", panic_message(p.as_ref()))));
+    let wall_time_s = start.elapsed().as_secs_f64();
+    let summary = match flown.and_then(|s| Ok(serde_json::to_value(&s)?)) {
+        Ok(s) => s,
+        Err(e) => {
+            return RunRecord {
+                index: run.index,
+                status: RunStatus::Error,
+                error: Some(format!("{e:#}")),
+                failed_requirements: Vec::new(),
+                summary: None,
+                wall_time_s,
+            };
+        }
+    };
+    let values = flatten(&summary);
+    let failed_requirements: Vec<String> = requirements
+        .iter()
+        .filter(|r| !r.met_by(values.get(&r.key).copied().flatten()))
+        .map(|r| r.name.clone())
+        .collect();
+    let status = if failed_requirements.is_empty() { RunStatus::Ok } else { RunStatus::RequirementFailed };
+    RunRecord { index: run.index, status, error: None, failed_requirements, summary: Some(summary), wall_time_s }
+}
+
+/// What one `campaign run` did.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ShardReport {
+    /// Runs of this shard.
+    pub assigned: usize,
+    /// Already completed before (not run again).
+    pub skipped: usize,
+    pub ran: usize,
+    pub ok: usize,
+    pub requirement_failed: usize,
+    pub errors: usize,
+}
+
+/// Runs the pending runs of `shard` on `jobs` threads.
+pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Result<ShardReport> {
+    let manifest = Manifest::load(dir)?;
+    let requirements = manifest.campaign()?.requirements;
+    let mine: Vec<&PlannedRun> = manifest.runs.iter().filter(|r| shard.owns(r.index)).collect();
+    let pending: Vec<&PlannedRun> = mine.iter().copied().filter(|r| RunRecord::load(dir, r).is_none()).collect();
+    let report = Mutex::new(ShardReport {
+        assigned: mine.len(),
+        skipped: mine.len() - pending.len(),
+        ..ShardReport::default()
+    });
+    let bar = progress_bar(progress, pending.len());
+    let next = AtomicUsize::new(0);
+    let failure: Mutex<Option<anyhow::Error>> = Mutex::new(None);
+    let jobs = jobs.clamp(1, pending.len().max(1));
+    std::thread::scope(|s| {
+        for _ in 0..jobs {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(run) = pending.get(i) else { break };
+                    let rec = run_one(dir, run, &requirements);
+                    let written = serde_json::to_vec_pretty(&rec)
+                        .map_err(anyhow::Error::from)
+                        .and_then(|b| write_atomic(&RunRecord::path(dir, run), &b));
+                    if let Err(e) = written {
+                        // The disk, not the run: stop this shard (resumable later).
+                        failure.lock().unwrap_or_else(|p| p.into_inner()).get_or_insert(e);
+                        next.store(pending.len(), Ordering::Relaxed);
+                        break;
+                    }
+                    let mut r = report.lock().unwrap_or_else(|p| p.into_inner());
+                    r.ran += 1;
+                    match rec.status {
+                        RunStatus::Ok => r.ok += 1,
+                        RunStatus::RequirementFailed => r.requirement_failed += 1,
+                        RunStatus::Error => r.errors += 1,
+                    }
+                    if let Some(b) = &bar {
+                        b.inc(1);
+                    }
+                }
+            });
+        }
+    });
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    if let Some(e) = failure.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        return Err(e.context("writing a run's result"));
+    }
+    Ok(report.into_inner().unwrap_or_else(|p| p.into_inner()))
+}
+
+fn progress_bar(enabled: bool, n: usize) -> Option<indicatif::ProgressBar> {
+    if !enabled || n == 0 {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(n as u64);
+    b.set_style(
+        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs ({per_sec}, eta {eta})")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    Some(b)
+}

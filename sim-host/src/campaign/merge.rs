@@ -1,0 +1,495 @@
+//! `sim-host campaign merge`: every run's result into statistics of every summary key,
+//! requirement verdicts with confidence bounds, groups by discrete dispersion (failure
+//! masks, choices), `campaign.json` (identical whatever ran the runs: local, threads,
+//! Slurm), `report.md` and histogram/CDF plots.
+
+use super::exec::{RunRecord, RunStatus};
+use super::plan::{Manifest, PlannedRun};
+use super::spec::{Distribution, Requirement};
+use super::stats::{self, Moments};
+use super::{flatten, run_dir_name, write_atomic};
+use crate::plots::{self, Figure, Panel, Series, TimeSeries};
+use anyhow::Result;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// Summary keys that time the host or the link, not the flight: left out of the
+/// statistics and of `campaign.json`, which are then identical across machines.
+pub const WALL_CLOCK_KEYS: [&str; 6] =
+    ["wall_time_s", "real_time_factor", "mean_step_us", "max_step_us", "allocation_us_per_call", "max_step_ticks"];
+
+/// Worst runs listed per key.
+const WORST: usize = 5;
+
+/// The command that re-runs one run alone, from the campaign directory.
+pub fn rerun_command(index: u32) -> String {
+    let d = run_dir_name(index);
+    format!("sim-host run runs/{d}/scenario.toml --out runs/{d}/out")
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RunValue {
+    pub run: u32,
+    pub value: f64,
+    pub rerun: String,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct KeyStats {
+    #[serde(flatten)]
+    pub moments: Moments,
+    /// Runs that flew but have no value (e.g. `settle_time_s` of a run that never settled).
+    pub nulls: usize,
+    /// Largest values.
+    pub worst: Vec<RunValue>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Met,
+    /// Every run (or enough) passed, but too few runs to claim the probability.
+    NotDemonstrated,
+    NotMet,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RequirementResult {
+    #[serde(flatten)]
+    pub requirement: Requirement,
+    pub runs: usize,
+    pub passed: usize,
+    /// One-sided lower confidence bounds on the probability of meeting it.
+    pub clopper_pearson_lower: f64,
+    pub wilson_lower: f64,
+    pub verdict: Verdict,
+    pub statement: String,
+    /// Every run that missed it (errors included), ascending.
+    pub failed_runs: Vec<u32>,
+    /// The runs furthest on the wrong side.
+    pub worst: Vec<RunValue>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct GroupRow {
+    /// The drawn value (e.g. the failed thrusters `[1, 3]`).
+    pub value: serde_json::Value,
+    pub runs: usize,
+    pub errors: usize,
+    /// Runs of this value that missed each requirement (by name).
+    pub failed: BTreeMap<String, usize>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Group {
+    pub key: String,
+    pub rows: Vec<GroupRow>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ErrorRun {
+    pub run: u32,
+    pub message: String,
+    pub rerun: String,
+}
+
+/// `campaign.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CampaignResult {
+    pub campaign: String,
+    pub description: String,
+    pub base_scenario: String,
+    pub seed: u64,
+    pub runs: usize,
+    pub completed: usize,
+    pub missing: Vec<u32>,
+    pub ok: usize,
+    pub requirement_failed: usize,
+    pub errors: Vec<ErrorRun>,
+    pub requirements: Vec<RequirementResult>,
+    /// Groups by discrete dispersion (choice, k-of-n).
+    pub groups: Vec<Group>,
+    pub statistics: BTreeMap<String, KeyStats>,
+}
+
+impl CampaignResult {
+    /// Whether the campaign passes: every run present and every requirement met.
+    pub fn passed(&self) -> bool {
+        self.missing.is_empty() && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
+    }
+}
+
+pub struct MergeOutcome {
+    pub result: CampaignResult,
+    pub files: Vec<PathBuf>,
+    /// Total wall time of the completed runs, s (not in campaign.json: it times the host).
+    pub run_wall_s: f64,
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.2} %", 100.0 * x)
+}
+
+fn requirement_result(
+    r: &Requirement,
+    records: &[(&PlannedRun, RunRecord, BTreeMap<String, Option<f64>>)],
+) -> RequirementResult {
+    let mut failed_runs = Vec::new();
+    let mut wrong_side: Vec<(u32, f64)> = Vec::new();
+    for (run, rec, values) in records {
+        let v = values.get(&r.key).copied().flatten();
+        let pass = rec.status != RunStatus::Error && r.met_by(v);
+        if !pass {
+            failed_runs.push(run.index);
+        }
+        if let Some(v) = v {
+            wrong_side.push((run.index, if r.op.larger_is_worse() { v } else { -v }));
+        }
+    }
+    wrong_side.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+    let worst = wrong_side
+        .iter()
+        .take(WORST)
+        .map(|(run, v)| RunValue {
+            run: *run,
+            value: if r.op.larger_is_worse() { *v } else { -*v },
+            rerun: rerun_command(*run),
+        })
+        .collect();
+    let n = records.len();
+    let passed = n - failed_runs.len();
+    let (k, nn) = (passed as u64, n as u64);
+    let cp = stats::clopper_pearson_lower(k, nn, r.confidence);
+    let wilson = stats::wilson_lower(k, nn, r.confidence);
+    let what = format!("`{} {} {}`", r.key, r.op.symbol(), r.value);
+    let conf = pct(r.confidence);
+    let bounds = format!("Clopper-Pearson lower bound {} (Wilson {}) at {conf} confidence", pct(cp), pct(wilson));
+    let (verdict, statement) = if r.probability >= 1.0 {
+        if passed == n && n > 0 {
+            (Verdict::Met, format!("{what} in every run: {passed}/{n} passed; {bounds}"))
+        } else {
+            (Verdict::NotMet, format!("{what} in every run: NOT MET, {passed}/{n} passed"))
+        }
+    } else {
+        let claim = format!("{what} in >= {} of cases at {conf} confidence", pct(r.probability));
+        if cp >= r.probability {
+            (Verdict::Met, format!("{claim}: met, {passed}/{n} passed; {bounds}"))
+        } else if n > 0 && passed as f64 / n as f64 >= r.probability {
+            let need = stats::runs_to_demonstrate(r.probability, r.confidence)
+                .map(|m| format!("; with no failure, {m} runs would demonstrate it"))
+                .unwrap_or_default();
+            (Verdict::NotDemonstrated, format!("{claim}: NOT DEMONSTRATED, {passed}/{n} passed; {bounds}{need}"))
+        } else {
+            (Verdict::NotMet, format!("{claim}: NOT MET, {passed}/{n} passed; {bounds}"))
+        }
+    };
+    RequirementResult {
+        requirement: r.clone(),
+        runs: n,
+        passed,
+        clopper_pearson_lower: cp,
+        wilson_lower: wilson,
+        verdict,
+        statement,
+        failed_runs,
+        worst,
+    }
+}
+
+/// Merges the campaign in `dir`: writes `campaign.json`, `report.md` and (with `plots`)
+/// `plots/*.png`.
+pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
+    let manifest = Manifest::load(dir)?;
+    let campaign = manifest.campaign()?;
+    let mut records = Vec::new();
+    let mut missing = Vec::new();
+    for run in &manifest.runs {
+        match RunRecord::load(dir, run) {
+            Some(rec) => {
+                let mut values = rec.summary.as_ref().map(flatten).unwrap_or_default();
+                values.retain(|k, _| !WALL_CLOCK_KEYS.contains(&k.as_str()));
+                records.push((run, rec, values));
+            }
+            None => missing.push(run.index),
+        }
+    }
+    let run_wall_s = records.iter().map(|(_, r, _)| r.wall_time_s).sum();
+    let requirements: Vec<RequirementResult> =
+        campaign.requirements.iter().map(|r| requirement_result(r, &records)).collect();
+
+    let mut statistics = BTreeMap::new();
+    for key in manifest.summary_keys.iter().filter(|k| !WALL_CLOCK_KEYS.contains(&k.as_str())) {
+        let mut xs = Vec::new();
+        let mut nulls = 0;
+        for (run, rec, values) in &records {
+            if rec.status == RunStatus::Error {
+                continue;
+            }
+            match values.get(key).copied().flatten() {
+                Some(v) => xs.push((run.index, v)),
+                None => nulls += 1,
+            }
+        }
+        let vals: Vec<f64> = xs.iter().map(|x| x.1).collect();
+        if let Some(moments) = stats::moments(&vals) {
+            let mut w = xs.clone();
+            w.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            let worst =
+                w.iter().take(WORST).map(|(r, v)| RunValue { run: *r, value: *v, rerun: rerun_command(*r) }).collect();
+            statistics.insert(key.clone(), KeyStats { moments, nulls, worst });
+        }
+    }
+
+    let mut groups = Vec::new();
+    for d in campaign.dispersions.iter().filter(|d| matches!(d.dist, Distribution::Choice { .. } | Distribution::KOfN { .. })) {
+        let key = d.key.as_str();
+        let mut rows: BTreeMap<String, GroupRow> = BTreeMap::new();
+        for (run, rec, _) in &records {
+            let value = run.draws.get(key).cloned().unwrap_or(serde_json::Value::Null);
+            let row = rows.entry(value.to_string()).or_insert_with(|| GroupRow {
+                value: value.clone(),
+                runs: 0,
+                errors: 0,
+                failed: campaign.requirements.iter().map(|r| (r.name.clone(), 0)).collect(),
+            });
+            row.runs += 1;
+            if rec.status == RunStatus::Error {
+                row.errors += 1;
+            }
+            for r in &requirements {
+                if r.failed_runs.binary_search(&run.index).is_ok() {
+                    *row.failed.entry(r.requirement.name.clone()).or_default() += 1;
+                }
+            }
+        }
+        groups.push(Group { key: key.to_owned(), rows: rows.into_values().collect() });
+    }
+
+    let errors = records
+        .iter()
+        .filter(|(_, r, _)| r.status == RunStatus::Error)
+        .map(|(run, r, _)| ErrorRun {
+            run: run.index,
+            message: r.error.clone().unwrap_or_default(),
+            rerun: rerun_command(run.index),
+        })
+        .collect();
+    let count = |s: RunStatus| records.iter().filter(|(_, r, _)| r.status == s).count();
+    let result = CampaignResult {
+        campaign: manifest.campaign.name.clone(),
+        description: manifest.campaign.description.clone(),
+        base_scenario: manifest.base_scenario.clone(),
+        seed: manifest.campaign.seed,
+        runs: manifest.runs.len(),
+        completed: records.len(),
+        missing,
+        ok: count(RunStatus::Ok),
+        requirement_failed: count(RunStatus::RequirementFailed),
+        errors,
+        requirements,
+        groups,
+        statistics,
+    };
+
+    let mut files = Vec::new();
+    let json_path = dir.join("campaign.json");
+    write_atomic(&json_path, serde_json::to_string_pretty(&result)?.as_bytes())?;
+    files.push(json_path);
+    let mut figures = Vec::new();
+    if with_plots {
+        figures = write_plots(dir, &result, &records)?;
+        files.extend(figures.iter().cloned());
+    }
+    let md_path = dir.join("report.md");
+    write_atomic(&md_path, report_markdown(&result, &figures, dir, run_wall_s).as_bytes())?;
+    files.push(md_path);
+    Ok(MergeOutcome { result, files, run_wall_s })
+}
+
+fn file_stem_of(key: &str) -> String {
+    key.chars().map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '-' }).collect()
+}
+
+/// A histogram and the empirical CDF of each requirement's key (and the final error).
+fn write_plots(
+    dir: &Path,
+    result: &CampaignResult,
+    records: &[(&PlannedRun, RunRecord, BTreeMap<String, Option<f64>>)],
+) -> Result<Vec<PathBuf>> {
+    let mut keys: Vec<(String, String)> =
+        result.requirements.iter().map(|r| (r.requirement.key.clone(), r.requirement.name.clone())).collect();
+    if !keys.iter().any(|k| k.0 == "final_error_deg") {
+        keys.push(("final_error_deg".into(), String::new()));
+    }
+    keys.dedup_by(|a, b| a.0 == b.0);
+    let out = dir.join("plots");
+    std::fs::create_dir_all(&out)?;
+    let mut files = Vec::new();
+    for (key, req) in keys {
+        let mut xs: Vec<f64> =
+            records.iter().filter_map(|(_, _, v)| v.get(&key).copied().flatten()).filter(|x| x.is_finite()).collect();
+        if xs.is_empty() {
+            continue;
+        }
+        xs.sort_by(f64::total_cmp);
+        let (lo, hi) = (xs[0], xs[xs.len() - 1]);
+        let bins = 30usize;
+        let width = if hi > lo { (hi - lo) / bins as f64 } else { 1.0 };
+        let mut counts = vec![0.0; bins];
+        for x in &xs {
+            let b = (((x - lo) / width) as usize).min(bins - 1);
+            counts[b] += 1.0;
+        }
+        let n = xs.len() as f64;
+        let mut ts = TimeSeries::with_columns(vec!["x".into(), "runs".into(), "cdf".into()], 2 * bins);
+        for (b, c) in counts.iter().enumerate() {
+            for e in [lo + b as f64 * width, lo + (b + 1) as f64 * width] {
+                let below = xs.partition_point(|x| *x <= e) as f64;
+                ts.push_row(&[e, *c, below / n]);
+            }
+        }
+        let title = if req.is_empty() {
+            format!("{key}: {} runs", xs.len())
+        } else {
+            format!("{key}: {} runs (requirement {req})", xs.len())
+        };
+        let fig = Figure {
+            file_name: format!("{}.png", file_stem_of(&key)),
+            title,
+            x: "x".into(),
+            x_label: key.clone(),
+            panels: vec![
+                Panel {
+                    title: "empirical CDF".into(),
+                    y_label: "fraction of runs <= x".into(),
+                    series: vec![Series { column: "cdf".into(), label: "CDF".into(), dashed: false }],
+                    log_y: false,
+                },
+                Panel {
+                    title: "histogram".into(),
+                    y_label: "runs per bin".into(),
+                    series: vec![Series { column: "runs".into(), label: format!("{bins} bins"), dashed: false }],
+                    log_y: false,
+                },
+            ],
+        };
+        files.extend(plots::render(&out, &ts, &[fig])?);
+    }
+    Ok(files)
+}
+
+fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall_s: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# Campaign `{}`\n", r.campaign);
+    if !r.description.is_empty() {
+        let _ = writeln!(s, "{}\n", r.description);
+    }
+    let _ = writeln!(
+        s,
+        "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, {} ended in error.\n",
+        r.base_scenario,
+        r.seed,
+        r.completed,
+        r.runs,
+        r.ok,
+        r.requirement_failed,
+        r.errors.len()
+    );
+    if !r.missing.is_empty() {
+        let shown: Vec<String> = r.missing.iter().take(50).map(u32::to_string).collect();
+        let _ = writeln!(s, "**Missing runs ({}):** {}\n", r.missing.len(), shown.join(", "));
+    }
+    let _ = writeln!(s, "**Verdict: {}**\n", if r.passed() { "PASS" } else { "FAIL" });
+    if !r.requirements.is_empty() {
+        let _ = writeln!(s, "## Requirements\n\n| requirement | passed | CP lower | verdict |\n|---|---|---|---|");
+        for q in &r.requirements {
+            let _ = writeln!(
+                s,
+                "| {} | {}/{} | {} | {:?} |",
+                q.requirement.name,
+                q.passed,
+                q.runs,
+                pct(q.clopper_pearson_lower),
+                q.verdict
+            );
+        }
+        s.push('\n');
+        for q in &r.requirements {
+            let _ = writeln!(s, "- {}", q.statement);
+            for w in q.worst.iter().take(3) {
+                let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, w.value, w.rerun);
+            }
+        }
+        s.push('\n');
+    }
+    for g in &r.groups {
+        let _ = writeln!(s, "## By `{}`\n", g.key);
+        let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
+        let _ = write!(s, "| value | runs | errors |");
+        for n in &names {
+            let _ = write!(s, " missed `{n}` |");
+        }
+        let _ = write!(s, "\n|---|---|---|");
+        for _ in &names {
+            s.push_str("---|");
+        }
+        s.push('\n');
+        for row in &g.rows {
+            let _ = write!(s, "| `{}` | {} | {} |", row.value, row.runs, row.errors);
+            for n in &names {
+                let _ = write!(s, " {} |", row.failed.get(*n).copied().unwrap_or(0));
+            }
+            s.push('\n');
+        }
+        s.push('\n');
+    }
+    if !r.errors.is_empty() {
+        let _ = writeln!(s, "## Runs in error\n");
+        for e in r.errors.iter().take(50) {
+            let _ = writeln!(s, "- run {}: {} (`{}`)", e.run, e.message, e.rerun);
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(
+        s,
+        "## Statistics\n\n| key | n | nulls | mean | sd | min | p50 | p95 | p99 | max | worst run |\n|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for (k, st) in &r.statistics {
+        let m = &st.moments;
+        if m.min == m.max && st.nulls == 0 {
+            continue; // constant over the campaign: nothing to learn
+        }
+        let _ = writeln!(
+            s,
+            "| {k} | {} | {} | {:.6} | {:.3e} | {:.6} | {:.6} | {:.6} | {:.6} | {:.6} | {} |",
+            m.n,
+            st.nulls,
+            m.mean,
+            m.sd,
+            m.min,
+            m.p50,
+            m.p95,
+            m.p99,
+            m.max,
+            st.worst.first().map_or(String::new(), |w| w.run.to_string())
+        );
+    }
+    s.push_str("\n(Keys constant over every run are left out; see campaign.json.)\n\n");
+    if !figures.is_empty() {
+        let _ = writeln!(s, "## Figures\n");
+        for f in figures {
+            let rel = f.strip_prefix(dir).unwrap_or(f);
+            let _ = writeln!(s, "![{}]({})", rel.display(), rel.display());
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(
+        s,
+        "Re-run any run alone from this directory with `sim-host run runs/NNNNNN/scenario.toml --out DIR`.\n\n\
+         Host time of the completed runs: {run_wall_s:.2} s in all, {:.2} ms per run (not in campaign.json).",
+        1e3 * run_wall_s / r.completed.max(1) as f64
+    );
+    s
+}
