@@ -9,6 +9,14 @@
 //! first-order loop with time constant τ and is opposed by Coulomb friction on the gimbal
 //! bearing, `δ̈ = (δ̇_cmd - δ̇)/τ - (T_f / I_g) tanh(δ̇ / ε)`; without it the gimbal follows
 //! the (saturated) command instantly, as in paper 000.
+//!
+//! Gimbal-axis misalignment ([`CmgCluster::misaligned`], scenario key
+//! `actuators.cmg.gimbal_misalignment_deg`): unit i's whole gimbal frame (gimbal axis,
+//! `spin0`, `trans0`) is rotated rigidly by `R(r_i)`, the rotation about `r_i / |r_i|` by
+//! `|r_i|` (rotation vector in body axes), so `true = R(r_i) · nominal`. Only the plant is
+//! rotated: the flight code keeps the nominal geometry of its parameters. A rotation about
+//! the nominal gimbal axis itself is a gimbal-angle offset; one about any other axis tilts
+//! the gimbal axis.
 
 use super::MAX_GIMBALS;
 use crate::attitude::Vec3;
@@ -69,6 +77,27 @@ impl CmgCluster {
             angle_limits_rad,
             servo: None,
         }
+    }
+
+    /// The same cluster with unit i's gimbal frame rotated by the rotation vector
+    /// `rotvecs_rad[i]` (body axes, rad; `true = R · nominal`). Units beyond the slice, and
+    /// zero vectors, are left exactly as they are (bit for bit).
+    pub fn misaligned(mut self, rotvecs_rad: &[[f64; 3]]) -> Self {
+        for (u, rv) in self.units.iter_mut().zip(rotvecs_rad) {
+            if rv.iter().all(|x| *x == 0.0) {
+                continue;
+            }
+            let r = nalgebra::Rotation3::new(Vec3::from(*rv));
+            u.spin0 = r * u.spin0;
+            u.trans0 = r * u.trans0;
+        }
+        self
+    }
+
+    /// Gimbal axis of unit i, `spin0 × trans0` normalised.
+    pub fn gimbal_axis(&self, i: usize) -> Vec3 {
+        let u = &self.units[i];
+        u.spin0.cross(&u.trans0).normalize()
     }
 
     pub fn len(&self) -> usize {
@@ -174,6 +203,70 @@ mod tests {
             // The gimbal axis leans 90° - β from the z axis: g·z = cos β.
             assert!((g.z - 54.73f64.to_radians().cos()).abs() < 1e-12);
         }
+    }
+
+    /// Rodrigues' formula written out, independent of nalgebra's rotation:
+    /// `R v = v cos θ + (k × v) sin θ + k (k·v)(1 - cos θ)`.
+    fn rodrigues(rv: [f64; 3], v: Vec3) -> Vec3 {
+        let r = Vec3::from(rv);
+        let th = r.norm();
+        let k = r / th;
+        v * th.cos() + k.cross(&v) * th.sin() + k * (k.dot(&v) * (1.0 - th.cos()))
+    }
+
+    const MIS: [[f64; 3]; 4] = [[0.01, -0.02, 0.005], [-0.03, 0.0, 0.04], [0.0, 0.0, -0.1], [0.12, 0.05, -0.07]];
+
+    #[test]
+    fn misaligned_momentum_is_the_rotated_nominal_and_the_jacobian_is_g_cross_h() {
+        // Truth: Rodrigues' formula applied to the nominal pyramid (eq 6 preset), tol 1e-12.
+        let nom = CmgCluster::pyramid(54.73f64.to_radians(), 0.623, 1.0, None);
+        let mis = nom.clone().misaligned(&MIS);
+        for i in 0..4 {
+            let g = mis.gimbal_axis(i);
+            assert!((g - rodrigues(MIS[i], nom.gimbal_axis(i))).norm() < 1e-12, "unit {i} gimbal axis");
+            for k in 0..73 {
+                let d = -3.3 + 0.091 * k as f64;
+                let h = mis.unit_momentum(i, d);
+                let truth = rodrigues(MIS[i], nom.unit_momentum(i, d));
+                assert!((h - truth).norm() < 1e-12, "unit {i} δ {d}: {h} vs {truth}");
+                let col = mis.jacobian_column(i, d);
+                assert!(col.dot(&g).abs() < 1e-12, "unit {i} δ {d}: column not ⟂ gimbal axis");
+                assert!((col - g.cross(&h)).norm() < 1e-12, "unit {i} δ {d}: column ≠ g × h");
+                assert!((h.norm() - 0.623).abs() < 1e-12);
+            }
+        }
+        // The RK4 hot path agrees with the per-unit functions.
+        let mut d = [0.0; MAX_GIMBALS];
+        let mut r = [0.0; MAX_GIMBALS];
+        d[..4].copy_from_slice(&[0.4, -1.3, 2.2, 0.9]);
+        r[..4].copy_from_slice(&[0.1, 0.7, -0.3, 0.2]);
+        let (h, hd) = mis.momentum_and_rate(&d, &r);
+        assert!((h - mis.momentum(&d)).norm() < 1e-14 && (hd - mis.momentum_rate(&d, &r)).norm() < 1e-14);
+    }
+
+    #[test]
+    fn a_rotation_about_the_gimbal_axis_is_a_gimbal_angle_offset() {
+        // Closed form: rotating the frame by a about g gives h(δ) = h_nom(δ + a), tol 1e-12.
+        let nom = CmgCluster::pyramid(54.73f64.to_radians(), 0.623, 1.0, None);
+        let a = 0.3f64.to_radians();
+        let rv: Vec<[f64; 3]> = (0..4).map(|i| (nom.gimbal_axis(i) * (a * (i as f64 + 1.0))).into()).collect();
+        let mis = nom.clone().misaligned(&rv);
+        for i in 0..4 {
+            let off = a * (i as f64 + 1.0);
+            assert!((mis.gimbal_axis(i) - nom.gimbal_axis(i)).norm() < 1e-12);
+            for k in 0..50 {
+                let d = -3.0 + 0.12 * k as f64;
+                assert!((mis.unit_momentum(i, d) - nom.unit_momentum(i, d + off)).norm() < 1e-12, "unit {i} δ {d}");
+                assert!((mis.jacobian_column(i, d) - nom.jacobian_column(i, d + off)).norm() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn zero_misalignment_leaves_the_cluster_bit_identical() {
+        let nom = CmgCluster::pyramid(54.73f64.to_radians(), 0.623, 1.0, None);
+        assert_eq!(nom.clone().misaligned(&[[0.0; 3]; 4]), nom);
+        assert_eq!(nom.clone().misaligned(&[]), nom);
     }
 
     #[test]

@@ -182,9 +182,32 @@ pub struct CmgSpec {
     /// 1-based CMGs the flight code treats as failed (locked, column removed).
     #[serde(default)]
     pub failed: Vec<usize>,
+    /// Plant only: per unit, a rotation vector in body axes, deg (direction = axis, norm =
+    /// angle, at most [`MAX_GIMBAL_MISALIGNMENT_DEG`]), rotating that unit's gimbal frame
+    /// from the nominal pyramid to the true one (`true = R · nominal`). The flight code
+    /// keeps the nominal geometry. Default zeros.
+    #[serde(default)]
+    pub gimbal_misalignment_deg: [[f64; 3]; 4],
 }
 
+/// Largest accepted gimbal misalignment angle, deg: a misalignment, not another layout.
+pub const MAX_GIMBAL_MISALIGNMENT_DEG: f64 = 10.0;
+
 impl CmgSpec {
+    /// `gimbal_misalignment_deg`, checked (finite, each angle at most
+    /// [`MAX_GIMBAL_MISALIGNMENT_DEG`]), as rotation vectors in rad for the plant.
+    pub fn gimbal_misalignment_rad(&self) -> Result<[[f64; 3]; 4]> {
+        const KEY: &str = "actuators.cmg.gimbal_misalignment_deg";
+        finite(KEY, self.gimbal_misalignment_deg.as_flattened())?;
+        for (i, rv) in self.gimbal_misalignment_deg.iter().enumerate() {
+            let angle = Vec3::from(*rv).norm();
+            if angle > MAX_GIMBAL_MISALIGNMENT_DEG {
+                return Err(bad(KEY, format!("CMG {}: {angle} deg is more than {MAX_GIMBAL_MISALIGNMENT_DEG}", i + 1)));
+            }
+        }
+        Ok(self.gimbal_misalignment_deg.map(|rv| rv.map(f64::to_radians)))
+    }
+
     /// Rotor momentum per unit, N m s.
     pub fn h0(&self) -> f64 {
         self.h0_nms.unwrap_or_else(|| {
@@ -704,6 +727,7 @@ fn cmg_params(cmg: &CmgSpec) -> Result<CmgParams> {
     if cmg.failed.iter().any(|i| *i == 0 || *i > 4) {
         return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
     }
+    cmg.gimbal_misalignment_rad()?;
     let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
     Ok(CmgParams {
         skew_rad: cmg.skew_deg.to_radians() as f32,

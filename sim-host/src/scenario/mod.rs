@@ -23,8 +23,8 @@ mod environment;
 mod modes;
 mod resolved;
 pub use actuators::{
-    Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MagnetorquersSpec, Steering, ThrusterFailureSpec, ThrustersSpec,
-    WheelsSpec,
+    Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
+    ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
@@ -498,7 +498,7 @@ impl Scenario {
 
     /// The plant described by the scenario.
     pub fn spacecraft(&self) -> Result<Spacecraft> {
-        let cmg = self.actuators.cmg.as_ref().map(|c| {
+        let cmg = self.actuators.cmg.as_ref().map(|c| -> Result<CmgCluster> {
             let mut cl = CmgCluster::pyramid(
                 c.skew_deg.to_radians(),
                 c.h0(),
@@ -510,8 +510,10 @@ impl Scenario {
                 gimbal_inertia_kgm2: c.gimbal_inertia_kgm2.unwrap_or(1.0),
                 friction_nm: c.gimbal_friction_nm,
             });
-            cl
+            // Plant only: the flight parameters keep the nominal pyramid.
+            Ok(cl.misaligned(&c.gimbal_misalignment_rad()?))
         });
+        let cmg = cmg.transpose()?;
         let wheels = self.wheel_params()?;
         // The scenario inertia includes the wheels; the body equation uses J = I - Σ I_w a aᵀ.
         let mut j = self.checked_inertia()?;
