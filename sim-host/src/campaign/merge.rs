@@ -115,9 +115,9 @@ pub struct CampaignResult {
 }
 
 impl CampaignResult {
-    /// Whether the campaign passes: every run present and every requirement met.
+    /// Whether the campaign passes: every run present, none in error, every requirement met.
     pub fn passed(&self) -> bool {
-        self.missing.is_empty() && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
+        self.missing.is_empty() && self.errors.is_empty() && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
 
@@ -126,6 +126,17 @@ pub struct MergeOutcome {
     pub files: Vec<PathBuf>,
     /// Total wall time of the completed runs, s (not in campaign.json: it times the host).
     pub run_wall_s: f64,
+}
+
+/// Six significant digits, scientific outside [1e-3, 1e6).
+fn sig(x: f64) -> String {
+    let a = x.abs();
+    if x == 0.0 || (1e-3..1e6).contains(&a) {
+        let decimals = (5 - a.log10().floor().max(-3.0) as i32).clamp(0, 8) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.5e}")
+    }
 }
 
 fn pct(x: f64) -> String {
@@ -198,6 +209,20 @@ fn requirement_result(
     }
 }
 
+/// Order of group rows: numbers by value, arrays by length then element by element (a
+/// failure mask `[2]` before `[1, 3]`), anything else by its JSON text.
+fn value_order(a: &serde_json::Value, b: &serde_json::Value) -> std::cmp::Ordering {
+    use serde_json::Value as V;
+    match (a, b) {
+        (V::Number(x), V::Number(y)) => x.as_f64().unwrap_or(0.0).total_cmp(&y.as_f64().unwrap_or(0.0)),
+        (V::Array(x), V::Array(y)) => x
+            .len()
+            .cmp(&y.len())
+            .then_with(|| x.iter().zip(y).map(|(p, q)| value_order(p, q)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)),
+        _ => a.to_string().cmp(&b.to_string()),
+    }
+}
+
 /// Merges the campaign in `dir`: writes `campaign.json`, `report.md` and (with `plots`)
 /// `plots/*.png`.
 pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
@@ -264,7 +289,9 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
                 }
             }
         }
-        groups.push(Group { key: key.to_owned(), rows: rows.into_values().collect() });
+        let mut rows: Vec<GroupRow> = rows.into_values().collect();
+        rows.sort_by(|a, b| value_order(&a.value, &b.value));
+        groups.push(Group { key: key.to_owned(), rows });
     }
 
     let errors = records
@@ -388,7 +415,8 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
     }
     let _ = writeln!(
         s,
-        "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, {} ended in error.\n",
+        "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
+         {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -419,7 +447,7 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         for q in &r.requirements {
             let _ = writeln!(s, "- {}", q.statement);
             for w in q.worst.iter().take(3) {
-                let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, w.value, w.rerun);
+                let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig(w.value), w.rerun);
             }
         }
         s.push('\n');
@@ -463,16 +491,16 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         }
         let _ = writeln!(
             s,
-            "| {k} | {} | {} | {:.6} | {:.3e} | {:.6} | {:.6} | {:.6} | {:.6} | {:.6} | {} |",
+            "| {k} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.n,
             st.nulls,
-            m.mean,
-            m.sd,
-            m.min,
-            m.p50,
-            m.p95,
-            m.p99,
-            m.max,
+            sig(m.mean),
+            sig(m.sd),
+            sig(m.min),
+            sig(m.p50),
+            sig(m.p95),
+            sig(m.p99),
+            sig(m.max),
             st.worst.first().map_or(String::new(), |w| w.run.to_string())
         );
     }
