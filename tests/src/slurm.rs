@@ -52,7 +52,8 @@ const REQUIRED: [&str; 7] = ["munged", "slurmctld", "slurmd", "sbatch", "scontro
 /// Environment-variable prefixes read by the Slurm clients (e.g. `SQUEUE_FORMAT`,
 /// `SBATCH_PARTITION`, or a `SLURM_JOB_ID` when the tests themselves run inside a Slurm
 /// job). They are removed so the host's settings cannot leak into this cluster.
-const SLURM_ENV_PREFIXES: [&str; 8] = ["SLURM_", "SBATCH_", "SQUEUE_", "SINFO_", "SCONTROL_", "SCANCEL_", "SALLOC_", "SRUN_"];
+const SLURM_ENV_PREFIXES: [&str; 8] =
+    ["SLURM_", "SBATCH_", "SQUEUE_", "SINFO_", "SCONTROL_", "SCANCEL_", "SALLOC_", "SRUN_"];
 
 /// Job states after which Slurm never runs the job again.
 const TERMINAL_STATES: [&str; 10] = [
@@ -206,13 +207,11 @@ fn free_ports() -> Result<(u16, u16)> {
 /// CPUs of this machine as slurmd sees them (`slurmd -C`), else `available_parallelism`.
 /// Declaring more CPUs than slurmd detects would drain the node.
 fn cpu_count(slurmd: &Path) -> u32 {
-    let detected = output_with_timeout(Command::new(slurmd).arg("-C"), Duration::from_secs(10))
-        .ok()
-        .and_then(|o| {
-            String::from_utf8_lossy(&o.stdout)
-                .split_whitespace()
-                .find_map(|t| t.strip_prefix("CPUs=").and_then(|v| v.parse().ok()))
-        });
+    let detected = output_with_timeout(Command::new(slurmd).arg("-C"), Duration::from_secs(10)).ok().and_then(|o| {
+        String::from_utf8_lossy(&o.stdout)
+            .split_whitespace()
+            .find_map(|t| t.strip_prefix("CPUs=").and_then(|v| v.parse().ok()))
+    });
     detected.unwrap_or_else(|| thread::available_parallelism().map_or(1, |n| n.get() as u32))
 }
 
@@ -388,7 +387,10 @@ impl LocalSlurm {
         s.spawn("slurmctld", Command::new(&bins["slurmctld"]).arg("-D").arg("-f").arg(&conf))?;
         s.spawn("slurmd", Command::new(&bins["slurmd"]).arg("-D").arg("-N").arg("localhost").arg("-f").arg(&conf))?;
         s.wait_until("node localhost idle", START_TIMEOUT, |s| {
-            let o = output_with_timeout(s.command("sinfo").args(["-h", "-N", "-n", "localhost", "-o", "%T"]), CLIENT_TIMEOUT)?;
+            let o = output_with_timeout(
+                s.command("sinfo").args(["-h", "-N", "-n", "localhost", "-o", "%T"]),
+                CLIENT_TIMEOUT,
+            )?;
             Ok(o.status.success() && String::from_utf8_lossy(&o.stdout).trim() == "idle")
         })?;
         s.startup = t0.elapsed();
@@ -411,7 +413,12 @@ impl LocalSlurm {
     }
 
     /// Polls `ready` every 100 ms until true; fails early if a daemon exits and after `timeout`.
-    fn wait_until(&mut self, what: &str, timeout: Duration, mut ready: impl FnMut(&Self) -> Result<bool>) -> Result<()> {
+    fn wait_until(
+        &mut self,
+        what: &str,
+        timeout: Duration,
+        mut ready: impl FnMut(&Self) -> Result<bool>,
+    ) -> Result<()> {
         let deadline = Instant::now() + timeout;
         loop {
             let mut exited = None;
@@ -611,17 +618,15 @@ impl Drop for LocalSlurm {
     /// stops slurmd, slurmctld and munged: SIGTERM, up to [`STOP_GRACE`], then SIGKILL.
     fn drop(&mut self) {
         let ctld_up = self.daemons.iter_mut().any(|d| d.name == "slurmctld" && alive(&mut d.child));
-        if ctld_up {
-            if let Ok(user) = current_user() {
-                let _ = output_with_timeout(self.command("scancel").args(["-u", &user]), Duration::from_secs(10));
-                // Give the steps a moment to be signalled before slurmd goes away.
-                let deadline = Instant::now() + STOP_GRACE;
-                while Instant::now() < deadline {
-                    match self.run("squeue", &["-h", "-o", "%i"]) {
-                        Ok(out) if out.trim().is_empty() => break,
-                        Ok(_) => thread::sleep(Duration::from_millis(200)),
-                        Err(_) => break,
-                    }
+        if ctld_up && let Ok(user) = current_user() {
+            let _ = output_with_timeout(self.command("scancel").args(["-u", &user]), Duration::from_secs(10));
+            // Give the steps a moment to be signalled before slurmd goes away.
+            let deadline = Instant::now() + STOP_GRACE;
+            while Instant::now() < deadline {
+                match self.run("squeue", &["-h", "-o", "%i"]) {
+                    Ok(out) if out.trim().is_empty() => break,
+                    Ok(_) => thread::sleep(Duration::from_millis(200)),
+                    Err(_) => break,
                 }
             }
         }

@@ -49,7 +49,14 @@ fn array_then_dependent_merge_on_local_cluster() {
         .unwrap();
     let dep = format!("--dependency=afterany:{array}");
     let merge = slurm
-        .sbatch(&[&dep, &chdir, "--output=slurm-%j.out", "--job-name=merge", "--wrap", "date +%s%N > merge_start; cat task_* > merged"])
+        .sbatch(&[
+            &dep,
+            &chdir,
+            "--output=slurm-%j.out",
+            "--job-name=merge",
+            "--wrap",
+            "date +%s%N > merge_start; cat task_* > merged",
+        ])
         .unwrap();
     eprintln!("submitted array {array} and merge {merge}");
 
@@ -82,7 +89,11 @@ fn array_then_dependent_merge_on_local_cluster() {
     for r in &tasks {
         assert!(m[0].get("StartTime") >= r.get("EndTime"), "{:#?} vs {r:#?}", m[0]);
     }
-    eprintln!("smoke test body took {:?} (total with start-up {:?})", t0.elapsed() - slurm.startup_time(), t0.elapsed());
+    eprintln!(
+        "smoke test body took {:?} (total with start-up {:?})",
+        t0.elapsed() - slurm.startup_time(),
+        t0.elapsed()
+    );
     let t_stop = Instant::now();
     drop(slurm);
     eprintln!("shutdown took {:?}", t_stop.elapsed());
