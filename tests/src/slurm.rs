@@ -282,6 +282,9 @@ SelectTypeParameters=CR_CPU
 # Keep finished jobs in the controller for an hour: without accounting storage,
 # `scontrol show job` is the only way to read a finished job's state and times.
 MinJobAge=3600
+# Run the full scheduling pass every second instead of every 60 s: job completions and
+# satisfied dependencies are then acted on within ~1-2 s (saves ~2 s per wave of jobs).
+SchedulerParameters=sched_interval=1
 # A node that registers with a valid configuration goes back to service.
 ReturnToService=2
 # Short waits: cancelled jobs get SIGKILL 5 s after SIGTERM.

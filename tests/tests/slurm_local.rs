@@ -73,6 +73,17 @@ fn array_then_dependent_merge_on_local_cluster() {
     assert_eq!(m.len(), 1);
     assert_eq!(m[0].state(), "COMPLETED", "{:#?}\n{}", m[0], slurm.diagnostics());
 
+    for r in tasks.iter().chain(&m) {
+        eprintln!(
+            "job {} task {:?}: submit {} start {} end {}",
+            r.get("JobId"),
+            r.array_task_id(),
+            r.get("SubmitTime"),
+            r.get("StartTime"),
+            r.get("EndTime")
+        );
+    }
+
     let merged = fs::read_to_string(work.join("merged")).unwrap();
     let mut lines: Vec<&str> = merged.lines().collect();
     lines.sort_unstable();
@@ -97,4 +108,36 @@ fn array_then_dependent_merge_on_local_cluster() {
     let t_stop = Instant::now();
     drop(slurm);
     eprintln!("shutdown took {:?}", t_stop.elapsed());
+}
+
+/// Dropping the harness (as on a panic) cancels a still-running job and stops every daemon.
+/// Runs in parallel with the test above, so it also checks that two clusters coexist.
+#[test]
+fn drop_kills_running_job_and_daemons() {
+    let tmp = tempfile::tempdir().unwrap();
+    let Some(slurm) = LocalSlurm::start(tmp.path()).unwrap() else { return };
+    let chdir = format!("--chdir={}", tmp.path().display());
+    let job = slurm.sbatch(&[&chdir, "--output=long.out", "--wrap", "echo $$ > long.pid; exec sleep 300"]).unwrap();
+    let pid_file = tmp.path().join("long.pid");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !pid_file.exists() || fs::read_to_string(&pid_file).unwrap().trim().is_empty() {
+        assert!(Instant::now() < deadline, "job {job} did not start\n{}", slurm.diagnostics());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let job_pid: u32 = fs::read_to_string(&pid_file).unwrap().trim().parse().unwrap();
+    assert_eq!(slurm.job_records(job).unwrap()[0].state(), "RUNNING");
+    let daemons = slurm.daemon_pids();
+    let t = Instant::now();
+    drop(slurm);
+    eprintln!("shutdown with a running job took {:?}", t.elapsed());
+    // A process that has exited may linger briefly as a zombie until init reaps it.
+    let gone = |pid: u32| {
+        fs::read_to_string(format!("/proc/{pid}/stat"))
+            .map_or(true, |s| s.rsplit(')').next().is_some_and(|r| r.trim_start().starts_with('Z')))
+    };
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !(gone(job_pid) && daemons.iter().all(|&(_, p)| gone(p))) {
+        assert!(Instant::now() < deadline, "job pid {job_pid} or daemons {daemons:?} still alive after drop");
+        std::thread::sleep(Duration::from_millis(100));
+    }
 }
