@@ -583,12 +583,9 @@ impl LocalSlurm {
     pub fn diagnostics(&self) -> String {
         let mut s = String::new();
         for d in &self.daemons {
-            let _ = writeln!(s, "--- {} (pid {}) log tail:\n{}", d.name, d.child.id(), tail(&d.log, 25));
-            let out = self.dir.join(format!("{}.out", d.name));
-            let o = tail(&out, 10);
-            if !o.trim().is_empty() {
-                let _ = writeln!(s, "--- {} stdout/stderr:\n{o}", d.name);
-            }
+            // In the foreground, munged logs to stderr only; slurmctld/slurmd log to both.
+            let log = if d.log.exists() { d.log.clone() } else { self.dir.join(format!("{}.out", d.name)) };
+            let _ = writeln!(s, "--- {} (pid {}) {}:\n{}", d.name, d.child.id(), log.display(), tail(&log, 25));
         }
         s
     }
