@@ -84,7 +84,7 @@ pub struct LocalSlurm {
     slurmd_port: u16,
     /// Started daemons in start order (munged, slurmctld, slurmd); stopped in reverse.
     daemons: Vec<Daemon>,
-    /// How long `start` took until the node was idle.
+    /// How long `start` took until the node was idle (all attempts).
     startup: Duration,
 }
 
@@ -305,6 +305,7 @@ impl LocalSlurm {
     /// waits until the node is idle. Returns `Ok(None)`, after printing why, when the Slurm
     /// or MUNGE binaries are not installed (`scripts/setup.sh` installs them).
     pub fn start(dir: &Path) -> Result<Option<LocalSlurm>> {
+        let t0 = Instant::now();
         let mut missing = Vec::new();
         let mut bins = BTreeMap::new();
         for name in REQUIRED {
@@ -332,16 +333,22 @@ impl LocalSlurm {
         if dir.join("cluster9/munge.socket.lock").as_os_str().len() > 107 {
             bail!("test directory {dir_str:?} is too long for a Unix socket path");
         }
-        // Retry only when a daemon lost a race for one of the ports we picked.
+        // Each attempt gets its own subdirectory `cluster<N>` (see `dir()`). Retry only when a
+        // daemon lost a race for one of the ports we picked.
         let mut attempt = 0;
         loop {
             attempt += 1;
             let sub = dir.join(format!("cluster{attempt}"));
             fs::create_dir(&sub).with_context(|| format!("creating {}", sub.display()))?;
             match Self::start_in(&sub, &bins) {
-                Ok(s) => return Ok(Some(s)),
+                Ok(mut s) => {
+                    s.startup = t0.elapsed();
+                    return Ok(Some(s));
+                }
                 Err(e) if attempt < 3 && format!("{e:#}").contains("Address already in use") => {
-                    eprintln!("LocalSlurm: port collision, retrying with new ports: {e:#}");
+                    let first = e.to_string();
+                    let first = first.lines().next().unwrap_or("");
+                    eprintln!("LocalSlurm: port collision in {} ({first}), retrying with new ports", sub.display());
                 }
                 Err(e) => return Err(e),
             }
@@ -349,7 +356,6 @@ impl LocalSlurm {
     }
 
     fn start_in(dir: &Path, bins: &BTreeMap<&str, PathBuf>) -> Result<LocalSlurm> {
-        let t0 = Instant::now();
         let user = current_user()?;
         let (ctld_port, slurmd_port) = free_ports()?;
         let mut s = LocalSlurm {
@@ -396,7 +402,6 @@ impl LocalSlurm {
             )?;
             Ok(o.status.success() && String::from_utf8_lossy(&o.stdout).trim() == "idle")
         })?;
-        s.startup = t0.elapsed();
         Ok(s)
     }
 
@@ -527,7 +532,7 @@ impl LocalSlurm {
         }
     }
 
-    /// The directory holding slurm.conf, logs, state and spool.
+    /// The directory holding slurm.conf, logs, state and spool: `<dir given to start>/cluster<N>`.
     pub fn dir(&self) -> &Path {
         &self.dir
     }
@@ -584,7 +589,9 @@ impl LocalSlurm {
         let mut s = String::new();
         for d in &self.daemons {
             // In the foreground, munged logs to stderr only; slurmctld/slurmd log to both.
-            let log = if d.log.exists() { d.log.clone() } else { self.dir.join(format!("{}.out", d.name)) };
+            // A daemon that dies early (e.g. bind failure) may only have written to stderr.
+            let has_log = fs::metadata(&d.log).is_ok_and(|m| m.len() > 0);
+            let log = if has_log { d.log.clone() } else { self.dir.join(format!("{}.out", d.name)) };
             let _ = writeln!(s, "--- {} (pid {}) {}:\n{}", d.name, d.child.id(), log.display(), tail(&log, 25));
         }
         s
