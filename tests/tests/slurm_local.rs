@@ -127,6 +127,12 @@ fn drop_kills_running_job_and_daemons() {
     let job_pid: u32 = fs::read_to_string(&pid_file).unwrap().trim().parse().unwrap();
     assert_eq!(slurm.job_records(job).unwrap()[0].state(), "RUNNING");
     let daemons = slurm.daemon_pids();
+    // The PIDs the harness holds (and signals in Drop) are the ones in the daemons' PID files.
+    for (name, pid) in &daemons {
+        let f = slurm.dir().join(format!("{name}.pid"));
+        let text = fs::read_to_string(&f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        assert_eq!(text.trim(), pid.to_string(), "{}", f.display());
+    }
     let t = Instant::now();
     drop(slurm);
     eprintln!("shutdown with a running job took {:?}", t.elapsed());
