@@ -2,9 +2,15 @@
 //! caller-supplied temporary directory, for integration tests that submit jobs with `sbatch`.
 //!
 //! Written against Debian 12's Slurm 22.05 and MUNGE 0.5.15 (`scripts/setup.sh` installs them).
-//! Nothing outside the directory is read or written: the daemons get `-f <dir>/slurm.conf`
-//! and every path in it (state, spool, logs, PID files, the MUNGE socket and key) points into
-//! the directory; the host's `/etc/slurm` and `/etc/munge` and any system daemons are ignored.
+//! The daemons write nothing outside the directory: they get `-f <dir>/slurm.conf` and every
+//! path in it (state, spool, logs, PID files, the MUNGE socket and key) points into the
+//! directory; the host's `/etc/slurm`, `/etc/munge` and any system Slurm/MUNGE daemons are not
+//! used. Jobs run as the user running the tests, in the working directory given with
+//! `--chdir` (default: the test process's), and inherit its environment.
+//!
+//! Expected noise in the logs, harmless here: `mpi/pmix ... can not load PMIx library`
+//! (Debian builds the PMIx plugins; no MPI is used) and munged's
+//! `Info: Unauthorized credential for client UID=0 GID=0` lines (jobs and RPCs still work).
 //!
 //! ```no_run
 //! # fn main() -> anyhow::Result<()> {
@@ -464,6 +470,7 @@ impl LocalSlurm {
     /// that talks to this cluster: `SLURM_CONF` points to its slurm.conf and the caller's
     /// `SLURM_*`/`SBATCH_*`/`SQUEUE_*`... variables are removed. Jobs inherit the submitting
     /// environment (sbatch's default `--export=ALL`) and working directory unless told otherwise.
+    /// The command has no timeout of its own: run it with [`output_with_timeout`].
     pub fn command(&self, program: &str) -> Command {
         let mut cmd = Command::new(find_program(program).unwrap_or_else(|| PathBuf::from(program)));
         self.clean_env(&mut cmd);
