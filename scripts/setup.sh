@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need on a fresh Debian/Ubuntu machine:
-# the Cortex-M4F Rust target and QEMU (for processor-in-the-loop). Idempotent.
+# the Cortex-M4F Rust target, QEMU (for processor-in-the-loop) and a single-node Slurm
+# with munge (for the campaign tests). Idempotent.
 set -euo pipefail
 
 if command -v rustup >/dev/null 2>&1; then
@@ -11,14 +12,36 @@ else
   echo "setup: rustup not found; install the thumbv7em-none-eabihf target for your toolchain by hand" >&2
 fi
 
-if ! command -v qemu-system-arm >/dev/null 2>&1; then
-  SUDO=""
-  [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null 2>&1 && SUDO="sudo"
-  if command -v apt-get >/dev/null 2>&1; then
-    $SUDO apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq qemu-system-arm >/dev/null
-  else
-    echo "setup: no apt-get; install qemu-system-arm (>= 7.2) yourself" >&2
+SUDO=""
+[ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null 2>&1 && SUDO="sudo"
+APT_UPDATED=""
+# apt_install PKG...: installs with apt-get, running `apt-get update` at most once per run.
+apt_install() {
+  if ! command -v apt-get >/dev/null 2>&1; then
+    return 1
   fi
+  if [ -z "$APT_UPDATED" ]; then
+    $SUDO apt-get update -qq
+    APT_UPDATED=1
+  fi
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "$@" >/dev/null
+}
+
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  apt_install qemu-system-arm || echo "setup: no apt-get; install qemu-system-arm (>= 7.2) yourself" >&2
 fi
 qemu-system-arm --version | head -1
+
+# Single-node Slurm + munge for the local-cluster tests (tests/src/slurm.rs). The Debian
+# packages enable system services; the tests never use those, they start their own daemons
+# under a temporary directory.
+missing=""
+for bin in sbatch slurmctld slurmd munged; do
+  command -v "$bin" >/dev/null 2>&1 || [ -x "/usr/sbin/$bin" ] || missing="$missing $bin"
+done
+if [ -n "$missing" ]; then
+  apt_install slurmctld slurmd slurm-client munge \
+    || echo "setup: no apt-get; install slurmctld slurmd slurm-client munge yourself (missing:$missing); the Slurm tests skip without them" >&2
+fi
+# (sbatch --version needs a slurm.conf; the daemons print the version without one)
+if command -v slurmctld >/dev/null 2>&1; then slurmctld -V; fi
