@@ -242,7 +242,8 @@ fn rotations_act_on_attitudes_matrices_and_rotation_vectors() {
         let norm = |d: &serde_json::Value| {
             d.as_array().unwrap().iter().map(|x| x.as_f64().unwrap().powi(2)).sum::<f64>().sqrt()
         };
-        let arr = |x: &toml::Value| -> Vec<f64> { x.as_array().unwrap().iter().map(|e| e.as_float().unwrap()).collect() };
+        let arr =
+            |x: &toml::Value| -> Vec<f64> { x.as_array().unwrap().iter().map(|e| e.as_float().unwrap()).collect() };
         let q = |x: &toml::Value| {
             let a = arr(x);
             from_xyzw([a[0], a[1], a[2], a[3]])
@@ -393,10 +394,7 @@ fn a_killed_shard_resumes_without_repeating_finished_runs() {
     let out = sim_host().args(["campaign", "run", "--jobs", "2", "-q"]).arg(&dir).output().unwrap();
     assert!(out.status.success());
     let line = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        line.contains(&format!("{} already done, ran {}", before.len(), 200 - before.len())),
-        "{line}"
-    );
+    assert!(line.contains(&format!("{} already done, ran {}", before.len(), 200 - before.len())), "{line}");
     let after = results(&m);
     assert_eq!(after.len(), 200);
     for (i, md) in &before {
@@ -473,7 +471,8 @@ fn the_thruster_failure_campaign_singles_out_the_authority_losing_pairs() {
     assert_eq!(lost.len(), 4, "{lost:?}");
 
     let group = r.groups.iter().find(|g| g.key == "actuators.thrusters.failures").unwrap();
-    let mask = |v: &serde_json::Value| -> Vec<u64> { v.as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect() };
+    let mask =
+        |v: &serde_json::Value| -> Vec<u64> { v.as_array().unwrap().iter().map(|x| x.as_u64().unwrap()).collect() };
     let name = &r.requirements[0].requirement.name;
     let mut failing = Vec::new();
     for row in &group.rows {

@@ -1,7 +1,5 @@
 //! Helpers shared by the integration tests.
 
-pub mod slurm;
-
 use acs_flight::link::{HostMsg, MAX_FRAME, SensorFrame, encode_frame, valid};
 use sim_host::link::FlightLink;
 use sim_host::link::framed::Framed;

@@ -161,11 +161,8 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
     let requirements = manifest.campaign()?.requirements;
     let mine: Vec<&PlannedRun> = manifest.runs.iter().filter(|r| shard.owns(r.index)).collect();
     let pending: Vec<&PlannedRun> = mine.iter().copied().filter(|r| RunRecord::load(dir, r).is_none()).collect();
-    let report = Mutex::new(ShardReport {
-        assigned: mine.len(),
-        skipped: mine.len() - pending.len(),
-        ..ShardReport::default()
-    });
+    let report =
+        Mutex::new(ShardReport { assigned: mine.len(), skipped: mine.len() - pending.len(), ..ShardReport::default() });
     let bar = progress_bar(progress, pending.len());
     let next = AtomicUsize::new(0);
     let failure: Mutex<Option<anyhow::Error>> = Mutex::new(None);

@@ -215,10 +215,9 @@ fn value_order(a: &serde_json::Value, b: &serde_json::Value) -> std::cmp::Orderi
     use serde_json::Value as V;
     match (a, b) {
         (V::Number(x), V::Number(y)) => x.as_f64().unwrap_or(0.0).total_cmp(&y.as_f64().unwrap_or(0.0)),
-        (V::Array(x), V::Array(y)) => x
-            .len()
-            .cmp(&y.len())
-            .then_with(|| x.iter().zip(y).map(|(p, q)| value_order(p, q)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)),
+        (V::Array(x), V::Array(y)) => x.len().cmp(&y.len()).then_with(|| {
+            x.iter().zip(y).map(|(p, q)| value_order(p, q)).find(|o| o.is_ne()).unwrap_or(std::cmp::Ordering::Equal)
+        }),
         _ => a.to_string().cmp(&b.to_string()),
     }
 }
@@ -268,7 +267,11 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     }
 
     let mut groups = Vec::new();
-    for d in campaign.dispersions.iter().filter(|d| matches!(d.dist, Distribution::Choice { .. } | Distribution::KOfN { .. })) {
+    for d in campaign
+        .dispersions
+        .iter()
+        .filter(|d| matches!(d.dist, Distribution::Choice { .. } | Distribution::KOfN { .. }))
+    {
         let key = d.key.as_str();
         let mut rows: BTreeMap<String, GroupRow> = BTreeMap::new();
         for (run, rec, _) in &records {

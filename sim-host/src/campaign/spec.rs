@@ -289,8 +289,9 @@ impl Distribution {
 impl Campaign {
     pub fn load(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let file: CampaignFile =
-            toml::from_str(&text).map_err(|e| anyhow!("{e}")).with_context(|| format!("campaign {}", path.display()))?;
+        let file: CampaignFile = toml::from_str(&text)
+            .map_err(|e| anyhow!("{e}"))
+            .with_context(|| format!("campaign {}", path.display()))?;
         let dir = path.parent().unwrap_or(Path::new("."));
         Self::from_file(file, dir).with_context(|| format!("campaign {}", path.display()))
     }

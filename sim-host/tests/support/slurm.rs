@@ -1,3 +1,4 @@
+#![allow(dead_code)] // a test-support module: each test binary uses part of it
 //! A real single-node Slurm cluster (slurmctld + slurmd + munged) started entirely under a
 //! caller-supplied temporary directory, for integration tests that submit jobs with `sbatch`.
 //!
@@ -14,7 +15,7 @@
 //!
 //! ```no_run
 //! # fn main() -> anyhow::Result<()> {
-//! use acs_tests::slurm::LocalSlurm;
+//! use harness::LocalSlurm; // (in sim-host/tests/support/slurm.rs)
 //! use std::time::Duration;
 //! let dir = std::env::temp_dir().join("example");
 //! let Some(slurm) = LocalSlurm::start(&dir)? else { return Ok(()) }; // not installed: skip
