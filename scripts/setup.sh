@@ -32,7 +32,7 @@ if ! command -v qemu-system-arm >/dev/null 2>&1; then
 fi
 qemu-system-arm --version | head -1
 
-# Single-node Slurm + munge for the local-cluster tests (tests/src/slurm.rs). The Debian
+# Single-node Slurm + munge for the local-cluster tests (sim-host/tests/support/slurm.rs). The Debian
 # packages enable system services; the tests never use those, they start their own daemons
 # under a temporary directory.
 missing=""

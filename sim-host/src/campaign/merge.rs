@@ -20,6 +20,38 @@ use std::path::{Path, PathBuf};
 pub const WALL_CLOCK_KEYS: [&str; 6] =
     ["wall_time_s", "real_time_factor", "mean_step_us", "max_step_us", "allocation_us_per_call", "max_step_ticks"];
 
+/// A completed run: its plan, its record (summary dropped once read) and its summary's
+/// numeric values, in the order of [`Keys`] (a few hundred bytes a run).
+struct Completed<'a> {
+    run: &'a PlannedRun,
+    rec: RunRecord,
+    values: Vec<Option<f64>>,
+}
+
+/// The summary keys the merge keeps (the manifest's, wall-clock keys removed).
+struct Keys {
+    names: Vec<String>,
+    index: BTreeMap<String, usize>,
+}
+
+impl Keys {
+    fn new(summary_keys: &[String]) -> Self {
+        let names: Vec<String> =
+            summary_keys.iter().filter(|k| !WALL_CLOCK_KEYS.contains(&k.as_str())).cloned().collect();
+        let index = names.iter().enumerate().map(|(i, k)| (k.clone(), i)).collect();
+        Self { names, index }
+    }
+
+    fn values_of(&self, summary: &serde_json::Value) -> Vec<Option<f64>> {
+        let flat = flatten(summary);
+        self.names.iter().map(|k| flat.get(k).copied().flatten()).collect()
+    }
+
+    fn get(&self, values: &[Option<f64>], key: &str) -> Option<f64> {
+        self.index.get(key).and_then(|i| values.get(*i).copied().flatten())
+    }
+}
+
 /// Worst runs listed per key.
 const WORST: usize = 5;
 
@@ -143,14 +175,11 @@ fn pct(x: f64) -> String {
     format!("{:.2} %", 100.0 * x)
 }
 
-fn requirement_result(
-    r: &Requirement,
-    records: &[(&PlannedRun, RunRecord, BTreeMap<String, Option<f64>>)],
-) -> RequirementResult {
+fn requirement_result(r: &Requirement, keys: &Keys, records: &[Completed]) -> RequirementResult {
     let mut failed_runs = Vec::new();
     let mut wrong_side: Vec<(u32, f64)> = Vec::new();
-    for (run, rec, values) in records {
-        let v = values.get(&r.key).copied().flatten();
+    for Completed { run, rec, values } in records {
+        let v = keys.get(values, &r.key);
         let pass = rec.status != RunStatus::Error && r.met_by(v);
         if !pass {
             failed_runs.push(run.index);
@@ -227,31 +256,31 @@ fn value_order(a: &serde_json::Value, b: &serde_json::Value) -> std::cmp::Orderi
 pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     let manifest = Manifest::load(dir)?;
     let campaign = manifest.campaign()?;
+    let keys = Keys::new(&manifest.summary_keys);
     let mut records = Vec::new();
     let mut missing = Vec::new();
     for run in &manifest.runs {
         match RunRecord::load(dir, run) {
-            Some(rec) => {
-                let mut values = rec.summary.as_ref().map(flatten).unwrap_or_default();
-                values.retain(|k, _| !WALL_CLOCK_KEYS.contains(&k.as_str()));
-                records.push((run, rec, values));
+            Some(mut rec) => {
+                let values = rec.summary.take().map(|s| keys.values_of(&s)).unwrap_or_default();
+                records.push(Completed { run, rec, values });
             }
             None => missing.push(run.index),
         }
     }
-    let run_wall_s = records.iter().map(|(_, r, _)| r.wall_time_s).sum();
+    let run_wall_s = records.iter().map(|c| c.rec.wall_time_s).sum();
     let requirements: Vec<RequirementResult> =
-        campaign.requirements.iter().map(|r| requirement_result(r, &records)).collect();
+        campaign.requirements.iter().map(|r| requirement_result(r, &keys, &records)).collect();
 
     let mut statistics = BTreeMap::new();
-    for key in manifest.summary_keys.iter().filter(|k| !WALL_CLOCK_KEYS.contains(&k.as_str())) {
+    for key in &keys.names {
         let mut xs = Vec::new();
         let mut nulls = 0;
-        for (run, rec, values) in &records {
+        for Completed { run, rec, values } in &records {
             if rec.status == RunStatus::Error {
                 continue;
             }
-            match values.get(key).copied().flatten() {
+            match keys.get(values, key) {
                 Some(v) => xs.push((run.index, v)),
                 None => nulls += 1,
             }
@@ -274,7 +303,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     {
         let key = d.key.as_str();
         let mut rows: BTreeMap<String, GroupRow> = BTreeMap::new();
-        for (run, rec, _) in &records {
+        for Completed { run, rec, .. } in &records {
             let value = run.draws.get(key).cloned().unwrap_or(serde_json::Value::Null);
             let row = rows.entry(value.to_string()).or_insert_with(|| GroupRow {
                 value: value.clone(),
@@ -299,14 +328,14 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
 
     let errors = records
         .iter()
-        .filter(|(_, r, _)| r.status == RunStatus::Error)
-        .map(|(run, r, _)| ErrorRun {
-            run: run.index,
-            message: r.error.clone().unwrap_or_default(),
-            rerun: rerun_command(run.index),
+        .filter(|c| c.rec.status == RunStatus::Error)
+        .map(|c| ErrorRun {
+            run: c.run.index,
+            message: c.rec.error.clone().unwrap_or_default(),
+            rerun: rerun_command(c.run.index),
         })
         .collect();
-    let count = |s: RunStatus| records.iter().filter(|(_, r, _)| r.status == s).count();
+    let count = |s: RunStatus| records.iter().filter(|c| c.rec.status == s).count();
     let result = CampaignResult {
         campaign: manifest.campaign.name.clone(),
         description: manifest.campaign.description.clone(),
@@ -329,7 +358,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     files.push(json_path);
     let mut figures = Vec::new();
     if with_plots {
-        figures = write_plots(dir, &result, &records)?;
+        figures = write_plots(dir, &result, &keys, &records)?;
         files.extend(figures.iter().cloned());
     }
     let md_path = dir.join("report.md");
@@ -343,23 +372,20 @@ fn file_stem_of(key: &str) -> String {
 }
 
 /// A histogram and the empirical CDF of each requirement's key (and the final error).
-fn write_plots(
-    dir: &Path,
-    result: &CampaignResult,
-    records: &[(&PlannedRun, RunRecord, BTreeMap<String, Option<f64>>)],
-) -> Result<Vec<PathBuf>> {
-    let mut keys: Vec<(String, String)> =
+fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Completed]) -> Result<Vec<PathBuf>> {
+    let mut plotted: Vec<(String, String)> =
         result.requirements.iter().map(|r| (r.requirement.key.clone(), r.requirement.name.clone())).collect();
-    if !keys.iter().any(|k| k.0 == "final_error_deg") {
-        keys.push(("final_error_deg".into(), String::new()));
+    if !plotted.iter().any(|k| k.0 == "final_error_deg") {
+        plotted.push(("final_error_deg".into(), String::new()));
     }
-    keys.dedup_by(|a, b| a.0 == b.0);
+    let mut seen = std::collections::BTreeSet::new();
+    plotted.retain(|k| seen.insert(k.0.clone()));
     let out = dir.join("plots");
     std::fs::create_dir_all(&out)?;
     let mut files = Vec::new();
-    for (key, req) in keys {
+    for (key, req) in plotted {
         let mut xs: Vec<f64> =
-            records.iter().filter_map(|(_, _, v)| v.get(&key).copied().flatten()).filter(|x| x.is_finite()).collect();
+            records.iter().filter_map(|c| keys.get(&c.values, &key)).filter(|x| x.is_finite()).collect();
         if xs.is_empty() {
             continue;
         }

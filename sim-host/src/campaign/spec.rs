@@ -329,7 +329,7 @@ impl Campaign {
             }
             let probability = r.probability.unwrap_or(1.0);
             let confidence = r.confidence.unwrap_or(0.95);
-            if !(probability > 0.0 && probability <= 1.0) || !(confidence > 0.0 && confidence < 1.0) {
+            if !(probability > 0.0 && probability <= 1.0 && confidence > 0.0 && confidence < 1.0) {
                 return Err(anyhow!("probability in (0, 1], confidence in (0, 1)")).with_context(ctx);
             }
             KeyPath::parse(&r.key).with_context(ctx)?;
