@@ -22,24 +22,21 @@ impl KeyPath {
     pub fn parse(text: &str) -> Result<Self> {
         let mut segments = Vec::new();
         for part in text.split('.') {
-            let (name, mut rest) = part.split_once('[').map_or((part, ""), |(n, r)| (n, r));
+            let (name, mut rest) = part.find('[').map_or((part, ""), |i| (&part[..i], &part[i..]));
             let valid = |c: char| c.is_ascii_alphanumeric() || c == '_' || c == '-';
             if name.is_empty() || !name.chars().all(valid) {
                 bail!("key path `{text}`: `{part}` is not a table key (letters, digits, `_`, `-`)");
             }
             segments.push(Segment::Key(name.to_owned()));
-            // `rest` holds what followed the first `[`: `2]`, `2][1]`, ...
+            // `rest` is empty or a run of `[i]`: `[2]`, `[2][1]`, ...
             while !rest.is_empty() {
+                let inner = rest.strip_prefix('[').ok_or_else(|| anyhow!("key path `{text}`: unexpected `{rest}`"))?;
                 let (index, tail) =
-                    rest.split_once(']').ok_or_else(|| anyhow!("key path `{text}`: unclosed `[` in `{part}`"))?;
+                    inner.split_once(']').ok_or_else(|| anyhow!("key path `{text}`: unclosed `[` in `{part}`"))?;
                 let i: usize =
                     index.parse().map_err(|_| anyhow!("key path `{text}`: `[{index}]` is not an array index"))?;
                 segments.push(Segment::Index(i));
-                rest = match tail.strip_prefix('[') {
-                    Some(t) => t,
-                    None if tail.is_empty() => "",
-                    None => bail!("key path `{text}`: unexpected `{tail}` after `]`"),
-                };
+                rest = tail;
             }
         }
         Ok(Self { text: text.to_owned(), segments })
