@@ -155,7 +155,10 @@ pub struct ShardReport {
     pub errors: usize,
 }
 
-/// Runs the pending runs of `shard` on `jobs` threads.
+/// Most threads one `campaign run` starts.
+pub const MAX_JOBS: usize = 256;
+
+/// Runs the pending runs of `shard` on `jobs` threads (at most [`MAX_JOBS`]).
 pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Result<ShardReport> {
     let manifest = Manifest::load(dir)?;
     let requirements = manifest.campaign()?.requirements;
@@ -166,7 +169,9 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
     let bar = progress_bar(progress, pending.len());
     let next = AtomicUsize::new(0);
     let failure: Mutex<Option<anyhow::Error>> = Mutex::new(None);
-    let jobs = jobs.clamp(1, pending.len().max(1));
+    // At most one thread per pending run, and no more than MAX_JOBS (a typo such as
+    // `--jobs 100000` must not spawn a hundred thousand threads).
+    let jobs = jobs.clamp(1, pending.len().clamp(1, MAX_JOBS));
     std::thread::scope(|s| {
         for _ in 0..jobs {
             s.spawn(|| {
