@@ -50,7 +50,10 @@ qemu_cmd() {
     local clock=(-icount shift=0,align=off,sleep=off)
     # Real-time mode paces steps by the guest clock, which must follow the host clock:
     # no instruction counting (the cost counter then measures emulated wall time).
-    [[ "${2:-}" == "--realtime" ]] && clock=()
+    # The semihosting argument `realtime` tells the firmware (QEMU offers no other way):
+    # only then does it keep the CMSDK watchdog for real-time mode (docs/firmware.md).
+    local semi=enable=on,target=native,chardev=semi
+    [[ "${2:-}" == "--realtime" ]] && clock=() && semi="$semi,arg=acs-firmware,arg=realtime"
     # -nographic: no display; -monitor none: stdio is not taken by the monitor.
     # UART0 (serial0) → TCP server, QEMU waits for the host to connect (wait=on).
     # Semihosting console → chardev on stdio → defmt frames on stdout.
@@ -61,7 +64,7 @@ qemu_cmd() {
         -serial "tcp:127.0.0.1:${port},server=on,wait=on,nodelay=on"
         "${clock[@]}"
         -chardev stdio,id=semi
-        -semihosting-config enable=on,target=native,chardev=semi
+        -semihosting-config "$semi"
         -kernel "$QEMU_ELF")
 }
 

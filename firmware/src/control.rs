@@ -9,13 +9,65 @@
 //!    `status::HOLD` (zero gimbal rates) without stepping;
 //! 3. sends exactly one `Step` report;
 //! 4. counts a deadline miss for every period boundary that passed before the step and
-//!    its report were done, and then skips the missed periods (no catch-up burst).
+//!    its report were done, and then skips the missed periods (no catch-up burst);
+//! 5. feeds the independent watchdog only if that cycle met its deadline.
+//!
+//! Watchdog: armed here, at `StartRealTime`, and never in lockstep. In lockstep the host
+//! paces the steps (an idle flight computer waiting for a frame is correct, not hung),
+//! and on QEMU a running watchdog would make an idle `-icount …,sleep=off` guest warp its
+//! clock (see board/qemu.rs). In real-time mode the flight computer commands the
+//! actuators on its own clock, so a hang would freeze the last command: there the
+//! watchdog resets the board after `WATCHDOG_TIMEOUT_US` without an in-time cycle, and it
+//! comes back unconfigured in lockstep (safe command) and reports the cause in `HelloAck`.
+//! With periods longer than `FEED_SLICE` the task also feeds while it waits for the next
+//! release, as long as the last cycle was on time (a hung step still starves it).
 
 use acs_flight::link::{status, FswMsg, SensorFrame};
 use acs_flight::Fsw;
-use embassy_time::{Duration, Instant, Ticker};
+use embassy_futures::select::{select, Either};
+use embassy_time::{Duration, Instant, Ticker, Timer};
 
+use crate::board::{self, Watchdog};
 use crate::state::{self, SharedSession, SharedTx};
+
+/// Longest wait between two feeds while the loop idles on time (see module docs).
+const FEED_SLICE: Duration = Duration::from_millis(200);
+// Feeding every slice keeps a healthy loop well inside the timeout.
+const _: () = assert!(FEED_SLICE.as_micros() * 2 < board::WATCHDOG_TIMEOUT_US as u64);
+
+/// Wait for the next release; with periods longer than `FEED_SLICE` feed the watchdog
+/// every slice meanwhile if the previous cycle was on time.
+async fn next_release(ticker: &mut Ticker, period: Duration, wdg: &mut Watchdog, on_time: bool) {
+    if period <= FEED_SLICE {
+        ticker.next().await;
+        return;
+    }
+    loop {
+        match select(ticker.next(), Timer::after(FEED_SLICE)).await {
+            Either::First(()) => return,
+            Either::Second(()) => {
+                if on_time {
+                    wdg.feed();
+                }
+            }
+        }
+    }
+}
+
+/// Before real-time mode: wait for `StartRealTime`, keeping the watchdog's free-running
+/// counter (QEMU real-time boots) from expiring twice meanwhile.
+async fn wait_for_real_time(wdg: &mut Watchdog) {
+    let Some(every) = wdg.keep_alive_period_s() else {
+        state::START_REAL_TIME.wait().await;
+        return;
+    };
+    loop {
+        match select(state::START_REAL_TIME.wait(), Timer::after_secs(every)).await {
+            Either::First(()) => return,
+            Either::Second(()) => wdg.keep_alive(),
+        }
+    }
+}
 
 /// Control period for a validated rate (0.01 … 10 000 Hz), rounded to whole µs ticks.
 fn period_of(rate_hz: f32) -> Duration {
@@ -39,8 +91,14 @@ fn periods_elapsed(release: Instant, now: Instant, period: Duration) -> u64 {
 }
 
 #[embassy_executor::task]
-pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx) {
-    state::START_REAL_TIME.wait().await;
+pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx, mut wdg: Watchdog) {
+    wait_for_real_time(&mut wdg).await;
+    if wdg.arm(board::WATCHDOG_TIMEOUT_US) {
+        defmt::info!("watchdog armed: reset after {=u32} us without an in-time cycle", board::WATCHDOG_TIMEOUT_US);
+    } else {
+        defmt::warn!("no watchdog: QEMU was started without the `realtime` argument (lockstep boot)");
+    }
+    let mut on_time = true;
 
     let mut last: Option<SensorFrame> = None;
     let mut stale: u32 = 0;
@@ -56,7 +114,7 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
     defmt::info!("control task: {=f32} Hz, period {=u64} us", rate_hz, period.as_micros());
 
     loop {
-        ticker.next().await;
+        next_release(&mut ticker, period, &mut wdg, on_time).await;
 
         if let Some(f) = state::LATEST_FRAME.try_take() {
             last = Some(f);
@@ -69,13 +127,16 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
             let mut s = session.lock().await;
             let (hold_after, new_rate) =
                 s.fsw.params().map_or((1, rate_hz), |p| (u32::from(p.hold_after_missed_frames), p.control_rate_hz));
-            match last {
+            let (cmd, cost, new_rate) = match last {
                 Some(ref f) if stale < hold_after => {
                     let (cmd, cost) = state::measured_step(&mut s.fsw, f);
                     (cmd, cost, new_rate)
                 }
                 _ => (Fsw::safe_command(last.map_or(0, |f| f.seq), status::HOLD), 0, new_rate),
-            }
+            };
+            // Parameters are accepted in real-time mode only while the loop holds.
+            s.set_holding(cmd.status & status::HOLD != 0);
+            (cmd, cost, new_rate)
         };
         let hold_now = cmd.status & status::HOLD != 0;
         if hold_now != holding {
@@ -104,6 +165,11 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
             let mut s = session.lock().await;
             let n = u32::try_from(missed.saturating_sub(missed_in_step)).unwrap_or(u32::MAX);
             s.deadline_misses = s.deadline_misses.saturating_add(n);
+        }
+        // Only a cycle that met its deadline proves the loop alive.
+        on_time = missed == 0;
+        if on_time {
+            wdg.feed();
         }
         if missed > 0 {
             defmt::warn!("deadline missed: {=u64} period(s)", missed);

@@ -49,6 +49,10 @@ async fn handle(msg: &HostMsg, dropped: u32, session: &SharedSession, tx: &Share
                 return;
             }
         }
+        #[cfg(feature = "debug-hang")]
+        if matches!(msg, HostMsg::DebugHang) && s.real_time() {
+            debug_hang();
+        }
         let was_real_time = s.real_time();
         let reply = s.handle(msg, dropped, &mut state::counter);
         if s.real_time() && !was_real_time {
@@ -60,6 +64,18 @@ async fn handle(msg: &HostMsg, dropped: u32, session: &SharedSession, tx: &Share
     log(msg, reply.as_ref());
     if let Some(r) = reply {
         state::send(tx, &r).await;
+    }
+}
+
+/// Test hook (feature `debug-hang`, QEMU test image only): spin forever in the link task
+/// with interrupts enabled, so the executor never runs the control task again and the
+/// watchdog, armed in real-time mode, must reset the board. Honoured only in real-time
+/// mode (where the watchdog runs); otherwise the session answers `Error(DebugDisabled)`.
+#[cfg(feature = "debug-hang")]
+fn debug_hang() -> ! {
+    defmt::warn!("DebugHang: hanging the link task (the watchdog must reset us)");
+    loop {
+        core::hint::spin_loop();
     }
 }
 

@@ -36,8 +36,15 @@ fn main() -> ! {
         board::BOARD_ID,
         board::cost_counter_hz()
     );
-    let (rx, tx) = board::init();
-    let session = Session::new(board::BOARD_ID, board::cost_counter_hz());
+    let board::Board { rx, tx, watchdog, reset_cause } = board::init();
+    // After any reset the flight side starts unconfigured, in lockstep: every sensor frame
+    // gets the safe command (`NOT_CONFIGURED`) until the host uploads parameters again.
+    match reset_cause {
+        acs_flight::link::ResetCause::PowerOn => defmt::info!("reset cause: {}", reset_cause),
+        _ => defmt::warn!("reset cause: {} (safe hold until the host reconfigures)", reset_cause),
+    }
+    let mut session = Session::new(board::BOARD_ID, board::cost_counter_hz());
+    session.set_reset_cause(reset_cause);
     let (Some(session), Some(tx), Some(executor)) =
         (SESSION.try_init(Mutex::new(session)), TX.try_init(Mutex::new(tx)), EXECUTOR.try_init(Executor::new()))
     else {
@@ -52,7 +59,7 @@ fn main() -> ! {
                 board::exit_failure()
             }
         }
-        match control::control_task(session, tx) {
+        match control::control_task(session, tx, watchdog) {
             Ok(t) => spawner.spawn(t),
             Err(e) => {
                 defmt::error!("spawn control task: {}", e);

@@ -5,7 +5,7 @@
 //! - `0x4000_4000` CMSDK APB UART0: RX interrupt = IRQ 0, TX interrupt = IRQ 1. QEMU's
 //!   model has a 1-byte RX buffer and only accepts the next byte from the chardev once
 //!   DATA was read, so input is flow-controlled (never lost), one byte per interrupt.
-//! - `0x4000_8000` CMSDK APB watchdog (stopped at boot, see `stop_watchdog`).
+//! - `0x4000_8000` CMSDK APB watchdog, interrupt wired to NMI (see `Watchdog`).
 //! - `0x4002_8000` FPGA I/O block; `+0x18` COUNTER is a free-running 32-bit counter at the
 //!   25 MHz system clock (PRESCALE = 0 after reset), `+0x14` CLK100HZ a 100 Hz counter.
 //! - SysTick with CLKSOURCE = core runs at 25 MHz.
@@ -31,6 +31,9 @@ use embassy_sync::waitqueue::AtomicWaker;
 use embassy_time_driver::Driver;
 use embassy_time_queue_utils::Queue;
 
+use acs_flight::link::ResetCause;
+
+use super::Board;
 use defmt_semihosting as _;
 
 /// `HelloAck::board`.
@@ -84,17 +87,23 @@ fn measure_counter_per_10ms() -> Option<u32> {
 const WDOG: usize = 0x4000_8000;
 const WDOG_LOAD: usize = WDOG;
 const WDOG_CONTROL: usize = WDOG + 0x08;
+const WDOG_INTCLR: usize = WDOG + 0x0C;
 const WDOG_RIS: usize = WDOG + 0x10;
 const WDOG_LOCK: usize = WDOG + 0xC00;
 const WDOG_UNLOCK: u32 = 0x1ACC_E551;
+const WDOG_INTEN: u32 = 1 << 0;
+const WDOG_RESEN: u32 = 1 << 1;
 
-/// Stop the CMSDK watchdog's counter.
+/// Stop the CMSDK watchdog's counter (lockstep boots only).
 ///
-/// QEMU's model counts down from reset even with CONTROL = 0 (no interrupt, no reset)
+/// QEMU 7.2's model counts down from reset even with CONTROL = 0 (no interrupt, no reset)
 /// and only stops after its second expiry. A running device timer is an "active timer"
 /// to QEMU: with `-icount …,sleep=off` the first idle `WFI` warps virtual time to its
 /// expiries (2 × 2^32 / 25 MHz = 343.6 s). Forcing both expiries now (LOAD = 1) stops it,
-/// so afterwards an idle guest arms no timer at all and virtual time stands still.
+/// so afterwards an idle guest arms no timer at all and virtual time stands still. In
+/// QEMU 7.2 a stopped watchdog cannot be restarted (only a system reset does), and its
+/// latched reset status would reset the board the moment RESEN is set: a lockstep boot
+/// has no watchdog.
 fn stop_watchdog() {
     wr(WDOG_LOCK, WDOG_UNLOCK);
     wr(WDOG_CONTROL, 0);
@@ -105,6 +114,110 @@ fn stop_watchdog() {
     let t1 = cost_counter();
     while cost_counter().wrapping_sub(t1) < 2_500 {}
     wr(WDOG_LOCK, 0);
+}
+
+/// The host started QEMU with a real-time clock (no `-icount`): `scripts/firmware.sh
+/// run-qemu PORT --realtime` and the tests pass the semihosting argument `realtime`.
+/// QEMU gives the guest no other way to tell the two clocks apart.
+fn realtime_clock() -> bool {
+    let mut buf = [core::mem::MaybeUninit::<u8>::uninit(); 256];
+    match semihosting::sys::arm_compat::sys_get_cmdline_uninit(&mut buf) {
+        Ok(cmdline) => cmdline.split(|b| *b == b' ').any(|w| w == b"realtime"),
+        Err(_) => false,
+    }
+}
+
+// Reset-cause word: the last 256 bytes of SSRAM2 are outside every ELF segment
+// (`NOINIT` in memory-mps2-an386.x), so neither QEMU's system reset (which reloads the
+// ELF's segments, zero-filling `.bss`) nor cortex-m-rt's start-up touches them.
+// Power-on: QEMU's RAM starts zeroed.
+unsafe extern "C" {
+    static mut _reset_cause_word: u32;
+}
+
+/// Written by the watchdog NMI just before the reset ("WDOG").
+const RESET_MAGIC_WATCHDOG: u32 = 0x5744_4F47;
+
+fn reset_word_ptr() -> *mut u32 {
+    // Only the address is taken (no access); the symbol is defined by the memory map.
+    core::ptr::addr_of_mut!(_reset_cause_word)
+}
+
+/// Read and clear the recorded reset cause (called once, at boot).
+fn take_reset_cause() -> ResetCause {
+    let p = reset_word_ptr();
+    // SAFETY: a word of RAM reserved for this purpose (see `_reset_cause_word`).
+    let w = unsafe { read_volatile(p) };
+    // SAFETY: as above.
+    unsafe { write_volatile(p, 0) };
+    if w == RESET_MAGIC_WATCHDOG {
+        ResetCause::Watchdog
+    } else {
+        ResetCause::PowerOn
+    }
+}
+
+/// The watchdog's first expiry (no in-time control cycle for `WATCHDOG_TIMEOUT_US`):
+/// record the cause and wait for the second expiry, which resets the board (RESEN). The
+/// NMI preempts everything, so nothing can feed the watchdog any more: the reset is
+/// certain once this runs.
+///
+/// SAFETY (cortex-m-rt requires `unsafe fn` for NMI): it touches only the reset-cause
+/// word, never state shared with preempted code.
+#[exception]
+unsafe fn NonMaskableInt() {
+    // SAFETY: see `_reset_cause_word`.
+    unsafe { write_volatile(reset_word_ptr(), RESET_MAGIC_WATCHDOG) };
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// The independent watchdog (CMSDK APB watchdog, interrupt = NMI, reset = RESEN).
+/// Available only on real-time boots (see `stop_watchdog`).
+pub struct Watchdog {
+    available: bool,
+    armed: bool,
+}
+
+impl Watchdog {
+    /// Before arming, the counter still runs from reset (LOAD = 2^32 − 1, CONTROL = 0);
+    /// it must not expire twice (that latches its reset status for good), so the idle
+    /// control task calls `keep_alive` at least this often.
+    pub fn keep_alive_period_s(&self) -> Option<u64> {
+        (self.available && !self.armed).then_some(60)
+    }
+
+    pub fn keep_alive(&mut self) {
+        if self.available && !self.armed {
+            wr(WDOG_INTCLR, 1);
+        }
+    }
+
+    /// Start it: the first expiry after `timeout_us` without `feed` raises the NMI
+    /// (cause recorded, reset committed), the second one, `timeout_us` later, resets.
+    pub fn arm(&mut self, timeout_us: u32) -> bool {
+        if !self.available {
+            return false;
+        }
+        let ticks = u64::from(timeout_us).saturating_mul(COUNTER_TICKS_PER_US);
+        wr(WDOG_LOCK, WDOG_UNLOCK);
+        wr(WDOG_LOAD, u32::try_from(ticks).unwrap_or(u32::MAX).max(1));
+        wr(WDOG_INTCLR, 1);
+        wr(WDOG_CONTROL, WDOG_INTEN | WDOG_RESEN);
+        wr(WDOG_LOCK, 0);
+        self.armed = true;
+        true
+    }
+
+    /// Restart the count (INTCLR reloads it from LOAD).
+    pub fn feed(&mut self) {
+        if self.armed {
+            wr(WDOG_LOCK, WDOG_UNLOCK);
+            wr(WDOG_INTCLR, 1);
+            wr(WDOG_LOCK, 0);
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -517,10 +630,16 @@ unsafe fn DefaultHandler(irqn: i16) {
 
 // ---------------------------------------------------------------------------------------
 
-/// Board bring-up: UART0 (interrupt-driven RX, polled/interrupt TX) and a check that the
-/// cost counter runs at the expected rate.
-pub fn init() -> (LinkRx, LinkTx) {
-    stop_watchdog();
+/// Board bring-up: reset cause, watchdog, UART0 (interrupt-driven RX, polled/interrupt
+/// TX) and a check that the cost counter runs at the expected rate.
+pub fn init() -> Board {
+    let reset_cause = take_reset_cause();
+    let realtime = realtime_clock();
+    if realtime {
+        defmt::info!("real-time clock (no -icount): watchdog available for real-time mode");
+    } else {
+        stop_watchdog();
+    }
     match measure_counter_per_10ms() {
         Some(t) => defmt::info!("FPGAIO counter: {=u32} ticks per 10 ms (expect {=u32})", t, COST_COUNTER_HZ / 100),
         None => defmt::warn!("FPGAIO CLK100HZ does not advance"),
@@ -535,5 +654,10 @@ pub fn init() -> (LinkRx, LinkTx) {
         NVIC::unmask(Irq::Uart0Rx);
         NVIC::unmask(Irq::Uart0Tx);
     }
-    (LinkRx { _private: () }, LinkTx { _private: () })
+    Board {
+        rx: LinkRx { _private: () },
+        tx: LinkTx { _private: () },
+        watchdog: Watchdog { available: realtime, armed: false },
+        reset_cause,
+    }
 }

@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 9;
+pub const PROTOCOL_VERSION: u16 = 10;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -174,6 +174,28 @@ pub enum LinkError {
     BadTarget,
     /// A mode command without an armed table, or for a mode the table does not have.
     NoSuchMode,
+    /// Parameters (`UploadParams`, `UploadModeParams`, `ArmModes`) sent in real-time mode
+    /// while the loop is stepping: they could change the control rate or law mid-flight.
+    /// Accepted again once the loop is in the safe hold (no fresh sensor frames).
+    RealTimeNotInHold,
+    /// `DebugHang` to a flight side built without the debug hook (every flight build).
+    DebugDisabled,
+}
+
+/// Why the flight computer last started (`HelloAck::reset_cause`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ResetCause {
+    /// Power-on (or brown-out) reset, or a start with no recorded cause (host side).
+    PowerOn,
+    /// The independent watchdog expired (a control cycle did not complete in time).
+    Watchdog,
+    /// Software reset request (`SYSRESETREQ`).
+    Software,
+    /// External reset pin.
+    Pin,
+    /// Low-power management reset, window watchdog or any other recorded cause.
+    Other,
 }
 
 /// Host → flight computer.
@@ -203,6 +225,11 @@ pub enum HostMsg {
     CommandMode(ModeRequest),
     /// Real-time mode only: start pacing steps with the flight computer's own clock.
     StartRealTime,
+    /// Test hook: the flight side stops answering and stops its control loop (a hang) so
+    /// that the watchdog must reset it. Only firmware built with the `debug-hang` feature
+    /// (the QEMU test image, never a flight image) obeys; everything else answers
+    /// `Error(DebugDisabled)`.
+    DebugHang,
 }
 
 /// Flight computer → host.
@@ -217,6 +244,9 @@ pub enum FswMsg {
         cost_counter_hz: u32,
         /// 0 = in-process (host), 1 = QEMU mps2-an386, 2 = STM32F405.
         board: u8,
+        /// Why the flight computer last started (a watchdog reset means it came back up
+        /// in the safe state: unconfigured, lockstep, safe command).
+        reset_cause: ResetCause,
     },
     ParamsAccepted {
         checksum: u32,
@@ -269,7 +299,7 @@ pub fn schema_hash() -> u32 {
 mod tests {
     use super::*;
 
-    /// The typed flags keep the wire bits of protocol version 9 (literal values), and a
+    /// The typed flags keep the wire bits of protocol version 9 (unchanged since) (literal values), and a
     /// frame carrying them encodes to the same bytes as with the literal `u16`s.
     #[test]
     fn typed_flags_keep_the_wire_bits() {

@@ -3,7 +3,7 @@
 //! [`HostMsg`]s and send back what it returns.
 
 use crate::fsw::Fsw;
-use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, StepReport, schema_hash};
+use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, StepReport, schema_hash};
 use crate::params::PARAMS_VERSION;
 
 /// Board identifiers reported in `HelloAck`.
@@ -18,17 +18,46 @@ pub struct Session {
     board: u8,
     cost_counter_hz: u32,
     real_time: bool,
+    /// Real-time mode: the control loop currently sends the safe command (`HOLD`) because
+    /// no fresh sensor frame came (set by the loop; `true` until its first fresh frame).
+    holding: bool,
+    reset_cause: ResetCause,
     pub deadline_misses: u32,
 }
 
 impl Session {
     pub const fn new(board: u8, cost_counter_hz: u32) -> Self {
-        Self { fsw: Fsw::new(), board, cost_counter_hz, real_time: false, deadline_misses: 0 }
+        Self {
+            fsw: Fsw::new(),
+            board,
+            cost_counter_hz,
+            real_time: false,
+            holding: true,
+            reset_cause: ResetCause::PowerOn,
+            deadline_misses: 0,
+        }
+    }
+
+    /// Record why the flight computer started (reported in every `HelloAck`).
+    pub fn set_reset_cause(&mut self, cause: ResetCause) {
+        self.reset_cause = cause;
     }
 
     /// True once the host asked for real-time mode (`StartRealTime`).
     pub fn real_time(&self) -> bool {
         self.real_time
+    }
+
+    /// The real-time loop tells the session whether it is in the safe hold; parameters
+    /// are only accepted in real-time mode while it is.
+    pub fn set_holding(&mut self, holding: bool) {
+        self.holding = holding;
+    }
+
+    /// Parameter changes are refused while the real-time loop is stepping: a new set may
+    /// change the control rate, the law or the actuator family mid-flight.
+    fn params_locked(&self) -> bool {
+        self.real_time && !self.holding
     }
 
     /// Handle one message. `frames_dropped`: the receiver's count, reported in steps;
@@ -46,8 +75,14 @@ impl Session {
                     params_version: PARAMS_VERSION,
                     cost_counter_hz: self.cost_counter_hz,
                     board: self.board,
+                    reset_cause: self.reset_cause,
                 }
             }),
+            HostMsg::UploadParams(_) | HostMsg::UploadModeParams { .. } | HostMsg::ArmModes(_)
+                if self.params_locked() =>
+            {
+                Some(FswMsg::Error(LinkError::RealTimeNotInHold))
+            }
             HostMsg::UploadParams(p) => Some(match self.fsw.configure(p) {
                 Ok(checksum) => FswMsg::ParamsAccepted { checksum },
                 Err(e) => FswMsg::ParamsRejected(e),
@@ -82,6 +117,8 @@ impl Session {
                     Some(FswMsg::Error(LinkError::NotConfigured))
                 }
             }
+            // The hang itself is the firmware's (feature `debug-hang`); shared code never hangs.
+            HostMsg::DebugHang => Some(FswMsg::Error(LinkError::DebugDisabled)),
         }
     }
 
@@ -132,5 +169,73 @@ mod tests {
         assert!(matches!(s.handle(&HostMsg::UploadParams(p), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
         p.control_rate_hz = -1.0;
         assert!(matches!(s.handle(&HostMsg::UploadParams(p), 0, &mut c), Some(FswMsg::ParamsRejected(_))));
+    }
+
+    /// Real-time mode: parameters are refused with a typed reason while the loop steps,
+    /// leave the set in force untouched, and are accepted again in the safe hold.
+    #[test]
+    fn params_are_refused_in_real_time_unless_holding() {
+        let mut s = Session::new(board::HOST, 1000);
+        let mut c = || 0u32;
+        let p = FlightParams::default();
+        let Some(FswMsg::ParamsAccepted { checksum }) = s.handle(&HostMsg::UploadParams(p), 0, &mut c) else {
+            panic!("default parameters refused")
+        };
+        assert_eq!(s.handle(&HostMsg::StartRealTime, 0, &mut c), None);
+        assert!(s.real_time());
+        // The loop starts in the hold (no frame yet): accepted.
+        assert!(matches!(s.handle(&HostMsg::UploadParams(p), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
+        // Stepping: every configuration message is refused, the rate stays.
+        s.set_holding(false);
+        let mut faster = p;
+        faster.control_rate_hz = p.control_rate_hz * 2.0;
+        for msg in [
+            HostMsg::UploadParams(faster),
+            HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: faster },
+            HostMsg::ArmModes(crate::modes::ModeManagerParams {
+                slots: 0b1000,
+                initial: crate::modes::Mode::Hold,
+                detumble_enter_rate_rad_s: 0.1,
+                detumble_exit_rate_rad_s: 0.05,
+                stabilise_exit_error_rad: 0.1,
+                stabilise_exit_rate_rad_s: 0.01,
+                hold_enter_error_rad: 0.01,
+                hold_enter_rate_rad_s: 0.01,
+                hold_exit_error_rad: 0.05,
+                dwell_s: 1.0,
+                trigger_persistence_s: 1.0,
+            }),
+        ] {
+            assert_eq!(s.handle(&msg, 0, &mut c), Some(FswMsg::Error(LinkError::RealTimeNotInHold)), "{msg:?}");
+        }
+        assert_eq!(s.fsw.params().map(|q| q.control_rate_hz), Some(p.control_rate_hz));
+        assert_eq!(s.fsw.params().map(|q| q.checksum().ok()), Some(Some(checksum)));
+        // Other messages still work while stepping.
+        assert!(matches!(
+            s.handle(&HostMsg::SetTarget { target_q_xyzw: [0.0, 0.0, 0.0, 1.0] }, 0, &mut c),
+            Some(FswMsg::Ack)
+        ));
+        // Back in the hold: accepted, the new rate is in force.
+        s.set_holding(true);
+        assert!(matches!(s.handle(&HostMsg::UploadParams(faster), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
+        assert_eq!(s.fsw.params().map(|q| q.control_rate_hz), Some(faster.control_rate_hz));
+        // Lockstep sessions are never locked, whatever the flag says.
+        let mut l = Session::new(board::HOST, 1000);
+        l.set_holding(false);
+        assert!(matches!(l.handle(&HostMsg::UploadParams(faster), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
+    }
+
+    #[test]
+    fn hello_reports_the_reset_cause_and_debug_hang_is_refused() {
+        let mut s = Session::new(board::HOST, 0);
+        let mut c = || 0u32;
+        let hello = HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() };
+        assert!(matches!(s.handle(&hello, 0, &mut c), Some(FswMsg::HelloAck { reset_cause: ResetCause::PowerOn, .. })));
+        s.set_reset_cause(ResetCause::Watchdog);
+        assert!(matches!(
+            s.handle(&hello, 0, &mut c),
+            Some(FswMsg::HelloAck { reset_cause: ResetCause::Watchdog, .. })
+        ));
+        assert_eq!(s.handle(&HostMsg::DebugHang, 0, &mut c), Some(FswMsg::Error(LinkError::DebugDisabled)));
     }
 }

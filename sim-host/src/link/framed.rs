@@ -76,13 +76,22 @@ impl<S: Read + Write> Framed<S> {
 
     /// Next good message; bad frames are counted and skipped.
     pub fn recv(&mut self) -> Result<FswMsg> {
-        let deadline = Instant::now() + REPLY_TIMEOUT;
+        match self.recv_timeout(REPLY_TIMEOUT)? {
+            Some(m) => Ok(m),
+            None => bail!("{}: no reply within {:?}", self.name, REPLY_TIMEOUT),
+        }
+    }
+
+    /// Next good message, or `None` if none came within `timeout` (the stream's read
+    /// timeout, 200 ms for TCP and serial, is the granularity).
+    pub fn recv_timeout(&mut self, timeout: Duration) -> Result<Option<FswMsg>> {
+        let deadline = Instant::now() + timeout;
         loop {
             while self.rx_pos < self.rx_len {
                 let b = self.rx[self.rx_pos];
                 self.rx_pos += 1;
                 if let Some(Ok(m)) = self.acc.push::<FswMsg>(b) {
-                    return Ok(m);
+                    return Ok(Some(m));
                 }
             }
             match self.stream.read(&mut self.rx[..]) {
@@ -93,7 +102,7 @@ impl<S: Read + Write> Framed<S> {
                 }
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted) => {
                     if Instant::now() > deadline {
-                        bail!("{}: no reply within {:?}", self.name, REPLY_TIMEOUT);
+                        return Ok(None);
                     }
                 }
                 Err(e) => return Err(e).context(format!("{}: reading", self.name)),
@@ -112,7 +121,7 @@ impl<S: Read + Write> FlightLink for Framed<S> {
         self.send_raw(&[0])?;
         self.send(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() })?;
         match self.recv()? {
-            FswMsg::HelloAck { protocol_version, schema_hash: h, cost_counter_hz, board, .. } => {
+            FswMsg::HelloAck { protocol_version, schema_hash: h, cost_counter_hz, board, reset_cause, .. } => {
                 if protocol_version != PROTOCOL_VERSION || h != schema_hash() {
                     bail!(
                         "{}: flight protocol {protocol_version}/{h:#x}, host {PROTOCOL_VERSION}/{:#x}",
@@ -122,7 +131,7 @@ impl<S: Read + Write> FlightLink for Framed<S> {
                 }
                 // QEMU (board 1) runs with -icount shift=0: 1 instruction per ns.
                 let ipt = (board == 1 && cost_counter_hz > 0).then(|| 1e9 / cost_counter_hz as f64);
-                let info = LinkInfo { board, cost_counter_hz, instructions_per_tick: ipt };
+                let info = LinkInfo { board, cost_counter_hz, instructions_per_tick: ipt, reset_cause };
                 self.info = Some(info.clone());
                 Ok(info)
             }

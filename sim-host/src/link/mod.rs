@@ -10,7 +10,7 @@ pub mod in_process;
 pub mod qemu;
 pub mod serve;
 
-use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
+use acs_flight::link::{FswMsg, HostMsg, ResetCause, SensorFrame, StepReport};
 use acs_flight::modes::{Mode, ModeManagerParams};
 use acs_flight::params::FlightParams;
 use anyhow::{Result, anyhow, bail};
@@ -32,6 +32,8 @@ pub struct LinkInfo {
     /// Instructions per cost tick when the counter runs in QEMU with `-icount shift=0`
     /// (1 instruction = 1 ns); `None` on real hardware (ticks are cycles there).
     pub instructions_per_tick: Option<f64>,
+    /// Why the flight computer last started (`HelloAck::reset_cause`).
+    pub reset_cause: ResetCause,
 }
 
 pub trait FlightLink {

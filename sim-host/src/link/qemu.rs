@@ -20,33 +20,42 @@ pub fn default_firmware() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/target/thumbv7em-none-eabihf/release/acs-firmware")
 }
 
-/// The QEMU command line for the firmware `elf` with UART0 on loopback `port`.
+/// The guest clock QEMU gives the firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum QemuClock {
+    /// `-icount shift=0,align=off,sleep=off`: 1 instruction = 1 ns, idle time skipped
+    /// (lockstep, reproducible, step costs are instruction counts).
+    #[default]
+    Lockstep,
+    /// No `-icount`: the guest clock follows the host clock (real-time mode,
+    /// `StartRealTime`). The firmware is told through the semihosting argument `realtime`,
+    /// which also makes it keep its watchdog for real-time mode (docs/firmware.md).
+    RealTime,
+}
+
+/// The QEMU command line for the firmware `elf` with UART0 on loopback `port` (lockstep).
 pub fn qemu_args(elf: &Path, port: u16) -> Vec<String> {
-    [
-        "-machine",
-        "mps2-an386",
-        "-cpu",
-        "cortex-m4",
-        "-nographic",
-        "-monitor",
-        "none",
-        "-icount",
-        "shift=0,align=off,sleep=off",
-        // Semihosting (binary defmt frames) to stdout, i.e. the log file.
-        "-chardev",
-        "stdio,id=semi",
-        "-semihosting-config",
-        "enable=on,target=native,chardev=semi",
-    ]
-    .iter()
-    .map(|s| s.to_string())
-    .chain([
+    qemu_args_with(elf, port, QemuClock::Lockstep)
+}
+
+/// The QEMU command line for the firmware `elf` with UART0 on loopback `port`.
+pub fn qemu_args_with(elf: &Path, port: u16, clock: QemuClock) -> Vec<String> {
+    let mut args: Vec<String> =
+        ["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none"].map(String::from).to_vec();
+    let mut semi = "enable=on,target=native,chardev=semi".to_string();
+    match clock {
+        QemuClock::Lockstep => args.extend(["-icount", "shift=0,align=off,sleep=off"].map(String::from)),
+        QemuClock::RealTime => semi.push_str(",arg=acs-firmware,arg=realtime"),
+    }
+    // Semihosting (binary defmt frames) to stdout, i.e. the log file.
+    args.extend(["-chardev".to_string(), "stdio,id=semi".to_string(), "-semihosting-config".to_string(), semi]);
+    args.extend([
         "-serial".to_string(),
         format!("tcp:127.0.0.1:{port},server=on,wait=on,nodelay=on"),
         "-kernel".to_string(),
         elf.display().to_string(),
-    ])
-    .collect()
+    ]);
+    args
 }
 
 pub struct QemuLink {
@@ -57,6 +66,10 @@ pub struct QemuLink {
 
 impl QemuLink {
     pub fn start(firmware: Option<&Path>) -> Result<Self> {
+        Self::start_with(firmware, QemuClock::Lockstep)
+    }
+
+    pub fn start_with(firmware: Option<&Path>, clock: QemuClock) -> Result<Self> {
         let elf = firmware.map(Path::to_path_buf).unwrap_or_else(default_firmware);
         if !elf.exists() {
             bail!(
@@ -68,7 +81,7 @@ impl QemuLink {
         let log = std::env::temp_dir().join(format!("acs-qemu-{}-{port}.log", std::process::id()));
         let out = std::fs::File::create(&log)?;
         let child = Command::new("qemu-system-arm")
-            .args(qemu_args(&elf, port))
+            .args(qemu_args_with(&elf, port, clock))
             .stdin(Stdio::null())
             .stdout(out.try_clone()?)
             .stderr(out)
