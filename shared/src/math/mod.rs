@@ -19,6 +19,7 @@
 //! nalgebra supplies the algebra; its trigonometric helpers are *not* used in flight
 //! code because on the host they would call the platform libm rather than `libm`.
 
+pub mod f32m;
 mod quat;
 pub use quat::*;
 
