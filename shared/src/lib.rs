@@ -47,7 +47,9 @@
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
         clippy::cast_possible_wrap,
-        clippy::arithmetic_side_effects
+        clippy::arithmetic_side_effects,
+        // Tests may use nalgebra's norms, f32::clamp and libm as independent references.
+        clippy::disallowed_methods
     )
 )]
 // No heap in flight code: large enum variants cannot be boxed, and they are all `Copy` data.

@@ -25,6 +25,9 @@
 //!
 //! No function panics; NaN in → NaN out; the behaviour at infinities is stated per function.
 
+// Coefficients are written as published (Cephes); the compiler rounds them to f32.
+#![allow(clippy::excessive_precision)]
+
 use core::f32::consts::{FRAC_PI_2, FRAC_PI_4, LOG2_E, PI};
 
 /// 1.5 · 2^23: adding it to |v| < 2^22 rounds v to the nearest integer (ties to even), and
