@@ -329,6 +329,56 @@ pub fn sqrt(x: f32) -> f32 {
     f32::from_bits(out) * unscale
 }
 
+/// FNV-1a fingerprint of every function of this module over a fixed sweep of `points`
+/// arguments per function (plus special values), for the host-vs-target comparison:
+/// `firmware/examples/f32m_fingerprint.rs` prints it under QEMU and
+/// `tests/tests/f32m_target.rs` compares it with the host's. NaN results are hashed as
+/// one canonical NaN: payloads differ between ISAs (x86 produces a negative quiet NaN for
+/// 0/0, ARM a positive one) and are not part of the contract.
+pub fn sweep_fingerprint(points: u32) -> u64 {
+    let mut h: u64 = 0xCBF2_9CE4_8422_2325;
+    let mut mix = |v: f32| {
+        let b = if v.is_nan() { 0x7FC0_0000 } else { v.to_bits() };
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01B3);
+    };
+    let n = points as f32;
+    for i in 0..points {
+        let u = i as f32 / n; // [0, 1)
+        let x = (u - 0.5) * (32.0 * PI); // sin/cos: [-16π, 16π)
+        mix(sin(x));
+        mix(cos(x));
+        let (s, c) = sin_cos(x * 1024.0); // reduction up to 2^14·π
+        mix(s);
+        mix(c);
+        mix(exp(u * 193.0 - 104.0)); // [-104, 89): underflow to overflow
+        mix(sqrt(f32::from_bits(i.wrapping_mul(0x9E37_79B9)))); // all bit patterns
+        mix(atan2(x, 3.0 - 7.0 * u)); // all quadrants
+        mix(asin(u * 2.2 - 1.1)); // including |x| > 1
+    }
+    let specials = [
+        0.0,
+        -0.0,
+        f32::from_bits(1),
+        f32::MIN_POSITIVE,
+        f32::MAX,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::NAN,
+        1e5,
+        -70_000.0,
+    ];
+    for x in specials {
+        for y in specials {
+            mix(atan2(y, x));
+        }
+        let (s, c) = sin_cos(x);
+        for v in [sin(x), cos(x), s, c, exp(x), exp(-x), sqrt(x), sqrt(-x), asin(x)] {
+            mix(v);
+        }
+    }
+    h
+}
+
 #[cfg(test)]
 mod tests {
     //! Accuracy against an independent reference: std's f64 functions (the host libm,
