@@ -1,8 +1,9 @@
 //! Attitude-control flight software: the algorithms that run on the on-board computer.
 //!
 //! `no_std`, no heap, no panics on any input, f32 throughout (the Cortex-M4F FPU is
-//! single precision). Transcendental math goes through `libm` explicitly so that the
-//! host build and the MCU build produce the same bits.
+//! single precision; no f64 anywhere, soft-double routines would be software on the MCU).
+//! Elementary functions come from [`math::f32m`] (pure f32 operations, so the host build
+//! and the MCU build produce the same bits).
 //!
 //! Architecture:
 //! The module tree is the data path of one step (`Fsw::step`: validate → mode → estimate
