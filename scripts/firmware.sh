@@ -12,6 +12,9 @@
 #   scripts/firmware.sh qemu-cmd PORT [--realtime]
 #                                             print the QEMU command line instead of running it
 #   scripts/firmware.sh size                  flash / RAM use of the built ELFs
+#   scripts/firmware.sh math-fingerprint      build firmware/examples/f32m_fingerprint.rs and
+#                                             run it under QEMU: prints the fingerprint of
+#                                             acs_flight::math::f32m on the Cortex-M4F
 #
 # ACS_FIRMWARE_ELF=path overrides the ELF that run-qemu boots.
 # Builds use CARGO_BUILD_JOBS=1 unless it is set. The QEMU ELF lives in firmware/target/…,
@@ -32,7 +35,7 @@ STM32_ELF="$STM32_TARGET_DIR/$TRIPLE/release/acs-firmware"
 export CARGO_BUILD_JOBS="${CARGO_BUILD_JOBS:-1}"
 
 usage() {
-    sed -n '2,23p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
     exit 2
 }
 
@@ -116,6 +119,13 @@ case "$cmd" in
         else
             exec "${QEMU_ARGS[@]}" </dev/null
         fi
+        ;;
+    math-fingerprint)
+        (cd "$FW" && cargo build --release --quiet --example f32m_fingerprint) >&2
+        # No -icount or serial: a plain run to SYS_EXIT; the timeout only guards a hang.
+        timeout 120 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+            -semihosting-config enable=on,target=native \
+            -kernel "$FW/target/$TRIPLE/release/examples/f32m_fingerprint" </dev/null
         ;;
     size)
         size_of "$QEMU_ELF" "qemu-mps2-an386"

@@ -1,8 +1,9 @@
 //! Attitude-control flight software: the algorithms that run on the on-board computer.
 //!
 //! `no_std`, no heap, no panics on any input, f32 throughout (the Cortex-M4F FPU is
-//! single precision). Transcendental math goes through `libm` explicitly so that the
-//! host build and the MCU build produce the same bits.
+//! single precision; no f64 anywhere, soft-double routines would be software on the MCU).
+//! Elementary functions come from [`math::f32m`] (pure f32 operations, so the host build
+//! and the MCU build produce the same bits).
 //!
 //! Architecture:
 //! The module tree is the data path of one step (`Fsw::step`: validate → mode → estimate
@@ -47,7 +48,9 @@
         clippy::cast_possible_truncation,
         clippy::cast_sign_loss,
         clippy::cast_possible_wrap,
-        clippy::arithmetic_side_effects
+        clippy::arithmetic_side_effects,
+        // Tests may use nalgebra's norms, f32::clamp and libm as independent references.
+        clippy::disallowed_methods
     )
 )]
 // No heap in flight code: large enum variants cannot be boxed, and they are all `Copy` data.

@@ -1,3 +1,5 @@
+// The test compares against nalgebra norms as an independent reference (allowed in tests).
+#![allow(clippy::disallowed_methods)]
 //! Flight Kalman filter on its own (no host design tools): rejection of bad data leaves the
 //! filter untouched, singular innovation, mode switching, limited LQR. The comparisons
 //! against the f64 DARE, Monte Carlo NEES and the LQG loop are in

@@ -16,10 +16,10 @@
 //! The singularity measure `m = det(J₁ J₁ᵀ)` uses the unit-momentum Jacobian
 //! `J₁ = J / h0`, so α and `m` are dimensionless and independent of the rotor size.
 
+use crate::math::f32m::{exp, sin_cos};
 use crate::math::{Mat3, Vec3};
 use crate::params::{AlphaSchedule, CmgParams, SteeringLaw, SteeringParams};
 use crate::types::Status;
-use libm::{cosf, expf, sinf};
 use nalgebra::SMatrix;
 
 pub type Jacobian = SMatrix<f32, 3, 4>;
@@ -73,13 +73,15 @@ pub struct GimbalTrig {
 
 impl GimbalTrig {
     pub fn new(delta_rad: &[f32; 4]) -> Self {
-        Self { s: delta_rad.map(sinf), c: delta_rad.map(cosf) }
+        let sc = delta_rad.map(sin_cos);
+        Self { s: sc.map(|v| v.0), c: sc.map(|v| v.1) }
     }
 }
 
 impl CmgPyramid {
     pub fn new(skew_rad: f32, h0_nms: f32) -> Self {
-        Self { h0_nms, cos_skew: cosf(skew_rad), sin_skew: sinf(skew_rad) }
+        let (sin_skew, cos_skew) = sin_cos(skew_rad);
+        Self { h0_nms, cos_skew, sin_skew }
     }
 
     /// Cluster momentum in body axes, N m s (eq 6).
@@ -136,7 +138,7 @@ impl CmgPyramid {
         let cands = [r(1).cross(&r(2)), r(2).cross(&r(0)), r(0).cross(&r(1))];
         let u =
             cands.iter().fold(Vec3::zeros(), |best, c| if c.norm_squared() > best.norm_squared() { *c } else { best });
-        let n = u.norm();
+        let n = crate::math::norm(&u);
         if !(n > 0.0) || !n.is_finite() {
             return false;
         }
@@ -175,17 +177,21 @@ impl CmgPyramid {
             SteeringLaw::MoorePenrose => (0.0, Mat3::identity()),
             SteeringLaw::SingularityRobust(s) => (alpha_of(s, m), Mat3::identity()),
             SteeringLaw::GeneralizedSr { lambda0, mu, eps0, omega_rad_s } => {
-                let ph = omega_rad_s * time_s;
-                let e1 = eps0 * sinf(ph);
-                let e2 = eps0 * sinf(ph + core::f32::consts::FRAC_PI_2);
-                let e3 = eps0 * sinf(ph + core::f32::consts::PI);
+                // ε_i = ε0 sin(ωt + φ_i), φ = 0, π/2, π: sin, cos, −sin of one phase. Past
+                // the f32 reduction range (|ωt| > 2^16 rad) sin_cos is NaN: the dither
+                // then stops (plain SR weight) rather than poisoning the inverse.
+                let (s, c) = sin_cos(omega_rad_s * time_s);
+                let (s, c) = if s.is_nan() { (0.0, 0.0) } else { (s, c) };
+                let e1 = eps0 * s;
+                let e2 = eps0 * c;
+                let e3 = -(eps0 * s);
                 #[rustfmt::skip]
                 let e = Mat3::new(
                     1.0, e3, e2,
                     e3, 1.0, e1,
                     e2, e1, 1.0,
                 );
-                (lambda0 * expf(-mu * m), e)
+                (lambda0 * exp(-mu * m), e)
             }
         };
         let a = jjt + weight * alpha;
@@ -244,7 +250,7 @@ pub fn alpha_of(s: &AlphaSchedule, m: f32) -> f32 {
                 a_max
             }
         }
-        AlphaSchedule::Exponential { a0, mu } => a0 * expf(-mu * m),
+        AlphaSchedule::Exponential { a0, mu } => a0 * exp(-mu * m),
     }
 }
 

@@ -68,7 +68,8 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
     r.outcome.realised = realised.into();
     r.outcome.shortfall = short.into();
     r.outcome.lambda = crate::allocation::AllocOutcome::fraction_along(&realised, torque_nm);
-    r.outcome.status = if s < 1.0 || r.unrealised != 0 || short.norm() > 1e-3 * libm::sqrtf(tn) {
+    r.outcome.status = if s < 1.0 || r.unrealised != 0 || crate::math::norm(&short) > 1e-3 * crate::math::f32m::sqrt(tn)
+    {
         AllocStatus::Scaled
     } else {
         AllocStatus::Ok

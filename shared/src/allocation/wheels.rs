@@ -125,7 +125,9 @@ fn limit_and_report(
     let tn = torque_nm.norm_squared();
     r.outcome.lambda = crate::allocation::AllocOutcome::fraction_along(&realised, torque_nm);
     r.outcome.status = match status {
-        AllocStatus::Ok if s < 1.0 || short.norm() > 1e-4 * libm::sqrtf(tn) + 1e-9 => AllocStatus::Scaled,
+        AllocStatus::Ok if s < 1.0 || crate::math::norm(&short) > 1e-4 * crate::math::f32m::sqrt(tn) + 1e-9 => {
+            AllocStatus::Scaled
+        }
         other => other,
     };
     r

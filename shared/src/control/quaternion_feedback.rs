@@ -62,7 +62,7 @@ impl QuaternionFeedback {
         let ev_sat = if g.max_slew_rate_rad_s > 0.0 {
             let (tk, td) = (g.k.trace(), g.d.trace());
             let limit = if tk > 0.0 { g.max_slew_rate_rad_s * td / tk } else { f32::INFINITY };
-            let n = ev.norm();
+            let n = crate::math::norm(&ev);
             if n > limit { ev * (limit / n) } else { ev }
         } else {
             ev

@@ -171,7 +171,7 @@ impl<const N: usize, const M: usize, const P: usize> KalmanFilter<N, M, P> {
         if !dg.iter().all(|&d| d.is_finite() && d > 0.0) {
             return Err(KfError::SingularInnovation);
         }
-        let dinv = dg.map(|d| 1.0 / libm::sqrtf(d));
+        let dinv = dg.map(|d| 1.0 / crate::math::f32m::sqrt(d));
         let ds = SMatrix::<f32, P, P>::from_diagonal(&dinv);
         let chol = Cholesky::new(ds * s * ds).ok_or(KfError::SingularInnovation)?;
         let piv = chol.l_dirty().diagonal();

@@ -163,7 +163,7 @@ impl Fsw {
     pub fn set_target(&mut self, q_xyzw: [f32; 4]) -> Result<(), ParamError> {
         let bad = ParamError { field: ParamField::Target, reason: ParamReason::NotUnitQuaternion };
         let q = quat_from_xyzw(q_xyzw);
-        if !q.coords.iter().all(|x| x.is_finite()) || (q.norm() - 1.0).abs() > 1e-3 {
+        if !q.coords.iter().all(|x| x.is_finite()) || (crate::math::norm(&q.coords) - 1.0).abs() > 1e-3 {
             return Err(bad);
         }
         let q = quat_normalized(&q).ok_or(bad)?;

@@ -2,7 +2,7 @@
 
 use super::{Fsw, validate};
 use crate::link::SensorFrame;
-use crate::math::{attitude_error, rotation_angle};
+use crate::math::{attitude_error, norm, rotation_angle};
 use crate::modes::{MODE_COUNT, ModeInputs};
 use crate::types::Valid;
 
@@ -21,7 +21,7 @@ impl Fsw {
         let (error_rad, rel_rate_rad_s) = match validate::check_frame(f, cfg.required | Valid::ATTITUDE) {
             Some(m) => {
                 let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
-                (rotation_angle(&attitude_error(&m.q, &q_cmd)), (m.rate_rad_s - w_cmd).norm())
+                (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
             }
             None => (f32::NAN, f32::NAN),
         };
@@ -29,7 +29,7 @@ impl Fsw {
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
             *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required).is_some());
         }
-        let inputs = ModeInputs { rate_rad_s: w.norm(), rel_rate_rad_s, error_rad, inputs_ok };
+        let inputs = ModeInputs { rate_rad_s: norm(&w), rel_rate_rad_s, error_rad, inputs_ok };
         if let Some((mode, _)) = mgr.update(&inputs) {
             self.active = mode.index();
             self.reset_law_state();

@@ -5,7 +5,7 @@ use crate::allocation::AllocStatus;
 use crate::allocation::family::{Allocation, Commands};
 use crate::control::LawOutput;
 use crate::link::ActuatorCommand;
-use crate::math::Vec3;
+use crate::math::{Vec3, norm};
 use crate::modes::ModeManager;
 use crate::types::Status;
 
@@ -42,7 +42,7 @@ impl<'a> Report<'a> {
         }
         let (realised, demand) = (Vec3::from(alloc.realised), alloc.demand_nm);
         // Relative test: cubesat torques are ~1e-7 N m, so no absolute floor above round-off.
-        if (realised - demand).norm() > 0.01 * demand.norm() + 1e-12 {
+        if norm(&(realised - demand)) > 0.01 * norm(&demand) + 1e-12 {
             status |= Status::TORQUE_SHORTFALL;
         }
         Self { out, alloc, status, law_telemetry }

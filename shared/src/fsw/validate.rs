@@ -33,7 +33,7 @@ pub fn rate(f: &SensorFrame) -> Option<Vec3> {
 
 fn unit_quat(q: [f32; 4]) -> Option<Quat> {
     let q = quat_from_xyzw(q);
-    let n = q.norm();
+    let n = crate::math::norm(&q.coords);
     if !n.is_finite() || !(0.9..=1.1).contains(&n) {
         return None;
     }

@@ -16,15 +16,28 @@
 //! i.e. yaw first, about the reference z axis. Sequence 1-2-3 (paper 003):
 //! `q = q_x(φ) ⊗ q_y(θ) ⊗ q_z(ψ)`.
 //!
-//! nalgebra supplies the algebra; its trigonometric helpers are *not* used in flight
-//! code because on the host they would call the platform libm rather than `libm`.
+//! nalgebra supplies the algebra; its trigonometric and norm helpers are *not* used in
+//! flight code: elementary functions come from [`f32m`] (pure f32, same bits on host and
+//! target), norms from [`norm`]. `shared/clippy.toml` disallows the alternatives.
 
+pub mod f32m;
 mod quat;
 pub use quat::*;
 
 pub type Vec3 = nalgebra::Vector3<f32>;
 pub type Mat3 = nalgebra::Matrix3<f32>;
 pub type Quat = nalgebra::Quaternion<f32>;
+
+/// Euclidean norm through [`f32m::sqrt`]. Bit-identical to nalgebra's `norm()` (the same
+/// `norm_squared()` then a correctly rounded square root) but without its route through
+/// `simba`/`libm::sqrtf` (integer software) on the target. Works for vectors and, via
+/// `q.coords`, quaternions.
+#[inline]
+pub fn norm<R: nalgebra::Dim, C: nalgebra::Dim, S: nalgebra::Storage<f32, R, C>>(
+    v: &nalgebra::Matrix<f32, R, C, S>,
+) -> f32 {
+    f32m::sqrt(v.norm_squared())
+}
 
 /// True when every component is finite (not NaN, not ±inf).
 #[inline]

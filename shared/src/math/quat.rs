@@ -1,5 +1,5 @@
+use super::f32m::{asin, atan2, sin_cos, sqrt};
 use super::{Quat, Vec3};
-use libm::{atan2f, cosf, sinf, sqrtf};
 
 /// Build a quaternion from scalar-last storage `[x, y, z, w]`.
 #[inline]
@@ -21,7 +21,7 @@ pub fn quat_normalized(q: &Quat) -> Option<Quat> {
     if !n2.is_finite() || n2 < 1e-12 {
         return None;
     }
-    let n = sqrtf(n2);
+    let n = sqrt(n2);
     Some(Quat::from(q.coords / n))
 }
 
@@ -51,7 +51,7 @@ pub fn rotate_ref_to_body(q: &Quat, v_i: &Vec3) -> Vec3 {
 /// Elementary rotation about a body axis (0 = x, 1 = y, 2 = z) by `angle_rad`.
 #[inline]
 fn axis_quat(axis: usize, angle_rad: f32) -> Quat {
-    let (s, c) = (sinf(0.5 * angle_rad), cosf(0.5 * angle_rad));
+    let (s, c) = sin_cos(0.5 * angle_rad);
     match axis {
         0 => Quat::new(c, s, 0.0, 0.0),
         1 => Quat::new(c, 0.0, s, 0.0),
@@ -84,18 +84,18 @@ pub fn euler_from_quat(q: &Quat, seq: EulerSeq) -> [f32; 3] {
     let (x, y, z, w) = (q.i, q.j, q.k, q.w);
     match seq {
         EulerSeq::Zyx321 => {
-            let roll = atan2f(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
+            let roll = atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y));
             let sp = super::clamp_abs(2.0 * (w * y - z * x), 1.0);
-            let pitch = libm::asinf(sp);
-            let yaw = atan2f(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
+            let pitch = asin(sp);
+            let yaw = atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z));
             [roll, pitch, yaw]
         }
         EulerSeq::Xyz123 => {
             // R = Rx(φ) Ry(θ) Rz(ψ): R[0][2] = sin θ.
-            let roll = atan2f(2.0 * (w * x - y * z), 1.0 - 2.0 * (x * x + y * y));
+            let roll = atan2(2.0 * (w * x - y * z), 1.0 - 2.0 * (x * x + y * y));
             let sp = super::clamp_abs(2.0 * (x * z + w * y), 1.0);
-            let pitch = libm::asinf(sp);
-            let yaw = atan2f(2.0 * (w * z - x * y), 1.0 - 2.0 * (y * y + z * z));
+            let pitch = asin(sp);
+            let yaw = atan2(2.0 * (w * z - x * y), 1.0 - 2.0 * (y * y + z * z));
             [roll, pitch, yaw]
         }
     }
@@ -103,8 +103,8 @@ pub fn euler_from_quat(q: &Quat, seq: EulerSeq) -> [f32; 3] {
 
 /// Principal rotation angle of a quaternion in radians, in `[0, π]`.
 pub fn rotation_angle(q: &Quat) -> f32 {
-    let v = q.imag().norm();
-    2.0 * atan2f(v, libm::fabsf(q.w))
+    let v = super::norm(&q.imag());
+    2.0 * atan2(v, libm::fabsf(q.w))
 }
 
 #[cfg(test)]

@@ -206,7 +206,7 @@ impl WheelParams {
         }
         for a in self.axes.iter().take(n) {
             check_finite(F::WheelAxis, a)?;
-            let norm = libm::sqrtf(a.iter().map(|x| x * x).sum());
+            let norm = crate::math::f32m::sqrt(a.iter().map(|x| x * x).sum());
             if (norm - 1.0).abs() > 1e-3 {
                 return Err(err(F::WheelAxis, R::OutOfRange));
             }

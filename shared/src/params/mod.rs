@@ -243,7 +243,7 @@ impl FlightParams {
             ActuatorParams::Thrusters(t) => t.validate()?,
         }
         check_finite(F::Target, &self.target_q_xyzw)?;
-        let n = quat_from_xyzw(self.target_q_xyzw).norm();
+        let n = crate::math::norm(&quat_from_xyzw(self.target_q_xyzw).coords);
         if (n - 1.0).abs() > 1e-3 {
             return Err(err(F::Target, R::NotUnitQuaternion));
         }
