@@ -1,7 +1,7 @@
 //! Real-time mode: the control task paces steps with the flight computer's own clock.
 //!
 //! Started by `StartRealTime` (see `link.rs`). Every control period (`1 / control_rate_hz`,
-//! an `embassy_time::Ticker`) it:
+//! an `embassy_time::Timer` at the next release time) it:
 //! 1. takes the newest sensor frame if one arrived since the last period (fresh), else
 //!    counts a missed frame and reuses the previous one;
 //! 2. steps the flight software on it — or, after `hold_after_missed_frames` periods
@@ -13,7 +13,7 @@
 
 use acs_flight::link::{status, FswMsg, SensorFrame};
 use acs_flight::Fsw;
-use embassy_time::{Duration, Instant, Ticker};
+use embassy_time::{Duration, Instant, Timer};
 
 use crate::state::{self, SharedSession, SharedTx};
 
@@ -48,15 +48,13 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
 
     let mut rate_hz = session.lock().await.fsw.params().map_or(100.0, |p| p.control_rate_hz);
     let mut period = period_of(rate_hz);
-    let mut ticker = Ticker::every(period);
-    // Nominal release time of the period the next tick starts.
-    let mut release = Instant::now();
-    ticker.reset_at(release);
-    release = advance(release, period);
+    // Nominal release time of the period the next tick starts. Not `embassy_time::Ticker`:
+    // its `Instant + Duration` panics on overflow (tools/elf-check), `advance` saturates.
+    let mut release = advance(Instant::now(), period);
     defmt::info!("control task: {=f32} Hz, period {=u64} us", rate_hz, period.as_micros());
 
     loop {
-        ticker.next().await;
+        Timer::at(release).await;
 
         if let Some(f) = state::LATEST_FRAME.try_take() {
             last = Some(f);
@@ -108,19 +106,15 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         if missed > 0 {
             defmt::warn!("deadline missed: {=u64} period(s)", missed);
             let skip = Duration::from_ticks(period.as_ticks().saturating_mul(missed));
-            release = advance(release, skip);
             // Next tick at the first boundary still ahead of us.
-            ticker.reset_at(release);
+            release = advance(release, skip);
         }
         release = advance(release, period);
 
         if new_rate.to_bits() != rate_hz.to_bits() {
             rate_hz = new_rate;
             period = period_of(rate_hz);
-            ticker = Ticker::every(period);
-            release = Instant::now();
-            ticker.reset_at(release);
-            release = advance(release, period);
+            release = advance(Instant::now(), period);
             defmt::info!("control rate now {=f32} Hz", rate_hz);
         }
     }

@@ -333,16 +333,23 @@ impl Analysis {
             for (k, i) in code.iter().enumerate() {
                 let (Flow::Call(t) | Flow::Branch(t)) = flow(i) else { continue };
                 let Some(c) = p.func_at(t).filter(|&c| c != f && is_panic(&p.funcs[c])) else { continue };
-                // Start of the straight-line block ending at the call.
+                // The basic block ending at the call: it starts after the previous branch
+                // (or return, trap, call that never returns). Its entries are the branches
+                // into it and, if that previous instruction is a conditional branch, its
+                // fall-through: those instructions carry the source of the check.
                 let mut start = i.addr;
+                let mut gate = None;
                 for j in code[..k].iter().rev() {
-                    // Control cannot fall through: unconditional branch, return, indirect
-                    // jump, trap, or a call that never returns (the panic family).
                     let m = j.mnemonic.as_str();
                     let ends_block = match flow(j) {
                         Flow::Call(t) => p.func_at(t).is_some_and(|c| is_panic(&p.funcs[c])),
                         Flow::Indirect => !m.starts_with("blx"),
-                        Flow::Branch(_) => m.trim_end_matches(".w") == "b",
+                        Flow::Branch(_) => {
+                            if m.trim_end_matches(".w") != "b" {
+                                gate = Some(j.addr);
+                            }
+                            true
+                        }
                         Flow::None => {
                             (m.starts_with("pop") && j.operands.contains("pc"))
                                 || m == "bx"
@@ -356,6 +363,7 @@ impl Analysis {
                     start = j.addr;
                 }
                 let mut keys = vec![i.addr];
+                keys.extend(gate);
                 for j in code {
                     if let Flow::Branch(t) = flow(j) {
                         if (start..=i.addr).contains(&t) && j.addr != i.addr {
