@@ -191,9 +191,11 @@ impl Program {
         }
         // Data sections: `llvm-objdump -s` rows ` addr w0 w1 w2 w3  ascii`, bytes in memory order.
         let mut section = String::new();
+        let mut section_start: Option<u32> = None;
         for line in data_dump.lines() {
             if let Some(rest) = line.strip_prefix("Contents of section ") {
                 section = rest.trim_end_matches(':').to_string();
+                section_start = None;
                 continue;
             }
             if !line.starts_with(' ') {
@@ -201,6 +203,7 @@ impl Program {
             }
             let mut fields = line.split_whitespace();
             let Some(base) = fields.next().and_then(parse_hex) else { continue };
+            let start = *section_start.get_or_insert(base);
             let mut bytes: Vec<u8> = Vec::new();
             for f in fields.take(4) {
                 if f.len() % 2 != 0 || !f.bytes().all(|b| b.is_ascii_hexdigit()) {
@@ -213,7 +216,7 @@ impl Program {
             for (k, w) in bytes.chunks_exact(4).enumerate() {
                 let v = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
                 if section == ".vector_table" {
-                    let index = (base - base % 4) / 4 + k as u32;
+                    let index = (base - start) / 4 + k as u32;
                     if index == 0 {
                         p.initial_sp = v;
                     } else if v != 0 {
