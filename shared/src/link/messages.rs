@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 9;
+pub const PROTOCOL_VERSION: u16 = 10;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -217,6 +217,10 @@ pub enum FswMsg {
         cost_counter_hz: u32,
         /// 0 = in-process (host), 1 = QEMU mps2-an386, 2 = STM32F405.
         board: u8,
+        /// Deepest stack use since boot, bytes below the initial stack pointer, measured
+        /// when this reply is built (painted-stack scan, see docs/elf-check.md); 0 = not
+        /// measured (host). Protocol 10.
+        stack_hwm_bytes: u32,
     },
     ParamsAccepted {
         checksum: u32,

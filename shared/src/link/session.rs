@@ -19,11 +19,14 @@ pub struct Session {
     cost_counter_hz: u32,
     real_time: bool,
     pub deadline_misses: u32,
+    /// Reported in `HelloAck`: the firmware stores its measured stack high-water mark
+    /// here before handing a `Hello` over (0 = not measured).
+    pub stack_hwm_bytes: u32,
 }
 
 impl Session {
     pub const fn new(board: u8, cost_counter_hz: u32) -> Self {
-        Self { fsw: Fsw::new(), board, cost_counter_hz, real_time: false, deadline_misses: 0 }
+        Self { fsw: Fsw::new(), board, cost_counter_hz, real_time: false, deadline_misses: 0, stack_hwm_bytes: 0 }
     }
 
     /// True once the host asked for real-time mode (`StartRealTime`).
@@ -46,6 +49,7 @@ impl Session {
                     params_version: PARAMS_VERSION,
                     cost_counter_hz: self.cost_counter_hz,
                     board: self.board,
+                    stack_hwm_bytes: self.stack_hwm_bytes,
                 }
             }),
             HostMsg::UploadParams(p) => Some(match self.fsw.configure(p) {

@@ -32,6 +32,9 @@ pub struct LinkInfo {
     /// Instructions per cost tick when the counter runs in QEMU with `-icount shift=0`
     /// (1 instruction = 1 ns); `None` on real hardware (ticks are cycles there).
     pub instructions_per_tick: Option<f64>,
+    /// The flight computer's measured stack high-water mark at this `Hello`, bytes
+    /// (`HelloAck::stack_hwm_bytes`; 0 = not measured).
+    pub stack_hwm_bytes: u32,
 }
 
 pub trait FlightLink {
