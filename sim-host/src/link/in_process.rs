@@ -27,7 +27,12 @@ impl FlightLink for InProcess {
         "in-process".into()
     }
     fn hello(&mut self) -> Result<LinkInfo> {
-        Ok(LinkInfo { board: board::HOST, cost_counter_hz: 1_000_000_000, instructions_per_tick: None, stack_hwm_bytes: 0 })
+        Ok(LinkInfo {
+            board: board::HOST,
+            cost_counter_hz: 1_000_000_000,
+            instructions_per_tick: None,
+            stack_hwm_bytes: 0,
+        })
     }
     fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
         let mut no_counter = || 0u32;

@@ -18,6 +18,8 @@ pub struct Board {
     /// panic check and from the nesting sum (they never return to the code they interrupt).
     pub terminal_handlers: &'static [&'static str],
     pub rules: &'static [IndirectRule],
+    /// Number of embassy task poll functions expected (link and control task).
+    pub tasks: usize,
     /// Panic call sites proved unreachable (see [`Allowed`]).
     pub allowed: &'static [&'static [Allowed]],
     pub recursion: &'static [RecursionBound],
@@ -215,6 +217,7 @@ impl Board {
                 panic_roots: FLIGHT_ROOTS,
                 terminal_handlers: &["HardFault", "DefaultHandler", "acs_firmware::board::qemu::unexpected_irq"],
                 rules: RULES,
+                tasks: 2,
                 allowed: &[ALLOWED],
                 recursion: RECURSION,
             }),
@@ -223,6 +226,7 @@ impl Board {
                 panic_roots: FLIGHT_ROOTS,
                 terminal_handlers: &["HardFault", "DefaultHandler"],
                 rules: RULES,
+                tasks: 2,
                 allowed: &[ALLOWED, ALLOWED_STM32],
                 recursion: RECURSION,
             }),
@@ -363,11 +367,15 @@ impl Analysis {
             panic_roots.extend(found);
         }
         let tasks = p.find("embassy_executor::raw::TaskStorage<F>::poll");
-        if tasks.len() != 2 {
-            errors.push(format!("expected 2 task poll functions (link, control), found {}", tasks.len()));
+        if tasks.len() != board.tasks {
+            errors.push(format!("expected {} task poll functions (link, control), found {}", board.tasks, tasks.len()));
         }
         let terminal: BTreeSet<usize> = board.terminal_handlers.iter().flat_map(|t| p.find(t)).collect();
-        let reset = p.find_exact("Reset");
+        // Thread mode starts at the reset vector (entry 1).
+        let reset: Vec<usize> = p.vectors.iter().filter(|(n, _)| *n == 1).filter_map(|&(_, h)| p.func_at(h)).collect();
+        if reset.is_empty() {
+            errors.push("no reset vector".into());
+        }
         let mut handlers: Vec<(u32, usize)> = Vec::new(); // (exception number, function)
         for &(n, h) in &p.vectors {
             match p.func_at(h) {

@@ -727,4 +727,4 @@ pub const EXCEPTION_FRAME_FP: u32 = 26 * 4 + 4;
 mod tests;
 
 mod firmware;
-pub use firmware::{Analysis, Board};
+pub use firmware::{Analysis, Board, SCHEMA_MAX_DEPTH};
