@@ -328,16 +328,16 @@ impl Analysis {
         // Every direct branch must land in a known function.
         for insns in &p.code {
             for i in insns {
-                if let Flow::Call(t) | Flow::Branch(t) = flow(i) {
-                    if p.func_at(t).is_none() {
-                        errors.push(format!("branch at {:#x} to {t:#x}, outside every function", i.addr));
-                    }
+                if let Flow::Call(t) | Flow::Branch(t) = flow(i)
+                    && p.func_at(t).is_none()
+                {
+                    errors.push(format!("branch at {:#x} to {t:#x}, outside every function", i.addr));
                 }
             }
         }
         // A rule applied to an indirect call must resolve to at least one target.
         for &k in &g.empty_rules {
-            if g.rule_of.iter().any(|r| *r == Some(k)) {
+            if g.rule_of.contains(&Some(k)) {
                 errors.push(format!(
                     "indirect-call rule for {} resolves to no address-taken function",
                     board.rules[k].caller
@@ -438,10 +438,11 @@ impl Analysis {
                 let mut keys = vec![i.addr];
                 keys.extend(gate);
                 for j in code {
-                    if let Flow::Branch(t) = flow(j) {
-                        if (start..=i.addr).contains(&t) && j.addr != i.addr {
-                            keys.push(j.addr);
-                        }
+                    if let Flow::Branch(t) = flow(j)
+                        && (start..=i.addr).contains(&t)
+                        && j.addr != i.addr
+                    {
+                        keys.push(j.addr);
                     }
                 }
                 sites.push((i.addr, f, c, keys));

@@ -155,10 +155,10 @@ impl Program {
         });
         for (addr, name) in zero_sized {
             p.symbols.insert(name.clone(), addr);
-            if let Some(i) = p.func_at(addr) {
-                if p.funcs[i].start == addr {
-                    p.funcs[i].aliases.push(name);
-                }
+            if let Some(i) = p.func_at(addr)
+                && p.funcs[i].start == addr
+            {
+                p.funcs[i].aliases.push(name);
             }
         }
         p.code = vec![Vec::new(); p.funcs.len()];
@@ -241,10 +241,10 @@ impl Program {
                 if m.starts_with("movw") {
                     lo.insert(reg, imm);
                     words.push(imm);
-                } else if m.starts_with("movt") {
-                    if let Some(l) = lo.get(&reg) {
-                        words.push((imm << 16) | (l & 0xffff));
-                    }
+                } else if m.starts_with("movt")
+                    && let Some(l) = lo.get(&reg)
+                {
+                    words.push((imm << 16) | (l & 0xffff));
                 }
             }
         }
@@ -299,23 +299,23 @@ pub fn flow(i: &Insn) -> Flow {
         i.operands.split([' ', ',']).find_map(|t| t.strip_prefix("0x").and_then(|h| u32::from_str_radix(h, 16).ok()))
     };
     let ops = i.operands.as_str();
-    if let Some(c) = m.strip_prefix("blx").or_else(|| m.strip_prefix("bx")) {
-        if is_cond(c) {
-            return if ops == "lr" && m.starts_with("bx") { Flow::None } else { Flow::Indirect };
-        }
+    if let Some(c) = m.strip_prefix("blx").or_else(|| m.strip_prefix("bx"))
+        && is_cond(c)
+    {
+        return if ops == "lr" && m.starts_with("bx") { Flow::None } else { Flow::Indirect };
     }
     if m == "cbz" || m == "cbnz" {
         return target().map_or(Flow::None, Flow::Branch);
     }
-    if let Some(c) = m.strip_prefix("bl") {
-        if c.is_empty() || (c.len() == 2 && CONDS.contains(&c) && c != "lo" && c != "ls" && c != "le" && c != "lt") {
-            return target().map_or(Flow::Indirect, Flow::Call);
-        }
+    if let Some(c) = m.strip_prefix("bl")
+        && (c.is_empty() || (c.len() == 2 && CONDS.contains(&c) && c != "lo" && c != "ls" && c != "le" && c != "lt"))
+    {
+        return target().map_or(Flow::Indirect, Flow::Call);
     }
-    if let Some(c) = m.strip_prefix('b') {
-        if is_cond(c) {
-            return target().map_or(Flow::Indirect, Flow::Branch);
-        }
+    if let Some(c) = m.strip_prefix('b')
+        && is_cond(c)
+    {
+        return target().map_or(Flow::Indirect, Flow::Branch);
     }
     // Writes to pc other than returns.
     let first = ops.split(',').next().unwrap_or("").trim();
@@ -438,11 +438,11 @@ impl Graph {
                     Flow::Call(_) | Flow::Branch(_) | Flow::None => {}
                 }
             }
-            if !indirect[f].is_empty() {
-                if let Some(r) = rules.iter().position(|r| p.funcs[f].matches(r.caller)) {
-                    rule_of[f] = Some(r);
-                    edges[f].extend(targets_of[r].iter().copied());
-                }
+            if !indirect[f].is_empty()
+                && let Some(r) = rules.iter().position(|r| p.funcs[f].matches(r.caller))
+            {
+                rule_of[f] = Some(r);
+                edges[f].extend(targets_of[r].iter().copied());
             }
         }
         let empty_rules = (0..rules.len()).filter(|&r| targets_of[r].is_empty()).collect();
@@ -501,8 +501,9 @@ pub const PANIC_PATTERNS: &[&str] = &[
 pub fn is_panic(f: &Func) -> bool {
     let hit = |n: &str| {
         let n = strip_hash(n);
-        PANIC_PATTERNS.iter().any(|p| n.contains(p))
-            && !(n.starts_with("core::slice::index::") && !n.ends_with("_fail"))
+        // Of `core::slice::index`, only the `*_fail` functions panic.
+        let slice_ok = !n.starts_with("core::slice::index::") || n.ends_with("_fail");
+        slice_ok && PANIC_PATTERNS.iter().any(|p| n.contains(p))
     };
     hit(&f.name) || f.aliases.iter().any(|a| hit(a))
 }
