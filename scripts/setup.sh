@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what the build and the tests need on a fresh Debian/Ubuntu machine:
 # the Cortex-M4F Rust target, QEMU (for processor-in-the-loop) and a single-node Slurm
-# with munge (for the campaign tests). Idempotent.
+# with munge (for the campaign tests) and the LLVM binutils (for tools/elf-check). Idempotent.
 set -euo pipefail
 
 if command -v rustup >/dev/null 2>&1; then
@@ -31,6 +31,11 @@ if ! command -v qemu-system-arm >/dev/null 2>&1; then
   apt_install qemu-system-arm || echo "setup: no apt-get; install qemu-system-arm (>= 7.2) yourself" >&2
 fi
 qemu-system-arm --version | head -1
+
+# LLVM binutils (llvm-objdump, llvm-nm, llvm-addr2line) for tools/elf-check.
+if ! command -v llvm-objdump >/dev/null 2>&1 || ! command -v llvm-addr2line >/dev/null 2>&1; then
+  apt_install llvm || echo "setup: no apt-get; install LLVM's binutils (llvm-objdump, llvm-nm, llvm-addr2line) yourself" >&2
+fi
 
 # Single-node Slurm + munge for the local-cluster tests (sim-host/tests/support/slurm.rs). The Debian
 # packages enable system services; the tests never use those, they start their own daemons

@@ -1,7 +1,7 @@
 //! Real-time mode: the control task paces steps with the flight computer's own clock.
 //!
 //! Started by `StartRealTime` (see `link.rs`). Every control period (`1 / control_rate_hz`,
-//! an `embassy_time::Ticker`) it:
+//! an `embassy_time::Timer` at the next release time) it:
 //! 1. takes the newest sensor frame if one arrived since the last period (fresh), else
 //!    counts a missed frame and reuses the previous one;
 //! 2. steps the flight software on it — or, after `hold_after_missed_frames` periods
@@ -25,7 +25,7 @@
 use acs_flight::link::{status, FswMsg, SensorFrame};
 use acs_flight::Fsw;
 use embassy_futures::select::{select, Either};
-use embassy_time::{Duration, Instant, Ticker, Timer};
+use embassy_time::{Duration, Instant, Timer};
 
 use crate::board::{self, Watchdog};
 use crate::state::{self, SharedSession, SharedTx};
@@ -37,13 +37,15 @@ const _: () = assert!(FEED_SLICE.as_micros() * 2 < board::WATCHDOG_TIMEOUT_US as
 
 /// Wait for the next release; with periods longer than `FEED_SLICE` feed the watchdog
 /// every slice meanwhile if the previous cycle was on time.
-async fn next_release(ticker: &mut Ticker, period: Duration, wdg: &mut Watchdog, on_time: bool) {
+async fn next_release(release: Instant, period: Duration, wdg: &mut Watchdog, on_time: bool) {
     if period <= FEED_SLICE {
-        ticker.next().await;
+        Timer::at(release).await;
         return;
     }
     loop {
-        match select(ticker.next(), Timer::after(FEED_SLICE)).await {
+        // `Timer::at(advance(..))`, not `Timer::after`: embassy's `now + d` panics on
+        // overflow (tools/elf-check).
+        match select(Timer::at(release), Timer::at(advance(Instant::now(), FEED_SLICE))).await {
             Either::First(()) => return,
             Either::Second(()) => {
                 if on_time {
@@ -62,7 +64,7 @@ async fn wait_for_real_time(wdg: &mut Watchdog) {
         return;
     };
     loop {
-        match select(state::START_REAL_TIME.wait(), Timer::after_secs(every)).await {
+        match select(state::START_REAL_TIME.wait(), Timer::at(advance(Instant::now(), Duration::from_secs(every)))).await {
             Either::First(()) => return,
             Either::Second(()) => wdg.keep_alive(),
         }
@@ -109,15 +111,13 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
 
     let mut rate_hz = session.lock().await.fsw.params().map_or(100.0, |p| p.control_rate_hz);
     let mut period = period_of(rate_hz);
-    let mut ticker = Ticker::every(period);
-    // Nominal release time of the period the next tick starts.
-    let mut release = Instant::now();
-    ticker.reset_at(release);
-    release = advance(release, period);
+    // Nominal release time of the period the next tick starts. Not `embassy_time::Ticker`:
+    // its `Instant + Duration` panics on overflow (tools/elf-check), `advance` saturates.
+    let mut release = advance(Instant::now(), period);
     defmt::info!("control task: {=f32} Hz, period {=u64} us", rate_hz, period.as_micros());
 
     loop {
-        next_release(&mut ticker, period, &mut wdg, on_time).await;
+        next_release(release, period, &mut wdg, on_time).await;
 
         if let Some(f) = state::LATEST_FRAME.try_take() {
             last = Some(f);
@@ -177,19 +177,15 @@ pub async fn control_task(session: &'static SharedSession, tx: &'static SharedTx
         if missed > 0 {
             defmt::warn!("deadline missed: {=u64} period(s)", missed);
             let skip = Duration::from_ticks(period.as_ticks().saturating_mul(missed));
-            release = advance(release, skip);
             // Next tick at the first boundary still ahead of us.
-            ticker.reset_at(release);
+            release = advance(release, skip);
         }
         release = advance(release, period);
 
         if new_rate.to_bits() != rate_hz.to_bits() {
             rate_hz = new_rate;
             period = period_of(rate_hz);
-            ticker = Ticker::every(period);
-            release = Instant::now();
-            ticker.reset_at(release);
-            release = advance(release, period);
+            release = advance(Instant::now(), period);
             defmt::info!("control rate now {=f32} Hz", rate_hz);
         }
     }

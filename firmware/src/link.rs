@@ -53,6 +53,10 @@ async fn handle(msg: &HostMsg, dropped: u32, session: &SharedSession, tx: &Share
         if matches!(msg, HostMsg::DebugHang) && s.real_time() {
             debug_hang();
         }
+        if let HostMsg::Hello { .. } = msg {
+            // Scanned on request only (stack.rs): the cost is one load per unused word.
+            s.stack_hwm_bytes = crate::stack::high_water_mark();
+        }
         let was_real_time = s.real_time();
         let reply = s.handle(msg, dropped, &mut state::counter);
         if s.real_time() && !was_real_time {

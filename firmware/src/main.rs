@@ -15,6 +15,7 @@ mod board;
 mod control;
 mod executor;
 mod link;
+mod stack;
 mod state;
 
 use acs_flight::link::session::Session;
@@ -30,6 +31,8 @@ static TX: StaticCell<SharedTx> = StaticCell::new();
 
 #[cortex_m_rt::entry]
 fn main() -> ! {
+    // Before anything else uses the stack below this frame (see stack.rs).
+    stack::paint();
     defmt::info!(
         "acs-firmware {=str} (board {=u8}), cost counter {=u32} Hz",
         env!("CARGO_PKG_VERSION"),

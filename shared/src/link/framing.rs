@@ -64,12 +64,45 @@ pub fn encode_frame<'a, T: Serialize>(msg: &T, out: &'a mut [u8]) -> Result<&'a 
     if out.len() < cobs::max_encoding_length(total).saturating_add(1) {
         return Err(FrameError::BufferTooSmall);
     }
-    let enc = cobs::encode(src, out);
+    // `cobs::encode` unwraps the same result (a panic path, found by tools/elf-check).
+    let enc = cobs::try_encode(src, out).map_err(|_| FrameError::BufferTooSmall)?;
     let Some(delim) = out.get_mut(enc) else {
         return Err(FrameError::BufferTooSmall);
     };
     *delim = 0;
     out.get(..enc.saturating_add(1)).ok_or(FrameError::BufferTooSmall)
+}
+
+/// COBS decoding in place (Cheshire & Baker, IEEE/ACM Trans. Networking 7(2), 1999):
+/// returns the decoded length, or `None` if `buf` is not valid COBS. Same results as
+/// `cobs::decode_in_place` 0.5 (test `cobs_decoder_matches_the_cobs_crate`: it stops at a
+/// zero byte, and a code running past the end is an error unless it is 1) but written with
+/// checked accesses: the crate's version indexes, and its bounds checks were the panic
+/// paths tools/elf-check found in the link task. Loops: at most `buf.len()` bytes in total.
+fn cobs_decode_in_place(buf: &mut [u8]) -> Option<usize> {
+    let end = buf.iter().position(|b| *b == 0).unwrap_or(buf.len());
+    let (mut src, mut dst) = (0usize, 0usize);
+    if end == 0 && buf.is_empty() {
+        return None;
+    }
+    while src < end {
+        let code = *buf.get(src)?;
+        if src.saturating_add(usize::from(code)) > end && code != 1 {
+            return None;
+        }
+        src = src.saturating_add(1);
+        for _ in 1..code {
+            let b = *buf.get(src)?;
+            *buf.get_mut(dst)? = b;
+            src = src.saturating_add(1);
+            dst = dst.saturating_add(1);
+        }
+        if code != 0xFF && src < end {
+            *buf.get_mut(dst)? = 0;
+            dst = dst.saturating_add(1);
+        }
+    }
+    Some(dst)
 }
 
 /// Receive side: push bytes one at a time; every delimiter yields a message or a counted
@@ -136,7 +169,7 @@ impl<const N: usize> FrameAccumulator<N> {
 
     fn decode<T: for<'de> Deserialize<'de>>(&mut self, len: usize) -> Result<T, FrameError> {
         let frame = self.buf.get_mut(..len).ok_or(FrameError::Oversize)?;
-        let n = cobs::decode_in_place(frame).map_err(|_| FrameError::Cobs)?;
+        let n = cobs_decode_in_place(frame).ok_or(FrameError::Cobs)?;
         let data = frame.get(..n).ok_or(FrameError::Cobs)?;
         if n < 5 {
             return Err(FrameError::Short);
@@ -181,6 +214,77 @@ mod tests {
 
     fn feed(acc: &mut FrameAccumulator<MAX_FRAME>, bytes: &[u8]) -> std::vec::Vec<Result<HostMsg, FrameError>> {
         bytes.iter().filter_map(|b| acc.push::<HostMsg>(*b)).collect()
+    }
+
+    /// The examples of the COBS article (Wikipedia "Consistent Overhead Byte Stuffing",
+    /// from Cheshire & Baker 1999) decode to their data; both encoders produce them.
+    #[test]
+    fn cobs_decoder_decodes_the_published_examples() {
+        let cases: [(&[u8], &[u8]); 6] = [
+            (&[0x00], &[0x01, 0x01]),
+            (&[0x00, 0x00], &[0x01, 0x01, 0x01]),
+            (&[0x00, 0x11, 0x00], &[0x01, 0x02, 0x11, 0x01]),
+            (&[0x11, 0x22, 0x00, 0x33], &[0x03, 0x11, 0x22, 0x02, 0x33]),
+            (&[0x11, 0x22, 0x33, 0x44], &[0x05, 0x11, 0x22, 0x33, 0x44]),
+            (&[0x11, 0x00, 0x00, 0x00], &[0x02, 0x11, 0x01, 0x01, 0x01]),
+        ];
+        for (data, encoded) in cases {
+            let mut buf = encoded.to_vec();
+            let n = cobs_decode_in_place(&mut buf).unwrap();
+            assert_eq!(&buf[..n], data);
+            let mut out = [0u8; 16];
+            let m = cobs::try_encode(data, &mut out).unwrap();
+            assert_eq!(&out[..m], encoded);
+        }
+        // 254 non-zero bytes: one full 0xFF block, no trailing zero.
+        let data: std::vec::Vec<u8> = (1..=254).collect();
+        let mut buf = std::vec![0xFFu8];
+        buf.extend(&data);
+        let n = cobs_decode_in_place(&mut buf).unwrap();
+        assert_eq!(&buf[..n], &data[..]);
+    }
+
+    /// Same accept/reject decision, length and bytes as `cobs::decode_in_place` (the
+    /// reference implementation this replaces) on valid encodings of random data and on
+    /// random garbage, including zero bytes and codes that run past the end.
+    #[test]
+    fn cobs_decoder_matches_the_cobs_crate() {
+        let mut x: u64 = 0x9E37_79B9_7F4A_7C15;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let (mut valid, mut invalid) = (0, 0);
+        for case in 0..20_000 {
+            let len = (next() % 600) as usize;
+            let mut bytes: std::vec::Vec<u8> = (0..len).map(|_| next() as u8).collect();
+            if case % 2 == 0 {
+                // Sparse zeros make long runs (0xFF blocks).
+                for b in bytes.iter_mut() {
+                    if *b < 250 && next() % 4 != 0 {
+                        *b = (*b).max(1);
+                    }
+                }
+                let mut enc = std::vec![0u8; cobs::max_encoding_length(len) + 1];
+                let n = cobs::try_encode(&bytes, &mut enc).unwrap();
+                enc.truncate(n);
+                bytes = enc;
+            }
+            let mut ours = bytes.clone();
+            let mut theirs = bytes.clone();
+            let a = cobs_decode_in_place(&mut ours);
+            let b = cobs::decode_in_place(&mut theirs).ok();
+            assert_eq!(a, b, "case {case}: {bytes:02x?}");
+            if let Some(n) = a {
+                assert_eq!(ours[..n], theirs[..n]);
+                valid += 1;
+            } else {
+                invalid += 1;
+            }
+        }
+        assert!(valid > 10_000 && invalid > 1_000, "valid {valid}, invalid {invalid}");
     }
 
     #[test]

@@ -247,6 +247,10 @@ pub enum FswMsg {
         /// Why the flight computer last started (a watchdog reset means it came back up
         /// in the safe state: unconfigured, lockstep, safe command).
         reset_cause: ResetCause,
+        /// Deepest stack use since boot, bytes below the initial stack pointer, measured
+        /// when this reply is built (painted-stack scan, see docs/elf-check.md); 0 = not
+        /// measured (host). Protocol 10.
+        stack_hwm_bytes: u32,
     },
     ParamsAccepted {
         checksum: u32,

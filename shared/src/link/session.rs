@@ -23,6 +23,9 @@ pub struct Session {
     holding: bool,
     reset_cause: ResetCause,
     pub deadline_misses: u32,
+    /// Reported in `HelloAck`: the firmware stores its measured stack high-water mark
+    /// here before handing a `Hello` over (0 = not measured).
+    pub stack_hwm_bytes: u32,
 }
 
 impl Session {
@@ -35,6 +38,7 @@ impl Session {
             holding: true,
             reset_cause: ResetCause::PowerOn,
             deadline_misses: 0,
+            stack_hwm_bytes: 0,
         }
     }
 
@@ -76,6 +80,7 @@ impl Session {
                     cost_counter_hz: self.cost_counter_hz,
                     board: self.board,
                     reset_cause: self.reset_cause,
+                    stack_hwm_bytes: self.stack_hwm_bytes,
                 }
             }),
             HostMsg::UploadParams(_) | HostMsg::UploadModeParams { .. } | HostMsg::ArmModes(_)

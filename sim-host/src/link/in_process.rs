@@ -32,6 +32,7 @@ impl FlightLink for InProcess {
             cost_counter_hz: 1_000_000_000,
             instructions_per_tick: None,
             reset_cause: acs_flight::link::ResetCause::PowerOn,
+            stack_hwm_bytes: 0,
         })
     }
     fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {

@@ -34,6 +34,9 @@ pub struct LinkInfo {
     pub instructions_per_tick: Option<f64>,
     /// Why the flight computer last started (`HelloAck::reset_cause`).
     pub reset_cause: ResetCause,
+    /// The flight computer's measured stack high-water mark at this `Hello`, bytes
+    /// (`HelloAck::stack_hwm_bytes`; 0 = not measured).
+    pub stack_hwm_bytes: u32,
 }
 
 pub trait FlightLink {

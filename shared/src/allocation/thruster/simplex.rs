@@ -654,6 +654,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 return Ok(None);
             }
             if p != col {
+                // `slice::swap` panics out of range; `p, col < m <= M` holds but is not
+                // visible to the optimiser (tools/elf-check found the panic path).
+                if p >= M || col >= M {
+                    return Err(Fault);
+                }
                 bm.swap(p, col);
                 inv.swap(p, col);
             }
