@@ -217,7 +217,7 @@ impl Mutator<'_> {
                     Some((modes[self.rng.random_range(0..modes.len())], self.unit() < 0.7))
                 };
             }
-            88..94 | 94..100 if self.target.n_actuators > 0 => {
+            88..100 if self.target.n_actuators > 0 => {
                 x.failed_mask ^= 1 << self.rng.random_range(0..self.target.n_actuators.min(16));
             }
             _ => {
@@ -359,7 +359,7 @@ pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> 
     }
     let keep = |pop: &mut Vec<Found>| {
         // Stable: among equal costs the earlier (older) input stays.
-        pop.sort_by(|a, b| b.cost.instructions.cmp(&a.cost.instructions));
+        pop.sort_by_key(|f| std::cmp::Reverse(f.cost.instructions));
         pop.truncate(mu);
     };
     keep(&mut pop);
