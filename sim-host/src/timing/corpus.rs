@@ -262,3 +262,43 @@ pub fn demand_directions(path: &Path) -> Result<Vec<[f32; 3]>> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file() -> BudgetFile {
+        toml::from_str(
+            "core_clock_hz = 168e6\nmax_period_fraction = 0.05\n\
+             [scenario.s]\nmax_instructions = 90000\ncontrol_period_s = 0.01\nmodes = { hold = 50000 }\n",
+        )
+        .unwrap()
+    }
+
+    /// 84 000 instructions at 168 MHz and 1 cycle each take 500 µs: exactly 5 % of a
+    /// 10 ms period (the limit); one tick more is over it.
+    #[test]
+    fn budget_verdicts_follow_the_closed_form() {
+        let b = file();
+        let v = b.check("s", "none", 84_000, 0.01);
+        assert!(v.ok, "{}", v.message);
+        assert!((v.period_fraction - 0.05).abs() < 1e-12);
+        assert!(!b.check("s", "none", 84_040, 0.01).ok);
+        // The mode's tighter limit, the period mismatch, an unknown scenario.
+        assert!(b.check("s", "detumble", 50_040, 0.01).ok);
+        assert!(!b.check("s", "hold", 50_040, 0.01).ok);
+        assert!(!b.check("s", "none", 1000, 0.02).ok);
+        assert!(!b.check("t", "none", 1000, 0.01).ok);
+    }
+
+    /// Demand vectors are found under any key containing "demand", as unit vectors.
+    #[test]
+    fn demand_directions_are_read_loosely() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("lp.json");
+        std::fs::write(&p, r#"{"cases": [{"worst_demand_nm": [0.0, 3.0, -4.0], "other": [1, 2, 3]}]}"#).unwrap();
+        assert_eq!(demand_directions(&p).unwrap(), vec![[0.0, 0.6, -0.8]]);
+        std::fs::write(&p, r#"{"x": [1, 2, 3]}"#).unwrap();
+        assert!(demand_directions(&p).is_err());
+    }
+}

@@ -77,7 +77,8 @@ pub fn floats_mut(f: &mut SensorFrame) -> Vec<&mut f32> {
         .collect()
 }
 
-/// A float in JSON: a number, or "NaN" / "inf" / "-inf" (JSON has no non-finite numbers).
+/// A float in JSON: a number, or "NaN" / "inf" / "-inf" / "bits:0x…" (other NaNs): JSON
+/// has no non-finite numbers.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum JsonF32 {
@@ -90,8 +91,11 @@ impl JsonF32 {
         if x.is_finite() {
             JsonF32::Num(x)
         } else {
-            JsonF32::Text(if x.is_nan() {
+            JsonF32::Text(if x.to_bits() == f32::NAN.to_bits() {
                 "NaN".into()
+            } else if x.is_nan() {
+                // Sign and payload kept: the flight code may branch on the sign bit.
+                format!("bits:{:#010x}", x.to_bits())
             } else if x > 0.0 {
                 "inf".into()
             } else {
@@ -106,7 +110,12 @@ impl JsonF32 {
                 "NaN" => Ok(f32::NAN),
                 "inf" => Ok(f32::INFINITY),
                 "-inf" => Ok(f32::NEG_INFINITY),
-                _ => bail!("bad float {s:?}"),
+                _ => match s.strip_prefix("bits:0x") {
+                    Some(h) => {
+                        Ok(f32::from_bits(u32::from_str_radix(h, 16).with_context(|| format!("bad float {s:?}"))?))
+                    }
+                    None => bail!("bad float {s:?}"),
+                },
             },
         }
     }
@@ -403,5 +412,48 @@ impl<'a> Evaluator<'a> {
     /// Instructions per cost tick of the link.
     pub fn instructions_per_tick(&self) -> f64 {
         self.ipt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stored form of an input gives back the same bits, non-finite values and
+    /// subnormals included (the corpus must replay exactly what was measured).
+    #[test]
+    fn input_json_round_trip_is_bit_exact() {
+        let mut f = SensorFrame::empty(7, u64::MAX - 3);
+        f.valid = 0x5a;
+        let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 1e-40, f32::MAX, 0.1, -3.4e-7];
+        for (k, g) in floats_mut(&mut f).into_iter().enumerate() {
+            *g = specials[k % specials.len()] * if k % 3 == 0 { 1.0 } else { -1.0 };
+        }
+        let x = Input { mode: Some((Mode::Hold, true)), failed_mask: 0b1010, prefix: vec![f, f], frame: f };
+        let text = serde_json::to_string(&InputJson::from(&x)).unwrap();
+        let back: InputJson = serde_json::from_str(&text).unwrap();
+        let y = back.input().unwrap();
+        let bits =
+            |i: &Input| i.prefix.iter().chain([&i.frame]).flat_map(|f| floats(f).map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&x), bits(&y));
+        assert_eq!(
+            (x.mode, x.failed_mask, x.frame.seq, x.frame.time_us, x.frame.valid),
+            (y.mode, y.failed_mask, y.frame.seq, y.frame.time_us, y.frame.valid)
+        );
+        assert_eq!(floats(&x.frame).len(), FRAME_FIELDS.iter().map(|(_, n)| n).sum::<usize>());
+    }
+
+    /// Failure bits beyond the family's actuator count are dropped, the scenario's own
+    /// failures kept.
+    #[test]
+    fn extra_failures_are_ored_within_the_actuator_count() {
+        let mut p = FlightParams::default();
+        if let ActuatorParams::Cmg { cmg, .. } = &mut p.actuator {
+            cmg.failed_mask = 0b0001;
+        }
+        match with_failures(&p, 0xfff4).actuator {
+            ActuatorParams::Cmg { cmg, .. } => assert_eq!(cmg.failed_mask, 0b0101),
+            _ => unreachable!(),
+        }
     }
 }
