@@ -9,10 +9,11 @@
 //! repeat the prefix; change the commanded mode; flip a failure bit) and uniform
 //! crossover of the measured frames. Selection: the μ costliest of parents and children.
 //!
-//! Reproducibility: the random stream is ChaCha8 seeded with `seed`, and the flight code
-//! is deterministic under lockstep, so the population after `g` generations is a function
-//! of `seed` and `g`; the time budget only decides how many generations run. Use
-//! `max_evaluations` for a result that does not depend on the machine's speed.
+//! Reproducibility: the random stream is ChaCha8 seeded with `seed` and the flight code
+//! is deterministic under lockstep, but the cost counter reads ±1 tick (40 instructions)
+//! between runs, which can reorder near-ties in the selection: the search path is
+//! reproducible up to that jitter. Use `max_evaluations` for a run that does not depend
+//! on the machine's speed (the time budget then only guards).
 
 use super::{Cost, Evaluator, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
 use acs_flight::modes::Mode;
