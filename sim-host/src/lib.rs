@@ -24,3 +24,4 @@ pub mod sensors;
 pub mod series;
 pub mod simulation;
 pub mod summary;
+pub mod timing;

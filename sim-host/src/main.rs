@@ -6,7 +6,7 @@ use sim_host::campaign::{Campaign, Shard};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::{Controller, Scenario};
 use sim_host::summary::Summary;
-use sim_host::{output, runner};
+use sim_host::{output, runner, timing};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -92,6 +92,51 @@ enum CampaignCmd {
 }
 
 #[derive(Subcommand)]
+enum TimingCmd {
+    /// Search the inputs that maximise the instructions of one flight step on the QEMU
+    /// firmware (lockstep); print worst and mean, optionally write the corpus (--out) and
+    /// check the budget file. Exit status 1 when the worst exceeds its budget.
+    Search {
+        scenario: PathBuf,
+        /// Wall-time budget of the search, s.
+        #[arg(long, default_value_t = 20.0)]
+        budget_seconds: f64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Stop after this many evaluations (a result independent of the machine's speed).
+        #[arg(long)]
+        evaluations: Option<u64>,
+        /// Write the corpus (worst inputs) to this JSON file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Start from the entries of these corpus files too.
+        #[arg(long = "seed-corpus")]
+        seed_corpus: Vec<PathBuf>,
+        /// Worst LP demands (JSON: arrays of 3 under keys containing "demand") to align
+        /// the inputs with.
+        #[arg(long)]
+        demands: Option<PathBuf>,
+        /// Budget file (default: timing/budget.toml when it exists).
+        #[arg(long)]
+        budget: Option<PathBuf>,
+        /// Firmware ELF (default: firmware/target/.../release/acs-firmware).
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+    },
+    /// Replay corpus files on the QEMU firmware, print the costs and check them against
+    /// the budget file. Exit status 1 when one exceeds its budget.
+    Replay {
+        #[arg(required = true)]
+        corpus: Vec<PathBuf>,
+        /// Budget file (default: timing/budget.toml).
+        #[arg(long)]
+        budget: Option<PathBuf>,
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+    },
+}
+
+#[derive(Subcommand)]
 enum Cmd {
     /// Run a scenario and write timeseries.csv, summary.json and PNG plots into --out.
     Run {
@@ -124,6 +169,11 @@ enum Cmd {
     Campaign {
         #[command(subcommand)]
         what: CampaignCmd,
+    },
+    /// Worst-case timing of the flight step on the firmware: search, corpus replay, budgets.
+    Timing {
+        #[command(subcommand)]
+        what: TimingCmd,
     },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
     Serve {
@@ -169,7 +219,166 @@ fn dispatch(cmd: Cmd) -> Result<()> {
         }
         Cmd::Check { scenario } => check(&scenario),
         Cmd::Campaign { what } => campaign(what),
+        Cmd::Timing { what } => timing(what),
     }
+}
+
+/// The budget file given, else `timing/budget.toml` under the repository if it exists.
+fn budget_file(given: Option<PathBuf>) -> Result<Option<timing::corpus::BudgetFile>> {
+    let path = match given {
+        Some(p) => p,
+        None => {
+            let p = timing::corpus::repo_root().join("timing/budget.toml");
+            if !p.exists() {
+                return Ok(None);
+            }
+            p
+        }
+    };
+    Ok(Some(timing::corpus::BudgetFile::load(&path)?))
+}
+
+/// The scenario file of a corpus: as stored (relative to the repository root or the
+/// working directory).
+fn corpus_scenario(c: &timing::corpus::Corpus) -> PathBuf {
+    let p = PathBuf::from(&c.scenario_file);
+    if p.exists() { p } else { timing::corpus::repo_root().join(p) }
+}
+
+/// `sim-host timing …`.
+fn timing(what: TimingCmd) -> Result<()> {
+    use timing::corpus::{BudgetFile, Corpus};
+    use timing::search::{SearchOptions, mode_name};
+    let verdict = |b: &Option<BudgetFile>, name: &str, mode: &str, instr: u64, dt: f64, failed: &mut bool| {
+        if let Some(b) = b {
+            let v = b.check(name, mode, instr, dt);
+            *failed |= !v.ok;
+            format!("{}: {}", if v.ok { "ok" } else { "OVER BUDGET" }, v.message)
+        } else {
+            "no budget file".into()
+        }
+    };
+    match what {
+        TimingCmd::Search {
+            scenario,
+            budget_seconds,
+            seed,
+            evaluations,
+            out,
+            seed_corpus,
+            demands,
+            budget,
+            firmware,
+        } => {
+            let budget = budget_file(budget)?;
+            let target = timing::Target::load(&scenario)?;
+            let mut seeds = Vec::new();
+            for c in &seed_corpus {
+                let c = Corpus::load(c)?;
+                for e in &c.entries {
+                    seeds.push(e.input.input()?);
+                }
+            }
+            let directions = match &demands {
+                Some(p) => timing::corpus::demand_directions(p)?,
+                None => Vec::new(),
+            };
+            let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+            let mut ev = timing::Evaluator::new(target, &mut l)?;
+            let opts = SearchOptions {
+                budget: std::time::Duration::from_secs_f64(budget_seconds.max(0.0)),
+                seed,
+                max_evaluations: evaluations,
+                seeds,
+                directions,
+                ..SearchOptions::default()
+            };
+            let r = timing::search::search(&mut ev, &opts)?;
+            let t = &ev.target;
+            let mut failed = false;
+            say!(
+                "{}: {} evaluations ({} refused) in {} generations, {:.1} s (seed {seed})",
+                t.name,
+                r.evaluations,
+                r.rejected,
+                r.generations,
+                r.elapsed_s
+            );
+            if let Some(n) = r.nominal {
+                say!("  nominal input: {} instructions", n.instructions);
+            }
+            say!(
+                "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}); {}",
+                r.worst.cost.instructions,
+                r.worst.cost.step,
+                mode_name(r.worst.cost.mode),
+                r.worst.cost.status,
+                verdict(&budget, &t.name, mode_name(r.worst.cost.mode), r.worst.cost.instructions, t.dt_s, &mut failed)
+            );
+            say!(
+                "  mean: {:.0} instructions over the evaluated inputs, {:.0} over the final population",
+                r.mean_instructions,
+                r.population_mean
+            );
+            if let Some(f) = r.worst_no_failures.as_ref().filter(|f| f.cost != r.worst.cost) {
+                say!("  worst without extra actuator failures: {} instructions", f.cost.instructions);
+            }
+            if !t.modes.is_empty() {
+                for (code, f) in &r.per_mode {
+                    let name = mode_name(*code);
+                    say!(
+                        "  mode {name}: worst {} instructions; {}",
+                        f.cost.instructions,
+                        verdict(&budget, &t.name, name, f.cost.instructions, t.dt_s, &mut failed)
+                    );
+                }
+            }
+            say!("  worst input: {}", serde_json::to_string(&timing::InputJson::from(&r.worst.input))?);
+            if let Some(out) = out {
+                let file = scenario.display().to_string();
+                Corpus::from_search(&file, &t.name, seed, budget_seconds, &r).save(&out)?;
+                say!("  wrote {}", out.display());
+            }
+            if failed {
+                anyhow::bail!("{}: the searched worst exceeds the budget", t.name);
+            }
+        }
+        TimingCmd::Replay { corpus, budget, firmware } => {
+            let budget = budget_file(budget)?;
+            let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+            let mut failed = false;
+            for path in &corpus {
+                let c = Corpus::load(path)?;
+                let target = timing::Target::load(&corpus_scenario(&c))?;
+                let dt = target.dt_s;
+                let mut ev = timing::Evaluator::new(target, &mut l)?;
+                say!("{} ({}):", c.scenario, path.display());
+                for r in timing::corpus::replay(&mut ev, &c)? {
+                    match r.measured {
+                        Some(m) => {
+                            let mode = mode_name(m.mode);
+                            say!(
+                                "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}; {}",
+                                r.label,
+                                m.instructions,
+                                r.recorded,
+                                m.instructions as i64 - r.recorded as i64,
+                                verdict(&budget, &c.scenario, mode, m.instructions, dt, &mut failed)
+                            );
+                        }
+                        None => say!("  {:<16} refused by the flight code (recorded {})", r.label, r.recorded),
+                    }
+                }
+            }
+            if budget.is_none() {
+                anyhow::bail!("no budget file (timing/budget.toml or --budget)");
+            }
+            if failed {
+                anyhow::bail!("a replayed step exceeds its budget");
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `sim-host campaign …`.

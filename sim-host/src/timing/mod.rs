@@ -1,0 +1,459 @@
+//! Worst-case timing of one flight step on the firmware (QEMU lockstep: the step cost
+//! counter gives instructions, see docs/firmware.md and docs/timing.md).
+//!
+//! An [`Input`] is what one measurement feeds the flight code: the scenario's parameters
+//! (or mode table) with an optional extra failure mask, an optional ground mode command,
+//! a short prefix of sensor frames (the flight code has state: integrators, PWPF, mode
+//! manager, estimator) and the measured frame. Every evaluation re-uploads the parameters
+//! first, which gives the flight code fresh state, so an input's cost does not depend on
+//! what was evaluated before it (checked by the replay of the corpus).
+//!
+//! - [`search`]: seeded (μ+λ) evolutionary search for the costliest input;
+//! - [`corpus`]: the committed worst inputs, their replay and the budget file.
+
+pub mod corpus;
+pub mod search;
+
+use crate::link::{FlightLink, LinkInfo, ModeTable};
+use crate::scenario::{Resolved, Scenario, Upload};
+use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
+use acs_flight::modes::{Mode, ModeRequest};
+use acs_flight::params::{ActuatorParams, FlightParams, MAX_WHEELS};
+use anyhow::{Context, Result, anyhow, bail};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Longest prefix of frames before the measured one (a bound on the cost of one
+/// evaluation; the flight code's longest memory that matters here is the PWPF and the
+/// integrators, which a few steps already load).
+pub const MAX_PREFIX: usize = 4;
+
+/// The f32 fields of a sensor frame, in wire order: (name, length).
+pub const FRAME_FIELDS: [(&str, usize); 8] = [
+    ("q_ib_xyzw", 4),
+    ("rate_rad_s", 3),
+    ("gimbal_angle_rad", 4),
+    ("wheel_speed_rad_s", MAX_WHEELS),
+    ("mag_field_t", 3),
+    ("sun_dir", 3),
+    ("q_ref_xyzw", 4),
+    ("ref_rate_rad_s", 3),
+];
+
+/// Number of f32 genes of a frame.
+pub const N_FLOATS: usize = 4 + 3 + 4 + MAX_WHEELS + 3 + 3 + 4 + 3;
+
+/// The f32 fields of `f` in [`FRAME_FIELDS`] order.
+pub fn floats(f: &SensorFrame) -> [f32; N_FLOATS] {
+    let mut v = [0.0; N_FLOATS];
+    let src = f
+        .q_ib_xyzw
+        .iter()
+        .chain(&f.rate_rad_s)
+        .chain(&f.gimbal_angle_rad)
+        .chain(&f.wheel_speed_rad_s)
+        .chain(&f.mag_field_t)
+        .chain(&f.sun_dir)
+        .chain(&f.q_ref_xyzw)
+        .chain(&f.ref_rate_rad_s);
+    for (d, s) in v.iter_mut().zip(src) {
+        *d = *s;
+    }
+    v
+}
+
+/// Mutable references to the f32 fields of `f` in [`FRAME_FIELDS`] order.
+pub fn floats_mut(f: &mut SensorFrame) -> Vec<&mut f32> {
+    f.q_ib_xyzw
+        .iter_mut()
+        .chain(&mut f.rate_rad_s)
+        .chain(&mut f.gimbal_angle_rad)
+        .chain(&mut f.wheel_speed_rad_s)
+        .chain(&mut f.mag_field_t)
+        .chain(&mut f.sun_dir)
+        .chain(&mut f.q_ref_xyzw)
+        .chain(&mut f.ref_rate_rad_s)
+        .collect()
+}
+
+/// A float in JSON: a number, or "NaN" / "inf" / "-inf" / "bits:0x…" (other NaNs): JSON
+/// has no non-finite numbers.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum JsonF32 {
+    Num(f32),
+    Text(String),
+}
+
+impl JsonF32 {
+    fn of(x: f32) -> Self {
+        if x.is_finite() {
+            JsonF32::Num(x)
+        } else {
+            JsonF32::Text(if x.to_bits() == f32::NAN.to_bits() {
+                "NaN".into()
+            } else if x.is_nan() {
+                // Sign and payload kept: the flight code may branch on the sign bit.
+                format!("bits:{:#010x}", x.to_bits())
+            } else if x > 0.0 {
+                "inf".into()
+            } else {
+                "-inf".into()
+            })
+        }
+    }
+    fn value(&self) -> Result<f32> {
+        match self {
+            JsonF32::Num(x) => Ok(*x),
+            JsonF32::Text(s) => match s.as_str() {
+                "NaN" => Ok(f32::NAN),
+                "inf" => Ok(f32::INFINITY),
+                "-inf" => Ok(f32::NEG_INFINITY),
+                _ => match s.strip_prefix("bits:0x") {
+                    Some(h) => {
+                        Ok(f32::from_bits(u32::from_str_radix(h, 16).with_context(|| format!("bad float {s:?}"))?))
+                    }
+                    None => bail!("bad float {s:?}"),
+                },
+            },
+        }
+    }
+}
+
+/// A sensor frame as stored in the corpus (readable, non-finite values as strings).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct FrameJson {
+    pub seq: u32,
+    pub time_us: u64,
+    pub valid: u16,
+    #[serde(flatten)]
+    pub fields: BTreeMap<String, Vec<JsonF32>>,
+}
+
+impl From<&SensorFrame> for FrameJson {
+    fn from(f: &SensorFrame) -> Self {
+        let v = floats(f);
+        let mut fields = BTreeMap::new();
+        let mut i = 0;
+        for (name, n) in FRAME_FIELDS {
+            fields.insert(name.to_string(), v[i..i + n].iter().map(|x| JsonF32::of(*x)).collect());
+            i += n;
+        }
+        Self { seq: f.seq, time_us: f.time_us, valid: f.valid, fields }
+    }
+}
+
+impl FrameJson {
+    pub fn frame(&self) -> Result<SensorFrame> {
+        let mut f = SensorFrame::empty(self.seq, self.time_us);
+        f.valid = self.valid;
+        let mut v = Vec::with_capacity(N_FLOATS);
+        for (name, n) in FRAME_FIELDS {
+            let xs = self.fields.get(name).ok_or_else(|| anyhow!("frame field {name} missing"))?;
+            if xs.len() != n {
+                bail!("frame field {name}: {} values, expected {n}", xs.len());
+            }
+            for x in xs {
+                v.push(x.value()?);
+            }
+        }
+        for (d, s) in floats_mut(&mut f).into_iter().zip(v) {
+            *d = s;
+        }
+        Ok(f)
+    }
+}
+
+/// One measured input (the genome of the search).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Input {
+    /// Ground mode command sent after the upload (mode tables only); `lock` suspends the
+    /// automatic transitions.
+    pub mode: Option<(Mode, bool)>,
+    /// Extra actuators the flight code is told have failed (ORed into the scenario's).
+    pub failed_mask: u16,
+    /// Frames stepped before the measured one.
+    pub prefix: Vec<SensorFrame>,
+    /// The measured frame.
+    pub frame: SensorFrame,
+}
+
+/// [`Input`] as stored.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct InputJson {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mode: Option<String>,
+    #[serde(default)]
+    pub lock_mode: bool,
+    #[serde(default)]
+    pub failed_mask: u16,
+    #[serde(default)]
+    pub prefix: Vec<FrameJson>,
+    pub frame: FrameJson,
+}
+
+impl From<&Input> for InputJson {
+    fn from(i: &Input) -> Self {
+        Self {
+            mode: i.mode.map(|(m, _)| m.name().to_string()),
+            lock_mode: i.mode.is_some_and(|(_, l)| l),
+            failed_mask: i.failed_mask,
+            prefix: i.prefix.iter().map(FrameJson::from).collect(),
+            frame: FrameJson::from(&i.frame),
+        }
+    }
+}
+
+impl InputJson {
+    pub fn input(&self) -> Result<Input> {
+        let mode = match &self.mode {
+            Some(name) => Some((
+                Mode::ALL.into_iter().find(|m| m.name() == name).ok_or_else(|| anyhow!("unknown mode {name:?}"))?,
+                self.lock_mode,
+            )),
+            None => None,
+        };
+        Ok(Input {
+            mode,
+            failed_mask: self.failed_mask,
+            prefix: self.prefix.iter().map(FrameJson::frame).collect::<Result<_>>()?,
+            frame: self.frame.frame()?,
+        })
+    }
+}
+
+/// The actuator family of a parameter set, for the failure masks.
+fn actuator_count(a: &ActuatorParams) -> (usize, &'static str) {
+    match a {
+        ActuatorParams::Cmg { .. } => (4, "cmg"),
+        ActuatorParams::Wheels(w) => (w.count as usize, "wheels"),
+        ActuatorParams::Magnetorquers(_) => (0, "magnetorquers"),
+        ActuatorParams::Thrusters(t) => (t.count as usize, "thrusters"),
+    }
+}
+
+/// `p` with `extra` ORed into its failure mask (bits beyond the family's count dropped).
+fn with_failures(p: &FlightParams, extra: u16) -> FlightParams {
+    let mut p = *p;
+    match &mut p.actuator {
+        ActuatorParams::Cmg { cmg, .. } => cmg.failed_mask |= (extra & 0xf) as u8,
+        ActuatorParams::Wheels(w) => w.failed_mask |= (extra & ((1u16 << w.count.min(8)) - 1)) as u8,
+        ActuatorParams::Magnetorquers(_) => {}
+        ActuatorParams::Thrusters(t) => t.failed_mask |= extra & ((1u32 << t.count.min(16)) - 1) as u16,
+    }
+    p
+}
+
+/// What the search needs to know about a scenario.
+#[derive(Clone, Debug)]
+pub struct Target {
+    /// The scenario's name (corpus file and budget key).
+    pub name: String,
+    /// Path of the scenario file as given.
+    pub path: PathBuf,
+    pub upload: Upload,
+    /// The sensor frame of the scenario's initial state (the nominal input).
+    pub nominal: SensorFrame,
+    /// Control period.
+    pub dt_s: f64,
+    /// The modes of the mode table (empty without one).
+    pub modes: Vec<Mode>,
+    /// Actuators that may be failed, and their family.
+    pub n_actuators: usize,
+    pub family: &'static str,
+    /// Directions worth aligning demands with: thruster columns and the normals of the
+    /// facets of their attainable set (cross products of column pairs), unit, body axes.
+    pub directions: Vec<[f32; 3]>,
+}
+
+impl Target {
+    pub fn load(path: &Path) -> Result<Self> {
+        let sc = Scenario::load(path)?;
+        Self::new(&sc, path)
+    }
+
+    pub fn new(sc: &Scenario, path: &Path) -> Result<Self> {
+        let r = Resolved::try_from(sc)?;
+        let upload = r.upload.clone().ok_or_else(|| anyhow!("{}: open loop, the flight code does not run", sc.name))?;
+        let mut sensors = r.sensors;
+        let nominal = sensors.sample(0, 0.0, &r.initial, &r.craft, r.snap0.as_ref(), &[0.0; 3]);
+        let (modes, first) = match &upload {
+            Upload::Modes(t) => (t.slots.iter().map(|(m, _)| *m).collect(), t.slots.first().map(|(_, p)| *p)),
+            Upload::Params(p) => (Vec::new(), Some(**p)),
+        };
+        let first = first.context("empty mode table")?;
+        let (n_actuators, family) = actuator_count(&first.actuator);
+        let mut directions = Vec::new();
+        if let Some(set) = &r.thrusters {
+            let cols = set.torque_matrix();
+            let unit = |v: [f64; 3]| {
+                let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                (n > 1e-12).then(|| [(v[0] / n) as f32, (v[1] / n) as f32, (v[2] / n) as f32])
+            };
+            directions.extend(cols.iter().filter_map(|c| unit(*c)));
+            for (i, a) in cols.iter().enumerate() {
+                for b in &cols[i + 1..] {
+                    let c = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+                    directions.extend(unit(c));
+                }
+            }
+        }
+        if directions.is_empty() {
+            directions = vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        }
+        Ok(Self {
+            name: sc.name.clone(),
+            path: path.to_path_buf(),
+            upload,
+            nominal,
+            dt_s: sc.control_dt(),
+            modes,
+            n_actuators,
+            family,
+            directions,
+        })
+    }
+
+    /// The nominal input: the initial state's frame, no prefix, the scenario's own
+    /// parameters and initial mode.
+    pub fn nominal_input(&self) -> Input {
+        Input { mode: None, failed_mask: 0, prefix: Vec::new(), frame: self.nominal }
+    }
+}
+
+/// The cost of one evaluated input.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cost {
+    /// Instructions of the costliest step of the sequence (prefix and measured frame).
+    pub instructions: u64,
+    /// Index of that step in the sequence (prefix.len() = the measured frame).
+    pub step: usize,
+    /// Flight mode that step ran in (telemetry code, 0 = no mode table).
+    pub mode: u8,
+    /// Status bits of that step.
+    pub status: u16,
+}
+
+/// Evaluates inputs of one scenario on a link that reports instructions (QEMU lockstep).
+pub struct Evaluator<'a> {
+    pub target: Target,
+    link: &'a mut dyn FlightLink,
+    pub info: LinkInfo,
+    ipt: f64,
+    /// Inputs evaluated so far (rejected ones included).
+    pub evaluations: u64,
+}
+
+impl<'a> Evaluator<'a> {
+    pub fn new(target: Target, link: &'a mut dyn FlightLink) -> Result<Self> {
+        let info = link.hello().context("hello")?;
+        let ipt = info.instructions_per_tick.ok_or_else(|| {
+            anyhow!("link {} does not count instructions (use the qemu link: -icount lockstep)", link.name())
+        })?;
+        Ok(Self { target, link, info, ipt, evaluations: 0 })
+    }
+
+    fn upload(&mut self, failed_mask: u16) -> Result<bool> {
+        let ok = match &self.target.upload {
+            Upload::Params(p) => {
+                let p = with_failures(p, failed_mask);
+                matches!(self.link.request(&HostMsg::UploadParams(p))?, FswMsg::ParamsAccepted { .. })
+            }
+            Upload::Modes(t) => {
+                let t = ModeTable {
+                    slots: t.slots.iter().map(|(m, p)| (*m, with_failures(p, failed_mask))).collect(),
+                    manager: t.manager,
+                };
+                let mut ok = true;
+                for (mode, params) in &t.slots {
+                    let r = self.link.request(&HostMsg::UploadModeParams { mode: *mode, params: *params })?;
+                    ok &= matches!(r, FswMsg::ParamsAccepted { .. });
+                }
+                ok && matches!(self.link.request(&HostMsg::ArmModes(t.manager))?, FswMsg::ModesArmed { .. })
+            }
+        };
+        Ok(ok)
+    }
+
+    /// Fresh flight state (parameter upload), the mode command, the prefix, the frame.
+    /// `None`: the flight code rejected the failure mask or the mode command (not a
+    /// flight input: the ground would be told so).
+    pub fn evaluate(&mut self, input: &Input) -> Result<Option<Cost>> {
+        self.evaluations += 1;
+        if !self.upload(input.failed_mask)? {
+            // Restore an accepted configuration for the next input.
+            if !self.upload(0)? {
+                bail!("{}: the flight code rejects the scenario's own parameters", self.target.name);
+            }
+            return Ok(None);
+        }
+        if let Some((mode, lock)) = input.mode {
+            let req = if lock { ModeRequest::Lock(mode) } else { ModeRequest::Enter(mode) };
+            if !matches!(self.link.request(&HostMsg::CommandMode(req))?, FswMsg::ModeAccepted { .. }) {
+                return Ok(None);
+            }
+        }
+        let mut worst: Option<Cost> = None;
+        for (k, f) in input.prefix.iter().chain(std::iter::once(&input.frame)).enumerate() {
+            // Sequence numbers increase along the sequence whatever the genome says (the
+            // link matches replies by seq); the genome's seq of the first frame is kept.
+            let mut f = *f;
+            f.seq = input.prefix.first().map_or(input.frame.seq, |p| p.seq).wrapping_add(k as u32);
+            let r = self.link.step(&f)?;
+            let instructions = (r.step_cost_ticks as f64 * self.ipt).round() as u64;
+            if worst.is_none_or(|w| instructions > w.instructions) {
+                worst = Some(Cost { instructions, step: k, mode: r.cmd.mode, status: r.cmd.status });
+            }
+        }
+        Ok(worst)
+    }
+
+    /// Instructions per cost tick of the link.
+    pub fn instructions_per_tick(&self) -> f64 {
+        self.ipt
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stored form of an input gives back the same bits, non-finite values and
+    /// subnormals included (the corpus must replay exactly what was measured).
+    #[test]
+    fn input_json_round_trip_is_bit_exact() {
+        let mut f = SensorFrame::empty(7, u64::MAX - 3);
+        f.valid = 0x5a;
+        let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 1e-40, f32::MAX, 0.1, -3.4e-7];
+        for (k, g) in floats_mut(&mut f).into_iter().enumerate() {
+            *g = specials[k % specials.len()] * if k % 3 == 0 { 1.0 } else { -1.0 };
+        }
+        let x = Input { mode: Some((Mode::Hold, true)), failed_mask: 0b1010, prefix: vec![f, f], frame: f };
+        let text = serde_json::to_string(&InputJson::from(&x)).unwrap();
+        let back: InputJson = serde_json::from_str(&text).unwrap();
+        let y = back.input().unwrap();
+        let bits =
+            |i: &Input| i.prefix.iter().chain([&i.frame]).flat_map(|f| floats(f).map(f32::to_bits)).collect::<Vec<_>>();
+        assert_eq!(bits(&x), bits(&y));
+        assert_eq!(
+            (x.mode, x.failed_mask, x.frame.seq, x.frame.time_us, x.frame.valid),
+            (y.mode, y.failed_mask, y.frame.seq, y.frame.time_us, y.frame.valid)
+        );
+        assert_eq!(floats(&x.frame).len(), FRAME_FIELDS.iter().map(|(_, n)| n).sum::<usize>());
+    }
+
+    /// Failure bits beyond the family's actuator count are dropped, the scenario's own
+    /// failures kept.
+    #[test]
+    fn extra_failures_are_ored_within_the_actuator_count() {
+        let mut p = FlightParams::default();
+        if let ActuatorParams::Cmg { cmg, .. } = &mut p.actuator {
+            cmg.failed_mask = 0b0001;
+        }
+        match with_failures(&p, 0xfff4).actuator {
+            ActuatorParams::Cmg { cmg, .. } => assert_eq!(cmg.failed_mask, 0b0101),
+            _ => unreachable!(),
+        }
+    }
+}

@@ -1,0 +1,416 @@
+//! Seeded (μ+λ) evolutionary search for the input that maximises the cost of one flight
+//! step (see docs/timing.md).
+//!
+//! Genome: [`Input`]. Variation: Gaussian steps on a few frame values at a random scale
+//! (log-uniform over 3.5 decades of the field's typical magnitude), structural mutations
+//! (flip a valid bit; set a value to NaN, ±inf, ±1e30, f32::MAX, a subnormal, 0; align
+//! the body rate and the attitude error with a thruster column or an attainable-set facet
+//! normal, where the allocation does the most work; move the clock; grow, shrink or
+//! repeat the prefix; change the commanded mode; flip a failure bit) and uniform
+//! crossover of the measured frames. Selection: the μ costliest of parents and children.
+//!
+//! Reproducibility: the random stream is ChaCha8 seeded with `seed` and the flight code
+//! is deterministic under lockstep, but the cost counter reads ±1 tick (40 instructions)
+//! between runs, which can reorder near-ties in the selection: the search path is
+//! reproducible up to that jitter. Use `max_evaluations` for a run that does not depend
+//! on the machine's speed (the time budget then only guards).
+
+use super::{Cost, Evaluator, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
+use acs_flight::modes::Mode;
+use anyhow::Result;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+/// Typical magnitude of each f32 gene (scale of the Gaussian steps), in frame order.
+fn gene_scale(i: usize) -> f32 {
+    const S: [(usize, f32); 8] = [
+        (4, 0.5),
+        (3, 0.5),
+        (4, 1.0),
+        (acs_flight::params::MAX_WHEELS, 300.0),
+        (3, 5e-5),
+        (3, 1.0),
+        (4, 0.5),
+        (3, 1e-3),
+    ];
+    let mut end = 0;
+    for (n, s) in S {
+        end += n;
+        if i < end {
+            return s;
+        }
+    }
+    1.0
+}
+
+/// Values that take flight code down unusual paths (validation, guards, range reduction).
+const SPECIAL: [f32; 12] =
+    [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 0.0, -0.0, 1e30, -1e30, f32::MAX, 1e-40, 1e6, -1e6, 1.0];
+
+#[derive(Clone, Debug)]
+pub struct SearchOptions {
+    /// Wall-time budget of the search (evaluation of the seeds included).
+    pub budget: Duration,
+    pub seed: u64,
+    /// Stop after this many evaluations even if time is left (machine-independent runs).
+    pub max_evaluations: Option<u64>,
+    /// μ (parents kept) and λ (children per generation).
+    pub mu: usize,
+    pub lambda: usize,
+    /// Inputs evaluated in the first generation (e.g. the corpus).
+    pub seeds: Vec<Input>,
+    /// Extra directions to align demands with (e.g. worst LP demands), body axes.
+    pub directions: Vec<[f32; 3]>,
+}
+
+impl Default for SearchOptions {
+    fn default() -> Self {
+        Self {
+            budget: Duration::from_secs(20),
+            seed: 1,
+            max_evaluations: None,
+            mu: 8,
+            lambda: 16,
+            seeds: Vec::new(),
+            directions: Vec::new(),
+        }
+    }
+}
+
+/// An evaluated input.
+#[derive(Clone, Debug)]
+pub struct Found {
+    pub input: Input,
+    pub cost: Cost,
+}
+
+#[derive(Clone, Debug)]
+pub struct SearchResult {
+    pub worst: Found,
+    /// Mean instructions over every accepted evaluation of the search.
+    pub mean_instructions: f64,
+    /// Mean instructions of the final population (the μ kept).
+    pub population_mean: f64,
+    /// The nominal input (initial state of the scenario) and its cost.
+    pub nominal: Option<Cost>,
+    pub evaluations: u64,
+    /// Inputs the flight code refused at upload or mode command (failure masks, modes).
+    pub rejected: u64,
+    pub generations: u64,
+    pub elapsed_s: f64,
+    /// The costliest input whose costliest step ran in each mode (telemetry code).
+    pub per_mode: BTreeMap<u8, Found>,
+    /// The costliest input without extra failures (the scenario's own actuators).
+    pub worst_no_failures: Option<Found>,
+    /// The final population, costliest first.
+    pub population: Vec<Found>,
+}
+
+struct Mutator<'a> {
+    target: &'a Target,
+    directions: Vec<[f32; 3]>,
+    rng: ChaCha8Rng,
+}
+
+impl Mutator<'_> {
+    fn normal(&mut self) -> f32 {
+        let x: f64 = StandardNormal.sample(&mut self.rng);
+        x as f32
+    }
+
+    fn unit(&mut self) -> f64 {
+        self.rng.random::<f64>()
+    }
+
+    /// A frame of the input (the measured one or a prefix frame).
+    fn pick_frame<'b>(&mut self, x: &'b mut Input) -> &'b mut acs_flight::link::SensorFrame {
+        let n = x.prefix.len();
+        let k = if n > 0 && self.unit() < 0.3 { self.rng.random_range(0..n) } else { n };
+        if k < n { &mut x.prefix[k] } else { &mut x.frame }
+    }
+
+    fn mutate(&mut self, x: &mut Input) {
+        let op = self.rng.random_range(0..100u32);
+        match op {
+            // Gaussian steps on 1-3 values at a log-uniform scale.
+            0..40 => {
+                let n = self.rng.random_range(1..=3);
+                for _ in 0..n {
+                    let i = self.rng.random_range(0..N_FLOATS);
+                    let s = gene_scale(i) * 10f32.powf(-3.0 + 3.5 * self.unit() as f32);
+                    let d = s * self.normal();
+                    let f = self.pick_frame(x);
+                    let v = floats_mut(f);
+                    let g = v.into_iter().nth(i).expect("i < N_FLOATS");
+                    *g = if g.is_finite() { *g + d } else { d };
+                }
+                if self.unit() < 0.5 {
+                    normalise(&mut x.frame.q_ib_xyzw);
+                }
+            }
+            40..50 => {
+                let i = self.rng.random_range(0..N_FLOATS);
+                let s = SPECIAL[self.rng.random_range(0..SPECIAL.len())];
+                let f = self.pick_frame(x);
+                if let Some(g) = floats_mut(f).into_iter().nth(i) {
+                    *g = s;
+                }
+            }
+            50..58 => {
+                let b = self.rng.random_range(0..8);
+                let f = self.pick_frame(x);
+                f.valid ^= 1 << b;
+            }
+            58..72 => {
+                // Demand along a thruster column / facet normal: body rate and attitude
+                // error both along ±d, magnitudes log-uniform.
+                let d = self.directions[self.rng.random_range(0..self.directions.len())];
+                let sign = if self.unit() < 0.5 { -1.0 } else { 1.0 };
+                let w = sign * 10f32.powf(-3.0 + 4.0 * self.unit() as f32);
+                let th = (sign as f64) * std::f64::consts::PI * self.unit();
+                let f = &mut x.frame;
+                f.rate_rad_s = d.map(|c| c * w);
+                if self.unit() < 0.7 {
+                    let (s, c) = (th / 2.0).sin_cos();
+                    f.q_ib_xyzw = [d[0] * s as f32, d[1] * s as f32, d[2] * s as f32, c as f32];
+                }
+            }
+            72..78 => {
+                let f = self.pick_frame(x);
+                f.time_us = match self.rng.random_range(0..3) {
+                    0 => self.rng.random::<u64>() >> self.rng.random_range(0..64),
+                    1 => f.time_us.wrapping_add((self.target.dt_s * 1e6) as u64),
+                    _ => 0,
+                };
+            }
+            78..88 => {
+                // The prefix: repeat the measured frame (loads integrators and the PWPF),
+                // add a mutated copy, or drop a frame.
+                match self.rng.random_range(0..3) {
+                    0 => {
+                        let n = self.rng.random_range(1..=MAX_PREFIX);
+                        x.prefix = vec![x.frame; n];
+                    }
+                    1 if x.prefix.len() < MAX_PREFIX => {
+                        let mut f = x.frame;
+                        f.rate_rad_s = f.rate_rad_s.map(|r| r * (1.0 + 0.5 * self.normal()));
+                        x.prefix.push(f);
+                    }
+                    _ => {
+                        x.prefix.pop();
+                    }
+                }
+                let dt_us = (self.target.dt_s * 1e6) as u64;
+                // Consistent clocks along the sequence (the measured frame last).
+                let n = x.prefix.len() as u64;
+                for (k, p) in x.prefix.iter_mut().enumerate() {
+                    p.time_us = x.frame.time_us.wrapping_sub((n - k as u64) * dt_us);
+                }
+            }
+            88..94 if !self.target.modes.is_empty() => {
+                let modes = &self.target.modes;
+                x.mode = if self.unit() < 0.15 {
+                    None
+                } else {
+                    Some((modes[self.rng.random_range(0..modes.len())], self.unit() < 0.7))
+                };
+            }
+            88..100 if self.target.n_actuators > 0 => {
+                x.failed_mask ^= 1 << self.rng.random_range(0..self.target.n_actuators.min(16));
+            }
+            _ => {
+                let i = self.rng.random_range(0..N_FLOATS);
+                let s = gene_scale(i) * self.normal();
+                if let Some(g) = floats_mut(&mut x.frame).into_iter().nth(i) {
+                    *g = s;
+                }
+            }
+        }
+    }
+
+    /// Uniform crossover of the measured frames (the rest from `a`).
+    fn cross(&mut self, a: &Input, b: &Input) -> Input {
+        let mut c = a.clone();
+        let fb = super::floats(&b.frame);
+        for (g, v) in floats_mut(&mut c.frame).into_iter().zip(fb) {
+            if self.unit() < 0.5 {
+                *g = v;
+            }
+        }
+        if self.unit() < 0.5 {
+            c.frame.valid = b.frame.valid;
+        }
+        c
+    }
+}
+
+fn normalise(q: &mut [f32; 4]) {
+    let n = q.iter().map(|x| x * x).sum::<f32>().sqrt();
+    if n.is_finite() && n > 1e-20 {
+        for x in q.iter_mut() {
+            *x /= n;
+        }
+    }
+}
+
+/// The fixed inputs every search starts from: the nominal frame, attitude errors of 0.1,
+/// 1 and 3 rad about each body axis and each thruster direction with rates of 0.01 and
+/// 0.3 rad/s, and every valid bit cleared in turn. (Also the "fixed sweep" the search
+/// is compared with: see [`sweep`].)
+pub fn sweep_inputs(t: &Target) -> Vec<Input> {
+    let base = t.nominal_input();
+    let mut v = vec![base.clone()];
+    let mut dirs = vec![[1.0f32, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    dirs.extend(t.directions.iter().take(8));
+    for d in dirs {
+        for th in [0.1f32, 1.0, 3.0] {
+            for w in [0.01f32, 0.3] {
+                let mut x = base.clone();
+                let (s, c) = (th / 2.0).sin_cos();
+                x.frame.q_ib_xyzw = [d[0] * s, d[1] * s, d[2] * s, c];
+                x.frame.rate_rad_s = d.map(|c| c * w);
+                v.push(x);
+            }
+        }
+    }
+    for b in 0..7 {
+        let mut x = base.clone();
+        x.frame.valid &= !(1 << b);
+        v.push(x);
+    }
+    for m in &t.modes {
+        let mut x = base.clone();
+        x.mode = Some((*m, true));
+        v.push(x);
+    }
+    v
+}
+
+/// The largest cost over [`sweep_inputs`] (the baseline a search must reach).
+pub fn sweep(ev: &mut Evaluator) -> Result<Option<Found>> {
+    let mut best: Option<Found> = None;
+    for x in sweep_inputs(&ev.target) {
+        if let Some(c) = ev.evaluate(&x)?
+            && best.as_ref().is_none_or(|b| c.instructions > b.cost.instructions)
+        {
+            best = Some(Found { input: x, cost: c });
+        }
+    }
+    Ok(best)
+}
+
+/// Runs the search on `ev` (see the module documentation).
+pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> {
+    let start = Instant::now();
+    let target = ev.target.clone();
+    let mut directions = target.directions.clone();
+    directions.extend(opts.directions.iter().copied());
+    let mut m = Mutator { target: &target, directions, rng: ChaCha8Rng::seed_from_u64(opts.seed) };
+    let (mu, lambda) = (opts.mu.max(1), opts.lambda.max(1));
+    let out_of_budget =
+        |ev: &Evaluator| start.elapsed() >= opts.budget || opts.max_evaluations.is_some_and(|n| ev.evaluations >= n);
+    let (mut sum, mut n_ok, mut rejected) = (0.0f64, 0u64, 0u64);
+    let mut per_mode: BTreeMap<u8, Found> = BTreeMap::new();
+    let mut no_fail: Option<Found> = None;
+    let mut pop: Vec<Found> = Vec::new();
+    let mut record = |x: Input, c: Option<Cost>, pop: &mut Vec<Found>| {
+        let Some(c) = c else {
+            rejected += 1;
+            return;
+        };
+        sum += c.instructions as f64;
+        n_ok += 1;
+        let e = per_mode.entry(c.mode);
+        let f = Found { input: x, cost: c };
+        if f.input.failed_mask == 0 && no_fail.as_ref().is_none_or(|b| c.instructions > b.cost.instructions) {
+            no_fail = Some(f.clone());
+        }
+        match e {
+            std::collections::btree_map::Entry::Vacant(v) => {
+                v.insert(f.clone());
+            }
+            std::collections::btree_map::Entry::Occupied(mut o) => {
+                if c.instructions > o.get().cost.instructions {
+                    o.insert(f.clone());
+                }
+            }
+        }
+        pop.push(f);
+    };
+    // Generation 0: the seeds, the sweep, then random variations of the nominal input.
+    let nominal = ev.evaluate(&target.nominal_input())?;
+    let mut gen0: Vec<Input> = opts.seeds.clone();
+    gen0.extend(sweep_inputs(&target));
+    while gen0.len() < mu + lambda {
+        let mut x = target.nominal_input();
+        for _ in 0..m.rng.random_range(1..=4) {
+            m.mutate(&mut x);
+        }
+        gen0.push(x);
+    }
+    for x in gen0 {
+        if out_of_budget(ev) && !pop.is_empty() {
+            break;
+        }
+        let c = ev.evaluate(&x)?;
+        record(x, c, &mut pop);
+    }
+    let keep = |pop: &mut Vec<Found>| {
+        // Stable: among equal costs the earlier (older) input stays.
+        pop.sort_by_key(|f| std::cmp::Reverse(f.cost.instructions));
+        pop.truncate(mu);
+    };
+    keep(&mut pop);
+    anyhow::ensure!(!pop.is_empty(), "{}: the flight code refused every input", target.name);
+    let mut generations = 0;
+    while !out_of_budget(ev) {
+        let mut children = Vec::with_capacity(lambda);
+        for _ in 0..lambda {
+            let pick = |m: &mut Mutator| {
+                let (i, j) = (m.rng.random_range(0..pop.len()), m.rng.random_range(0..pop.len()));
+                i.min(j) // the costlier of two (pop is sorted)
+            };
+            let a = pick(&mut m);
+            let mut x = if m.unit() < 0.15 {
+                let b = pick(&mut m);
+                m.cross(&pop[a].input, &pop[b].input)
+            } else {
+                pop[a].input.clone()
+            };
+            // 1 + geometric(0.5) mutations.
+            m.mutate(&mut x);
+            while m.unit() < 0.5 {
+                m.mutate(&mut x);
+            }
+            children.push(x);
+        }
+        for x in children {
+            let c = ev.evaluate(&x)?;
+            record(x, c, &mut pop);
+        }
+        keep(&mut pop);
+        generations += 1;
+    }
+    let population_mean = pop.iter().map(|f| f.cost.instructions as f64).sum::<f64>() / pop.len() as f64;
+    Ok(SearchResult {
+        worst: pop[0].clone(),
+        mean_instructions: sum / n_ok.max(1) as f64,
+        population_mean,
+        nominal,
+        evaluations: ev.evaluations,
+        rejected,
+        generations,
+        elapsed_s: start.elapsed().as_secs_f64(),
+        per_mode,
+        worst_no_failures: no_fail,
+        population: pop,
+    })
+}
+
+/// A mode's name from its telemetry code ("none" without a mode table).
+pub fn mode_name(code: u8) -> &'static str {
+    Mode::from_code(code).map_or("none", Mode::name)
+}
