@@ -13,8 +13,9 @@
  * instructions execute (it needs to know which branches were taken and which loads read
  * flash).
  *
- * Why not watch the counter reads: under -icount the FPGAIO counter read is an I/O access
- * that QEMU 7.2 re-executes in a recompiled block, and its memory callback does not fire.
+ * Why the call and not the counter reads: the time driver reads the same counter, and the
+ * call/return pair needs neither the counter's address nor memory callbacks, so the same
+ * plugin works for any board's build.
  *
  * Arguments (`-plugin libcycles.so,out=FILE,...`):
  *   out=FILE          where the per-step lines go (default: stdout)
@@ -416,6 +417,8 @@ static void tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb) {
     size_t n = qemu_plugin_tb_n_insns(tb);
     for (size_t i = 0; i < n; i++) {
         struct qemu_plugin_insn *qi = qemu_plugin_tb_get_insn(tb, i);
+        /* Debian's QEMU 7.2 delivered only stores to a QEMU_PLUGIN_MEM_R registration
+         * (observed), so register both and filter in mem_access. */
         /* one record per translation; retranslation is rare (no self-modifying code) */
         insn_t *in = calloc(1, sizeof *in);
         if (!in) continue;
@@ -431,7 +434,7 @@ static void tb_trans(qemu_plugin_id_t id, struct qemu_plugin_tb *tb) {
                     dis ? dis : "", qemu_plugin_insn_symbol(qi) ? qemu_plugin_insn_symbol(qi) : "");
         free(dis);
         qemu_plugin_register_vcpu_insn_exec_cb(qi, insn_exec, QEMU_PLUGIN_CB_NO_REGS, in);
-        qemu_plugin_register_vcpu_mem_cb(qi, mem_access, QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_MEM_R, NULL);
+        qemu_plugin_register_vcpu_mem_cb(qi, mem_access, QEMU_PLUGIN_CB_NO_REGS, QEMU_PLUGIN_MEM_RW, NULL);
     }
 }
 
