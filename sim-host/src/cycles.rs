@@ -82,6 +82,14 @@ fn parse_line(header: &[String], line: &str) -> Result<StepCycles> {
     Ok(s)
 }
 
+/// All step lines of a complete plugin output file (header first).
+pub fn parse_output(text: &str) -> Result<Vec<StepCycles>> {
+    let mut lines = text.lines();
+    let header: Vec<String> =
+        lines.next().context("empty cycles plugin output")?.split('\t').map(str::to_string).collect();
+    lines.filter(|l| !l.is_empty()).map(|l| parse_line(&header, l)).collect()
+}
+
 /// The plugin shared object: `$ACS_QEMU_CYCLES_PLUGIN`, else `target/qemu-cycles/libcycles.so`.
 pub fn plugin_path() -> PathBuf {
     if let Ok(p) = std::env::var("ACS_QEMU_CYCLES_PLUGIN") {
@@ -163,8 +171,11 @@ impl CyclesLink {
                 Err(e) => return Err(e).with_context(|| format!("cycles plugin output {}", out.display())),
             }
         };
-        let mut me =
-            Self { qemu, out, reader: BufReader::new(file), header: Vec::new(),
+        let mut me = Self {
+            qemu,
+            out,
+            reader: BufReader::new(file),
+            header: Vec::new(),
             pending: String::new(),
             steps: Vec::new(),
             firmware_ticks: Vec::new(),

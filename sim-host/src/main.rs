@@ -259,13 +259,24 @@ fn cycles(
         say!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
-    say!("{}: {} steps at {} Hz (period {:.0} us), STM32F405 at {:.0} MHz, {} wait states", summary.scenario, st.steps, summary.control_rate_hz, period_us, STM32F405_HZ / 1e6, wait_states);
+    say!(
+        "{}: {} steps at {} Hz (period {:.0} us), STM32F405 at {:.0} MHz, {} wait states",
+        summary.scenario,
+        st.steps,
+        summary.control_rate_hz,
+        period_us,
+        STM32F405_HZ / 1e6,
+        wait_states
+    );
     say!("                         worst        mean");
     say!("  instructions (fw)  {:>10.0}  {:>10.0}", fw_stats.worst, fw_stats.mean);
     say!("  instructions       {:>10.0}  {:>10.0}", st.instructions.worst, st.instructions.mean);
     say!("  cycles lower       {:>10.0}  {:>10.0}", st.cycles_lower.worst, st.cycles_lower.mean);
     say!("  cycles upper       {:>10.0}  {:>10.0}", st.cycles_upper.worst, st.cycles_upper.mean);
-    for (name, w) in [("worst", (st.cycles_lower.worst, st.cycles_upper.worst)), ("mean", (st.cycles_lower.mean, st.cycles_upper.mean))] {
+    for (name, w) in [
+        ("worst", (st.cycles_lower.worst, st.cycles_upper.worst)),
+        ("mean", (st.cycles_lower.mean, st.cycles_upper.mean)),
+    ] {
         say!(
             "  {name:<5} {:.1}–{:.1} us = {:.2}–{:.2} % of the period",
             us(w.0),
