@@ -83,6 +83,9 @@ typedef struct {
     uint16_t flags;
     uint8_t nregs; /* LDM/STM/VLDM/VSTM/PUSH/POP: words transferred */
     uint8_t dbl;   /* VLDR/VSTR .64 */
+    int8_t dst;    /* core register written by a data-processing or load instruction, else -1 */
+    int8_t base;   /* load/store: base and offset registers of the address, else -1 */
+    int8_t off;
     const char *sym; /* QEMU's symbol string (lives as long as QEMU) */
     uint64_t in_steps; /* executions inside step windows (profile=FILE) */
     void *next;        /* all records, for the profile */
@@ -112,7 +115,7 @@ static int open_window;
 static uint64_t ret_addr; /* where the step returns to */
 static uint64_t n_insns, lo, hi, mix[C_N], extra[X_N], windows;
 static const insn_t *prev;     /* executed last, cost not yet charged */
-static int prev_prev_load;     /* the instruction before `prev` was a load (pipelining) */
+static const insn_t *prev_prev; /* the instruction before `prev` (pipelining, address dependencies) */
 static unsigned fdiv_shadow;   /* lower bound: cycles of a VDIV/VSQRT integer insns may overlap */
 static uint64_t line;          /* upper bound: current 128-bit flash line (address >> 4) */
 static uint64_t line_cycles;   /* upper bound: cycles spent since that line was delivered */
@@ -166,6 +169,19 @@ static unsigned reglist_words(const char *ops) {
     return words ? words : 1;
 }
 
+/* Core register number of the token at `p` (r0..r12, sb, sl, fp, ip, sp, lr, pc), else -1. */
+static int reg_at(const char *p) {
+    if (p[0] == 'r' && isdigit((unsigned char)p[1])) {
+        int n = p[1] - '0';
+        if (isdigit((unsigned char)p[2])) n = n * 10 + (p[2] - '0');
+        return n <= 15 ? n : -1;
+    }
+    static const char *names[] = {"sb", "sl", "fp", "ip", "sp", "lr", "pc"};
+    for (int i = 0; i < 7; i++)
+        if (!strncmp(p, names[i], 2) && !isalnum((unsigned char)p[2])) return 9 + i;
+    return -1;
+}
+
 static int soft_float_symbol(const char *s) {
     if (!s) return 0;
     if (strstr(s, "compiler_builtins") && strstr(s, "float")) return 1;
@@ -200,6 +216,20 @@ static void classify(insn_t *in, const char *dis, const char *sym) {
     in->cls = C_ALU;
     in->flags = 0;
     in->nregs = 1;
+    in->dst = in->base = in->off = -1;
+    const char *br = strchr(ops, '[');
+    if (br) {
+        const char *q = br + 1;
+        while (*q == ' ') q++;
+        in->base = (int8_t)reg_at(q);
+        const char *c = strchr(q, ',');
+        const char *e = strchr(q, ']');
+        if (c && (!e || c < e)) {
+            c++;
+            while (*c == ' ') c++;
+            in->off = (int8_t)reg_at(c);
+        }
+    }
     in->dbl = (uint8_t)dbl;
 
     if (m[0] == 'b' && is_cond(m + 1)) {
@@ -268,6 +298,10 @@ static void classify(insn_t *in, const char *dis, const char *sym) {
         if (pc_first && !starts(m, "cmp") && !starts(m, "cmn") && !starts(m, "tst") && !starts(m, "teq"))
             in->flags |= F_WRITES_PC;
     }
+    if ((in->cls == C_ALU && !(in->flags & F_IT) && !starts(m, "cmp") && !starts(m, "cmn") && !starts(m, "tst") &&
+         !starts(m, "teq")) ||
+        in->cls == C_MUL || in->cls == C_MLA || in->cls == C_DIV || in->cls == C_LOAD)
+        in->dst = (int8_t)reg_at(ops);
     if ((step_addr && in->pc == step_addr) || (!step_addr && sym && strstr(sym, step_sym))) in->flags |= F_STEP;
     if (soft_float_symbol(sym)) in->flags |= F_SOFT;
     if (sym && (strstr(sym, "memcpy") || strstr(sym, "memset") || strstr(sym, "memmove") || strstr(sym, "memclr")))
@@ -288,7 +322,7 @@ static void base_cost(const insn_t *in, int after_load, unsigned *l, unsigned *h
     case C_LDRD: *l = 3; *h = 3; break;
     case C_LDM: *l = *h = 1u + in->nregs; break;
     case C_BRANCH: *l = *h = 1; break;
-    case C_TB: *l = *h = 2; break;
+    case C_TB: *l = 2; *h = 3; break; /* table 3-1: 2+P; 3.3.2: load 2, add 1, reload 3 */
     case C_FP: *l = *h = 1; break;
     case C_FMOV2: *l = *h = 2; break;
     case C_FMAC: *l = *h = 3; break;
@@ -309,7 +343,17 @@ static void charge_prev(uint64_t next_pc) {
     if (!p) return;
     int taken = next_pc != (uint64_t)p->pc + p->size;
     unsigned l, h;
-    base_cost(p, prev_prev_load, &l, &h);
+    const insn_t *pp = prev_prev;
+    int addr_dep = pp && pp->dst >= 0 && p->base >= 0 && (pp->dst == p->base || pp->dst == p->off);
+    /* "if the destination of the first LDR is not used to compute the address for the
+     * next instruction, then one cycle is removed from the cost of the next" (TRM 3.3.2) */
+    base_cost(p, pp && is_load_single(pp) && !addr_dep, &l, &h);
+    /* "Any load or store that generates an address dependent on the result of a preceding
+     * data processing operation stalls the pipeline for an additional cycle" (TRM 3.3.2) */
+    if (addr_dep && pp->cls != C_LOAD && pp->cls != C_FLD) {
+        l += 1;
+        h += 1;
+    }
     if (taken && (p->flags & F_WRITES_PC)) {
         /* 1+P (TRM table 3-1); upper: P = 3 plus the flash wait states of the target line
          * (RM0090 3.5.2: a non-sequential fetch that misses pays at least the wait states). */
@@ -349,7 +393,7 @@ static void charge_prev(uint64_t next_pc) {
         line = nl;
         line_cycles = 0;
     }
-    prev_prev_load = is_load_single(p);
+    prev_prev = p;
 }
 
 static void emit(void) {

@@ -21,6 +21,8 @@ reset:
 func:
     push {r4, lr}
     movs r0, #10
+    mov r1, sp
+    ldr r2, [r1]
 loop:
     ldr r2, [sp]
     ldr r3, [sp, #4]
