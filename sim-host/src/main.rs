@@ -278,7 +278,7 @@ fn cycles(
         ("mean", (st.cycles_lower.mean, st.cycles_upper.mean)),
     ] {
         say!(
-            "  {name:<5} {:.1}–{:.1} us = {:.2}–{:.2} % of the period",
+            "  {name:<5} {:.1}–{:.1} us = {:.3}–{:.3} % of the period",
             us(w.0),
             us(w.1),
             100.0 * us(w.0) / period_us,
