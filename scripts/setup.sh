@@ -37,6 +37,15 @@ if ! command -v llvm-objdump >/dev/null 2>&1 || ! command -v llvm-addr2line >/de
   apt_install llvm || echo "setup: no apt-get; install LLVM's binutils (llvm-objdump, llvm-nm, llvm-addr2line) yourself" >&2
 fi
 
+# C compiler for the QEMU cycle plugin (tools/qemu-cycles; only libc, no QEMU or glib
+# headers needed). The cycle tests skip without it.
+if ! command -v cc >/dev/null 2>&1; then
+  apt_install gcc libc6-dev || echo "setup: no apt-get; install a C compiler for tools/qemu-cycles yourself" >&2
+fi
+if command -v cc >/dev/null 2>&1; then
+  "$(dirname "${BASH_SOURCE[0]}")/../tools/qemu-cycles/build.sh" >/dev/null || echo "setup: the QEMU cycle plugin did not build (tools/qemu-cycles/build.sh)" >&2
+fi
+
 # Single-node Slurm + munge for the local-cluster tests (sim-host/tests/support/slurm.rs). The Debian
 # packages enable system services; the tests never use those, they start their own daemons
 # under a temporary directory.

@@ -64,7 +64,9 @@ async fn wait_for_real_time(wdg: &mut Watchdog) {
         return;
     };
     loop {
-        match select(state::START_REAL_TIME.wait(), Timer::at(advance(Instant::now(), Duration::from_secs(every)))).await {
+        match select(state::START_REAL_TIME.wait(), Timer::at(advance(Instant::now(), Duration::from_secs(every))))
+            .await
+        {
             Either::First(()) => return,
             Either::Second(()) => wdg.keep_alive(),
         }

@@ -11,6 +11,7 @@ pub mod analysis;
 pub mod attitude;
 pub mod campaign;
 pub mod columns;
+pub mod cycles;
 pub mod decimate;
 pub mod design;
 pub mod environment;

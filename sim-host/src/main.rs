@@ -175,6 +175,30 @@ enum Cmd {
         #[command(subcommand)]
         what: TimingCmd,
     },
+    /// Cortex-M4 cycle bounds per flight step: run the scenario against the QEMU firmware
+    /// with the cycle plugin (tools/qemu-cycles) and print instructions, the cycle range and
+    /// the instruction mix (docs/timing.md, "Cycles").
+    Cycles {
+        scenario: PathBuf,
+        /// Firmware ELF (default: firmware/target/.../release/acs-firmware).
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+        /// Plugin .so (default: target/qemu-cycles/libcycles.so, built on demand).
+        #[arg(long)]
+        plugin: Option<PathBuf>,
+        /// Flash wait states charged by the upper bound (STM32F405 at 168 MHz: 5).
+        #[arg(long, default_value_t = sim_host::cycles::STM32F405_WAIT_STATES)]
+        wait_states: u32,
+        /// Simulate only this long instead of the scenario's duration_s.
+        #[arg(long)]
+        duration: Option<f64>,
+        /// Also write the per-step figures (TSV) to this file.
+        #[arg(long)]
+        per_step: Option<PathBuf>,
+        /// Print the statistics as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
     Serve {
         #[arg(long, default_value = "127.0.0.1:7878")]
@@ -218,6 +242,9 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             link::serve::serve(l, None)
         }
         Cmd::Check { scenario } => check(&scenario),
+        Cmd::Cycles { scenario, firmware, plugin, wait_states, duration, per_step, json } => {
+            cycles(&scenario, firmware, plugin, wait_states, duration, per_step, json)
+        }
         Cmd::Campaign { what } => campaign(what),
         Cmd::Timing { what } => timing(what),
     }
@@ -378,6 +405,105 @@ fn timing(what: TimingCmd) -> Result<()> {
             }
         }
     }
+    Ok(())
+}
+
+/// `sim-host cycles`: per-step instructions and Cortex-M4 cycle bounds on the QEMU firmware.
+fn cycles(
+    scenario: &Path,
+    firmware: Option<PathBuf>,
+    plugin: Option<PathBuf>,
+    wait_states: u32,
+    duration: Option<f64>,
+    per_step: Option<PathBuf>,
+    json: bool,
+) -> Result<()> {
+    use sim_host::cycles::{CycleStats, CyclesOptions, STM32F405_HZ, run_scenario};
+    let mut sc = Scenario::load(scenario)?;
+    if let Some(d) = duration {
+        sc.duration_s = d;
+    }
+    let opts = CyclesOptions { plugin, wait_states };
+    let (summary, steps, fw) = run_scenario(&sc, firmware.as_deref(), &opts)?;
+    if let Some(p) = &per_step {
+        let mut t = String::from("step\tfirmware_instructions\tinstructions\tcycles_lower\tcycles_upper");
+        let keys: Vec<String> = steps.first().map(|s| s.mix.keys().cloned().collect()).unwrap_or_default();
+        for k in &keys {
+            t += &format!("\t{k}");
+        }
+        t.push('\n');
+        for (k, (s, f)) in steps.iter().zip(&fw).enumerate() {
+            t += &format!("{k}\t{f}\t{}\t{}\t{}", s.instructions, s.cycles_lower, s.cycles_upper);
+            for key in &keys {
+                t += &format!("\t{}", s.get(key));
+            }
+            t.push('\n');
+        }
+        std::fs::write(p, t).with_context(|| format!("writing {}", p.display()))?;
+    }
+    let st = CycleStats::of(&steps);
+    let fw_stats = sim_host::cycles::WorstMean::of(fw.iter().copied());
+    let period_us = 1e6 / summary.control_rate_hz;
+    let us = |c: f64| c / STM32F405_HZ * 1e6;
+    if json {
+        let v = serde_json::json!({
+            "scenario": summary.scenario,
+            "steps": st.steps,
+            "control_rate_hz": summary.control_rate_hz,
+            "wait_states": wait_states,
+            "cpu_hz": STM32F405_HZ,
+            "firmware_instructions": {"worst": fw_stats.worst, "mean": fw_stats.mean},
+            "instructions": {"worst": st.instructions.worst, "mean": st.instructions.mean},
+            "cycles_lower": {"worst": st.cycles_lower.worst, "mean": st.cycles_lower.mean},
+            "cycles_upper": {"worst": st.cycles_upper.worst, "mean": st.cycles_upper.mean},
+            "us_worst": [us(st.cycles_lower.worst), us(st.cycles_upper.worst)],
+            "period_fraction_worst": [us(st.cycles_lower.worst) / period_us, us(st.cycles_upper.worst) / period_us],
+            "mix": {
+                "fp": st.fp_share, "load_store": st.load_store_share, "branch": st.branch_share,
+                "taken": st.taken_share, "soft_float": st.soft_float_share,
+                "soft_float_calls_per_step": st.soft_float_calls_per_step,
+                "vdiv_vsqrt_per_step": st.vdiv_vsqrt_per_step,
+            },
+        });
+        say!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(());
+    }
+    say!(
+        "{}: {} steps at {} Hz (period {:.0} us), STM32F405 at {:.0} MHz, {} wait states",
+        summary.scenario,
+        st.steps,
+        summary.control_rate_hz,
+        period_us,
+        STM32F405_HZ / 1e6,
+        wait_states
+    );
+    say!("                         worst        mean");
+    say!("  instructions (fw)  {:>10.0}  {:>10.0}", fw_stats.worst, fw_stats.mean);
+    say!("  instructions       {:>10.0}  {:>10.0}", st.instructions.worst, st.instructions.mean);
+    say!("  cycles lower       {:>10.0}  {:>10.0}", st.cycles_lower.worst, st.cycles_lower.mean);
+    say!("  cycles upper       {:>10.0}  {:>10.0}", st.cycles_upper.worst, st.cycles_upper.mean);
+    for (name, w) in [
+        ("worst", (st.cycles_lower.worst, st.cycles_upper.worst)),
+        ("mean", (st.cycles_lower.mean, st.cycles_upper.mean)),
+    ] {
+        say!(
+            "  {name:<5} {:.1}–{:.1} us = {:.3}–{:.3} % of the period",
+            us(w.0),
+            us(w.1),
+            100.0 * us(w.0) / period_us,
+            100.0 * us(w.1) / period_us
+        );
+    }
+    say!(
+        "  mix: FP {:.1} %, loads/stores {:.1} %, branches {:.1} % (taken {:.1} %), soft-float {:.1} % ({:.1} calls/step), VDIV/VSQRT {:.1}/step",
+        100.0 * st.fp_share,
+        100.0 * st.load_store_share,
+        100.0 * st.branch_share,
+        100.0 * st.taken_share,
+        100.0 * st.soft_float_share,
+        st.soft_float_calls_per_step,
+        st.vdiv_vsqrt_per_step
+    );
     Ok(())
 }
 

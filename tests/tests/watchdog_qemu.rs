@@ -68,7 +68,7 @@ fn watchdog_resets_a_hung_real_time_loop_into_the_safe_state() {
     }
     firmware();
     let t_start = Instant::now();
-    let mut link = QemuLink::start_with(None, QemuClock::RealTime).unwrap();
+    let mut link = QemuLink::start_with(None, QemuClock::RealTime, &[]).unwrap();
     let info = link.hello().unwrap();
     assert_eq!(info.reset_cause, ResetCause::PowerOn);
 

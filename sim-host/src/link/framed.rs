@@ -122,7 +122,13 @@ impl<S: Read + Write> FlightLink for Framed<S> {
         self.send(&HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() })?;
         match self.recv()? {
             FswMsg::HelloAck {
-                protocol_version, schema_hash: h, cost_counter_hz, board, reset_cause, stack_hwm_bytes, ..
+                protocol_version,
+                schema_hash: h,
+                cost_counter_hz,
+                board,
+                reset_cause,
+                stack_hwm_bytes,
+                ..
             } => {
                 if protocol_version != PROTOCOL_VERSION || h != schema_hash() {
                     bail!(
@@ -133,7 +139,8 @@ impl<S: Read + Write> FlightLink for Framed<S> {
                 }
                 // QEMU (board 1) runs with -icount shift=0: 1 instruction per ns.
                 let ipt = (board == 1 && cost_counter_hz > 0).then(|| 1e9 / cost_counter_hz as f64);
-                let info = LinkInfo { board, cost_counter_hz, instructions_per_tick: ipt, reset_cause, stack_hwm_bytes };
+                let info =
+                    LinkInfo { board, cost_counter_hz, instructions_per_tick: ipt, reset_cause, stack_hwm_bytes };
                 self.info = Some(info.clone());
                 Ok(info)
             }

@@ -66,10 +66,12 @@ pub struct QemuLink {
 
 impl QemuLink {
     pub fn start(firmware: Option<&Path>) -> Result<Self> {
-        Self::start_with(firmware, QemuClock::Lockstep)
+        Self::start_with(firmware, QemuClock::Lockstep, &[])
     }
 
-    pub fn start_with(firmware: Option<&Path>, clock: QemuClock) -> Result<Self> {
+    /// As [`start`](Self::start), on the given clock and with `extra` appended to the QEMU
+    /// command line (e.g. a TCG plugin, see [`crate::cycles`]).
+    pub fn start_with(firmware: Option<&Path>, clock: QemuClock, extra: &[String]) -> Result<Self> {
         let elf = firmware.map(Path::to_path_buf).unwrap_or_else(default_firmware);
         if !elf.exists() {
             bail!(
@@ -82,6 +84,7 @@ impl QemuLink {
         let out = std::fs::File::create(&log)?;
         let child = Command::new("qemu-system-arm")
             .args(qemu_args_with(&elf, port, clock))
+            .args(extra)
             .stdin(Stdio::null())
             .stdout(out.try_clone()?)
             .stderr(out)
