@@ -60,6 +60,15 @@ const RULES: &[IndirectRule] = &[
         why: WAKER_WHY,
     },
     IndirectRule { caller: "_embassy_time_schedule_wake", targets: WAKER_TARGETS, why: WAKER_WHY },
+    // `Signal::wait` kept out of line by the control task's `select` (watchdog keep-alive
+    // while waiting for StartRealTime): embassy-sync signal.rs:90-115 clones, wakes and
+    // drops the stored waker (checked by disassembly: every `blx` loads from a
+    // RawWakerVTable slot).
+    IndirectRule {
+        caller: "<core::future::poll_fn::PollFn<F> as core::future::future::Future>::poll",
+        targets: WAKER_TARGETS,
+        why: WAKER_WHY,
+    },
     IndirectRule { caller: "SysTick", targets: WAKER_TARGETS, why: WAKER_WHY },
     IndirectRule { caller: "acs_firmware::board::qemu::uart0_rx_isr", targets: WAKER_TARGETS, why: WAKER_WHY },
     IndirectRule { caller: "acs_firmware::board::qemu::uart0_tx_isr", targets: WAKER_TARGETS, why: WAKER_WHY },
