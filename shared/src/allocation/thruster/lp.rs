@@ -58,7 +58,7 @@
 //! bounds are non-finite or inverted. `λ = 0`; `realised = B u` and
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
-use super::simplex::{Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
+use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
 pub use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
@@ -600,7 +600,8 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if !Self::bounds_consistent(bd) {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
-        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        let mut basis = Basis::<AXES, NV>::default();
+        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_from(self.lp_iteration_cap, None, Some(&mut basis));
         let mut it = s1.iterations;
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
@@ -612,8 +613,16 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if lambda < 1.0 - LAMBDA_TOL {
             return self.finish(m_d, bd, u1, lambda, AllocStatus::Scaled, it);
         }
-        // Attainable: stage 2, minimum propellant with B u = m_d.
-        let s2 = self.fuel_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        // Attainable: stage 2, minimum propellant with B u = m_d, warm-started from the
+        // stage-1 basis. With λ nonbasic at its upper bound 1 the stage-1 basis has the
+        // same basic thruster columns (same indices: both LPs list the movable
+        // thrusters first) and the same right-hand side `m_d - B u_lo`, so it is a
+        // feasible basis of the fuel LP: phase 1 is skipped, and when the stage-1
+        // vertex is already fuel-optimal (all reduced costs of the fuel objective of
+        // the right sign: the LP optimality certificate) stage 2 makes no pivot at all.
+        // If λ is basic (value within LAMBDA_TOL of 1) the basis names column `nc`,
+        // which the fuel LP does not have: the solver rejects it and cold-starts.
+        let s2 = self.fuel_lp(m_d, bd).solve_from(self.lp_iteration_cap, Some(&basis), None);
         it = it.saturating_add(s2.iterations);
         if s2.status == LpStatus::InternalError {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
