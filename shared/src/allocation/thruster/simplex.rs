@@ -32,10 +32,12 @@
 //!   variable is the lowest index, the bound flip counting as the entering
 //!   variable's own index (structural `j` < artificial `N + i`). Everything is
 //!   deterministic: same input bits → same output bits.
-//! - **Refactorisation**: at the end of each phase the basis inverse is rebuilt from
+//! - **Refactorisation**: at the end of phase 2 the basis inverse is rebuilt from
 //!   the scaled data by Gauss-Jordan with partial pivoting, the tableau and basic
 //!   values recomputed, and optimality re-checked (drift-induced extra pivots count
-//!   towards the cap).
+//!   towards the cap). Not at the end of phase 1 (its drift is far inside
+//!   [`FEAS_TOL`]; phase 2 goes on from the pivoted tableau), and not again when no
+//!   pivot was made since the last one.
 //! - **Refinement**: after each refactorisation the basic values get one step of
 //!   iterative refinement with a compensated (Dot2) residual, so `x` is accurate to
 //!   ~ε rather than `cond(B)·ε` (f32 only, no f64).
@@ -415,6 +417,9 @@ struct Solver<const M: usize, const N: usize> {
     dantzig: bool,
     /// Last pivot was degenerate: Bland's rule in force.
     bland_now: bool,
+    /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
+    /// has been made since: a further refactorisation would recompute the same state.
+    fresh: bool,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
@@ -436,6 +441,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             phase1: true,
             dantzig: false,
             bland_now: false,
+            fresh: false,
         }
     }
 
@@ -455,6 +461,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         self.upper = [false; N];
         self.phase1 = true;
         self.bland_now = false;
+        self.fresh = false;
     }
 
     /// Install the warm basis `w` for phase 2: `Ok(true)` if it is valid, its basis
@@ -498,6 +505,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         if !self.refactor()? {
             return Ok(false);
         }
+        self.fresh = true;
         for (var, x) in self.basis.iter().zip(self.xb.iter_mut()).take(m) {
             let ub = Self::upper_of_in(false, &self.h, *var)?;
             if !(*x >= -FEAS_TOL && *x <= ub + FEAS_TOL) {
@@ -571,14 +579,27 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
     fn price(&self) -> Result<Option<usize>, Fault> {
         let cb = self.basic_costs()?;
+        // All reduced costs at once, row by row: z_j accumulates cb_i t_ij in row order
+        // exactly as [`Self::reduced_cost_with`] does (same bits), but over whole rows
+        // (no per-entry index checks) and skipping the rows with cb_i = 0 (adding
+        // 0 · t_ij only changes the sign of a zero z_j, which no decision reads).
+        let n = self.n;
+        let mut z = [0.0f32; N];
+        for (row, cbi) in self.t.iter().zip(cb.iter()).take(self.m) {
+            if *cbi != 0.0 {
+                for (zj, tij) in z.iter_mut().zip(row.iter()).take(n) {
+                    *zj += cbi * tij;
+                }
+            }
+        }
         let bland = !self.dantzig || self.bland_now;
         let mut best: Option<(usize, f32)> = None;
-        let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter());
-        for (j, ((&basic, &hj), &upper)) in cols.enumerate().take(self.n) {
+        let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter()).zip(self.c.iter().zip(z.iter()));
+        for (j, (((&basic, &hj), &upper), (&cj, &zj))) in cols.enumerate().take(n) {
             if basic || !(hj > 0.0) {
                 continue;
             }
-            let d = self.reduced_cost_with(&cb, j)?;
+            let d = if self.phase1 { 0.0 } else { cj } - zj;
             let gj = if upper { d } else { -d };
             if gj > DUAL_TOL {
                 if bland {
@@ -905,12 +926,27 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     fn run_phase(&mut self) -> Result<(), LpStatus> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
+        //
+        // Refactorisation only at the end of phase 2 (phase 1's drift, a few ε over at
+        // most `cap` pivots of a 3-row tableau, is far inside FEAS_TOL; phase 2 then
+        // continues on the pivoted tableau, and its final refactorisation, refinement
+        // and optimality re-check make the result as accurate as before), and not
+        // when nothing was pivoted since the last one (warm start already optimal).
         loop {
             match self.iterate() {
-                Ok(true) => continue,
+                Ok(true) => {
+                    self.fresh = false;
+                    continue;
+                }
                 Ok(false) => {
-                    if self.refactor()? && self.price()?.is_some() {
-                        continue;
+                    if self.phase1 || self.fresh {
+                        return Ok(());
+                    }
+                    if self.refactor()? {
+                        self.fresh = true;
+                        if self.price()?.is_some() {
+                            continue;
+                        }
                     }
                     return Ok(());
                 }
