@@ -297,8 +297,14 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         }
         let m = sv.m;
         // ---- phase 1 ---------------------------------------------------------
+        // Skipped when the artificial basis is already feasible (all scaled b_i within
+        // the phase-1 tolerance of 0, e.g. b = -B u_lo with u_lo = 0): phase 2 then
+        // starts from it, the artificials held at [0, 0].
         sv.phase1 = true;
-        if let Err(e) = sv.run_phase() {
+        let b0: f32 = sv.b.iter().take(m).sum();
+        if !(b0 <= FEAS_TOL * (1.0 + bmax))
+            && let Err(e) = sv.run_phase()
+        {
             return e;
         }
         let mut infeas = 0.0f32;
