@@ -331,7 +331,11 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         for (o, row) in out.iter_mut().zip(self.b.iter()) {
             let mut acc = Dot2::new(0.0);
             for (b, x) in row.iter().zip(u.iter()) {
-                acc.add_prod(*b, *x);
+                // A zero product (thruster off, or not fitted) leaves Dot2's sum and
+                // error term unchanged: skipped.
+                if *b != 0.0 && *x != 0.0 {
+                    acc.add_prod(*b, *x);
+                }
             }
             *o = acc.value();
         }

@@ -856,14 +856,21 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        for (i, (trow, (irow, xb))) in self.t.iter_mut().zip(inv.iter().zip(self.xb.iter_mut())).enumerate().take(m) {
-            let _ = i;
-            for (j, tv) in trow.iter_mut().enumerate().take(self.n) {
-                let mut acc = 0.0f32;
-                for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
-                    acc += ik * at(arow, j)?;
+        let n = self.n;
+        for (trow, (irow, xb)) in self.t.iter_mut().zip(inv.iter().zip(self.xb.iter_mut())).take(m) {
+            // t_i = Σ_k inv_ik a_k, accumulated over k in order for every column at once
+            // (the same sums as column by column); zero inv_ik terms skipped (they add
+            // a signed zero at most).
+            let mut acc = [0.0f32; N];
+            for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
+                if *ik != 0.0 {
+                    for (av, a) in acc.iter_mut().zip(arow.iter()).take(n) {
+                        *av += ik * a;
+                    }
                 }
-                *tv = acc;
+            }
+            for (tv, av) in trow.iter_mut().zip(acc.iter()).take(n) {
+                *tv = *av;
             }
             let mut acc = 0.0f32;
             for (ik, r) in irow.iter().zip(rhs.iter()).take(m) {
