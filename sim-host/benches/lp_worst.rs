@@ -16,7 +16,8 @@
 //!
 //! Environment: `ACS_FIRMWARE_ELF` (default: the QEMU build), `LP_WORST_SEED` (default 1),
 //! `LP_WORST_GENS` (default 40), `LP_WORST_OUT` (JSON of the worst demands, default none),
-//! `LP_WORST_LABEL` (tag written into the JSON, default "current").
+//! `LP_WORST_LABEL` (tag written into the JSON, default "current"), `LP_WORST_PROBE`
+//! (`mx,my,mz;…`: only print the cost of these demands, in every configuration).
 
 use acs_flight::link::{SensorFrame, valid};
 use acs_flight::params::{ActuatorParams, FlightParams};
@@ -147,10 +148,27 @@ fn main() {
             t.failed_mask = cfg.failed_1based.iter().fold(0u16, |m, i| m | (1 << (i - 1)));
         }
         let b = sc.thruster_set().expect("thrusters").torque_matrix();
-        let mut link = QemuLink::start(elf.as_deref()).expect("qemu");
-        link.hello().expect("hello");
-        link.upload(&params).expect("upload");
+        // QEMU under a loaded machine occasionally misses the first reply: retry.
+        let mut link = (0..3)
+            .find_map(|_| {
+                let mut l = QemuLink::start(elf.as_deref()).ok()?;
+                l.hello().ok()?;
+                l.upload(&params).ok()?;
+                Some(l)
+            })
+            .expect("qemu link (3 attempts)");
         let mut ev = Eval { link, kd: [-42.0, -91.0, -91.0], seq: 0, _p: std::marker::PhantomData };
+        if let Ok(probe) = std::env::var("LP_WORST_PROBE") {
+            // `mx,my,mz;mx,my,mz;…`: the cost of these demands only (each twice, to
+            // show the step cost does not depend on the previous step).
+            for d in probe.split(';').filter(|t| !t.is_empty()) {
+                let v: Vec<f64> = d.split(',').map(|x| x.trim().parse().expect("number")).collect();
+                let m = [v[0], v[1], v[2]];
+                let (c1, c2) = (ev.cost(&m), ev.cost(&m));
+                println!("{} demand {m:?}: {c1} / {c2} instructions", cfg.label);
+            }
+            continue;
+        }
 
         // Seed directions.
         let mut dirs: Vec<[f64; 3]> = (0..60).map(|_| rng.unit()).collect();

@@ -176,6 +176,14 @@ pub struct Lp<const M: usize, const N: usize> {
     pub cols: usize,
     /// Entering rule (default [`Pricing::DantzigBland`]).
     pub pricing: Pricing,
+    /// Skip the final refactorisation when every column with a nonzero cost is
+    /// nonbasic at the bound its cost prefers (upper if `c_j < 0`, lower if
+    /// `c_j > 0`): `cᵀx` then equals its minimum over the box, so the vertex is
+    /// optimal whatever the pivoting drift, and those `x_j` are exact; the basic
+    /// values keep the drift of the pivots (a few ε · cond(B)) instead of being
+    /// refined. Default false. Used by the direction-preserving stage 1 when `λ`
+    /// reaches 1: its basis goes on to the fuel stage, which refactorises anyway.
+    pub exit_at_cost_bound: bool,
 }
 
 impl<const M: usize, const N: usize> Default for Lp<M, N> {
@@ -224,7 +232,16 @@ fn pow2_recip(v: f32) -> f32 {
 impl<const M: usize, const N: usize> Lp<M, N> {
     /// All-zero problem with the given active size (`h = 0`).
     pub const fn zeroed(rows: usize, cols: usize) -> Self {
-        Self { a: [[0.0; N]; M], b: [0.0; M], c: [0.0; N], h: [0.0; N], rows, cols, pricing: Pricing::DantzigBland }
+        Self {
+            a: [[0.0; N]; M],
+            b: [0.0; M],
+            c: [0.0; N],
+            h: [0.0; N],
+            rows,
+            cols,
+            pricing: Pricing::DantzigBland,
+            exit_at_cost_bound: false,
+        }
     }
 
     /// Solve with the default cap `4 (rows + cols)`.
@@ -355,6 +372,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         sv.dantzig = self.pricing == Pricing::DantzigBland;
+        sv.exit_at_cost_bound = self.exit_at_cost_bound;
         sv.h = hs;
         let mut bmax = 0.0f32;
         for ((srow, sb), (row, bi)) in
@@ -426,6 +444,8 @@ struct Solver<const M: usize, const N: usize> {
     /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
     /// has been made since: a further refactorisation would recompute the same state.
     fresh: bool,
+    /// [`Lp::exit_at_cost_bound`].
+    exit_at_cost_bound: bool,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
@@ -448,6 +468,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             dantzig: false,
             bland_now: false,
             fresh: false,
+            exit_at_cost_bound: false,
         }
     }
 
@@ -568,36 +589,26 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(cb)
     }
 
-    /// Reduced cost of column `j` given the basic costs `cb`: `c_j - Σ_i cb_i t_ij`
-    /// (rows summed in order).
-    #[inline]
-    fn reduced_cost_with(&self, cb: &[f32; M], j: usize) -> Result<f32, Fault> {
-        let cj = if self.phase1 { 0.0 } else { at(&self.c, j)? };
-        let mut z = 0.0f32;
-        for (row, cbi) in self.t.iter().zip(cb.iter()).take(self.m) {
-            z += cbi * at(row, j)?;
-        }
-        Ok(cj - z)
-    }
-
-    /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
-    /// lowest index on ties), see [`Pricing`]. The gain of a column is its
-    /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
-    fn price(&self) -> Result<Option<usize>, Fault> {
+    /// `Σ_i cb_i t_ij` for every column: accumulated in row order, as the former
+    /// column-by-column dot products did (same bits), but over whole rows (no
+    /// per-entry index checks) and skipping the rows with `cb_i = 0` (adding
+    /// `0 · t_ij` only changes the sign of a zero sum, which no decision reads).
+    fn cost_sums(&self) -> Result<[f32; N], Fault> {
         let cb = self.basic_costs()?;
-        // All reduced costs at once, row by row: z_j accumulates cb_i t_ij in row order
-        // exactly as [`Self::reduced_cost_with`] does (same bits), but over whole rows
-        // (no per-entry index checks) and skipping the rows with cb_i = 0 (adding
-        // 0 · t_ij only changes the sign of a zero z_j, which no decision reads).
-        let n = self.n;
         let mut z = [0.0f32; N];
         for (row, cbi) in self.t.iter().zip(cb.iter()).take(self.m) {
             if *cbi != 0.0 {
-                for (zj, tij) in z.iter_mut().zip(row.iter()).take(n) {
+                for (zj, tij) in z.iter_mut().zip(row.iter()).take(self.n) {
                     *zj += cbi * tij;
                 }
             }
         }
+        Ok(z)
+    }
+
+    fn price(&self) -> Result<Option<usize>, Fault> {
+        let z = self.cost_sums()?;
+        let n = self.n;
         let bland = !self.dantzig || self.bland_now;
         let mut best: Option<(usize, f32)> = None;
         let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter()).zip(self.c.iter().zip(z.iter()));
@@ -936,6 +947,13 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(())
     }
 
+    /// Every column with a nonzero (phase-2) cost is nonbasic at its preferred bound
+    /// ([`Lp::exit_at_cost_bound`]).
+    fn at_cost_bound(&self) -> bool {
+        let cols = self.c.iter().zip(self.basic.iter().zip(self.upper.iter()));
+        cols.take(self.n).all(|(c, (basic, upper))| *c == 0.0 || (!*basic && (*upper == (*c < 0.0))))
+    }
+
     fn run_phase(&mut self) -> Result<(), LpStatus> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
@@ -952,7 +970,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     continue;
                 }
                 Ok(false) => {
-                    if self.phase1 || self.fresh {
+                    if self.phase1 || self.fresh || (self.exit_at_cost_bound && self.at_cost_bound()) {
                         return Ok(());
                     }
                     if self.refactor()? {
@@ -997,10 +1015,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let mut dual_margin = f32::INFINITY;
         if status == LpStatus::Optimal {
-            let cb = self.basic_costs()?;
-            for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
+            let z = self.cost_sums()?;
+            let cols = self.basic.iter().zip(self.h.iter()).zip(self.c.iter().zip(z.iter()));
+            for ((basic, hj), (cj, zj)) in cols.take(self.n) {
                 if !basic && *hj > 0.0 {
-                    let d = self.reduced_cost_with(&cb, j)?.abs();
+                    let d = (if self.phase1 { 0.0 } else { *cj } - zj).abs();
                     if d < dual_margin {
                         dual_margin = d;
                     }
