@@ -32,12 +32,11 @@
 //!   variable is the lowest index, the bound flip counting as the entering
 //!   variable's own index (structural `j` < artificial `N + i`). Everything is
 //!   deterministic: same input bits → same output bits.
-//! - **Refactorisation**: at the end of phase 2 the basis inverse is rebuilt from
+//! - **Refactorisation**: at the end of each phase the basis inverse is rebuilt from
 //!   the scaled data by Gauss-Jordan with partial pivoting, the tableau and basic
 //!   values recomputed, and optimality re-checked (drift-induced extra pivots count
-//!   towards the cap). Not at the end of phase 1 (its drift is far inside
-//!   [`FEAS_TOL`]; phase 2 goes on from the pivoted tableau), and not again when no
-//!   pivot was made since the last one.
+//!   towards the cap); not again when no pivot was made since the last one (nor
+//!   with [`Lp::exit_at_cost_bound`] at the cost bound).
 //! - **Refinement**: after each refactorisation the basic values get one step of
 //!   iterative refinement with a compensated (Dot2) residual, so `x` is accurate to
 //!   ~ε rather than `cond(B)·ε` (f32 only, no f64).
@@ -314,14 +313,11 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         }
         let m = sv.m;
         // ---- phase 1 ---------------------------------------------------------
-        // Skipped when the artificial basis is already feasible (all scaled b_i within
-        // the phase-1 tolerance of 0, e.g. b = -B u_lo with u_lo = 0): phase 2 then
-        // starts from it, the artificials held at [0, 0].
+        // Not skipped even when b = 0 (artificial basis already feasible): phase 2
+        // cannot hold a basic artificial at 0 in a row whose entering-column entry is
+        // below PIVOT_TOL (it drifts), while phase 1 pivots it out on its own cost.
         sv.phase1 = true;
-        let b0: f32 = sv.b.iter().take(m).sum();
-        if !(b0 <= FEAS_TOL * (1.0 + bmax))
-            && let Err(e) = sv.run_phase()
-        {
+        if let Err(e) = sv.run_phase() {
             return e;
         }
         let mut infeas = 0.0f32;
@@ -529,7 +525,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         self.basic = basic;
         self.upper = upper;
         self.phase1 = false;
-        if !self.refactor()? {
+        // Unsnapped: snapping would move a slightly negative (or, for an artificial,
+        // any positive) value onto its bound and hide the infeasibility.
+        if !self.refactor_unsnapped()? {
             return Ok(false);
         }
         self.fresh = true;
@@ -852,6 +850,15 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// Rebuild the tableau and the basic values from the scaled data and a fresh `B⁻¹`.
     /// Returns false (and changes nothing) if the basis matrix is numerically singular.
     fn refactor(&mut self) -> Result<bool, Fault> {
+        if !self.refactor_unsnapped()? {
+            return Ok(false);
+        }
+        self.snap()?;
+        Ok(true)
+    }
+
+    /// [`Self::refactor`] without the final [`Self::snap`].
+    fn refactor_unsnapped(&mut self) -> Result<bool, Fault> {
         let m = self.m;
         let Some(inv) = self.basis_inverse()? else {
             return Ok(false);
@@ -898,7 +905,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        self.snap()?;
         Ok(true)
     }
 
@@ -958,11 +964,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
         //
-        // Refactorisation only at the end of phase 2 (phase 1's drift, a few ε over at
-        // most `cap` pivots of a 3-row tableau, is far inside FEAS_TOL; phase 2 then
-        // continues on the pivoted tableau, and its final refactorisation, refinement
-        // and optimality re-check make the result as accurate as before), and not
-        // when nothing was pivoted since the last one (warm start already optimal).
+        // No refactorisation when nothing was pivoted since the last one (warm start
+        // already optimal, or phase 2 making no pivot after phase 1's), nor at the
+        // end of an `exit_at_cost_bound` phase 2 at its cost bound.
         loop {
             match self.iterate() {
                 Ok(true) => {
@@ -970,7 +974,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     continue;
                 }
                 Ok(false) => {
-                    if self.phase1 || self.fresh || (self.exit_at_cost_bound && self.at_cost_bound()) {
+                    if self.fresh || (!self.phase1 && self.exit_at_cost_bound && self.at_cost_bound()) {
                         return Ok(());
                     }
                     if self.refactor()? {
