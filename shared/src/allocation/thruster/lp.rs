@@ -605,11 +605,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let mut basis = Basis::<AXES, NV>::default();
-        let mut lp1 = self.dp_lp(m_d, bd);
-        // λ nonbasic at 1 is exactly optimal: no final refactorisation (the fuel stage
-        // refactorises its warm basis; `u1` is only its fallback).
-        lp1.exit_at_cost_bound = true;
-        let s1: LpSolution<NV> = lp1.solve_from(self.lp_iteration_cap, None, Some(&mut basis));
+        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_from(self.lp_iteration_cap, None, Some(&mut basis));
         let mut it = s1.iterations;
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);

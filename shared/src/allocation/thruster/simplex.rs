@@ -35,8 +35,7 @@
 //! - **Refactorisation**: at the end of each phase the basis inverse is rebuilt from
 //!   the scaled data by Gauss-Jordan with partial pivoting, the tableau and basic
 //!   values recomputed, and optimality re-checked (drift-induced extra pivots count
-//!   towards the cap); not again when no pivot was made since the last one (nor
-//!   with [`Lp::exit_at_cost_bound`] at the cost bound).
+//!   towards the cap); not again when no pivot was made since the last one.
 //! - **Refinement**: after each refactorisation the basic values get one step of
 //!   iterative refinement with a compensated (Dot2) residual, so `x` is accurate to
 //!   ~ε rather than `cond(B)·ε` (f32 only, no f64).
@@ -175,14 +174,6 @@ pub struct Lp<const M: usize, const N: usize> {
     pub cols: usize,
     /// Entering rule (default [`Pricing::DantzigBland`]).
     pub pricing: Pricing,
-    /// Skip the final refactorisation when every column with a nonzero cost is
-    /// nonbasic at the bound its cost prefers (upper if `c_j < 0`, lower if
-    /// `c_j > 0`): `cᵀx` then equals its minimum over the box, so the vertex is
-    /// optimal whatever the pivoting drift, and those `x_j` are exact; the basic
-    /// values keep the drift of the pivots (a few ε · cond(B)) instead of being
-    /// refined. Default false. Used by the direction-preserving stage 1 when `λ`
-    /// reaches 1: its basis goes on to the fuel stage, which refactorises anyway.
-    pub exit_at_cost_bound: bool,
 }
 
 impl<const M: usize, const N: usize> Default for Lp<M, N> {
@@ -231,16 +222,7 @@ fn pow2_recip(v: f32) -> f32 {
 impl<const M: usize, const N: usize> Lp<M, N> {
     /// All-zero problem with the given active size (`h = 0`).
     pub const fn zeroed(rows: usize, cols: usize) -> Self {
-        Self {
-            a: [[0.0; N]; M],
-            b: [0.0; M],
-            c: [0.0; N],
-            h: [0.0; N],
-            rows,
-            cols,
-            pricing: Pricing::DantzigBland,
-            exit_at_cost_bound: false,
-        }
+        Self { a: [[0.0; N]; M], b: [0.0; M], c: [0.0; N], h: [0.0; N], rows, cols, pricing: Pricing::DantzigBland }
     }
 
     /// Solve with the default cap `4 (rows + cols)`.
@@ -368,7 +350,6 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         sv.dantzig = self.pricing == Pricing::DantzigBland;
-        sv.exit_at_cost_bound = self.exit_at_cost_bound;
         sv.h = hs;
         let mut bmax = 0.0f32;
         for ((srow, sb), (row, bi)) in
@@ -440,8 +421,6 @@ struct Solver<const M: usize, const N: usize> {
     /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
     /// has been made since: a further refactorisation would recompute the same state.
     fresh: bool,
-    /// [`Lp::exit_at_cost_bound`].
-    exit_at_cost_bound: bool,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
@@ -464,7 +443,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             dantzig: false,
             bland_now: false,
             fresh: false,
-            exit_at_cost_bound: false,
         }
     }
 
@@ -953,20 +931,12 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(())
     }
 
-    /// Every column with a nonzero (phase-2) cost is nonbasic at its preferred bound
-    /// ([`Lp::exit_at_cost_bound`]).
-    fn at_cost_bound(&self) -> bool {
-        let cols = self.c.iter().zip(self.basic.iter().zip(self.upper.iter()));
-        cols.take(self.n).all(|(c, (basic, upper))| *c == 0.0 || (!*basic && (*upper == (*c < 0.0))))
-    }
-
     fn run_phase(&mut self) -> Result<(), LpStatus> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
         //
         // No refactorisation when nothing was pivoted since the last one (warm start
-        // already optimal, or phase 2 making no pivot after phase 1's), nor at the
-        // end of an `exit_at_cost_bound` phase 2 at its cost bound.
+        // already optimal, or phase 2 making no pivot after phase 1's).
         loop {
             match self.iterate() {
                 Ok(true) => {
@@ -974,7 +944,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     continue;
                 }
                 Ok(false) => {
-                    if self.fresh || (!self.phase1 && self.exit_at_cost_bound && self.at_cost_bound()) {
+                    if self.fresh {
                         return Ok(());
                     }
                     if self.refactor()? {
