@@ -565,34 +565,31 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         Ok(cb)
     }
 
-    /// `Σ_i cb_i t_ij` for every column: accumulated in row order, as the former
-    /// column-by-column dot products did (same bits), but over whole rows (no
-    /// per-entry index checks) and skipping the rows with `cb_i = 0` (adding
-    /// `0 · t_ij` only changes the sign of a zero sum, which no decision reads).
-    fn cost_sums(&self) -> Result<[f32; N], Fault> {
-        let cb = self.basic_costs()?;
-        let mut z = [0.0f32; N];
+    /// Reduced cost of column `j` given the basic costs `cb`: `c_j - Σ_i cb_i t_ij`
+    /// (rows summed in order).
+    #[inline]
+    fn reduced_cost_with(&self, cb: &[f32; M], j: usize) -> Result<f32, Fault> {
+        let cj = if self.phase1 { 0.0 } else { at(&self.c, j)? };
+        let mut z = 0.0f32;
         for (row, cbi) in self.t.iter().zip(cb.iter()).take(self.m) {
-            if *cbi != 0.0 {
-                for (zj, tij) in z.iter_mut().zip(row.iter()).take(self.n) {
-                    *zj += cbi * tij;
-                }
-            }
+            z += cbi * at(row, j)?;
         }
-        Ok(z)
+        Ok(cj - z)
     }
 
+    /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
+    /// lowest index on ties), see [`Pricing`]. The gain of a column is its
+    /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
     fn price(&self) -> Result<Option<usize>, Fault> {
-        let z = self.cost_sums()?;
-        let n = self.n;
+        let cb = self.basic_costs()?;
         let bland = !self.dantzig || self.bland_now;
         let mut best: Option<(usize, f32)> = None;
-        let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter()).zip(self.c.iter().zip(z.iter()));
-        for (j, (((&basic, &hj), &upper), (&cj, &zj))) in cols.enumerate().take(n) {
+        let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter());
+        for (j, ((&basic, &hj), &upper)) in cols.enumerate().take(self.n) {
             if basic || !(hj > 0.0) {
                 continue;
             }
-            let d = if self.phase1 { 0.0 } else { cj } - zj;
+            let d = self.reduced_cost_with(&cb, j)?;
             let gj = if upper { d } else { -d };
             if gj > DUAL_TOL {
                 if bland {
@@ -852,21 +849,14 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        let n = self.n;
-        for (trow, (irow, xb)) in self.t.iter_mut().zip(inv.iter().zip(self.xb.iter_mut())).take(m) {
-            // t_i = Σ_k inv_ik a_k, accumulated over k in order for every column at once
-            // (the same sums as column by column); zero inv_ik terms skipped (they add
-            // a signed zero at most).
-            let mut acc = [0.0f32; N];
-            for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
-                if *ik != 0.0 {
-                    for (av, a) in acc.iter_mut().zip(arow.iter()).take(n) {
-                        *av += ik * a;
-                    }
+        for (i, (trow, (irow, xb))) in self.t.iter_mut().zip(inv.iter().zip(self.xb.iter_mut())).enumerate().take(m) {
+            let _ = i;
+            for (j, tv) in trow.iter_mut().enumerate().take(self.n) {
+                let mut acc = 0.0f32;
+                for (ik, arow) in irow.iter().zip(self.a.iter()).take(m) {
+                    acc += ik * at(arow, j)?;
                 }
-            }
-            for (tv, av) in trow.iter_mut().zip(acc.iter()).take(n) {
-                *tv = *av;
+                *tv = acc;
             }
             let mut acc = 0.0f32;
             for (ik, r) in irow.iter().zip(rhs.iter()).take(m) {
@@ -989,11 +979,10 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
         let mut dual_margin = f32::INFINITY;
         if status == LpStatus::Optimal {
-            let z = self.cost_sums()?;
-            let cols = self.basic.iter().zip(self.h.iter()).zip(self.c.iter().zip(z.iter()));
-            for ((basic, hj), (cj, zj)) in cols.take(self.n) {
+            let cb = self.basic_costs()?;
+            for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
                 if !basic && *hj > 0.0 {
-                    let d = (if self.phase1 { 0.0 } else { *cj } - zj).abs();
+                    let d = self.reduced_cost_with(&cb, j)?.abs();
                     if d < dual_margin {
                         dual_margin = d;
                     }
