@@ -58,7 +58,7 @@
 //! bounds are non-finite or inverted. `λ = 0`; `realised = B u` and
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
-use super::simplex::{Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
+use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
 pub use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
@@ -331,7 +331,11 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         for (o, row) in out.iter_mut().zip(self.b.iter()) {
             let mut acc = Dot2::new(0.0);
             for (b, x) in row.iter().zip(u.iter()) {
-                acc.add_prod(*b, *x);
+                // A zero product (thruster off, or not fitted) leaves Dot2's sum and
+                // error term unchanged: skipped.
+                if *b != 0.0 && *x != 0.0 {
+                    acc.add_prod(*b, *x);
+                }
             }
             *o = acc.value();
         }
@@ -406,48 +410,76 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         }
     }
 
-    /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
-    pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N.saturating_add(1));
-        for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
+    /// The LP columns: the thrusters that can move under `bd` (`lo < hi`), in index
+    /// order: `(map, nc)`, LP column `k < nc` is thruster `map[k]`. Thrusters fixed at
+    /// `lo = hi` (not fitted: `u_min = u_max`; failed; pinned by a rate limit) are left
+    /// out of the LP (their `B u_lo` is folded into `b`), so the simplex loops run over
+    /// the `nc` movable thrusters instead of the capacity `N`. This changes no pivot:
+    /// a fixed column (`h_j = 0`) is never priced, never basic, and the order of the
+    /// others (hence Bland's and Dantzig's lowest-index choices) is kept. Only the
+    /// power-of-two row scale of the scaled LP can differ, when a removed column
+    /// (failed thruster) held a row's largest entry.
+    pub fn movable(bd: &Bounds<N>) -> ([usize; N], usize) {
+        let mut map = [0usize; N];
+        let mut nc = 0usize;
+        for (j, (lo, hi)) in bd.lo.iter().zip(bd.hi.iter()).enumerate() {
+            if lo < hi
+                && let Some(slot) = map.get_mut(nc)
+            {
+                *slot = j;
+                nc = nc.saturating_add(1);
+            }
+        }
+        (map, nc)
+    }
+
+    /// Columns of `A` (rows of `B`) for the movable thrusters, and `b = rhs - B u_lo`
+    /// over all thrusters (fixed ones included), in the original summation order.
+    fn fill_rows(&self, lp: &mut Lp<AXES, NV>, bd: &Bounds<N>, map: &[usize; N], nc: usize, rhs: &[f32; AXES]) {
+        for ((arow, bi), (brow, ri)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(rhs.iter())) {
             let mut acc = 0.0f32;
-            for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
-                *a = *b;
+            for (b, lo) in brow.iter().zip(bd.lo.iter()) {
                 acc += b * lo;
             }
-            if let Some(a) = arow.get_mut(N) {
+            for (a, &j) in arow.iter_mut().zip(map.iter()).take(nc) {
+                *a = brow.get(j).copied().unwrap_or(0.0);
+            }
+            *bi = ri - acc;
+        }
+    }
+
+    /// Stage-1 LP of the direction-preserving method, eq 18 (public for diagnostics).
+    /// Columns: the movable thrusters ([`Self::movable`]), then `λ` (column `nc`).
+    pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
+        let (map, nc) = Self::movable(bd);
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, nc.saturating_add(1));
+        self.fill_rows(&mut lp, bd, &map, nc, &[0.0; AXES]); // b = -B u_min    (eq 16)
+        for (arow, mi) in lp.a.iter_mut().zip(m_d.iter()) {
+            if let Some(a) = arow.get_mut(nc) {
                 *a = -mi; // A = [B, -m_d]       (eq 16)
             }
-            *bi = -acc; // b = -B u_min          (eq 16)
         }
-        for ((h, lo), hi) in lp.h.iter_mut().zip(bd.lo.iter()).zip(bd.hi.iter()) {
-            *h = hi - lo; // h = [u_max - u_min; 1]   (eq 17)
+        for (h, &j) in lp.h.iter_mut().zip(map.iter()).take(nc) {
+            *h = at(&bd.hi, j).unwrap_or(0.0) - at(&bd.lo, j).unwrap_or(0.0); // h = [u_max - u_min; 1] (eq 17)
         }
-        if let Some(h) = lp.h.get_mut(N) {
+        if let Some(h) = lp.h.get_mut(nc) {
             *h = 1.0;
         }
-        if let Some(c) = lp.c.get_mut(N) {
+        if let Some(c) = lp.c.get_mut(nc) {
             *c = -1.0; // c = [0 … 0, -1]      (eq 15)
         }
         lp
     }
 
-    /// Fuel LP: `min Σ w_i u_i` s.t. `B u = m_d`, `lo <= u <= hi` (x = u - lo).
+    /// Fuel LP: `min Σ w_i u_i` s.t. `B u = m_d`, `lo <= u <= hi` (x = u - lo),
+    /// columns: the movable thrusters ([`Self::movable`]).
     pub fn fuel_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES, N);
-        for ((arow, bi), (brow, mi)) in lp.a.iter_mut().zip(lp.b.iter_mut()).zip(self.b.iter().zip(m_d.iter())) {
-            let mut acc = 0.0f32;
-            for ((a, b), lo) in arow.iter_mut().zip(brow.iter()).zip(bd.lo.iter()) {
-                *a = *b;
-                acc += b * lo;
-            }
-            *bi = mi - acc;
-        }
-        for (((h, c), (lo, hi)), w) in
-            lp.h.iter_mut().zip(lp.c.iter_mut()).zip(bd.lo.iter().zip(bd.hi.iter())).zip(self.fuel_w.iter())
-        {
-            *h = hi - lo;
-            *c = *w;
+        let (map, nc) = Self::movable(bd);
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES, nc);
+        self.fill_rows(&mut lp, bd, &map, nc, m_d);
+        for ((h, c), &j) in lp.h.iter_mut().zip(lp.c.iter_mut()).zip(map.iter()).take(nc) {
+            *h = at(&bd.hi, j).unwrap_or(0.0) - at(&bd.lo, j).unwrap_or(0.0);
+            *c = at(&self.fuel_w, j).unwrap_or(0.0);
         }
         lp
     }
@@ -462,7 +494,8 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         bd: &Bounds<N>,
         maximise: bool,
     ) -> Result<Lp<AXES, NV>, Fault> {
-        let mut lp = Lp::<AXES, NV>::zeroed(AXES.saturating_sub(1), N);
+        let (map, nc) = Self::movable(bd);
+        let mut lp = Lp::<AXES, NV>::zeroed(AXES.saturating_sub(1), nc);
         let (bk, mk) = (at(&self.b, k)?, at(m_hat, k)?);
         let mut r = 0usize;
         for (j, (brow, mj)) in self.b.iter().zip(m_hat.iter()).enumerate() {
@@ -470,24 +503,25 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
                 continue;
             }
             let (arow, bi) = (lp.a.get_mut(r).ok_or(Fault)?, lp.b.get_mut(r).ok_or(Fault)?);
+            // b over all thrusters (fixed ones included), A over the movable ones.
             let mut acc = 0.0f32;
-            for (((a, bkl), bjl), lo) in arow.iter_mut().zip(bk.iter()).zip(brow.iter()).zip(bd.lo.iter()) {
-                *a = mj * bkl - mk * bjl;
-                acc += *a * lo;
+            for ((bkl, bjl), lo) in bk.iter().zip(brow.iter()).zip(bd.lo.iter()) {
+                acc += (mj * bkl - mk * bjl) * lo;
+            }
+            for (a, &l) in arow.iter_mut().zip(map.iter()).take(nc) {
+                *a = mj * at(&bk, l)? - mk * at(brow, l)?;
             }
             *bi = -acc;
             r = r.saturating_add(1);
         }
         let sign = if maximise { -1.0 } else { 1.0 };
-        for (l, ((c, h), (lo, hi))) in
-            lp.c.iter_mut().zip(lp.h.iter_mut()).zip(bd.lo.iter().zip(bd.hi.iter())).enumerate().take(N)
-        {
+        for ((c, h), &l) in lp.c.iter_mut().zip(lp.h.iter_mut()).zip(map.iter()).take(nc) {
             let mut proj = 0.0f32;
             for (brow, mi) in self.b.iter().zip(m_hat.iter()) {
                 proj += mi * at(brow, l)?;
             }
             *c = sign * proj;
-            *h = hi - lo;
+            *h = at(&bd.hi, l)? - at(&bd.lo, l)?;
         }
         Ok(lp)
     }
@@ -546,10 +580,14 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         Ok(())
     }
 
+    /// `u = u_lo + x` on the LP columns ([`Self::movable`]), `u = u_lo` elsewhere.
     fn u_from_x(x: &[f32; NV], bd: &Bounds<N>) -> [f32; N] {
-        let mut u = [0.0f32; N];
-        for ((ui, xi), lo) in u.iter_mut().zip(x.iter()).zip(bd.lo.iter()) {
-            *ui = lo + xi;
+        let (map, nc) = Self::movable(bd);
+        let mut u = bd.lo;
+        for (xk, &j) in x.iter().zip(map.iter()).take(nc) {
+            if let Some(ui) = u.get_mut(j) {
+                *ui += xk;
+            }
         }
         u
     }
@@ -566,20 +604,29 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if !Self::bounds_consistent(bd) {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
-        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        let mut basis = Basis::<AXES, NV>::default();
+        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_from(self.lp_iteration_cap, None, Some(&mut basis));
         let mut it = s1.iterations;
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
         }
-        let Ok(lambda) = at(&s1.x, N) else {
+        let Ok(lambda) = at(&s1.x, Self::movable(bd).1) else {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
         };
         let u1 = Self::u_from_x(&s1.x, bd);
         if lambda < 1.0 - LAMBDA_TOL {
             return self.finish(m_d, bd, u1, lambda, AllocStatus::Scaled, it);
         }
-        // Attainable: stage 2, minimum propellant with B u = m_d.
-        let s2 = self.fuel_lp(m_d, bd).solve_with_cap(self.lp_iteration_cap);
+        // Attainable: stage 2, minimum propellant with B u = m_d, warm-started from the
+        // stage-1 basis. With λ nonbasic at its upper bound 1 the stage-1 basis has the
+        // same basic thruster columns (same indices: both LPs list the movable
+        // thrusters first) and the same right-hand side `m_d - B u_lo`, so it is a
+        // feasible basis of the fuel LP: phase 1 is skipped, and when the stage-1
+        // vertex is already fuel-optimal (all reduced costs of the fuel objective of
+        // the right sign: the LP optimality certificate) stage 2 makes no pivot at all.
+        // If λ is basic (value within LAMBDA_TOL of 1) the basis names column `nc`,
+        // which the fuel LP does not have: the solver rejects it and cold-starts.
+        let s2 = self.fuel_lp(m_d, bd).solve_from(self.lp_iteration_cap, Some(&basis), None);
         it = it.saturating_add(s2.iterations);
         if s2.status == LpStatus::InternalError {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);

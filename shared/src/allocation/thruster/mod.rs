@@ -17,4 +17,4 @@ pub mod simplex;
 
 pub use lp::{AllocResult, AllocStatus, Allocator, Bounds, Failures, RateLimit};
 pub use pwpf::{Pwpf, PwpfParams};
-pub use simplex::{Fault, Lp, LpSolution, LpStatus, Pricing};
+pub use simplex::{Basis, Fault, Lp, LpSolution, LpStatus, Pricing};

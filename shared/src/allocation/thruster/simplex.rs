@@ -35,12 +35,23 @@
 //! - **Refactorisation**: at the end of each phase the basis inverse is rebuilt from
 //!   the scaled data by Gauss-Jordan with partial pivoting, the tableau and basic
 //!   values recomputed, and optimality re-checked (drift-induced extra pivots count
-//!   towards the cap).
+//!   towards the cap); not again when no pivot was made since the last one.
 //! - **Refinement**: after each refactorisation the basic values get one step of
 //!   iterative refinement with a compensated (Dot2) residual, so `x` is accurate to
 //!   ~ε rather than `cond(B)·ε` (f32 only, no f64).
 //! - **Iteration cap**: every pivot or bound flip is one iteration, both phases
 //!   together; default [`default_iteration_cap`] `= 4 (rows + cols)`.
+//! - **Warm start** ([`Lp::solve_from`]): phase 2 starts from a given [`Basis`]
+//!   (e.g. the optimal basis of a related LP with the same columns) when it is valid
+//!   (active, distinct variables; no infinite bound at "upper"), its basis matrix is
+//!   not singular and its basic values are within [`FEAS_TOL`] of their bounds
+//!   (then clamped onto them); phase 1 is skipped. Otherwise the solve is the cold
+//!   two-phase one, bit for bit. Phase 2 from a feasible basis ends at an optimum of
+//!   the same LP, so the objective is the cold start's within the tolerances; if the
+//!   optimum is not unique (dual degenerate, `dual_margin <= DUAL_TOL`) the vertex
+//!   may differ from the cold start's, deterministically (same inputs and basis →
+//!   same bits). Cost bound: one refactorisation more than the cold solve (the failed
+//!   install), the iteration cap is unchanged.
 //!
 //! # No panics
 //! NaN / ±inf in `A`, `b`, `c`, NaN or `-inf` in `h`, and data whose scaling
@@ -127,6 +138,26 @@ pub struct LpSolution<const N: usize> {
 impl<const N: usize> LpSolution<N> {
     fn failed(status: LpStatus, iterations: u16) -> Self {
         Self { x: [0.0; N], objective: 0.0, iterations, status, dual_margin: 0.0, primal_margin: 0.0 }
+    }
+}
+
+/// A simplex basis, for warm starts ([`Lp::solve_from`]): the basic variable of each
+/// row (`j < N` structural, `N + i` the artificial of row `i`) and which nonbasic
+/// structurals sit at their upper bound.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Basis<const M: usize, const N: usize> {
+    pub vars: [usize; M],
+    pub upper: [bool; N],
+}
+
+impl<const M: usize, const N: usize> Default for Basis<M, N> {
+    /// The artificial basis (the cold start's).
+    fn default() -> Self {
+        let mut vars = [0usize; M];
+        for (i, v) in vars.iter_mut().enumerate() {
+            *v = N.saturating_add(i);
+        }
+        Self { vars, upper: [false; N] }
     }
 }
 
@@ -221,6 +252,13 @@ impl<const M: usize, const N: usize> Lp<M, N> {
 
     /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
     pub fn solve_with_cap(&self, cap: u16) -> LpSolution<N> {
+        self.solve_from(cap, None, None)
+    }
+
+    /// [`Self::solve_with_cap`], warm-started from `warm` if it is usable (module
+    /// docs), and writing the final basis into `out` (left unchanged if the inputs
+    /// are rejected before the simplex runs).
+    pub fn solve_from(&self, cap: u16, warm: Option<&Basis<M, N>>, out: Option<&mut Basis<M, N>>) -> LpSolution<N> {
         let m = if self.rows < M { self.rows } else { M };
         let n = if self.cols < N { self.cols } else { N };
         if let Err(e) = self.check_inputs(m, n) {
@@ -233,11 +271,36 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             Ok(x) => x,
             Err(e) => return LpSolution::failed(e, 0),
         };
+        let status = Self::run(&mut sv, bmax, warm);
+        if let Some(o) = out {
+            o.vars = sv.basis;
+            o.upper = sv.upper;
+        }
+        sv.extract(status, &s, self)
+    }
 
+    /// Both phases (or phase 2 alone from a usable warm basis): the final status.
+    fn run(sv: &mut Solver<M, N>, bmax: f32, warm: Option<&Basis<M, N>>) -> LpStatus {
+        if let Some(w) = warm {
+            match sv.install(w) {
+                Ok(true) => {
+                    return match sv.run_phase() {
+                        Ok(()) => LpStatus::Optimal,
+                        Err(e) => e,
+                    };
+                }
+                Ok(false) => sv.reset_cold(),
+                Err(e) => return e.into(),
+            }
+        }
+        let m = sv.m;
         // ---- phase 1 ---------------------------------------------------------
+        // Not skipped even when b = 0 (artificial basis already feasible): phase 2
+        // cannot hold a basic artificial at 0 in a row whose entering-column entry is
+        // below PIVOT_TOL (it drifts), while phase 1 pivots it out on its own cost.
         sv.phase1 = true;
         if let Err(e) = sv.run_phase() {
-            return sv.extract(e, &s, self);
+            return e;
         }
         let mut infeas = 0.0f32;
         for (var, xb) in sv.basis.iter().zip(sv.xb.iter()).take(m) {
@@ -246,7 +309,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         if !(infeas <= FEAS_TOL * (1.0 + bmax)) {
-            return sv.extract(LpStatus::Infeasible, &s, self);
+            return LpStatus::Infeasible;
         }
 
         // ---- phase 2 ---------------------------------------------------------
@@ -257,8 +320,8 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         match sv.run_phase() {
-            Ok(()) => sv.extract(LpStatus::Optimal, &s, self),
-            Err(e) => sv.extract(e, &s, self),
+            Ok(()) => LpStatus::Optimal,
+            Err(e) => e,
         }
     }
 
@@ -355,6 +418,9 @@ struct Solver<const M: usize, const N: usize> {
     dantzig: bool,
     /// Last pivot was degenerate: Bland's rule in force.
     bland_now: bool,
+    /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
+    /// has been made since: a further refactorisation would recompute the same state.
+    fresh: bool,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
@@ -376,6 +442,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             phase1: true,
             dantzig: false,
             bland_now: false,
+            fresh: false,
         }
     }
 
@@ -385,6 +452,77 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             *var = N.saturating_add(i);
             *xb = *bi;
         }
+    }
+
+    /// Back to the cold start's state after a rejected warm basis (no pivots were
+    /// made: `iters` is still 0).
+    fn reset_cold(&mut self) {
+        self.init_basis();
+        self.basic = [false; N];
+        self.upper = [false; N];
+        self.phase1 = true;
+        self.bland_now = false;
+        self.fresh = false;
+    }
+
+    /// Install the warm basis `w` for phase 2: `Ok(true)` if it is valid, its basis
+    /// matrix regular and its basic values within [`FEAS_TOL`] (scaled) of their
+    /// phase-2 bounds (artificials: `[0, 0]`), then clamped onto them; `Ok(false)`
+    /// otherwise (the caller then resets to the cold start).
+    fn install(&mut self, w: &Basis<M, N>) -> Result<bool, Fault> {
+        let (m, n) = (self.m, self.n);
+        let mut basic = [false; N];
+        let mut art = [false; M];
+        for var in w.vars.iter().take(m) {
+            let slot = if *var < n {
+                basic.get_mut(*var)
+            } else {
+                match var.checked_sub(N) {
+                    Some(i) if i < m => art.get_mut(i),
+                    _ => return Ok(false), // inactive column or out of range
+                }
+            };
+            let Some(used) = slot else { return Ok(false) };
+            if *used {
+                return Ok(false); // duplicate
+            }
+            *used = true;
+        }
+        let mut upper = [false; N];
+        for (u, ((wu, b), h)) in upper.iter_mut().zip(w.upper.iter().zip(basic.iter()).zip(self.h.iter())).take(n) {
+            if *wu && !*b {
+                if !h.is_finite() {
+                    return Ok(false);
+                }
+                *u = true;
+            }
+        }
+        for (dst, src) in self.basis.iter_mut().zip(w.vars.iter()).take(m) {
+            *dst = *src;
+        }
+        self.basic = basic;
+        self.upper = upper;
+        self.phase1 = false;
+        // Unsnapped: snapping would move a slightly negative (or, for an artificial,
+        // any positive) value onto its bound and hide the infeasibility.
+        if !self.refactor_unsnapped()? {
+            return Ok(false);
+        }
+        self.fresh = true;
+        for (var, x) in self.basis.iter().zip(self.xb.iter_mut()).take(m) {
+            let ub = Self::upper_of_in(false, &self.h, *var)?;
+            if !(*x >= -FEAS_TOL && *x <= ub + FEAS_TOL) {
+                return Ok(false);
+            }
+            *x = if *x < 0.0 {
+                0.0
+            } else if *x > ub {
+                ub
+            } else {
+                *x
+            };
+        }
+        Ok(true)
     }
 
     /// Cost of a basic variable in the current phase.
@@ -692,6 +830,15 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// Rebuild the tableau and the basic values from the scaled data and a fresh `B⁻¹`.
     /// Returns false (and changes nothing) if the basis matrix is numerically singular.
     fn refactor(&mut self) -> Result<bool, Fault> {
+        if !self.refactor_unsnapped()? {
+            return Ok(false);
+        }
+        self.snap()?;
+        Ok(true)
+    }
+
+    /// [`Self::refactor`] without the final [`Self::snap`].
+    fn refactor_unsnapped(&mut self) -> Result<bool, Fault> {
         let m = self.m;
         let Some(inv) = self.basis_inverse()? else {
             return Ok(false);
@@ -731,7 +878,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        self.snap()?;
         Ok(true)
     }
 
@@ -783,12 +929,24 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     fn run_phase(&mut self) -> Result<(), LpStatus> {
         // Each pass either pivots (bounded by the cap) or ends the phase; the outer
         // loop runs at most cap + 1 times.
+        //
+        // No refactorisation when nothing was pivoted since the last one (warm start
+        // already optimal, or phase 2 making no pivot after phase 1's).
         loop {
             match self.iterate() {
-                Ok(true) => continue,
+                Ok(true) => {
+                    self.fresh = false;
+                    continue;
+                }
                 Ok(false) => {
-                    if self.refactor()? && self.price()?.is_some() {
-                        continue;
+                    if self.fresh {
+                        return Ok(());
+                    }
+                    if self.refactor()? {
+                        self.fresh = true;
+                        if self.price()?.is_some() {
+                            continue;
+                        }
                     }
                     return Ok(());
                 }
