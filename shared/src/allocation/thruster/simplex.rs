@@ -206,6 +206,13 @@ fn put<T, const K: usize>(v: &mut [T; K], i: usize, x: T) -> Result<(), Fault> {
     Ok(())
 }
 
+/// `max(x, 0)` with libm `fmaxf`'s result for every input (NaN → 0, `-0` → `-0`),
+/// inline: `f32::max` is a library call on the MCU.
+#[inline(always)]
+fn max0(x: f32) -> f32 {
+    if x >= 0.0 { x } else { 0.0 }
+}
+
 /// `2^-e` for `v = m 2^e`, `m ∈ [1, 2)`: an exact power-of-two reciprocal scale.
 /// Returns 1 for zero, subnormal or non-finite `v`.
 fn pow2_recip(v: f32) -> f32 {
@@ -610,10 +617,10 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     fn row_limit(&self, tij: f32, x: f32, var: usize, s: f32) -> Result<Option<(f32, bool)>, Fault> {
         let alpha = s * tij;
         Ok(if alpha > PIVOT_TOL {
-            Some((x.max(0.0) / alpha, false))
+            Some((max0(x) / alpha, false))
         } else if alpha < -PIVOT_TOL {
             let ub = self.upper_of(var)?;
-            if ub.is_finite() { Some(((ub - x).max(0.0) / -alpha, true)) } else { None }
+            if ub.is_finite() { Some((max0(ub - x) / -alpha, true)) } else { None }
         } else {
             None
         })
@@ -1001,7 +1008,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         for (((xj, yj), sj), (hj, cj)) in
             x.iter_mut().zip(y.iter()).zip(s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
         {
-            let v = (yj * sj).max(0.0);
+            let v = max0(yj * sj);
             *xj = if v > *hj { *hj } else { v };
             obj += cj * *xj;
         }
