@@ -239,22 +239,20 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         self.solve_with_cap(default_iteration_cap(m, n))
     }
 
-    /// Input validation: `Err` with the status to report (no iterations).
-    fn check_inputs(&self, m: usize, n: usize) -> Result<(), LpStatus> {
-        for (row, bi) in self.a.iter().zip(self.b.iter()).take(m) {
-            if !bi.is_finite() || row.iter().take(n).any(|v| !v.is_finite()) {
+    /// Bound validation: `Err(NonFinite)` on a NaN or `-inf` bound, else whether a
+    /// bound is negative (infeasible). Non-finite `A`, `b`, `c` are caught after
+    /// scaling ([`Self::scale_into`]): every scale factor is a finite nonzero number,
+    /// so a non-finite input gives a non-finite scaled entry. The statuses are those
+    /// of checking `A, b`, then `c, h`, then `h < 0` up front: `NonFinite` first.
+    fn check_bounds(&self, n: usize) -> Result<bool, LpStatus> {
+        let mut neg = false;
+        for hj in self.h.iter().take(n) {
+            if hj.is_nan() || *hj == f32::NEG_INFINITY {
                 return Err(LpStatus::NonFinite);
             }
+            neg |= *hj < 0.0;
         }
-        for (cj, hj) in self.c.iter().zip(self.h.iter()).take(n) {
-            if !cj.is_finite() || hj.is_nan() || *hj == f32::NEG_INFINITY {
-                return Err(LpStatus::NonFinite);
-            }
-        }
-        if self.h.iter().take(n).any(|hj| *hj < 0.0) {
-            return Err(LpStatus::Infeasible);
-        }
-        Ok(())
+        Ok(neg)
     }
 
     /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
@@ -268,9 +266,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
     pub fn solve_from(&self, cap: u16, warm: Option<&Basis<M, N>>, out: Option<&mut Basis<M, N>>) -> LpSolution<N> {
         let m = if self.rows < M { self.rows } else { M };
         let n = if self.cols < N { self.cols } else { N };
-        if let Err(e) = self.check_inputs(m, n) {
-            return LpSolution::failed(e, 0);
-        }
+        let negative_bound = match self.check_bounds(n) {
+            Ok(neg) => neg,
+            Err(e) => return LpSolution::failed(e, 0),
+        };
         // Built in place and filled by reference: the solver is ~0.5 kB, and moving it
         // through a return value costs a memcpy per solve on the MCU.
         let mut sv = Solver::<M, N>::new(m, n, cap);
@@ -278,6 +277,9 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             Ok(x) => x,
             Err(e) => return LpSolution::failed(e, 0),
         };
+        if negative_bound {
+            return LpSolution::failed(LpStatus::Infeasible, 0);
+        }
         let status = Self::run(&mut sv, bmax, warm);
         if let Some(o) = out {
             o.vars = sv.basis;
@@ -392,11 +394,18 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         for dst in sv.c.iter_mut().take(n) {
             *dst *= cs;
         }
-        let scaled_ok = sv.a.iter().take(m).all(|r| r.iter().all(|v| v.is_finite()))
-            && sv.b.iter().all(|v| v.is_finite())
-            && sv.c.iter().all(|v| v.is_finite())
-            && s.iter().all(|v| v.is_finite());
-        if !scaled_ok {
+        // All finite iff Σ 0·v = 0 (0·inf and 0·NaN are NaN): one multiply-add per
+        // entry instead of a compare and branch. Inactive entries are 0 (s: 1).
+        let mut z = 0.0f32;
+        for row in sv.a.iter().take(m) {
+            for v in row.iter().take(n) {
+                z += 0.0 * v;
+            }
+        }
+        for v in sv.b.iter().take(m).chain(sv.c.iter().take(n)).chain(s.iter().take(n)) {
+            z += 0.0 * v;
+        }
+        if z != 0.0 {
             return Err(LpStatus::NonFinite);
         }
         sv.init_basis();
@@ -428,6 +437,10 @@ struct Solver<const M: usize, const N: usize> {
     /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
     /// has been made since: a further refactorisation would recompute the same state.
     fresh: bool,
+    /// min `|d_j|` over the columns the last [`Self::price`] examined (movable
+    /// nonbasic structurals): after a price that found no entering column, the dual
+    /// margin of the current basis (so extraction need not price again).
+    dual_min: f32,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
@@ -450,6 +463,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             dantzig: false,
             bland_now: false,
             fresh: false,
+            dual_min: f32::INFINITY,
         }
     }
 
@@ -587,16 +601,20 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
     /// lowest index on ties), see [`Pricing`]. The gain of a column is its
     /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
-    fn price(&self) -> Result<Option<usize>, Fault> {
+    fn price(&mut self) -> Result<Option<usize>, Fault> {
         let cb = self.basic_costs()?;
         let bland = !self.dantzig || self.bland_now;
         let mut best: Option<(usize, f32)> = None;
+        let mut dmin = f32::INFINITY;
         let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter());
         for (j, ((&basic, &hj), &upper)) in cols.enumerate().take(self.n) {
             if basic || !(hj > 0.0) {
                 continue;
             }
             let d = self.reduced_cost_with(&cb, j)?;
+            if d.abs() < dmin {
+                dmin = d.abs();
+            }
             let gj = if upper { d } else { -d };
             if gj > DUAL_TOL {
                 if bland {
@@ -607,6 +625,7 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
+        self.dual_min = dmin;
         Ok(best.map(|(j, _)| j))
     }
 
@@ -989,20 +1008,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        let mut dual_margin = f32::INFINITY;
-        if status == LpStatus::Optimal {
-            let cb = self.basic_costs()?;
-            for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
-                if !basic && *hj > 0.0 {
-                    let d = self.reduced_cost_with(&cb, j)?.abs();
-                    if d < dual_margin {
-                        dual_margin = d;
-                    }
-                }
-            }
-        } else {
-            dual_margin = 0.0;
-        }
+        // `Optimal` is only reported after a price of the final basis found no entering
+        // column ([`Self::run_phase`]), having examined every movable nonbasic column.
+        let dual_margin = if status == LpStatus::Optimal { self.dual_min } else { 0.0 };
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
         for (((xj, yj), sj), (hj, cj)) in
