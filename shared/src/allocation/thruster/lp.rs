@@ -629,7 +629,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (map, nc) = Self::movable(bd);
         let mut basis = Basis::<AXES, NV>::default();
         let s1: LpSolution<NV> =
-            self.dp_lp_on(m_d, bd, &map, nc).solve_from(self.lp_iteration_cap, None, Some(&mut basis));
+            self.dp_lp_on(m_d, bd, &map, nc).solve_lean(self.lp_iteration_cap, None, Some(&mut basis));
         let mut it = s1.iterations;
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
@@ -650,7 +650,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         // the right sign: the LP optimality certificate) stage 2 makes no pivot at all.
         // If λ is basic (value within LAMBDA_TOL of 1) the basis names column `nc`,
         // which the fuel LP does not have: the solver rejects it and cold-starts.
-        let s2 = self.fuel_lp_on(m_d, bd, &map, nc).solve_from(self.lp_iteration_cap, Some(&basis), None);
+        let s2 = self.fuel_lp_on(m_d, bd, &map, nc).solve_lean(self.lp_iteration_cap, Some(&basis), None);
         it = it.saturating_add(s2.iterations);
         if s2.status == LpStatus::InternalError {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
@@ -673,7 +673,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
         }
         let (map, nc) = Self::movable(bd);
-        let s = self.fuel_lp_on(&[0.0; AXES], bd, &map, nc).solve_with_cap(self.lp_iteration_cap);
+        let s = self.fuel_lp_on(&[0.0; AXES], bd, &map, nc).solve_lean(self.lp_iteration_cap, None, None);
         if s.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
         }
@@ -701,7 +701,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (map, nc) = Self::movable(bd);
         // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
         let s_hi = match &self.bodson_lp_on(&m_hat, k, bd, true, &map, nc) {
-            Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+            Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),
             Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
         };
         let mut it = s_hi.iterations;
@@ -724,7 +724,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             ([0.0f32; N], 0.0f32)
         } else {
             let s_lo = match &self.bodson_lp_on(&m_hat, k, bd, false, &map, nc) {
-                Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+                Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),
                 Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, it),
             };
             it = it.saturating_add(s_lo.iterations);

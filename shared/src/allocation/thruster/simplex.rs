@@ -264,6 +264,28 @@ impl<const M: usize, const N: usize> Lp<M, N> {
     /// docs), and writing the final basis into `out` (left unchanged if the inputs
     /// are rejected before the simplex runs).
     pub fn solve_from(&self, cap: u16, warm: Option<&Basis<M, N>>, out: Option<&mut Basis<M, N>>) -> LpSolution<N> {
+        self.solve_impl(cap, warm, out, true)
+    }
+
+    /// [`Self::solve_from`] without the dual margin (reported as 0, "not known to be
+    /// unique"): it costs one more pricing pass, and the allocator does not use it.
+    /// Every other field has the bits of [`Self::solve_from`]'s.
+    pub(crate) fn solve_lean(
+        &self,
+        cap: u16,
+        warm: Option<&Basis<M, N>>,
+        out: Option<&mut Basis<M, N>>,
+    ) -> LpSolution<N> {
+        self.solve_impl(cap, warm, out, false)
+    }
+
+    fn solve_impl(
+        &self,
+        cap: u16,
+        warm: Option<&Basis<M, N>>,
+        out: Option<&mut Basis<M, N>>,
+        margins: bool,
+    ) -> LpSolution<N> {
         let m = if self.rows < M { self.rows } else { M };
         let n = if self.cols < N { self.cols } else { N };
         let negative_bound = match self.check_bounds(n) {
@@ -273,7 +295,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         // Built in place and filled by reference: the solver is ~0.5 kB, and moving it
         // through a return value costs a memcpy per solve on the MCU.
         let mut sv = Solver::<M, N>::new(m, n, cap);
-        let (s, bmax) = match self.scale_into(&mut sv, m, n) {
+        let bmax = match self.scale_into(&mut sv, m, n) {
             Ok(x) => x,
             Err(e) => return LpSolution::failed(e, 0),
         };
@@ -285,7 +307,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             o.vars = sv.basis;
             o.upper = sv.upper;
         }
-        sv.extract(status, &s, self)
+        sv.extract(status, self, margins)
     }
 
     /// Both phases (or phase 2 alone from a usable warm basis): the final status.
@@ -335,11 +357,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
     }
 
     /// The scaled problem (see the module docs) into the fresh solver `sv`, with the
-    /// artificial basis: `(column scales s, max scaled b)`.
-    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<([f32; N], f32), LpStatus> {
-        let mut s = [1.0f32; N]; // x_j = s_j y_j
-        let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
-        for (j, ((sj, hsj), &hj)) in s.iter_mut().zip(hs.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
+    /// artificial basis (column scales into `sv.s`): the max scaled `b`.
+    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<f32, LpStatus> {
+        // Scaled upper bounds into `sv.h` (zero-initialised): 0, 1 or inf.
+        for (j, ((sj, hsj), &hj)) in sv.s.iter_mut().zip(sv.h.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
             if hj == f32::INFINITY {
                 let mut colmax = 0.0f32;
                 for row in self.a.iter().take(m) {
@@ -359,13 +380,12 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         sv.dantzig = self.pricing == Pricing::DantzigBland;
-        sv.h = hs;
         let mut bmax = 0.0f32;
         for ((srow, sb), (row, bi)) in
             sv.a.iter_mut().zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
         {
             let mut rmax = 0.0f32;
-            for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(s.iter()).take(n) {
+            for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(sv.s.iter()).take(n) {
                 *dst = src * sj;
                 if dst.abs() > rmax {
                     rmax = dst.abs();
@@ -384,7 +404,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         let mut cmax = 0.0f32;
-        for ((dst, cj), sj) in sv.c.iter_mut().zip(self.c.iter()).zip(s.iter()).take(n) {
+        for ((dst, cj), sj) in sv.c.iter_mut().zip(self.c.iter()).zip(sv.s.iter()).take(n) {
             *dst = cj * sj;
             if dst.abs() > cmax {
                 cmax = dst.abs();
@@ -402,19 +422,22 @@ impl<const M: usize, const N: usize> Lp<M, N> {
                 z += 0.0 * v;
             }
         }
-        for v in sv.b.iter().take(m).chain(sv.c.iter().take(n)).chain(s.iter().take(n)) {
+        for v in sv.b.iter().take(m).chain(sv.c.iter().take(n)).chain(sv.s.iter().take(n)) {
             z += 0.0 * v;
         }
         if z != 0.0 {
             return Err(LpStatus::NonFinite);
         }
         sv.init_basis();
-        Ok((s, bmax))
+        Ok(bmax)
     }
 }
 
 /// Working state. Basis entries: `j < N` structural, `N + i` artificial of row `i`.
 struct Solver<const M: usize, const N: usize> {
+    /// Column scales (module docs): `x_j = s_j y_j`. Kept here rather than returned
+    /// by [`Lp::scale_into`]: moving the array out costs a memcpy on the MCU.
+    s: [f32; N],
     a: [[f32; N]; M],
     b: [f32; M],
     c: [f32; N],
@@ -437,15 +460,12 @@ struct Solver<const M: usize, const N: usize> {
     /// The tableau and basic values were rebuilt by [`Self::refactor`] and no pivot
     /// has been made since: a further refactorisation would recompute the same state.
     fresh: bool,
-    /// min `|d_j|` over the columns the last [`Self::price`] examined (movable
-    /// nonbasic structurals): after a price that found no entering column, the dual
-    /// margin of the current basis (so extraction need not price again).
-    dual_min: f32,
 }
 
 impl<const M: usize, const N: usize> Solver<M, N> {
     fn new(m: usize, n: usize, cap: u16) -> Self {
         Self {
+            s: [1.0; N],
             a: [[0.0; N]; M],
             b: [0.0; M],
             c: [0.0; N],
@@ -463,7 +483,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
             dantzig: false,
             bland_now: false,
             fresh: false,
-            dual_min: f32::INFINITY,
         }
     }
 
@@ -601,20 +620,16 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     /// Entering variable: Bland (lowest eligible index) or Dantzig (largest gain,
     /// lowest index on ties), see [`Pricing`]. The gain of a column is its
     /// improvement rate (> DUAL_TOL ⇒ eligible); basic or fixed columns are skipped.
-    fn price(&mut self) -> Result<Option<usize>, Fault> {
+    fn price(&self) -> Result<Option<usize>, Fault> {
         let cb = self.basic_costs()?;
         let bland = !self.dantzig || self.bland_now;
         let mut best: Option<(usize, f32)> = None;
-        let mut dmin = f32::INFINITY;
         let cols = self.basic.iter().zip(self.h.iter()).zip(self.upper.iter());
         for (j, ((&basic, &hj), &upper)) in cols.enumerate().take(self.n) {
             if basic || !(hj > 0.0) {
                 continue;
             }
             let d = self.reduced_cost_with(&cb, j)?;
-            if d.abs() < dmin {
-                dmin = d.abs();
-            }
             let gj = if upper { d } else { -d };
             if gj > DUAL_TOL {
                 if bland {
@@ -625,7 +640,6 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        self.dual_min = dmin;
         Ok(best.map(|(j, _)| j))
     }
 
@@ -981,14 +995,14 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
     }
 
-    fn extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> LpSolution<N> {
+    fn extract(&self, status: LpStatus, lp: &Lp<M, N>, margins: bool) -> LpSolution<N> {
         if status == LpStatus::InternalError {
             return LpSolution::failed(status, self.iters);
         }
-        self.try_extract(status, s, lp).unwrap_or(LpSolution::failed(LpStatus::InternalError, self.iters))
+        self.try_extract(status, lp, margins).unwrap_or(LpSolution::failed(LpStatus::InternalError, self.iters))
     }
 
-    fn try_extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> Result<LpSolution<N>, Fault> {
+    fn try_extract(&self, status: LpStatus, lp: &Lp<M, N>, margins: bool) -> Result<LpSolution<N>, Fault> {
         let mut y = [0.0f32; N];
         for (yj, ((basic, upper), hj)) in
             y.iter_mut().zip(self.basic.iter().zip(self.upper.iter()).zip(self.h.iter())).take(self.n)
@@ -1008,13 +1022,23 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        // `Optimal` is only reported after a price of the final basis found no entering
-        // column ([`Self::run_phase`]), having examined every movable nonbasic column.
-        let dual_margin = if status == LpStatus::Optimal { self.dual_min } else { 0.0 };
+        let mut dual_margin = 0.0f32;
+        if status == LpStatus::Optimal && margins {
+            dual_margin = f32::INFINITY;
+            let cb = self.basic_costs()?;
+            for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
+                if !basic && *hj > 0.0 {
+                    let d = self.reduced_cost_with(&cb, j)?.abs();
+                    if d < dual_margin {
+                        dual_margin = d;
+                    }
+                }
+            }
+        }
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
         for (((xj, yj), sj), (hj, cj)) in
-            x.iter_mut().zip(y.iter()).zip(s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
+            x.iter_mut().zip(y.iter()).zip(self.s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
         {
             let v = max0(yj * sj);
             *xj = if v > *hj { *hj } else { v };
