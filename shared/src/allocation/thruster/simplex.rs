@@ -380,6 +380,12 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         sv.dantzig = self.pricing == Pricing::DantzigBland;
+        // All finite iff z = Σ 0·v stays 0 over every scaled entry (0·inf and 0·NaN are
+        // NaN): one multiply-add per entry, folded into the scaling loops.
+        let mut z = 0.0f32;
+        for sj in sv.s.iter().take(n) {
+            z += 0.0 * sj;
+        }
         let mut bmax = 0.0f32;
         for ((srow, sb), (row, bi)) in
             sv.a.iter_mut().zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
@@ -395,9 +401,12 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             let mut bs = bi * r;
             let sign = if bs < 0.0 { -1.0 } else { 1.0 };
             bs *= sign;
+            let rs = r * sign;
             for dst in srow.iter_mut().take(n) {
-                *dst *= r * sign;
+                *dst *= rs;
+                z += 0.0 * *dst;
             }
+            z += 0.0 * bs;
             *sb = bs;
             if bs > bmax {
                 bmax = bs;
@@ -413,18 +422,9 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         let cs = if cmax > 1e-30 { pow2_recip(cmax) } else { 1.0 };
         for dst in sv.c.iter_mut().take(n) {
             *dst *= cs;
+            z += 0.0 * *dst;
         }
-        // All finite iff Σ 0·v = 0 (0·inf and 0·NaN are NaN): one multiply-add per
-        // entry instead of a compare and branch. Inactive entries are 0 (s: 1).
-        let mut z = 0.0f32;
-        for row in sv.a.iter().take(m) {
-            for v in row.iter().take(n) {
-                z += 0.0 * v;
-            }
-        }
-        for v in sv.b.iter().take(m).chain(sv.c.iter().take(n)).chain(sv.s.iter().take(n)) {
-            z += 0.0 * v;
-        }
+        // Inactive entries are 0 (s: 1), finite.
         if z != 0.0 {
             return Err(LpStatus::NonFinite);
         }
