@@ -1133,6 +1133,64 @@ mod tests {
 }
 
 #[cfg(test)]
+mod validation_tests {
+    use super::*;
+
+    /// `x0 + x1 = 1`, `x in [0, 1]^2`, `min -x0`: optimum `x = (1, 0)`.
+    fn base() -> Lp<1, 2> {
+        let mut lp = Lp::<1, 2>::zeroed(1, 2);
+        lp.a = [[1.0, 1.0]];
+        lp.b = [1.0];
+        lp.c = [-1.0, 0.0];
+        lp.h = [1.0, 1.0];
+        lp
+    }
+
+    #[test]
+    fn every_non_finite_input_is_reported_before_a_negative_bound() {
+        assert_eq!(base().solve().status, LpStatus::Optimal);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut cases = [base(), base(), base(), base()];
+            cases[0].a[0][1] = bad;
+            cases[1].b[0] = bad;
+            cases[2].c[1] = bad;
+            cases[3].h[0] = if bad == f32::INFINITY { f32::NAN } else { bad };
+            for (k, mut lp) in cases.into_iter().enumerate() {
+                assert_eq!(lp.solve().status, LpStatus::NonFinite, "case {k}, {bad}");
+                // NonFinite wins over the infeasibility of a negative bound.
+                lp.h[1] = -1.0;
+                assert_eq!(lp.solve().status, LpStatus::NonFinite, "case {k}, {bad}, h < 0");
+            }
+        }
+        let mut lp = base();
+        lp.h[1] = -1.0;
+        assert_eq!(lp.solve().status, LpStatus::Infeasible);
+        // An inactive column may hold anything: it is not part of the problem.
+        let mut lp = base();
+        lp.cols = 1;
+        lp.a[0][1] = f32::NAN;
+        lp.h[1] = -1.0;
+        let s = lp.solve();
+        assert_eq!((s.status, s.x), (LpStatus::Optimal, [1.0, 0.0]));
+    }
+
+    #[test]
+    fn the_lean_solve_differs_only_by_the_unreported_dual_margin() {
+        let mut lp = Lp::<2, 4>::zeroed(2, 4);
+        lp.a = [[1.0, 2.0, -1.0, 0.5], [0.0, 1.0, 1.0, -2.0]];
+        lp.b = [1.0, 0.5];
+        lp.c = [1.0, -1.0, 0.5, 0.25];
+        lp.h = [1.0, 1.0, 2.0, f32::INFINITY];
+        let full = lp.solve();
+        assert_eq!(full.status, LpStatus::Optimal);
+        assert!(full.dual_margin > 0.0 && full.dual_margin.is_finite());
+        let lean = lp.solve_lean(default_iteration_cap(2, 4), None, None);
+        assert_eq!(lean.dual_margin, 0.0);
+        assert_eq!(LpSolution { dual_margin: full.dual_margin, ..lean }, full);
+    }
+}
+
+#[cfg(test)]
 mod internal_error_tests {
     use super::*;
     use crate::allocation::AllocStatus;
