@@ -387,8 +387,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             z += 0.0 * sj;
         }
         let mut bmax = 0.0f32;
-        for ((srow, sb), (row, bi)) in
-            sv.a.iter_mut().zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
+        // The scaled rows go into `a` and, as the artificial basis's tableau, into `t`
+        // (cheaper than copying the whole capacity-sized array afterwards).
+        for (((srow, trow), sb), (row, bi)) in
+            sv.a.iter_mut().zip(sv.t.iter_mut()).zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
         {
             let mut rmax = 0.0f32;
             for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(sv.s.iter()).take(n) {
@@ -402,8 +404,9 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             let sign = if bs < 0.0 { -1.0 } else { 1.0 };
             bs *= sign;
             let rs = r * sign;
-            for dst in srow.iter_mut().take(n) {
+            for (dst, tdst) in srow.iter_mut().zip(trow.iter_mut()).take(n) {
                 *dst *= rs;
+                *tdst = *dst;
                 z += 0.0 * *dst;
             }
             z += 0.0 * bs;
@@ -428,7 +431,7 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         if z != 0.0 {
             return Err(LpStatus::NonFinite);
         }
-        sv.init_basis();
+        sv.init_basis_vars();
         Ok(bmax)
     }
 }
@@ -488,6 +491,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
 
     fn init_basis(&mut self) {
         self.t = self.a;
+        self.init_basis_vars();
+    }
+
+    /// [`Self::init_basis`] but the tableau (already `a`).
+    fn init_basis_vars(&mut self) {
         for (i, (var, (xb, bi))) in self.basis.iter_mut().zip(self.xb.iter_mut().zip(self.b.iter())).enumerate() {
             *var = N.saturating_add(i);
             *xb = *bi;
