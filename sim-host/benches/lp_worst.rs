@@ -17,6 +17,9 @@
 //! Measured (30 generations, seed 1; `timing/lp-worst-demands.json`): direction-preserving
 //! nominal worst 51,960 → 42,760 instructions (mean 33,401 → 29,519), Bodson nominal
 //! 28,960 → 27,120; the step without allocation costs ~3,700.
+//! Solver overhead cut (10 generations, seed 1, same bits): direction-preserving nominal
+//! worst 42,840 → 37,760 (mean 29,582 → 25,555), failed [1, 4] 35,280 → 30,760, failed
+//! [1, 3, 7] 29,960 → 25,800; Bodson nominal 27,200 → 25,160 (mean 22,612 → 20,681).
 //!
 //! Environment: `ACS_FIRMWARE_ELF` (default: the QEMU build), `LP_WORST_SEED` (default 1),
 //! `LP_WORST_GENS` (default 40), `LP_WORST_OUT` (JSON of the worst demands, default none),

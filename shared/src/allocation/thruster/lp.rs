@@ -452,8 +452,13 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     /// Columns: the movable thrusters ([`Self::movable`]), then `λ` (column `nc`).
     pub fn dp_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
         let (map, nc) = Self::movable(bd);
+        self.dp_lp_on(m_d, bd, &map, nc)
+    }
+
+    /// [`Self::dp_lp`] with the columns `(map, nc)` of [`Self::movable`] given.
+    fn dp_lp_on(&self, m_d: &[f32; AXES], bd: &Bounds<N>, map: &[usize; N], nc: usize) -> Lp<AXES, NV> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES, nc.saturating_add(1));
-        self.fill_rows(&mut lp, bd, &map, nc, &[0.0; AXES]); // b = -B u_min    (eq 16)
+        self.fill_rows(&mut lp, bd, map, nc, &[0.0; AXES]); // b = -B u_min    (eq 16)
         for (arow, mi) in lp.a.iter_mut().zip(m_d.iter()) {
             if let Some(a) = arow.get_mut(nc) {
                 *a = -mi; // A = [B, -m_d]       (eq 16)
@@ -475,8 +480,13 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     /// columns: the movable thrusters ([`Self::movable`]).
     pub fn fuel_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> Lp<AXES, NV> {
         let (map, nc) = Self::movable(bd);
+        self.fuel_lp_on(m_d, bd, &map, nc)
+    }
+
+    /// [`Self::fuel_lp`] with the columns `(map, nc)` of [`Self::movable`] given.
+    fn fuel_lp_on(&self, m_d: &[f32; AXES], bd: &Bounds<N>, map: &[usize; N], nc: usize) -> Lp<AXES, NV> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES, nc);
-        self.fill_rows(&mut lp, bd, &map, nc, m_d);
+        self.fill_rows(&mut lp, bd, map, nc, m_d);
         for ((h, c), &j) in lp.h.iter_mut().zip(lp.c.iter_mut()).zip(map.iter()).take(nc) {
             *h = at(&bd.hi, j).unwrap_or(0.0) - at(&bd.lo, j).unwrap_or(0.0);
             *c = at(&self.fuel_w, j).unwrap_or(0.0);
@@ -495,6 +505,19 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         maximise: bool,
     ) -> Result<Lp<AXES, NV>, Fault> {
         let (map, nc) = Self::movable(bd);
+        self.bodson_lp_on(m_hat, k, bd, maximise, &map, nc)
+    }
+
+    /// [`Self::bodson_lp`] with the columns `(map, nc)` of [`Self::movable`] given.
+    fn bodson_lp_on(
+        &self,
+        m_hat: &[f32; AXES],
+        k: usize,
+        bd: &Bounds<N>,
+        maximise: bool,
+        map: &[usize; N],
+        nc: usize,
+    ) -> Result<Lp<AXES, NV>, Fault> {
         let mut lp = Lp::<AXES, NV>::zeroed(AXES.saturating_sub(1), nc);
         let (bk, mk) = (at(&self.b, k)?, at(m_hat, k)?);
         let mut r = 0usize;
@@ -581,8 +604,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
     }
 
     /// `u = u_lo + x` on the LP columns ([`Self::movable`]), `u = u_lo` elsewhere.
-    fn u_from_x(x: &[f32; NV], bd: &Bounds<N>) -> [f32; N] {
-        let (map, nc) = Self::movable(bd);
+    fn u_from_x(x: &[f32; NV], bd: &Bounds<N>, map: &[usize; N], nc: usize) -> [f32; N] {
         let mut u = bd.lo;
         for (xk, &j) in x.iter().zip(map.iter()).take(nc) {
             if let Some(ui) = u.get_mut(j) {
@@ -604,16 +626,18 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if !Self::bounds_consistent(bd) {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
+        let (map, nc) = Self::movable(bd);
         let mut basis = Basis::<AXES, NV>::default();
-        let s1: LpSolution<NV> = self.dp_lp(m_d, bd).solve_from(self.lp_iteration_cap, None, Some(&mut basis));
+        let s1: LpSolution<NV> =
+            self.dp_lp_on(m_d, bd, &map, nc).solve_lean(self.lp_iteration_cap, None, Some(&mut basis));
         let mut it = s1.iterations;
         if s1.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s1.status), it);
         }
-        let Ok(lambda) = at(&s1.x, Self::movable(bd).1) else {
+        let Ok(lambda) = at(&s1.x, nc) else {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
         };
-        let u1 = Self::u_from_x(&s1.x, bd);
+        let u1 = Self::u_from_x(&s1.x, bd, &map, nc);
         if lambda < 1.0 - LAMBDA_TOL {
             return self.finish(m_d, bd, u1, lambda, AllocStatus::Scaled, it);
         }
@@ -626,12 +650,12 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         // the right sign: the LP optimality certificate) stage 2 makes no pivot at all.
         // If λ is basic (value within LAMBDA_TOL of 1) the basis names column `nc`,
         // which the fuel LP does not have: the solver rejects it and cold-starts.
-        let s2 = self.fuel_lp(m_d, bd).solve_from(self.lp_iteration_cap, Some(&basis), None);
+        let s2 = self.fuel_lp_on(m_d, bd, &map, nc).solve_lean(self.lp_iteration_cap, Some(&basis), None);
         it = it.saturating_add(s2.iterations);
         if s2.status == LpStatus::InternalError {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
         }
-        let u2 = Self::u_from_x(&s2.x, bd);
+        let u2 = Self::u_from_x(&s2.x, bd, &map, nc);
         let u = if s2.status == LpStatus::Optimal && self.fuel(&u2) <= self.fuel(&u1) {
             u2
         } else {
@@ -648,11 +672,12 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if zero_ok {
             return self.finish(m_d, bd, [0.0; N], 1.0, AllocStatus::Ok, 0);
         }
-        let s = self.fuel_lp(&[0.0; AXES], bd).solve_with_cap(self.lp_iteration_cap);
+        let (map, nc) = Self::movable(bd);
+        let s = self.fuel_lp_on(&[0.0; AXES], bd, &map, nc).solve_lean(self.lp_iteration_cap, None, None);
         if s.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s.status), s.iterations);
         }
-        self.finish(m_d, bd, Self::u_from_x(&s.x, bd), 1.0, AllocStatus::Ok, s.iterations)
+        self.finish(m_d, bd, Self::u_from_x(&s.x, bd, &map, nc), 1.0, AllocStatus::Ok, s.iterations)
     }
 
     pub fn bodson(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
@@ -673,16 +698,17 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
             return self.zero_demand(m_d, bd, zero_ok);
         }
+        let (map, nc) = Self::movable(bd);
         // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
-        let s_hi = match &self.bodson_lp(&m_hat, k, bd, true) {
-            Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+        let s_hi = match &self.bodson_lp_on(&m_hat, k, bd, true, &map, nc) {
+            Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),
             Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
         };
         let mut it = s_hi.iterations;
         if s_hi.status != LpStatus::Optimal {
             return self.fallback(m_d, bd, Self::lp_fail(s_hi.status), it);
         }
-        let mut u_hi = Self::u_from_x(&s_hi.x, bd);
+        let mut u_hi = Self::u_from_x(&s_hi.x, bd, &map, nc);
         if self.polish_bodson(&mut u_hi, m_d, bd).is_err() {
             return self.fallback(m_d, bd, AllocStatus::InternalError, it);
         }
@@ -697,15 +723,15 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
         let (u_lo, l_lo) = if zero_ok {
             ([0.0f32; N], 0.0f32)
         } else {
-            let s_lo = match &self.bodson_lp(&m_hat, k, bd, false) {
-                Ok(lp) => lp.solve_with_cap(self.lp_iteration_cap),
+            let s_lo = match &self.bodson_lp_on(&m_hat, k, bd, false, &map, nc) {
+                Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),
                 Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, it),
             };
             it = it.saturating_add(s_lo.iterations);
             if s_lo.status != LpStatus::Optimal {
                 return self.fallback(m_d, bd, Self::lp_fail(s_lo.status), it);
             }
-            let mut u = Self::u_from_x(&s_lo.x, bd);
+            let mut u = Self::u_from_x(&s_lo.x, bd, &map, nc);
             if self.polish_bodson(&mut u, m_d, bd).is_err() {
                 return self.fallback(m_d, bd, AllocStatus::InternalError, it);
             }

@@ -206,6 +206,13 @@ fn put<T, const K: usize>(v: &mut [T; K], i: usize, x: T) -> Result<(), Fault> {
     Ok(())
 }
 
+/// `max(x, 0)` with libm `fmaxf`'s result for every input (NaN → 0, `-0` → `-0`),
+/// inline: `f32::max` is a library call on the MCU.
+#[inline(always)]
+fn max0(x: f32) -> f32 {
+    if x >= 0.0 { x } else { 0.0 }
+}
+
 /// `2^-e` for `v = m 2^e`, `m ∈ [1, 2)`: an exact power-of-two reciprocal scale.
 /// Returns 1 for zero, subnormal or non-finite `v`.
 fn pow2_recip(v: f32) -> f32 {
@@ -232,22 +239,20 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         self.solve_with_cap(default_iteration_cap(m, n))
     }
 
-    /// Input validation: `Err` with the status to report (no iterations).
-    fn check_inputs(&self, m: usize, n: usize) -> Result<(), LpStatus> {
-        for (row, bi) in self.a.iter().zip(self.b.iter()).take(m) {
-            if !bi.is_finite() || row.iter().take(n).any(|v| !v.is_finite()) {
+    /// Bound validation: `Err(NonFinite)` on a NaN or `-inf` bound, else whether a
+    /// bound is negative (infeasible). Non-finite `A`, `b`, `c` are caught after
+    /// scaling ([`Self::scale_into`]): every scale factor is a finite nonzero number,
+    /// so a non-finite input gives a non-finite scaled entry. The statuses are those
+    /// of checking `A, b`, then `c, h`, then `h < 0` up front: `NonFinite` first.
+    fn check_bounds(&self, n: usize) -> Result<bool, LpStatus> {
+        let mut neg = false;
+        for hj in self.h.iter().take(n) {
+            if hj.is_nan() || *hj == f32::NEG_INFINITY {
                 return Err(LpStatus::NonFinite);
             }
+            neg |= *hj < 0.0;
         }
-        for (cj, hj) in self.c.iter().zip(self.h.iter()).take(n) {
-            if !cj.is_finite() || hj.is_nan() || *hj == f32::NEG_INFINITY {
-                return Err(LpStatus::NonFinite);
-            }
-        }
-        if self.h.iter().take(n).any(|hj| *hj < 0.0) {
-            return Err(LpStatus::Infeasible);
-        }
-        Ok(())
+        Ok(neg)
     }
 
     /// Solve with an explicit iteration cap (pivots + bound flips, both phases).
@@ -259,24 +264,50 @@ impl<const M: usize, const N: usize> Lp<M, N> {
     /// docs), and writing the final basis into `out` (left unchanged if the inputs
     /// are rejected before the simplex runs).
     pub fn solve_from(&self, cap: u16, warm: Option<&Basis<M, N>>, out: Option<&mut Basis<M, N>>) -> LpSolution<N> {
+        self.solve_impl(cap, warm, out, true)
+    }
+
+    /// [`Self::solve_from`] without the dual margin (reported as 0, "not known to be
+    /// unique"): it costs one more pricing pass, and the allocator does not use it.
+    /// Every other field has the bits of [`Self::solve_from`]'s.
+    pub(crate) fn solve_lean(
+        &self,
+        cap: u16,
+        warm: Option<&Basis<M, N>>,
+        out: Option<&mut Basis<M, N>>,
+    ) -> LpSolution<N> {
+        self.solve_impl(cap, warm, out, false)
+    }
+
+    fn solve_impl(
+        &self,
+        cap: u16,
+        warm: Option<&Basis<M, N>>,
+        out: Option<&mut Basis<M, N>>,
+        margins: bool,
+    ) -> LpSolution<N> {
         let m = if self.rows < M { self.rows } else { M };
         let n = if self.cols < N { self.cols } else { N };
-        if let Err(e) = self.check_inputs(m, n) {
-            return LpSolution::failed(e, 0);
-        }
+        let negative_bound = match self.check_bounds(n) {
+            Ok(neg) => neg,
+            Err(e) => return LpSolution::failed(e, 0),
+        };
         // Built in place and filled by reference: the solver is ~0.5 kB, and moving it
         // through a return value costs a memcpy per solve on the MCU.
         let mut sv = Solver::<M, N>::new(m, n, cap);
-        let (s, bmax) = match self.scale_into(&mut sv, m, n) {
+        let bmax = match self.scale_into(&mut sv, m, n) {
             Ok(x) => x,
             Err(e) => return LpSolution::failed(e, 0),
         };
+        if negative_bound {
+            return LpSolution::failed(LpStatus::Infeasible, 0);
+        }
         let status = Self::run(&mut sv, bmax, warm);
         if let Some(o) = out {
             o.vars = sv.basis;
             o.upper = sv.upper;
         }
-        sv.extract(status, &s, self)
+        sv.extract(status, self, margins)
     }
 
     /// Both phases (or phase 2 alone from a usable warm basis): the final status.
@@ -326,11 +357,10 @@ impl<const M: usize, const N: usize> Lp<M, N> {
     }
 
     /// The scaled problem (see the module docs) into the fresh solver `sv`, with the
-    /// artificial basis: `(column scales s, max scaled b)`.
-    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<([f32; N], f32), LpStatus> {
-        let mut s = [1.0f32; N]; // x_j = s_j y_j
-        let mut hs = [0.0f32; N]; // scaled upper bounds: 0, 1 or inf
-        for (j, ((sj, hsj), &hj)) in s.iter_mut().zip(hs.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
+    /// artificial basis (column scales into `sv.s`): the max scaled `b`.
+    fn scale_into(&self, sv: &mut Solver<M, N>, m: usize, n: usize) -> Result<f32, LpStatus> {
+        // Scaled upper bounds into `sv.h` (zero-initialised): 0, 1 or inf.
+        for (j, ((sj, hsj), &hj)) in sv.s.iter_mut().zip(sv.h.iter_mut()).zip(self.h.iter()).enumerate().take(n) {
             if hj == f32::INFINITY {
                 let mut colmax = 0.0f32;
                 for row in self.a.iter().take(m) {
@@ -350,13 +380,20 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             }
         }
         sv.dantzig = self.pricing == Pricing::DantzigBland;
-        sv.h = hs;
+        // All finite iff z = Σ 0·v stays 0 over every scaled entry (0·inf and 0·NaN are
+        // NaN): one multiply-add per entry, folded into the scaling loops.
+        let mut z = 0.0f32;
+        for sj in sv.s.iter().take(n) {
+            z += 0.0 * sj;
+        }
         let mut bmax = 0.0f32;
-        for ((srow, sb), (row, bi)) in
-            sv.a.iter_mut().zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
+        // The scaled rows go into `a` and, as the artificial basis's tableau, into `t`
+        // (cheaper than copying the whole capacity-sized array afterwards).
+        for (((srow, trow), sb), (row, bi)) in
+            sv.a.iter_mut().zip(sv.t.iter_mut()).zip(sv.b.iter_mut()).zip(self.a.iter().zip(self.b.iter())).take(m)
         {
             let mut rmax = 0.0f32;
-            for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(s.iter()).take(n) {
+            for ((dst, src), sj) in srow.iter_mut().zip(row.iter()).zip(sv.s.iter()).take(n) {
                 *dst = src * sj;
                 if dst.abs() > rmax {
                     rmax = dst.abs();
@@ -366,16 +403,20 @@ impl<const M: usize, const N: usize> Lp<M, N> {
             let mut bs = bi * r;
             let sign = if bs < 0.0 { -1.0 } else { 1.0 };
             bs *= sign;
-            for dst in srow.iter_mut().take(n) {
-                *dst *= r * sign;
+            let rs = r * sign;
+            for (dst, tdst) in srow.iter_mut().zip(trow.iter_mut()).take(n) {
+                *dst *= rs;
+                *tdst = *dst;
+                z += 0.0 * *dst;
             }
+            z += 0.0 * bs;
             *sb = bs;
             if bs > bmax {
                 bmax = bs;
             }
         }
         let mut cmax = 0.0f32;
-        for ((dst, cj), sj) in sv.c.iter_mut().zip(self.c.iter()).zip(s.iter()).take(n) {
+        for ((dst, cj), sj) in sv.c.iter_mut().zip(self.c.iter()).zip(sv.s.iter()).take(n) {
             *dst = cj * sj;
             if dst.abs() > cmax {
                 cmax = dst.abs();
@@ -384,21 +425,22 @@ impl<const M: usize, const N: usize> Lp<M, N> {
         let cs = if cmax > 1e-30 { pow2_recip(cmax) } else { 1.0 };
         for dst in sv.c.iter_mut().take(n) {
             *dst *= cs;
+            z += 0.0 * *dst;
         }
-        let scaled_ok = sv.a.iter().take(m).all(|r| r.iter().all(|v| v.is_finite()))
-            && sv.b.iter().all(|v| v.is_finite())
-            && sv.c.iter().all(|v| v.is_finite())
-            && s.iter().all(|v| v.is_finite());
-        if !scaled_ok {
+        // Inactive entries are 0 (s: 1), finite.
+        if z != 0.0 {
             return Err(LpStatus::NonFinite);
         }
-        sv.init_basis();
-        Ok((s, bmax))
+        sv.init_basis_vars();
+        Ok(bmax)
     }
 }
 
 /// Working state. Basis entries: `j < N` structural, `N + i` artificial of row `i`.
 struct Solver<const M: usize, const N: usize> {
+    /// Column scales (module docs): `x_j = s_j y_j`. Kept here rather than returned
+    /// by [`Lp::scale_into`]: moving the array out costs a memcpy on the MCU.
+    s: [f32; N],
     a: [[f32; N]; M],
     b: [f32; M],
     c: [f32; N],
@@ -426,6 +468,7 @@ struct Solver<const M: usize, const N: usize> {
 impl<const M: usize, const N: usize> Solver<M, N> {
     fn new(m: usize, n: usize, cap: u16) -> Self {
         Self {
+            s: [1.0; N],
             a: [[0.0; N]; M],
             b: [0.0; M],
             c: [0.0; N],
@@ -448,6 +491,11 @@ impl<const M: usize, const N: usize> Solver<M, N> {
 
     fn init_basis(&mut self) {
         self.t = self.a;
+        self.init_basis_vars();
+    }
+
+    /// [`Self::init_basis`] but the tableau (already `a`).
+    fn init_basis_vars(&mut self) {
         for (i, (var, (xb, bi))) in self.basis.iter_mut().zip(self.xb.iter_mut().zip(self.b.iter())).enumerate() {
             *var = N.saturating_add(i);
             *xb = *bi;
@@ -610,10 +658,10 @@ impl<const M: usize, const N: usize> Solver<M, N> {
     fn row_limit(&self, tij: f32, x: f32, var: usize, s: f32) -> Result<Option<(f32, bool)>, Fault> {
         let alpha = s * tij;
         Ok(if alpha > PIVOT_TOL {
-            Some((x.max(0.0) / alpha, false))
+            Some((max0(x) / alpha, false))
         } else if alpha < -PIVOT_TOL {
             let ub = self.upper_of(var)?;
-            if ub.is_finite() { Some(((ub - x).max(0.0) / -alpha, true)) } else { None }
+            if ub.is_finite() { Some((max0(ub - x) / -alpha, true)) } else { None }
         } else {
             None
         })
@@ -955,14 +1003,14 @@ impl<const M: usize, const N: usize> Solver<M, N> {
         }
     }
 
-    fn extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> LpSolution<N> {
+    fn extract(&self, status: LpStatus, lp: &Lp<M, N>, margins: bool) -> LpSolution<N> {
         if status == LpStatus::InternalError {
             return LpSolution::failed(status, self.iters);
         }
-        self.try_extract(status, s, lp).unwrap_or(LpSolution::failed(LpStatus::InternalError, self.iters))
+        self.try_extract(status, lp, margins).unwrap_or(LpSolution::failed(LpStatus::InternalError, self.iters))
     }
 
-    fn try_extract(&self, status: LpStatus, s: &[f32; N], lp: &Lp<M, N>) -> Result<LpSolution<N>, Fault> {
+    fn try_extract(&self, status: LpStatus, lp: &Lp<M, N>, margins: bool) -> Result<LpSolution<N>, Fault> {
         let mut y = [0.0f32; N];
         for (yj, ((basic, upper), hj)) in
             y.iter_mut().zip(self.basic.iter().zip(self.upper.iter()).zip(self.h.iter())).take(self.n)
@@ -982,8 +1030,9 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                 }
             }
         }
-        let mut dual_margin = f32::INFINITY;
-        if status == LpStatus::Optimal {
+        let mut dual_margin = 0.0f32;
+        if status == LpStatus::Optimal && margins {
+            dual_margin = f32::INFINITY;
             let cb = self.basic_costs()?;
             for (j, (basic, hj)) in self.basic.iter().zip(self.h.iter()).enumerate().take(self.n) {
                 if !basic && *hj > 0.0 {
@@ -993,15 +1042,13 @@ impl<const M: usize, const N: usize> Solver<M, N> {
                     }
                 }
             }
-        } else {
-            dual_margin = 0.0;
         }
         let mut x = [0.0f32; N];
         let mut obj = 0.0f32;
         for (((xj, yj), sj), (hj, cj)) in
-            x.iter_mut().zip(y.iter()).zip(s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
+            x.iter_mut().zip(y.iter()).zip(self.s.iter()).zip(lp.h.iter().zip(lp.c.iter())).take(self.n)
         {
-            let v = (yj * sj).max(0.0);
+            let v = max0(yj * sj);
             *xj = if v > *hj { *hj } else { v };
             obj += cj * *xj;
         }
@@ -1090,6 +1137,64 @@ mod tests {
         assert_eq!(lp.solve().status, LpStatus::Unbounded);
         lp.b = [f32::NAN];
         assert_eq!(lp.solve().status, LpStatus::NonFinite);
+    }
+}
+
+#[cfg(test)]
+mod validation_tests {
+    use super::*;
+
+    /// `x0 + x1 = 1`, `x in [0, 1]^2`, `min -x0`: optimum `x = (1, 0)`.
+    fn base() -> Lp<1, 2> {
+        let mut lp = Lp::<1, 2>::zeroed(1, 2);
+        lp.a = [[1.0, 1.0]];
+        lp.b = [1.0];
+        lp.c = [-1.0, 0.0];
+        lp.h = [1.0, 1.0];
+        lp
+    }
+
+    #[test]
+    fn every_non_finite_input_is_reported_before_a_negative_bound() {
+        assert_eq!(base().solve().status, LpStatus::Optimal);
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let mut cases = [base(), base(), base(), base()];
+            cases[0].a[0][1] = bad;
+            cases[1].b[0] = bad;
+            cases[2].c[1] = bad;
+            cases[3].h[0] = if bad == f32::INFINITY { f32::NAN } else { bad };
+            for (k, mut lp) in cases.into_iter().enumerate() {
+                assert_eq!(lp.solve().status, LpStatus::NonFinite, "case {k}, {bad}");
+                // NonFinite wins over the infeasibility of a negative bound.
+                lp.h[1] = -1.0;
+                assert_eq!(lp.solve().status, LpStatus::NonFinite, "case {k}, {bad}, h < 0");
+            }
+        }
+        let mut lp = base();
+        lp.h[1] = -1.0;
+        assert_eq!(lp.solve().status, LpStatus::Infeasible);
+        // An inactive column may hold anything: it is not part of the problem.
+        let mut lp = base();
+        lp.cols = 1;
+        lp.a[0][1] = f32::NAN;
+        lp.h[1] = -1.0;
+        let s = lp.solve();
+        assert_eq!((s.status, s.x), (LpStatus::Optimal, [1.0, 0.0]));
+    }
+
+    #[test]
+    fn the_lean_solve_differs_only_by_the_unreported_dual_margin() {
+        let mut lp = Lp::<2, 4>::zeroed(2, 4);
+        lp.a = [[1.0, 2.0, -1.0, 0.5], [0.0, 1.0, 1.0, -2.0]];
+        lp.b = [1.0, 0.5];
+        lp.c = [1.0, -1.0, 0.5, 0.25];
+        lp.h = [1.0, 1.0, 2.0, f32::INFINITY];
+        let full = lp.solve();
+        assert_eq!(full.status, LpStatus::Optimal);
+        assert!(full.dual_margin > 0.0 && full.dual_margin.is_finite());
+        let lean = lp.solve_lean(default_iteration_cap(2, 4), None, None);
+        assert_eq!(lean.dual_margin, 0.0);
+        assert_eq!(LpSolution { dual_margin: full.dual_margin, ..lean }, full);
     }
 }
 
