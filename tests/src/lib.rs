@@ -14,6 +14,32 @@ pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
+/// Whether `qemu-system-arm` is installed; when it is not, says loudly what `what` (the
+/// calling test) leaves untested (scripts/setup.sh installs QEMU).
+pub fn qemu_available(what: &str) -> bool {
+    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); {what} not tested");
+    }
+    ok
+}
+
+/// (Re)builds the QEMU firmware image once per test binary: incremental, about a second
+/// when it is current, and a stale image (whose schema hash the host would refuse) is
+/// never tested.
+pub fn build_qemu_firmware() {
+    static BUILT: std::sync::Once = std::sync::Once::new();
+    BUILT.call_once(|| {
+        let st = std::process::Command::new(repo().join("scripts/firmware.sh"))
+            .arg("build")
+            .stdout(std::process::Stdio::null())
+            .status()
+            .expect("scripts/firmware.sh");
+        assert!(st.success(), "firmware build failed");
+    });
+    assert!(sim_host::link::qemu::default_firmware().exists());
+}
+
 pub fn scenario(rel: &str) -> Scenario {
     let p = repo().join("scenarios").join(rel);
     Scenario::load(&p).unwrap_or_else(|e| panic!("{}: {e:#}", p.display()))

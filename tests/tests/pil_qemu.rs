@@ -3,40 +3,17 @@
 //! (same f32 flight code, compiled for another ISA), and the firmware must report the
 //! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
 
-use acs_tests::{repo, run_in_process, scenario};
+use acs_tests::{build_qemu_firmware, qemu_available, run_in_process, scenario};
 use sim_host::columns::Col;
-use sim_host::link::qemu::{QemuLink, default_firmware};
+use sim_host::link::qemu::QemuLink;
 use sim_host::runner;
-
-fn qemu_available() -> bool {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); PIL not tested");
-    }
-    ok
-}
-
-/// (Re)build the QEMU image: incremental, so about a second when it is current, and a
-/// stale image (whose schema hash the host would refuse) is never tested.
-fn firmware() {
-    static BUILT: std::sync::Once = std::sync::Once::new();
-    BUILT.call_once(|| {
-        let st = std::process::Command::new(repo().join("scripts/firmware.sh"))
-            .arg("build")
-            .stdout(std::process::Stdio::null())
-            .status()
-            .expect("scripts/firmware.sh");
-        assert!(st.success(), "firmware build failed");
-    });
-    assert!(default_firmware().exists());
-}
 
 #[test]
 fn qemu_run_matches_in_process_and_reports_instruction_counts() {
-    if !qemu_available() {
+    if !qemu_available("PIL") {
         return;
     }
-    firmware();
+    build_qemu_firmware();
     let mut sc = scenario("paper000/test3.toml");
     sc.duration_s = 15.0;
     sc.sensors.attitude_noise_deg = 0.2; // exercise noisy inputs too
@@ -77,20 +54,20 @@ fn qemu_run_matches_in_process_and_reports_instruction_counts() {
 
 #[test]
 fn firmware_drops_corrupt_frames_and_keeps_answering() {
-    if !qemu_available() {
+    if !qemu_available("PIL") {
         return;
     }
-    firmware();
+    build_qemu_firmware();
     let mut link = QemuLink::start(None).unwrap();
     acs_tests::corrupt_frames_are_dropped_and_counted(link.framed());
 }
 
 #[test]
 fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
-    if !qemu_available() {
+    if !qemu_available("PIL") {
         return;
     }
-    firmware();
+    build_qemu_firmware();
     // The mission's four-mode table (B-dot, LQR, two quaternion feedbacks) uploaded one
     // mode per message, armed, then commanded: lock manoeuvre, retarget, auto (the
     // tumble then sends it back to detumble).

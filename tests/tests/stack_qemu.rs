@@ -6,7 +6,7 @@
 //! right after boot, and (b) within the static bound. Skips (loudly) only where
 //! qemu-system-arm is not installed.
 
-use acs_tests::{repo, scenario};
+use acs_tests::{build_qemu_firmware, qemu_available, scenario};
 use elf_check::{Analysis, Board};
 use sim_host::link::FlightLink;
 use sim_host::link::qemu::{QemuLink, default_firmware};
@@ -14,17 +14,10 @@ use sim_host::runner;
 
 #[test]
 fn measured_stack_high_water_mark_is_within_the_static_bound() {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); stack HWM not measured");
+    if !qemu_available("stack high-water mark") {
         return;
     }
-    let st = std::process::Command::new(repo().join("scripts/firmware.sh"))
-        .arg("build")
-        .stdout(std::process::Stdio::null())
-        .status()
-        .expect("scripts/firmware.sh");
-    assert!(st.success(), "firmware build failed");
+    build_qemu_firmware();
 
     let board = Board::named("qemu").unwrap();
     let analysis = Analysis::of_elf(&board, &default_firmware()).unwrap();

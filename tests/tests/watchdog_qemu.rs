@@ -11,28 +11,9 @@ use std::time::{Duration, Instant};
 use acs_flight::Fsw;
 use acs_flight::link::{FswMsg, HostMsg, LinkError, ResetCause, SensorFrame, status, valid};
 use acs_flight::params::FlightParams;
-use acs_tests::repo;
+use acs_tests::{build_qemu_firmware, qemu_available};
 use sim_host::link::FlightLink;
-use sim_host::link::qemu::{QemuClock, QemuLink, default_firmware};
-
-fn qemu_available() -> bool {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); watchdog not tested");
-    }
-    ok
-}
-
-/// (Re)build the QEMU image (incremental: about a second when current).
-fn firmware() {
-    let st = std::process::Command::new(repo().join("scripts/firmware.sh"))
-        .arg("build")
-        .stdout(std::process::Stdio::null())
-        .status()
-        .expect("scripts/firmware.sh");
-    assert!(st.success(), "firmware build failed");
-    assert!(default_firmware().exists());
-}
+use sim_host::link::qemu::{QemuClock, QemuLink};
 
 /// A frame every configuration accepts: level attitude, at rest, all sensors valid.
 fn frame(seq: u32) -> SensorFrame {
@@ -63,10 +44,10 @@ fn request(link: &mut QemuLink, msg: &HostMsg) -> FswMsg {
 
 #[test]
 fn watchdog_resets_a_hung_real_time_loop_into_the_safe_state() {
-    if !qemu_available() {
+    if !qemu_available("watchdog") {
         return;
     }
-    firmware();
+    build_qemu_firmware();
     let t_start = Instant::now();
     let mut link = QemuLink::start_with(None, QemuClock::RealTime, &[]).unwrap();
     let info = link.hello().unwrap();

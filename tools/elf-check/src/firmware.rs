@@ -76,11 +76,6 @@ const RULES: &[IndirectRule] = &[
     IndirectRule { caller: "USART2", targets: WAKER_TARGETS, why: WAKER_WHY },
     IndirectRule { caller: "TIM8_BRK_TIM12", targets: WAKER_TARGETS, why: WAKER_WHY },
     IndirectRule {
-        caller: "core::ptr::drop_in_place<embassy_sync::mutex::MutexGuard",
-        targets: WAKER_TARGETS,
-        why: WAKER_WHY,
-    },
-    IndirectRule {
         caller: "_defmt_",
         targets: &["defmt_rtt::channel::Channel::"],
         why: "defmt-rtt calls Channel::blocking_write or nonblocking_write through a function \
