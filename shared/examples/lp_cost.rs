@@ -15,7 +15,7 @@
 //! `lp_cost sweep-dp|sweep-bodson [failed ids]` runs the method over a fixed set of
 //! 4000 demands (seeded random directions, magnitudes 1e-3..1e3 N m) and prints the
 //! worst and mean LP iterations; under callgrind, instructions / 4000 is the mean cost.
-use acs_flight::allocation::thruster::paper::paper_b;
+use acs_flight::allocation::thruster::paper::paper_allocator_in;
 use acs_flight::allocation::thruster::{Allocator, Failures};
 
 fn main() {
@@ -62,12 +62,5 @@ fn sweep(method: &str, failed: &[String]) {
 }
 
 fn allocator() -> Allocator<12, 13> {
-    let b8 = paper_b(10.0);
-    let mut b = [[0.0f32; 12]; 3];
-    for (r, r8) in b.iter_mut().zip(b8.iter()) {
-        r[..8].copy_from_slice(r8);
-    }
-    let mut u_max = [0.0f32; 12];
-    u_max[..8].fill(1.0);
-    std::hint::black_box(Allocator::<12, 13>::new(b, [0.0; 12], u_max))
+    std::hint::black_box(paper_allocator_in(10.0))
 }

@@ -27,19 +27,12 @@
 #![allow(clippy::needless_range_loop)]
 #[path = "thruster_common/mod.rs"]
 mod common;
-use acs_flight::allocation::thruster::paper::{paper_allocator, paper_b};
+use acs_flight::allocation::thruster::paper::{paper_allocator, paper_allocator_in};
 use acs_flight::allocation::thruster::{AllocStatus, Allocator, Basis, Bounds, Failures, Lp, LpStatus};
 use common::*;
 
 fn fitted() -> Allocator<12, 13> {
-    let b8 = paper_b(10.0);
-    let mut b = [[0.0f32; 12]; 3];
-    for (r, r8) in b.iter_mut().zip(b8.iter()) {
-        r[..8].copy_from_slice(r8);
-    }
-    let mut u_max = [0.0f32; 12];
-    u_max[..8].fill(1.0);
-    Allocator::new(b, [0.0; 12], u_max)
+    paper_allocator_in(10.0)
 }
 
 /// The full (uncompacted) stage-1 and fuel LPs of the 8 fitted thrusters, built here.

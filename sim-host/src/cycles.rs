@@ -281,23 +281,11 @@ pub fn run_scenario(
         bail!("{}: open-loop scenario, the flight code does not run", sc.name);
     }
     let mut link = CyclesLink::start(firmware, opts)?;
-    let mut sink = Discard;
+    let mut sink = crate::series::Discard;
     let summary = crate::runner::run_recorded(sc, &mut link, false, &mut sink)?;
     let ipt = link.info.as_ref().and_then(|i| i.instructions_per_tick).unwrap_or(f64::NAN);
     let fw = link.firmware_ticks.iter().map(|&t| f64::from(t) * ipt).collect();
     Ok((summary, std::mem::take(&mut link.steps), fw))
-}
-
-/// A recorder that keeps nothing (only the per-step cycle figures matter here).
-struct Discard;
-
-impl crate::series::Recorder for Discard {
-    fn start(&mut self, _: &[String], _: u64) -> Result<()> {
-        Ok(())
-    }
-    fn record(&mut self, _: &[f64]) -> Result<()> {
-        Ok(())
-    }
 }
 
 /// Worst and mean of a per-step figure.

@@ -13,6 +13,19 @@ pub trait Recorder {
     fn record(&mut self, row: &[f64]) -> Result<()>;
 }
 
+/// A recorder that keeps nothing: runs whose only product is their summary (campaign
+/// runs, cycle measurements).
+pub struct Discard;
+
+impl Recorder for Discard {
+    fn start(&mut self, _: &[String], _: u64) -> Result<()> {
+        Ok(())
+    }
+    fn record(&mut self, _: &[f64]) -> Result<()> {
+        Ok(())
+    }
+}
+
 /// Column store of a run's recorded (decimated) samples. Every column has the same length.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TimeSeries {

@@ -483,7 +483,8 @@ const COUNTER_TICKS_PER_US: u64 = 25;
 const SYST_MAX_RELOAD: u64 = 0x00FF_FFFF;
 /// Shortest SysTick period programmed, ticks.
 const SYST_MIN_TICKS: u64 = 2;
-// `clamp(SYST_MIN_TICKS, SYST_MAX_RELOAD + 1)` panics only on inverted bounds: prove they are not.
+// The alarm's tick count is limited by `max(SYST_MIN_TICKS).min(SYST_MAX_RELOAD + 1)`
+// (no panicking `clamp`); the bounds are ordered, so it is the clamp.
 const _: () = assert!(SYST_MIN_TICKS <= SYST_MAX_RELOAD + 1);
 
 struct QemuTimeDriver {
@@ -521,10 +522,13 @@ impl QemuTimeDriver {
                 next = queue.next_expiration(now);
                 continue;
             }
+            // max/min rather than `clamp`, which panics on inverted bounds (these are ordered).
+            #[allow(clippy::manual_clamp)]
             let ticks = next
                 .saturating_sub(now)
                 .saturating_mul(COUNTER_TICKS_PER_US)
-                .clamp(SYST_MIN_TICKS, SYST_MAX_RELOAD + 1);
+                .max(SYST_MIN_TICKS)
+                .min(SYST_MAX_RELOAD + 1);
             // Fires after `ticks` 40 ns periods: never before `next` (now_us rounds down).
             systick_start(ticks as u32);
             return;

@@ -171,6 +171,12 @@ pub struct Watchdog {
     wdg: Option<IndependentWatchdog<'static, peripherals::IWDG>>,
 }
 
+/// The IWDG's timeout range at the nominal 32 kHz LSI (prescaler 4 … 256, reload ≤ 4095).
+const IWDG_MIN_TIMEOUT_US: u32 = 1_000;
+const IWDG_MAX_TIMEOUT_US: u32 = 32_000_000;
+// `max(min).min(max)` is the clamp; the bounds are ordered (checked at compile time).
+const _: () = assert!(IWDG_MIN_TIMEOUT_US <= IWDG_MAX_TIMEOUT_US);
+
 impl Watchdog {
     /// The IWDG does not run before `arm`: nothing to keep alive.
     pub fn keep_alive_period_s(&self) -> Option<u64> {
@@ -179,7 +185,7 @@ impl Watchdog {
 
     pub fn keep_alive(&mut self) {}
 
-    /// Start it with `timeout_us` (clamped to the IWDG's 1 ms … 32 s range at the nominal
+    /// Start it with `timeout_us` (limited to the IWDG's 1 ms … 32 s range at the nominal
     /// 32 kHz LSI). A second call does nothing (the IWDG cannot be reconfigured safely
     /// while it runs).
     pub fn arm(&mut self, timeout_us: u32) -> bool {
@@ -189,7 +195,10 @@ impl Watchdog {
         let Some(peri) = self.peri.take() else {
             return false;
         };
-        let mut w = IndependentWatchdog::new(peri, timeout_us.clamp(1_000, 32_000_000));
+        // max/min rather than `clamp`, which panics on inverted bounds (these are ordered).
+        #[allow(clippy::manual_clamp)]
+        let timeout_us = timeout_us.max(IWDG_MIN_TIMEOUT_US).min(IWDG_MAX_TIMEOUT_US);
+        let mut w = IndependentWatchdog::new(peri, timeout_us);
         w.unleash();
         self.wdg = Some(w);
         true

@@ -8,7 +8,7 @@ use super::{flatten, write_atomic};
 use crate::link::{self, LinkKind, LinkOptions};
 use crate::runner;
 use crate::scenario::Scenario;
-use crate::series::Recorder;
+use crate::series::Discard;
 use crate::summary::Summary;
 use anyhow::{Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
@@ -84,18 +84,6 @@ impl RunRecord {
     pub fn load(dir: &Path, run: &PlannedRun) -> Option<Self> {
         let text = std::fs::read_to_string(Self::path(dir, run)).ok()?;
         serde_json::from_str::<RunRecord>(&text).ok().filter(|r| r.index == run.index)
-    }
-}
-
-/// A recorder that keeps nothing (campaign runs keep only their summary).
-struct Discard;
-
-impl Recorder for Discard {
-    fn start(&mut self, _: &[String], _: u64) -> Result<()> {
-        Ok(())
-    }
-    fn record(&mut self, _: &[f64]) -> Result<()> {
-        Ok(())
     }
 }
 

@@ -33,13 +33,8 @@ pub enum QemuClock {
     RealTime,
 }
 
-/// The QEMU command line for the firmware `elf` with UART0 on loopback `port` (lockstep).
-pub fn qemu_args(elf: &Path, port: u16) -> Vec<String> {
-    qemu_args_with(elf, port, QemuClock::Lockstep)
-}
-
 /// The QEMU command line for the firmware `elf` with UART0 on loopback `port`.
-pub fn qemu_args_with(elf: &Path, port: u16, clock: QemuClock) -> Vec<String> {
+pub fn qemu_args(elf: &Path, port: u16, clock: QemuClock) -> Vec<String> {
     let mut args: Vec<String> =
         ["-machine", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none"].map(String::from).to_vec();
     let mut semi = "enable=on,target=native,chardev=semi".to_string();
@@ -83,7 +78,7 @@ impl QemuLink {
         let log = std::env::temp_dir().join(format!("acs-qemu-{}-{port}.log", std::process::id()));
         let out = std::fs::File::create(&log)?;
         let child = Command::new("qemu-system-arm")
-            .args(qemu_args_with(&elf, port, clock))
+            .args(qemu_args(&elf, port, clock))
             .args(extra)
             .stdin(Stdio::null())
             .stdout(out.try_clone()?)

@@ -36,5 +36,22 @@ pub fn paper_allocator(thrust: f32) -> PaperAllocator {
     Allocator::new(paper_b(thrust), [0.0; 8], [1.0; 8])
 }
 
+/// The paper's 8 thrusters in the first slots of an allocator built for `N ≥ 8` (the
+/// firmware's capacity is 12): the other columns are zero with `u_max = 0`, i.e. not
+/// fitted. Used to check that the spare capacity changes neither answer nor cost.
+pub fn paper_allocator_in<const N: usize, const NP1: usize>(thrust: f32) -> Allocator<N, NP1> {
+    let mut b = [[0.0f32; N]; 3];
+    for (row, row8) in b.iter_mut().zip(paper_b(thrust).iter()) {
+        for (x, v) in row.iter_mut().zip(row8.iter()) {
+            *x = *v;
+        }
+    }
+    let mut u_max = [0.0f32; N];
+    for x in u_max.iter_mut().take(8) {
+        *x = 1.0;
+    }
+    Allocator::new(b, [0.0; N], u_max)
+}
+
 /// Table 3: `Km = 4.5, Tm = 0.15 s, Uon = 0.45, Uoff = 0.15`, unit output.
 pub const PAPER_PWPF: PwpfParams = PwpfParams { km: 4.5, tm: 0.15, u_on: 0.45, u_off: 0.15, u_m: 1.0 };
