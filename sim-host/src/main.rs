@@ -524,7 +524,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             );
         }
         CampaignCmd::Run { dir, shard, jobs, quiet } => {
-            let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+            let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
             let start = std::time::Instant::now();
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
