@@ -19,6 +19,7 @@ pub mod link;
 pub mod output;
 pub mod plant;
 pub mod plots;
+pub mod report;
 pub mod runner;
 pub mod scenario;
 pub mod sensors;
