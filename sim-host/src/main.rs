@@ -165,6 +165,22 @@ enum Cmd {
         #[command(subcommand)]
         what: Analyze,
     },
+    /// The reproduction report: every shipped scenario flown, each published outcome beside
+    /// ours with a verdict, the papers' figures redrawn, the experiments that explain the
+    /// gaps. Writes DIR/report.md (= docs/results.md), DIR/index.html, DIR/figures/.
+    Report {
+        #[arg(long)]
+        out: PathBuf,
+        /// Papers to include, e.g. `000,004` (and `modes`); all by default.
+        #[arg(long, value_delimiter = ',')]
+        papers: Vec<String>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Repository root (scenarios/, report/outcomes.toml); default: the current directory.
+        #[arg(long, default_value = ".")]
+        repo: PathBuf,
+    },
     /// Monte Carlo campaigns: plan, run (locally or per shard), merge, Slurm scripts.
     Campaign {
         #[command(subcommand)]
@@ -246,6 +262,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             cycles(&scenario, firmware, plugin, wait_states, duration, per_step, json)
         }
         Cmd::Campaign { what } => campaign(what),
+        Cmd::Report { out, papers, jobs, repo } => report(out, papers, jobs, repo),
         Cmd::Timing { what } => timing(what),
     }
 }
@@ -682,6 +699,25 @@ fn analyze_thrusters(scenario: &Path, json: bool, max_failed: usize) -> Result<(
 }
 
 /// `sim-host check`: the flight parameters (or mode table) the scenario uploads.
+fn report(out: PathBuf, papers: Vec<String>, jobs: Option<usize>, repo: PathBuf) -> Result<()> {
+    let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)).max(1);
+    let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let opts = sim_host::report::Options { repo, out: out.clone(), papers, jobs, progress };
+    let r = sim_host::report::generate(&opts)?;
+    let n = |v: sim_host::report::outcomes::Verdict| r.rows.iter().filter(|x| x.verdict == v).count();
+    use sim_host::report::outcomes::Verdict::*;
+    say!(
+        "{} outcomes: {} reproduced, {} differ (explained), {} differ (open); {} experiments",
+        r.rows.len(),
+        n(Reproduced),
+        n(DiffersExplained),
+        n(DiffersOpen),
+        r.experiments.len()
+    );
+    say!("wrote {} and {}", out.join("report.md").display(), out.join("index.html").display());
+    Ok(())
+}
+
 fn check(scenario: &Path) -> Result<()> {
     let sc = Scenario::load(scenario)?;
     let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| anyhow::anyhow!("{e}"));
