@@ -8,4 +8,7 @@
 
 pub mod kalman;
 pub mod lqg;
+pub mod mekf;
+pub mod quest;
+pub mod triad;
 pub use lqg::LqgEstimator;

@@ -107,6 +107,39 @@ pub fn rotation_angle(q: &Quat) -> f32 {
     2.0 * atan2(v, libm::fabsf(q.w))
 }
 
+/// Quaternion of a rotation matrix (body → reference, `v_I = R v_B`), Shepperd's method:
+/// the largest of `w², x², y², z²` is taken from the trace and diagonal, the others from
+/// the off-diagonal sums, so no division by a small number. Scalar ≥ 0. `None` if `R` is
+/// not finite.
+pub fn quat_from_rotation_matrix(r: &super::Mat3) -> Option<Quat> {
+    if !r.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let (m00, m01, m02) = (r.m11, r.m12, r.m13);
+    let (m10, m11, m12) = (r.m21, r.m22, r.m23);
+    let (m20, m21, m22) = (r.m31, r.m32, r.m33);
+    let tr = m00 + m11 + m22;
+    let q = if tr >= m00 && tr >= m11 && tr >= m22 {
+        let w = 0.5 * sqrt((1.0 + tr).max(0.0));
+        let f = 0.25 / w;
+        Quat::new(w, (m21 - m12) * f, (m02 - m20) * f, (m10 - m01) * f)
+    } else if m00 >= m11 && m00 >= m22 {
+        let x = 0.5 * sqrt((1.0 + 2.0 * m00 - tr).max(0.0));
+        let f = 0.25 / x;
+        Quat::new((m21 - m12) * f, x, (m01 + m10) * f, (m02 + m20) * f)
+    } else if m11 >= m22 {
+        let y = 0.5 * sqrt((1.0 + 2.0 * m11 - tr).max(0.0));
+        let f = 0.25 / y;
+        Quat::new((m02 - m20) * f, (m01 + m10) * f, y, (m12 + m21) * f)
+    } else {
+        let z = 0.5 * sqrt((1.0 + 2.0 * m22 - tr).max(0.0));
+        let f = 0.25 / z;
+        Quat::new((m10 - m01) * f, (m02 + m20) * f, (m12 + m21) * f, z)
+    };
+    let q = quat_normalized(&q)?;
+    Some(if q.w < 0.0 { -q } else { q })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
