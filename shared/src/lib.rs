@@ -64,6 +64,7 @@ pub mod fsw;
 pub mod guidance;
 pub mod link;
 pub mod math;
+pub mod models;
 pub mod modes;
 pub mod params;
 pub mod types;

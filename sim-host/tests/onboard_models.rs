@@ -1,0 +1,173 @@
+//! The flight computer's own reference models (f32, `acs_flight::models`) against the
+//! simulator's f64 truth and published values: Sun direction, GMST, the geomagnetic field
+//! per truncation degree against the full WMM2025, the LVLH frame.
+
+use acs_flight::math::Vec3;
+use acs_flight::models::lvlh::lvlh;
+use acs_flight::models::magnetic::field_ecef_t;
+use acs_flight::models::sun::sun_direction_eci;
+use acs_flight::models::time::{J2000Time, eci_to_ecef, gmst_rad};
+use nalgebra::Vector3;
+use sim_host::environment::frames::{gmst_iau82, julian_date, q_lvlh_to_eci};
+use sim_host::environment::magnetic::wmm_ecef;
+use sim_host::environment::torques::sun_position_eci;
+
+const JD_J2000: f64 = 2_451_545.0;
+
+fn t_of_jd(jd: f64) -> J2000Time {
+    let d = jd - JD_J2000;
+    let days = d.floor();
+    J2000Time::new(days as i32, ((d - days) * 86400.0) as f32).expect("finite")
+}
+
+fn v64(v: &Vec3) -> Vector3<f64> {
+    Vector3::new(f64::from(v.x), f64::from(v.y), f64::from(v.z))
+}
+
+fn angle_deg(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    a.normalize().dot(&b.normalize()).clamp(-1.0, 1.0).acos().to_degrees()
+}
+
+/// Seeded uniform numbers (SplitMix64).
+struct Rng(u64);
+impl Rng {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+#[test]
+fn sun_direction_matches_the_almanac_and_the_host() {
+    // Published instants (UTC): 2024 March equinox 03:06 (RA 0, dec 0), June solstice
+    // 20:51 (dec +23.44°), 2025 December solstice 15:03 (dec −23.44°).
+    let eq = sun_direction_eci(&t_of_jd(julian_date(2024, 3, 20, 3, 6, 0.0))).0;
+    assert!(angle_deg(&v64(&eq), &Vector3::x()) < 0.02, "equinox: {eq:?}");
+    for (jd, dec) in [(julian_date(2024, 6, 20, 20, 51, 0.0), 23.44), (julian_date(2025, 12, 21, 15, 3, 0.0), -23.44)] {
+        let s = sun_direction_eci(&t_of_jd(jd)).0;
+        let got = f64::from(s.z).asin().to_degrees();
+        assert!((got - dec).abs() < 0.02, "solstice declination {got}");
+    }
+    // Against the host's f64 ephemeris over 2000–2050: f32 evaluation error only.
+    let mut rng = Rng(11);
+    let mut worst = 0.0_f64;
+    for _ in 0..5000 {
+        let jd = JD_J2000 + rng.uniform() * 50.0 * 365.25;
+        let (s, au) = sun_direction_eci(&t_of_jd(jd));
+        let h = sun_position_eci(jd);
+        worst = worst.max(angle_deg(&v64(&s), &h));
+        assert!((f64::from(au) * 1.495_978_707e11 / h.norm() - 1.0).abs() < 1e-4);
+    }
+    assert!(worst < 0.002, "flight vs host Sun: {worst}°");
+    eprintln!("Sun direction, flight f32 vs host f64, 2000–2050: max {worst:.5}°");
+}
+
+#[test]
+fn gmst_matches_iau82() {
+    let mut rng = Rng(12);
+    let mut worst = 0.0_f64;
+    for _ in 0..5000 {
+        let jd = JD_J2000 + rng.uniform() * 40.0 * 365.25;
+        let ours = f64::from(gmst_rad(&t_of_jd(jd)));
+        let host = gmst_iau82(jd, 0.0);
+        let d = (ours - host + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        worst = worst.max(d.abs().to_degrees());
+    }
+    // Linear term only, f32: within 0.005° (≈ 1.2 s of Earth rotation, 0.5 km at the equator).
+    assert!(worst < 0.005, "GMST error {worst}°");
+    eprintln!("GMST, flight f32 vs IAU-82 f64, 2000–2040: max {worst:.5}°");
+}
+
+/// Field error statistics of the flight model at `degree` vs the full WMM over LEO.
+fn field_errors(degree: usize) -> (f64, f64, f64) {
+    let mut rng = Rng(13);
+    let (mut worst, mut sum2, mut worst_mag) = (0.0_f64, 0.0, 0.0_f64);
+    let n = 2000;
+    for _ in 0..n {
+        let lat = (2.0 * rng.uniform() - 1.0).asin();
+        let lon = (2.0 * rng.uniform() - 1.0) * std::f64::consts::PI;
+        let r = 6.371e6 + 400e3 + 400e3 * rng.uniform();
+        let p = Vector3::new(r * lat.cos() * lon.cos(), r * lat.cos() * lon.sin(), r * lat.sin());
+        let year = 2025.0 + 4.9 * rng.uniform();
+        let host = wmm_ecef(&p, year, 0.0).expect("valid");
+        let ours = field_ecef_t(&Vec3::new(p.x as f32, p.y as f32, p.z as f32), year as f32, degree).expect("valid");
+        let a = angle_deg(&v64(&ours), &host);
+        worst = worst.max(a);
+        sum2 += a * a;
+        worst_mag = worst_mag.max((v64(&ours).norm() / host.norm() - 1.0).abs());
+    }
+    (worst, (sum2 / f64::from(n)).sqrt(), worst_mag)
+}
+
+#[test]
+fn field_model_truncations_against_the_full_wmm() {
+    let mut last_rms = f64::INFINITY;
+    let mut rows = Vec::new();
+    for degree in [1, 2, 4, 6, 8, 12] {
+        let (worst, rms, mag) = field_errors(degree);
+        rows.push(format!(
+            "degree {degree:2}: direction max {worst:.3}°, RMS {rms:.3}°; magnitude max {:.2} %",
+            mag * 100.0
+        ));
+        // Each degree adds information: the RMS direction error must not grow.
+        assert!(rms <= last_rms * 1.001, "degree {degree}: RMS {rms} > {last_rms}");
+        last_rms = rms;
+        if degree == 12 {
+            // Same model, f32 and a day-resolved date on the host: numerically equal.
+            assert!(worst < 0.01 && mag < 1e-4, "degree 12: {worst}° {mag}");
+        }
+        if degree == 1 {
+            // A centred dipole misses the quadrupole and octupole terms: tens of degrees in LEO
+            // (worst over the South Atlantic Anomaly), not zero.
+            assert!(worst > 2.0 && worst < 45.0, "dipole: {worst}°");
+        }
+    }
+    eprintln!("{}", rows.join("\n"));
+}
+
+#[test]
+fn lvlh_matches_the_host_frame_and_orbit_rate() {
+    let mut rng = Rng(14);
+    for _ in 0..1000 {
+        let r = Vector3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5).normalize() * 7.0e6;
+        let v = Vector3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5) * 15e3;
+        if r.cross(&v).norm() < 0.1 * r.norm() * v.norm() {
+            continue;
+        }
+        let f = lvlh(&Vec3::new(r.x as f32, r.y as f32, r.z as f32), &Vec3::new(v.x as f32, v.y as f32, v.z as f32))
+            .expect("frame");
+        let host = q_lvlh_to_eci(&r, &v);
+        let q = f.q_eci_lvlh;
+        let ours = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            f64::from(q.w),
+            f64::from(q.i),
+            f64::from(q.j),
+            f64::from(q.k),
+        ));
+        assert!(ours.angle_to(&host) < 2e-6, "LVLH off by {} rad", ours.angle_to(&host));
+        let rate = r.cross(&v).norm() / r.norm_squared();
+        assert!((f64::from(-f.rate_lvlh_rad_s.y) / rate - 1.0).abs() < 1e-5);
+    }
+    assert!(lvlh(&Vec3::new(7e6, 0.0, 0.0), &Vec3::new(7e3, 0.0, 0.0)).is_err());
+    assert!(lvlh(&Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::new(0.0, 7e3, 0.0)).is_err());
+}
+
+#[test]
+fn time_normalises_and_rotations_invert() {
+    let t = J2000Time::new(9000, 90_000.0).expect("finite");
+    assert_eq!((t.days, t.seconds), (9001, 3600.0));
+    let t = J2000Time::new(9000, -1.0).expect("finite");
+    assert_eq!((t.days, t.seconds), (8999, 86_399.0));
+    assert!(J2000Time::new(0, f32::NAN).is_none());
+    assert!(J2000Time::new(i32::MAX, 86_400.0 * 2.0).is_none());
+    let v = Vec3::new(1.0, 2.0, 3.0);
+    let t = t_of_jd(julian_date(2026, 11, 23, 9, 0, 0.0));
+    let back = acs_flight::models::time::ecef_to_eci(&t, &eci_to_ecef(&t, &v));
+    assert!((back - v).norm() < 1e-6);
+    // Decimal year of 2026-07-02 12:00 is 2026.5 to within a day.
+    let t = t_of_jd(julian_date(2026, 7, 2, 12, 0, 0.0));
+    assert!((t.decimal_year() - 2026.5).abs() < 1.0 / 365.0, "{}", t.decimal_year());
+}
