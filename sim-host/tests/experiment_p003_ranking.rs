@@ -19,7 +19,7 @@ fn run() -> Experiment {
 fn p003_ranking() {
     let e = run();
     let f = |k: &str| e.finding(k).unwrap();
-    eprintln!("{:#?}", e.findings);
+    eprintln!("{:#?}\n{}\n{}", e.findings, e.question, e.conclusion);
 
     // The shipped rig: PD ahead of the LQR (the gap the experiment is about).
     assert!(f("rms_deg_pd_baseline") < f("rms_deg_lqr_baseline"));
