@@ -10,7 +10,7 @@ use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_bo
 use crate::columns::Layout;
 use crate::environment::model::EnvSnapshot;
 use crate::link::{FlightLink, LinkInfo};
-use crate::plant::magnetorquers::MagnetorquerSet;
+use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
@@ -96,6 +96,8 @@ struct Actuation {
     thr_state: ThrusterState,
     n_thr: usize,
     rod_dipole: [f64; 3],
+    /// `[actuators.magnetorquers] delay_s` as whole control periods.
+    mtq_delay: CommandDelay,
 }
 
 impl Actuation {
@@ -110,7 +112,8 @@ impl Actuation {
         }
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
         if !self.mtq.rods.is_empty() {
-            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&dipole_cmd));
+            let acting = self.mtq_delay.push(dipole_cmd);
+            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
         }
         input.dipole_am2 = self.rod_dipole.into();
         input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
@@ -273,6 +276,7 @@ impl<'a> Simulation<'a> {
             None => None,
         };
         let act = Actuation {
+            mtq_delay: CommandDelay::new(magnetorquers.delay_steps),
             mtq: magnetorquers,
             thrusters,
             thr_state: ThrusterState::new(n_thr),

@@ -84,6 +84,9 @@ pub struct MagnetorquersSpec {
     /// Hysteresis dead band per axis (paper 003 rig: -1.26 … +1.86 A m²).
     #[serde(default)]
     pub deadband_am2: Option<[f64; 2]>,
+    /// Pure delay of the dipole commands, s, rounded to whole control periods (default 0).
+    #[serde(default)]
+    pub delay_s: f64,
 }
 
 /// Thrusters.
@@ -395,9 +398,11 @@ impl Scenario {
                         }
                     })
                     .collect();
-                MagnetorquerSet { rods, residual_dipole_am2: residual }
+                // Validated finite, 0 … 60 s: the cast cannot overflow.
+                let delay_steps = (m.delay_s * self.timing.control_rate_hz).round().max(0.0) as usize;
+                MagnetorquerSet { rods, residual_dipole_am2: residual, delay_steps }
             }
-            None => MagnetorquerSet { rods: Vec::new(), residual_dipole_am2: residual },
+            None => MagnetorquerSet { rods: Vec::new(), residual_dipole_am2: residual, delay_steps: 0 },
         }
     }
 
@@ -573,6 +578,9 @@ impl Scenario {
             && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())
         {
             return Err(bad("actuators.magnetorquers.deadband_am2", "must be [lo <= 0, hi >= 0]"));
+        }
+        if !(m.delay_s.is_finite() && (0.0..=60.0).contains(&m.delay_s)) {
+            return Err(bad("actuators.magnetorquers.delay_s", "must be in [0, 60] s"));
         }
         if self.orbit.is_none() && self.environment.lab_field_t.is_none() {
             return Err(bad("actuators.magnetorquers", "need a field: an [orbit] or environment.lab_field_t"));

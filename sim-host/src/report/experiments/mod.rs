@@ -5,8 +5,10 @@
 use super::experiment::{Context, Experiment};
 use anyhow::Result;
 
+pub mod p003_ranking;
+
 /// An experiment's entry point.
 pub type Runner = fn(&Context) -> Result<Experiment>;
 
 /// Every experiment: (id, paper, runner).
-pub const ALL: &[(&str, &str, Runner)] = &[];
+pub const ALL: &[(&str, &str, Runner)] = &[("p003-ranking", "003", p003_ranking::run)];
