@@ -291,11 +291,7 @@ fn document(flown: &[Flown], rows: &[Row], exps: &BTreeMap<String, Experiment>, 
                     .iter()
                     .map(|r| {
                         let u = &r.outcome.unit;
-                        let ours = if r.ours.is_nan() {
-                            "—".to_owned()
-                        } else {
-                            format!("{} {u}", sig(r.ours, r.outcome.digits)).trim_end().to_owned()
-                        };
+                        let ours = outcomes::with_unit(r.ours, r.outcome.digits, u);
                         vec![
                             r.outcome.claim.clone(),
                             r.outcome.paper_value.clone(),

@@ -78,16 +78,16 @@ impl Check {
 
     /// The criterion as text, in the row's unit.
     pub fn text(&self, unit: &str) -> String {
-        let u = if unit.is_empty() { String::new() } else { format!(" {unit}") };
-        let g = |v: f64| sig(v, 3);
+        let g = |v: f64| with_unit(v, 3, unit);
+        let n = |v: f64| sig(v, 3);
         match *self {
-            Check::Lt { value } => format!("< {}{u}", g(value)),
-            Check::Le { value } => format!("≤ {}{u}", g(value)),
-            Check::Gt { value } => format!("> {}{u}", g(value)),
-            Check::Ge { value } => format!("≥ {}{u}", g(value)),
-            Check::Within { value, abs } => format!("{} ± {}{u}", g(value), g(abs)),
-            Check::Rel { value, rel } => format!("{}{u} ± {} %", g(value), g(rel * 100.0)),
-            Check::Range { lo, hi } => format!("{} … {}{u}", g(lo), g(hi)),
+            Check::Lt { value } => format!("< {}", g(value)),
+            Check::Le { value } => format!("≤ {}", g(value)),
+            Check::Gt { value } => format!("> {}", g(value)),
+            Check::Ge { value } => format!("≥ {}", g(value)),
+            Check::Within { value, abs } => format!("{} ± {}", n(value), g(abs)),
+            Check::Rel { value, rel } => format!("{} ± {} %", g(value), n(rel * 100.0)),
+            Check::Range { lo, hi } => format!("{} … {}", n(lo), g(hi)),
         }
     }
 }
@@ -119,6 +119,21 @@ pub struct Outcome {
     /// the paper does not give.
     #[serde(default)]
     pub explanation: Option<String>,
+    /// The experiment's variant that comes closest to the paper (shown beside the verdict).
+    #[serde(default)]
+    pub best: Option<Source>,
+}
+
+/// `x` and its unit: "2.03°", "6.34 s".
+pub fn with_unit(x: f64, digits: usize, unit: &str) -> String {
+    if x.is_nan() {
+        return "—".into();
+    }
+    match unit {
+        "" => sig(x, digits),
+        u if u.starts_with('°') => format!("{}{u}", sig(x, digits)),
+        u => format!("{} {u}", sig(x, digits)),
+    }
 }
 
 fn three() -> usize {
@@ -222,6 +237,13 @@ pub fn evaluate(outcomes: &[Outcome], v: &Values) -> Result<Vec<Row>> {
                 (Some(id), Verdict::Reproduced) => format!("see experiment `{id}`"),
                 _ => basis,
             };
+            let basis = match &o.best {
+                Some(b) if verdict != Verdict::Reproduced => {
+                    let v = v.get(b).with_context(|| format!("outcome {}/{}", o.paper, o.id))?;
+                    format!("{basis}; closest variant {}", with_unit(v, o.digits, &o.unit))
+                }
+                _ => basis,
+            };
             Ok(Row { outcome: o.clone(), ours: x, verdict, basis })
         })
         .collect()
@@ -240,7 +262,8 @@ mod tests {
         assert!(Check::Rel { value: 2.95, rel: 0.1 }.passes(2.7));
         assert!(!Check::Rel { value: 2.95, rel: 0.1 }.passes(2.6));
         assert!(Check::Range { lo: 0.25, hi: 0.45 }.passes(0.42));
-        assert_eq!(Check::Rel { value: 2.95, rel: 0.1 }.text("deg"), "2.95 deg ± 10.0 %");
+        assert_eq!(Check::Rel { value: 2.95, rel: 0.1 }.text("°"), "2.95° ± 10.0 %");
+        assert_eq!(Check::Lt { value: 18.0 }.text("s"), "< 18.0 s");
     }
 
     #[test]
@@ -261,6 +284,7 @@ mod tests {
             check: Check::Lt { value: 10.0 },
             experiment: experiment.map(str::to_owned),
             explanation: None,
+            best: None,
         };
         assert!(evaluate(&[o("p/b", "settle_time_s", None)], &v).is_err());
         assert!(evaluate(&[o("p/a", "nope", None)], &v).is_err());
