@@ -139,11 +139,11 @@ fn fly(seed: u64, c: MekfConfig, phases: &[Phase]) -> Vec<Agreement> {
             let w = V64::new(0.01 * (0.01 * time).sin(), 0.005, -0.008 * (0.02 * time).cos());
             let b_next = bias + rng.vec() * (su * dt64.sqrt());
             let gyro = f32v(&(w + 0.5 * (bias + b_next) + rng.vec() * (sv / dt64.sqrt())));
-            q_true = q_true * qexp(&(w * dt64));
+            q_true *= qexp(&(w * dt64));
             bias = b_next;
             flight.propagate(&gyro, dt).expect("propagate");
             reference.propagate(&f64v(&gyro), dt64);
-            if k % 10 != 0 {
+            if !k.is_multiple_of(10) {
                 continue;
             }
             if ph.tracker {
