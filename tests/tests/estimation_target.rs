@@ -13,6 +13,8 @@
 
 #[path = "../../firmware/examples/estimation_cost/scenario.rs"]
 #[allow(dead_code)]
+// Formatted by the firmware project (edition 2021), not by this workspace (2024 style).
+#[rustfmt::skip]
 mod scenario;
 
 use acs_tests::repo;
