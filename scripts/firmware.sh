@@ -15,6 +15,10 @@
 #   scripts/firmware.sh math-fingerprint      build firmware/examples/f32m_fingerprint.rs and
 #                                             run it under QEMU: prints the fingerprint of
 #                                             acs_flight::math::f32m on the Cortex-M4F
+#   scripts/firmware.sh estimation-cost       build firmware/examples/estimation_cost and run it
+#                                             under QEMU in lockstep (-icount shift=0): cost
+#                                             of MEKF steps, TRIAD, QUEST (ticks × 40 =
+#                                             instructions) and the fingerprint of their outputs
 #
 # ACS_FIRMWARE_ELF=path overrides the ELF that run-qemu boots.
 # Builds use CARGO_BUILD_JOBS=1 unless it is set. The QEMU ELF lives in firmware/target/…,
@@ -35,7 +39,7 @@ STM32_ELF="$STM32_TARGET_DIR/$TRIPLE/release/acs-firmware"
 export CARGO_BUILD_JOBS="${CARGO_BUILD_JOBS:-1}"
 
 usage() {
-    sed -n '2,26p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,30p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
     exit 2
 }
 
@@ -126,6 +130,13 @@ case "$cmd" in
         timeout 120 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
             -semihosting-config enable=on,target=native \
             -kernel "$FW/target/$TRIPLE/release/examples/f32m_fingerprint" </dev/null
+        ;;
+    estimation-cost)
+        (cd "$FW" && cargo build --release --quiet --example estimation_cost) >&2
+        # Lockstep clock: the FPGAIO counter then counts instructions (40 per tick).
+        timeout 120 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+            -icount shift=0,align=off,sleep=off -semihosting-config enable=on,target=native \
+            -kernel "$FW/target/$TRIPLE/release/examples/estimation_cost" </dev/null
         ;;
     size)
         size_of "$QEMU_ELF" "qemu-mps2-an386"

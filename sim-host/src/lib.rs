@@ -15,6 +15,7 @@ pub mod cycles;
 pub mod decimate;
 pub mod design;
 pub mod environment;
+pub mod estimation;
 pub mod link;
 pub mod output;
 pub mod plant;

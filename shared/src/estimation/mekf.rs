@@ -249,7 +249,9 @@ impl Mekf {
         let mut phi = Mat6::identity();
         phi.fixed_view_mut::<3, 3>(0, 0).copy_from(&theta);
         phi.fixed_view_mut::<3, 3>(0, 3).copy_from(&psi);
-        let (sv2, su2) = (self.cfg.gyro_arw_rad_sqrt_s.powi(2), self.cfg.gyro_rrw_rad_s_sqrt_s.powi(2));
+        // `x * x`, not `powi`: `f32::powi` is not in `core` (the no_std target build).
+        let (sv, su) = (self.cfg.gyro_arw_rad_sqrt_s, self.cfg.gyro_rrw_rad_s_sqrt_s);
+        let (sv2, su2) = (sv * sv, su * su);
         let q11 = sv2 * dt_s + su2 * dt_s * dt_s * dt_s / 3.0;
         let q12 = -su2 * dt_s * dt_s / 2.0;
         let q22 = su2 * dt_s;

@@ -1,0 +1,9 @@
+//! Host-side estimators: f64 references written independently of the flight code, used
+//! to check it.
+//!
+//! - [`mekf_ref`]: the multiplicative EKF of Crassidis & Junkins (Table 7.1) in their
+//!   Ξ(q)/Ω̄(ω) formulation, with van Loan's discretisation of the error dynamics; the
+//!   f32 flight filter (`acs_flight::estimation::mekf`) must agree with it on the same
+//!   measurements (sim-host/tests/mekf_reference.rs).
+
+pub mod mekf_ref;
