@@ -2,6 +2,9 @@
 //! file each. Every experiment is listed in [`ALL`]; the report runs them all and its
 //! outcome table refers to them by id.
 
+pub mod p001_dmcs;
+pub mod p004_failures;
+
 use super::experiment::{Context, Experiment};
 use anyhow::Result;
 
@@ -9,4 +12,5 @@ use anyhow::Result;
 pub type Runner = fn(&Context) -> Result<Experiment>;
 
 /// Every experiment: (id, paper, runner).
-pub const ALL: &[(&str, &str, Runner)] = &[];
+pub const ALL: &[(&str, &str, Runner)] =
+    &[("p001-dmcs", "001", p001_dmcs::run), ("p004-failures", "004", p004_failures::run)];
