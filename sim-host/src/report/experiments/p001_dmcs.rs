@@ -494,7 +494,11 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                 "Both manoeuvres fly the shipped scenarios (`paper001/dmcs-m1.toml`, `dmcs-m2.toml`) recorded at every \
                  control step. The reference model (eqs 31-35, ζ = 0.95, ωn = 0.035 rad/s) is re-run on the host from \
                  the plant's initial error with the flight code's discretisation; the model-following error is the \
-                 angle between its attitude and the plant's."
+                 angle between its attitude and the plant's. Verdict thresholds: \"follows\" = following error below 10 % of \
+                 the initial angle after the change and below 1 deg at the end; \"gains converge\" = Δk_u range over \
+                 the last 200 s below 10 % of its mean on every axis; \"saturates\" = a wheel current at its limit in \
+                 the first 100 s of manoeuvre 1 (the one whose demand can need it); \"speeds constant\" = \
+                 every wheel's speed range over the last 100 s below 2 % of the peak speed."
                     .into(),
             ),
             claims,
