@@ -2,13 +2,19 @@
 //! file each. Every experiment is listed in [`ALL`]; the report runs them all and its
 //! outcome table refers to them by id.
 
+pub mod p001_dmcs;
+pub mod p003_ranking;
+pub mod p004_failures;
+
 use super::experiment::{Context, Experiment};
 use anyhow::Result;
-
-pub mod p003_ranking;
 
 /// An experiment's entry point.
 pub type Runner = fn(&Context) -> Result<Experiment>;
 
-/// Every experiment: (id, paper, runner).
-pub const ALL: &[(&str, &str, Runner)] = &[("p003-ranking", "003", p003_ranking::run)];
+/// Every experiment: (id, paper, runner), in paper order.
+pub const ALL: &[(&str, &str, Runner)] = &[
+    ("p001-dmcs", "001", p001_dmcs::run),
+    ("p003-ranking", "003", p003_ranking::run),
+    ("p004-failures", "004", p004_failures::run),
+];
