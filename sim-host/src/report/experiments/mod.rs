@@ -5,6 +5,7 @@
 pub mod p001_dmcs;
 pub mod p003_ranking;
 pub mod p004_failures;
+pub mod p004_unknowns;
 
 use super::experiment::{Context, Experiment};
 use anyhow::Result;
@@ -16,5 +17,6 @@ pub type Runner = fn(&Context) -> Result<Experiment>;
 pub const ALL: &[(&str, &str, Runner)] = &[
     ("p001-dmcs", "001", p001_dmcs::run),
     ("p003-ranking", "003", p003_ranking::run),
+    ("p004-unknowns", "004", p004_unknowns::run),
     ("p004-failures", "004", p004_failures::run),
 ];
