@@ -42,6 +42,25 @@ fn round_int(v: f32) -> (f32, i32) {
     (t - ROUND_MAGIC, t.to_bits().cast_signed().wrapping_sub(ROUND_MAGIC_BITS))
 }
 
+/// `⌊x⌋` without libm (core has no `f32::floor`): exact for every finite x — |x| ≥ 2^23
+/// is already an integer; below, truncate toward zero through i32 (exact there) and step
+/// down for negative non-integers. NaN and ±∞ pass through, ±0 keep their sign.
+pub fn floor(x: f32) -> f32 {
+    if !(x.abs() < 8_388_608.0) || x == 0.0 {
+        return x;
+    }
+    // |x| < 2^23: the truncating cast is exact and in range.
+    #[allow(clippy::cast_possible_truncation)]
+    let t = x as i32 as f32;
+    if t > x {
+        t - 1.0
+    } else if t == 0.0 && x < 0.0 {
+        -1.0
+    } else {
+        t
+    }
+}
+
 /// 2^n for n in [-126, 127] (callers guarantee the range), built from its bits.
 #[inline(always)]
 fn pow2i(n: i32) -> f32 {
@@ -388,6 +407,22 @@ mod tests {
     //! Accuracy against an independent reference: std's f64 functions (the host libm,
     //! correctly rounded or within 1 ulp of f64, i.e. ~2^-29 f32 ulp) rounded to f32.
     use super::*;
+
+    #[test]
+    fn floor_matches_std_everywhere() {
+        // Every 37th float bit pattern, both signs: exact agreement (std is the reference).
+        let mut bits = 0u32;
+        while bits < 0x7F80_0000 {
+            for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
+                assert_eq!(floor(x).to_bits(), std::primitive::f32::floor(x).to_bits(), "{x}");
+            }
+            bits += 37;
+        }
+        assert!(floor(f32::NAN).is_nan());
+        assert_eq!(floor(f32::NEG_INFINITY), f32::NEG_INFINITY);
+        assert_eq!(floor(-0.5), -1.0);
+        assert_eq!(floor(2.999_999_8), 2.0);
+    }
 
     /// Distance in ulps between two finite f32 of any sign (monotone bit ordering).
     fn ulps(a: f32, b: f32) -> u64 {

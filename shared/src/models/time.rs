@@ -5,7 +5,7 @@
 //! time (GPS, UTC + 18 s) is the source, and the models' errors are stated against that.
 
 use crate::math::Vec3;
-use crate::math::f32m::sin_cos;
+use crate::math::f32m::{floor, sin_cos};
 
 /// Time since J2000.0.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -22,7 +22,7 @@ impl J2000Time {
         if !seconds.is_finite() {
             return None;
         }
-        let whole = (seconds / 86_400.0).floor();
+        let whole = floor(seconds / 86_400.0);
         // |whole| ≤ 2^31 checked before the cast: no wrap.
         if whole.abs() > 1.0e9 {
             return None;
@@ -54,7 +54,7 @@ impl J2000Time {
 
 /// Reduces `a` (deg) to [0, 360).
 pub fn wrap_360(a: f32) -> f32 {
-    let r = a - 360.0 * (a / 360.0).floor();
+    let r = a - 360.0 * floor(a / 360.0);
     if (0.0..360.0).contains(&r) { r } else { 0.0 }
 }
 
