@@ -735,7 +735,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let zero_ok = Self::zero_admissible(bd);
-        let (k, mk, m_hat) = normalised_demand(m_d);
+        let (_, mk, m_hat) = normalised_demand(m_d);
         let mm: f32 = m_hat.iter().map(|v| v * v).sum();
         let lambda_of = |u: &[f32; N]| -> f32 {
             let bu = self.moment(u);
@@ -746,6 +746,60 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.zero_demand(m_d, bd, zero_ok);
         }
         let (map, nc) = Self::movable(bd);
+        // The boundary point along m̂ from the facets of the attainable set (exact, no
+        // pivoting; the reduced LP's vertex, already on the unrounded ray); the LP
+        // below only where the geometric solve declines.
+        if zero_ok {
+            match zonotope::boundary(&self.b, bd, &map, nc, &m_hat) {
+                Ok(Some((u_hi, _))) => {
+                    let l_hi = lambda_of(&u_hi);
+                    if !l_hi.is_finite() || l_hi < -LAMBDA_TOL {
+                        return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+                    }
+                    if l_hi < 1.0 - LAMBDA_TOL {
+                        return self.finish(m_d, bd, u_hi, l_hi.max(0.0), AllocStatus::Scaled, 0);
+                    }
+                    let t = if l_hi > LAMBDA_TOL { clampf(1.0 / l_hi, 0.0, 1.0) } else { 1.0 };
+                    let mut u = [0.0f32; N];
+                    for (x, b) in u.iter_mut().zip(u_hi.iter()) {
+                        *x = t * b;
+                    }
+                    return self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, 0);
+                }
+                Ok(None) => {}
+                Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
+            }
+        }
+        self.bodson_simplex(m_d, bd, &map, nc)
+    }
+
+    /// The reduced-LP form of [`Self::bodson`] (public with the same input checks, as a
+    /// reference for tests): the simplex for the boundary point(s), then the scaling.
+    pub fn bodson_via_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
+        if !self.inputs_finite(m_d, bd) {
+            return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
+        }
+        if !Self::bounds_consistent(bd) {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+        }
+        let (_, mk, m_hat) = normalised_demand(m_d);
+        if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
+            return self.zero_demand(m_d, bd, Self::zero_admissible(bd));
+        }
+        let (map, nc) = Self::movable(bd);
+        self.bodson_simplex(m_d, bd, &map, nc)
+    }
+
+    fn bodson_simplex(&self, m_d: &[f32; AXES], bd: &Bounds<N>, map: &[usize; N], nc: usize) -> AllocResult<N> {
+        let (map, nc) = (*map, nc);
+        let zero_ok = Self::zero_admissible(bd);
+        let (k, mk, m_hat) = normalised_demand(m_d);
+        let mm: f32 = m_hat.iter().map(|v| v * v).sum();
+        let lambda_of = |u: &[f32; N]| -> f32 {
+            let bu = self.moment(u);
+            let p: f32 = bu.iter().zip(m_hat.iter()).map(|(a, b)| a * b).sum();
+            p / mm / mk
+        };
         // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
         let s_hi = match &self.bodson_lp_on(&m_hat, k, bd, true, &map, nc) {
             Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),

@@ -126,18 +126,56 @@ pub(crate) fn solve<const N: usize>(
         return Ok(None);
     }
     let gens = gather(b, w, bd, map, nc)?;
-    let f = match stage1(&gens, m_d) {
+    let f = match stage1(&gens, m_d, 1.0) {
         Stage1::AtLeastOne => return stage2(b, w, bd, &gens, m_d),
         Stage1::Grazing => return Ok(None),
         Stage1::Facet(f) => f,
     };
-    // Boundary point on facet (a, b): the other generators at the bound of their side.
+    Ok(match facet_point(b, bd, &gens, &f, m_d)? {
+        Some((u, lambda)) if lambda >= -lambda_tol && lambda <= 1.0 + lambda_tol => {
+            Some(Geo::Boundary { u, lambda: clampf(lambda, 0.0, 1.0) })
+        }
+        _ => None,
+    })
+}
+
+/// The boundary point of the attainable set along `m` (no cap on λ) and its `λ`, for
+/// Bodson's method: stage 1 with an infinite initial bound, then the facet solve.
+/// `Ok(None)` where [`solve`] would decline (and when `0 ∉ Z`); `Err` on a logic error.
+pub(crate) fn boundary<const N: usize>(
+    b: &[[f32; N]; AXES],
+    bd: &Bounds<N>,
+    map: &[usize; N],
+    nc: usize,
+    m: &[f32; AXES],
+) -> Result<Option<([f32; N], f32)>, Fault> {
+    if nc < 3 || !bd.lo.iter().zip(bd.hi.iter()).all(|(l, h)| *l <= 0.0 && *h >= 0.0) {
+        return Ok(None);
+    }
+    let gens = gather(b, &[0.0; N], bd, map, nc)?;
+    match stage1(&gens, m, f32::INFINITY) {
+        Stage1::Facet(f) => facet_point(b, bd, &gens, &f, m),
+        Stage1::AtLeastOne | Stage1::Grazing => Ok(None),
+    }
+}
+
+/// On facet `f`: the other generators at the bound of their side, and
+/// `[b_a, b_b, -m] [u_a, u_b, λ]ᵀ = -Σ_{k≠a,b} b_k u_k` (compensated right-hand side,
+/// refined 3×3 solve): `(u, λ)`, or `None` if the facet is degenerate, the system
+/// singular or `u_a`, `u_b` outside their bounds (beyond `BOUND_TOL`).
+fn facet_point<const N: usize>(
+    b: &[[f32; N]; AXES],
+    bd: &Bounds<N>,
+    gens: &Gens<N>,
+    f: &Facet3,
+    m: &[f32; AXES],
+) -> Result<Option<([f32; N], f32)>, Fault> {
     let (ja, jb) = (at(&gens.map, f.a)?, at(&gens.map, f.b)?);
-    if !facet_is_proper(&gens, &f.n, f.a, f.b)? {
+    if !facet_is_proper(gens, &f.n, f.a, f.b)? {
         return Ok(None);
     }
     let mut u = bd.lo;
-    for (k, gk) in gens.g.iter().enumerate().take(nc) {
+    for (k, gk) in gens.g.iter().enumerate().take(gens.nc) {
         if k != f.a && k != f.b && dot3(gk, &f.n) > 0.0 {
             let j = at(&gens.map, k)?;
             *u.get_mut(j).ok_or(Fault)? = at(&bd.hi, j)?;
@@ -145,7 +183,7 @@ pub(crate) fn solve<const N: usize>(
     }
     let mut a3 = [[0.0f32; 3]; 3];
     let mut r = [0.0f32; 3];
-    for ((arow, ri), (brow, mi)) in a3.iter_mut().zip(r.iter_mut()).zip(b.iter().zip(m_d.iter())) {
+    for ((arow, ri), (brow, mi)) in a3.iter_mut().zip(r.iter_mut()).zip(b.iter().zip(m.iter())) {
         *arow = [at(brow, ja)?, at(brow, jb)?, -mi];
         *ri = moment_except(0.0, brow, &u, ja, jb, usize::MAX);
     }
@@ -155,12 +193,12 @@ pub(crate) fn solve<const N: usize>(
     let (Some(xa), Some(xb)) = (within(za, bd, ja)?, within(zb, bd, jb)?) else {
         return Ok(None);
     };
-    if !(lambda >= -lambda_tol && lambda <= 1.0 + lambda_tol) {
+    if !lambda.is_finite() {
         return Ok(None);
     }
     *u.get_mut(ja).ok_or(Fault)? = xa;
     *u.get_mut(jb).ok_or(Fault)? = xb;
-    Ok(Some(Geo::Boundary { u, lambda: clampf(lambda, 0.0, 1.0) }))
+    Ok(Some((u, lambda)))
 }
 
 /// `r0 - Σ_{j ∉ {e1, e2, e3}} b_j u_j` over all thrusters, compensated ([`Dot2`]).
@@ -216,7 +254,7 @@ fn gather<const N: usize>(
 
 /// Outcome of [`stage1`].
 enum Stage1 {
-    /// No facet has `h(n) / (n·d) < 1`: `λ_max >= 1`.
+    /// No facet has `h(n) / (n·d) < cap`: `λ_max >= cap`.
     AtLeastOne,
     /// The minimising facet, `λ < 1`.
     Facet(Facet3),
@@ -225,13 +263,14 @@ enum Stage1 {
 }
 
 /// `λ_max` and its facet (module docs).
-fn stage1<const N: usize>(gens: &Gens<N>, d: &[f32; AXES]) -> Stage1 {
+fn stage1<const N: usize>(gens: &Gens<N>, d: &[f32; AXES], cap: f32) -> Stage1 {
     let nc = gens.nc;
     let mut best: Option<Facet3> = None;
-    // λ is capped at 1 (eq 18): a facet with h/(n·d) >= 1 never matters, so the cap is
-    // the initial bound, and a pair is dropped as soon as its partial support (a sum
-    // of non-negative terms) reaches `best · n·d`.
-    let mut best_lambda = 1.0f32;
+    // λ is capped (at 1 by eq 18; none for Bodson's boundary point): a facet with
+    // h/(n·d) >= cap never matters, so the cap is the initial bound, and a pair is
+    // dropped as soon as its partial support (a sum of non-negative terms) reaches
+    // `best · n·d`.
+    let mut best_lambda = cap;
     for (a, ga) in gens.g.iter().enumerate().take(nc) {
         let [xa, ya, za, _] = *ga;
         for (bi, gb) in gens.g.iter().enumerate().take(nc).skip(a.saturating_add(1)) {
