@@ -14,6 +14,13 @@
 //!    freedom" of the paper) minimises propellant `Σ w_i u_i` (`w_i = 1` for
 //!    thrusters with `u_min = 0`, else 0) subject to `B u = m_d` exactly. If
 //!    `λ < 1` the direction is kept and the magnitude scaled (status `Scaled`).
+//!    Solved exactly without pivoting by [`super::zonotope`] (λ from the facets of
+//!    the attainable set, the fuel optimum from the lower facets of the 4-D zonotope
+//!    `{(B u, wᵀu)}`; fuel ties broken towards lower thruster indices): a fixed cost
+//!    and no iteration count (`iterations = 0`). The simplex (stage 1, then the fuel
+//!    LP warm-started from its basis, [`Allocator::direction_preserving_lp`]) runs
+//!    only where the geometric solve declines (degenerate or rank-deficient attainable
+//!    set, `u = 0` not admissible; see its module docs).
 //!
 //! 2. [`Allocator::bodson`] — Bodson's direction-preserving method as evaluated in
 //!    Bodson (2002, JGCA 25(4)) and written up as "DPscaled" in Durham, Bordignon &
@@ -59,6 +66,7 @@
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
 use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
+use super::zonotope::{self, Geo};
 pub use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
@@ -127,7 +135,7 @@ pub(crate) fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
 /// Solve the 3×3 system `a z = r` by Gaussian elimination with partial pivoting,
 /// plus one step of iterative refinement with a compensated residual ([`Dot2`]).
 /// `Ok(None)` if singular (pivot < 1e-12 · max |a|) or non-finite.
-fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
+pub(crate) fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
     let amax = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
     if !(amax > 0.0) || !amax.is_finite() {
         return Ok(None);
@@ -627,6 +635,45 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let (map, nc) = Self::movable(bd);
+        // Exact geometric solve (no pivoting, fixed cost); the simplex below only when
+        // it declines (degenerate or rank-deficient attainable set, 0 not admissible).
+        match zonotope::solve(&self.b, &self.fuel_w, bd, &map, nc, m_d, LAMBDA_TOL) {
+            Ok(Some(Geo::Attained { u })) => return self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, 0),
+            Ok(Some(Geo::Boundary { u, lambda })) => {
+                return if lambda >= 1.0 - LAMBDA_TOL {
+                    self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, 0)
+                } else {
+                    self.finish(m_d, bd, u, lambda, AllocStatus::Scaled, 0)
+                };
+            }
+            Ok(None) => {}
+            Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
+        }
+        self.direction_preserving_simplex(m_d, bd, &map, nc)
+    }
+
+    /// The simplex form of [`Self::direction_preserving`] (stage-1 LP, eq 18, then the
+    /// fuel LP warm-started from its basis), for the cases the geometric solve declines.
+    /// Public (with the same input checks) as a reference for tests and benches.
+    pub fn direction_preserving_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
+        if !self.inputs_finite(m_d, bd) {
+            return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
+        }
+        if !Self::bounds_consistent(bd) {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+        }
+        let (map, nc) = Self::movable(bd);
+        self.direction_preserving_simplex(m_d, bd, &map, nc)
+    }
+
+    fn direction_preserving_simplex(
+        &self,
+        m_d: &[f32; AXES],
+        bd: &Bounds<N>,
+        map: &[usize; N],
+        nc: usize,
+    ) -> AllocResult<N> {
+        let (map, nc) = (*map, nc);
         let mut basis = Basis::<AXES, NV>::default();
         let s1: LpSolution<NV> =
             self.dp_lp_on(m_d, bd, &map, nc).solve_lean(self.lp_iteration_cap, None, Some(&mut basis));
@@ -688,7 +735,7 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
         }
         let zero_ok = Self::zero_admissible(bd);
-        let (k, mk, m_hat) = normalised_demand(m_d);
+        let (_, mk, m_hat) = normalised_demand(m_d);
         let mm: f32 = m_hat.iter().map(|v| v * v).sum();
         let lambda_of = |u: &[f32; N]| -> f32 {
             let bu = self.moment(u);
@@ -699,6 +746,60 @@ impl<const N: usize, const NV: usize> Allocator<N, NV> {
             return self.zero_demand(m_d, bd, zero_ok);
         }
         let (map, nc) = Self::movable(bd);
+        // The boundary point along m̂ from the facets of the attainable set (exact, no
+        // pivoting; the reduced LP's vertex, already on the unrounded ray); the LP
+        // below only where the geometric solve declines.
+        if zero_ok {
+            match zonotope::boundary(&self.b, bd, &map, nc, &m_hat) {
+                Ok(Some((u_hi, _))) => {
+                    let l_hi = lambda_of(&u_hi);
+                    if !l_hi.is_finite() || l_hi < -LAMBDA_TOL {
+                        return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+                    }
+                    if l_hi < 1.0 - LAMBDA_TOL {
+                        return self.finish(m_d, bd, u_hi, l_hi.max(0.0), AllocStatus::Scaled, 0);
+                    }
+                    let t = if l_hi > LAMBDA_TOL { clampf(1.0 / l_hi, 0.0, 1.0) } else { 1.0 };
+                    let mut u = [0.0f32; N];
+                    for (x, b) in u.iter_mut().zip(u_hi.iter()) {
+                        *x = t * b;
+                    }
+                    return self.finish(m_d, bd, u, 1.0, AllocStatus::Ok, 0);
+                }
+                Ok(None) => {}
+                Err(_) => return self.fallback(m_d, bd, AllocStatus::InternalError, 0),
+            }
+        }
+        self.bodson_simplex(m_d, bd, &map, nc)
+    }
+
+    /// The reduced-LP form of [`Self::bodson`] (public with the same input checks, as a
+    /// reference for tests): the simplex for the boundary point(s), then the scaling.
+    pub fn bodson_via_lp(&self, m_d: &[f32; AXES], bd: &Bounds<N>) -> AllocResult<N> {
+        if !self.inputs_finite(m_d, bd) {
+            return self.fallback(m_d, bd, AllocStatus::NonFinite, 0);
+        }
+        if !Self::bounds_consistent(bd) {
+            return self.fallback(m_d, bd, AllocStatus::Infeasible, 0);
+        }
+        let (_, mk, m_hat) = normalised_demand(m_d);
+        if !(mk > 0.0) || !m_hat.iter().all(|v| v.is_finite()) || !(1.0 / mk).is_finite() {
+            return self.zero_demand(m_d, bd, Self::zero_admissible(bd));
+        }
+        let (map, nc) = Self::movable(bd);
+        self.bodson_simplex(m_d, bd, &map, nc)
+    }
+
+    fn bodson_simplex(&self, m_d: &[f32; AXES], bd: &Bounds<N>, map: &[usize; N], nc: usize) -> AllocResult<N> {
+        let (map, nc) = (*map, nc);
+        let zero_ok = Self::zero_admissible(bd);
+        let (k, mk, m_hat) = normalised_demand(m_d);
+        let mm: f32 = m_hat.iter().map(|v| v * v).sum();
+        let lambda_of = |u: &[f32; N]| -> f32 {
+            let bu = self.moment(u);
+            let p: f32 = bu.iter().zip(m_hat.iter()).map(|(a, b)| a * b).sum();
+            p / mm / mk
+        };
         // Solved in place (by reference): moving the LP out of the `Result` is a memcpy.
         let s_hi = match &self.bodson_lp_on(&m_hat, k, bd, true, &map, nc) {
             Ok(lp) => lp.solve_lean(self.lp_iteration_cap, None, None),

@@ -7,6 +7,8 @@
 //!   the paper's direction-preserving LP (eqs 12-18) plus a fuel stage, and Bodson's
 //!   direction-preserving LP in its reduced, scaled-from-boundary form; rate limits
 //!   folded into the bounds (eq 9) and a thruster-failure mask.
+//! - `zonotope`: the exact geometric solve of the direction-preserving method and
+//!   its fuel stage (facets of the attainable set), which [`lp`] tries first.
 //! - [`pwpf`]: the pulse-width pulse-frequency modulator (paper fig 5, table 3).
 //! - [`paper`]: the paper's 8-thruster effectiveness matrix (table 2) and constants.
 
@@ -14,6 +16,7 @@ pub mod lp;
 pub mod paper;
 pub mod pwpf;
 pub mod simplex;
+mod zonotope;
 
 pub use lp::{AllocResult, AllocStatus, Allocator, Bounds, Failures, RateLimit};
 pub use pwpf::{Pwpf, PwpfParams};
