@@ -2,6 +2,8 @@
 //! file each. Every experiment is listed in [`ALL`]; the report runs them all and its
 //! outcome table refers to them by id.
 
+pub mod p000_rig;
+
 use super::experiment::{Context, Experiment};
 use anyhow::Result;
 
@@ -9,4 +11,4 @@ use anyhow::Result;
 pub type Runner = fn(&Context) -> Result<Experiment>;
 
 /// Every experiment: (id, paper, runner).
-pub const ALL: &[(&str, &str, Runner)] = &[];
+pub const ALL: &[(&str, &str, Runner)] = &[("p000-rig-effects", "000", p000_rig::run)];
