@@ -245,7 +245,8 @@ pub fn dead_zone_deg_s(friction_nm: f64) -> f64 {
     (FRICTION_SWEEP_TAU_S * friction_nm / GIMBAL_INERTIA_KGM2).to_degrees()
 }
 
-fn key_num(x: f64) -> String {
+/// A number as it appears in finding keys: two significant digits, `.` → `p`.
+pub fn key_num(x: f64) -> String {
     sig(x, 2).replace('.', "p")
 }
 
