@@ -598,7 +598,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          (within the stiction band 2T_c/K, at 2 asin(m g r / 2ωn² I), and equal to the AHRS error). \
          Only gimbal-bearing friction — with a first-order rate servo, a gimbal-rate dead zone τ T_f / I_g — \
          turns the end of the manoeuvre into a slow stick-slip approach; alone it does so erratically \
-         (4.5 s at 2 mN m, 11 s at 3 mN m), with the other effects present (their noise dithers the \
+         ({} s at 2 mN m, {} s at 3 mN m), with the other effects present (their noise dithers the \
          dead zone) smoothly. With all effects and {} mN m of gimbal friction (dead zone {} deg/s) test 3 \
          ends at {} s ({}–{} s over five seeds), test 1 at {} s, ratio {} ({}–{}), steady error {} deg \
          on test 3 and {} deg on test 1 (max {}): the paper's ~10 s, ~1/3 and sub-2° steady error. {} \
@@ -609,6 +609,8 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         sig(opt(ideal3.settle_true_s), 3),
         sig(opt(ideal1.settle_true_s), 3),
         sig(opt(ratio(ideal3, ideal1)), 2),
+        cell(sweep(2, 2, 0).settle_plot_s, 2),
+        cell(sweep(2, 3, 0).settle_plot_s, 2),
         sig(tf_named * 1e3, 2),
         sig(dead_zone_deg_s(tf_named), 3),
         sig(opt(a1.settle_plot_s), 3),
