@@ -153,6 +153,11 @@ pub struct RigSpec {
     pub roll_limit_deg: Option<f64>,
     #[serde(default)]
     pub pitch_limit_deg: Option<f64>,
+    /// Air-bearing friction per body axis: viscous, N m s, and (smoothed) Coulomb, N m.
+    #[serde(default)]
+    pub viscous_friction_nms: [f64; 3],
+    #[serde(default)]
+    pub coulomb_friction_nm: [f64; 3],
 }
 
 impl RigSpec {
@@ -166,7 +171,7 @@ impl RigSpec {
                 return Err(bad("rig.preset", format!("unknown preset {p:?} (known: \"paper003\", \"paper000\")")));
             }
             None if self.mgr_nm.is_none() => return Err(bad("rig.mgr_nm", "required without a preset")),
-            None => Rig { mgr_nm: Vec3::zeros(), roll_limit_rad: None, pitch_limit_rad: None },
+            None => Rig::free(),
         };
         finite("rig.mgr_nm", &self.mgr_nm.unwrap_or_default())?;
         for (k, l) in [("rig.roll_limit_deg", self.roll_limit_deg), ("rig.pitch_limit_deg", self.pitch_limit_deg)] {
@@ -174,7 +179,17 @@ impl RigSpec {
                 positive(k, l)?;
             }
         }
+        for (k, v) in [
+            ("rig.viscous_friction_nms", self.viscous_friction_nms),
+            ("rig.coulomb_friction_nm", self.coulomb_friction_nm),
+        ] {
+            if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(bad(k, "must be finite and >= 0"));
+            }
+        }
         Ok(Rig {
+            viscous_nms: Vec3::from(self.viscous_friction_nms),
+            coulomb_nm: Vec3::from(self.coulomb_friction_nm),
             mgr_nm: self.mgr_nm.map_or(base.mgr_nm, Vec3::from),
             roll_limit_rad: self.roll_limit_deg.map(f64::to_radians).or(base.roll_limit_rad),
             pitch_limit_rad: self.pitch_limit_deg.map(f64::to_radians).or(base.pitch_limit_rad),

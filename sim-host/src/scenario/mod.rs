@@ -436,10 +436,14 @@ impl Scenario {
             ("sensors.gimbal_noise_deg", s.gimbal_noise_deg),
             ("sensors.magnetometer_noise_t", s.magnetometer_noise_t),
             ("sensors.wheel_speed_noise_rad_s", s.wheel_speed_noise_rad_s),
+            ("sensors.latency_s", s.latency_s),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(k, "must be >= 0"));
             }
+        }
+        if s.latency_s > 10.0 {
+            return Err(bad("sensors.latency_s", "must be <= 10"));
         }
         finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
         if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {

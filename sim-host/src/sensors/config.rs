@@ -25,6 +25,11 @@ pub struct Sensors {
     /// 1σ wheel tachometer noise, rad/s.
     #[serde(default)]
     pub wheel_speed_noise_rad_s: f64,
+    /// Transport delay of the attitude and rate measurements, s, rounded to whole control
+    /// periods (paper 000 names the rig's latency): the frame of step k carries the
+    /// attitude and rate of step k − n. 0 = none.
+    #[serde(default)]
+    pub latency_s: f64,
     /// Detailed models (replace the shortcuts above when given).
     #[serde(default)]
     pub gyro: Option<GyroSensorSpec>,

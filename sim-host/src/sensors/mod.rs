@@ -10,7 +10,7 @@
 pub mod config;
 pub mod models;
 
-use crate::attitude::{Vec3, rotate_ref_to_body, to_xyzw};
+use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
 use crate::environment::frames::EarthRotation;
 use crate::environment::model::EnvSnapshot;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
@@ -23,6 +23,7 @@ use models::{
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use std::collections::VecDeque;
 
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
@@ -33,6 +34,10 @@ pub struct SensorSuite {
     sun: Option<SunSensor>,
     gimbal_sigma_rad: f64,
     wheel_sigma_rad_s: f64,
+    /// Latency of the attitude and rate measurements in control steps, and the true
+    /// attitude and rate of the last `latency_steps + 1` samples (oldest first).
+    latency_steps: usize,
+    history: VecDeque<(Quat, Vec3)>,
 }
 
 impl SensorSuite {
@@ -104,6 +109,8 @@ impl SensorSuite {
             sun,
             gimbal_sigma_rad: s.gimbal_noise_deg.to_radians(),
             wheel_sigma_rad_s: s.wheel_speed_noise_rad_s,
+            latency_steps: (s.latency_s * control_rate_hz).round() as usize,
+            history: VecDeque::new(),
         }
     }
 
@@ -128,9 +135,16 @@ impl SensorSuite {
         rod_dipole_am2: &[f64; 3],
     ) -> SensorFrame {
         let mut f = SensorFrame::empty(seq, (t_s * 1e6).round() as u64);
-        let att = self.attitude.update(t_s, &s.q, &s.w);
+        // Latency: measure the state of `latency_steps` samples ago (before the first
+        // sample that old exists, the initial state: the sensor's first output held).
+        self.history.push_back((s.q, s.w));
+        while self.history.len() > self.latency_steps + 1 {
+            self.history.pop_front();
+        }
+        let (q_meas, w_meas) = self.history.front().copied().unwrap_or((s.q, s.w));
+        let att = self.attitude.update(t_s, &q_meas, &w_meas);
         f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
-        let g = self.gyro.update(t_s, &s.w.into());
+        let g = self.gyro.update(t_s, &w_meas.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
         f.valid = valid::RATE;
         if att.valid {
@@ -207,6 +221,26 @@ mod tests {
         assert_eq!(f.rate_rad_s, [0.01, 0.02, 0.03]);
         assert_eq!(f.time_us, 1_500_000);
         assert_eq!(f.valid, valid::ATTITUDE | valid::RATE);
+    }
+
+    #[test]
+    fn latency_delays_attitude_and_rate_by_whole_steps() {
+        // 0.03 s at 100 Hz = 3 steps: frame k carries the state of step k - 3 (the first
+        // state before that), while the timestamp stays the sample time.
+        let spec = SensorSpec { latency_s: 0.03, ..Default::default() };
+        let mut s = SensorSuite::new(&spec, 100.0);
+        let c = craft();
+        for k in 0..10u32 {
+            let mut st = state();
+            st.w = Vec3::new(k as f64, 0.0, 0.0);
+            st.q = crate::attitude::quat_from_euler([0.0, 0.0, k as f64 * 0.1], acs_flight::math::EulerSeq::Zyx321);
+            let f = s.sample(k, k as f64 * 0.01, &st, &c, None, &[0.0; 3]);
+            let lag = k.saturating_sub(3);
+            assert_eq!(f.rate_rad_s[0], lag as f32, "step {k}");
+            let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
+            assert!((yaw - lag as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
+            assert_eq!(f.time_us, k as u64 * 10_000);
+        }
     }
 
     #[test]

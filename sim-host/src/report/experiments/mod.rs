@@ -2,6 +2,7 @@
 //! file each. Every experiment is listed in [`ALL`]; the report runs them all and its
 //! outcome table refers to them by id.
 
+pub mod p000_rig;
 pub mod p001_dmcs;
 pub mod p003_ranking;
 pub mod p004_failures;
@@ -15,6 +16,7 @@ pub type Runner = fn(&Context) -> Result<Experiment>;
 
 /// Every experiment: (id, paper, runner), in paper order.
 pub const ALL: &[(&str, &str, Runner)] = &[
+    ("p000-rig-effects", "000", p000_rig::run),
     ("p001-dmcs", "001", p001_dmcs::run),
     ("p003-ranking", "003", p003_ranking::run),
     ("p004-unknowns", "004", p004_unknowns::run),
