@@ -25,14 +25,6 @@ const MEKF_STEP_BUDGET_INSTRUCTIONS: u64 = 15_000;
 /// Instructions per FPGAIO tick under `-icount shift=0` (1 ns per instruction, 25 MHz).
 const INSTRUCTIONS_PER_TICK: u64 = 40;
 
-fn qemu_available() -> bool {
-    let ok = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it)");
-    }
-    ok
-}
-
 struct Measured {
     calls: u64,
     mean_instructions: f64,
@@ -43,7 +35,7 @@ struct Measured {
 fn estimation_runs_bit_identically_on_the_cortex_m4_and_within_its_budget() {
     let host = scenario::run(|| 0);
     assert_eq!(host.rejected, 0, "the workload's measurements are consistent: nothing may be gated out");
-    if !qemu_available() {
+    if !acs_tests::qemu_available("the estimation cost and bits on the target") {
         return;
     }
     let out = Command::new(repo().join("scripts/firmware.sh")).arg("estimation-cost").output().unwrap();
@@ -109,44 +101,6 @@ fn estimation_runs_bit_identically_on_the_cortex_m4_and_within_its_budget() {
 /// No soft-double routine in the example image: everything it ran was f32 on the FPU.
 fn assert_single_precision() {
     let elf = repo().join("firmware/target/thumbv7em-none-eabihf/release/examples/estimation_cost");
-    let Ok(nm) = Command::new("llvm-nm").arg(&elf).output() else {
-        eprintln!("SKIPPED (soft-double check): llvm-nm is not installed (scripts/setup.sh installs llvm)");
-        return;
-    };
-    let syms = String::from_utf8_lossy(&nm.stdout);
-    assert!(syms.contains(" Reset"), "symbol table of {} not read", elf.display());
-    // compiler-builtins / libgcc double routines (EABI and generic names; see f32m_target.rs).
-    let soft_double = [
-        "__aeabi_d",
-        "__aeabi_f2d",
-        "__aeabi_i2d",
-        "__aeabi_ui2d",
-        "__aeabi_l2d",
-        "__aeabi_ul2d",
-        "__adddf3",
-        "__subdf3",
-        "__muldf3",
-        "__divdf3",
-        "__negdf2",
-        "__extendsfdf2",
-        "__truncdfsf2",
-        "__fixdfsi",
-        "__fixdfdi",
-        "__fixunsdf",
-        "__floatsidf",
-        "__floatdidf",
-        "__floatunsidf",
-        "__floatundidf",
-        "__cmpdf2",
-        "__eqdf2",
-        "__nedf2",
-        "__gedf2",
-        "__gtdf2",
-        "__ledf2",
-        "__ltdf2",
-        "__unorddf2",
-        "__powidf2",
-    ];
-    let found: Vec<&str> = syms.lines().filter(|l| soft_double.iter().any(|d| l.contains(d))).collect();
+    let found = acs_tests::soft_double_symbols(&elf);
     assert!(found.is_empty(), "soft-double routines in the estimation example: {found:?}");
 }

@@ -6,95 +6,8 @@
 //!
 //! Skips (loudly) only where qemu-system-arm is not installed.
 
-use acs_tests::repo;
-use std::path::Path;
+use acs_tests::{SOFT_DOUBLE, repo, soft_double_symbols};
 use std::process::{Command, Stdio};
-
-fn qemu_available() -> bool {
-    let ok = Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it)");
-    }
-    ok
-}
-
-/// Names of the symbols of an ELF32 little-endian file (SHT_SYMTAB + its string table).
-/// Minimal reader so the check needs no binutils.
-fn elf32_symbols(path: &Path) -> Vec<String> {
-    let d = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    assert_eq!(&d[..6], b"\x7fELF\x01\x01", "{}: not an ELF32 LE file", path.display());
-    let u16_at = |o: usize| u16::from_le_bytes([d[o], d[o + 1]]) as usize;
-    let u32_at = |o: usize| u32::from_le_bytes([d[o], d[o + 1], d[o + 2], d[o + 3]]) as usize;
-    let (shoff, shentsize, shnum) = (u32_at(0x20), u16_at(0x2E), u16_at(0x30));
-    let sh = |i: usize| shoff + i * shentsize;
-    let mut names = Vec::new();
-    for i in 0..shnum {
-        if u32_at(sh(i) + 4) != 2 {
-            continue; // not SHT_SYMTAB
-        }
-        let (off, size, link, entsize) =
-            (u32_at(sh(i) + 16), u32_at(sh(i) + 20), u32_at(sh(i) + 24), u32_at(sh(i) + 36));
-        let stroff = u32_at(sh(link) + 16);
-        for s in (off..off + size).step_by(entsize) {
-            let start = stroff + u32_at(s);
-            let end = start + d[start..].iter().position(|&b| b == 0).unwrap();
-            names.push(String::from_utf8_lossy(&d[start..end]).into_owned());
-        }
-    }
-    names
-}
-
-/// compiler-builtins / libgcc double-precision routines (ARM EABI names and generic names).
-const SOFT_DOUBLE: &[&str] = &[
-    "__aeabi_dadd",
-    "__aeabi_dsub",
-    "__aeabi_drsub",
-    "__aeabi_dmul",
-    "__aeabi_ddiv",
-    "__aeabi_dneg",
-    "__aeabi_dcmp",
-    "__aeabi_d2f",
-    "__aeabi_d2iz",
-    "__aeabi_d2uiz",
-    "__aeabi_d2lz",
-    "__aeabi_d2ulz",
-    "__aeabi_f2d",
-    "__aeabi_i2d",
-    "__aeabi_ui2d",
-    "__aeabi_l2d",
-    "__aeabi_ul2d",
-    "__adddf3",
-    "__subdf3",
-    "__muldf3",
-    "__divdf3",
-    "__negdf2",
-    "__extendsfdf2",
-    "__truncdfsf2",
-    "__fixdfsi",
-    "__fixdfdi",
-    "__fixunsdfsi",
-    "__fixunsdfdi",
-    "__floatsidf",
-    "__floatdidf",
-    "__floatunsidf",
-    "__floatundidf",
-    "__cmpdf2",
-    "__eqdf2",
-    "__nedf2",
-    "__gedf2",
-    "__gtdf2",
-    "__ledf2",
-    "__ltdf2",
-    "__unorddf2",
-    "__powidf2",
-];
-
-fn soft_double_symbols(elf: &Path) -> Vec<String> {
-    let syms = elf32_symbols(elf);
-    // The reader must have seen the real table (cortex-m-rt's entry symbol is always there).
-    assert!(syms.len() > 50 && syms.iter().any(|s| s == "Reset"), "{}: symbol table not read", elf.display());
-    syms.into_iter().filter(|s| SOFT_DOUBLE.iter().any(|d| s.contains(d))).collect()
-}
 
 #[test]
 fn soft_double_detector_sees_a_double_routine() {
@@ -126,7 +39,7 @@ fn firmware_images_contain_no_soft_double_routine() {
 
 #[test]
 fn f32m_gives_the_same_bits_on_the_cortex_m4_as_on_the_host() {
-    if !qemu_available() {
+    if !acs_tests::qemu_available("f32m bits on the target") {
         return;
     }
     let out = Command::new(repo().join("scripts/firmware.sh")).arg("math-fingerprint").output().unwrap();
