@@ -41,7 +41,8 @@ pub struct Sensors {
     pub sun: Option<SunSensorSpecToml>,
 }
 
-/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
+/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor,
+/// misalignment, saturation, quantisation.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GyroSensorSpec {
@@ -56,6 +57,15 @@ pub struct GyroSensorSpec {
     pub bias_rad_s: [f64; 3],
     #[serde(default)]
     pub scale_factor_ppm: f64,
+    /// Triad misalignment vs body: small rotation vector, degrees (default 0).
+    #[serde(default)]
+    pub misalignment_deg: [f64; 3],
+    /// Output range ±this per axis, rad/s (default: unlimited).
+    #[serde(default)]
+    pub saturation_rad_s: Option<f64>,
+    /// Output LSB, rad/s (default 0: continuous).
+    #[serde(default)]
+    pub quantisation_rad_s: f64,
 }
 
 /// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.

@@ -51,6 +51,9 @@ impl SensorSuite {
                 rrw_rad_s2_rthz: [g.rrw_rad_s2_rthz; 3],
                 bias_rad_s: g.bias_rad_s,
                 scale_factor: [g.scale_factor_ppm * 1e-6; 3],
+                misalignment_rad: g.misalignment_deg.map(f64::to_radians),
+                saturation_rad_s: g.saturation_rad_s,
+                quantisation_rad_s: g.quantisation_rad_s,
             },
             // White noise of σ per sample at the control rate: ARW = σ / √rate.
             None => GyroSpec {
@@ -59,6 +62,9 @@ impl SensorSuite {
                 rrw_rad_s2_rthz: [0.0; 3],
                 bias_rad_s: s.rate_bias_rad_s,
                 scale_factor: [0.0; 3],
+                misalignment_rad: [0.0; 3],
+                saturation_rad_s: None,
+                quantisation_rad_s: 0.0,
             },
         };
         let attitude = match &s.star_tracker {

@@ -90,6 +90,16 @@ pub struct GyroSpec {
     pub bias_rad_s: [f64; 3],
     /// Scale-factor error per axis (dimensionless, 1e-3 = 1000 ppm).
     pub scale_factor: [f64; 3],
+    /// Misalignment: the triad's axes are the body axes turned by this rotation vector
+    /// (rad); the gyro senses `R(θ)ᵀ ω` (components of ω along its own axes). Zero: none.
+    #[serde(default)]
+    pub misalignment_rad: [f64; 3],
+    /// Output range: each axis is clipped to ±this (rad/s). `None`: unlimited.
+    #[serde(default)]
+    pub saturation_rad_s: Option<f64>,
+    /// Output LSB (rad/s): each axis is rounded to the nearest multiple. 0: continuous.
+    #[serde(default)]
+    pub quantisation_rad_s: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -100,7 +110,9 @@ pub struct GyroReading {
     pub valid: bool,
 }
 
-/// Rate gyro: `ω_m = (1 + s) ω + b0 + b_rw(t) + n`, per axis.
+/// Rate gyro: `ω_m = Q(clip((1 + s) ∘ R(θ)ᵀ ω + b0 + b_rw(t) + n))`, per axis: misalignment
+/// R(θ), scale factor, biases and noise, then the output range (clip) and the converter's
+/// LSB (round to nearest), in the order of the signal chain.
 #[derive(Clone, Debug)]
 pub struct Gyro {
     pub spec: GyroSpec,
@@ -112,6 +124,8 @@ pub struct Gyro {
 
 impl Gyro {
     pub fn new(spec: GyroSpec, scenario_seed: u64, index: u32) -> Self {
+        assert!(spec.saturation_rad_s.is_none_or(|s| s > 0.0), "gyro saturation must be > 0");
+        assert!(spec.quantisation_rad_s >= 0.0 && spec.quantisation_rad_s.is_finite(), "gyro LSB must be >= 0");
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
@@ -135,9 +149,20 @@ impl Gyro {
                 self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
                 white
             };
-            let w = Vec3::from(*w_true_rad_s);
+            let mut w = Vec3::from(*w_true_rad_s);
+            // Skipped when zero so that gyros without misalignment keep their exact bits.
+            if self.spec.misalignment_rad != [0.0; 3] {
+                w = UnitQuaternion::from_scaled_axis(Vec3::from(self.spec.misalignment_rad)).inverse() * w;
+            }
             let sf = Vec3::from(self.spec.scale_factor);
-            let m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            let mut m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            if let Some(sat) = self.spec.saturation_rad_s {
+                m = m.map(|x| x.clamp(-sat, sat));
+            }
+            let lsb = self.spec.quantisation_rad_s;
+            if lsb > 0.0 {
+                m = m.map(|x| (x / lsb).round() * lsb);
+            }
             self.last = GyroReading { t_s, rate_rad_s: m.into(), valid: true };
         }
         self.last
@@ -390,6 +415,9 @@ mod tests {
             rrw_rad_s2_rthz: [1e-4, 5e-5, 2e-4],
             bias_rad_s: [0.0; 3],
             scale_factor: [0.0; 3],
+            misalignment_rad: [0.0; 3],
+            saturation_rad_s: None,
+            quantisation_rad_s: 0.0,
         }
     }
 
@@ -480,6 +508,9 @@ mod tests {
             rrw_rad_s2_rthz: [0.0; 3],
             bias_rad_s: [1e-3, 0.0, -1e-3],
             scale_factor: [0.01, -0.02, 0.0],
+            misalignment_rad: [0.0; 3],
+            saturation_rad_s: None,
+            quantisation_rad_s: 0.0,
         };
         let mut g = Gyro::new(spec, 1, 0);
         let r = g.update(0.0, &[0.1, 0.1, 0.1]);
@@ -494,6 +525,81 @@ mod tests {
         let r2 = g.update(0.3, &[0.0; 3]);
         assert_eq!((r2.t_s, r2.rate_rad_s), (0.3, [1e-3, 0.0, -1e-3]));
         assert_eq!(g.update(0.4, &[5.0; 3]), r2);
+    }
+
+    fn noiseless_gyro() -> GyroSpec {
+        GyroSpec { arw_rad_s_rthz: [0.0; 3], rrw_rad_s2_rthz: [0.0; 3], ..gyro_spec() }
+    }
+
+    #[test]
+    fn gyro_misalignment_rotates_a_known_rate() {
+        // Triad turned 90° about body z: its x axis is body y, its y axis is body −x, so a
+        // body rate (1, 2, 3) reads (2, −1, 3).
+        let spec = GyroSpec { misalignment_rad: [0.0, 0.0, std::f64::consts::FRAC_PI_2], ..noiseless_gyro() };
+        let r = Gyro::new(spec, 1, 0).update(0.0, &[1.0, 2.0, 3.0]);
+        let want = [2.0, -1.0, 3.0];
+        for a in 0..3 {
+            assert!((r.rate_rad_s[a] - want[a]).abs() < 1e-15, "{:?}", r.rate_rad_s);
+        }
+        // Small misalignment θ: reading ≈ ω − θ × ω to first order, error O(|θ|² |ω|).
+        let th = [1e-3, -2e-3, 0.5e-3];
+        let spec = GyroSpec { misalignment_rad: th, ..noiseless_gyro() };
+        let w = Vec3::new(0.1, -0.05, 0.2);
+        let r = Gyro::new(spec, 1, 0).update(0.0, &w.into());
+        let lin = w - Vec3::from(th).cross(&w);
+        assert!((Vec3::from(r.rate_rad_s) - lin).norm() < 1e-5 * w.norm(), "{:?} vs {lin:?}", r.rate_rad_s);
+        // A rotation preserves the magnitude exactly.
+        assert!((Vec3::from(r.rate_rad_s).norm() - w.norm()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn gyro_saturation_clips_exactly() {
+        let spec = GyroSpec { saturation_rad_s: Some(0.5), bias_rad_s: [0.1, 0.0, 0.0], ..noiseless_gyro() };
+        let mut g = Gyro::new(spec, 1, 0);
+        // Axis x: 0.45 + bias 0.1 exceeds the range; y, z inside / below it.
+        let r = g.update(0.0, &[0.45, 0.3, -7.0]);
+        assert_eq!(r.rate_rad_s, [0.5, 0.3, -0.5]);
+        let r = g.update(1.0, &[0.39, -0.5, 0.5]);
+        assert!((r.rate_rad_s[0] - 0.49).abs() < 1e-15);
+        assert_eq!(&r.rate_rad_s[1..], &[-0.5, 0.5]);
+    }
+
+    #[test]
+    fn gyro_quantisation_error_is_uniform_within_half_lsb() {
+        // Noiseless gyro fed a ramp of golden-ratio × LSB steps (~62 000 LSBs): the
+        // fractional part of ω/LSB is equidistributed: the error q(ω) − ω must stay in ±LSB/2 with
+        // mean 0 and variance LSB²/12 (uniform quantisation noise).
+        let lsb = 1e-4;
+        let spec = GyroSpec { quantisation_rad_s: lsb, ..noiseless_gyro() };
+        let mut g = Gyro::new(spec, 1, 0);
+        let n = 100_000;
+        let step = 0.618_033_988_749_895 * lsb;
+        let (mut sum, mut sum2, mut max) = (0.0, 0.0, 0.0_f64);
+        for k in 0..n {
+            let w = -0.05 + k as f64 * step;
+            let (w0, w1) = (w, 2.0 * w + 0.01);
+            let r = g.update(k as f64 / spec.rate_hz, &[w0, w1, 0.0]);
+            for (a, &wa) in [w0, w1].iter().enumerate() {
+                let e = r.rate_rad_s[a] - wa;
+                let lsbs = r.rate_rad_s[a] / lsb;
+                assert!((lsbs - lsbs.round()).abs() < 1e-6, "not on the LSB grid: {lsbs}");
+                sum += e;
+                sum2 += e * e;
+                max = max.max(e.abs());
+            }
+        }
+        let m = 2.0 * n as f64;
+        let (mean, var) = (sum / m, sum2 / m - (sum / m).powi(2));
+        let ratio = var / (lsb * lsb / 12.0);
+        println!(
+            "quantisation: mean {:.2e} LSB, var / (LSB²/12) = {ratio:.4}, max |e| {:.4} LSB",
+            mean / lsb,
+            max / lsb
+        );
+        assert!(max <= 0.5 * lsb * (1.0 + 1e-9), "{max}");
+        // Equidistributed (not random) fractional parts: deviations O(1/n), far below 1 %.
+        assert!(mean.abs() < 0.01 * lsb, "{mean}");
+        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
     }
 
     #[test]
