@@ -81,6 +81,21 @@ pub struct StarTrackerSpec {
     /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
     #[serde(default)]
     pub max_rate_deg_s: Option<f64>,
+    /// 1σ noise about each cross-boresight axis, deg (default: `noise_deg`).
+    #[serde(default)]
+    pub noise_cross_deg: Option<f64>,
+    /// 1σ noise about the boresight, deg (default: `noise_deg`).
+    #[serde(default)]
+    pub noise_about_deg: Option<f64>,
+    /// Boresight in body axes (default body z).
+    #[serde(default)]
+    pub boresight_body: Option<[f64; 3]>,
+    /// Sun exclusion half-angle about the boresight, deg (default: none).
+    #[serde(default)]
+    pub sun_exclusion_deg: Option<f64>,
+    /// Earth-limb exclusion angle about the boresight, deg (default: none).
+    #[serde(default)]
+    pub earth_exclusion_deg: Option<f64>,
 }
 
 /// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).

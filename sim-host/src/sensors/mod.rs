@@ -1,5 +1,6 @@
 //! The spacecraft's sensors as one suite that produces the flight code's `SensorFrame`:
-//! rate gyro (ARW, bias random walk, bias, scale factor), attitude sensor (star tracker /
+//! rate gyro (ARW, bias random walk, bias, scale factor, misalignment, range, LSB), attitude
+//! sensor (star tracker /
 //! AHRS small-rotation noise and bias), magnetometer (noise, bias, coupling to the
 //! torquers' dipole), sun sensor (noise, field of view, eclipse), gimbal encoders and
 //! wheel tachometers (white noise), and the navigation solution (LVLH frame and rate).
@@ -13,17 +14,27 @@ pub mod models;
 use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
 use crate::environment::frames::EarthRotation;
 use crate::environment::model::EnvSnapshot;
+use crate::environment::orbit::R_E;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
 use crate::plant::{Spacecraft, State};
 use acs_flight::link::{SensorFrame, valid};
 use config::Sensors as SensorSpec;
 use models::{
-    AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
+    AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor,
+    SunSensorSpec,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::collections::VecDeque;
+
+/// Julian date (UT1) at simulation time `t_s` for the Sun ephemeris.
+fn julian_date(env_model: &crate::environment::model::Environment, t_s: f64) -> f64 {
+    (match env_model.earth {
+        EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
+        EarthRotation::Simple { .. } => 2_451_545.0,
+    }) + t_s / 86_400.0
+}
 
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
@@ -68,17 +79,30 @@ impl SensorSuite {
             },
         };
         let attitude = match &s.star_tracker {
-            Some(a) => AttitudeSensorSpec {
-                rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
-                noise_rad: [a.noise_deg.to_radians(); 3],
-                bias_rad: a.bias_deg.map(f64::to_radians),
-                max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
-            },
+            Some(a) => {
+                let anisotropic = a.noise_cross_deg.is_some() || a.noise_about_deg.is_some();
+                let (cross, about) =
+                    (a.noise_cross_deg.unwrap_or(a.noise_deg), a.noise_about_deg.unwrap_or(a.noise_deg));
+                AttitudeSensorSpec {
+                    rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
+                    noise_rad: [cross.to_radians(), cross.to_radians(), about.to_radians()],
+                    bias_rad: a.bias_deg.map(f64::to_radians),
+                    max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
+                    // Without a boresight or split noise the noise stays in body axes
+                    // (the isotropic shortcut, bit for bit as before).
+                    boresight_body: a.boresight_body.or(anisotropic.then_some([0.0, 0.0, 1.0])),
+                    sun_exclusion_rad: a.sun_exclusion_deg.map(f64::to_radians),
+                    earth_exclusion_rad: a.earth_exclusion_deg.map(f64::to_radians),
+                }
+            }
             None => AttitudeSensorSpec {
                 rate_hz: control_rate_hz,
                 noise_rad: [s.attitude_noise_deg.to_radians(); 3],
                 bias_rad: [0.0; 3],
                 max_rate_rad_s: None,
+                boresight_body: None,
+                sun_exclusion_rad: None,
+                earth_exclusion_rad: None,
             },
         };
         let mag = match &s.magnetometer {
@@ -148,7 +172,23 @@ impl SensorSuite {
             self.history.pop_front();
         }
         let (q_meas, w_meas) = self.history.front().copied().unwrap_or((s.q, s.w));
-        let att = self.attitude.update(t_s, &q_meas, &w_meas);
+        let sp = &self.attitude.spec;
+        let geometry = if sp.sun_exclusion_rad.is_some() || sp.earth_exclusion_rad.is_some() {
+            match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
+                (Some((r, _)), Some(m)) => {
+                    let rs = sun_position_eci(julian_date(m, t_s));
+                    Some(ExclusionGeometry {
+                        sun_ref: (rs - r).normalize(),
+                        nadir_ref: -r.normalize(),
+                        earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
+                    })
+                }
+                _ => None,
+            }
+        } else {
+            None
+        };
+        let att = self.attitude.update_with(t_s, &q_meas, &w_meas, geometry.as_ref());
         f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
         let g = self.gyro.update(t_s, &w_meas.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
@@ -182,11 +222,7 @@ impl SensorSuite {
                 f.valid |= valid::REFERENCE;
             }
             if let (Some(sun), Some((r, _)), Some(env_model)) = (self.sun.as_mut(), e.orbit, craft.env.as_ref()) {
-                let jd = match env_model.earth {
-                    EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
-                    EarthRotation::Simple { .. } => 2_451_545.0,
-                } + t_s / 86_400.0;
-                let rs = sun_position_eci(jd);
+                let rs = sun_position_eci(julian_date(env_model, t_s));
                 let eclipse = in_shadow_cylindrical(&r, &rs);
                 let rd = sun.update(t_s, &s.q, &(rs - r).normalize().into(), eclipse);
                 if rd.valid {
