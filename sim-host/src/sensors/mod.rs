@@ -1,7 +1,7 @@
 //! The spacecraft's sensors as one suite that produces the flight code's `SensorFrame`:
 //! rate gyro (ARW, bias random walk, bias, scale factor, misalignment, range, LSB), attitude
-//! sensor (star tracker /
-//! AHRS small-rotation noise and bias), magnetometer (noise, bias, coupling to the
+//! sensor (star tracker / AHRS small-rotation noise and bias, cross/about-boresight noise,
+//! Sun and Earth-limb exclusion), magnetometer (noise, bias, coupling to the
 //! torquers' dipole), sun sensor (noise, field of view, eclipse), gimbal encoders and
 //! wheel tachometers (white noise), and the navigation solution (LVLH frame and rate).
 //! The models are in [`models`]; each has its own sample rate and its own noise stream
@@ -322,5 +322,56 @@ mod tests {
         assert!((mean - 1e-4).abs() < 3.0 * 1e-3 / (n as f64).sqrt(), "{mean}");
         let sd = (sum_w2 / n as f64 - mean * mean).sqrt();
         assert!((sd - 1e-3).abs() < 0.03e-3, "{sd}");
+    }
+
+    #[test]
+    fn tracker_exclusion_uses_the_orbit_sun_and_earth() {
+        use crate::environment::model::{Environment, FieldSource};
+        use crate::environment::torques::{Disturbances, HarmonicTorque};
+        use config::StarTrackerSpec;
+        use nalgebra::UnitQuaternion;
+        let mut c = craft();
+        c.env = Some(Environment {
+            orbit: None,
+            earth: EarthRotation::Simple { theta0_rad: 0.0 },
+            field: FieldSource::None,
+            disturbances: Disturbances {
+                inertia: nalgebra::Matrix3::identity(),
+                gravity_gradient: false,
+                drag: None,
+                srp: None,
+                residual_dipole_am2: Vec3::zeros(),
+                external: HarmonicTorque::default(),
+            },
+        });
+        let (t, r) = (100.0, Vec3::new(0.0, 7.0e6, 0.0));
+        let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
+        // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
+        let sun = (sun_position_eci(2_451_545.0 + t / 86_400.0) - r).normalize();
+        let point = |d: &Vec3| UnitQuaternion::rotation_between(&Vec3::z(), d).unwrap().into_inner();
+        let run = |st: StarTrackerSpec, d: &Vec3, e: Option<&EnvSnapshot>| {
+            let spec = SensorSpec { star_tracker: Some(st), ..Default::default() };
+            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut x = state();
+            x.q = point(d);
+            s.sample(0, t, &x, &c, e, &[0.0; 3]).valid & valid::ATTITUDE != 0
+        };
+        let sun_rule = StarTrackerSpec { sun_exclusion_deg: Some(30.0), ..Default::default() };
+        // Boresight 29° / 31° from the Sun (turned about an axis normal to it).
+        let n = sun.cross(&Vec3::z()).normalize();
+        let off = |deg: f64| UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(n), deg.to_radians()) * sun;
+        assert!(!run(sun_rule.clone(), &off(29.0), Some(&env)));
+        assert!(run(sun_rule.clone(), &off(31.0), Some(&env)));
+        assert!(run(sun_rule, &off(0.0), None), "no orbit: no rule");
+        // Earth at 7000 km: angular radius ρ = asin(R_E / r) = 65.7°; a boresight turned θ
+        // from nadir (within the x-y plane) is θ − ρ from the limb; at nadir it is on the Earth.
+        let earth_rule = StarTrackerSpec { earth_exclusion_deg: Some(20.0), ..Default::default() };
+        let rho = (crate::environment::orbit::R_E / r.norm()).asin().to_degrees();
+        let nadir = -r.normalize();
+        let from_nadir = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::z_axis(), deg.to_radians()) * nadir;
+        assert!(!run(earth_rule.clone(), &nadir, Some(&env)));
+        assert!(!run(earth_rule.clone(), &from_nadir(rho + 19.9), Some(&env)));
+        assert!(run(earth_rule.clone(), &from_nadir(rho + 20.1), Some(&env)));
+        assert!(run(earth_rule, &-nadir, Some(&env)));
     }
 }
