@@ -96,6 +96,10 @@ pub struct StarTrackerSpec {
     /// Earth-limb exclusion angle about the boresight, deg (default: none).
     #[serde(default)]
     pub earth_exclusion_deg: Option<f64>,
+    /// The tracker's own latency on top of the suite's `latency_s`, s, rounded to whole
+    /// control steps (default 0).
+    #[serde(default)]
+    pub latency_s: f64,
 }
 
 /// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).

@@ -49,6 +49,10 @@ pub struct SensorSuite {
     /// attitude and rate of the last `latency_steps + 1` samples (oldest first).
     latency_steps: usize,
     history: VecDeque<(Quat, Vec3)>,
+    /// The star tracker's own extra delay, control steps, and its history of the
+    /// (suite-delayed) true attitude and rate.
+    tracker_latency_steps: usize,
+    tracker_history: VecDeque<(Quat, Vec3)>,
 }
 
 impl SensorSuite {
@@ -141,6 +145,11 @@ impl SensorSuite {
             wheel_sigma_rad_s: s.wheel_speed_noise_rad_s,
             latency_steps: (s.latency_s * control_rate_hz).round() as usize,
             history: VecDeque::new(),
+            tracker_latency_steps: s
+                .star_tracker
+                .as_ref()
+                .map_or(0, |a| (a.latency_s * control_rate_hz).round() as usize),
+            tracker_history: VecDeque::new(),
         }
     }
 
@@ -172,6 +181,16 @@ impl SensorSuite {
             self.history.pop_front();
         }
         let (q_meas, w_meas) = self.history.front().copied().unwrap_or((s.q, s.w));
+        // Tracker latency: as above, on the suite-delayed state (no history kept without it).
+        let (q_att, w_att) = if self.tracker_latency_steps > 0 {
+            self.tracker_history.push_back((q_meas, w_meas));
+            while self.tracker_history.len() > self.tracker_latency_steps + 1 {
+                self.tracker_history.pop_front();
+            }
+            self.tracker_history.front().copied().unwrap_or((q_meas, w_meas))
+        } else {
+            (q_meas, w_meas)
+        };
         let sp = &self.attitude.spec;
         let geometry = if sp.sun_exclusion_rad.is_some() || sp.earth_exclusion_rad.is_some() {
             match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
@@ -188,7 +207,7 @@ impl SensorSuite {
         } else {
             None
         };
-        let att = self.attitude.update_with(t_s, &q_meas, &w_meas, geometry.as_ref());
+        let att = self.attitude.update_with(t_s, &q_att, &w_att, geometry.as_ref());
         f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
         let g = self.gyro.update(t_s, &w_meas.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
@@ -282,6 +301,28 @@ mod tests {
             let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
             assert!((yaw - lag as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
             assert_eq!(f.time_us, k as u64 * 10_000);
+        }
+    }
+
+    #[test]
+    fn tracker_latency_delays_only_the_attitude() {
+        // Suite latency 0.01 s (1 step) plus tracker latency 0.02 s (2 steps) at 100 Hz:
+        // the attitude of frame k is the state of step k − 3, the rate that of step k − 1.
+        let spec = SensorSpec {
+            latency_s: 0.01,
+            star_tracker: Some(config::StarTrackerSpec { latency_s: 0.02, ..Default::default() }),
+            ..Default::default()
+        };
+        let mut s = SensorSuite::new(&spec, 100.0);
+        let c = craft();
+        for k in 0..10u32 {
+            let mut st = state();
+            st.w = Vec3::new(k as f64, 0.0, 0.0);
+            st.q = crate::attitude::quat_from_euler([0.0, 0.0, k as f64 * 0.1], acs_flight::math::EulerSeq::Zyx321);
+            let f = s.sample(k, k as f64 * 0.01, &st, &c, None, &[0.0; 3]);
+            assert_eq!(f.rate_rad_s[0], k.saturating_sub(1) as f32, "step {k}");
+            let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
+            assert!((yaw - k.saturating_sub(3) as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
         }
     }
 
