@@ -41,7 +41,8 @@ pub struct Sensors {
     pub sun: Option<SunSensorSpecToml>,
 }
 
-/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor.
+/// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor,
+/// misalignment, saturation, quantisation.
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GyroSensorSpec {
@@ -56,6 +57,15 @@ pub struct GyroSensorSpec {
     pub bias_rad_s: [f64; 3],
     #[serde(default)]
     pub scale_factor_ppm: f64,
+    /// Triad misalignment vs body: small rotation vector, degrees (default 0).
+    #[serde(default)]
+    pub misalignment_deg: [f64; 3],
+    /// Output range ±this per axis, rad/s (default: unlimited).
+    #[serde(default)]
+    pub saturation_rad_s: Option<f64>,
+    /// Output LSB, rad/s (default 0: continuous).
+    #[serde(default)]
+    pub quantisation_rad_s: f64,
 }
 
 /// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
@@ -71,6 +81,25 @@ pub struct StarTrackerSpec {
     /// Body rate above which the tracker loses lock (attitude invalid), deg/s.
     #[serde(default)]
     pub max_rate_deg_s: Option<f64>,
+    /// 1σ noise about each cross-boresight axis, deg (default: `noise_deg`).
+    #[serde(default)]
+    pub noise_cross_deg: Option<f64>,
+    /// 1σ noise about the boresight, deg (default: `noise_deg`).
+    #[serde(default)]
+    pub noise_about_deg: Option<f64>,
+    /// Boresight in body axes (default body z).
+    #[serde(default)]
+    pub boresight_body: Option<[f64; 3]>,
+    /// Sun exclusion half-angle about the boresight, deg (default: none).
+    #[serde(default)]
+    pub sun_exclusion_deg: Option<f64>,
+    /// Earth-limb exclusion angle about the boresight, deg (default: none).
+    #[serde(default)]
+    pub earth_exclusion_deg: Option<f64>,
+    /// The tracker's own latency on top of the suite's `latency_s`, s, rounded to whole
+    /// control steps (default 0).
+    #[serde(default)]
+    pub latency_s: f64,
 }
 
 /// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).

@@ -1,6 +1,7 @@
 //! The spacecraft's sensors as one suite that produces the flight code's `SensorFrame`:
-//! rate gyro (ARW, bias random walk, bias, scale factor), attitude sensor (star tracker /
-//! AHRS small-rotation noise and bias), magnetometer (noise, bias, coupling to the
+//! rate gyro (ARW, bias random walk, bias, scale factor, misalignment, range, LSB), attitude
+//! sensor (star tracker / AHRS small-rotation noise and bias, cross/about-boresight noise,
+//! Sun and Earth-limb exclusion), magnetometer (noise, bias, coupling to the
 //! torquers' dipole), sun sensor (noise, field of view, eclipse), gimbal encoders and
 //! wheel tachometers (white noise), and the navigation solution (LVLH frame and rate).
 //! The models are in [`models`]; each has its own sample rate and its own noise stream
@@ -13,17 +14,27 @@ pub mod models;
 use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
 use crate::environment::frames::EarthRotation;
 use crate::environment::model::EnvSnapshot;
+use crate::environment::orbit::R_E;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
 use crate::plant::{Spacecraft, State};
 use acs_flight::link::{SensorFrame, valid};
 use config::Sensors as SensorSpec;
 use models::{
-    AttitudeSensor, AttitudeSensorSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
+    AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor,
+    SunSensorSpec,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::collections::VecDeque;
+
+/// Julian date (UT1) at simulation time `t_s` for the Sun ephemeris.
+fn julian_date(env_model: &crate::environment::model::Environment, t_s: f64) -> f64 {
+    (match env_model.earth {
+        EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
+        EarthRotation::Simple { .. } => 2_451_545.0,
+    }) + t_s / 86_400.0
+}
 
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
@@ -38,6 +49,10 @@ pub struct SensorSuite {
     /// attitude and rate of the last `latency_steps + 1` samples (oldest first).
     latency_steps: usize,
     history: VecDeque<(Quat, Vec3)>,
+    /// The star tracker's own extra delay, control steps, and its history of the
+    /// (suite-delayed) true attitude and rate.
+    tracker_latency_steps: usize,
+    tracker_history: VecDeque<(Quat, Vec3)>,
 }
 
 impl SensorSuite {
@@ -51,6 +66,9 @@ impl SensorSuite {
                 rrw_rad_s2_rthz: [g.rrw_rad_s2_rthz; 3],
                 bias_rad_s: g.bias_rad_s,
                 scale_factor: [g.scale_factor_ppm * 1e-6; 3],
+                misalignment_rad: g.misalignment_deg.map(f64::to_radians),
+                saturation_rad_s: g.saturation_rad_s,
+                quantisation_rad_s: g.quantisation_rad_s,
             },
             // White noise of σ per sample at the control rate: ARW = σ / √rate.
             None => GyroSpec {
@@ -59,20 +77,36 @@ impl SensorSuite {
                 rrw_rad_s2_rthz: [0.0; 3],
                 bias_rad_s: s.rate_bias_rad_s,
                 scale_factor: [0.0; 3],
+                misalignment_rad: [0.0; 3],
+                saturation_rad_s: None,
+                quantisation_rad_s: 0.0,
             },
         };
         let attitude = match &s.star_tracker {
-            Some(a) => AttitudeSensorSpec {
-                rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
-                noise_rad: [a.noise_deg.to_radians(); 3],
-                bias_rad: a.bias_deg.map(f64::to_radians),
-                max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
-            },
+            Some(a) => {
+                let anisotropic = a.noise_cross_deg.is_some() || a.noise_about_deg.is_some();
+                let (cross, about) =
+                    (a.noise_cross_deg.unwrap_or(a.noise_deg), a.noise_about_deg.unwrap_or(a.noise_deg));
+                AttitudeSensorSpec {
+                    rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
+                    noise_rad: [cross.to_radians(), cross.to_radians(), about.to_radians()],
+                    bias_rad: a.bias_deg.map(f64::to_radians),
+                    max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
+                    // Without a boresight or split noise the noise stays in body axes
+                    // (the isotropic shortcut, bit for bit as before).
+                    boresight_body: a.boresight_body.or(anisotropic.then_some([0.0, 0.0, 1.0])),
+                    sun_exclusion_rad: a.sun_exclusion_deg.map(f64::to_radians),
+                    earth_exclusion_rad: a.earth_exclusion_deg.map(f64::to_radians),
+                }
+            }
             None => AttitudeSensorSpec {
                 rate_hz: control_rate_hz,
                 noise_rad: [s.attitude_noise_deg.to_radians(); 3],
                 bias_rad: [0.0; 3],
                 max_rate_rad_s: None,
+                boresight_body: None,
+                sun_exclusion_rad: None,
+                earth_exclusion_rad: None,
             },
         };
         let mag = match &s.magnetometer {
@@ -111,6 +145,11 @@ impl SensorSuite {
             wheel_sigma_rad_s: s.wheel_speed_noise_rad_s,
             latency_steps: (s.latency_s * control_rate_hz).round() as usize,
             history: VecDeque::new(),
+            tracker_latency_steps: s
+                .star_tracker
+                .as_ref()
+                .map_or(0, |a| (a.latency_s * control_rate_hz).round() as usize),
+            tracker_history: VecDeque::new(),
         }
     }
 
@@ -142,7 +181,33 @@ impl SensorSuite {
             self.history.pop_front();
         }
         let (q_meas, w_meas) = self.history.front().copied().unwrap_or((s.q, s.w));
-        let att = self.attitude.update(t_s, &q_meas, &w_meas);
+        // Tracker latency: as above, on the suite-delayed state (no history kept without it).
+        let (q_att, w_att) = if self.tracker_latency_steps > 0 {
+            self.tracker_history.push_back((q_meas, w_meas));
+            while self.tracker_history.len() > self.tracker_latency_steps + 1 {
+                self.tracker_history.pop_front();
+            }
+            self.tracker_history.front().copied().unwrap_or((q_meas, w_meas))
+        } else {
+            (q_meas, w_meas)
+        };
+        let sp = &self.attitude.spec;
+        let geometry = if sp.sun_exclusion_rad.is_some() || sp.earth_exclusion_rad.is_some() {
+            match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
+                (Some((r, _)), Some(m)) => {
+                    let rs = sun_position_eci(julian_date(m, t_s));
+                    Some(ExclusionGeometry {
+                        sun_ref: (rs - r).normalize(),
+                        nadir_ref: -r.normalize(),
+                        earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
+                    })
+                }
+                _ => None,
+            }
+        } else {
+            None
+        };
+        let att = self.attitude.update_with(t_s, &q_att, &w_att, geometry.as_ref());
         f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
         let g = self.gyro.update(t_s, &w_meas.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
@@ -176,11 +241,7 @@ impl SensorSuite {
                 f.valid |= valid::REFERENCE;
             }
             if let (Some(sun), Some((r, _)), Some(env_model)) = (self.sun.as_mut(), e.orbit, craft.env.as_ref()) {
-                let jd = match env_model.earth {
-                    EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
-                    EarthRotation::Simple { .. } => 2_451_545.0,
-                } + t_s / 86_400.0;
-                let rs = sun_position_eci(jd);
+                let rs = sun_position_eci(julian_date(env_model, t_s));
                 let eclipse = in_shadow_cylindrical(&r, &rs);
                 let rd = sun.update(t_s, &s.q, &(rs - r).normalize().into(), eclipse);
                 if rd.valid {
@@ -244,6 +305,28 @@ mod tests {
     }
 
     #[test]
+    fn tracker_latency_delays_only_the_attitude() {
+        // Suite latency 0.01 s (1 step) plus tracker latency 0.02 s (2 steps) at 100 Hz:
+        // the attitude of frame k is the state of step k − 3, the rate that of step k − 1.
+        let spec = SensorSpec {
+            latency_s: 0.01,
+            star_tracker: Some(config::StarTrackerSpec { latency_s: 0.02, ..Default::default() }),
+            ..Default::default()
+        };
+        let mut s = SensorSuite::new(&spec, 100.0);
+        let c = craft();
+        for k in 0..10u32 {
+            let mut st = state();
+            st.w = Vec3::new(k as f64, 0.0, 0.0);
+            st.q = crate::attitude::quat_from_euler([0.0, 0.0, k as f64 * 0.1], acs_flight::math::EulerSeq::Zyx321);
+            let f = s.sample(k, k as f64 * 0.01, &st, &c, None, &[0.0; 3]);
+            assert_eq!(f.rate_rad_s[0], k.saturating_sub(1) as f32, "step {k}");
+            let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
+            assert!((yaw - k.saturating_sub(3) as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
+        }
+    }
+
+    #[test]
     fn noise_statistics_and_determinism() {
         let spec = SensorSpec {
             seed: 42,
@@ -280,5 +363,56 @@ mod tests {
         assert!((mean - 1e-4).abs() < 3.0 * 1e-3 / (n as f64).sqrt(), "{mean}");
         let sd = (sum_w2 / n as f64 - mean * mean).sqrt();
         assert!((sd - 1e-3).abs() < 0.03e-3, "{sd}");
+    }
+
+    #[test]
+    fn tracker_exclusion_uses_the_orbit_sun_and_earth() {
+        use crate::environment::model::{Environment, FieldSource};
+        use crate::environment::torques::{Disturbances, HarmonicTorque};
+        use config::StarTrackerSpec;
+        use nalgebra::UnitQuaternion;
+        let mut c = craft();
+        c.env = Some(Environment {
+            orbit: None,
+            earth: EarthRotation::Simple { theta0_rad: 0.0 },
+            field: FieldSource::None,
+            disturbances: Disturbances {
+                inertia: nalgebra::Matrix3::identity(),
+                gravity_gradient: false,
+                drag: None,
+                srp: None,
+                residual_dipole_am2: Vec3::zeros(),
+                external: HarmonicTorque::default(),
+            },
+        });
+        let (t, r) = (100.0, Vec3::new(0.0, 7.0e6, 0.0));
+        let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
+        // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
+        let sun = (sun_position_eci(2_451_545.0 + t / 86_400.0) - r).normalize();
+        let point = |d: &Vec3| UnitQuaternion::rotation_between(&Vec3::z(), d).unwrap().into_inner();
+        let run = |st: StarTrackerSpec, d: &Vec3, e: Option<&EnvSnapshot>| {
+            let spec = SensorSpec { star_tracker: Some(st), ..Default::default() };
+            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut x = state();
+            x.q = point(d);
+            s.sample(0, t, &x, &c, e, &[0.0; 3]).valid & valid::ATTITUDE != 0
+        };
+        let sun_rule = StarTrackerSpec { sun_exclusion_deg: Some(30.0), ..Default::default() };
+        // Boresight 29° / 31° from the Sun (turned about an axis normal to it).
+        let n = sun.cross(&Vec3::z()).normalize();
+        let off = |deg: f64| UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(n), deg.to_radians()) * sun;
+        assert!(!run(sun_rule.clone(), &off(29.0), Some(&env)));
+        assert!(run(sun_rule.clone(), &off(31.0), Some(&env)));
+        assert!(run(sun_rule, &off(0.0), None), "no orbit: no rule");
+        // Earth at 7000 km: angular radius ρ = asin(R_E / r) = 65.7°; a boresight turned θ
+        // from nadir (within the x-y plane) is θ − ρ from the limb; at nadir it is on the Earth.
+        let earth_rule = StarTrackerSpec { earth_exclusion_deg: Some(20.0), ..Default::default() };
+        let rho = (crate::environment::orbit::R_E / r.norm()).asin().to_degrees();
+        let nadir = -r.normalize();
+        let from_nadir = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::z_axis(), deg.to_radians()) * nadir;
+        assert!(!run(earth_rule.clone(), &nadir, Some(&env)));
+        assert!(!run(earth_rule.clone(), &from_nadir(rho + 19.9), Some(&env)));
+        assert!(run(earth_rule.clone(), &from_nadir(rho + 20.1), Some(&env)));
+        assert!(run(earth_rule, &-nadir, Some(&env)));
     }
 }

@@ -90,6 +90,16 @@ pub struct GyroSpec {
     pub bias_rad_s: [f64; 3],
     /// Scale-factor error per axis (dimensionless, 1e-3 = 1000 ppm).
     pub scale_factor: [f64; 3],
+    /// Misalignment: the triad's axes are the body axes turned by this rotation vector
+    /// (rad); the gyro senses `R(θ)ᵀ ω` (components of ω along its own axes). Zero: none.
+    #[serde(default)]
+    pub misalignment_rad: [f64; 3],
+    /// Output range: each axis is clipped to ±this (rad/s). `None`: unlimited.
+    #[serde(default)]
+    pub saturation_rad_s: Option<f64>,
+    /// Output LSB (rad/s): each axis is rounded to the nearest multiple. 0: continuous.
+    #[serde(default)]
+    pub quantisation_rad_s: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -100,7 +110,9 @@ pub struct GyroReading {
     pub valid: bool,
 }
 
-/// Rate gyro: `ω_m = (1 + s) ω + b0 + b_rw(t) + n`, per axis.
+/// Rate gyro: `ω_m = Q(clip((1 + s) ∘ R(θ)ᵀ ω + b0 + b_rw(t) + n))`, per axis: misalignment
+/// R(θ), scale factor, biases and noise, then the output range (clip) and the converter's
+/// LSB (round to nearest), in the order of the signal chain.
 #[derive(Clone, Debug)]
 pub struct Gyro {
     pub spec: GyroSpec,
@@ -112,6 +124,8 @@ pub struct Gyro {
 
 impl Gyro {
     pub fn new(spec: GyroSpec, scenario_seed: u64, index: u32) -> Self {
+        assert!(spec.saturation_rad_s.is_none_or(|s| s > 0.0), "gyro saturation must be > 0");
+        assert!(spec.quantisation_rad_s >= 0.0 && spec.quantisation_rad_s.is_finite(), "gyro LSB must be >= 0");
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
@@ -135,9 +149,20 @@ impl Gyro {
                 self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
                 white
             };
-            let w = Vec3::from(*w_true_rad_s);
+            let mut w = Vec3::from(*w_true_rad_s);
+            // Skipped when zero so that gyros without misalignment keep their exact bits.
+            if self.spec.misalignment_rad != [0.0; 3] {
+                w = UnitQuaternion::from_scaled_axis(Vec3::from(self.spec.misalignment_rad)).inverse() * w;
+            }
             let sf = Vec3::from(self.spec.scale_factor);
-            let m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            let mut m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            if let Some(sat) = self.spec.saturation_rad_s {
+                m = m.map(|x| x.clamp(-sat, sat));
+            }
+            let lsb = self.spec.quantisation_rad_s;
+            if lsb > 0.0 {
+                m = m.map(|x| (x / lsb).round() * lsb);
+            }
             self.last = GyroReading { t_s, rate_rad_s: m.into(), valid: true };
         }
         self.last
@@ -165,6 +190,30 @@ pub struct AttitudeSensorSpec {
     /// Above this body rate the tracker loses its stars (the reading is invalid), rad/s;
     /// `None` = no limit.
     pub max_rate_rad_s: Option<f64>,
+    /// Boresight, unit vector in body axes. `Some`: `noise_rad` is per axis of the tracker
+    /// frame (x, y cross-boresight, z = boresight; the shortest-arc rotation from body z to
+    /// the boresight) and the exclusion angles are measured from it. `None`: body axes,
+    /// boresight body z.
+    #[serde(default)]
+    pub boresight_body: Option<[f64; 3]>,
+    /// Invalid when the Sun is closer than this to the boresight, rad (`None`: no rule).
+    #[serde(default)]
+    pub sun_exclusion_rad: Option<f64>,
+    /// Invalid when the Earth's limb is closer than this to the boresight (or the
+    /// boresight is on the Earth), rad (`None`: no rule).
+    #[serde(default)]
+    pub earth_exclusion_rad: Option<f64>,
+}
+
+/// Where the bright bodies are, for the tracker's exclusion rules (inertial axes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExclusionGeometry {
+    /// Unit vector spacecraft → Sun.
+    pub sun_ref: Vec3,
+    /// Unit vector spacecraft → Earth's centre.
+    pub nadir_ref: Vec3,
+    /// Earth's angular radius seen from the spacecraft, asin(R_E / r), rad.
+    pub earth_half_angle_rad: f64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -197,10 +246,46 @@ impl AttitudeSensor {
     /// Discrete: true `q_ib` (and body rate, for the rate limit) at `t`; samples if due,
     /// returns the held reading.
     pub fn update(&mut self, t_s: f64, q_ib_true: &Quat, rate_rad_s: &Vec3) -> AttitudeReading {
+        self.update_with(t_s, q_ib_true, rate_rad_s, None)
+    }
+
+    /// Boresight in body axes (body z without `boresight_body`).
+    pub fn boresight(&self) -> Vec3 {
+        self.spec.boresight_body.map_or(Vec3::z(), |b| Vec3::from(b).normalize())
+    }
+
+    /// Angles boresight–Sun and boresight–Earth limb (negative: the boresight is on the
+    /// Earth), rad, for a true attitude `q_ib`.
+    pub fn exclusion_angles_rad(&self, q_ib: &Quat, g: &ExclusionGeometry) -> (f64, f64) {
+        let b_ref = UnitQuaternion::from_quaternion(*q_ib) * self.boresight();
+        let ang = |u: &Vec3| b_ref.dot(&u.normalize()).clamp(-1.0, 1.0).acos();
+        (ang(&g.sun_ref), ang(&g.nadir_ref) - g.earth_half_angle_rad)
+    }
+
+    /// As [`Self::update`], with the Sun and Earth geometry for the exclusion rules
+    /// (`None`: not known, rules not applied).
+    pub fn update_with(
+        &mut self,
+        t_s: f64,
+        q_ib_true: &Quat,
+        rate_rad_s: &Vec3,
+        geometry: Option<&ExclusionGeometry>,
+    ) -> AttitudeReading {
         if self.clock.due(t_s).is_some() {
-            let n = gauss3(&mut self.rng, &self.spec.noise_rad);
+            let mut n = gauss3(&mut self.rng, &self.spec.noise_rad);
+            if self.spec.boresight_body.is_some() {
+                // Tracker frame → body: shortest arc z → boresight (identity if along z).
+                let r = UnitQuaternion::rotation_between(&Vec3::z(), &self.boresight())
+                    .unwrap_or_else(|| UnitQuaternion::from_scaled_axis(Vec3::x() * std::f64::consts::PI));
+                n = r * n;
+            }
             let q = q_ib_true.normalize() * small_rot(&Vec3::from(self.spec.bias_rad)) * small_rot(&n);
-            let valid = self.spec.max_rate_rad_s.is_none_or(|m| rate_rad_s.norm() <= m);
+            let mut valid = self.spec.max_rate_rad_s.is_none_or(|m| rate_rad_s.norm() <= m);
+            if let Some(g) = geometry {
+                let (sun, limb) = self.exclusion_angles_rad(q_ib_true, g);
+                valid &= self.spec.sun_exclusion_rad.is_none_or(|x| sun >= x);
+                valid &= self.spec.earth_exclusion_rad.is_none_or(|x| limb >= x);
+            }
             self.last = AttitudeReading { t_s, q_ib: q, valid };
         }
         self.last
@@ -390,6 +475,9 @@ mod tests {
             rrw_rad_s2_rthz: [1e-4, 5e-5, 2e-4],
             bias_rad_s: [0.0; 3],
             scale_factor: [0.0; 3],
+            misalignment_rad: [0.0; 3],
+            saturation_rad_s: None,
+            quantisation_rad_s: 0.0,
         }
     }
 
@@ -480,6 +568,9 @@ mod tests {
             rrw_rad_s2_rthz: [0.0; 3],
             bias_rad_s: [1e-3, 0.0, -1e-3],
             scale_factor: [0.01, -0.02, 0.0],
+            misalignment_rad: [0.0; 3],
+            saturation_rad_s: None,
+            quantisation_rad_s: 0.0,
         };
         let mut g = Gyro::new(spec, 1, 0);
         let r = g.update(0.0, &[0.1, 0.1, 0.1]);
@@ -496,12 +587,187 @@ mod tests {
         assert_eq!(g.update(0.4, &[5.0; 3]), r2);
     }
 
+    fn noiseless_gyro() -> GyroSpec {
+        GyroSpec { arw_rad_s_rthz: [0.0; 3], rrw_rad_s2_rthz: [0.0; 3], ..gyro_spec() }
+    }
+
+    #[test]
+    fn gyro_misalignment_rotates_a_known_rate() {
+        // Triad turned 90° about body z: its x axis is body y, its y axis is body −x, so a
+        // body rate (1, 2, 3) reads (2, −1, 3).
+        let spec = GyroSpec { misalignment_rad: [0.0, 0.0, std::f64::consts::FRAC_PI_2], ..noiseless_gyro() };
+        let r = Gyro::new(spec, 1, 0).update(0.0, &[1.0, 2.0, 3.0]);
+        let want = [2.0, -1.0, 3.0];
+        for a in 0..3 {
+            assert!((r.rate_rad_s[a] - want[a]).abs() < 1e-15, "{:?}", r.rate_rad_s);
+        }
+        // Small misalignment θ: reading ≈ ω − θ × ω to first order, error O(|θ|² |ω|).
+        let th = [1e-3, -2e-3, 0.5e-3];
+        let spec = GyroSpec { misalignment_rad: th, ..noiseless_gyro() };
+        let w = Vec3::new(0.1, -0.05, 0.2);
+        let r = Gyro::new(spec, 1, 0).update(0.0, &w.into());
+        let lin = w - Vec3::from(th).cross(&w);
+        assert!((Vec3::from(r.rate_rad_s) - lin).norm() < 1e-5 * w.norm(), "{:?} vs {lin:?}", r.rate_rad_s);
+        // A rotation preserves the magnitude exactly.
+        assert!((Vec3::from(r.rate_rad_s).norm() - w.norm()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn gyro_saturation_clips_exactly() {
+        let spec = GyroSpec { saturation_rad_s: Some(0.5), bias_rad_s: [0.1, 0.0, 0.0], ..noiseless_gyro() };
+        let mut g = Gyro::new(spec, 1, 0);
+        // Axis x: 0.45 + bias 0.1 exceeds the range; y, z inside / below it.
+        let r = g.update(0.0, &[0.45, 0.3, -7.0]);
+        assert_eq!(r.rate_rad_s, [0.5, 0.3, -0.5]);
+        let r = g.update(1.0, &[0.39, -0.5, 0.5]);
+        assert!((r.rate_rad_s[0] - 0.49).abs() < 1e-15);
+        assert_eq!(&r.rate_rad_s[1..], &[-0.5, 0.5]);
+    }
+
+    #[test]
+    fn gyro_quantisation_error_is_uniform_within_half_lsb() {
+        // Noiseless gyro fed a ramp of golden-ratio × LSB steps (~62 000 LSBs): the
+        // fractional part of ω/LSB is equidistributed: the error q(ω) − ω must stay in ±LSB/2 with
+        // mean 0 and variance LSB²/12 (uniform quantisation noise).
+        let lsb = 1e-4;
+        let spec = GyroSpec { quantisation_rad_s: lsb, ..noiseless_gyro() };
+        let mut g = Gyro::new(spec, 1, 0);
+        let n = 100_000;
+        let step = 0.618_033_988_749_895 * lsb;
+        let (mut sum, mut sum2, mut max) = (0.0, 0.0, 0.0_f64);
+        for k in 0..n {
+            let w = -0.05 + k as f64 * step;
+            let (w0, w1) = (w, 2.0 * w + 0.01);
+            let r = g.update(k as f64 / spec.rate_hz, &[w0, w1, 0.0]);
+            for (a, &wa) in [w0, w1].iter().enumerate() {
+                let e = r.rate_rad_s[a] - wa;
+                let lsbs = r.rate_rad_s[a] / lsb;
+                assert!((lsbs - lsbs.round()).abs() < 1e-6, "not on the LSB grid: {lsbs}");
+                sum += e;
+                sum2 += e * e;
+                max = max.max(e.abs());
+            }
+        }
+        let m = 2.0 * n as f64;
+        let (mean, var) = (sum / m, sum2 / m - (sum / m).powi(2));
+        let ratio = var / (lsb * lsb / 12.0);
+        println!(
+            "quantisation: mean {:.2e} LSB, var / (LSB²/12) = {ratio:.4}, max |e| {:.4} LSB",
+            mean / lsb,
+            max / lsb
+        );
+        assert!(max <= 0.5 * lsb * (1.0 + 1e-9), "{max}");
+        // Equidistributed (not random) fractional parts: deviations O(1/n), far below 1 %.
+        assert!(mean.abs() < 0.01 * lsb, "{mean}");
+        assert!((ratio - 1.0).abs() < 0.01, "{ratio}");
+    }
+
+    fn ideal_tracker() -> AttitudeSensorSpec {
+        AttitudeSensorSpec {
+            rate_hz: 5.0,
+            noise_rad: [0.0; 3],
+            bias_rad: [0.0; 3],
+            max_rate_rad_s: None,
+            boresight_body: None,
+            sun_exclusion_rad: None,
+            earth_exclusion_rad: None,
+        }
+    }
+
+    #[test]
+    fn tracker_noise_split_cross_and_about_boresight() {
+        // Boresight (1, 1, 0)/√2. The error rotation's covariance, projected on the
+        // boresight and on two perpendicular axes chosen here (body z and b × z, not the
+        // model's own tracker axes), must be diag(cross², cross², about²).
+        let (cross, about) = (2e-4, 1.5e-3);
+        let b = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let spec = AttitudeSensorSpec {
+            noise_rad: [cross, cross, about],
+            boresight_body: Some([1.0, 1.0, 0.0]),
+            ..ideal_tracker()
+        };
+        let mut s = AttitudeSensor::new(spec, 11, 2);
+        let q_true = UnitQuaternion::from_euler_angles(-0.4, 0.7, 2.0);
+        let axes = [Vec3::z(), b.cross(&Vec3::z()), b];
+        let n = 20_000;
+        let mut c = Matrix3::zeros();
+        for k in 0..n {
+            let r = s.update(k as f64 / 5.0, q_true.quaternion(), &Vec3::zeros());
+            let e = (q_true.inverse() * UnitQuaternion::from_quaternion(r.q_ib)).scaled_axis();
+            let et = Vec3::from_fn(|i, _| axes[i].dot(&e));
+            c += et * et.transpose() / n as f64;
+        }
+        let want = [cross * cross, cross * cross, about * about];
+        println!(
+            "tracker covariance / expected diagonal: {:.4} {:.4} {:.4}",
+            c[(0, 0)] / want[0],
+            c[(1, 1)] / want[1],
+            c[(2, 2)] / want[2]
+        );
+        for i in 0..3 {
+            // 20 000 samples: 1σ of a variance estimate √(2/n) = 1 %; tolerance 4 %.
+            assert!((c[(i, i)] / want[i] - 1.0).abs() < 0.04, "{i}: {}", c[(i, i)] / want[i]);
+            for j in 0..i {
+                // Correlation coefficient: 1σ = 1/√n = 0.7 %; tolerance 3 %.
+                let rho = c[(i, j)] / (c[(i, i)] * c[(j, j)]).sqrt();
+                assert!(rho.abs() < 0.03, "rho {i}{j} = {rho}");
+            }
+        }
+    }
+
+    #[test]
+    fn tracker_sun_and_earth_exclusion() {
+        // Boresight body z; the body turned by α about y puts it at (sin α, 0, cos α) in
+        // inertial axes. Sun along inertial x: boresight–Sun angle |90° − α|. Earth centre
+        // along −z with angular radius 60°: boresight–limb angle (180° − α) − 60°.
+        let geo =
+            ExclusionGeometry { sun_ref: Vec3::x(), nadir_ref: -Vec3::z(), earth_half_angle_rad: 60f64.to_radians() };
+        let att = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::y_axis(), deg.to_radians()).into_inner();
+        let sun_only = AttitudeSensorSpec { sun_exclusion_rad: Some(30f64.to_radians()), ..ideal_tracker() };
+        let earth_only = AttitudeSensorSpec { earth_exclusion_rad: Some(20f64.to_radians()), ..ideal_tracker() };
+        let mut k = 0.0;
+        let mut flag = |spec: AttitudeSensorSpec, a: f64, g: Option<&ExclusionGeometry>| {
+            let mut s = AttitudeSensor::new(spec, 1, 2);
+            k += 1.0;
+            s.update_with(k, &att(a), &Vec3::zeros(), g).valid
+        };
+        for (a, valid) in
+            [(0.0, true), (59.99, true), (60.01, false), (90.0, false), (119.99, false), (120.01, true), (150.0, true)]
+        {
+            assert_eq!(flag(sun_only, a, Some(&geo)), valid, "sun, α = {a}");
+        }
+        // Limb angle 120° − α ≥ 20° ⇔ α ≤ 100°.
+        for (a, valid) in [(0.0, true), (99.99, true), (100.01, false), (180.0, false)] {
+            assert_eq!(flag(earth_only, a, Some(&geo)), valid, "earth, α = {a}");
+        }
+        // Unknown geometry: no rule applied.
+        assert!(flag(sun_only, 90.0, None));
+        // Closed-form angles, also for a boresight off body z (body x, identity attitude):
+        // Sun at 25° from x in the x-y plane; Earth centre along −x.
+        let s = AttitudeSensor::new(AttitudeSensorSpec { boresight_body: Some([2.0, 0.0, 0.0]), ..sun_only }, 1, 2);
+        let g2 = ExclusionGeometry {
+            sun_ref: Vec3::new(25f64.to_radians().cos(), 25f64.to_radians().sin(), 0.0),
+            nadir_ref: -Vec3::x(),
+            earth_half_angle_rad: 0.5,
+        };
+        let (sun, limb) = s.exclusion_angles_rad(&Quat::identity(), &g2);
+        assert!((sun - 25f64.to_radians()).abs() < 1e-12 && (limb - (std::f64::consts::PI - 0.5)).abs() < 1e-12);
+        let mut s = s;
+        assert!(!s.update_with(0.0, &Quat::identity(), &Vec3::zeros(), Some(&g2)).valid);
+    }
+
     #[test]
     fn attitude_sensor_noise_and_bias() {
         let q_true = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1).into_inner();
         // Bias only: exact.
         let bias = [0.01, -0.02, 0.005];
-        let spec = AttitudeSensorSpec { rate_hz: 5.0, noise_rad: [0.0; 3], bias_rad: bias, max_rate_rad_s: Some(0.03) };
+        let spec = AttitudeSensorSpec {
+            rate_hz: 5.0,
+            noise_rad: [0.0; 3],
+            bias_rad: bias,
+            max_rate_rad_s: Some(0.03),
+            ..ideal_tracker()
+        };
         let mut s = AttitudeSensor::new(spec, 3, 1);
         let r = s.update(0.0, &q_true, &Vec3::new(0.0, 0.02, 0.0));
         assert!(r.valid);
@@ -512,7 +778,13 @@ mod tests {
         let sig = [1e-3, 2e-3, 4e-4];
         // Beyond its rate limit the tracker's reading is invalid.
         assert!(!s.update(1.0, &q_true, &Vec3::new(0.0, 0.02, 0.025)).valid);
-        let spec = AttitudeSensorSpec { rate_hz: 5.0, noise_rad: sig, bias_rad: [0.0; 3], max_rate_rad_s: None };
+        let spec = AttitudeSensorSpec {
+            rate_hz: 5.0,
+            noise_rad: sig,
+            bias_rad: [0.0; 3],
+            max_rate_rad_s: None,
+            ..ideal_tracker()
+        };
         let mut s = AttitudeSensor::new(spec, 3, 1);
         let n = 20_000;
         let mut ss = Vec3::zeros();
