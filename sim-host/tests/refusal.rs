@@ -73,3 +73,24 @@ fn a_run_that_would_not_fit_on_the_disk_is_refused_and_the_estimate_covers_the_r
     assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(std::fs::read_to_string(out3.join("timeseries.csv")).unwrap(), csv);
 }
+
+/// Bad sensor-model keys are refused before the first step with the key named (they used
+/// to reach an `assert!` in the gyro's constructor).
+#[test]
+fn bad_sensor_model_keys_are_refused_naming_the_key() {
+    let base = std::fs::read_to_string(repo().join("scenarios/paper000/test3.toml")).expect("scenario");
+    for (table, key) in [
+        ("[sensors.gyro]\nsaturation_rad_s = -1.0\n", "sensors.gyro.saturation_rad_s"),
+        ("[sensors.gyro]\nquantisation_rad_s = nan\n", "sensors.gyro.quantisation_rad_s"),
+        ("[sensors.star_tracker]\nsun_exclusion_deg = 200.0\n", "sensors.star_tracker.sun_exclusion_deg"),
+        ("[sensors.star_tracker]\nboresight_body = [0.0, 0.0, 0.0]\n", "sensors.star_tracker.boresight_body"),
+        ("[sensors.star_tracker]\nnoise_about_deg = -0.1\n", "sensors.star_tracker.noise_about_deg"),
+    ] {
+        let text = format!("{base}\n{table}");
+        let err = sim_host::scenario::Scenario::from_toml(&text)
+            .and_then(|s| s.validate().map(|()| s))
+            .err()
+            .unwrap_or_else(|| panic!("{key} accepted"));
+        assert!(format!("{err:#}").contains(key), "{key}: {err:#}");
+    }
+}

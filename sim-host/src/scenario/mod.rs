@@ -449,6 +449,36 @@ impl Scenario {
         if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
             positive("sensors.star_tracker.max_rate_deg_s", m)?;
         }
+        if let Some(g) = &s.gyro {
+            finite("sensors.gyro.misalignment_deg", &g.misalignment_deg)?;
+            if let Some(sat) = g.saturation_rad_s {
+                positive("sensors.gyro.saturation_rad_s", sat)?;
+            }
+            if !(g.quantisation_rad_s.is_finite() && g.quantisation_rad_s >= 0.0) {
+                return Err(bad("sensors.gyro.quantisation_rad_s", "must be >= 0"));
+            }
+        }
+        if let Some(t) = &s.star_tracker {
+            for (k, v) in [("noise_cross_deg", t.noise_cross_deg), ("noise_about_deg", t.noise_about_deg)] {
+                if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+                    return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be >= 0")));
+                }
+            }
+            for (k, v) in [("sun_exclusion_deg", t.sun_exclusion_deg), ("earth_exclusion_deg", t.earth_exclusion_deg)] {
+                if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=180.0).contains(v))) {
+                    return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be in [0, 180]")));
+                }
+            }
+            if let Some(b) = t.boresight_body {
+                finite("sensors.star_tracker.boresight_body", &b)?;
+                if b.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
+                    return Err(bad("sensors.star_tracker.boresight_body", "must not be zero"));
+                }
+            }
+            if !(t.latency_s.is_finite() && (0.0..=10.0).contains(&t.latency_s)) {
+                return Err(bad("sensors.star_tracker.latency_s", "must be in [0, 10]"));
+            }
+        }
         Ok(())
     }
 
