@@ -189,8 +189,7 @@ fn rate_damping_detumbles_a_cmg_craft_on_the_gyro_alone_as_the_closed_form() {
     sc.initial.orbit_synchronous = false;
     sc.environment.gravity_gradient = false;
     sc.duration_s = 15.0;
-    sc.sensors.star_tracker =
-        Some(StarTrackerSpec { rate_hz: None, noise_deg: 0.0, bias_deg: [0.0; 3], max_rate_deg_s: Some(1.0) });
+    sc.sensors.star_tracker = Some(StarTrackerSpec { max_rate_deg_s: Some(1.0), ..StarTrackerSpec::default() });
     let r = run_in_process(&sc);
     let s = series(&r);
     let w0 = s.rate_deg_s[0];
