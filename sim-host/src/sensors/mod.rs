@@ -284,46 +284,39 @@ mod tests {
         assert_eq!(f.valid, valid::ATTITUDE | valid::RATE);
     }
 
-    #[test]
-    fn latency_delays_attitude_and_rate_by_whole_steps() {
-        // 0.03 s at 100 Hz = 3 steps: frame k carries the state of step k - 3 (the first
-        // state before that), while the timestamp stays the sample time.
-        let spec = SensorSpec { latency_s: 0.03, ..Default::default() };
-        let mut s = SensorSuite::new(&spec, 100.0);
+    /// Flies 10 steps at 100 Hz with rate and yaw growing by step and checks that frame k
+    /// carries the rate of step k − `rate_lag` and the attitude of step k − `attitude_lag`
+    /// (the first state before that), the timestamp staying the sample time.
+    fn check_lags(spec: &SensorSpec, rate_lag: u32, attitude_lag: u32) {
+        let mut s = SensorSuite::new(spec, 100.0);
         let c = craft();
         for k in 0..10u32 {
             let mut st = state();
             st.w = Vec3::new(k as f64, 0.0, 0.0);
             st.q = crate::attitude::quat_from_euler([0.0, 0.0, k as f64 * 0.1], acs_flight::math::EulerSeq::Zyx321);
             let f = s.sample(k, k as f64 * 0.01, &st, &c, None, &[0.0; 3]);
-            let lag = k.saturating_sub(3);
-            assert_eq!(f.rate_rad_s[0], lag as f32, "step {k}");
+            assert_eq!(f.rate_rad_s[0], k.saturating_sub(rate_lag) as f32, "step {k}");
             let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
-            assert!((yaw - lag as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
+            assert!((yaw - k.saturating_sub(attitude_lag) as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
             assert_eq!(f.time_us, k as u64 * 10_000);
         }
     }
 
     #[test]
+    fn latency_delays_attitude_and_rate_by_whole_steps() {
+        // 0.03 s at 100 Hz = 3 steps for both.
+        check_lags(&SensorSpec { latency_s: 0.03, ..Default::default() }, 3, 3);
+    }
+
+    #[test]
     fn tracker_latency_delays_only_the_attitude() {
-        // Suite latency 0.01 s (1 step) plus tracker latency 0.02 s (2 steps) at 100 Hz:
-        // the attitude of frame k is the state of step k − 3, the rate that of step k − 1.
+        // Suite latency 0.01 s (1 step) plus tracker latency 0.02 s (2 steps).
         let spec = SensorSpec {
             latency_s: 0.01,
             star_tracker: Some(config::StarTrackerSpec { latency_s: 0.02, ..Default::default() }),
             ..Default::default()
         };
-        let mut s = SensorSuite::new(&spec, 100.0);
-        let c = craft();
-        for k in 0..10u32 {
-            let mut st = state();
-            st.w = Vec3::new(k as f64, 0.0, 0.0);
-            st.q = crate::attitude::quat_from_euler([0.0, 0.0, k as f64 * 0.1], acs_flight::math::EulerSeq::Zyx321);
-            let f = s.sample(k, k as f64 * 0.01, &st, &c, None, &[0.0; 3]);
-            assert_eq!(f.rate_rad_s[0], k.saturating_sub(1) as f32, "step {k}");
-            let yaw = 2.0 * (f.q_ib_xyzw[2] as f64).atan2(f.q_ib_xyzw[3] as f64);
-            assert!((yaw - k.saturating_sub(3) as f64 * 0.1).abs() < 1e-6, "step {k}: yaw {yaw}");
-        }
+        check_lags(&spec, 1, 3);
     }
 
     #[test]
