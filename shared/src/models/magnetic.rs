@@ -24,6 +24,7 @@ use crate::math::f32m::{atan2, sqrt};
 pub const MAX_DEGREE: usize = WMM_MAX_DEGREE;
 /// Geomagnetic reference radius, m.
 pub const WMM_RADIUS_M: f32 = 6_371_200.0;
+const _: () = assert!(MAX_DEGREE >= 1, "at least the dipole");
 const SLOTS: usize = (MAX_DEGREE + 1) * (MAX_DEGREE + 2) / 2;
 
 /// Why no field: position not finite, inside the Earth, or beyond 10 Earth radii.
@@ -49,7 +50,9 @@ fn coeff(table: &[f32], dot: &[f32], n: usize, m: usize, years: f32) -> f32 {
 /// Field in ECEF axes, tesla, at `r_ecef_m` on `decimal_year`, spherical harmonics to
 /// degree `degree` (1 … [`MAX_DEGREE`]; clamped into that range).
 pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result<Vec3, FieldError> {
-    let nmax = degree.clamp(1, MAX_DEGREE);
+    // max/min, not clamp: no bound ordering to trust (clamp panics on min > max).
+    #[allow(clippy::manual_clamp)]
+    let nmax = degree.max(1).min(MAX_DEGREE);
     let r = sqrt(r_ecef_m.norm_squared());
     if !(r.is_finite() && r > 6.0e6 && r < 6.4e7 && decimal_year.is_finite()) {
         return Err(FieldError);
