@@ -31,7 +31,7 @@
 //! and leaves the state and covariance exactly as they were.
 
 use crate::math::f32m::{sin_cos, sqrt};
-use crate::math::{Quat, Vec3, quat_normalized, rotate_ref_to_body};
+use crate::math::{Quat, Vec3, norm, quat_normalized, rotate_ref_to_body};
 use nalgebra::{Cholesky, Matrix3, SMatrix, SVector};
 
 type Mat6 = SMatrix<f32, 6, 6>;
@@ -139,17 +139,13 @@ fn sym(m: &Mat6) -> Mat6 {
     (m + m.transpose()) * 0.5
 }
 
-fn vec_norm(v: &Vec3) -> f32 {
-    sqrt(v.norm_squared())
-}
-
 /// `Θ = exp(−[ω×] dt)` and `Ψ = −∫₀^dt exp(−[ω×] s) ds` for a constant rate (M&C §6.2.4):
 /// `Θ = I − [ω×] sin(w dt)/w + [ω×]² (1 − cos w dt)/w²`,
 /// `Ψ = −I dt + [ω×] (1 − cos w dt)/w² − [ω×]² (w dt − sin w dt)/w³`,
 /// with the Taylor series of the three coefficients when `w dt` is small (their closed
 /// forms lose every digit in f32 there).
 fn transition(omega: &Vec3, dt: f32) -> (Matrix3<f32>, Matrix3<f32>) {
-    let w = vec_norm(omega);
+    let w = norm(omega);
     let x = w * dt;
     let (c1, c2, c3) = if x < 0.02 {
         let x2 = x * x;
@@ -238,7 +234,7 @@ impl Mekf {
             return Err(MekfError::BadTimeStep);
         }
         let omega = gyro_rad_s - self.bias;
-        let w = vec_norm(&omega);
+        let w = norm(&omega);
         let (s, c) = sin_cos(0.5 * w * dt_s);
         // q ⊗ [ω̂ sin(w dt/2), cos(w dt/2)]; ω̂ sin(·) → ω dt/2 as w → 0.
         let axis = if w * dt_s < 1e-6 { omega * (0.5 * dt_s) } else { omega * (s / w) };
@@ -294,7 +290,7 @@ impl Mekf {
     /// the measurement's 1σ angular noise. Returns the NIS.
     pub fn update_vector(&mut self, b_meas: &Vec3, r_ref: &Vec3, sigma_rad: f32) -> Result<f32, MekfError> {
         let unit = |v: &Vec3| {
-            let n = vec_norm(v);
+            let n = norm(v);
             (n.is_finite() && n > 1e-6).then(|| v / n)
         };
         let (Some(bm), Some(r)) = (unit(b_meas), unit(r_ref)) else { return Err(MekfError::NonFiniteInput) };
@@ -363,7 +359,7 @@ mod tests {
     fn transition_series_meets_closed_form() {
         // At w dt = 0.02 both branches agree to f32 rounding.
         let omega = Vec3::new(0.1, -0.05, 0.2);
-        let dt = 0.02 / vec_norm(&omega);
+        let dt = 0.02 / norm(&omega);
         let (t1, p1) = transition(&omega, dt);
         let (t2, p2) = transition(&omega, dt * 1.0001);
         assert!((t1 - t2).norm() < 1e-4 && (p1 - p2).norm() < 1e-3 * dt);

@@ -18,7 +18,7 @@
 //!
 //! Degenerate: fewer than two non-parallel directions (typed error).
 
-use super::triad::{TRIAD_MIN_SEPARATION_RAD, WahbaError};
+use super::triad::{TRIAD_MIN_SEPARATION_RAD, WahbaError, unit};
 use crate::math::f32m::{sin, sqrt};
 use crate::math::{Mat3, Quat, Vec3};
 use nalgebra::{Matrix4, Vector4};
@@ -34,11 +34,6 @@ pub struct Observation {
     pub body: Vec3,
     pub reference: Vec3,
     pub sigma_rad: f32,
-}
-
-fn unit(v: &Vec3) -> Result<Vec3, WahbaError> {
-    let n = sqrt(v.norm_squared());
-    if n.is_finite() && n > 1e-12 { Ok(v / n) } else { Err(WahbaError::BadInput) }
 }
 
 fn weight(sigma: f32) -> Result<f32, WahbaError> {

@@ -12,7 +12,6 @@
 //! frame (the rotation about the common direction is unobservable; in eclipse the Sun
 //! vector is absent and the caller has only one vector — no TRIAD).
 
-use crate::math::f32m::sqrt;
 use crate::math::{Mat3, Quat, Vec3, quat_from_rotation_matrix};
 
 /// Smallest accepted angle between the two vectors (and their references): 1°. Below it
@@ -28,15 +27,16 @@ pub enum WahbaError {
     Degenerate,
 }
 
-fn unit(v: &Vec3) -> Result<Vec3, WahbaError> {
-    let n = sqrt(v.norm_squared());
+/// `v / |v|`, refused when zero or not finite.
+pub(crate) fn unit(v: &Vec3) -> Result<Vec3, WahbaError> {
+    let n = crate::math::norm(v);
     if n.is_finite() && n > 1e-12 { Ok(v / n) } else { Err(WahbaError::BadInput) }
 }
 
 fn triad_frame(v1: &Vec3, v2: &Vec3) -> Result<Mat3, WahbaError> {
     let t1 = unit(v1)?;
     let c = t1.cross(&unit(v2)?);
-    let s = sqrt(c.norm_squared());
+    let s = crate::math::norm(&c);
     if !(s.is_finite() && s >= crate::math::f32m::sin(TRIAD_MIN_SEPARATION_RAD)) {
         return Err(WahbaError::Degenerate);
     }

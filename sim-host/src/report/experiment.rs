@@ -9,9 +9,9 @@
 
 use crate::link::{self, FlightLink, LinkKind, LinkOptions};
 use crate::plots::{self, Figure};
-use crate::runner::{self, RunResult, Summary};
+use crate::runner::{self, RunResult};
 use crate::scenario::Scenario;
-use crate::series::{Discard, TimeSeries};
+use crate::series::TimeSeries;
 use anyhow::{Context as _, Result};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -92,11 +92,8 @@ fn in_process() -> Result<Box<dyn FlightLink>> {
     link::open(&LinkKind::InProcess, &LinkOptions::default())
 }
 
-/// Flies a scenario in-process, recording nothing but the summary.
-pub fn fly(sc: &Scenario) -> Result<Summary> {
-    let mut l = in_process()?;
-    runner::run_recorded(sc, l.as_mut(), false, &mut Discard)
-}
+/// Flies a scenario in-process, recording nothing but the summary (the campaign runner's).
+pub use crate::campaign::exec::fly;
 
 /// Flies a scenario in-process and keeps every recorded row.
 pub fn fly_recorded(sc: &Scenario) -> Result<RunResult> {
