@@ -15,8 +15,10 @@ bitflags::bitflags! {
         const WHEELS = 1 << 3;
         const MAG = 1 << 4;
         const SUN = 1 << 5;
-        /// `q_ref_xyzw` and `ref_rate_rad_s` (navigation solution) are valid.
-        const REFERENCE = 1 << 6;
+        /// A GNSS fix (position, velocity, time) taken at the frame's time.
+        const GNSS = 1 << 6;
+        /// Coarse-sun-sensor outputs.
+        const CSS = 1 << 7;
     }
 }
 
@@ -52,6 +54,9 @@ bitflags::bitflags! {
         /// The control law produced a non-finite demand (overflow from extreme gains or
         /// states): zero torque was allocated and the law's state reset.
         const LAW_FAULT = 1 << 11;
+        /// The mode needs the fine attitude estimate or the navigation solution and it is
+        /// not available (estimator lost, never initialised, no GNSS yet): safe command.
+        const NO_ESTIMATE = 1 << 12;
     }
 }
 
@@ -70,18 +75,24 @@ impl Status {
 /// Validated, normalised measurements (what `Fsw::step` checked a sensor frame into).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measurements {
-    /// Attitude `q_ib` (identity when the configuration does not need it).
+    /// Attitude `q_ib` from the estimation stage (identity when not available and the
+    /// configuration does not need it).
     pub q: Quat,
-    /// Body rate, body axes, rad/s.
+    /// Body rate, body axes, rad/s (bias-corrected with the MEKF).
     pub rate_rad_s: Vec3,
     pub gimbal_angle_rad: [f32; 4],
     pub wheel_speed_rad_s: [f32; MAX_WHEELS],
     /// Magnetometer, body axes, T.
     pub mag_field_t: Vec3,
-    /// Reference frame relative to inertial (identity when not needed).
+    /// Reference frame (LVLH from on-board navigation) relative to inertial (identity
+    /// without a navigation solution).
     pub q_ref: Quat,
     /// Angular velocity of the reference frame, inertial axes, rad/s.
     pub ref_rate_rad_s: Vec3,
+    /// Measured Sun direction, body axes (unit), if seen (fine or coarse sun sensors).
+    pub sun_body: Option<Vec3>,
+    /// The on-board models put the spacecraft in the Earth's shadow.
+    pub eclipse: bool,
 }
 
 /// Commanded attitude and rate (guidance output).

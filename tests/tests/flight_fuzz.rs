@@ -35,7 +35,12 @@ fn frame(rng: &mut ChaCha8Rng, seq: u32) -> SensorFrame {
         gimbal_angle_rad: std::array::from_fn(|_| rng.random_range(-3.0..3.0)),
         wheel_speed_rad_s: std::array::from_fn(|_| rng.random_range(-500.0..500.0)),
         mag_field_t: std::array::from_fn(|_| rng.random_range(-5e-5..5e-5)),
-        q_ref_xyzw: [0.0, 0.0, 0.0, 1.0],
+        // A LEO fix (LVLH targets need navigation): ~7,000 km, ~7.5 km/s.
+        gnss_pos_m: std::array::from_fn(|_| rng.random_range(3.0e6..5.0e6)),
+        gnss_vel_m_s: std::array::from_fn(|_| rng.random_range(-5.0e3..5.0e3)),
+        gnss_j2000_days: rng.random_range(9000..10000),
+        gnss_j2000_s: rng.random_range(0.0..86_400.0),
+        css_output: std::array::from_fn(|_| rng.random_range(0.0..1.0)),
         valid: valid::ALL,
         ..SensorFrame::empty(seq, seq as u64 * 500_000)
     }

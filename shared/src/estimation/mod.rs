@@ -4,11 +4,16 @@
 //!   and a fixed-gain steady-state mode, the gain designed on the host by
 //!   `sim_host::design::steady_state_kalman`);
 //! - [`lqg`]: [`LqgEstimator`], that filter on the LQR state (steady-state or time-varying).
-//!   The LQR feedback itself is [`crate::control::lqr`].
+//!   The LQR feedback itself is [`crate::control::lqr`];
+//! - attitude determination: [`mekf`] (attitude + gyro bias), [`triad`], [`quest`];
+//! - [`navigation`]: GNSS fixes carried forward between fixes, LVLH;
+//! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
 
+pub mod determination;
 pub mod kalman;
 pub mod lqg;
 pub mod mekf;
+pub mod navigation;
 pub mod quest;
 pub mod triad;
 pub use lqg::LqgEstimator;

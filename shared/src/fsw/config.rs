@@ -6,7 +6,8 @@ use crate::control::{AttitudeLaw, Law};
 use crate::guidance::Target;
 use crate::math::{Vec3, quat_from_xyzw, quat_normalized};
 use crate::modes::{MODE_COUNT, Mode, ModeManager, ModeManagerParams, ModeRequest};
-use crate::params::{FlightParams, ParamError, ParamField, ParamReason};
+use crate::estimation::determination::Determination;
+use crate::params::{EstimationParams, FlightParams, ParamError, ParamField, ParamReason};
 use crate::types::Valid;
 
 /// Why a mode command or a mode-table operation was refused.
@@ -30,8 +31,9 @@ impl Configured {
         let actuators = Actuators::from_params(&p.actuator, dt_s)?;
         let target = Target { q: q_target, frame: p.target_frame };
         let attitude = if law.needs_attitude() { Valid::ATTITUDE } else { Valid::empty() };
-        let required = Valid::RATE | attitude | actuators.required() | target.required();
-        let cfg = Self { params: *p, inertia: p.inertia(), law, dt_s, target, actuators, required };
+        let required = Valid::RATE | attitude | actuators.required();
+        let needs_navigation = target.needs_navigation();
+        let cfg = Self { params: *p, inertia: p.inertia(), law, dt_s, target, actuators, required, needs_navigation };
         Ok((cfg, checksum))
     }
 }
@@ -139,6 +141,19 @@ impl Fsw {
         }
         self.torque_last = Vec3::zeros();
         self.saturated_last = false;
+    }
+
+    /// Validate and adopt the attitude-determination parameters (every mode); the
+    /// estimation stage restarts. On rejection the previous set stays in force.
+    pub fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32, ParamError> {
+        let checksum = p.checksum()?;
+        self.determination = Determination::new(p)?;
+        Ok(checksum)
+    }
+
+    /// The estimation stage (filter, navigation).
+    pub fn determination(&self) -> &Determination {
+        &self.determination
     }
 
     /// The parameter set in force.

@@ -2,11 +2,14 @@
 //! simulator's in-process link both call.
 //!
 //! `Fsw::step(&SensorFrame) -> ActuatorCommand` runs the data path top-down:
-//! 1. validate: reject bad input ([`validate::check_frame`]): the safe command (all
-//!    actuators idle: gimbals stop, wheel torques, dipoles and thrusters zero) with
-//!    `BAD_INPUT`;
+//! 1. estimate: navigation, reference models and attitude determination
+//!    ([`crate::estimation::determination`]), every step whatever the mode;
 //! 2. mode: the mode manager picks the parameter set in force ([`mode`]);
-//! 3. estimate: actuator momentum and geometry (the LQG law runs its estimator itself);
+//! 3. validate: the frame and the estimate checked against what the mode needs
+//!    ([`validate::check_frame`]); if anything is missing, the safe command (all
+//!    actuators idle: gimbals stop, wheel torques, dipoles and thrusters zero) with
+//!    `BAD_INPUT` (a sensor) or `NO_ESTIMATE` (attitude estimate, navigation); then
+//!    actuator momentum and geometry (the LQG law runs its own estimator);
 //! 4. guide: commanded attitude and rate ([`crate::guidance`]);
 //! 5. control: the law → body-torque (or gimbal-rate) demand ([`crate::control::law`]);
 //! 6. allocate: the actuator family → commands, the torque they realise, saturation
@@ -23,6 +26,7 @@ pub mod validate;
 
 use crate::allocation::family::{ActuatorFamily, Actuators};
 use crate::control::{AttitudeLaw, Law, LawInputs};
+use crate::estimation::determination::{Determination, Estimate};
 use crate::guidance::Target;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
@@ -32,7 +36,7 @@ use crate::types::{Status, Valid};
 
 pub use crate::allocation::family::ThrusterAllocator;
 pub use config::ModeError;
-pub use validate::{MAX_FIELD_T, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
+pub use validate::{MAX_FIELD_T, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S, Missing};
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]
@@ -44,8 +48,11 @@ struct Configured {
     dt_s: f32,
     target: Target,
     actuators: Actuators,
-    /// Validity bits a sensor frame must carry for this configuration.
+    /// Validity bits a sensor frame must carry for this configuration (`ATTITUDE`: the
+    /// estimation stage's attitude).
     required: Valid,
+    /// The target needs the on-board navigation solution.
+    needs_navigation: bool,
 }
 
 /// Flight software state. `Fsw::new()` is unconfigured; `configure` must accept a
@@ -64,6 +71,8 @@ pub struct Fsw {
     /// Torque realised last step (the LQG estimator's input).
     torque_last: Vec3,
     saturated_last: bool,
+    /// The estimation stage (navigation, attitude determination).
+    determination: Determination,
 }
 
 impl Default for Fsw {
@@ -81,6 +90,7 @@ impl Fsw {
             manager: None,
             torque_last: nalgebra::Vector3::new(0.0, 0.0, 0.0),
             saturated_last: false,
+            determination: Determination::sensor_only(),
         }
     }
 
@@ -96,25 +106,31 @@ impl Fsw {
 
     /// One control step.
     pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
-        let mut cmd = self.step_active(f);
+        // Estimate: runs whatever the mode (and unconfigured: the filter converges while
+        // the ground uploads the laws).
+        let est = self.determination.step(f);
+        let mut cmd = self.step_active(f, &est);
+        cmd.estimate = est.telemetry;
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
         }
         cmd
     }
 
-    fn step_active(&mut self, f: &SensorFrame) -> ActuatorCommand {
+    fn step_active(&mut self, f: &SensorFrame, est: &Estimate) -> ActuatorCommand {
         if self.table && self.manager.is_none() {
             return Self::safe(f.seq, Status::NOT_CONFIGURED);
         }
         // Mode: may switch the slot in force (and reset the law taking over).
-        self.update_mode(f);
+        self.update_mode(f, est);
         let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
             return Self::safe(f.seq, Status::NOT_CONFIGURED);
         };
         // Validate.
-        let Some(m) = validate::check_frame(f, cfg.required) else {
-            return Self::safe(f.seq, Status::BAD_INPUT);
+        let m = match validate::check_frame(f, cfg.required, cfg.needs_navigation, est) {
+            Ok(m) => m,
+            Err(Missing::Sensor) => return Self::safe(f.seq, Status::BAD_INPUT),
+            Err(Missing::Estimate) => return Self::safe(f.seq, Status::NO_ESTIMATE),
         };
         // Estimate: actuator momentum (gyroscopic terms) and geometry.
         let act = cfg.actuators.observe(&m);
@@ -192,7 +208,9 @@ mod tests {
         for b in bad {
             let c = f.step(&b);
             assert_eq!(c.status, status::BAD_INPUT, "{b:?}");
-            assert_eq!(c, Fsw::safe_command(5, status::BAD_INPUT));
+            // Everything idle; only the estimation telemetry (not a command) differs.
+            let commanded = ActuatorCommand { estimate: Default::default(), ..c };
+            assert_eq!(commanded, Fsw::safe_command(5, status::BAD_INPUT));
         }
     }
 

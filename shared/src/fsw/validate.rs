@@ -1,8 +1,11 @@
-//! Sensor-frame validation: the boundary where a wire [`SensorFrame`] becomes typed
-//! [`Measurements`] (or is rejected).
+//! Sensor-frame validation: the boundary where a wire [`SensorFrame`] and the estimation
+//! stage's [`Estimate`] become typed [`Measurements`] for one configuration (or are
+//! rejected, with the reason).
 
+use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
-use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized};
+use crate::math::{Quat, Vec3};
+use crate::params::AttitudeSource;
 use crate::types::{Measurements, Valid};
 
 /// Largest body rate the flight code accepts as a measurement, rad/s.
@@ -31,54 +34,58 @@ pub fn rate(f: &SensorFrame) -> Option<Vec3> {
     Some(w)
 }
 
-fn unit_quat(q: [f32; 4]) -> Option<Quat> {
-    let q = quat_from_xyzw(q);
-    let n = crate::math::norm(&q.coords);
-    if !n.is_finite() || !(0.9..=1.1).contains(&n) {
-        return None;
-    }
-    quat_normalized(&q)
+/// Why a frame cannot run a configuration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Missing {
+    /// A sensor input is missing or untrustworthy (`Status::BAD_INPUT`).
+    Sensor,
+    /// The fine attitude estimate or the navigation solution is not available
+    /// (`Status::NO_ESTIMATE`).
+    Estimate,
 }
 
-/// `None` when anything the configuration needs (`required`) is missing or
-/// untrustworthy: NaN/inf, quaternion norm off by > 10 %, rates > 50 rad/s, field
+/// The validated measurements for a configuration that needs the sensor bits `required`
+/// (`Valid::ATTITUDE` there means the attitude from the estimation stage) and, with
+/// `needs_navigation`, the navigation solution. Rejects NaN/inf, rates > 50 rad/s, field
 /// components > 1e-2 T, wheel speeds > 1e4 rad/s, gimbal angles > 1e3 rad.
-pub fn check_frame(f: &SensorFrame, required: Valid) -> Option<Measurements> {
+pub fn check_frame(
+    f: &SensorFrame,
+    required: Valid,
+    needs_navigation: bool,
+    est: &Estimate,
+) -> Result<Measurements, Missing> {
     let valid = valid_bits(f);
-    if !valid.contains(required) {
-        return None;
+    if !valid.contains(required.difference(Valid::ATTITUDE)) {
+        return Err(Missing::Sensor);
     }
-    // An attitude flagged valid must be a unit quaternion; one the law does not need may
-    // be absent (identity then, unused).
-    let q = if valid.contains(Valid::ATTITUDE) || required.contains(Valid::ATTITUDE) {
-        unit_quat(f.q_ib_xyzw)?
-    } else {
-        Quat::identity()
+    let attitude_missing = match est.source {
+        AttitudeSource::Sensor => Missing::Sensor,
+        AttitudeSource::Mekf => Missing::Estimate,
     };
-    let w = Vec3::from(f.rate_rad_s);
-    if !finite(&f.rate_rad_s) || w.amax() > MAX_RATE_RAD_S {
-        return None;
-    }
+    let q = match est.attitude {
+        Some(q) => q,
+        None if required.contains(Valid::ATTITUDE) => return Err(attitude_missing),
+        // A law that needs no attitude gets identity (unused).
+        None => Quat::identity(),
+    };
+    let w = est.rate_rad_s.ok_or(Missing::Sensor)?;
     if required.contains(Valid::GIMBALS) && !f.gimbal_angle_rad.iter().all(|x| x.is_finite() && libm::fabsf(*x) < 1.0e3)
     {
-        return None;
+        return Err(Missing::Sensor);
     }
     let within = |xs: &[f32], limit: f32| xs.iter().all(|x| libm::fabsf(*x) <= limit);
     if required.contains(Valid::WHEELS) && !within(&f.wheel_speed_rad_s, MAX_WHEEL_SPEED_RAD_S) {
-        return None;
+        return Err(Missing::Sensor);
     }
     if required.contains(Valid::MAG) && !within(&f.mag_field_t, MAX_FIELD_T) {
-        return None;
+        return Err(Missing::Sensor);
     }
-    let (q_ref, ref_rate_rad_s) = if required.contains(Valid::REFERENCE) {
-        if !finite(&f.ref_rate_rad_s) {
-            return None;
-        }
-        (unit_quat(f.q_ref_xyzw)?, Vec3::from(f.ref_rate_rad_s))
-    } else {
-        (Quat::identity(), Vec3::zeros())
+    let (q_ref, ref_rate_rad_s) = match est.nav {
+        Some(n) => (n.q_lvlh, n.lvlh_rate_rad_s),
+        None if needs_navigation => return Err(Missing::Estimate),
+        None => (Quat::identity(), Vec3::zeros()),
     };
-    Some(Measurements {
+    Ok(Measurements {
         q,
         rate_rad_s: w,
         gimbal_angle_rad: f.gimbal_angle_rad,
@@ -86,5 +93,7 @@ pub fn check_frame(f: &SensorFrame, required: Valid) -> Option<Measurements> {
         mag_field_t: Vec3::from(f.mag_field_t),
         q_ref,
         ref_rate_rad_s,
+        sun_body: est.sun_body,
+        eclipse: est.eclipse,
     })
 }

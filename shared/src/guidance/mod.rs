@@ -3,7 +3,7 @@
 
 use crate::math::{Quat, Vec3, rotate_ref_to_body};
 use crate::params::{SteeringLaw, SteeringParams, TargetFrame};
-use crate::types::{Measurements, Setpoint, Valid};
+use crate::types::{Measurements, Setpoint};
 
 /// A target attitude and the frame it is given in.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -14,12 +14,9 @@ pub struct Target {
 }
 
 impl Target {
-    /// Validity bits the target frame needs (the navigation solution for `Reference`).
-    pub fn required(&self) -> Valid {
-        match self.frame {
-            TargetFrame::Inertial => Valid::empty(),
-            TargetFrame::Reference => Valid::REFERENCE,
-        }
+    /// The target frame needs the on-board navigation solution (LVLH).
+    pub fn needs_navigation(&self) -> bool {
+        self.frame == TargetFrame::Reference
     }
 
     /// Commanded attitude and rate (body axes) for these measurements.

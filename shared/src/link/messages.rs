@@ -12,14 +12,14 @@
 
 use crate::checksum::CRC32;
 use crate::modes::{Mode, ModeManagerParams, ModeRequest};
-use crate::params::{FlightParams, MAX_THRUSTERS, MAX_WHEELS, ParamError};
+use crate::params::{EstimationParams, FlightParams, MAX_CSS_HEADS, MAX_THRUSTERS, MAX_WHEELS, ParamError};
 #[allow(unused_imports)] // doc links
 use crate::types::{Status, Valid};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 10;
+pub const PROTOCOL_VERSION: u16 = 11;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -35,8 +35,10 @@ pub mod valid {
     pub const WHEELS: u16 = Valid::WHEELS.bits();
     pub const MAG: u16 = Valid::MAG.bits();
     pub const SUN: u16 = Valid::SUN.bits();
-    /// `q_ref_xyzw` and `ref_rate_rad_s` (navigation solution) are valid.
-    pub const REFERENCE: u16 = Valid::REFERENCE.bits();
+    /// A GNSS fix (`gnss_*`) taken at this frame's time.
+    pub const GNSS: u16 = Valid::GNSS.bits();
+    /// Coarse-sun-sensor outputs (`css_output`).
+    pub const CSS: u16 = Valid::CSS.bits();
     pub const ALL: u16 = Valid::all().bits();
 }
 
@@ -56,6 +58,7 @@ pub mod status {
     pub const UNREALISED: u16 = Status::UNREALISED.bits();
     pub const MOMENTUM_SATURATION: u16 = Status::MOMENTUM_SATURATION.bits();
     pub const LAW_FAULT: u16 = Status::LAW_FAULT.bits();
+    pub const NO_ESTIMATE: u16 = Status::NO_ESTIMATE.bits();
 }
 
 /// One sample of everything the flight code reads, taken at `time_us`.
@@ -74,12 +77,18 @@ pub struct SensorFrame {
     pub wheel_speed_rad_s: [f32; MAX_WHEELS],
     /// Magnetometer, body axes, T.
     pub mag_field_t: [f32; 3],
-    /// Sun direction, body axes (unit).
+    /// Fine sun sensor: Sun direction, body axes (unit).
     pub sun_dir: [f32; 3],
-    /// Navigation solution: the reference frame (e.g. LVLH) relative to inertial,
-    /// scalar-last, and its angular velocity in inertial axes.
-    pub q_ref_xyzw: [f32; 4],
-    pub ref_rate_rad_s: [f32; 3],
+    /// Coarse sun sensors: each head's output normalised to full Sun at normal incidence
+    /// (≈ max(0, n·s) plus albedo and noise); heads as configured in `EstimationParams`.
+    pub css_output: [f32; MAX_CSS_HEADS],
+    /// GNSS fix valid at `time_us`: position and velocity in the inertial frame (m, m/s)
+    /// and the receiver's time as whole days and seconds since J2000.0. Protocol 11
+    /// (replaces the ready-made reference frame of protocol ≤ 10).
+    pub gnss_pos_m: [f32; 3],
+    pub gnss_vel_m_s: [f32; 3],
+    pub gnss_j2000_days: i32,
+    pub gnss_j2000_s: f32,
     /// [`valid`] bits.
     pub valid: u16,
 }
@@ -96,8 +105,11 @@ impl SensorFrame {
             wheel_speed_rad_s: [0.0; MAX_WHEELS],
             mag_field_t: [0.0; 3],
             sun_dir: [0.0; 3],
-            q_ref_xyzw: [0.0, 0.0, 0.0, 1.0],
-            ref_rate_rad_s: [0.0; 3],
+            css_output: [0.0; MAX_CSS_HEADS],
+            gnss_pos_m: [0.0; 3],
+            gnss_vel_m_s: [0.0; 3],
+            gnss_j2000_days: 0,
+            gnss_j2000_s: 0.0,
             valid: 0,
         }
     }
@@ -144,6 +156,47 @@ pub struct ActuatorCommand {
     pub mode_reason: u8,
     /// Mode transitions since the table was armed (saturating).
     pub mode_transitions: u16,
+    /// What attitude determination and navigation produced this step (protocol 11).
+    pub estimate: EstimateTelemetry,
+}
+
+/// `EstimateTelemetry::flags` bits.
+pub mod estimate_flags {
+    /// The attitude the laws used this step is available (sensor, or MEKF within
+    /// `lost_attitude_sigma_rad`).
+    pub const ATTITUDE: u16 = 1 << 0;
+    /// The MEKF is initialised and running.
+    pub const MEKF: u16 = 1 << 1;
+    /// A navigation solution (fix or propagated) and time exist.
+    pub const NAVIGATION: u16 = 1 << 2;
+    /// The on-board models put the spacecraft in the Earth's shadow.
+    pub const ECLIPSE: u16 = 1 << 3;
+    /// The Sun was seen this step (fine or coarse sun sensors).
+    pub const SUN_SEEN: u16 = 1 << 4;
+}
+
+/// Attitude-determination telemetry of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EstimateTelemetry {
+    /// The attitude estimate `q_ib`, scalar-last (the sensor's with `AttitudeSource::Sensor`).
+    pub q_est_xyzw: [f32; 4],
+    /// Estimated gyro bias, body axes, rad/s.
+    pub bias_est_rad_s: [f32; 3],
+    /// Upper triangle of the MEKF covariance, row by row (`[δθ (body, rad); δb (rad/s)]`,
+    /// 21 values); zeros without the MEKF.
+    pub covariance_upper: [f32; 21],
+    /// Updates accepted / rejected by the chi-square gates since configuration.
+    pub accepted: u32,
+    pub rejected: u32,
+    /// Time since the last accepted update, s.
+    pub since_update_s: f32,
+    /// Normalised innovation squared of the last measurement offered.
+    pub last_nis: f32,
+    /// Filter re-initialisations after divergence (saturating).
+    pub resets: u16,
+    /// [`estimate_flags`] bits.
+    pub flags: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.
@@ -221,6 +274,9 @@ pub enum HostMsg {
     },
     /// Arm the uploaded table with its transition thresholds. Reply: `ModesArmed`/`ParamsRejected`.
     ArmModes(ModeManagerParams),
+    /// Attitude-determination parameters for every mode (protocol 11). Reply:
+    /// `ParamsAccepted`/`ParamsRejected`; the estimator restarts.
+    ConfigureEstimation(EstimationParams),
     /// Ground mode command. Reply: `ModeAccepted`/`Error(NoSuchMode)`.
     CommandMode(ModeRequest),
     /// Real-time mode only: start pacing steps with the flight computer's own clock.
@@ -303,15 +359,15 @@ pub fn schema_hash() -> u32 {
 mod tests {
     use super::*;
 
-    /// The typed flags keep the wire bits of protocol version 9 (unchanged since) (literal values), and a
+    /// The typed flags keep the wire bits of protocol version 9 (bit 6 renamed GNSS and bit 7 CSS added in 11) (literal values), and a
     /// frame carrying them encodes to the same bytes as with the literal `u16`s.
     #[test]
     fn typed_flags_keep_the_wire_bits() {
         assert_eq!(
-            [valid::ATTITUDE, valid::RATE, valid::GIMBALS, valid::WHEELS, valid::MAG, valid::SUN, valid::REFERENCE],
-            [1, 2, 4, 8, 16, 32, 64]
+            [valid::ATTITUDE, valid::RATE, valid::GIMBALS, valid::WHEELS, valid::MAG, valid::SUN, valid::GNSS, valid::CSS],
+            [1, 2, 4, 8, 16, 32, 64, 128]
         );
-        assert_eq!(valid::ALL, 0x7f);
+        assert_eq!(valid::ALL, 0xff);
         let st = [
             status::TORQUE_LIMITED,
             status::RATE_SCALED,
@@ -325,11 +381,12 @@ mod tests {
             status::UNREALISED,
             status::MOMENTUM_SATURATION,
             status::LAW_FAULT,
+            status::NO_ESTIMATE,
         ];
         assert_eq!(st, core::array::from_fn(|i| 1u16 << i));
-        assert_eq!(Status::all().bits(), 0x0fff);
+        assert_eq!(Status::all().bits(), 0x1fff);
         let typed = SensorFrame {
-            valid: (Valid::ATTITUDE | Valid::RATE | Valid::REFERENCE).bits(),
+            valid: (Valid::ATTITUDE | Valid::RATE | Valid::GNSS).bits(),
             ..SensorFrame::empty(3, 7)
         };
         let literal = SensorFrame { valid: 0b100_0011, ..SensorFrame::empty(3, 7) };

@@ -83,7 +83,10 @@ impl Session {
                     stack_hwm_bytes: self.stack_hwm_bytes,
                 }
             }),
-            HostMsg::UploadParams(_) | HostMsg::UploadModeParams { .. } | HostMsg::ArmModes(_)
+            HostMsg::UploadParams(_)
+            | HostMsg::UploadModeParams { .. }
+            | HostMsg::ArmModes(_)
+            | HostMsg::ConfigureEstimation(_)
                 if self.params_locked() =>
             {
                 Some(FswMsg::Error(LinkError::RealTimeNotInHold))
@@ -103,6 +106,10 @@ impl Session {
                 Err(_) => FswMsg::Error(LinkError::BadTarget),
             }),
             HostMsg::UploadModeParams { mode, params } => Some(match self.fsw.configure_mode(*mode, params) {
+                Ok(checksum) => FswMsg::ParamsAccepted { checksum },
+                Err(e) => FswMsg::ParamsRejected(e),
+            }),
+            HostMsg::ConfigureEstimation(p) => Some(match self.fsw.configure_estimation(p) {
                 Ok(checksum) => FswMsg::ParamsAccepted { checksum },
                 Err(e) => FswMsg::ParamsRejected(e),
             }),

@@ -12,9 +12,11 @@
 use crate::math::{Mat3, quat_from_xyzw};
 pub mod actuator;
 pub mod controller;
+pub mod estimation;
 
 pub use actuator::*;
 pub use controller::*;
+pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
@@ -58,8 +60,9 @@ pub struct FlightParams {
 pub enum TargetFrame {
     /// `q_c = q_target` (inertial pointing).
     Inertial,
-    /// `q_c = q_ref ⊗ q_target` with `q_ref` (e.g. LVLH → inertial) and its rate from the
-    /// sensor frame's navigation fields: pointing that follows the orbit.
+    /// `q_c = q_lvlh ⊗ q_target` with the LVLH frame and its rate computed on board from
+    /// the navigation solution (GNSS fix, propagated between fixes,
+    /// [`crate::estimation::navigation`]): pointing that follows the orbit.
     Reference,
 }
 
@@ -98,6 +101,8 @@ pub enum ParamField {
     Controller,
     /// Mode-manager thresholds or the mode table (missing slot, mismatched rates).
     ModeTable,
+    /// Attitude-determination parameters ([`EstimationParams`]).
+    Estimation,
 }
 
 /// Why it was rejected.

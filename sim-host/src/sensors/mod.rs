@@ -36,6 +36,13 @@ fn julian_date(env_model: &crate::environment::model::Environment, t_s: f64) -> 
     }) + t_s / 86_400.0
 }
 
+/// Whole days and seconds of the day since J2000.0 (JD 2451545.0) for a Julian date.
+pub fn j2000_days_seconds(jd: f64) -> (i32, f32) {
+    let d = jd - 2_451_545.0;
+    let days = d.floor();
+    (days as i32, ((d - days) * 86_400.0) as f32)
+}
+
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
     rng: ChaCha8Rng,
@@ -235,10 +242,15 @@ impl SensorSuite {
                 f.mag_field_t = m.b_body_t.map(|x| x as f32);
                 f.valid |= valid::MAG;
             }
-            if let Some(q) = e.q_lvlh {
-                f.q_ref_xyzw = to_xyzw(&q).map(|x| x as f32);
-                f.ref_rate_rad_s = [e.lvlh_rate_ref.x as f32, e.lvlh_rate_ref.y as f32, e.lvlh_rate_ref.z as f32];
-                f.valid |= valid::REFERENCE;
+            if let (Some((r, v)), Some(env_model)) = (e.orbit, craft.env.as_ref()) {
+                // GNSS fix: position, velocity, time (ideal, every frame).
+                let jd = julian_date(env_model, t_s);
+                let (days, seconds) = j2000_days_seconds(jd);
+                f.gnss_pos_m = [r.x as f32, r.y as f32, r.z as f32];
+                f.gnss_vel_m_s = [v.x as f32, v.y as f32, v.z as f32];
+                f.gnss_j2000_days = days;
+                f.gnss_j2000_s = seconds;
+                f.valid |= valid::GNSS;
             }
             if let (Some(sun), Some((r, _)), Some(env_model)) = (self.sun.as_mut(), e.orbit, craft.env.as_ref()) {
                 let rs = sun_position_eci(julian_date(env_model, t_s));

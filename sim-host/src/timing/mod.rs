@@ -18,7 +18,7 @@ use crate::link::{FlightLink, LinkInfo, ModeTable};
 use crate::scenario::{Resolved, Scenario, Upload};
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
 use acs_flight::modes::{Mode, ModeRequest};
-use acs_flight::params::{ActuatorParams, FlightParams, MAX_WHEELS};
+use acs_flight::params::{ActuatorParams, FlightParams, MAX_CSS_HEADS, MAX_WHEELS};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -30,19 +30,23 @@ use std::path::{Path, PathBuf};
 pub const MAX_PREFIX: usize = 4;
 
 /// The f32 fields of a sensor frame, in wire order: (name, length).
-pub const FRAME_FIELDS: [(&str, usize); 8] = [
+/// (Protocol 11 replaced `q_ref_xyzw`/`ref_rate_rad_s` by the GNSS and CSS fields: a corpus
+/// entry recorded before lacks them — they read as zeros — and its old fields are ignored.)
+pub const FRAME_FIELDS: [(&str, usize); 10] = [
     ("q_ib_xyzw", 4),
     ("rate_rad_s", 3),
     ("gimbal_angle_rad", 4),
     ("wheel_speed_rad_s", MAX_WHEELS),
     ("mag_field_t", 3),
     ("sun_dir", 3),
-    ("q_ref_xyzw", 4),
-    ("ref_rate_rad_s", 3),
+    ("css_output", MAX_CSS_HEADS),
+    ("gnss_pos_m", 3),
+    ("gnss_vel_m_s", 3),
+    ("gnss_j2000_s", 1),
 ];
 
 /// Number of f32 genes of a frame.
-pub const N_FLOATS: usize = 4 + 3 + 4 + MAX_WHEELS + 3 + 3 + 4 + 3;
+pub const N_FLOATS: usize = 4 + 3 + 4 + MAX_WHEELS + 3 + 3 + MAX_CSS_HEADS + 3 + 3 + 1;
 
 /// The f32 fields of `f` in [`FRAME_FIELDS`] order.
 pub fn floats(f: &SensorFrame) -> [f32; N_FLOATS] {
@@ -55,8 +59,10 @@ pub fn floats(f: &SensorFrame) -> [f32; N_FLOATS] {
         .chain(&f.wheel_speed_rad_s)
         .chain(&f.mag_field_t)
         .chain(&f.sun_dir)
-        .chain(&f.q_ref_xyzw)
-        .chain(&f.ref_rate_rad_s);
+        .chain(&f.css_output)
+        .chain(&f.gnss_pos_m)
+        .chain(&f.gnss_vel_m_s)
+        .chain(core::iter::once(&f.gnss_j2000_s));
     for (d, s) in v.iter_mut().zip(src) {
         *d = *s;
     }
@@ -72,8 +78,10 @@ pub fn floats_mut(f: &mut SensorFrame) -> Vec<&mut f32> {
         .chain(&mut f.wheel_speed_rad_s)
         .chain(&mut f.mag_field_t)
         .chain(&mut f.sun_dir)
-        .chain(&mut f.q_ref_xyzw)
-        .chain(&mut f.ref_rate_rad_s)
+        .chain(&mut f.css_output)
+        .chain(&mut f.gnss_pos_m)
+        .chain(&mut f.gnss_vel_m_s)
+        .chain(core::iter::once(&mut f.gnss_j2000_s))
         .collect()
 }
 
@@ -150,7 +158,11 @@ impl FrameJson {
         f.valid = self.valid;
         let mut v = Vec::with_capacity(N_FLOATS);
         for (name, n) in FRAME_FIELDS {
-            let xs = self.fields.get(name).ok_or_else(|| anyhow!("frame field {name} missing"))?;
+            let Some(xs) = self.fields.get(name) else {
+                // Recorded before the field existed: zeros (what `SensorFrame::empty` holds).
+                v.extend(std::iter::repeat_n(0.0, n));
+                continue;
+            };
             if xs.len() != n {
                 bail!("frame field {name}: {} values, expected {n}", xs.len());
             }

@@ -1,0 +1,346 @@
+//! The estimation stage of `Fsw::step`: navigation, on-board reference models and attitude
+//! determination, run every step whatever the mode.
+//!
+//! Per step (frame at `time_us`):
+//! 1. navigation ([`super::navigation`]): GNSS fix or the last one propagated → position,
+//!    velocity, time, LVLH;
+//! 2. reference models ([`crate::models`]): Sun direction (Almanac), eclipse (cylindrical
+//!    shadow), Earth's field (WMM2025 to `field_model_degree`, rotated by GMST);
+//! 3. measured Sun: the fine sun sensor if valid, else the coarse sun sensors
+//!    ([`super::css`]);
+//! 4. attitude:
+//!    - `AttitudeSource::Sensor`: the attitude sensor's quaternion and the gyro as measured;
+//!    - `AttitudeSource::Mekf` ([`super::mekf`]): propagate with the previous gyro reading
+//!      over the elapsed time (pieces of at most `MAX_PROPAGATION_DT_S`, at most
+//!      `MAX_PROPAGATION_PIECES`; a longer gap restarts the filter), then the star tracker
+//!      update (covariance from the cross/about-boresight σ), then the Sun and the field
+//!      as sequential unit-vector updates. Without a filter it initialises from the
+//!      tracker, else from TRIAD on (Sun, field) ([`super::triad`]).
+//!      `max_consecutive_rejections` tracker rejections in a row mean divergence (the
+//!      tracker keeps disagreeing): the filter restarts from the next fix.
+//!      The attitude is *available* to the laws while the largest per-axis 1σ is within
+//!      `lost_attitude_sigma_rad`; the rate is the gyro minus the estimated bias.
+//!
+//! No heap, no panics; every loop is bounded by a constant.
+
+use super::mekf::{Mekf, MekfConfig, MekfError};
+use super::navigation::{NavSolution, Navigation};
+use super::triad::triad;
+use crate::fsw::validate;
+use crate::link::{EstimateTelemetry, SensorFrame, estimate_flags};
+use crate::math::{Quat, Vec3, norm, quat_from_xyzw, quat_normalized, quat_to_xyzw};
+use crate::models::magnetic::field_ecef_t;
+use crate::models::sun::{in_eclipse, sun_direction_eci};
+use crate::models::time::{ecef_to_eci, eci_to_ecef};
+use crate::params::{AttitudeSource, EstimationParams, ParamError};
+use crate::types::Valid;
+use nalgebra::Matrix3;
+
+/// Longest single MEKF propagation, s.
+pub const MAX_PROPAGATION_DT_S: f32 = 1.0;
+/// Most propagation pieces per step (a gap longer than this many `MAX_PROPAGATION_DT_S`
+/// restarts the filter instead).
+pub const MAX_PROPAGATION_PIECES: u32 = 16;
+
+/// What the estimation stage hands the rest of the step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    pub source: AttitudeSource,
+    /// Attitude `q_ib` the laws may use (`None`: not available).
+    pub attitude: Option<Quat>,
+    /// Body rate, rad/s (bias-corrected with the MEKF); `None` without a valid gyro.
+    pub rate_rad_s: Option<Vec3>,
+    pub nav: Option<NavSolution>,
+    /// Measured Sun direction, body axes (unit), if seen.
+    pub sun_body: Option<Vec3>,
+    /// The models put the spacecraft in the Earth's shadow (false without navigation).
+    pub eclipse: bool,
+    pub telemetry: EstimateTelemetry,
+}
+
+/// The estimation stage's state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Determination {
+    params: EstimationParams,
+    mekf_cfg: MekfConfig,
+    mekf: Option<Mekf>,
+    nav: Navigation,
+    last_time_us: Option<u64>,
+    last_gyro: Option<Vec3>,
+    consecutive_rejections: u16,
+    resets: u16,
+    /// Counters kept across filter restarts.
+    accepted: u32,
+    rejected: u32,
+}
+
+impl Default for Determination {
+    fn default() -> Self {
+        Self::sensor_only()
+    }
+}
+
+fn unit(v: &Vec3) -> Option<Vec3> {
+    let n = norm(v);
+    (n.is_finite() && n > 1e-9).then(|| v / n)
+}
+
+impl Determination {
+    /// The stage with the default parameters (the attitude sensor as measured; valid,
+    /// tested).
+    pub const fn sensor_only() -> Self {
+        Self::bare(EstimationParams::SENSOR)
+    }
+
+    const fn bare(params: EstimationParams) -> Self {
+        Self {
+            params,
+            mekf_cfg: mekf_config(&params),
+            mekf: None,
+            nav: Navigation::new(),
+            last_time_us: None,
+            last_gyro: None,
+            consecutive_rejections: 0,
+            resets: 0,
+            accepted: 0,
+            rejected: 0,
+        }
+    }
+
+    /// A fresh stage for validated parameters.
+    pub fn new(params: &EstimationParams) -> Result<Self, ParamError> {
+        params.validate()?;
+        Ok(Self::bare(*params))
+    }
+
+    pub fn params(&self) -> &EstimationParams {
+        &self.params
+    }
+
+    /// The running filter, if any.
+    pub fn mekf(&self) -> Option<&Mekf> {
+        self.mekf.as_ref()
+    }
+
+    /// Restart everything (a new configuration).
+    pub fn reset(&mut self) {
+        *self = Self::bare(self.params);
+    }
+
+    /// One step of the stage on a raw frame.
+    pub fn step(&mut self, f: &SensorFrame) -> Estimate {
+        let valid = Valid::from_bits_retain(f.valid);
+        let gyro = validate::rate(f);
+        let nav = self.nav.update(f);
+        let sun_eci = nav.map(|n| sun_direction_eci(&n.time).0);
+        let eclipse = match (nav, sun_eci) {
+            (Some(n), Some(s)) => in_eclipse(&n.r_m, &s),
+            _ => false,
+        };
+        let field_eci = nav.and_then(|n| {
+            let r_ecef = eci_to_ecef(&n.time, &n.r_m);
+            let b = field_ecef_t(&r_ecef, n.time.decimal_year(), usize::from(self.params.field_model_degree)).ok()?;
+            unit(&ecef_to_eci(&n.time, &b))
+        });
+        // Measured vectors.
+        let fine_sun = (valid.contains(Valid::SUN) && self.params.sun_sensor_sigma_rad > 0.0)
+            .then(|| unit(&Vec3::from(f.sun_dir)))
+            .flatten();
+        let coarse_sun = (valid.contains(Valid::CSS) && self.params.css_count > 0).then(|| interim_css(f)).flatten();
+        let sun_body = fine_sun.or(coarse_sun);
+        let sun_sigma = if fine_sun.is_some() { self.params.sun_sensor_sigma_rad } else { self.params.css_sigma_rad };
+        let mag_body = (valid.contains(Valid::MAG) && validate::finite(&f.mag_field_t))
+            .then(|| unit(&Vec3::from(f.mag_field_t)))
+            .flatten();
+        let tracker = valid
+            .contains(Valid::ATTITUDE)
+            .then(|| {
+                let q = quat_from_xyzw(f.q_ib_xyzw);
+                let n = norm(&q.coords);
+                (n.is_finite() && (0.9..=1.1).contains(&n)).then(|| quat_normalized(&q)).flatten()
+            })
+            .flatten();
+
+        let mut t = EstimateTelemetry::default();
+        if nav.is_some() {
+            t.flags |= estimate_flags::NAVIGATION;
+        }
+        if eclipse {
+            t.flags |= estimate_flags::ECLIPSE;
+        }
+        if sun_body.is_some() {
+            t.flags |= estimate_flags::SUN_SEEN;
+        }
+        let (attitude, rate) = match self.params.source {
+            AttitudeSource::Sensor => {
+                self.last_time_us = Some(f.time_us);
+                (tracker, gyro)
+            }
+            AttitudeSource::Mekf => {
+                let vectors = Vectors { sun_body, sun_eci, sun_sigma, mag_body, field_eci };
+                self.mekf_step(f.time_us, gyro, tracker, &vectors)
+            }
+        };
+        if let Some(q) = attitude {
+            t.q_est_xyzw = quat_to_xyzw(&q);
+            t.flags |= estimate_flags::ATTITUDE;
+        }
+        if let Some(m) = &self.mekf {
+            t.flags |= estimate_flags::MEKF;
+            t.q_est_xyzw = quat_to_xyzw(&m.attitude());
+            t.bias_est_rad_s = m.bias_rad_s().into();
+            let p = m.covariance();
+            let mut k = 0;
+            for i in 0..6 {
+                for j in i..6 {
+                    if let (Some(dst), Some(v)) = (t.covariance_upper.get_mut(k), p.get((i, j))) {
+                        *dst = *v;
+                    }
+                    k += 1;
+                }
+            }
+            let h = m.health();
+            t.since_update_s = h.since_update_s;
+            t.last_nis = h.last_nis;
+        }
+        t.accepted = self.accepted;
+        t.rejected = self.rejected;
+        t.resets = self.resets;
+        Estimate { source: self.params.source, attitude, rate_rad_s: rate, nav, sun_body, eclipse, telemetry: t }
+    }
+
+    fn lose(&mut self) {
+        if self.mekf.take().is_some() {
+            self.resets = self.resets.saturating_add(1);
+        }
+        self.consecutive_rejections = 0;
+    }
+
+    fn count(&mut self, r: Result<f32, MekfError>) -> bool {
+        match r {
+            Ok(_) => {
+                self.accepted = self.accepted.saturating_add(1);
+                true
+            }
+            Err(MekfError::Rejected { .. }) => {
+                self.rejected = self.rejected.saturating_add(1);
+                false
+            }
+            Err(_) => false,
+        }
+    }
+
+    fn mekf_step(
+        &mut self,
+        time_us: u64,
+        gyro: Option<Vec3>,
+        tracker: Option<Quat>,
+        v: &Vectors,
+    ) -> (Option<Quat>, Option<Vec3>) {
+        let elapsed_us = self.last_time_us.and_then(|t0| time_us.checked_sub(t0));
+        self.last_time_us = Some(time_us);
+        let held = self.last_gyro.or(gyro);
+        self.last_gyro = gyro;
+        let Some(w) = gyro else {
+            // No gyro, no propagation: the attitude cannot be carried forward.
+            self.lose();
+            return (None, None);
+        };
+        // Propagate over the elapsed time with the rate held since the last frame.
+        if let (Some(m), Some(us), Some(wh)) = (self.mekf.as_mut(), elapsed_us, held) {
+            #[allow(clippy::cast_precision_loss)]
+            let dt_s = us as f32 * 1.0e-6;
+            let pieces = libm::ceilf(dt_s / MAX_PROPAGATION_DT_S);
+            let ok = if dt_s <= 0.0 {
+                true
+            } else if pieces <= MAX_PROPAGATION_PIECES as f32 {
+                // Integral and ≤ 16, checked above.
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let n = pieces as u32;
+                let h = dt_s / pieces;
+                (0..n).all(|_| m.propagate(&wh, h).is_ok())
+            } else {
+                false
+            };
+            if !ok {
+                self.lose();
+            }
+        }
+        if self.mekf.is_none() {
+            // Initialise: the tracker, else TRIAD on Sun and field (the Sun first: the
+            // more accurate vector is TRIAD's exact one).
+            let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
+                (Some(sb), Some(mb), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
+                _ => None,
+            });
+            self.mekf = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok());
+            self.consecutive_rejections = 0;
+        }
+        let Some(mut m) = self.mekf else {
+            return (None, Some(w));
+        };
+        // Measurement updates (each gated; a rejection changes nothing).
+        if let Some(q) = tracker {
+            let b = Vec3::from(self.params.tracker_boresight_body);
+            let (c2, a2) = (
+                self.params.tracker_sigma_cross_rad * self.params.tracker_sigma_cross_rad,
+                self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
+            );
+            let r = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
+            let res = m.update_attitude(&q, &r);
+            if self.count(res) {
+                self.consecutive_rejections = 0;
+            } else if matches!(res, Err(MekfError::Rejected { .. })) {
+                self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+            }
+        }
+        if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
+            && v.sun_sigma > 0.0
+        {
+            let res = m.update_vector(&b, &r, v.sun_sigma);
+            self.count(res);
+        }
+        if let (Some(b), Some(r)) = (v.mag_body, v.field_eci)
+            && self.params.magnetometer_sigma_rad > 0.0
+        {
+            let res = m.update_vector(&b, &r, self.params.magnetometer_sigma_rad);
+            self.count(res);
+        }
+        self.mekf = Some(m);
+        if self.consecutive_rejections >= self.params.max_consecutive_rejections {
+            self.lose();
+            return (None, Some(w));
+        }
+        let p = m.covariance();
+        let var = |i: usize| p.get((i, i)).copied().unwrap_or(f32::INFINITY);
+        let worst = var(0).max(var(1)).max(var(2));
+        let lost = self.params.lost_attitude_sigma_rad;
+        let fine = worst.is_finite() && worst <= lost * lost;
+        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&w)))
+    }
+}
+
+struct Vectors {
+    sun_body: Option<Vec3>,
+    sun_eci: Option<Vec3>,
+    sun_sigma: f32,
+    mag_body: Option<Vec3>,
+    field_eci: Option<Vec3>,
+}
+
+const fn mekf_config(p: &EstimationParams) -> MekfConfig {
+    MekfConfig {
+        gyro_arw_rad_sqrt_s: p.gyro_arw_rad_sqrt_s,
+        gyro_rrw_rad_s_sqrt_s: p.gyro_rrw_rad_s_sqrt_s,
+        initial_attitude_sigma_rad: p.initial_attitude_sigma_rad,
+        initial_bias_sigma_rad_s: p.initial_bias_sigma_rad_s,
+        max_dt_s: MAX_PROPAGATION_DT_S,
+        gate_attitude: super::mekf::CHI2_3DOF_999,
+        gate_vector: super::mekf::CHI2_2DOF_999,
+    }
+}
+
+/// Interim until the coarse-sun-sensor solution lands.
+fn interim_css(_f: &SensorFrame) -> Option<Vec3> {
+    None
+}

@@ -1,0 +1,108 @@
+//! On-board navigation: the last GNSS fix, carried forward between fixes, and what
+//! guidance and attitude determination derive from it (time, LVLH).
+//!
+//! A fix (`SensorFrame::gnss_*`, flagged `Valid::GNSS`) is accepted when finite and
+//! plausible (|r| within [6,000 km, 100,000 km], |v| < 20 km/s, a valid J2000 time). Between
+//! fixes the position and velocity are propagated from the last fix over its age in one
+//! closed-form two-body step ([`crate::models::orbit`], no accumulated rounding); time is
+//! the fix's GNSS time plus the on-board clock's elapsed `time_us`. A fix older than
+//! [`MAX_FIX_AGE_S`] (or one the propagation refuses) gives no solution: LVLH pointing
+//! then stops commanding (`Status::NO_ESTIMATE`) rather than follow a stale orbit.
+
+use crate::link::SensorFrame;
+use crate::math::{Quat, Vec3, norm, rotate_body_to_ref};
+use crate::models::lvlh::lvlh;
+use crate::models::time::J2000Time;
+use crate::types::Valid;
+
+/// Longest time a fix is carried forward, s (one day: two-body drifts by tens of km a day
+/// under J2 — about 0.1° of LVLH — beyond that the frame is no longer worth pointing at).
+pub const MAX_FIX_AGE_S: f32 = 86_400.0;
+
+/// A navigation solution at the frame's time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NavSolution {
+    /// Inertial position and velocity, m, m/s.
+    pub r_m: Vec3,
+    pub v_m_s: Vec3,
+    pub time: J2000Time,
+    /// LVLH → inertial, and the LVLH frame's angular velocity in inertial axes, rad/s
+    /// (what guidance composes a `Reference` target with).
+    pub q_lvlh: Quat,
+    pub lvlh_rate_rad_s: Vec3,
+    /// Age of the fix it was propagated from, s (0: a fresh fix).
+    pub fix_age_s: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fix {
+    r_m: Vec3,
+    v_m_s: Vec3,
+    time: J2000Time,
+    time_us: u64,
+}
+
+/// The navigation state: the last accepted fix.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Navigation {
+    fix: Option<Fix>,
+    /// Fixes refused as implausible (saturating).
+    pub refused: u32,
+}
+
+fn accept(f: &SensorFrame) -> Option<Fix> {
+    if !Valid::from_bits_retain(f.valid).contains(Valid::GNSS) {
+        return None;
+    }
+    let (r, v) = (Vec3::from(f.gnss_pos_m), Vec3::from(f.gnss_vel_m_s));
+    let (rn, vn) = (norm(&r), norm(&v));
+    if !(rn.is_finite() && vn.is_finite() && (6.0e6..=1.0e8).contains(&rn) && vn < 2.0e4) {
+        return None;
+    }
+    let time = J2000Time::new(f.gnss_j2000_days, f.gnss_j2000_s)?;
+    Some(Fix { r_m: r, v_m_s: v, time, time_us: f.time_us })
+}
+
+impl Navigation {
+    pub const fn new() -> Self {
+        Self { fix: None, refused: 0 }
+    }
+
+    /// Take this frame's fix (if any) and return the solution at the frame's time.
+    pub fn update(&mut self, f: &SensorFrame) -> Option<NavSolution> {
+        if Valid::from_bits_retain(f.valid).contains(Valid::GNSS) {
+            match accept(f) {
+                Some(x) => self.fix = Some(x),
+                None => self.refused = self.refused.saturating_add(1),
+            }
+        }
+        let fix = self.fix?;
+        // A frame older than the fix (clock reset): no solution until the next fix.
+        let age_us = f.time_us.checked_sub(fix.time_us)?;
+        #[allow(clippy::cast_precision_loss)] // µs → s: f32 keeps 1e-7 relative
+        let age_s = age_us as f32 * 1.0e-6;
+        if !(age_s <= MAX_FIX_AGE_S) {
+            return None;
+        }
+        let (r, v) = if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate(&fix, age_s)? };
+        let time = fix.time.add_seconds(age_s)?;
+        let frame = lvlh(&r, &v).ok()?;
+        Some(NavSolution {
+            r_m: r,
+            v_m_s: v,
+            time,
+            q_lvlh: frame.q_eci_lvlh,
+            lvlh_rate_rad_s: rotate_body_to_ref(&frame.q_eci_lvlh, &frame.rate_lvlh_rad_s),
+            fix_age_s: age_s,
+        })
+    }
+
+    pub fn reset(&mut self) {
+        *self = Self::default();
+    }
+}
+
+/// Interim until the two-body propagator lands: only fresh fixes.
+fn propagate(_fix: &Fix, _age_s: f32) -> Option<(Vec3, Vec3)> {
+    None
+}
