@@ -19,6 +19,7 @@ use crate::scenario::{
 };
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
+use crate::estimation::stats::EstimationStats;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
@@ -233,6 +234,8 @@ pub struct Simulation<'a> {
     next_command: usize,
     metrics: Metrics,
     errors: ErrorStats,
+    /// The flight estimate against the truth.
+    estimation: EstimationStats,
     layout: Layout,
     columns: Vec<String>,
     row: Vec<f64>,
@@ -251,6 +254,7 @@ impl<'a> Simulation<'a> {
             control_rate_hz,
             dynamics_rate_hz,
             upload,
+            estimation,
             craft,
             snap0: snap,
             initial: state,
@@ -271,6 +275,9 @@ impl<'a> Simulation<'a> {
                     Upload::Modes(table) => link.upload_modes(table).context("mode table upload")?,
                     Upload::Params(p) => link.upload(p).context("parameter upload")?,
                 };
+                if let Some(e) = &estimation {
+                    link.configure_estimation(e).context("estimation parameters")?;
+                }
                 Some(info)
             }
             None => None,
@@ -304,6 +311,7 @@ impl<'a> Simulation<'a> {
             next_command: 0,
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
             errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
+            estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
             layout,
             columns,
@@ -409,6 +417,7 @@ impl<'a> Simulation<'a> {
         }
         let report = self.link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
         self.metrics.frames_dropped_flight = report.frames_dropped;
+        self.estimation.push(&self.state.q, &self.sensors.gyro_bias_rad_s(), &report.cmd.estimate);
         if self.layout.mode {
             self.metrics.mode(t, &report.cmd);
         }
@@ -540,6 +549,7 @@ impl<'a> Simulation<'a> {
         let mean_us = hz.map(|h| m.sum_ticks / n_ticks as f64 / h * 1e6);
         let (n_wheels, n_thr, cmg) = (self.craft.wheels.len(), self.act.n_thr, self.craft.cmg.is_some());
         let thr = &self.act.thr_state;
+        let est = self.estimation.figures();
         Summary {
             scenario: self.name.clone(),
             link: if info.is_some() { self.link.name() } else { "open-loop".into() },
@@ -575,6 +585,12 @@ impl<'a> Simulation<'a> {
             final_mode: m.mode_now.map(mode_name),
             frames_dropped_flight: m.frames_dropped_flight,
             frames_dropped_host: if info.is_some() { self.link.frames_dropped_host() } else { 0 },
+            estimation_error_rms_deg: est.map(|e| e.error_rms_deg),
+            estimation_error_max_deg: est.map(|e| e.error_max_deg),
+            bias_error_final_deg_h: est.and_then(|e| e.bias_error_final_deg_h),
+            nees_mean: est.and_then(|e| e.nees_mean),
+            innovations_rejected: est.map(|e| e.innovations_rejected),
+            estimator_resets: est.map(|e| e.resets),
             wall_time_s: wall_s,
             real_time_factor: sim_time / wall_s.max(1e-9),
         }

@@ -70,6 +70,22 @@ pub struct Summary {
     pub final_mode: Option<String>,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
+    /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
+    /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
+    /// filter); innovations the chi-square gates rejected; filter restarts. Absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_error_rms_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_error_max_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_error_final_deg_h: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nees_mean: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub innovations_rejected: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator_resets: Option<u16>,
     /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
     /// records to disk; plots and summary excluded).
     pub wall_time_s: f64,

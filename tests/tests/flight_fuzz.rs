@@ -8,6 +8,7 @@
 use acs_flight::link::session::{Session, board};
 use acs_flight::link::{ActuatorCommand, FswMsg, HostMsg, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid};
 use acs_flight::modes::{Mode, ModeRequest};
+use acs_flight::params::{AttitudeSource, EstimationParams};
 use acs_tests::scenario;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -81,6 +82,16 @@ fn fuzz(seed: u64) {
                 })
             }
             22..=23 => HostMsg::SetTarget { target_q_xyzw: frame(&mut rng, 0).q_ib_xyzw },
+            // The attitude source flips between the sensor and the MEKF (with every
+            // vector update on); corruption below makes some sets absurd.
+            24..=25 => HostMsg::ConfigureEstimation(EstimationParams {
+                source: if rng.random_bool(0.5) { AttitudeSource::Mekf } else { AttitudeSource::Sensor },
+                sun_sensor_sigma_rad: 0.01,
+                css_count: 6,
+                css_sigma_rad: 0.1,
+                magnetometer_sigma_rad: 0.05,
+                ..EstimationParams::default()
+            }),
             _ => HostMsg::Sensor(frame(&mut rng, k)),
         };
         let mut bytes = postcard::to_allocvec(&msg).unwrap();
@@ -104,9 +115,11 @@ fn fuzz(seed: u64) {
                 assert!(finite(&c), "non-finite command for {f:?}: {c:?}");
                 assert!(c.mode <= 4, "{}", c.mode);
                 mode_seen[c.mode as usize] += 1;
-                if c.status & (status::NOT_CONFIGURED | status::BAD_INPUT) != 0 {
-                    // All idle; the mode telemetry still reports the mode in force.
+                assert!(c.estimate.covariance_upper.iter().chain(&c.estimate.q_est_xyzw).all(|x| x.is_finite()));
+                if c.status & (status::NOT_CONFIGURED | status::BAD_INPUT | status::NO_ESTIMATE) != 0 {
+                    // All idle; the mode and estimation telemetry still report.
                     let idle = ActuatorCommand {
+                        estimate: c.estimate,
                         mode: c.mode,
                         mode_reason: c.mode_reason,
                         mode_transitions: c.mode_transitions,

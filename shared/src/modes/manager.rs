@@ -70,7 +70,7 @@ impl ModeManager {
 
     /// The first configured mode after `m` in the nominal sequence.
     fn next_after(&self, m: Mode) -> Option<Mode> {
-        Mode::ALL.iter().copied().filter(|x| *x > m).find(|x| self.is_configured(*x))
+        Mode::SEQUENCE.iter().copied().filter(|x| x.rank() > m.rank()).find(|x| self.is_configured(*x))
     }
 
     fn switch(&mut self, to: Mode, why: Reason) -> Option<(Mode, Reason)> {
@@ -116,16 +116,28 @@ impl ModeManager {
         let ok = |m: Mode| x.inputs_ok.get(m.index()).copied().unwrap_or(false);
         if self.mode != Mode::Detumble && self.is_configured(Mode::Detumble) {
             self.rate_high_for = sat(self.rate_high_for, x.rate_rad_s > p.detumble_enter_rate_rad_s);
-            self.blind_for = sat(self.blind_for, !ok(self.mode) && ok(Mode::Detumble));
             if self.rate_high_for >= self.trigger_steps {
                 return self.switch(Mode::Detumble, Reason::RateHigh);
             }
-            if self.blind_for >= self.trigger_steps {
-                return self.switch(Mode::Detumble, Reason::InputLost);
-            }
         }
+        // Inputs lost: sun-safe if it has a slot and can run, else detumble.
+        let fallback = [Mode::SunSafe, Mode::Detumble]
+            .into_iter()
+            .filter(|m| m.rank() < self.mode.rank())
+            .find(|m| self.is_configured(*m) && ok(*m));
+        if let Some(to) = fallback {
+            self.blind_for = sat(self.blind_for, !ok(self.mode));
+            if self.blind_for >= self.trigger_steps {
+                return self.switch(to, Reason::InputLost);
+            }
+        } else {
+            self.blind_for = 0;
+        }
+        let next_ok = self.next_after(self.mode).is_some_and(ok);
         let (converged, fault) = match self.mode {
             Mode::Detumble => (x.rate_rad_s < p.detumble_exit_rate_rad_s, false),
+            // Fine determination is back: every input of the next mode is present.
+            Mode::SunSafe => (next_ok, false),
             Mode::Stabilise => {
                 (x.error_rad < p.stabilise_exit_error_rad && x.rel_rate_rad_s < p.stabilise_exit_rate_rad_s, false)
             }
@@ -142,6 +154,7 @@ impl ModeManager {
         if self.converged_for >= self.dwell_steps {
             let why = match self.mode {
                 Mode::Detumble => Reason::Detumbled,
+                Mode::SunSafe => Reason::EstimateValid,
                 Mode::Stabilise => Reason::Stabilised,
                 _ => Reason::OnTarget,
             };
@@ -181,18 +194,20 @@ mod tests {
     }
 
     const DT: f32 = 0.1;
+    /// The four modes before sun-safe existed.
+    const FOUR: [bool; MODE_COUNT] = [true, true, true, true, false];
 
     fn run(m: &mut ModeManager, x: ModeInputs, steps: usize) -> Vec<(usize, Mode, Reason)> {
         (0..steps).filter_map(|k| m.update(&x).map(|(a, b)| (k, a, b))).collect()
     }
 
     fn inputs(rate: f32, error: f32) -> ModeInputs {
-        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error, inputs_ok: [true; 4] }
+        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error, inputs_ok: [true; MODE_COUNT] }
     }
 
     #[test]
     fn nominal_sequence_with_dwell_times() {
-        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(params(), FOUR, DT).unwrap();
         // Still tumbling: stays in detumble however long.
         assert!(run(&mut m, inputs(0.03, 1.0), 500).is_empty());
         // Rate below the exit threshold: leaves after exactly dwell_s / dt = 10 steps.
@@ -206,7 +221,7 @@ mod tests {
 
     #[test]
     fn hysteresis_band_never_switches_and_noise_cannot_chatter() {
-        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, FOUR, DT).unwrap();
         // Error between hold_enter (0.01) and hold_exit (0.03): hold stays hold.
         assert!(run(&mut m, inputs(0.0, 0.02), 1000).is_empty());
         // Error alternating across hold_exit every step never persists for 2 steps.
@@ -227,14 +242,14 @@ mod tests {
     #[test]
     fn rate_trigger_returns_to_detumble_from_any_mode() {
         for start in [Mode::Stabilise, Mode::Manoeuvre, Mode::Hold] {
-            let mut m = ModeManager::new(ModeManagerParams { initial: start, ..params() }, [true; 4], DT).unwrap();
+            let mut m = ModeManager::new(ModeManagerParams { initial: start, ..params() }, FOUR, DT).unwrap();
             assert_eq!(run(&mut m, inputs(0.2, 0.0), 3), vec![(1, Mode::Detumble, Reason::RateHigh)]);
         }
     }
 
     #[test]
     fn missing_slots_are_skipped_and_commands_respect_them() {
-        let cfg = [true, false, true, false];
+        let cfg = [true, false, true, false, false];
         let mut m = ModeManager::new(params(), cfg, DT).unwrap();
         assert_eq!(run(&mut m, inputs(0.005, 1.0), 20), vec![(9, Mode::Manoeuvre, Reason::Detumbled)]);
         // No hold slot: manoeuvre is terminal.
@@ -246,7 +261,7 @@ mod tests {
 
     #[test]
     fn lock_suspends_and_auto_resumes() {
-        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(params(), FOUR, DT).unwrap();
         assert!(m.command(ModeRequest::Lock(Mode::Manoeuvre)));
         assert_eq!((m.mode, m.reason), (Mode::Manoeuvre, Reason::Commanded));
         // Locked: neither convergence nor a high rate moves it.
@@ -257,9 +272,9 @@ mod tests {
 
     #[test]
     fn nan_inputs_never_switch() {
-        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, FOUR, DT).unwrap();
         assert!(run(&mut m, inputs(f32::NAN, f32::NAN), 100).is_empty());
-        let mut m = ModeManager::new(params(), [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(params(), FOUR, DT).unwrap();
         assert!(run(&mut m, inputs(f32::NAN, f32::NAN), 100).is_empty());
     }
 
@@ -272,21 +287,47 @@ mod tests {
         assert_eq!(e(ModeManagerParams { dwell_s: f32::NAN, ..params() }), ParamReason::NotFinite);
         assert_eq!(e(ModeManagerParams { dwell_s: -1.0, ..params() }), ParamReason::OutOfRange);
         assert_eq!(e(ModeManagerParams { slots: 0b1110, ..params() }), ParamReason::OutOfRange);
-        assert_eq!(e(ModeManagerParams { slots: 0b11111, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { slots: 0b10_0000, ..params() }), ParamReason::OutOfRange);
+        assert_eq!(ModeManagerParams { slots: 0b1_1111, ..params() }.validate(), Ok(()));
     }
 
     #[test]
     fn lost_inputs_fall_back_to_detumble_which_waits_for_the_next_modes_inputs() {
-        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, FOUR, DT).unwrap();
         // Star tracker blind: hold cannot run, detumble (gyro + magnetometer) can.
-        let blind = ModeInputs { inputs_ok: [true, false, false, false], ..inputs(0.02, f32::NAN) };
+        let blind = ModeInputs { inputs_ok: [true, false, false, false, false], ..inputs(0.02, f32::NAN) };
         assert_eq!(run(&mut m, blind, 3), vec![(1, Mode::Detumble, Reason::InputLost)]);
         // Slow enough to leave detumble, but stabilise still lacks its inputs: wait.
-        let slow_blind = ModeInputs { inputs_ok: [true, false, false, false], ..inputs(0.005, f32::NAN) };
+        let slow_blind = ModeInputs { inputs_ok: [true, false, false, false, false], ..inputs(0.005, f32::NAN) };
         assert!(run(&mut m, slow_blind, 100).is_empty());
         assert_eq!(run(&mut m, inputs(0.005, 1.0), 1), vec![(0, Mode::Stabilise, Reason::Detumbled)]);
         // Detumble's own inputs missing too: stay (nothing better to go to).
-        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, [true; 4], DT).unwrap();
-        assert!(run(&mut m, ModeInputs { inputs_ok: [false; 4], ..inputs(0.02, f32::NAN) }, 100).is_empty());
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, FOUR, DT).unwrap();
+        assert!(run(&mut m, ModeInputs { inputs_ok: [false; 5], ..inputs(0.02, f32::NAN) }, 100).is_empty());
+    }
+
+    #[test]
+    fn sun_safe_sits_between_detumble_and_the_pointing_modes() {
+        let all = [true; MODE_COUNT];
+        let fine = |rate: f32, err: f32| inputs(rate, err);
+        // Fine attitude missing: only detumble and sun-safe (gyro) can run.
+        let coarse = |rate: f32| ModeInputs { inputs_ok: [true, false, false, false, true], ..inputs(rate, f32::NAN) };
+        let mut m = ModeManager::new(params(), all, DT).unwrap();
+        // Detumbled → sun-safe (not stabilise) after the dwell, even with the tracker blind.
+        assert_eq!(run(&mut m, coarse(0.005), 20), vec![(9, Mode::SunSafe, Reason::Detumbled)]);
+        // Sun-safe waits for the fine attitude however long…
+        assert!(run(&mut m, coarse(0.005), 1000).is_empty());
+        // … and leaves for stabilise once it has been back for the dwell.
+        assert_eq!(run(&mut m, fine(0.005, 1.0), 20), vec![(9, Mode::Stabilise, Reason::EstimateValid)]);
+        // Fine attitude lost in a pointing mode: back to sun-safe after the persistence.
+        assert_eq!(run(&mut m, coarse(0.005), 5), vec![(1, Mode::SunSafe, Reason::InputLost)]);
+        // A tumble from sun-safe: detumble.
+        assert_eq!(run(&mut m, coarse(0.2), 5), vec![(1, Mode::Detumble, Reason::RateHigh)]);
+        // Without a sun-safe slot the old behaviour holds: input loss → detumble.
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::Hold, ..params() }, FOUR, DT).unwrap();
+        assert_eq!(run(&mut m, coarse(0.005), 5), vec![(1, Mode::Detumble, Reason::InputLost)]);
+        // Sun-safe as the initial mode with the estimate never coming back: stays.
+        let mut m = ModeManager::new(ModeManagerParams { initial: Mode::SunSafe, ..params() }, all, DT).unwrap();
+        assert!(run(&mut m, coarse(0.001), 10_000).is_empty());
     }
 }

@@ -1,4 +1,4 @@
-//! Mode manager: detumble → stabilise → manoeuvre → hold.
+//! Mode manager: detumble → sun-safe → stabilise → manoeuvre → hold.
 //!
 //! Each mode is a complete, separately validated [`FlightParams`](crate::params::FlightParams)
 //! (its own control law, actuator family and target), uploaded one by one
@@ -16,8 +16,11 @@
 //!   `dwell_s`;
 //! - hold → manoeuvre: error `> hold_exit_error` for `trigger_persistence_s` (e.g. after a
 //!   new target was commanded);
-//! - any mode but detumble → detumble: the mode's inputs missing (a star tracker blinded
-//!   by a tumble) while detumble's are there, for `trigger_persistence_s`;
+//! - any pointing mode → sun-safe (else detumble): the mode's inputs missing (a star
+//!   tracker blinded by a tumble, the fine attitude estimate lost or diverged) while the
+//!   fallback's are there, for `trigger_persistence_s`;
+//! - sun-safe → next: every input of the next mode (the fine attitude) present for
+//!   `dwell_s` (sun-safe itself needs only the gyro: it searches when the Sun is not seen);
 //! - no convergence transition goes into a mode whose inputs this frame lacks.
 //!
 //! Hysteresis: every enter threshold is strictly beyond its exit threshold (validated),
@@ -42,7 +45,7 @@ pub use manager::{ModeInputs, ModeManager};
 pub use params::ModeManagerParams;
 
 /// Number of modes (slots of the mode table).
-pub const MODE_COUNT: usize = 4;
+pub const MODE_COUNT: usize = 5;
 
 /// `ActuatorCommand::mode` when no mode table is armed (a single parameter set runs);
 /// modes are reported as [`Mode::code`] = slot index + 1.
@@ -55,10 +58,28 @@ pub enum Mode {
     Stabilise,
     Manoeuvre,
     Hold,
+    /// Sun-pointing safe mode on the coarse sun sensors and the gyro (protocol 11; last so
+    /// the codes of the others stay).
+    SunSafe,
 }
 
 impl Mode {
-    pub const ALL: [Mode; MODE_COUNT] = [Mode::Detumble, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold];
+    /// Slot order (telemetry codes 1 … 5).
+    pub const ALL: [Mode; MODE_COUNT] = [Mode::Detumble, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold, Mode::SunSafe];
+    /// The nominal sequence the convergence transitions follow.
+    pub const SEQUENCE: [Mode; MODE_COUNT] =
+        [Mode::Detumble, Mode::SunSafe, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold];
+
+    /// Position in [`Mode::SEQUENCE`].
+    pub const fn rank(self) -> usize {
+        match self {
+            Mode::Detumble => 0,
+            Mode::SunSafe => 1,
+            Mode::Stabilise => 2,
+            Mode::Manoeuvre => 3,
+            Mode::Hold => 4,
+        }
+    }
 
     /// Slot index (also the telemetry code).
     pub const fn index(self) -> usize {
@@ -80,6 +101,7 @@ impl Mode {
             Mode::Stabilise => "stabilise",
             Mode::Manoeuvre => "manoeuvre",
             Mode::Hold => "hold",
+            Mode::SunSafe => "sun_safe",
         }
     }
 }
@@ -103,9 +125,11 @@ pub enum Reason {
     OffTarget = 5,
     /// Commanded over the link.
     Commanded = 6,
-    /// The mode's sensors were missing (e.g. star tracker blinded by a tumble) while
-    /// detumble's were available.
+    /// The mode's inputs were missing (star tracker blinded by a tumble, fine attitude
+    /// estimate lost or diverged) while the fallback's (sun-safe, else detumble) were there.
     InputLost = 7,
+    /// Sun-safe: the fine attitude (and every input of the next mode) is back.
+    EstimateValid = 8,
 }
 
 impl Reason {
@@ -119,6 +143,7 @@ impl Reason {
             Reason::OffTarget,
             Reason::Commanded,
             Reason::InputLost,
+            Reason::EstimateValid,
         ]
         .get(c as usize)
         .copied()
@@ -134,6 +159,7 @@ impl Reason {
             Reason::OffTarget => "off_target",
             Reason::Commanded => "commanded",
             Reason::InputLost => "input_lost",
+            Reason::EstimateValid => "estimate_valid",
         }
     }
 }

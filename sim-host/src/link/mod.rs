@@ -12,7 +12,7 @@ pub mod serve;
 
 use acs_flight::link::{FswMsg, HostMsg, ResetCause, SensorFrame, StepReport};
 use acs_flight::modes::{Mode, ModeManagerParams};
-use acs_flight::params::FlightParams;
+use acs_flight::params::{EstimationParams, FlightParams};
 use anyhow::{Result, anyhow, bail};
 use std::path::PathBuf;
 
@@ -67,6 +67,21 @@ pub trait FlightLink {
             }
             FswMsg::ParamsRejected(e) => bail!("{}: flight code rejected the mode table: {e}", self.name()),
             other => bail!("{}: unexpected reply to ArmModes: {other:?}", self.name()),
+        }
+    }
+    /// Send the attitude-determination parameters; returns the flight side's checksum
+    /// (checked against the host's).
+    fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32> {
+        match self.request(&HostMsg::ConfigureEstimation(*p))? {
+            FswMsg::ParamsAccepted { checksum } => {
+                let mine = p.checksum().map_err(|e| anyhow!("{e}"))?;
+                if checksum != mine {
+                    bail!("{}: estimation checksum mismatch: flight {checksum:#010x}, host {mine:#010x}", self.name());
+                }
+                Ok(checksum)
+            }
+            FswMsg::ParamsRejected(e) => bail!("{}: flight code rejected the estimation parameters: {e}", self.name()),
+            other => bail!("{}: unexpected reply to ConfigureEstimation: {other:?}", self.name()),
         }
     }
     /// Frames the host side dropped (CRC, COBS, ...).

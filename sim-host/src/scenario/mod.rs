@@ -20,6 +20,7 @@ pub use crate::sensors::config::{GyroSensorSpec, MagnetometerSensorSpec, Sensors
 mod actuators;
 mod controller;
 mod environment;
+pub mod estimation;
 mod modes;
 mod resolved;
 pub use actuators::{
@@ -72,6 +73,10 @@ pub struct Scenario {
     pub open_loop: Option<OpenLoop>,
     #[serde(default)]
     pub sensors: Sensors,
+    /// The flight software's attitude determination (absent: the sensor's attitude as
+    /// measured).
+    #[serde(default)]
+    pub estimation: Option<estimation::EstimationSpec>,
     #[serde(default)]
     pub link: LinkSpec,
 }

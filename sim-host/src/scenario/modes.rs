@@ -54,6 +54,10 @@ pub struct ModesSpec {
     pub manoeuvre: Option<ModeSpec>,
     #[serde(default)]
     pub hold: Option<ModeSpec>,
+    /// Sun-pointing safe mode (between detumble and the pointing modes; entered when the
+    /// fine attitude is lost).
+    #[serde(default)]
+    pub sun_safe: Option<ModeSpec>,
 }
 
 fn default_initial() -> String {
@@ -81,7 +85,7 @@ pub struct CommandSpec {
     /// New mission target, in the frame of `[target]`.
     #[serde(default)]
     pub target: Option<AttitudeSpec>,
-    /// "detumble", "stabilise", "manoeuvre", "hold" (enter) or "auto" (resume automatic
+    /// "detumble", "sun_safe", "stabilise", "manoeuvre", "hold" (enter) or "auto" (resume automatic
     /// transitions).
     #[serde(default)]
     pub mode: Option<String>,
@@ -101,6 +105,7 @@ impl ModesSpec {
             (Mode::Stabilise, self.stabilise.as_ref()),
             (Mode::Manoeuvre, self.manoeuvre.as_ref()),
             (Mode::Hold, self.hold.as_ref()),
+            (Mode::SunSafe, self.sun_safe.as_ref()),
         ]
     }
 }
@@ -108,7 +113,7 @@ impl ModesSpec {
 impl Scenario {
     pub(super) fn validate_modes(&self, m: &ModesSpec) -> Result<()> {
         let initial = parse_mode(&m.initial)
-            .ok_or_else(|| bad("modes.initial", "must be \"detumble\", \"stabilise\", \"manoeuvre\" or \"hold\""))?;
+            .ok_or_else(|| bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\""))?;
         for (k, v) in [
             ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s),
             ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s),

@@ -12,7 +12,7 @@ use crate::plant::{Spacecraft, State};
 use crate::sensors::SensorSuite;
 use acs_flight::link::HostMsg;
 use acs_flight::math::EulerSeq;
-use acs_flight::params::{FlightParams, MAX_THRUSTERS};
+use acs_flight::params::{EstimationParams, FlightParams, MAX_THRUSTERS};
 use anyhow::Result;
 
 /// What the flight side receives before the first step of a closed-loop run.
@@ -55,6 +55,9 @@ pub struct Resolved {
     pub dynamics_rate_hz: f64,
     /// `None`: open loop (the flight code does not run).
     pub upload: Option<Upload>,
+    /// Attitude determination sent after the upload (`None`: the flight code's default,
+    /// the sensor's attitude as measured).
+    pub estimation: Option<EstimationParams>,
     /// The plant (body, CMGs, wheels, environment, rig) before its first step.
     pub craft: Spacecraft,
     /// The environment at t = 0 (`None` without one) and the initial state of the plant.
@@ -87,6 +90,10 @@ impl TryFrom<&Scenario> for Resolved {
         } else {
             None
         };
+        let estimation = match &sc.estimation {
+            Some(e) if sc.closed_loop() => Some(e.params(None)?),
+            _ => None,
+        };
         let mut craft = sc.spacecraft()?;
         let snap0 = craft.env_at(0.0)?;
         let initial = sc.initial_state(&craft, snap0.as_ref());
@@ -112,6 +119,7 @@ impl TryFrom<&Scenario> for Resolved {
             control_rate_hz: sc.timing.control_rate_hz,
             dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
             upload,
+            estimation,
             layout: layout(sc, craft.wheels.len(), n_thrusters),
             craft,
             snap0,

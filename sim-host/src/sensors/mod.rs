@@ -160,6 +160,12 @@ impl SensorSuite {
         }
     }
 
+    /// The gyro's true additive bias now (constant + random walk), rad/s: the truth the
+    /// flight MEKF's bias estimate is scored against.
+    pub fn gyro_bias_rad_s(&self) -> Vec3 {
+        Vec3::from(self.gyro.bias_rad_s())
+    }
+
     fn gauss(&mut self, sigma: f64) -> f64 {
         if sigma > 0.0 {
             let n: f64 = StandardNormal.sample(&mut self.rng);
