@@ -6,6 +6,7 @@
 //! - [`lqg`]: [`LqgEstimator`], that filter on the LQR state (steady-state or time-varying).
 //!   The LQR feedback itself is [`crate::control::lqr`].
 
+pub mod css;
 pub mod kalman;
 pub mod lqg;
 pub mod mekf;
