@@ -69,7 +69,7 @@ fn kepler_elements(r0: &V64, v0: &V64, t_s: f64) -> (V64, V64) {
     let h = r0.cross(v0);
     let ev = v0.cross(&h) / mu() - r0.normalize();
     let e = ev.norm();
-    assert!(e >= 1e-4 && e < 1.0);
+    assert!((1e-4..1.0).contains(&e));
     let a = 1.0 / (2.0 / r0.norm() - v0.norm_squared() / mu());
     let p_hat = ev / e;
     let q_hat = h.normalize().cross(&p_hat);
@@ -141,7 +141,7 @@ fn f32_two_body_error_against_f64_reference() {
     // near-circular orbit, ×1.5 in n, plus the product with dt/T), so ΔM carries up to
     // ~14 ulp of max(ΔM, 1) worst case; along track that is r·δΔM. Bound: position error
     // ≤ 16 · 2⁻²⁴ · r · (1 + |ΔM|), velocity error ≤ 16 · 2⁻²⁴ · v · (1 + |ΔM|).
-    // (Measured worst over the random sweep below: ~10.5 ulp.)
+    // (Measured worst over the random sweep below: 11.4 ulp, i.e. 0.71 of the bound.)
     let ulp = 2f64.powi(-24);
     println!("orbit     dt (s)   |dr| (m)   bound (m)  |dv| (m/s)  bound (m/s)  LVLH angle (deg)");
     for (name, (r0, v0)) in [("LEO 617", leo_circular()), ("e = 0.1", eccentric())] {
@@ -182,9 +182,9 @@ fn random_elliptic_orbits_within_the_same_bound() {
             a,
             e,
             rng.uniform() * 3.1,
-            rng.uniform() * 6.28,
-            rng.uniform() * 6.28,
-            rng.uniform() * 6.28,
+            rng.uniform() * std::f64::consts::TAU,
+            rng.uniform() * std::f64::consts::TAU,
+            rng.uniform() * std::f64::consts::TAU,
         );
         if r0.norm() > 1e8 {
             continue;

@@ -14,7 +14,8 @@
 //! - `ΔM = α^{3/2} dt/T`, reduced to (−π, π] with 2π split in two parts (exact product);
 //! - Kepler in `x = ΔE`: `ΔM = x − (1 − α) sin x + σ0 √α (1 − cos x)` (monotone, derivative
 //!   `1 − e cos E ≥ 1 − e`), safeguarded Newton inside the bracket `|x − ΔM| ≤ 2e`, at most
-//!   [`KEPLER_MAX_ITERATIONS`] iterations (typically 3 to 5), converged when a Newton step is
+//!   [`KEPLER_MAX_ITERATIONS`] iterations (≤ 4 in 99.6 % of a sweep over e < 0.9, E0 and
+//!   ΔM, at most 9; unit test below), converged when a Newton step is
 //!   below 1e-5 rad (the error after that step is quadratic, < 1e-9 rad);
 //! - `f = 1 − (1 − cos x)/α`, `g = sin x/√α + σ0 (1 − cos x)/α` (Battin eq 4.43, the form
 //!   without the cancelling `dt − (x − sin x)/n`), `r = cos x + (1 − cos x)/α + σ0 sin x/√α`,
@@ -23,7 +24,7 @@
 //! Accuracy (against f64 RK4 and f64 classical-elements Kepler references from the same
 //! f32 fix, `sim-host/tests/onboard_orbit.rs`): dominated by the f32 rounding of the
 //! mean-anomaly change ΔM (the scaling's roundings enter the mean motion), measured worst
-//! ≈ 10 · 2⁻²⁴ · r · (1 + |ΔM|) over random orbits; typical figures are far smaller:
+//! ≈ 11.4 · 2⁻²⁴ · r · (1 + |ΔM|) over 300 random orbits; typical figures are far smaller:
 //! 617 km circular orbit 0.3 m after 100 s, 1.7 m after 6,000 s (one orbit), 3.3 m after
 //! 20,000 s; e = 0.1 orbit 9 m after 6,000 s, 15 m after 20,000 s. Seen from the Earth's
 //! centre (the LVLH frame's error) that is < 1e-4 deg.
@@ -36,7 +37,7 @@
 //!
 //! No heap, one bounded loop, no panics: every failure is an [`OrbitError`].
 
-use crate::math::f32m::{floor, sin_cos, sqrt};
+use crate::math::f32m::{atan2, floor, sin, sin_cos, sqrt};
 use crate::math::{Vec3, all_finite, norm};
 
 /// Earth's gravitational parameter (EGM96 / WGS-84), m³/s².
@@ -51,7 +52,7 @@ pub const ORBIT_MAX_ECCENTRICITY: f32 = 0.9;
 /// Largest accepted `|dt|`: one day. Beyond it the f32 error (linear in ΔM) exceeds
 /// ~200 m in LEO, and a two-body arc of a day is meaningless anyway.
 pub const ORBIT_MAX_DT_S: f32 = 86_400.0;
-/// Cap on Kepler iterations (safeguarded Newton; 3 to 5 are used in practice).
+/// Cap on Kepler iterations (safeguarded Newton; at most 9 measured over e < 0.9).
 pub const KEPLER_MAX_ITERATIONS: u32 = 16;
 /// A Newton step below this ends the iteration (rad of ΔE).
 const KEPLER_STEP_TOL_RAD: f32 = 1e-5;
@@ -126,7 +127,7 @@ pub fn propagate_two_body(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<(Vec3
     let k = floor(dm * (0.5 * core::f32::consts::FRAC_1_PI) + 0.5);
     let m = (dm - k * TWO_PI_HI) - k * TWO_PI_LO;
 
-    let x = solve_kepler_delta(m, e_cos, e_sin, ecc).ok_or(OrbitError::NoConvergence)?;
+    let (x, _iterations) = solve_kepler_delta(m, e_cos, e_sin, ecc).ok_or(OrbitError::NoConvergence)?;
 
     let (sh, ch) = sin_cos(0.5 * x);
     let sin_x = 2.0 * sh * ch;
@@ -145,21 +146,32 @@ pub fn propagate_two_body(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<(Vec3
 /// Root `x = ΔE` of `x − c sin x + s (1 − cos x) = m` (`c = e cos E0`, `s = e sin E0`,
 /// `e = √(c² + s²) < 1`): safeguarded Newton in the bracket `[m − 2e, m + 2e]`, which holds
 /// the root because the sine terms differ from `x` by at most `2e`. `None` if no Newton
-/// step fell below the tolerance within [`KEPLER_MAX_ITERATIONS`].
-fn solve_kepler_delta(m: f32, c: f32, s: f32, e: f32) -> Option<f32> {
+/// step fell below the tolerance within [`KEPLER_MAX_ITERATIONS`]; with the root, the
+/// number of iterations used.
+fn solve_kepler_delta(m: f32, c: f32, s: f32, e: f32) -> Option<(f32, u32)> {
     let pad = 2.0 * e + 1e-6;
     let (mut lo, mut hi) = (m - pad, m + pad);
-    // First-order start: x ≈ m + c sin m − s (1 − cos m).
-    let (sm, cm) = sin_cos(m);
-    let mut x = m + c * sm - s * (1.0 - cm);
+    let mut x = if e < 0.3 {
+        // First-order start: x ≈ m + c sin m − s (1 − cos m).
+        let (sm, cm) = sin_cos(m);
+        m + c * sm - s * (1.0 - cm)
+    } else {
+        // Danby's start for the absolute anomalies, E = M + 0.85 e sign(sin M) (Danby,
+        // *Fundamentals of Celestial Mechanics*, 1988, §6.6), shifted by E0:
+        // E0 = atan2(s, c), M = E0 − s + m.
+        let e0 = atan2(s, c);
+        let mean = e0 - s + m;
+        let sign = if sin(mean) >= 0.0 { 1.0 } else { -1.0 };
+        mean + 0.85 * e * sign - e0
+    };
     if !(x > lo && x < hi) {
         x = m;
     }
-    for _ in 0..KEPLER_MAX_ITERATIONS {
+    for it in 1..=KEPLER_MAX_ITERATIONS {
         let (sx, cx) = sin_cos(x);
         let fx = x - c * sx + s * (1.0 - cx) - m;
         if fx == 0.0 {
-            return Some(x);
+            return Some((x, it));
         }
         // F is increasing: the root is below x when F(x) > 0.
         if fx > 0.0 {
@@ -174,7 +186,7 @@ fn solve_kepler_delta(m: f32, c: f32, s: f32, e: f32) -> Option<f32> {
             let step = newton - x;
             x = newton;
             if libm::fabsf(step) <= KEPLER_STEP_TOL_RAD {
-                return Some(x);
+                return Some((x, it));
             }
         } else {
             // Newton left the bracket (or NaN): bisect instead.
@@ -182,4 +194,33 @@ fn solve_kepler_delta(m: f32, c: f32, s: f32, e: f32) -> Option<f32> {
         }
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Iterations used over a dense sweep of e in [0, 0.9), perigee phase and ΔM.
+    #[test]
+    fn kepler_iterations_over_a_sweep() {
+        let mut worst = 0;
+        let mut hist = [0u32; 17];
+        for ie in 0..90 {
+            let e = ie as f32 * 0.01;
+            for ip in 0..64 {
+                let e0 = ip as f32 * core::f32::consts::TAU / 64.0;
+                let (s0, c0) = sin_cos(e0);
+                for im in 0..200 {
+                    let m = -core::f32::consts::PI + im as f32 * core::f32::consts::TAU / 200.0;
+                    let (x, it) = solve_kepler_delta(m, e * c0, e * s0, e).unwrap();
+                    let resid = x - e * c0 * sin_cos(x).0 + e * s0 * (1.0 - sin_cos(x).1) - m;
+                    assert!(resid.abs() < 2e-6, "e {e} E0 {e0} m {m}: residual {resid}");
+                    worst = worst.max(it);
+                    hist[it as usize] += 1;
+                }
+            }
+        }
+        std::println!("Kepler iterations histogram {hist:?}, worst {worst}");
+        assert!(worst <= 10, "measured 9 when written");
+    }
 }
