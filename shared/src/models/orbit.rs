@@ -220,7 +220,8 @@ mod tests {
                 }
             }
         }
-        std::println!("Kepler iterations histogram {hist:?}, worst {worst}");
+        // When written: [0, 21544, 280852, 758371, 86827, 4238, 104, 50, 12, 2, 0, ...].
+        assert!(hist.iter().take(5).sum::<u32>() * 1000 >= hist.iter().sum::<u32>() * 995);
         assert!(worst <= 10, "measured 9 when written");
     }
 }
