@@ -9,6 +9,7 @@ pub mod lqr;
 pub mod magnetic;
 pub mod quaternion_feedback;
 pub mod rate_damping;
+pub mod sun_safe;
 pub use crate::types::TorqueDemand;
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};

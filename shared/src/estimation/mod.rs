@@ -5,10 +5,12 @@
 //!   `sim_host::design::steady_state_kalman`);
 //! - [`lqg`]: [`LqgEstimator`], that filter on the LQR state (steady-state or time-varying).
 //!   The LQR feedback itself is [`crate::control::lqr`];
-//! - attitude determination: [`mekf`] (attitude + gyro bias), [`triad`], [`quest`];
+//! - attitude determination: [`mekf`] (attitude + gyro bias), [`triad`], [`quest`],
+//!   [`css`] (Sun direction from coarse sun sensors);
 //! - [`navigation`]: GNSS fixes carried forward between fixes, LVLH;
 //! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
 
+pub mod css;
 pub mod determination;
 pub mod kalman;
 pub mod lqg;

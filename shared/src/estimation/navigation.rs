@@ -12,12 +12,15 @@
 use crate::link::SensorFrame;
 use crate::math::{Quat, Vec3, norm, rotate_body_to_ref};
 use crate::models::lvlh::lvlh;
+use crate::models::orbit::propagate_two_body;
 use crate::models::time::J2000Time;
 use crate::types::Valid;
 
-/// Longest time a fix is carried forward, s (one day: two-body drifts by tens of km a day
-/// under J2 — about 0.1° of LVLH — beyond that the frame is no longer worth pointing at).
-pub const MAX_FIX_AGE_S: f32 = 86_400.0;
+/// Longest time a fix is carried forward, s (three LEO orbits). Two-body propagation
+/// ignores J2: from a 617 km fix it is 3.5 km off after 600 s and 108 km (0.9° of LVLH)
+/// after one orbit (sim-host/tests/onboard_orbit.rs); f32 rounding adds < 4 m. Beyond
+/// three orbits the frame is no longer worth pointing at.
+pub const MAX_FIX_AGE_S: f32 = 18_000.0;
 
 /// A navigation solution at the frame's time.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,7 +87,8 @@ impl Navigation {
         if !(age_s <= MAX_FIX_AGE_S) {
             return None;
         }
-        let (r, v) = if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate(&fix, age_s)? };
+        let (r, v) =
+            if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate_two_body(&fix.r_m, &fix.v_m_s, age_s).ok()? };
         let time = fix.time.add_seconds(age_s)?;
         let frame = lvlh(&r, &v).ok()?;
         Some(NavSolution {
@@ -102,7 +106,3 @@ impl Navigation {
     }
 }
 
-/// Interim until the two-body propagator lands: only fresh fixes.
-fn propagate(_fix: &Fix, _age_s: f32) -> Option<(Vec3, Vec3)> {
-    None
-}

@@ -10,6 +10,7 @@
 
 pub mod lvlh;
 pub mod magnetic;
+pub mod orbit;
 pub mod sun;
 pub mod time;
 pub mod wmm2025;
