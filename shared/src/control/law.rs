@@ -6,6 +6,7 @@ use super::{
     Bdot, BdotGains, DcmPdGains, Dmcs, DmcsGains, EulerPdGains, LqrGains, QuaternionFeedback, QuaternionFeedbackGains,
     RateDampingGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state, rate_damping, state_feedback,
 };
+use super::sun_safe::{SunSafe, SunSafePhase};
 use crate::estimation::LqgEstimator;
 use crate::math::{Mat3, Vec3};
 use crate::params::{ControllerParams, ParamError, ParamField, ParamReason, rows_to_mat};
@@ -48,7 +49,8 @@ pub trait AttitudeLaw {
     fn update(&mut self, x: &LawInputs<'_>) -> LawOutput;
     /// Fresh state (integrators, filters, adaptive gains, estimate).
     fn reset(&mut self);
-    /// Internal state worth plotting (DMCS: Δk_u per axis; others: 0).
+    /// Internal state worth plotting (DMCS: Δk_u per axis; sun-safe: phase, memory age;
+    /// others: 0).
     fn telemetry(&self) -> [f32; 3] {
         [0.0; 3]
     }
@@ -67,6 +69,7 @@ pub enum Law {
     LqrGimbalRate([[f32; 6]; 4]),
     Lqg(LqrGains, LqgEstimator),
     Dmcs(DmcsGains, Dmcs),
+    SunSafe(SunSafe),
 }
 
 impl Law {
@@ -107,6 +110,10 @@ impl Law {
                 kd_nms: Vec3::from(*kd_nms),
                 torque_limit_nm: Vec3::from(*torque_limit_nm),
             }),
+            ControllerParams::SunSafe(p) => Self::SunSafe(
+                SunSafe::new(*p)
+                    .map_err(|_| ParamError { field: ParamField::Controller, reason: ParamReason::OutOfRange })?,
+            ),
             ControllerParams::Dmcs(d) => {
                 let bad = ParamError { field: ParamField::AttitudeGain, reason: ParamReason::OutOfRange };
                 let (p21, p22) =
@@ -136,9 +143,10 @@ impl Law {
         })
     }
 
-    /// Detumbling laws need no attitude (star trackers lose lock while tumbling).
+    /// Detumbling and sun-safe need no attitude (star trackers lose lock while tumbling;
+    /// sun-safe is what runs when the attitude is lost).
     pub fn needs_attitude(&self) -> bool {
-        !matches!(self, Self::Bdot(..) | Self::RateDamping(_))
+        !matches!(self, Self::Bdot(..) | Self::RateDamping(_) | Self::SunSafe(_))
     }
 }
 
@@ -161,6 +169,12 @@ impl AttitudeLaw for Law {
                 LawOutput { demand: Demand::GimbalRates(rates), limited: false, error_angle_rad: angle }
             }
             Self::Dmcs(g, s) => s.update(g, q, q_cmd, w, x.dt_s).into(),
+            Self::SunSafe(s) => {
+                let o = s.update(m.sun_body, m.eclipse, w, x.dt_s);
+                // The "error" of sun-safe is the panel–Sun angle (0 when the Sun is unknown).
+                let angle = if o.sun_angle_rad.is_finite() { o.sun_angle_rad } else { 0.0 };
+                LawOutput { demand: Demand::Torque(o.torque_nm), limited: o.saturated, error_angle_rad: angle }
+            }
             Self::Lqg(g, est) => {
                 let (z, angle) = lqr_state(q, q_cmd, w, w_cmd);
                 let state = est.update(&z, x.torque_last_nm);
@@ -175,6 +189,7 @@ impl AttitudeLaw for Law {
             Self::Bdot(_, s) => s.reset(),
             Self::Dmcs(_, s) => s.reset(),
             Self::Lqg(_, est) => est.reset(),
+            Self::SunSafe(s) => s.reset(),
             Self::DcmPd(_) | Self::EulerPd(_) | Self::RateDamping(_) | Self::Lqr(_) | Self::LqrGimbalRate(_) => {}
         }
     }
@@ -182,6 +197,17 @@ impl AttitudeLaw for Law {
     fn telemetry(&self) -> [f32; 3] {
         match self {
             Self::Dmcs(_, s) => s.dku,
+            // Sun-safe: phase (0 pointing, 1 searching, 2 eclipse hold), age of the
+            // remembered Sun direction, s.
+            Self::SunSafe(s) => [
+                match s.phase() {
+                    SunSafePhase::Pointing => 0.0,
+                    SunSafePhase::Searching => 1.0,
+                    SunSafePhase::EclipseHold => 2.0,
+                },
+                s.memory_age_s(),
+                0.0,
+            ],
             _ => [0.0; 3],
         }
     }

@@ -53,8 +53,9 @@ const ANTI_SUN_SIN: f32 = 1e-3;
 /// The memory's age saturates here (s), far above any timeout.
 const MAX_AGE_S: f32 = 1e9;
 
-/// Parameters of the sun-safe law.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Parameters of the sun-safe law (a wire type: `ControllerParams::SunSafe`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SunSafeParams {
     /// Body axis to point at the Sun (unit).
     pub panel_normal_body: [f32; 3],

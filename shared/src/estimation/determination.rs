@@ -23,6 +23,7 @@
 //!
 //! No heap, no panics; every loop is bounded by a constant.
 
+use super::css::{CssHeads, sun_vector};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::triad::triad;
@@ -63,6 +64,7 @@ pub struct Estimate {
 pub struct Determination {
     params: EstimationParams,
     mekf_cfg: MekfConfig,
+    css: CssHeads,
     mekf: Option<Mekf>,
     nav: Navigation,
     last_time_us: Option<u64>,
@@ -96,6 +98,7 @@ impl Determination {
         Self {
             params,
             mekf_cfg: mekf_config(&params),
+            css: css_heads(&params),
             mekf: None,
             nav: Navigation::new(),
             last_time_us: None,
@@ -146,7 +149,9 @@ impl Determination {
         let fine_sun = (valid.contains(Valid::SUN) && self.params.sun_sensor_sigma_rad > 0.0)
             .then(|| unit(&Vec3::from(f.sun_dir)))
             .flatten();
-        let coarse_sun = (valid.contains(Valid::CSS) && self.params.css_count > 0).then(|| interim_css(f)).flatten();
+        let coarse_sun = (valid.contains(Valid::CSS) && self.params.css_count > 0)
+            .then(|| sun_vector(&self.css, &f.css_output).ok().map(|s| s.dir_body))
+            .flatten();
         let sun_body = fine_sun.or(coarse_sun);
         let sun_sigma = if fine_sun.is_some() { self.params.sun_sensor_sigma_rad } else { self.params.css_sigma_rad };
         let mag_body = (valid.contains(Valid::MAG) && validate::finite(&f.mag_field_t))
@@ -340,7 +345,6 @@ const fn mekf_config(p: &EstimationParams) -> MekfConfig {
     }
 }
 
-/// Interim until the coarse-sun-sensor solution lands.
-fn interim_css(_f: &SensorFrame) -> Option<Vec3> {
-    None
+const fn css_heads(p: &EstimationParams) -> CssHeads {
+    CssHeads { normals_body: p.css_normals_body, count: p.css_count, lit_threshold: p.css_lit_threshold }
 }

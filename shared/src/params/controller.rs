@@ -18,6 +18,9 @@ pub enum ControllerParams {
         kd_nms: [f32; 3],
         torque_limit_nm: [f32; 3],
     },
+    /// Sun-pointing safe mode on the coarse sun sensors and the gyro, no attitude
+    /// ([`crate::control::sun_safe`]).
+    SunSafe(crate::control::sun_safe::SunSafeParams),
     /// B-dot detumbling `m = -k dB/dt` (magnetorquers only).
     Bdot {
         gain_am2_s_per_t: f32,

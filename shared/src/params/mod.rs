@@ -188,6 +188,9 @@ impl FlightParams {
                 }
             }
             ControllerParams::Dmcs(d) => d.validate()?,
+            ControllerParams::SunSafe(p) => p
+                .validate()
+                .map_err(|_| ParamError { field: ParamField::Controller, reason: ParamReason::OutOfRange })?,
             ControllerParams::Lqg(g) => g.validate()?,
             ControllerParams::Lqr { k, torque_limit_nm } => {
                 for row in k {
