@@ -85,6 +85,22 @@ fn bad_sensor_model_keys_are_refused_naming_the_key() {
         ("[sensors.star_tracker]\nsun_exclusion_deg = 200.0\n", "sensors.star_tracker.sun_exclusion_deg"),
         ("[sensors.star_tracker]\nboresight_body = [0.0, 0.0, 0.0]\n", "sensors.star_tracker.boresight_body"),
         ("[sensors.star_tracker]\nnoise_about_deg = -0.1\n", "sensors.star_tracker.noise_about_deg"),
+        ("[sensors.gyro]\nbias_instability_rad_s = -1e-5\n", "sensors.gyro.bias_instability_rad_s"),
+        ("[sensors.gyro]\nbias_instability_rad_s = 1e-5\n", "sensors.gyro.bias_correlation_s"),
+        (
+            "[sensors.gyro]\nbias_instability_rad_s = 1e-5\nbias_correlation_s = 0.0\n",
+            "sensors.gyro.bias_correlation_s",
+        ),
+        ("[sensors.magnetometer]\nmisalignment_deg = [0.0, nan, 0.0]\n", "sensors.magnetometer.misalignment_deg"),
+        ("[sensors.css]\nnormals_body = []\n", "sensors.css.normals_body"),
+        ("[sensors.css]\nnormals_body = [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]\n", "sensors.css.normals_body"),
+        ("[sensors.css]\nnormals_body = [[1.0, 0.0, 0.0]]\nnoise = -0.1\n", "sensors.css.noise"),
+        ("[sensors.css]\nnormals_body = [[1.0, 0.0, 0.0]]\nalbedo = 1.5\n", "sensors.css.albedo"),
+        ("[sensors.css]\nnormals_body = [[1.0, 0.0, 0.0]]\nrate_hz = 0.0\n", "sensors.css.rate_hz"),
+        ("[sensors.gnss]\nrate_hz = -1.0\n", "sensors.gnss.rate_hz"),
+        ("[sensors.gnss]\nposition_noise_m = -5.0\n", "sensors.gnss.position_noise_m"),
+        ("[sensors.gnss]\nvelocity_noise_m_s = inf\n", "sensors.gnss.velocity_noise_m_s"),
+        ("[sensors.gnss]\noutages_s = [[10.0, 5.0]]\n", "sensors.gnss.outages_s"),
     ] {
         let text = format!("{base}\n{table}");
         let err = sim_host::scenario::Scenario::from_toml(&text)

@@ -251,6 +251,10 @@ fn finite(key: &str, xs: &[f64]) -> Result<()> {
     if xs.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(bad(key, "must be finite")) }
 }
 
+fn non_negative(key: &str, x: f64) -> Result<()> {
+    if x.is_finite() && x >= 0.0 { Ok(()) } else { Err(bad(key, format!("must be >= 0 (got {x})"))) }
+}
+
 fn positive(key: &str, x: f64) -> Result<()> {
     if x.is_finite() && x > 0.0 { Ok(()) } else { Err(bad(key, format!("must be > 0 (got {x})"))) }
 }
@@ -461,6 +465,51 @@ impl Scenario {
             }
             if !(g.quantisation_rad_s.is_finite() && g.quantisation_rad_s >= 0.0) {
                 return Err(bad("sensors.gyro.quantisation_rad_s", "must be >= 0"));
+            }
+            non_negative("sensors.gyro.bias_instability_rad_s", g.bias_instability_rad_s)?;
+            match g.bias_correlation_s {
+                Some(tau) => positive("sensors.gyro.bias_correlation_s", tau)?,
+                None if g.bias_instability_rad_s > 0.0 => {
+                    return Err(bad("sensors.gyro.bias_correlation_s", "required with bias_instability_rad_s > 0"));
+                }
+                None => {}
+            }
+        }
+        if let Some(m) = &s.magnetometer {
+            finite("sensors.magnetometer.misalignment_deg", &m.misalignment_deg)?;
+        }
+        if let Some(c) = &s.css {
+            if let Some(r) = c.rate_hz {
+                positive("sensors.css.rate_hz", r)?;
+            }
+            let max = crate::sensors::models::MAX_CSS_HEADS;
+            if !(1..=max).contains(&c.normals_body.len()) {
+                return Err(bad(
+                    "sensors.css.normals_body",
+                    format!("needs 1 to {max} heads (got {})", c.normals_body.len()),
+                ));
+            }
+            for n in &c.normals_body {
+                finite("sensors.css.normals_body", n)?;
+                if n.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
+                    return Err(bad("sensors.css.normals_body", "a normal must not be zero"));
+                }
+            }
+            non_negative("sensors.css.noise", c.noise)?;
+            if !(c.albedo.is_finite() && (0.0..=1.0).contains(&c.albedo)) {
+                return Err(bad("sensors.css.albedo", format!("{} must be in [0, 1]", c.albedo)));
+            }
+        }
+        if let Some(g) = &s.gnss {
+            if let Some(r) = g.rate_hz {
+                positive("sensors.gnss.rate_hz", r)?;
+            }
+            non_negative("sensors.gnss.position_noise_m", g.position_noise_m)?;
+            non_negative("sensors.gnss.velocity_noise_m_s", g.velocity_noise_m_s)?;
+            for [a, b] in &g.outages_s {
+                if !(a.is_finite() && b.is_finite() && a <= b) {
+                    return Err(bad("sensors.gnss.outages_s", format!("[{a}, {b}] must be finite with start <= end")));
+                }
             }
         }
         if let Some(t) = &s.star_tracker {

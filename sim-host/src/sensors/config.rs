@@ -39,6 +39,13 @@ pub struct Sensors {
     pub magnetometer: Option<MagnetometerSensorSpec>,
     #[serde(default)]
     pub sun: Option<SunSensorSpecToml>,
+    /// Coarse sun sensors (`css_output`); none without the table.
+    #[serde(default)]
+    pub css: Option<CssSpecToml>,
+    /// GNSS receiver; without the table the frame carries the ideal orbit state and time on
+    /// every frame (when the scenario has an orbit).
+    #[serde(default)]
+    pub gnss: Option<GnssSpecToml>,
 }
 
 /// Rate gyro: angle random walk, rate (bias) random walk, constant bias, scale factor,
@@ -66,6 +73,14 @@ pub struct GyroSensorSpec {
     /// Output LSB, rad/s (default 0: continuous).
     #[serde(default)]
     pub quantisation_rad_s: f64,
+    /// Bias instability: 1σ of a first-order Gauss–Markov bias per axis, rad/s (default 0:
+    /// none). Needs `bias_correlation_s`.
+    #[serde(default)]
+    pub bias_instability_rad_s: f64,
+    /// Correlation time of the Gauss–Markov bias, s (> 0; required with
+    /// `bias_instability_rad_s` > 0).
+    #[serde(default)]
+    pub bias_correlation_s: Option<f64>,
 }
 
 /// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.
@@ -102,18 +117,26 @@ pub struct StarTrackerSpec {
     pub latency_s: f64,
 }
 
-/// Magnetometer: noise, bias, and the field of the torquers (T per A m², row-major).
+/// Magnetometer: noise, bias, misalignment, and the field of the torquers (T per A m²,
+/// row-major).
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct MagnetometerSensorSpec {
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// 1σ white noise per axis, T.
     #[serde(default)]
     pub noise_t: f64,
+    /// Constant bias, T, sensor axes: the spacecraft's own field at the sensor (hard iron,
+    /// residual dipole) plus any sensor offset.
     #[serde(default)]
     pub bias_t: [f64; 3],
     #[serde(default)]
     pub coupling_t_per_am2: [[f64; 3]; 3],
+    /// Sensor axes vs body: small rotation vector, degrees (default 0), applied to the
+    /// Earth's field before the coupling, bias and noise.
+    #[serde(default)]
+    pub misalignment_deg: [f64; 3],
 }
 
 /// Sun sensor: angular noise, field of view around a boresight, eclipse.
@@ -126,4 +149,40 @@ pub struct SunSensorSpecToml {
     pub noise_deg: f64,
     pub boresight_body: [f64; 3],
     pub fov_half_angle_deg: f64,
+}
+
+/// Coarse sun sensors: cosine heads with noise, eclipse and an optional Earth albedo term.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct CssSpecToml {
+    /// Sample rate (default: the control rate).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    /// Outward normals of the heads in body axes, 1 to 6 (normalised); the order is the
+    /// `css_output` index.
+    pub normals_body: Vec<[f64; 3]>,
+    /// 1σ white noise of each head's normalised output (1 = Sun along the normal).
+    #[serde(default)]
+    pub noise: f64,
+    /// Earth albedo coefficient (default 0: off; ~0.3 for the Earth).
+    #[serde(default)]
+    pub albedo: f64,
+}
+
+/// GNSS receiver: fixes at its rate, white noise, outages.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSpecToml {
+    /// Fix rate (default: the control rate).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    /// 1σ white noise per axis of the position, m.
+    #[serde(default)]
+    pub position_noise_m: f64,
+    /// 1σ white noise per axis of the velocity, m/s.
+    #[serde(default)]
+    pub velocity_noise_m_s: f64,
+    /// Intervals `[start, end]` of simulation time, s (closed), without a fix.
+    #[serde(default)]
+    pub outages_s: Vec<[f64; 2]>,
 }

@@ -1,12 +1,17 @@
 //! The spacecraft's sensors as one suite that produces the flight code's `SensorFrame`:
-//! rate gyro (ARW, bias random walk, bias, scale factor, misalignment, range, LSB), attitude
-//! sensor (star tracker / AHRS small-rotation noise and bias, cross/about-boresight noise,
-//! Sun and Earth-limb exclusion), magnetometer (noise, bias, coupling to the
-//! torquers' dipole), sun sensor (noise, field of view, eclipse), gimbal encoders and
-//! wheel tachometers (white noise), and the navigation solution (LVLH frame and rate).
+//! rate gyro (ARW, bias random walk, Gauss–Markov bias instability, bias, scale factor,
+//! misalignment, range, LSB), attitude sensor (star tracker / AHRS small-rotation noise and
+//! bias, cross/about-boresight noise, Sun and Earth-limb exclusion), magnetometer (noise,
+//! bias, misalignment, coupling to the torquers' dipole), sun sensor (noise, field of
+//! view, eclipse), coarse sun sensors (cosine heads, eclipse, Earth albedo, noise), GNSS
+//! receiver (position / velocity / time fixes at its rate with white noise and outages;
+//! without `[sensors.gnss]` the ideal orbit state on every frame), gimbal encoders and
+//! wheel tachometers (white noise).
 //! The models are in [`models`]; each has its own sample rate and its own noise stream
 //! derived from the scenario seed, so the same scenario and seed give the same bits and
-//! adding a sensor does not change another's noise.
+//! adding a sensor does not change another's noise. Streams: 0 encoders and tachometers,
+//! 1 gyro (its bias instability on a sub-stream of 1), 2 attitude sensor, 3 magnetometer,
+//! 4 sun sensor, 5 coarse sun sensors, 6 GNSS receiver.
 
 pub mod config;
 pub mod models;
@@ -20,8 +25,8 @@ use crate::plant::{Spacecraft, State};
 use acs_flight::link::{SensorFrame, valid};
 use config::Sensors as SensorSpec;
 use models::{
-    AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor,
-    SunSensorSpec,
+    AttitudeSensor, AttitudeSensorSpec, CoarseSunSensors, CssGeometry, CssSpec, ExclusionGeometry, GnssReceiver,
+    GnssSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -50,6 +55,9 @@ pub struct SensorSuite {
     attitude: AttitudeSensor,
     mag: Magnetometer,
     sun: Option<SunSensor>,
+    css: Option<CoarseSunSensors>,
+    /// `None`: ideal fix on every frame (the default without `[sensors.gnss]`).
+    gnss: Option<GnssReceiver>,
     gimbal_sigma_rad: f64,
     wheel_sigma_rad_s: f64,
     /// Latency of the attitude and rate measurements in control steps, and the true
@@ -76,6 +84,8 @@ impl SensorSuite {
                 misalignment_rad: g.misalignment_deg.map(f64::to_radians),
                 saturation_rad_s: g.saturation_rad_s,
                 quantisation_rad_s: g.quantisation_rad_s,
+                bias_instability_rad_s: g.bias_instability_rad_s,
+                bias_correlation_s: g.bias_correlation_s.unwrap_or(0.0),
             },
             // White noise of σ per sample at the control rate: ARW = σ / √rate.
             None => GyroSpec {
@@ -87,6 +97,8 @@ impl SensorSuite {
                 misalignment_rad: [0.0; 3],
                 saturation_rad_s: None,
                 quantisation_rad_s: 0.0,
+                bias_instability_rad_s: 0.0,
+                bias_correlation_s: 0.0,
             },
         };
         let attitude = match &s.star_tracker {
@@ -122,12 +134,14 @@ impl SensorSuite {
                 noise_t: [m.noise_t; 3],
                 bias_t: m.bias_t,
                 coupling_t_per_am2: m.coupling_t_per_am2,
+                misalignment_rad: m.misalignment_deg.map(f64::to_radians),
             },
             None => MagnetometerSpec {
                 rate_hz: control_rate_hz,
                 noise_t: [s.magnetometer_noise_t; 3],
                 bias_t: [0.0; 3],
                 coupling_t_per_am2: [[0.0; 3]; 3],
+                misalignment_rad: [0.0; 3],
             },
         };
         let sun = s.sun.as_ref().map(|x| {
@@ -142,12 +156,38 @@ impl SensorSuite {
                 4,
             )
         });
+        let css = s.css.as_ref().map(|c| {
+            CoarseSunSensors::new(
+                CssSpec {
+                    rate_hz: c.rate_hz.unwrap_or(control_rate_hz),
+                    normals_body: c.normals_body.clone(),
+                    noise: c.noise,
+                    albedo: c.albedo,
+                },
+                seed,
+                5,
+            )
+        });
+        let gnss = s.gnss.as_ref().map(|g| {
+            GnssReceiver::new(
+                GnssSpec {
+                    rate_hz: g.rate_hz.unwrap_or(control_rate_hz),
+                    position_noise_m: g.position_noise_m,
+                    velocity_noise_m_s: g.velocity_noise_m_s,
+                    outages_s: g.outages_s.clone(),
+                },
+                seed,
+                6,
+            )
+        });
         Self {
             rng: ChaCha8Rng::seed_from_u64(seed),
             gyro: Gyro::new(gyro, seed, 1),
             attitude: AttitudeSensor::new(attitude, seed, 2),
             mag: Magnetometer::new(mag, seed, 3),
             sun,
+            css,
+            gnss,
             gimbal_sigma_rad: s.gimbal_noise_deg.to_radians(),
             wheel_sigma_rad_s: s.wheel_speed_noise_rad_s,
             latency_steps: (s.latency_s * control_rate_hz).round() as usize,
@@ -249,14 +289,31 @@ impl SensorSuite {
                 f.valid |= valid::MAG;
             }
             if let (Some((r, v)), Some(env_model)) = (e.orbit, craft.env.as_ref()) {
-                // GNSS fix: position, velocity, time (ideal, every frame).
-                let jd = julian_date(env_model, t_s);
-                let (days, seconds) = j2000_days_seconds(jd);
-                f.gnss_pos_m = [r.x as f32, r.y as f32, r.z as f32];
-                f.gnss_vel_m_s = [v.x as f32, v.y as f32, v.z as f32];
-                f.gnss_j2000_days = days;
-                f.gnss_j2000_s = seconds;
-                f.valid |= valid::GNSS;
+                // GNSS fix: position, velocity, time. Without a receiver model: ideal, every
+                // frame; with one: noisy, at its rate, none in an outage.
+                let fix = match self.gnss.as_mut() {
+                    None => Some(([r.x, r.y, r.z], [v.x, v.y, v.z])),
+                    Some(g) => g.update(t_s, &r.into(), &v.into()).map(|x| (x.pos_m, x.vel_m_s)),
+                };
+                if let Some((pos, vel)) = fix {
+                    let jd = julian_date(env_model, t_s);
+                    let (days, seconds) = j2000_days_seconds(jd);
+                    f.gnss_pos_m = pos.map(|x| x as f32);
+                    f.gnss_vel_m_s = vel.map(|x| x as f32);
+                    f.gnss_j2000_days = days;
+                    f.gnss_j2000_s = seconds;
+                    f.valid |= valid::GNSS;
+                }
+            }
+            if let (Some(css), Some((r, _)), Some(env_model)) = (self.css.as_mut(), e.orbit, craft.env.as_ref()) {
+                // Coarse sun sensors: zeros in eclipse are a valid measurement.
+                let rs = sun_position_eci(julian_date(env_model, t_s));
+                let g = CssGeometry { sun_ref: (rs - r).normalize(), r_m: r, eclipse: in_shadow_cylindrical(&r, &rs) };
+                let rd = css.update(t_s, &s.q, &g);
+                for (o, x) in f.css_output.iter_mut().zip(rd.output) {
+                    *o = x as f32;
+                }
+                f.valid |= valid::CSS;
             }
             if let (Some(sun), Some((r, _)), Some(env_model)) = (self.sun.as_mut(), e.orbit, craft.env.as_ref()) {
                 let rs = sun_position_eci(julian_date(env_model, t_s));
@@ -374,6 +431,116 @@ mod tests {
         assert!((mean - 1e-4).abs() < 3.0 * 1e-3 / (n as f64).sqrt(), "{mean}");
         let sd = (sum_w2 / n as f64 - mean * mean).sqrt();
         assert!((sd - 1e-3).abs() < 0.03e-3, "{sd}");
+    }
+
+    fn env_craft() -> Spacecraft {
+        use crate::environment::model::{Environment, FieldSource};
+        use crate::environment::torques::{Disturbances, HarmonicTorque};
+        let mut c = craft();
+        c.env = Some(Environment {
+            orbit: None,
+            earth: EarthRotation::Simple { theta0_rad: 0.0 },
+            field: FieldSource::None,
+            disturbances: Disturbances {
+                inertia: nalgebra::Matrix3::identity(),
+                gravity_gradient: false,
+                drag: None,
+                srp: None,
+                residual_dipole_am2: Vec3::zeros(),
+                external: HarmonicTorque::default(),
+            },
+        });
+        c
+    }
+
+    #[test]
+    fn gnss_fixes_at_its_rate_outside_outages_and_ideal_without_a_table() {
+        let c = env_craft();
+        let (r, v) = (Vec3::new(7.0e6, 0.0, 0.0), Vec3::new(0.0, 7.5e3, 0.0));
+        let snap = |t: f64| EnvSnapshot { t_s: t, orbit: Some((r, v)), ..Default::default() };
+        // Control 10 Hz for 200 s (frames t = 0 … 199.9); receiver 1 Hz; no fix in
+        // [50.5, 60.5] (t = 51 … 60). Truth: 1 Hz × 200 s − 10 = 190 fixes, each on a
+        // whole second.
+        let gnss = config::GnssSpecToml {
+            rate_hz: Some(1.0),
+            position_noise_m: 3.0,
+            velocity_noise_m_s: 0.01,
+            outages_s: vec![[50.5, 60.5]],
+        };
+        let mut s = SensorSuite::new(&SensorSpec { seed: 5, gnss: Some(gnss), ..Default::default() }, 10.0);
+        let mut fixes = Vec::new();
+        for k in 0..2000u32 {
+            let t = k as f64 / 10.0;
+            let f = s.sample(k, t, &state(), &c, Some(&snap(t)), &[0.0; 3]);
+            if f.valid & valid::GNSS != 0 {
+                fixes.push((k, f));
+            } else {
+                assert_eq!(f.gnss_pos_m, [0.0; 3], "no fix, no data");
+            }
+        }
+        println!("gnss: {} fixes in 200 s at 1 Hz with a 10 s outage", fixes.len());
+        assert_eq!(fixes.len(), 190);
+        for (k, f) in &fixes {
+            assert_eq!(k % 10, 0, "fix off the 1 Hz grid at frame {k}");
+            assert!(!(505..=605).contains(k), "fix inside the outage at frame {k}");
+            let (days, secs) = j2000_days_seconds(2_451_545.0 + *k as f64 / 10.0 / 86_400.0);
+            assert_eq!((f.gnss_j2000_days, f.gnss_j2000_s), (days, secs));
+            // 3 m noise: within 6σ (f32 on the wire: 0.5 m steps at 7000 km).
+            assert!((f.gnss_pos_m[0] as f64 - r.x).abs() < 18.0);
+        }
+        // Noisy: the rms position error is near 3 m (190 × 3 samples: ±10 % is > 4σ).
+        let rms = (fixes
+            .iter()
+            .flat_map(|(_, f)| (0..3).map(move |i| (f.gnss_pos_m[i] as f64 - [r.x, r.y, r.z][i]).powi(2)))
+            .sum::<f64>()
+            / (3 * fixes.len()) as f64)
+            .sqrt();
+        println!("gnss suite: position rms error {rms:.3} m (σ = 3 m)");
+        assert!((rms / 3.0 - 1.0).abs() < 0.1, "{rms}");
+        // Without the table: the ideal state on every frame.
+        let mut s = SensorSuite::new(&SensorSpec::default(), 10.0);
+        for k in 0..20u32 {
+            let t = k as f64 / 10.0;
+            let f = s.sample(k, t, &state(), &c, Some(&snap(t)), &[0.0; 3]);
+            assert!(f.valid & valid::GNSS != 0);
+            assert_eq!(f.gnss_pos_m, [7.0e6, 0.0, 0.0]);
+            assert_eq!(f.gnss_vel_m_s, [0.0, 7.5e3, 0.0]);
+        }
+    }
+
+    #[test]
+    fn css_valid_with_an_orbit_even_in_eclipse() {
+        let c = env_craft();
+        let t = 1000.0;
+        // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
+        let sun = sun_position_eci(2_451_545.0 + t / 86_400.0).normalize();
+        let css = config::CssSpecToml {
+            rate_hz: None,
+            normals_body: vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]],
+            noise: 0.0,
+            albedo: 0.0,
+        };
+        let spec = SensorSpec { css: Some(css), ..Default::default() };
+        let frame = |r: Option<Vec3>| {
+            let mut s = SensorSuite::new(&spec, 10.0);
+            let e = EnvSnapshot { t_s: t, orbit: r.map(|r| (r, Vec3::zeros())), ..Default::default() };
+            s.sample(0, t, &state(), &c, Some(&e), &[0.0; 3])
+        };
+        // Sunlit (on the Sun side): the cosine law on the spacecraft → Sun direction.
+        let r_day = sun * 7.0e6;
+        let f = frame(Some(r_day));
+        assert!(f.valid & valid::CSS != 0);
+        let s_sc = (sun_position_eci(2_451_545.0 + t / 86_400.0) - r_day).normalize();
+        for (i, want) in [s_sc.x, s_sc.y, s_sc.z, -s_sc.x].into_iter().enumerate() {
+            assert!((f.css_output[i] as f64 - want.max(0.0)).abs() < 1e-7, "{i}: {:?}", f.css_output);
+        }
+        assert_eq!(&f.css_output[4..], &[0.0, 0.0]);
+        // In the shadow (behind the Earth): all zeros, still valid.
+        let f = frame(Some(-sun * 7.0e6));
+        assert!(f.valid & valid::CSS != 0);
+        assert_eq!(f.css_output, [0.0; 6]);
+        // No orbit: not valid.
+        assert_eq!(frame(None).valid & valid::CSS, 0);
     }
 
     #[test]

@@ -1,6 +1,8 @@
-//! Sensor models with their own sample rates: rate gyro (ARW, bias random walk, constant
-//! bias, scale factor), attitude sensor (star tracker / AHRS), magnetometer (with
-//! magnetorquer coupling), sun sensor (eclipse and field of view).
+//! Sensor models with their own sample rates: rate gyro (ARW, bias random walk,
+//! Gauss–Markov bias instability, constant bias, scale factor), attitude sensor (star
+//! tracker / AHRS), magnetometer (misalignment, magnetorquer coupling), sun sensor (eclipse
+//! and field of view), coarse sun sensors (cosine heads, eclipse, Earth albedo), GNSS
+//! receiver (white position / velocity noise, outages).
 //!
 //! All sensors are **discrete**: call `update(t, truth…)` once per dynamics step boundary
 //! (after the RK4 step, with the true state at `t`). A sample is taken when `t` reaches
@@ -33,6 +35,16 @@ pub type Quat = Quaternion<f64>;
 pub fn sensor_rng(scenario_seed: u64, index: u32) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(scenario_seed);
     r.set_stream(u64::from(index) + 1);
+    r
+}
+
+/// A second, independent stream owned by sensor `index` (for a noise source added to an
+/// existing model, so that switching it on leaves the model's first stream untouched):
+/// ChaCha stream `(sub << 32) | (index + 1)`, disjoint from every [`sensor_rng`] stream
+/// for `sub >= 1`.
+pub fn sensor_sub_rng(scenario_seed: u64, index: u32, sub: u32) -> ChaCha8Rng {
+    let mut r = ChaCha8Rng::seed_from_u64(scenario_seed);
+    r.set_stream((u64::from(sub) << 32) | (u64::from(index) + 1));
     r
 }
 
@@ -100,6 +112,12 @@ pub struct GyroSpec {
     /// Output LSB (rad/s): each axis is rounded to the nearest multiple. 0: continuous.
     #[serde(default)]
     pub quantisation_rad_s: f64,
+    /// Bias instability: 1σ of a first-order Gauss–Markov bias per axis, rad/s (0: none).
+    #[serde(default)]
+    pub bias_instability_rad_s: f64,
+    /// Correlation time τ of the Gauss–Markov bias, s (> 0 when the instability is on).
+    #[serde(default)]
+    pub bias_correlation_s: f64,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -110,15 +128,25 @@ pub struct GyroReading {
     pub valid: bool,
 }
 
-/// Rate gyro: `ω_m = Q(clip((1 + s) ∘ R(θ)ᵀ ω + b0 + b_rw(t) + n))`, per axis: misalignment
-/// R(θ), scale factor, biases and noise, then the output range (clip) and the converter's
-/// LSB (round to nearest), in the order of the signal chain.
+/// Rate gyro: `ω_m = Q(clip((1 + s) ∘ R(θ)ᵀ ω + b0 + b_rw(t) + b_gm(t) + n))`, per axis:
+/// misalignment R(θ), scale factor, biases and noise, then the output range (clip) and the
+/// converter's LSB (round to nearest), in the order of the signal chain.
+///
+/// `b_gm` is a first-order Gauss–Markov process (bias instability) of stationary 1σ σ and
+/// correlation time τ, propagated with its exact discretisation over the time Δt since the
+/// previous sample, `b ← e^{−Δt/τ} b + σ √(1 − e^{−2Δt/τ}) n` (Maybeck, *Stochastic Models,
+/// Estimation and Control* vol. 1, §4.11; Farrell & Barth, *GPS and INS*, §4.9). It
+/// starts from its stationary distribution N(0, σ²) at the first sample and draws from its
+/// own stream ([`sensor_sub_rng`] sub 1), so switching it on leaves ARW and RRW unchanged.
 #[derive(Clone, Debug)]
 pub struct Gyro {
     pub spec: GyroSpec,
     rng: ChaCha8Rng,
+    gm_rng: ChaCha8Rng,
     clock: Clock,
     bias_rw: Vec3,
+    bias_gm: Vec3,
+    gm_started: bool,
     last: GyroReading,
 }
 
@@ -126,12 +154,36 @@ impl Gyro {
     pub fn new(spec: GyroSpec, scenario_seed: u64, index: u32) -> Self {
         assert!(spec.saturation_rad_s.is_none_or(|s| s > 0.0), "gyro saturation must be > 0");
         assert!(spec.quantisation_rad_s >= 0.0 && spec.quantisation_rad_s.is_finite(), "gyro LSB must be >= 0");
+        assert!(
+            spec.bias_instability_rad_s == 0.0 || (spec.bias_instability_rad_s > 0.0 && spec.bias_correlation_s > 0.0),
+            "gyro bias instability needs σ >= 0 and, when on, a correlation time > 0"
+        );
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
             rng: sensor_rng(scenario_seed, index),
+            gm_rng: sensor_sub_rng(scenario_seed, index, 1),
             bias_rw: Vec3::zeros(),
+            bias_gm: Vec3::zeros(),
+            gm_started: false,
             last: GyroReading::default(),
+        }
+    }
+
+    /// Gauss–Markov bias update over `dt` (exact discretisation; the first call draws the
+    /// stationary state). Three normals per sample while on.
+    fn step_bias_instability(&mut self, dt: f64) {
+        let sigma = self.spec.bias_instability_rad_s;
+        if sigma <= 0.0 {
+            return;
+        }
+        let n = gauss3(&mut self.gm_rng, &[1.0; 3]);
+        if self.gm_started {
+            let phi = (-dt / self.spec.bias_correlation_s).exp();
+            self.bias_gm = self.bias_gm * phi + n * (sigma * (1.0 - phi * phi).max(0.0).sqrt());
+        } else {
+            self.bias_gm = n * sigma;
+            self.gm_started = true;
         }
     }
 
@@ -149,6 +201,7 @@ impl Gyro {
                 self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
                 white
             };
+            self.step_bias_instability(dt);
             let mut w = Vec3::from(*w_true_rad_s);
             // Skipped when zero so that gyros without misalignment keep their exact bits.
             if self.spec.misalignment_rad != [0.0; 3] {
@@ -156,6 +209,10 @@ impl Gyro {
             }
             let sf = Vec3::from(self.spec.scale_factor);
             let mut m = w + w.component_mul(&sf) + Vec3::from(self.spec.bias_rad_s) + self.bias_rw + white;
+            // Added only when on so that gyros without it keep their exact bits.
+            if self.spec.bias_instability_rad_s > 0.0 {
+                m += self.bias_gm;
+            }
             if let Some(sat) = self.spec.saturation_rad_s {
                 m = m.map(|x| x.clamp(-sat, sat));
             }
@@ -172,9 +229,15 @@ impl Gyro {
         self.last
     }
 
-    /// Current total bias (constant + random walk), rad/s — truth for estimator tests.
+    /// Current total bias (constant + random walk + Gauss–Markov), rad/s — truth for
+    /// estimator tests.
     pub fn bias_rad_s(&self) -> [f64; 3] {
-        (Vec3::from(self.spec.bias_rad_s) + self.bias_rw).into()
+        (Vec3::from(self.spec.bias_rad_s) + self.bias_rw + self.bias_gm).into()
+    }
+
+    /// Current Gauss–Markov (bias instability) part of the bias, rad/s.
+    pub fn bias_instability_state_rad_s(&self) -> [f64; 3] {
+        self.bias_gm.into()
     }
 }
 
@@ -303,12 +366,18 @@ pub struct MagnetometerSpec {
     pub rate_hz: f64,
     /// 1σ white noise per axis, T.
     pub noise_t: [f64; 3],
-    /// Constant bias per axis, T (hard iron; put the constant residual dipole's field here).
+    /// Constant bias per axis, T, in the magnetometer's axes: the spacecraft's own field at
+    /// the sensor (hard iron; put the constant residual dipole's field here) plus any
+    /// sensor offset.
     pub bias_t: [f64; 3],
     /// Field at the magnetometer per unit rod dipole, row-major 3×3, T per A m²:
     /// `B_err = C m_rods` with `m_rods` the rods' body dipole
     /// ([`crate::magnetorquers::MagnetorquerSet::rod_dipole_am2`]).
     pub coupling_t_per_am2: [[f64; 3]; 3],
+    /// Misalignment: the sensor's axes are the body axes turned by this rotation vector
+    /// (rad); it senses `R(θ)ᵀ B_body` (as the gyro's). Zero: none.
+    #[serde(default)]
+    pub misalignment_rad: [f64; 3],
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -318,7 +387,9 @@ pub struct MagReading {
     pub valid: bool,
 }
 
-/// Magnetometer: `B_m = B_body + C m_rods + b + n`.
+/// Magnetometer: `B_m = R(θ)ᵀ B_body + C m_rods + b + n`: the Earth's field seen along the
+/// misaligned sensor axes, then the torquers' field (C as calibrated, in sensor axes), the
+/// bias and the noise.
 #[derive(Clone, Debug)]
 pub struct Magnetometer {
     pub spec: MagnetometerSpec,
@@ -340,7 +411,12 @@ impl Magnetometer {
     /// Pure: noise-free reading for a true field and rod dipole.
     pub fn ideal(&self, b_body_t: &[f64; 3], rod_dipole_am2: &[f64; 3]) -> [f64; 3] {
         let c = Matrix3::from_row_slice(self.spec.coupling_t_per_am2.as_flattened());
-        (Vec3::from(*b_body_t) + c * Vec3::from(*rod_dipole_am2) + Vec3::from(self.spec.bias_t)).into()
+        let mut b = Vec3::from(*b_body_t);
+        // Skipped when zero so that magnetometers without misalignment keep their exact bits.
+        if self.spec.misalignment_rad != [0.0; 3] {
+            b = UnitQuaternion::from_scaled_axis(Vec3::from(self.spec.misalignment_rad)).inverse() * b;
+        }
+        (b + c * Vec3::from(*rod_dipole_am2) + Vec3::from(self.spec.bias_t)).into()
     }
 
     /// Discrete: true body field (T) and realised rod dipole (A m², body) at `t`.
@@ -438,6 +514,178 @@ impl SunSensor {
     }
 }
 
+// ------------------------------------------------------------------- coarse sun sensors
+
+/// Most heads a coarse sun sensor suite can have (`SensorFrame::css_output`).
+pub const MAX_CSS_HEADS: usize = acs_flight::params::MAX_CSS_HEADS;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CssSpec {
+    pub rate_hz: f64,
+    /// Outward unit normals of the heads, body axes (1 … [`MAX_CSS_HEADS`]; normalised
+    /// here); the order is the output index.
+    pub normals_body: Vec<[f64; 3]>,
+    /// 1σ white noise of each head's normalised output (1 = Sun along the normal).
+    pub noise: f64,
+    /// Earth albedo coefficient a (0: no albedo).
+    pub albedo: f64,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CssReading {
+    pub t_s: f64,
+    /// Normalised output per head (≥ 0), unused heads 0.
+    pub output: [f64; MAX_CSS_HEADS],
+    /// False before the first sample.
+    pub valid: bool,
+}
+
+/// Where the Sun and the Earth are, for the coarse sun sensors (inertial axes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CssGeometry {
+    /// Unit vector spacecraft → Sun.
+    pub sun_ref: Vec3,
+    /// Spacecraft position from the Earth's centre, m.
+    pub r_m: Vec3,
+    /// In the Earth's shadow.
+    pub eclipse: bool,
+}
+
+/// Coarse sun sensors: cosine-law photocells. Head i with outward normal nᵢ reads
+///
+/// `yᵢ = max(0, nᵢ·ŝ + a (R_E/r)² max(0, nᵢ·(−r̂)) max(0, ŝ·r̂) + εᵢ)`, ε ~ N(0, σ²),
+///
+/// all vectors in body axes, ŝ the unit spacecraft → Sun vector, r̂ the unit position
+/// vector. The first term is the direct Sun (cosine law, 0 behind the head or in eclipse:
+/// Wertz, *Spacecraft Attitude Determination and Control*, §7.1). The second is a crude
+/// albedo model, an approximation: the sunlit Earth seen as one Lambertian source along
+/// nadir whose irradiance, relative to the Sun's, is the albedo coefficient times the
+/// solid-angle factor (R_E/r)², weighted by the head's cosine to nadir and by how sunlit
+/// the sub-satellite point is (ŝ·r̂); it ignores the Earth's finite extent, the phase of
+/// the lit crescent and the reflectivity's variation (for those see Bhanderi, *Spacecraft
+/// Attitude Determination with Earth Albedo Corrected Sun Sensor Measurements*, 2005).
+/// The noise is added last and the sum floored at 0 (a photocell does not read negative).
+#[derive(Clone, Debug)]
+pub struct CoarseSunSensors {
+    pub spec: CssSpec,
+    normals: Vec<Vec3>,
+    rng: ChaCha8Rng,
+    clock: Clock,
+    last: CssReading,
+}
+
+impl CoarseSunSensors {
+    pub fn new(spec: CssSpec, scenario_seed: u64, index: u32) -> Self {
+        assert!(
+            (1..=MAX_CSS_HEADS).contains(&spec.normals_body.len()),
+            "coarse sun sensors need 1 to {MAX_CSS_HEADS} heads"
+        );
+        let normals = spec.normals_body.iter().map(|n| Vec3::from(*n).normalize()).collect();
+        Self {
+            clock: Clock::new(spec.rate_hz),
+            spec,
+            normals,
+            rng: sensor_rng(scenario_seed, index),
+            last: CssReading::default(),
+        }
+    }
+
+    /// Pure: noise-free outputs (direct + albedo) per head for attitude `q_ib`.
+    pub fn ideal(&self, q_ib: &Quat, g: &CssGeometry) -> [f64; MAX_CSS_HEADS] {
+        let q = UnitQuaternion::from_quaternion(*q_ib);
+        let s_body = q.inverse_transform_vector(&g.sun_ref.normalize());
+        let r = g.r_m.norm();
+        let r_hat = g.r_m / r;
+        let nadir_body = q.inverse_transform_vector(&-r_hat);
+        let lit = g.sun_ref.normalize().dot(&r_hat).max(0.0);
+        let scale = self.spec.albedo * (crate::environment::orbit::R_E / r).powi(2) * lit;
+        let mut out = [0.0; MAX_CSS_HEADS];
+        for (o, n) in out.iter_mut().zip(&self.normals) {
+            let direct = if g.eclipse { 0.0 } else { n.dot(&s_body).max(0.0) };
+            let albedo = if scale > 0.0 { scale * n.dot(&nadir_body).max(0.0) } else { 0.0 };
+            *o = direct + albedo;
+        }
+        out
+    }
+
+    /// Discrete: attitude and geometry at `t`; samples if due (one normal per head),
+    /// returns the held reading.
+    pub fn update(&mut self, t_s: f64, q_ib: &Quat, g: &CssGeometry) -> CssReading {
+        if self.clock.due(t_s).is_some() {
+            let mut out = self.ideal(q_ib, g);
+            for o in out.iter_mut().take(self.normals.len()) {
+                let n: f64 = StandardNormal.sample(&mut self.rng);
+                *o = (*o + n * self.spec.noise).max(0.0);
+            }
+            self.last = CssReading { t_s, output: out, valid: true };
+        }
+        self.last
+    }
+
+    pub fn heads(&self) -> usize {
+        self.normals.len()
+    }
+
+    pub fn reading(&self) -> CssReading {
+        self.last
+    }
+}
+
+// ------------------------------------------------------------------------ GNSS receiver
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GnssSpec {
+    pub rate_hz: f64,
+    /// 1σ white noise per axis of the position fix, m.
+    pub position_noise_m: f64,
+    /// 1σ white noise per axis of the velocity fix, m/s.
+    pub velocity_noise_m_s: f64,
+    /// Intervals `[start, end]` (s, closed) without a fix.
+    pub outages_s: Vec<[f64; 2]>,
+}
+
+/// One navigation fix (same frame as the truth given, inertial).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssFix {
+    pub t_s: f64,
+    pub pos_m: [f64; 3],
+    pub vel_m_s: [f64; 3],
+}
+
+/// GNSS receiver: a fix `r + n_r`, `v + n_v` (white, per axis) at each point of its sample
+/// grid outside the outages, nothing otherwise (no hold: the flight code sees each fix
+/// once). Six normals are drawn at every grid point, outage or not, so an outage does not
+/// shift the later noise.
+#[derive(Clone, Debug)]
+pub struct GnssReceiver {
+    pub spec: GnssSpec,
+    rng: ChaCha8Rng,
+    clock: Clock,
+}
+
+impl GnssReceiver {
+    pub fn new(spec: GnssSpec, scenario_seed: u64, index: u32) -> Self {
+        Self { clock: Clock::new(spec.rate_hz), spec, rng: sensor_rng(scenario_seed, index) }
+    }
+
+    /// True when `t_s` is inside an outage.
+    pub fn in_outage(&self, t_s: f64) -> bool {
+        self.spec.outages_s.iter().any(|[a, b]| (*a..=*b).contains(&t_s))
+    }
+
+    /// Discrete: true position and velocity at `t`; `Some(fix)` on a grid point outside
+    /// the outages.
+    pub fn update(&mut self, t_s: f64, r_m: &[f64; 3], v_m_s: &[f64; 3]) -> Option<GnssFix> {
+        self.clock.due(t_s)?;
+        let nr = gauss3(&mut self.rng, &[self.spec.position_noise_m; 3]);
+        let nv = gauss3(&mut self.rng, &[self.spec.velocity_noise_m_s; 3]);
+        if self.in_outage(t_s) {
+            return None;
+        }
+        Some(GnssFix { t_s, pos_m: (Vec3::from(*r_m) + nr).into(), vel_m_s: (Vec3::from(*v_m_s) + nv).into() })
+    }
+}
+
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
 mod tests {
@@ -478,6 +726,8 @@ mod tests {
             misalignment_rad: [0.0; 3],
             saturation_rad_s: None,
             quantisation_rad_s: 0.0,
+            bias_instability_rad_s: 0.0,
+            bias_correlation_s: 0.0,
         }
     }
 
@@ -571,6 +821,8 @@ mod tests {
             misalignment_rad: [0.0; 3],
             saturation_rad_s: None,
             quantisation_rad_s: 0.0,
+            bias_instability_rad_s: 0.0,
+            bias_correlation_s: 0.0,
         };
         let mut g = Gyro::new(spec, 1, 0);
         let r = g.update(0.0, &[0.1, 0.1, 0.1]);
@@ -808,6 +1060,7 @@ mod tests {
             noise_t: [0.0; 3],
             bias_t: [0.0; 3],
             coupling_t_per_am2: [[2e-6, 0.0, 1e-7], [0.0, -3e-6, 0.0], [5e-7, 0.0, 1e-6]],
+            misalignment_rad: [0.0; 3],
         };
         let rig = MagnetorquerSet::paper003_rig();
         let b = [20e-6, -5e-6, 40e-6];
@@ -882,6 +1135,278 @@ mod tests {
     }
 
     #[test]
+    fn gyro_bias_instability_is_gauss_markov() {
+        // σ = 1e-4 rad/s, τ = 20 s at 10 Hz; 8 gyros × 40 000 s (2000 τ each). Truth: a
+        // stationary first-order Gauss–Markov process has variance σ² and autocorrelation
+        // e^{−|lag|/τ}, so e^{−1} at lag τ.
+        let (sigma, tau, f) = (1e-4, 20.0, 10.0);
+        let spec = GyroSpec { bias_instability_rad_s: sigma, bias_correlation_s: tau, rate_hz: f, ..noiseless_gyro() };
+        let (n, runs, lag) = (400_000usize, 8u32, (tau * f) as usize);
+        let (mut s2, mut c_lag, mut m) = (0.0, 0.0, 0.0);
+        let mut c_lag_n = 0.0;
+        for run in 0..runs {
+            let mut g = Gyro::new(spec, 99, run);
+            let mut series = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+            for k in 0..n {
+                let r = g.update(k as f64 / f, &[0.0; 3]);
+                let b = g.bias_instability_state_rad_s();
+                for a in 0..3 {
+                    // Noise-free gyro at rest: the reading is the bias.
+                    assert_eq!(r.rate_rad_s[a], b[a]);
+                    series[a][k] = b[a];
+                }
+            }
+            for x in &series {
+                for k in 0..n {
+                    s2 += x[k] * x[k];
+                    m += 1.0;
+                    if k + lag < n {
+                        c_lag += x[k] * x[k + lag];
+                        c_lag_n += 1.0;
+                    }
+                }
+            }
+        }
+        let var = s2 / m;
+        let rho = (c_lag / c_lag_n) / var;
+        println!(
+            "Gauss–Markov: var / σ² = {:.4}, autocorrelation at τ = {rho:.4} (e^-1 = 0.3679)",
+            var / sigma.powi(2)
+        );
+        // Variance estimate of an AR(1) series: relative 1σ ≈ √(2τ/T) = √(2·20/960 000 s) = 0.6 %.
+        assert!((var / sigma.powi(2) - 1.0).abs() < 0.04, "{var}");
+        // Autocorrelation estimate: 1σ ≈ √(τ/T) ≈ 0.5 %; tolerance 0.02.
+        assert!((rho - (-1.0f64).exp()).abs() < 0.02, "{rho}");
+    }
+
+    #[test]
+    fn gyro_bias_instability_adds_to_an_unchanged_white_noise() {
+        // Own stream: with the instability on, the reading is the same white noise and
+        // random walk plus the Gauss–Markov state (to rounding).
+        let base = gyro_spec();
+        let on = GyroSpec { bias_instability_rad_s: 3e-4, bias_correlation_s: 5.0, ..base };
+        let (mut a, mut b) = (Gyro::new(base, 5, 1), Gyro::new(on, 5, 1));
+        for k in 0..1000 {
+            let t = k as f64 / base.rate_hz;
+            let (ra, rb) = (a.update(t, &[0.01, 0.0, -0.02]), b.update(t, &[0.01, 0.0, -0.02]));
+            let gm = b.bias_instability_state_rad_s();
+            assert!(gm.iter().all(|x| *x != 0.0));
+            for i in 0..3 {
+                assert!((rb.rate_rad_s[i] - ra.rate_rad_s[i] - gm[i]).abs() < 1e-15, "{k} {i}");
+            }
+        }
+    }
+
+    /// Independent rotation: Rodrigues' formula for the components of `v` in axes turned
+    /// by the rotation vector `th` (i.e. R(θ)ᵀ v).
+    fn rodrigues_transpose(th: &[f64; 3], v: &[f64; 3]) -> [f64; 3] {
+        let ang = (th[0] * th[0] + th[1] * th[1] + th[2] * th[2]).sqrt();
+        let k = [th[0] / ang, th[1] / ang, th[2] / ang];
+        let kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2];
+        let kxv = [k[1] * v[2] - k[2] * v[1], k[2] * v[0] - k[0] * v[2], k[0] * v[1] - k[1] * v[0]];
+        let (s, c) = ang.sin_cos();
+        [0, 1, 2].map(|i| v[i] * c - s * kxv[i] + (1.0 - c) * kv * k[i])
+    }
+
+    #[test]
+    fn magnetometer_misalignment_rotates_the_field_exactly() {
+        let b: [f64; 3] = [23e-6, -7e-6, 41e-6];
+        let bn = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+        for th_deg in [[0.0, 0.0, 90.0], [1.0, -2.0, 0.5], [30.0, 20.0, -45.0]] {
+            let th = th_deg.map(f64::to_radians);
+            let spec = MagnetometerSpec {
+                rate_hz: 10.0,
+                noise_t: [0.0; 3],
+                bias_t: [0.0; 3],
+                coupling_t_per_am2: [[0.0; 3]; 3],
+                misalignment_rad: th,
+            };
+            let r = Magnetometer::new(spec, 1, 3).update(0.0, &b, &[0.0; 3]).b_body_t;
+            let want = rodrigues_transpose(&th, &b);
+            let err = (0..3).map(|i| (r[i] - want[i]).powi(2)).sum::<f64>().sqrt() / bn;
+            println!("magnetometer misalignment {th_deg:?} deg: relative error {err:.1e}");
+            assert!(err < 1e-15, "{th_deg:?}: {r:?} vs {want:?}");
+            // Bias and coupling come after the rotation (in sensor axes), unrotated.
+            let spec =
+                MagnetometerSpec { bias_t: [1e-6, 2e-6, -3e-6], coupling_t_per_am2: [[1e-6, 0.0, 0.0]; 3], ..spec };
+            let r2 = Magnetometer::new(spec, 1, 3).update(0.0, &b, &[2.0, 0.0, 0.0]).b_body_t;
+            for i in 0..3 {
+                assert!((r2[i] - (want[i] + spec.bias_t[i] + 2e-6)).abs() < 1e-15 * bn, "{r2:?}");
+            }
+        }
+        // 90° about z: sensor x = body y, sensor y = body −x.
+        let spec = MagnetometerSpec {
+            rate_hz: 1.0,
+            noise_t: [0.0; 3],
+            bias_t: [0.0; 3],
+            coupling_t_per_am2: [[0.0; 3]; 3],
+            misalignment_rad: [0.0, 0.0, std::f64::consts::FRAC_PI_2],
+        };
+        let r = Magnetometer::new(spec, 1, 3).update(0.0, &b, &[0.0; 3]).b_body_t;
+        assert!((r[0] - b[1]).abs() < 1e-15 * bn && (r[1] + b[0]).abs() < 1e-15 * bn && r[2] == b[2], "{r:?}");
+    }
+
+    fn css_spec(noise: f64, albedo: f64) -> CssSpec {
+        CssSpec {
+            rate_hz: 10.0,
+            normals_body: vec![
+                [1.0, 0.0, 0.0],
+                [-1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, -1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 1.0, 1.0],
+            ],
+            noise,
+            albedo,
+        }
+    }
+
+    /// Independent body components of an inertial vector: Rᵀ v with R the direction cosine
+    /// matrix of the unit quaternion (x, y, z, w) written out (Markley & Crassidis eq. 2.125).
+    fn to_body(q: &[f64; 4], v: &Vec3) -> Vec3 {
+        let [x, y, z, w] = *q;
+        let r = Matrix3::new(
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - z * w),
+            2.0 * (x * z + y * w),
+            2.0 * (x * y + z * w),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - x * w),
+            2.0 * (x * z - y * w),
+            2.0 * (y * z + x * w),
+            1.0 - 2.0 * (x * x + y * y),
+        );
+        r.transpose() * v
+    }
+
+    #[test]
+    fn css_cosine_response_is_exact_for_random_attitudes() {
+        let mut css = CoarseSunSensors::new(css_spec(0.0, 0.0), 1, 5);
+        let mut rng = sensor_rng(2024, 77);
+        let sun = Vec3::new(0.3, -0.8, 0.52).normalize();
+        let g = CssGeometry { sun_ref: sun, r_m: Vec3::new(7.0e6, 0.0, 0.0), eclipse: false };
+        let mut worst = 0.0_f64;
+        for k in 0..2000 {
+            let v = gauss3(&mut rng, &[1.0; 3]);
+            let w: f64 = StandardNormal.sample(&mut rng);
+            let nq = (v.norm_squared() + w * w).sqrt();
+            let qv = [v.x / nq, v.y / nq, v.z / nq, w / nq];
+            let r = css.update(k as f64 / 10.0, &Quat::new(qv[3], qv[0], qv[1], qv[2]), &g);
+            assert!(r.valid);
+            let s_b = to_body(&qv, &sun);
+            for (i, n) in css.spec.normals_body.clone().iter().enumerate() {
+                let want = Vec3::from(*n).normalize().dot(&s_b).max(0.0);
+                worst = worst.max((r.output[i] - want).abs());
+            }
+        }
+        println!("css cosine law: worst |error| {worst:.1e}");
+        // Two rounding paths (nalgebra's quaternion rotation vs the DCM above): a few ulps.
+        assert!(worst < 5e-15, "{worst}");
+    }
+
+    #[test]
+    fn css_eclipse_and_albedo_closed_forms() {
+        // Identity attitude, r along +x at 7000 km: nadir is body −x (head 1), zenith +x
+        // (head 0). Sun at β from r̂ in the x-y plane. Closed forms: head 0 reads cos β
+        // (direct only, it cannot see nadir); head 1 sees no Sun (β < 90°) and the albedo
+        // a (R_E/r)² cos β; head 2 (+y) reads sin β directly plus nothing from nadir.
+        let (a, r) = (0.3, 7.0e6);
+        let css = CoarseSunSensors::new(css_spec(0.0, a), 1, 5);
+        let q = Quat::identity();
+        for beta_deg in [0.0, 30.0, 60.0, 89.0] {
+            let beta = f64::to_radians(beta_deg);
+            let g = CssGeometry {
+                sun_ref: Vec3::new(beta.cos(), beta.sin(), 0.0),
+                r_m: Vec3::new(r, 0.0, 0.0),
+                eclipse: false,
+            };
+            let y = css.ideal(&q, &g);
+            let albedo = a * (crate::environment::orbit::R_E / r).powi(2) * beta.cos();
+            assert!((y[0] - beta.cos()).abs() < 1e-15, "{beta_deg}: {y:?}");
+            assert!((y[1] - albedo).abs() < 1e-15 * albedo.max(1e-300), "{beta_deg}: {} vs {albedo}", y[1]);
+            assert!((y[2] - beta.sin()).abs() < 1e-15, "{beta_deg}: {y:?}");
+        }
+        // Sub-satellite point in the night (Sun behind the Earth): no albedo.
+        let night = CssGeometry { sun_ref: -Vec3::x(), r_m: Vec3::new(r, 0.0, 0.0), eclipse: false };
+        assert_eq!(css.ideal(&q, &night)[1], 1.0, "nadir head sees the Sun directly, no albedo");
+        // Eclipse: the direct term vanishes on every head; with albedo off all read 0.
+        let ecl = CssGeometry { sun_ref: -Vec3::x(), r_m: Vec3::new(r, 0.0, 0.0), eclipse: true };
+        assert_eq!(css.ideal(&q, &ecl), [0.0; MAX_CSS_HEADS]);
+        let mut dark = CoarseSunSensors::new(css_spec(0.0, 0.0), 1, 5);
+        let lit_but_flagged = CssGeometry { sun_ref: Vec3::x(), r_m: Vec3::new(r, 0.0, 0.0), eclipse: true };
+        let rd = dark.update(0.0, &q, &lit_but_flagged);
+        assert!(rd.valid && rd.output == [0.0; MAX_CSS_HEADS], "{rd:?}");
+    }
+
+    #[test]
+    fn css_noise_sigma() {
+        // Head 0 faces the Sun at 60°: mean 0.5, 1σ 0.01 (50σ above the floor at 0).
+        let sigma = 0.01;
+        let mut css = CoarseSunSensors::new(css_spec(sigma, 0.0), 8, 5);
+        let b = 60f64.to_radians();
+        let g =
+            CssGeometry { sun_ref: Vec3::new(b.cos(), b.sin(), 0.0), r_m: Vec3::new(7.0e6, 0.0, 0.0), eclipse: false };
+        let n = 20_000;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for k in 0..n {
+            let e = css.update(k as f64 / 10.0, &Quat::identity(), &g).output[0] - 0.5;
+            s1 += e;
+            s2 += e * e;
+        }
+        let mean = s1 / n as f64;
+        let sd = (s2 / n as f64 - mean * mean).sqrt();
+        println!("css noise: mean {mean:.2e}, sd / σ = {:.4}", sd / sigma);
+        // 20 000 samples: 1σ of the sd estimate 0.5 %; tolerance 3 %.
+        assert!((sd / sigma - 1.0).abs() < 0.03, "{sd}");
+        assert!(mean.abs() < 4.0 * sigma / (n as f64).sqrt(), "{mean}");
+        // Floored at 0: a head facing away reads max(0, noise) ≥ 0, about half the time > 0.
+        let mut pos = 0;
+        for k in n..n + 2000 {
+            let y = css.update(k as f64 / 10.0, &Quat::identity(), &g).output[1];
+            assert!(y >= 0.0);
+            pos += usize::from(y > 0.0);
+        }
+        assert!((pos as f64 / 2000.0 - 0.5).abs() < 0.05, "{pos}");
+    }
+
+    #[test]
+    fn gnss_fix_noise_statistics_and_outages() {
+        let spec = GnssSpec { rate_hz: 1.0, position_noise_m: 5.0, velocity_noise_m_s: 0.05, outages_s: vec![] };
+        let mut g = GnssReceiver::new(spec.clone(), 3, 6);
+        let (r, v) = ([7.0e6, -1.0e5, 2.0e5], [10.0, 7500.0, -30.0]);
+        let n = 20_000;
+        let (mut sr, mut sr2, mut sv, mut sv2) = (0.0, 0.0, 0.0, 0.0);
+        for k in 0..n {
+            let fix = g.update(k as f64, &r, &v).expect("fix every second");
+            for i in 0..3 {
+                let (er, ev) = (fix.pos_m[i] - r[i], fix.vel_m_s[i] - v[i]);
+                sr += er;
+                sr2 += er * er;
+                sv += ev;
+                sv2 += ev * ev;
+            }
+        }
+        let m = 3.0 * n as f64;
+        let (sd_r, sd_v) = ((sr2 / m - (sr / m).powi(2)).sqrt(), (sv2 / m - (sv / m).powi(2)).sqrt());
+        println!("gnss noise: position sd / σ = {:.4}, velocity sd / σ = {:.4}", sd_r / 5.0, sd_v / 0.05);
+        // 60 000 samples: 1σ of the sd estimate 0.3 %; tolerance 2 %.
+        assert!((sd_r / 5.0 - 1.0).abs() < 0.02 && (sd_v / 0.05 - 1.0).abs() < 0.02);
+        assert!((sr / m).abs() < 4.0 * 5.0 / m.sqrt() && (sv / m).abs() < 4.0 * 0.05 / m.sqrt());
+        // Outage: the same noise before and after it (draws continue inside).
+        let out = GnssSpec { outages_s: vec![[10.0, 19.5]], ..spec.clone() };
+        let (mut a, mut b) = (GnssReceiver::new(spec, 4, 6), GnssReceiver::new(out, 4, 6));
+        for k in 0..40 {
+            let (fa, fb) = (a.update(k as f64, &r, &v), b.update(k as f64, &r, &v));
+            if (10..=19).contains(&k) {
+                assert!(fb.is_none(), "{k}");
+            } else {
+                assert_eq!(fa, fb, "{k}");
+            }
+        }
+    }
+
+    #[test]
     fn determinism_and_independent_streams() {
         let spec = gyro_spec();
         let run = |seed, idx, with_other: bool| {
@@ -892,6 +1417,7 @@ mod tests {
                     noise_t: [1e-7; 3],
                     bias_t: [0.0; 3],
                     coupling_t_per_am2: [[0.0; 3]; 3],
+                    misalignment_rad: [0.0; 3],
                 },
                 seed,
                 idx + 1,
