@@ -343,6 +343,11 @@ impl<'a> Simulation<'a> {
         self.k > self.clock.steps
     }
 
+    /// The flight estimate against the truth so far (last step's error included).
+    pub fn estimation(&self) -> &EstimationStats {
+        &self.estimation
+    }
+
     pub fn sim_time_s(&self) -> f64 {
         self.clock.steps as f64 * self.clock.dt
     }

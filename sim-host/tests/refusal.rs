@@ -85,6 +85,7 @@ fn bad_sensor_model_keys_are_refused_naming_the_key() {
         ("[sensors.star_tracker]\nsun_exclusion_deg = 200.0\n", "sensors.star_tracker.sun_exclusion_deg"),
         ("[sensors.star_tracker]\nboresight_body = [0.0, 0.0, 0.0]\n", "sensors.star_tracker.boresight_body"),
         ("[sensors.star_tracker]\nnoise_about_deg = -0.1\n", "sensors.star_tracker.noise_about_deg"),
+        ("[sensors.star_tracker]\noutages_s = [[10.0, 5.0]]\n", "sensors.star_tracker.outages_s"),
         ("[sensors.gyro]\nbias_instability_rad_s = -1e-5\n", "sensors.gyro.bias_instability_rad_s"),
         ("[sensors.gyro]\nbias_instability_rad_s = 1e-5\n", "sensors.gyro.bias_correlation_s"),
         (

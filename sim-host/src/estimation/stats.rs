@@ -88,6 +88,12 @@ impl EstimationStats {
         }
     }
 
+    /// Attitude-estimation error of the last step, deg (`None` when the MEKF was not
+    /// running then).
+    pub fn last_error_deg(&self) -> Option<f64> {
+        self.last_err_deg
+    }
+
     /// `None` when the MEKF never ran.
     pub fn figures(&self) -> Option<EstimationFigures> {
         (self.n > 0).then(|| EstimationFigures {

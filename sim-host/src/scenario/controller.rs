@@ -112,6 +112,23 @@ pub enum Controller {
         #[serde(default = "default_torque_limit")]
         torque_limit_nm: [f64; 3],
     },
+    /// Sun-pointing safe mode on the coarse sun sensors and the gyro (no attitude):
+    /// points `panel_normal_body` at the Sun with `T = kp (a × ŝ) − Kd ω`, searches by
+    /// rotating about `search_axis_body` (⟂ panel, a principal axis) at
+    /// `search_rate_deg_s` when the Sun is not seen, and holds the gyro-propagated Sun
+    /// direction through eclipse (`acs_flight::control::sun_safe`).
+    SunSafe {
+        panel_normal_body: [f64; 3],
+        kp_nm_per_rad: f64,
+        kd_nm_s_per_rad: [f64; 3],
+        search_axis_body: [f64; 3],
+        search_rate_deg_s: f64,
+        #[serde(default = "default_torque_limit")]
+        torque_limit_nm: [f64; 3],
+        /// How long a remembered Sun direction is trusted outside an expected eclipse, s.
+        #[serde(default = "default_sun_timeout_s")]
+        sun_timeout_s: f64,
+    },
     /// B-dot detumbling `m = -k dB/dt` with a filtered derivative (magnetorquers).
     Bdot {
         gain_am2_s_per_t: f64,
@@ -120,6 +137,10 @@ pub enum Controller {
     },
     /// No flight code: actuators follow `[open_loop]` (or nothing), for model validation.
     None,
+}
+
+fn default_sun_timeout_s() -> f64 {
+    300.0
 }
 
 fn default_dmcs_q() -> [f64; 2] {
@@ -420,6 +441,33 @@ impl Scenario {
                     kd_nms: kd_nms.map(|x| x as f32),
                     torque_limit_nm: torque_limits(key, torque_limit_nm)?,
                 }
+            }
+            Controller::SunSafe {
+                panel_normal_body,
+                kp_nm_per_rad,
+                kd_nm_s_per_rad,
+                search_axis_body,
+                search_rate_deg_s,
+                torque_limit_nm,
+                sun_timeout_s,
+            } => {
+                let unit = |v: &[f64; 3]| {
+                    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                    v.map(|x| (x / n) as f32)
+                };
+                let p = acs_flight::control::sun_safe::SunSafeParams {
+                    panel_normal_body: unit(panel_normal_body),
+                    kp_nm_per_rad: *kp_nm_per_rad as f32,
+                    kd_nm_s_per_rad: kd_nm_s_per_rad.map(|x| x as f32),
+                    search_axis_body: unit(search_axis_body),
+                    search_rate_rad_s: search_rate_deg_s.to_radians() as f32,
+                    torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+                    sun_timeout_s: *sun_timeout_s as f32,
+                };
+                p.validate().map_err(|e| {
+                    bad(key, format!("{e}: unit non-zero panel normal and search axis, ⟂ within 0.01, gains and rate > 0, timeout >= 0"))
+                })?;
+                ControllerParams::SunSafe(p)
             }
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
                 positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;

@@ -513,6 +513,14 @@ impl Scenario {
             }
         }
         if let Some(t) = &s.star_tracker {
+            for [a, b] in &t.outages_s {
+                if !(a.is_finite() && b.is_finite() && a <= b) {
+                    return Err(bad(
+                        "sensors.star_tracker.outages_s",
+                        format!("[{a}, {b}] must be finite with start <= end"),
+                    ));
+                }
+            }
             for (k, v) in [("noise_cross_deg", t.noise_cross_deg), ("noise_about_deg", t.noise_about_deg)] {
                 if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
                     return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be >= 0")));

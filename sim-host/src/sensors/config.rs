@@ -115,6 +115,10 @@ pub struct StarTrackerSpec {
     /// control steps (default 0).
     #[serde(default)]
     pub latency_s: f64,
+    /// Intervals [start, end] (s, closed) without a solution (a tracker switched off, a
+    /// blinding not modelled by the exclusion angles).
+    #[serde(default)]
+    pub outages_s: Vec<[f64; 2]>,
 }
 
 /// Magnetometer: noise, bias, misalignment, and the field of the torquers (T per A m²,

@@ -68,6 +68,8 @@ pub struct SensorSuite {
     /// (suite-delayed) true attitude and rate.
     tracker_latency_steps: usize,
     tracker_history: VecDeque<(Quat, Vec3)>,
+    /// `[sensors.star_tracker] outages_s`.
+    tracker_outages: Vec<[f64; 2]>,
 }
 
 impl SensorSuite {
@@ -197,6 +199,7 @@ impl SensorSuite {
                 .as_ref()
                 .map_or(0, |a| (a.latency_s * control_rate_hz).round() as usize),
             tracker_history: VecDeque::new(),
+            tracker_outages: s.star_tracker.as_ref().map_or_else(Vec::new, |a| a.outages_s.clone()),
         }
     }
 
@@ -265,7 +268,7 @@ impl SensorSuite {
         let g = self.gyro.update(t_s, &w_meas.into());
         f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
         f.valid = valid::RATE;
-        if att.valid {
+        if att.valid && !self.tracker_outages.iter().any(|[a, b]| (*a..=*b).contains(&t_s)) {
             f.valid |= valid::ATTITUDE;
         }
         if let Some(c) = &craft.cmg {
