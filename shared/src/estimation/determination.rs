@@ -348,3 +348,69 @@ const fn mekf_config(p: &EstimationParams) -> MekfConfig {
 const fn css_heads(p: &EstimationParams) -> CssHeads {
     CssHeads { normals_body: p.css_normals_body, count: p.css_count, lit_threshold: p.css_lit_threshold }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::valid;
+    use crate::math::{quat_from_euler, EulerSeq};
+
+    fn mekf_params() -> EstimationParams {
+        EstimationParams {
+            source: AttitudeSource::Mekf,
+            initial_attitude_sigma_rad: 0.01,
+            tracker_sigma_cross_rad: 1.0e-4,
+            tracker_sigma_about_rad: 1.0e-4,
+            ..EstimationParams::SENSOR
+        }
+    }
+
+    fn frame(k: u32, q: &Quat) -> SensorFrame {
+        SensorFrame {
+            q_ib_xyzw: quat_to_xyzw(q),
+            valid: valid::ATTITUDE | valid::RATE,
+            ..SensorFrame::empty(k, u64::from(k) * 100_000)
+        }
+    }
+
+    #[test]
+    fn a_ten_degree_tracker_outlier_is_rejected_counted_and_changes_nothing() {
+        let mut d = Determination::new(&mekf_params()).unwrap();
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        for k in 0..200 {
+            d.step(&frame(k, &q));
+        }
+        let before = d.step(&frame(200, &q));
+        let bad = q * quat_from_euler([10f32.to_radians(), 0.0, 0.0], EulerSeq::Zyx321);
+        let hit = d.step(&frame(201, &bad));
+        // Counted as rejected, and the estimate has not moved toward the outlier: still
+        // within 1e-5 rad (f32 rounding of propagation at rest) of the truth.
+        assert_eq!(hit.telemetry.rejected, before.telemetry.rejected + 1);
+        let e = crate::math::rotation_angle(&crate::math::attitude_error(&hit.attitude.unwrap(), &q));
+        assert!(e < 1.0e-5, "{e}");
+        assert!(hit.telemetry.last_nis > crate::estimation::mekf::CHI2_3DOF_999);
+        // One outlier is not divergence: no restart.
+        assert_eq!(hit.telemetry.resets, 0);
+    }
+
+    #[test]
+    fn a_tracker_that_keeps_disagreeing_restarts_the_filter_on_it() {
+        let p = EstimationParams { max_consecutive_rejections: 5, ..mekf_params() };
+        let mut d = Determination::new(&p).unwrap();
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        for k in 0..200 {
+            d.step(&frame(k, &q));
+        }
+        // The tracker now reports a 10° different attitude every time (e.g. the filter
+        // was wrong): after 5 rejections the filter restarts and then follows the tracker.
+        let moved = q * quat_from_euler([0.0, 10f32.to_radians(), 0.0], EulerSeq::Zyx321);
+        let mut last = None;
+        for k in 200..210 {
+            last = Some(d.step(&frame(k, &moved)));
+        }
+        let last = last.unwrap();
+        assert_eq!(last.telemetry.resets, 1);
+        let e = crate::math::rotation_angle(&crate::math::attitude_error(&last.attitude.unwrap(), &moved));
+        assert!(e < 1.0e-3, "{e}");
+    }
+}
