@@ -170,3 +170,47 @@ fn time_normalises_and_rotations_invert() {
     let t = t_of_jd(julian_date(2026, 7, 2, 12, 0, 0.0));
     assert!((t.decimal_year() - 2026.5).abs() < 1.0 / 365.0, "{}", t.decimal_year());
 }
+
+/// LVLH on board from a noisy GNSS fix (1σ 5 m per axis, 0.05 m/s per axis) at 617 km:
+/// first order, the frame turns by δr⊥/r about the two horizontal axes and by δv_normal/v
+/// about the radial axis, so the mean squared angle is 2(σr/r)² + (σv/v)². That angle is
+/// the pointing error it adds to an LVLH target.
+#[test]
+fn lvlh_from_a_noisy_gnss_fix_errs_as_first_order_predicts() {
+    let mut rng = Rng::new(15);
+    let mut gauss = || {
+        let (u1, u2) = (rng.uniform().max(1e-300), rng.uniform());
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    };
+    let (sr, sv) = (5.0, 0.05);
+    let rn = 6_378_137.0 + 617.0e3;
+    let vn = (3.986_004_418e14f64 / rn).sqrt();
+    let n = 20_000;
+    let mut sum_sq = 0.0;
+    for k in 0..n {
+        // Circular orbit, inclination 97.8°, phase k.
+        let u = k as f64 * 0.01;
+        let i = 97.8f64.to_radians();
+        let r = Vector3::new(u.cos(), u.sin() * i.cos(), u.sin() * i.sin()) * rn;
+        let v = Vector3::new(-u.sin(), u.cos() * i.cos(), u.cos() * i.sin()) * vn;
+        let rm = r + Vector3::new(gauss(), gauss(), gauss()) * sr;
+        let vm = v + Vector3::new(gauss(), gauss(), gauss()) * sv;
+        let f = lvlh(&Vec3::new(rm.x as f32, rm.y as f32, rm.z as f32), &Vec3::new(vm.x as f32, vm.y as f32, vm.z as f32))
+            .expect("frame");
+        let q = f.q_eci_lvlh;
+        let ours = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            f64::from(q.w),
+            f64::from(q.i),
+            f64::from(q.j),
+            f64::from(q.k),
+        ));
+        let a = ours.angle_to(&q_lvlh_to_eci(&r, &v));
+        sum_sq += a * a;
+    }
+    let rms = (sum_sq / n as f64).sqrt();
+    let predicted = (2.0 * (sr / rn) * (sr / rn) + (sv / vn) * (sv / vn)).sqrt();
+    eprintln!("LVLH from noisy GNSS: RMS {:.3e} rad ({:.5} deg), first order {predicted:.3e} rad", rms, rms.to_degrees());
+    // f32 rounding of the frame (< 2e-6 rad, test above) adds in quadrature.
+    let with_rounding = (predicted * predicted + 1e-12).sqrt();
+    assert!(rms > 0.9 * predicted && rms < 1.1 * with_rounding, "{rms} vs {predicted}");
+}
