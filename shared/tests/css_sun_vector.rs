@@ -6,9 +6,7 @@
 // The truth is computed in f64 on the host: nalgebra's f64 norms are the reference here.
 #![allow(clippy::disallowed_methods)]
 
-use acs_flight::estimation::css::{
-    CSS_MAX_TRACE_INV, CssError, CssHeads, CssSolution, MAX_CSS_HEADS, sun_vector,
-};
+use acs_flight::estimation::css::{CSS_MAX_TRACE_INV, CssError, CssHeads, CssSolution, MAX_CSS_HEADS, sun_vector};
 use nalgebra::{Matrix3, Vector3};
 
 type V64 = Vector3<f64>;

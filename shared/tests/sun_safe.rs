@@ -16,9 +16,7 @@
 
 #![allow(clippy::disallowed_methods)]
 
-use acs_flight::control::sun_safe::{
-    SunSafe, SunSafeError, SunSafeOutput, SunSafeParams, SunSafePhase,
-};
+use acs_flight::control::sun_safe::{SunSafe, SunSafeError, SunSafeOutput, SunSafeParams, SunSafePhase};
 use acs_flight::estimation::css::{CssHeads, MAX_CSS_HEADS, sun_vector};
 use acs_flight::math::Vec3;
 use nalgebra::{Quaternion, Vector3};
@@ -217,16 +215,9 @@ fn a_acquires_the_sun_from_random_attitudes() {
     for _ in 0..200 {
         let mut law = SunSafe::new(params()).unwrap();
         let mut body = Body { q: rng.quat(), w: random_rate(&mut rng, 1.0) };
-        let r = run(
-            &mut law,
-            &mut body,
-            &sun_i,
-            1200.0,
-            &|s| css(&h, s),
-            &mut |w| *w,
-            &|_| false,
-            &mut |_, _, out| assert_ne!(out.phase, SunSafePhase::Searching),
-        );
+        let r = run(&mut law, &mut body, &sun_i, 1200.0, &|s| css(&h, s), &mut |w| *w, &|_| false, &mut |_, _, out| {
+            assert_ne!(out.phase, SunSafePhase::Searching)
+        });
         assert!(r.final_angle_deg < SETTLED_ANGLE_DEG && r.final_rate_deg_s < SETTLED_RATE_DEG_S);
         worst = worst.max(r.settle_s);
         worst_final = worst_final.max(r.final_angle_deg);
@@ -266,16 +257,9 @@ fn b_search_finds_the_sun_behind_a_hemispherical_field_of_view() {
         let mut body = body0;
         let mut law = SunSafe::new(params()).unwrap();
         let mut searched = false;
-        let r = run(
-            &mut law,
-            &mut body,
-            &sun_i,
-            1500.0,
-            &sensor,
-            &mut |w| *w,
-            &|_| false,
-            &mut |_, _, out| searched |= out.phase == SunSafePhase::Searching,
-        );
+        let r = run(&mut law, &mut body, &sun_i, 1500.0, &sensor, &mut |w| *w, &|_| false, &mut |_, _, out| {
+            searched |= out.phase == SunSafePhase::Searching
+        });
         assert!(searched);
         let found = r.first_seen_s.unwrap();
         assert!(found <= bound_found, "found after {found} s > {bound_found} s");

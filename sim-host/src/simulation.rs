@@ -9,6 +9,7 @@
 use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_body};
 use crate::columns::Layout;
 use crate::environment::model::EnvSnapshot;
+use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
@@ -19,7 +20,6 @@ use crate::scenario::{
 };
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
-use crate::estimation::stats::EstimationStats;
 use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;

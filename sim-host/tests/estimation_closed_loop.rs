@@ -104,7 +104,12 @@ fn mekf_hold_is_consistent_and_close_to_an_ideal_attitude() {
     eprintln!("hold rms: MEKF {:.4} deg, ideal attitude {:.4} deg", s.rms_error_deg, g.summary.rms_error_deg);
     // Pointing on the estimate costs at most its error (plus the loop's own response to
     // the estimate's noise): RMS_mekf ≤ RMS_ideal + 3 × RMS_estimation.
-    assert!(s.rms_error_deg <= g.summary.rms_error_deg + 3.0 * est_rms, "{} vs {}", s.rms_error_deg, g.summary.rms_error_deg);
+    assert!(
+        s.rms_error_deg <= g.summary.rms_error_deg + 3.0 * est_rms,
+        "{} vs {}",
+        s.rms_error_deg,
+        g.summary.rms_error_deg
+    );
 }
 
 #[test]
@@ -159,7 +164,8 @@ fn from_a_tumble_through_sun_safe_to_hold_and_back_after_an_orbit_without_tracke
     let tr: Vec<(f64, &str, &str)> =
         f.summary.mode_transitions.iter().map(|m| (m.t_s, m.to.as_str(), m.reason.as_str())).collect();
     eprintln!("transitions: {tr:?}");
-    let first = |to: &str, why: &str, after: f64| tr.iter().find(|(t, x, r)| *x == to && *r == why && *t >= after).map(|x| x.0);
+    let first =
+        |to: &str, why: &str, after: f64| tr.iter().find(|(t, x, r)| *x == to && *r == why && *t >= after).map(|x| x.0);
     // B-dot → sun-safe, then fine attitude (tracker back below 2 deg/s) → stabilise.
     let sun_safe = first("sun_safe", "detumbled", 0.0).expect("detumble → sun-safe");
     let fine = first("stabilise", "estimate_valid", sun_safe).expect("sun-safe → stabilise");
@@ -178,9 +184,7 @@ fn from_a_tumble_through_sun_safe_to_hold_and_back_after_an_orbit_without_tracke
     let k_end = f.t_s.iter().position(|t| *t >= t1).unwrap();
     let lit: Vec<f32> = f.reports[k_lost..k_end]
         .iter()
-        .filter(|r| {
-            r.cmd.mode == Mode::SunSafe.code() && r.cmd.estimate.flags & estimate_flags::SUN_SEEN != 0
-        })
+        .filter(|r| r.cmd.mode == Mode::SunSafe.code() && r.cmd.estimate.flags & estimate_flags::SUN_SEEN != 0)
         .map(|r| r.cmd.attitude_error_rad.to_degrees())
         .collect();
     let worst = lit.iter().copied().fold(0.0f32, f32::max);

@@ -195,8 +195,9 @@ fn lvlh_from_a_noisy_gnss_fix_errs_as_first_order_predicts() {
         let v = Vector3::new(-u.sin(), u.cos() * i.cos(), u.cos() * i.sin()) * vn;
         let rm = r + Vector3::new(gauss(), gauss(), gauss()) * sr;
         let vm = v + Vector3::new(gauss(), gauss(), gauss()) * sv;
-        let f = lvlh(&Vec3::new(rm.x as f32, rm.y as f32, rm.z as f32), &Vec3::new(vm.x as f32, vm.y as f32, vm.z as f32))
-            .expect("frame");
+        let f =
+            lvlh(&Vec3::new(rm.x as f32, rm.y as f32, rm.z as f32), &Vec3::new(vm.x as f32, vm.y as f32, vm.z as f32))
+                .expect("frame");
         let q = f.q_eci_lvlh;
         let ours = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
             f64::from(q.w),
@@ -209,7 +210,11 @@ fn lvlh_from_a_noisy_gnss_fix_errs_as_first_order_predicts() {
     }
     let rms = (sum_sq / n as f64).sqrt();
     let predicted = (2.0 * (sr / rn) * (sr / rn) + (sv / vn) * (sv / vn)).sqrt();
-    eprintln!("LVLH from noisy GNSS: RMS {:.3e} rad ({:.5} deg), first order {predicted:.3e} rad", rms, rms.to_degrees());
+    eprintln!(
+        "LVLH from noisy GNSS: RMS {:.3e} rad ({:.5} deg), first order {predicted:.3e} rad",
+        rms,
+        rms.to_degrees()
+    );
     // f32 rounding of the frame (< 2e-6 rad, test above) adds in quadrature.
     let with_rounding = (predicted * predicted + 1e-12).sqrt();
     assert!(rms > 0.9 * predicted && rms < 1.1 * with_rounding, "{rms} vs {predicted}");

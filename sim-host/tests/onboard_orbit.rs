@@ -201,7 +201,11 @@ fn random_elliptic_orbits_within_the_same_bound() {
         let ratio_v = (f64v(&v) - v_ref).norm() / (16.0 * ulp * v_max * grow);
         if ratio_r.max(ratio_v) > worst_ratio {
             worst_ratio = ratio_r.max(ratio_v);
-            println!("  new worst {worst_ratio:.3} (position {ratio_r:.3}, velocity {ratio_v:.3}): e {e:.4}, a {a:.3e} m, |r0| {:.3e} m, dt {dt:.0} s, n dt {:.2} rad", r0.norm(), nn * dt.abs());
+            println!(
+                "  new worst {worst_ratio:.3} (position {ratio_r:.3}, velocity {ratio_v:.3}): e {e:.4}, a {a:.3e} m, |r0| {:.3e} m, dt {dt:.0} s, n dt {:.2} rad",
+                r0.norm(),
+                nn * dt.abs()
+            );
         }
         n += 1;
     }

@@ -2,11 +2,11 @@
 //! of the configured law with its gains and its own state (no `dyn`, no heap). A mode
 //! switch or a law fault calls [`AttitudeLaw::reset`] on the law that takes over.
 
+use super::sun_safe::{SunSafe, SunSafePhase};
 use super::{
     Bdot, BdotGains, DcmPdGains, Dmcs, DmcsGains, EulerPdGains, LqrGains, QuaternionFeedback, QuaternionFeedbackGains,
     RateDampingGains, dcm_pd, euler_pd, lqr, lqr_from_state, lqr_state, rate_damping, state_feedback,
 };
-use super::sun_safe::{SunSafe, SunSafePhase};
 use crate::estimation::LqgEstimator;
 use crate::math::{Mat3, Vec3};
 use crate::params::{ControllerParams, ParamError, ParamField, ParamReason, rows_to_mat};

@@ -353,7 +353,7 @@ const fn css_heads(p: &EstimationParams) -> CssHeads {
 mod tests {
     use super::*;
     use crate::link::valid;
-    use crate::math::{quat_from_euler, EulerSeq};
+    use crate::math::{EulerSeq, quat_from_euler};
 
     fn mekf_params() -> EstimationParams {
         EstimationParams {

@@ -105,4 +105,3 @@ impl Navigation {
         *self = Self::default();
     }
 }
-

@@ -3,10 +3,10 @@
 use super::{Configured, Fsw};
 use crate::allocation::family::Actuators;
 use crate::control::{AttitudeLaw, Law};
+use crate::estimation::determination::Determination;
 use crate::guidance::Target;
 use crate::math::{Vec3, quat_from_xyzw, quat_normalized};
 use crate::modes::{MODE_COUNT, Mode, ModeManager, ModeManagerParams, ModeRequest};
-use crate::estimation::determination::Determination;
 use crate::params::{EstimationParams, FlightParams, ParamError, ParamField, ParamReason};
 use crate::types::Valid;
 

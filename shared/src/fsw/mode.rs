@@ -21,12 +21,12 @@ impl Fsw {
         };
         let (error_rad, rel_rate_rad_s) =
             match validate::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
-            Ok(m) => {
-                let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
-                (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
-            }
-            Err(_) => (f32::NAN, f32::NAN),
-        };
+                Ok(m) => {
+                    let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
+                    (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
+                }
+                Err(_) => (f32::NAN, f32::NAN),
+            };
         let mut inputs_ok = [false; MODE_COUNT];
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
             *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required, c.needs_navigation, est).is_ok());

@@ -364,7 +364,16 @@ mod tests {
     #[test]
     fn typed_flags_keep_the_wire_bits() {
         assert_eq!(
-            [valid::ATTITUDE, valid::RATE, valid::GIMBALS, valid::WHEELS, valid::MAG, valid::SUN, valid::GNSS, valid::CSS],
+            [
+                valid::ATTITUDE,
+                valid::RATE,
+                valid::GIMBALS,
+                valid::WHEELS,
+                valid::MAG,
+                valid::SUN,
+                valid::GNSS,
+                valid::CSS
+            ],
             [1, 2, 4, 8, 16, 32, 64, 128]
         );
         assert_eq!(valid::ALL, 0xff);
@@ -385,10 +394,8 @@ mod tests {
         ];
         assert_eq!(st, core::array::from_fn(|i| 1u16 << i));
         assert_eq!(Status::all().bits(), 0x1fff);
-        let typed = SensorFrame {
-            valid: (Valid::ATTITUDE | Valid::RATE | Valid::GNSS).bits(),
-            ..SensorFrame::empty(3, 7)
-        };
+        let typed =
+            SensorFrame { valid: (Valid::ATTITUDE | Valid::RATE | Valid::GNSS).bits(), ..SensorFrame::empty(3, 7) };
         let literal = SensorFrame { valid: 0b100_0011, ..SensorFrame::empty(3, 7) };
         let (mut a, mut b) = ([0u8; MAX_PAYLOAD], [0u8; MAX_PAYLOAD]);
         let ea = postcard::to_slice(&typed, &mut a).unwrap();

@@ -76,31 +76,31 @@ impl EstimationParams {
     /// `[estimation]` table flies); the noise figures are a typical nanosatellite suite
     /// for when the source is switched to the MEKF.
     pub const SENSOR: Self = Self {
-            source: AttitudeSource::Sensor,
-            gyro_arw_rad_sqrt_s: 1.0e-4,
-            gyro_rrw_rad_s_sqrt_s: 1.0e-6,
-            initial_attitude_sigma_rad: 0.1,
-            initial_bias_sigma_rad_s: 1.0e-3,
-            tracker_sigma_cross_rad: 1.0e-4,
-            tracker_sigma_about_rad: 1.0e-3,
-            tracker_boresight_body: [0.0, 0.0, 1.0],
-            sun_sensor_sigma_rad: 0.0,
-            css_normals_body: [
-                [1.0, 0.0, 0.0],
-                [-1.0, 0.0, 0.0],
-                [0.0, 1.0, 0.0],
-                [0.0, -1.0, 0.0],
-                [0.0, 0.0, 1.0],
-                [0.0, 0.0, -1.0],
-            ],
-            css_count: 0,
-            css_lit_threshold: 0.05,
-            css_sigma_rad: 0.0,
-            magnetometer_sigma_rad: 0.0,
-            field_model_degree: 12,
-            lost_attitude_sigma_rad: 0.02,
-            max_consecutive_rejections: 20,
-        };
+        source: AttitudeSource::Sensor,
+        gyro_arw_rad_sqrt_s: 1.0e-4,
+        gyro_rrw_rad_s_sqrt_s: 1.0e-6,
+        initial_attitude_sigma_rad: 0.1,
+        initial_bias_sigma_rad_s: 1.0e-3,
+        tracker_sigma_cross_rad: 1.0e-4,
+        tracker_sigma_about_rad: 1.0e-3,
+        tracker_boresight_body: [0.0, 0.0, 1.0],
+        sun_sensor_sigma_rad: 0.0,
+        css_normals_body: [
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ],
+        css_count: 0,
+        css_lit_threshold: 0.05,
+        css_sigma_rad: 0.0,
+        magnetometer_sigma_rad: 0.0,
+        field_model_degree: 12,
+        lost_attitude_sigma_rad: 0.02,
+        max_consecutive_rejections: 20,
+    };
 }
 
 fn unit(v: &[f32; 3]) -> bool {
@@ -176,7 +176,10 @@ mod tests {
         let d = EstimationParams::default();
         assert_eq!(e(EstimationParams { gyro_arw_rad_sqrt_s: f32::NAN, ..d }).reason, ParamReason::NotFinite);
         assert_eq!(e(EstimationParams { tracker_sigma_cross_rad: 0.0, ..d }).reason, ParamReason::OutOfRange);
-        assert_eq!(e(EstimationParams { tracker_boresight_body: [0.0, 0.0, 2.0], ..d }).reason, ParamReason::OutOfRange);
+        assert_eq!(
+            e(EstimationParams { tracker_boresight_body: [0.0, 0.0, 2.0], ..d }).reason,
+            ParamReason::OutOfRange
+        );
         assert_eq!(e(EstimationParams { css_count: 7, ..d }).reason, ParamReason::OutOfRange);
         let mut skew = d;
         skew.css_count = 2;
@@ -185,7 +188,8 @@ mod tests {
         assert_eq!(e(EstimationParams { field_model_degree: 13, ..d }).reason, ParamReason::OutOfRange);
         assert_eq!(e(EstimationParams { max_consecutive_rejections: 0, ..d }).reason, ParamReason::OutOfRange);
         // The largest encoding (every varint at its widest) fits the checksum buffer.
-        let wide = EstimationParams { css_count: 255, field_model_degree: 255, max_consecutive_rejections: u16::MAX, ..d };
+        let wide =
+            EstimationParams { css_count: 255, field_model_degree: 255, max_consecutive_rejections: u16::MAX, ..d };
         assert!(wide.checksum().is_ok());
     }
 }

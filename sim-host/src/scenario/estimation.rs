@@ -138,7 +138,9 @@ impl EstimationSpec {
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
-            bail!("estimation: the flight code refuses these values ({e:?}): noise figures must be finite, >= 0 and < 180 deg, sigmas > 0, field_model_degree 1..=12, css_lit_threshold in (0, 1), max_consecutive_rejections > 0");
+            bail!(
+                "estimation: the flight code refuses these values ({e:?}): noise figures must be finite, >= 0 and < 180 deg, sigmas > 0, field_model_degree 1..=12, css_lit_threshold in (0, 1), max_consecutive_rejections > 0"
+            );
         }
         Ok(p)
     }

@@ -112,8 +112,9 @@ impl ModesSpec {
 
 impl Scenario {
     pub(super) fn validate_modes(&self, m: &ModesSpec) -> Result<()> {
-        let initial = parse_mode(&m.initial)
-            .ok_or_else(|| bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\""))?;
+        let initial = parse_mode(&m.initial).ok_or_else(|| {
+            bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\"")
+        })?;
         for (k, v) in [
             ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s),
             ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s),
