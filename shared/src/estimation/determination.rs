@@ -29,7 +29,7 @@ use super::navigation::{NavSolution, Navigation};
 use super::triad::triad;
 use crate::fsw::validate;
 use crate::link::{EstimateTelemetry, SensorFrame, estimate_flags};
-use crate::math::{Quat, Vec3, norm, quat_from_xyzw, quat_normalized, quat_to_xyzw};
+use crate::math::{Quat, Vec3, quat_to_xyzw};
 use crate::models::magnetic::field_ecef_t;
 use crate::models::sun::{in_eclipse, sun_direction_eci};
 use crate::models::time::{ecef_to_eci, eci_to_ecef};
@@ -82,9 +82,9 @@ impl Default for Determination {
     }
 }
 
+/// A direction, or `None` for a zero or non-finite vector (TRIAD's normalisation).
 fn unit(v: &Vec3) -> Option<Vec3> {
-    let n = norm(v);
-    (n.is_finite() && n > 1e-9).then(|| v / n)
+    super::triad::unit(v).ok()
 }
 
 impl Determination {
@@ -140,7 +140,8 @@ impl Determination {
             (Some(n), Some(s)) => in_eclipse(&n.r_m, &s),
             _ => false,
         };
-        let field_eci = nav.and_then(|n| {
+        // The field model (the costliest model) only feeds the MEKF.
+        let field_eci = nav.filter(|_| self.params.source == AttitudeSource::Mekf).and_then(|n| {
             let r_ecef = eci_to_ecef(&n.time, &n.r_m);
             let b = field_ecef_t(&r_ecef, n.time.decimal_year(), usize::from(self.params.field_model_degree)).ok()?;
             unit(&ecef_to_eci(&n.time, &b))
@@ -157,14 +158,7 @@ impl Determination {
         let mag_body = (valid.contains(Valid::MAG) && validate::finite(&f.mag_field_t))
             .then(|| unit(&Vec3::from(f.mag_field_t)))
             .flatten();
-        let tracker = valid
-            .contains(Valid::ATTITUDE)
-            .then(|| {
-                let q = quat_from_xyzw(f.q_ib_xyzw);
-                let n = norm(&q.coords);
-                (n.is_finite() && (0.9..=1.1).contains(&n)).then(|| quat_normalized(&q)).flatten()
-            })
-            .flatten();
+        let tracker = valid.contains(Valid::ATTITUDE).then(|| validate::unit_quat(f.q_ib_xyzw)).flatten();
 
         let mut t = EstimateTelemetry::default();
         if nav.is_some() {

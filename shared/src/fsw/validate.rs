@@ -4,7 +4,7 @@
 
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
-use crate::math::{Quat, Vec3};
+use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized};
 use crate::params::AttitudeSource;
 use crate::types::{Measurements, Valid};
 
@@ -32,6 +32,17 @@ pub fn rate(f: &SensorFrame) -> Option<Vec3> {
         return None;
     }
     Some(w)
+}
+
+/// A measured quaternion as a unit quaternion: `None` when not finite or its norm is off
+/// by more than 10 %.
+pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
+    let q = quat_from_xyzw(q);
+    let n = crate::math::norm(&q.coords);
+    if !n.is_finite() || !(0.9..=1.1).contains(&n) {
+        return None;
+    }
+    quat_normalized(&q)
 }
 
 /// Why a frame cannot run a configuration.
