@@ -94,6 +94,17 @@ pub const WHEEL_QUANTITIES: [&str; 6] = ["speed_rpm", "current_a", "voltage_v", 
 /// Environment torque groups, in column order.
 pub const ENV_TORQUES: [&str; 6] = ["gravity_gradient", "drag", "srp", "magnetic", "rig", "external"];
 
+/// The estimation group, in column order.
+pub const ESTIMATION: [&str; 7] = [
+    "est_error_deg",
+    "est_sigma_deg",
+    "est_bias_error_deg_h",
+    "est_bias_sigma_deg_h",
+    "est_nees",
+    "est_rejected",
+    "est_resets",
+];
+
 /// Which optional groups a run records (in this order after the fixed block).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Layout {
@@ -115,6 +126,10 @@ pub struct Layout {
     pub field: bool,
     /// Environment and rig torque breakdown (18).
     pub env_torques: bool,
+    /// The flight MEKF against the truth: attitude and bias errors and the filter's own
+    /// σ, NEES, rejected innovations and restarts so far (7; NaN while the MEKF is not
+    /// running; `sim_host::estimation::stats`).
+    pub estimation: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -157,6 +172,9 @@ impl Layout {
                 v.extend(xyz(|a| format!("torque_{g}_{a}_nm")));
             }
         }
+        if self.estimation {
+            v.extend(ESTIMATION.iter().map(|s| s.to_string()));
+        }
         v
     }
 }
@@ -188,5 +206,9 @@ mod tests {
         assert_eq!(names[Col::COUNT], "gimbal1_deg");
         assert_eq!(names[Col::COUNT + 10 + 6], "wheel2_speed_rpm");
         assert_eq!(names.last().unwrap(), "torque_external_z_nm");
+        let names = Layout { estimation: true, ..l }.names();
+        assert_eq!(names.len(), Col::COUNT + 10 + 12 + 4 + 18 + 7);
+        assert_eq!(names[Col::COUNT + 44], "est_error_deg");
+        assert_eq!(names.last().unwrap(), "est_resets");
     }
 }

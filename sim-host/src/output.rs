@@ -92,7 +92,11 @@ pub fn figures() -> Vec<Figure> {
             "modes.png",
             "Mode manager: mode, attitude error to the mission target, body rates",
             vec![
-                panel("mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold", "mode", vec![s("mode", "mode", false)]),
+                panel(
+                    "mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold, 5 sun-safe",
+                    "mode",
+                    vec![s("mode", "mode", false)],
+                ),
                 error(),
                 panel("body rate", "rad/s", rates()),
             ],
@@ -140,6 +144,28 @@ fn actuator_figures() -> Vec<Figure> {
                 panel("allocated level (PWPF input)", "-", per_unit("thruster", "level", "T", 12)),
                 panel("propellant used", "kg", vec![s("propellant_kg", "propellant", false)]),
                 panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
+            ],
+        ),
+        figure(
+            "estimation.png",
+            "On-board attitude determination (MEKF) against the truth: error and the filter's own sigma (dashed)",
+            vec![
+                log_panel(
+                    "attitude error |δθ| and √tr Pθθ",
+                    "deg",
+                    vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
+                ),
+                log_panel(
+                    "gyro bias error |δb| and √tr Pbb",
+                    "deg/h",
+                    vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
+                ),
+                log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
+                panel(
+                    "innovations rejected, filter restarts",
+                    "count",
+                    vec![s("est_rejected", "rejected", false), s("est_resets", "restarts", false)],
+                ),
             ],
         ),
         figure(

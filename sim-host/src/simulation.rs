@@ -160,6 +160,7 @@ impl Metrics {
             (status::ALLOC_FALLBACK, &mut c.alloc_fallback),
             (status::UNREALISED, &mut c.unrealised),
             (status::LAW_FAULT, &mut c.law_fault),
+            (status::NO_ESTIMATE, &mut c.no_estimate),
         ] {
             *n += u64::from(s & bit != 0);
         }
@@ -539,6 +540,15 @@ impl<'a> Simulation<'a> {
             for v in [e.gravity_gradient, e.drag, e.srp, tq.magnetic_nm, tq.rig_nm, external] {
                 row.extend(v.iter());
             }
+        }
+        if l.estimation {
+            let nan = f64::NAN;
+            let e = self.estimation.last();
+            row.extend(e.map_or([nan; 5], |e| {
+                [e.error_deg, e.sigma_deg, e.bias_error_deg_h, e.bias_sigma_deg_h, e.nees.unwrap_or(nan)]
+            }));
+            let (rejected, resets) = self.estimation.counters();
+            row.extend([f64::from(rejected), f64::from(resets)]);
         }
     }
 

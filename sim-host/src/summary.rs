@@ -17,6 +17,9 @@ pub struct StatusCounts {
     pub alloc_fallback: u64,
     pub unrealised: u64,
     pub law_fault: u64,
+    /// Steps the mode needed the fine attitude estimate or the navigation solution and
+    /// had neither (safe command, `Status::NO_ESTIMATE`).
+    pub no_estimate: u64,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]

@@ -169,6 +169,9 @@ fn from_a_tumble_through_sun_safe_to_hold_and_back_after_an_orbit_without_tracke
     // B-dot → sun-safe, then fine attitude (tracker back below 2 deg/s) → stabilise.
     let sun_safe = first("sun_safe", "detumbled", 0.0).expect("detumble → sun-safe");
     let fine = first("stabilise", "estimate_valid", sun_safe).expect("sun-safe → stabilise");
+    // Sun-safe never spins the body back above detumble_enter (its gains keep the pointing
+    // potential below that rate, the scenario's comment): no return to B-dot.
+    assert!(!tr.iter().any(|(t, to, _)| *to == "detumble" && *t > sun_safe), "{tr:?}");
     assert!(fine < t0, "fine pointing before the outage: {fine}");
     // The tracker is lost for an orbit: the fine attitude degrades and the mode manager
     // drops to sun-safe during the outage, and comes back after it.

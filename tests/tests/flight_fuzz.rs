@@ -63,7 +63,8 @@ fn fuzz(seed: u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(0xF100 + seed);
     let mut s = Session::new(board::HOST, 1);
     let mut counter = || 0u32;
-    let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) = (0u32, 0u32, 0u32, 0u32, [0u32; 5]);
+    let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) =
+        (0u32, 0u32, 0u32, 0u32, [0u32; 1 + Mode::ALL.len()]);
     for k in 0..30_000u32 {
         let msg = match rng.random_range(0..100) {
             0 => HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
@@ -74,7 +75,7 @@ fn fuzz(seed: u64) {
             11..=16 => HostMsg::ArmModes(mission.manager),
             17 => HostMsg::UploadParams(if rng.random_bool(0.5) { cmg } else { thr }),
             18..=21 => {
-                let m = Mode::ALL[rng.random_range(0..4)];
+                let m = Mode::ALL[rng.random_range(0..Mode::ALL.len())];
                 HostMsg::CommandMode(match rng.random_range(0..3) {
                     0 => ModeRequest::Enter(m),
                     1 => ModeRequest::Lock(m),
@@ -113,7 +114,7 @@ fn fuzz(seed: u64) {
                 let c = r.cmd;
                 assert_eq!(c.seq, f.seq);
                 assert!(finite(&c), "non-finite command for {f:?}: {c:?}");
-                assert!(c.mode <= 4, "{}", c.mode);
+                assert!(usize::from(c.mode) <= Mode::ALL.len(), "{}", c.mode);
                 mode_seen[c.mode as usize] += 1;
                 assert!(c.estimate.covariance_upper.iter().chain(&c.estimate.q_est_xyzw).all(|x| x.is_finite()));
                 if c.status & (status::NOT_CONFIGURED | status::BAD_INPUT | status::NO_ESTIMATE) != 0 {

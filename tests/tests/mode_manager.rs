@@ -1,9 +1,11 @@
-//! The mode manager in closed loop: a 3U cubesat from a 10 deg/s tumble through
-//! detumble (B-dot, magnetorquers) → stabilise (LQR, wheels, LVLH) → manoeuvre
-//! (eigen-axis quaternion feedback) → hold (with integral), then ground commands (new
-//! target, locked stabilise, auto). Every automatic transition is checked against the
-//! recorded truth: its condition held, with the thresholds of the scenario, over the
-//! whole dwell before it, and no transition happened without one.
+//! The mode manager in closed loop on the flight software's own attitude determination: a
+//! 3U cubesat from a 10 deg/s tumble through detumble (B-dot, magnetorquers) → sun-safe
+//! (coarse sun sensors + gyro, wheels) → stabilise (LQR, wheels, LVLH from on-board
+//! navigation) → manoeuvre (eigen-axis quaternion feedback) → hold (with integral), all on
+//! the MEKF, then ground commands (new target, locked stabilise, auto). Every automatic
+//! transition is checked against the recorded truth: its condition held, with the
+//! thresholds of the scenario, over the whole dwell before it, and no transition happened
+//! without one.
 
 use acs_tests::{run_in_process, scenario};
 use sim_host::columns::Col;
@@ -36,7 +38,7 @@ fn window(s: &Series, t0: f64, t1: f64) -> impl Iterator<Item = usize> + '_ {
 }
 
 #[test]
-fn mission_runs_detumble_stabilise_manoeuvre_hold_and_obeys_commands() {
+fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() {
     let sc = scenario("modes/cubesat-mission.toml");
     let m = sc.modes.clone().unwrap();
     let r = run_in_process(&sc);
@@ -50,7 +52,8 @@ fn mission_runs_detumble_stabilise_manoeuvre_hold_and_obeys_commands() {
     assert_eq!(
         tr,
         [
-            ("detumble", "stabilise", "detumbled"),
+            ("detumble", "sun_safe", "detumbled"),
+            ("sun_safe", "stabilise", "estimate_valid"),
             ("stabilise", "manoeuvre", "stabilised"),
             ("manoeuvre", "hold", "on_target"),
             ("hold", "manoeuvre", "off_target"),
@@ -74,9 +77,19 @@ fn mission_runs_detumble_stabilise_manoeuvre_hold_and_obeys_commands() {
     // The initial 10 deg/s tumble is above the trigger, so no mode but detumble ran before.
     assert!(window(&s, 0.0, t_detumbled).all(|i| s.mode[i] == 1.0));
 
+    // Sun-safe (Wie's pointing law on the coarse sun sensors): its gains were chosen so its
+    // pointing potential cannot spin the body back above detumble_enter (the scenario's
+    // comment); the truth rate stays below it, and sun-safe is left when the MEKF's fine
+    // attitude is back (the star tracker sees again below 2 deg/s).
+    let (t_ss, t_fine) = (at(0).t_s, at(1).t_s);
+    let peak_ss = window(&s, t_ss, t_fine).map(|i| s.rate_deg_s[i]).fold(0.0, f64::max);
+    eprintln!("sun-safe {t_ss:.0}-{t_fine:.0} s: peak rate {peak_ss:.3} deg/s");
+    assert!(peak_ss < m.detumble_enter_rate_deg_s, "{peak_ss}");
+    assert!(t_fine - t_ss >= m.dwell_s, "{t_ss} {t_fine}");
+
     // Manoeuvre → hold: the error to the mission target (the runner's error column) stayed
     // below hold_enter over the dwell; the eigen-axis limit held the slew to 1 deg/s.
-    for k in [2, 4, 7] {
+    for k in [3, 5, 8] {
         let (t0, t1) = (at(k - 1).t_s, at(k).t_s);
         let e: Vec<f64> = window(&s, t1 - m.dwell_s + step_out, t1).map(|i| s.error_deg[i]).collect();
         assert!(!e.is_empty() && e.iter().all(|x| *x < m.hold_enter_error_deg), "transition {k}: {e:?}");
@@ -85,20 +98,20 @@ fn mission_runs_detumble_stabilise_manoeuvre_hold_and_obeys_commands() {
         assert!(peak < 1.1, "eigen-axis slew rate limit 1 deg/s: {peak}");
     }
 
-    // The retarget at 4200 s: hold leaves after the trigger persistence, not before.
+    // The retarget at 7000 s: hold leaves after the trigger persistence, not before.
     let retarget = sc.commands[0].at_s;
     assert!(
-        at(3).t_s >= retarget + m.trigger_persistence_s - dt && at(3).t_s < retarget + m.trigger_persistence_s + 1.0
+        at(4).t_s >= retarget + m.trigger_persistence_s - dt && at(4).t_s < retarget + m.trigger_persistence_s + 1.0
     );
 
-    // Locked stabilise 5400-5900 s: converged long before 5900 s but stays until "auto".
+    // Locked stabilise 8200-8700 s: converged long before 8700 s but stays until "auto".
     let (lock, auto) = (sc.commands[1].at_s, sc.commands[2].at_s);
-    assert!((at(5).t_s - lock).abs() < dt / 2.0);
+    assert!((at(6).t_s - lock).abs() < dt / 2.0);
     assert!(window(&s, lock + dt, auto).all(|i| s.mode[i] == 2.0));
-    assert!(at(6).t_s >= auto, "stabilise stayed locked until {auto} s: left at {}", at(6).t_s);
+    assert!(at(7).t_s >= auto, "stabilise stayed locked until {auto} s: left at {}", at(7).t_s);
 
     // Hold: fine pointing, and the last hold lasts to the end.
-    let hold: Vec<f64> = window(&s, at(7).t_s + 60.0, f64::INFINITY).map(|i| s.error_deg[i]).collect();
+    let hold: Vec<f64> = window(&s, at(8).t_s + 60.0, f64::INFINITY).map(|i| s.error_deg[i]).collect();
     let rms = (hold.iter().map(|e| e * e).sum::<f64>() / hold.len() as f64).sqrt();
     let max = hold.iter().copied().fold(0.0, f64::max);
     eprintln!(
@@ -108,43 +121,128 @@ fn mission_runs_detumble_stabilise_manoeuvre_hold_and_obeys_commands() {
     assert!(rms < 0.02 && max < m.hold_enter_error_deg, "{rms} {max}");
     assert_eq!(r.summary.final_mode.as_deref(), Some("hold"));
     assert!(r.summary.max_wheel_speed_rpm.unwrap() < 10_000.0);
-    // B-dot ran on gyro and magnetometer while the star tracker was blind (10 deg/s >
-    // its 2 deg/s limit): no step lacked an input its mode needs.
+    // B-dot ran on gyro and magnetometer and sun-safe on the coarse sun sensors and gyro
+    // while the star tracker was blind (10 deg/s > its 2 deg/s limit): no step lacked an
+    // input or an estimate its mode needs.
     assert_eq!(r.summary.status_counts.bad_input, 0);
+    assert_eq!(r.summary.status_counts.no_estimate, 0);
+    // Once the filter has its fine attitude (sun-safe → stabilise), it is consistent: mean
+    // NEES near 6 (χ² with 6 degrees of freedom; the samples are correlated over many
+    // steps, so ±50 % rather than the i.i.d. bound), no restart, and its attitude error
+    // within its own σ (√tr Pθθ) in RMS.
+    let col = |n: &str| r.series.col(n).unwrap_or_else(|| panic!("column {n}")).to_vec();
+    let (nees, err, sig, resets) = (col("est_nees"), col("est_error_deg"), col("est_sigma_deg"), col("est_resets"));
+    let fine: Vec<usize> = window(&s, t_fine, f64::INFINITY).collect();
+    let mean = |v: &[f64]| fine.iter().map(|&i| v[i]).sum::<f64>() / fine.len() as f64;
+    let rms = |v: &[f64]| fine.iter().map(|&i| v[i] * v[i]).sum::<f64>().sqrt() / (fine.len() as f64).sqrt();
+    let (nees_fine, err_rms, sig_rms) = (mean(&nees), rms(&err), rms(&sig));
+    eprintln!("after fine attitude: NEES {nees_fine:.2}, error RMS {err_rms:.4} deg, σ RMS {sig_rms:.4} deg");
+    assert!((3.0..9.0).contains(&nees_fine), "{nees_fine}");
+    assert!(err_rms < 1.5 * sig_rms, "{err_rms} {sig_rms}");
+    assert!(fine.iter().all(|&i| resets[i] == resets[fine[0]]));
+    eprintln!(
+        "estimation: RMS {:?} deg, max {:?} deg, NEES {:?}, bias error {:?} deg/h, rejected {:?}, resets {:?}",
+        r.summary.estimation_error_rms_deg,
+        r.summary.estimation_error_max_deg,
+        r.summary.nees_mean,
+        r.summary.bias_error_final_deg_h,
+        r.summary.innovations_rejected,
+        r.summary.estimator_resets
+    );
     let blind = sc.sensors.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s).unwrap();
     assert!(s.rate_deg_s[0] > blind);
 }
 
+/// The mission started in hold on target at `rate_deg_s` about y, with the star tracker
+/// off over `outage_s`, on the MEKF or on the tracker's quaternion as measured.
+fn from_hold(
+    rate_deg_s: f64,
+    outage_s: Option<[f64; 2]>,
+    mekf: bool,
+) -> (sim_host::scenario::Scenario, sim_host::runner::RunResult) {
+    let mut sc = scenario("modes/cubesat-mission.toml");
+    let modes = sc.modes.as_mut().unwrap();
+    modes.initial = "hold".into();
+    sc.initial.attitude = sc.target.clone();
+    sc.initial.rate_rad_s = [0.0, f64::to_radians(rate_deg_s), 0.0];
+    sc.commands.clear();
+    sc.duration_s = 5000.0;
+    sc.timing.output_every = 1;
+    sc.sensors.star_tracker.as_mut().unwrap().outages_s = outage_s.into_iter().collect();
+    if !mekf {
+        // The attitude as the star tracker measures it (no filter between).
+        sc.estimation = None;
+    }
+    let r = run_in_process(&sc);
+    for x in &r.summary.mode_transitions {
+        eprintln!(
+            "from hold at {rate_deg_s} deg/s, outage {outage_s:?}, MEKF {mekf}: t = {:8.1} s  {} -> {} ({})",
+            x.t_s, x.from, x.to, x.reason
+        );
+    }
+    (sc, r)
+}
+
+fn steps_without_inputs(r: &sim_host::runner::RunResult) -> u64 {
+    r.summary.status_counts.bad_input + r.summary.status_counts.no_estimate
+}
+
 #[test]
-fn a_kick_in_hold_returns_to_detumble_and_the_mission_recovers() {
-    // Start in hold on target and kick the body. 5 deg/s is above detumble_enter (3 deg/s):
-    // the rate trigger fires. 2.5 deg/s is below it but above the star tracker's 2 deg/s:
-    // hold is blind, and the lost-input rule must hand over to detumble (gyro and
-    // magnetometer only) instead of holding the safe command for ever.
-    for (kick_deg_s, why) in [(5.0, "rate_high"), (2.5, "input_lost")] {
-        let mut sc = scenario("modes/cubesat-mission.toml");
-        let modes = sc.modes.as_mut().unwrap();
-        modes.initial = "hold".into();
-        let persistence = modes.trigger_persistence_s;
-        sc.initial.attitude = sc.target.clone();
-        sc.initial.rate_rad_s = [0.0, f64::to_radians(kick_deg_s), 0.0];
-        sc.commands.clear();
-        sc.duration_s = 5000.0;
-        let r = run_in_process(&sc);
+fn a_kick_in_hold_is_handled_by_the_rate_trigger_or_the_lost_input_rule() {
+    // The filter starts cold and the star tracker is blind above 2 deg/s: hold has no fine
+    // attitude (TRIAD on Sun and field gives the filter 5 deg) and holds the safe command
+    // until a rule hands over. 5 deg/s is above detumble_enter (3 deg/s): the rate trigger
+    // fires after its persistence. 2.5 deg/s is below it: the lost-input rule hands over
+    // to sun-safe (coarse sun sensors and gyro), which damps the rate; the tracker returns
+    // and the mission climbs back to hold.
+    for (kick_deg_s, to, why) in [(5.0, "detumble", "rate_high"), (2.5, "sun_safe", "input_lost")] {
+        let (sc, r) = from_hold(kick_deg_s, None, true);
+        let m = sc.modes.as_ref().unwrap();
         let tr = &r.summary.mode_transitions;
-        for x in tr {
-            eprintln!("kick {kick_deg_s} deg/s: t = {:8.1} s  {} -> {} ({})", x.t_s, x.from, x.to, x.reason);
-        }
-        assert_eq!((tr[0].from.as_str(), tr[0].to.as_str(), tr[0].reason.as_str()), ("hold", "detumble", why));
-        assert!(tr[0].t_s <= persistence + 1.0, "{}", tr[0].t_s);
-        // Blind hold holds the safe command only until the hand-over.
-        let bad = r.summary.status_counts.bad_input as f64;
+        assert_eq!((tr[0].from.as_str(), tr[0].to.as_str(), tr[0].reason.as_str()), ("hold", to, why));
+        assert!(tr[0].t_s <= m.trigger_persistence_s + 1.0, "{}", tr[0].t_s);
+        let blind = steps_without_inputs(&r) as f64;
         let dt = 1.0 / sc.timing.control_rate_hz;
-        eprintln!("kick {kick_deg_s} deg/s: {bad} steps of safe command before detumble");
-        assert!(bad > 0.0 && bad <= tr[0].t_s / dt + 1.0, "{bad}");
+        eprintln!("kick {kick_deg_s} deg/s: {blind} steps of safe command before {to}");
+        assert!(blind > 0.0 && blind <= tr[0].t_s / dt + 1.0, "{blind}");
         assert_eq!(r.summary.final_mode.as_deref(), Some("hold"));
         assert!(r.summary.final_error_deg < 0.5, "{}", r.summary.final_error_deg);
     }
+}
+
+#[test]
+fn the_mekf_carries_hold_through_a_tracker_outage_that_blinds_the_raw_tracker() {
+    // Ten minutes without the star tracker from 1000 s, in hold at rest. On the MEKF the
+    // attitude is carried by the gyro: after t s its 1σ grows as √(σv² t + σu² t³/3)
+    // (gyro ARW σv, RRW σu) — 0.051 deg after 600 s (the RRW term dominates), under the
+    // 0.1 deg lost threshold — so hold never lets go, and the pointing error grows by at
+    // most a few of those σ.
+    let outage = [1000.0, 1600.0];
+    let (sc, r) = from_hold(0.0, Some(outage), true);
+    let e = sc.estimation.as_ref().unwrap();
+    let t = outage[1] - outage[0];
+    let sigma_deg =
+        (e.gyro_arw_rad_sqrt_s.powi(2) * t + e.gyro_rrw_rad_s_sqrt_s.powi(2) * t.powi(3) / 3.0).sqrt().to_degrees();
+    assert!(r.summary.mode_transitions.is_empty(), "{:?}", r.summary.mode_transitions);
+    assert_eq!(steps_without_inputs(&r), 0);
+    let s = series(&r);
+    let worst = window(&s, outage[0], outage[1] + 60.0).map(|i| s.error_deg[i]).fold(0.0, f64::max);
+    let before = window(&s, outage[0] - 300.0, outage[0]).map(|i| s.error_deg[i]).fold(0.0, f64::max);
+    eprintln!(
+        "outage on the MEKF: worst pointing error {worst:.4} deg (before {before:.4}), 1σ growth {sigma_deg:.4} deg"
+    );
+    assert!(worst < before + 3.0 * sigma_deg.max(0.0) + 0.01, "{worst} {before} {sigma_deg}");
+
+    // On the tracker's quaternion the same outage blinds hold: the lost-input rule drops to
+    // sun-safe after its persistence, and the mission returns to hold after the outage.
+    let (sc, r) = from_hold(0.0, Some(outage), false);
+    let m = sc.modes.as_ref().unwrap();
+    let tr = &r.summary.mode_transitions;
+    assert_eq!((tr[0].from.as_str(), tr[0].to.as_str(), tr[0].reason.as_str()), ("hold", "sun_safe", "input_lost"));
+    assert!(tr[0].t_s >= outage[0] && tr[0].t_s <= outage[0] + m.trigger_persistence_s + 1.0, "{}", tr[0].t_s);
+    let back = tr.iter().find(|x| x.from == "sun_safe").expect("leaves sun-safe");
+    assert!(back.t_s >= outage[1], "{}", back.t_s);
+    assert_eq!(r.summary.final_mode.as_deref(), Some("hold"));
 }
 
 #[test]
@@ -160,7 +258,7 @@ fn mode_table_scenarios_are_validated_naming_the_key() {
         ("initial = \"detumble\"", "initial = \"safe\"", "modes.initial"),
         ("actuator = \"magnetorquers\"", "actuator = \"thrusters\"", "modes.detumble.actuator"),
         ("mode = \"stabilise\"", "mode = \"sleep\"", "commands[1].mode"),
-        ("at_s = 5900.0", "at_s = 100.0", "commands[2]"),
+        ("at_s = 8700.0", "at_s = 100.0", "commands[2]"),
         (
             "[modes.manoeuvre]\nactuator = \"wheels\"",
             "[modes.manoeuvre]\nactuator = \"wheels\"\ntarget = { euler_deg = [0, 0, 0] }",

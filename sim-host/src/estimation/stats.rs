@@ -20,9 +20,25 @@ pub struct EstimationStats {
     sum_nees: f64,
     max_err_deg: f64,
     last_bias_err_deg_h: Option<f64>,
-    last_err_deg: Option<f64>,
+    last: Option<EstimationSample>,
     rejected: u32,
     resets: u16,
+}
+
+/// One step's estimate against the truth (the `est_*` columns of `timeseries.csv`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimationSample {
+    /// |δθ|, deg.
+    pub error_deg: f64,
+    /// √tr P_θθ, deg: the RMS of |δθ| the filter claims (a consistent filter's error
+    /// stays mostly below 2–3 times it).
+    pub sigma_deg: f64,
+    /// |δb|, deg/h.
+    pub bias_error_deg_h: f64,
+    /// √tr P_bb, deg/h.
+    pub bias_sigma_deg_h: f64,
+    /// `[δθ; δb]ᵀ P⁻¹ [δθ; δb]` (`None` when P is not positive definite in f64).
+    pub nees: Option<f64>,
 }
 
 /// The run's figures.
@@ -69,7 +85,7 @@ impl EstimationStats {
         self.rejected = t.rejected;
         self.resets = t.resets;
         if t.flags & estimate_flags::MEKF == 0 {
-            self.last_err_deg = None;
+            self.last = None;
             return;
         }
         let x = error_state(q_true, bias_true, t);
@@ -77,21 +93,39 @@ impl EstimationStats {
         self.n += 1;
         self.sum_err2_deg2 += err_deg * err_deg;
         self.max_err_deg = self.max_err_deg.max(err_deg);
-        self.last_err_deg = Some(err_deg);
-        self.last_bias_err_deg_h = Some(x.fixed_rows::<3>(3).norm().to_degrees() * 3600.0);
-        if let Some(ch) = covariance(&t.covariance_upper).cholesky() {
-            let nees = x.dot(&ch.solve(&x));
-            if nees.is_finite() {
-                self.n_nees += 1;
-                self.sum_nees += nees;
-            }
+        let bias_error_deg_h = x.fixed_rows::<3>(3).norm().to_degrees() * 3600.0;
+        self.last_bias_err_deg_h = Some(bias_error_deg_h);
+        let p = covariance(&t.covariance_upper);
+        let trace = |k: usize| (p[(k, k)] + p[(k + 1, k + 1)] + p[(k + 2, k + 2)]).max(0.0).sqrt().to_degrees();
+        let nees = p.cholesky().map(|ch| x.dot(&ch.solve(&x))).filter(|v| v.is_finite());
+        if let Some(v) = nees {
+            self.n_nees += 1;
+            self.sum_nees += v;
         }
+        self.last = Some(EstimationSample {
+            error_deg: err_deg,
+            sigma_deg: trace(0),
+            bias_error_deg_h,
+            bias_sigma_deg_h: trace(3) * 3600.0,
+            nees,
+        });
+    }
+
+    /// The last step's estimate against the truth (`None` when the MEKF was not running
+    /// then).
+    pub fn last(&self) -> Option<&EstimationSample> {
+        self.last.as_ref()
+    }
+
+    /// Innovations rejected and filter restarts so far (the flight code's counters).
+    pub fn counters(&self) -> (u32, u16) {
+        (self.rejected, self.resets)
     }
 
     /// Attitude-estimation error of the last step, deg (`None` when the MEKF was not
     /// running then).
     pub fn last_error_deg(&self) -> Option<f64> {
-        self.last_err_deg
+        self.last.map(|s| s.error_deg)
     }
 
     /// `None` when the MEKF never ran.
@@ -99,7 +133,7 @@ impl EstimationStats {
         (self.n > 0).then(|| EstimationFigures {
             error_rms_deg: (self.sum_err2_deg2 / self.n as f64).sqrt(),
             error_max_deg: self.max_err_deg,
-            error_final_deg: self.last_err_deg,
+            error_final_deg: self.last_error_deg(),
             bias_error_final_deg_h: self.last_bias_err_deg_h,
             nees_mean: (self.n_nees > 0).then(|| self.sum_nees / self.n_nees as f64),
             innovations_rejected: self.rejected,

@@ -1,13 +1,14 @@
 //! `sim-host report`: every shipped scenario flown, each published outcome beside ours
 //! with a verdict, the paper's figures redrawn, and the experiments that explain the gaps.
 //!
-//! Inputs: `scenarios/paper*/*.toml` and `scenarios/modes/*.toml` (flown in-process, in
-//! parallel), `report/outcomes.toml` (the published outcomes, SEEDS.md's words), and the
+//! Inputs: `scenarios/paper*/*.toml`, `scenarios/modes/*.toml` and
+//! `scenarios/estimation/*.toml` (flown in-process, in parallel), `report/outcomes.toml` (the published outcomes, SEEDS.md's words), and the
 //! experiments of [`experiments::ALL`]. Outputs in the chosen directory: `report.md`
 //! (committed as `docs/results.md`; a test regenerates it and fails when it is stale),
 //! `index.html` and `figures/`. No wall-clock figure enters the text, so the same tree
 //! gives the same bytes.
 
+pub mod determination;
 pub mod experiment;
 pub mod experiments;
 pub mod metrics;
@@ -28,7 +29,7 @@ use std::path::{Path, PathBuf};
 pub struct Options {
     pub repo: PathBuf,
     pub out: PathBuf,
-    /// Papers to include ("000" … "004", "modes"); all when empty.
+    /// Papers to include ("000" … "004", "modes", "estimation"); all when empty.
     pub papers: Vec<String>,
     pub jobs: usize,
     pub progress: bool,
@@ -49,6 +50,7 @@ const PAPERS: &[(&str, &str)] = &[
     ("003", "Paper 003 — magnetic PD and LQR on an air-bearing rig and in orbit"),
     ("004", "Paper 004 — thruster allocation by linear programming, PWPF and failures"),
     ("modes", "Beyond the papers — the mode manager (cubesat mission)"),
+    ("estimation", "Beyond the papers — attitude determination on board (MEKF, sun-safe)"),
 ];
 
 /// The figures redrawn per paper (file names of `output::figures`), as the paper plots them.
@@ -58,7 +60,8 @@ fn figure_set(paper: &str) -> &'static [&'static str] {
         "001" => &["attitude.png", "wheels.png", "adaptive.png", "torque.png"],
         "003" => &["attitude.png", "magnetorquers.png", "environment.png"],
         "004" => &["attitude.png", "thrusters.png", "torque.png"],
-        _ => &["modes.png", "attitude.png", "wheels.png", "magnetorquers.png"],
+        "estimation" => &["estimation.png", "modes.png", "attitude.png"],
+        _ => &["modes.png", "estimation.png", "attitude.png", "wheels.png", "magnetorquers.png"],
     }
 }
 
@@ -83,7 +86,7 @@ fn discover(repo: &Path, papers: &[String]) -> Result<Vec<Scn>> {
         let Some(name) = d.file_name().and_then(|n| n.to_str()).map(str::to_owned) else { continue };
         let paper = match name.strip_prefix("paper") {
             Some(p) => p.to_owned(),
-            None if name == "modes" => name.clone(),
+            None if name == "modes" || name == "estimation" => name.clone(),
             None => continue,
         };
         if !papers.is_empty() && !papers.contains(&paper) {
@@ -185,7 +188,11 @@ pub fn generate(o: &Options) -> Result<Report> {
     if let Some(r) = rows.iter().find(|r| r.verdict == Verdict::DiffersOpen && r.outcome.experiment.is_none()) {
         bail!("outcome {}/{} differs and no experiment investigates it", r.outcome.paper, r.outcome.id);
     }
-    let doc = document(&flown, &rows, &experiments, &o.papers);
+    let checks = (o.papers.is_empty() || o.papers.iter().any(|p| p == "estimation"))
+        .then(|| determination::checks(&o.repo))
+        .transpose()
+        .context("determination checks")?;
+    let doc = document(&flown, &rows, &experiments, &o.papers, checks);
     let markdown = render::markdown(&doc);
     std::fs::write(o.out.join("report.md"), &markdown)?;
     std::fs::write(o.out.join("index.html"), render::html(&doc, "Reproduction report"))?;
@@ -223,19 +230,61 @@ fn actuator_cell(s: &Summary) -> String {
     parts.join(", ")
 }
 
+/// The estimation figures of the runs that flew the MEKF (`None` when none did).
+fn estimation_table(runs: &[&Flown]) -> Option<Block> {
+    let rows: Vec<Vec<String>> = runs
+        .iter()
+        .filter_map(|f| {
+            let s = &f.summary;
+            let rms = s.estimation_error_rms_deg?;
+            Some(vec![
+                format!("`scenarios/{}.toml`", f.scn.rel),
+                sig(rms, 3),
+                opt(s.estimation_error_max_deg, 3),
+                opt(s.bias_error_final_deg_h, 3),
+                opt(s.nees_mean, 3),
+                s.innovations_rejected.map_or_else(|| "—".into(), |n| n.to_string()),
+                s.estimator_resets.map_or_else(|| "—".into(), |n| n.to_string()),
+                s.final_mode.clone().unwrap_or_else(|| "—".into()),
+            ])
+        })
+        .collect();
+    (!rows.is_empty()).then(|| Block::Table {
+        header: [
+            "scenario",
+            "estimation error RMS (°)",
+            "max (°)",
+            "bias error at end (°/h)",
+            "mean NEES",
+            "innovations rejected",
+            "restarts",
+            "final mode",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    })
+}
+
 /// A short figure caption: the file's name ("attitude"), the title kept for the HTML alt text.
 fn title_word(file: &str, _title: &str) -> String {
     file.rsplit('/').next().unwrap_or(file).trim_end_matches(".png").to_owned()
 }
 
-fn document(flown: &[Flown], rows: &[Row], exps: &BTreeMap<String, Experiment>, papers: &[String]) -> Vec<Section> {
+fn document(
+    flown: &[Flown],
+    rows: &[Row],
+    exps: &BTreeMap<String, Experiment>,
+    papers: &[String],
+    mut checks: Option<Block>,
+) -> Vec<Section> {
     let mut doc = Vec::new();
     let count = |v: Verdict| rows.iter().filter(|r| r.verdict == v).count();
     let mut intro = vec![
         Block::Para(
             "Generated by `sim-host report --out DIR` (`scripts/report.sh` regenerates this file); do not edit by hand: \
              `sim-host/tests/report.rs` fails when this file differs from a fresh run. Every shipped scenario under \
-             `scenarios/paper*/` and `scenarios/modes/` is flown in-process; each published outcome (the paper's \
+             `scenarios/paper*/`, `scenarios/modes/` and `scenarios/estimation/` is flown in-process; each published outcome (the paper's \
              words from `../shared/reference/SEEDS.md`, listed in `report/outcomes.toml`) stands beside ours with the \
              check that decides *reproduced*; each difference names the experiment (below each paper) or the \
              analysis that explains it. Figures are written beside the generated `report.md` and `index.html` \
@@ -333,6 +382,19 @@ fn document(flown: &[Flown], rows: &[Row], exps: &BTreeMap<String, Experiment>, 
                     .collect(),
             };
             let mut blocks = vec![table];
+            if let Some(t) = estimation_table(&runs) {
+                blocks.push(Block::Para(
+                    "On-board attitude determination against the simulator's truth, over the steps the MEKF ran \
+                     (`summary.json`; `sim_host::estimation::stats`): attitude error |δθ| (RMS, max), gyro-bias error \
+                     at the end, mean NEES with the filter's own 6×6 covariance (χ²₆: 6 for a consistent filter; \
+                     the tumble and coarse phases raise it), innovations the χ² gates rejected, filter restarts. \
+                     Closed-loop proofs: `sim-host/tests/estimation_closed_loop.rs`, `tests/tests/mode_manager.rs`; \
+                     the filter against an independent f64 MEKF and the Monte Carlo consistency runs: \
+                     `docs/verification.md`."
+                        .into(),
+                ));
+                blocks.push(t);
+            }
             for f in &runs {
                 blocks.extend(f.figures.iter().map(|(file, title)| Block::Figure {
                     file: file.clone(),
@@ -340,6 +402,20 @@ fn document(flown: &[Flown], rows: &[Row], exps: &BTreeMap<String, Experiment>, 
                 }));
             }
             doc.push(Section { level: 3, title: "Runs and figures".into(), blocks });
+        }
+        if *p == "estimation"
+            && let Some(table) = checks.take()
+        {
+            let intro = Block::Para(
+                "Flown for this report (`sim_host::report::determination`; the same criteria are asserted by \
+                 `sim-host/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
+                 attitude (no filter, a noise-free star tracker, no gyro model), and the gyro-only error growth \
+                 through a star-tracker outage against the Farrenkopf bound (σv, σu the gyro's angle and rate \
+                 random walk, σb = √tr P_bb of the filter at the outage start). The cost of the whole mission step \
+                 on the Cortex-M4F is in `docs/timing.md`."
+                    .into(),
+            );
+            doc.push(Section { level: 3, title: "Determination checks".into(), blocks: vec![intro, table] });
         }
         for e in es {
             let mut blocks = vec![Block::Para(format!("**Question.** {}", e.question))];

@@ -148,6 +148,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         thrusters: n_thrusters,
         field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
         env_torques: has_environment(sc),
+        estimation: sc.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf),
     }
 }
 
