@@ -1,16 +1,47 @@
 #!/usr/bin/env python3
 """Rewrites timing/budget.toml from the committed corpus: each scenario's (and mode's)
 worst found instructions + 25 %, rounded up to 500; the control period from the
-existing budget file (checked against the scenario by `sim-host timing replay`).
+existing budget file, or for a scenario new to it 1 / the scenario's control_rate_hz
+(checked against the scenario by `sim-host timing replay`). `--keep NAME` copies
+scenario NAME's sections from the existing file unchanged (e.g. while its corpus is
+being remade elsewhere).
 
-    scripts/timing-budget.py            # after scripts/timing-corpus.sh
+    scripts/timing-budget.py                                 # after scripts/timing-corpus.sh
+    scripts/timing-budget.py --keep modes-cubesat-mission
 """
-import json, math, pathlib, re
+import argparse, json, math, pathlib, re, tomllib
 
+ap = argparse.ArgumentParser()
+ap.add_argument("--keep", action="append", default=[], metavar="NAME", help="scenario whose sections stay as they are")
+args = ap.parse_args()
 root = pathlib.Path(__file__).resolve().parent.parent
 budget = root / "timing" / "budget.toml"
 old = budget.read_text()
-periods = dict(re.findall(r"\[scenario\.([\w-]+)\][^\n]*\nmax_instructions = \d+\ncontrol_period_s = ([\d.e+-]+)", old))
+periods = dict(re.findall(r"\[scenario\.([\w-]+)\][^\n]*\n(?:#[^\n]*\n)*max_instructions = \d+\ncontrol_period_s = ([\d.e+-]+)", old))
+
+
+def kept(name):
+    """The lines of scenario `name`'s sections in the existing file (comments included)."""
+    lines, on = [], False
+    for line in old.splitlines():
+        m = re.match(r"\[scenario\.([\w-]+)(\.modes)?\]", line)
+        if m:
+            on = m.group(1) == name
+        if on:
+            lines.append(line)
+    if not lines:
+        raise SystemExit(f"--keep {name}: not in {budget}")
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines + [""]
+
+
+def period(c):
+    if c["scenario"] in periods:
+        return periods[c["scenario"]]
+    sc = tomllib.loads((root / c["scenario_file"]).read_text())
+    return repr(1.0 / float(sc["timing"]["control_rate_hz"]))
+
 
 def limit(x):
     return int(math.ceil(x * 1.25 / 500.0) * 500)
@@ -31,10 +62,13 @@ out = [
 for f in sorted((root / "timing" / "corpus").glob("*.json")):
     c = json.loads(f.read_text())
     name = c["scenario"]
+    if name in args.keep:
+        out.extend(kept(name))
+        continue
     worst = c["worst_instructions"]
     out.append(f"[scenario.{name}]  # worst found {worst}")
     out.append(f"max_instructions = {limit(worst)}")
-    out.append(f"control_period_s = {periods[name]}")
+    out.append(f"control_period_s = {period(c)}")
     modes = [(e["mode"], e["instructions"]) for e in c["entries"] if e["label"].startswith("mode:") or e["label"] == "worst"]
     per = {}
     for m, i in modes:

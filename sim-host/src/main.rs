@@ -292,7 +292,7 @@ fn corpus_scenario(c: &timing::corpus::Corpus) -> PathBuf {
 /// `sim-host timing …`.
 fn timing(what: TimingCmd) -> Result<()> {
     use timing::corpus::{BudgetFile, Corpus};
-    use timing::search::{SearchOptions, mode_name};
+    use timing::search::{SearchOptions, estimate_names, mode_name};
     let verdict = |b: &Option<BudgetFile>, name: &str, mode: &str, instr: u64, dt: f64, failed: &mut bool| {
         if let Some(b) = b {
             let v = b.check(name, mode, instr, dt);
@@ -351,12 +351,18 @@ fn timing(what: TimingCmd) -> Result<()> {
             if let Some(n) = r.nominal {
                 say!("  nominal input: {} instructions", n.instructions);
             }
+            let w = &r.worst.cost;
             say!(
-                "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}); {}",
-                r.worst.cost.instructions,
-                r.worst.cost.step,
-                mode_name(r.worst.cost.mode),
-                r.worst.cost.status,
+                "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}, estimation [{}], \
+                 MEKF updates accepted/rejected/restarts {}/{}/{}); {}",
+                w.instructions,
+                w.step,
+                mode_name(w.mode),
+                w.status,
+                estimate_names(w.estimate_flags),
+                w.mekf_accepted,
+                w.mekf_rejected,
+                w.mekf_resets,
                 verdict(&budget, &t.name, mode_name(r.worst.cost.mode), r.worst.cost.instructions, t.dt_s, &mut failed)
             );
             say!(
@@ -371,8 +377,9 @@ fn timing(what: TimingCmd) -> Result<()> {
                 for (code, f) in &r.per_mode {
                     let name = mode_name(*code);
                     say!(
-                        "  mode {name}: worst {} instructions; {}",
+                        "  mode {name}: worst {} instructions (estimation [{}]); {}",
                         f.cost.instructions,
+                        estimate_names(f.cost.estimate_flags),
                         verdict(&budget, &t.name, name, f.cost.instructions, t.dt_s, &mut failed)
                     );
                 }
@@ -402,11 +409,12 @@ fn timing(what: TimingCmd) -> Result<()> {
                         Some(m) => {
                             let mode = mode_name(m.mode);
                             say!(
-                                "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}; {}",
+                                "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}]; {}",
                                 r.label,
                                 m.instructions,
                                 r.recorded,
                                 m.instructions as i64 - r.recorded as i64,
+                                estimate_names(m.estimate_flags),
                                 verdict(&budget, &c.scenario, mode, m.instructions, dt, &mut failed)
                             );
                         }

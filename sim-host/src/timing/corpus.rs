@@ -17,6 +17,13 @@ pub struct Entry {
     /// Mode of the costliest step ("none" without a mode table).
     pub mode: String,
     pub status: u16,
+    /// The estimation stage in that step: `estimate_flags` by name ("mekf nav sun ...",
+    /// see [`super::search::estimate_names`]) and the MEKF's update counters since the
+    /// upload (accepted, rejected, restarts). Empty in entries recorded before protocol 11.
+    #[serde(default)]
+    pub estimate: String,
+    #[serde(default)]
+    pub mekf_updates: [u32; 3],
     pub input: InputJson,
 }
 
@@ -27,6 +34,8 @@ impl Entry {
             instructions: f.cost.instructions,
             mode: mode_name(f.cost.mode).into(),
             status: f.cost.status,
+            estimate: super::search::estimate_names(f.cost.estimate_flags),
+            mekf_updates: [f.cost.mekf_accepted, f.cost.mekf_rejected, u32::from(f.cost.mekf_resets)],
             input: InputJson::from(&f.input),
         }
     }

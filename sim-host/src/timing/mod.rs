@@ -4,9 +4,10 @@
 //! An [`Input`] is what one measurement feeds the flight code: the scenario's parameters
 //! (or mode table) with an optional extra failure mask, an optional ground mode command,
 //! a short prefix of sensor frames (the flight code has state: integrators, PWPF, mode
-//! manager, estimator) and the measured frame. Every evaluation re-uploads the parameters
-//! first, which gives the flight code fresh state, so an input's cost does not depend on
-//! what was evaluated before it (checked by the replay of the corpus).
+//! manager, estimator, navigation fix, MEKF) and the measured frame. Every evaluation
+//! re-uploads the parameters (or mode table) and the estimation parameters first, which
+//! gives the flight code fresh state, so an input's cost does not depend on what was
+//! evaluated before it (checked by the replay of the corpus).
 //!
 //! - [`search`]: seeded (μ+λ) evolutionary search for the costliest input;
 //! - [`corpus`]: the committed worst inputs, their replay and the budget file.
@@ -16,9 +17,11 @@ pub mod search;
 
 use crate::link::{FlightLink, LinkInfo, ModeTable};
 use crate::scenario::{Resolved, Scenario, Upload};
+#[allow(unused_imports)] // doc links
+use acs_flight::link::estimate_flags;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
 use acs_flight::modes::{Mode, ModeRequest};
-use acs_flight::params::{ActuatorParams, FlightParams, MAX_CSS_HEADS, MAX_WHEELS};
+use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams, MAX_CSS_HEADS, MAX_WHEELS};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -29,7 +32,8 @@ use std::path::{Path, PathBuf};
 /// integrators, which a few steps already load).
 pub const MAX_PREFIX: usize = 4;
 
-/// The f32 fields of a sensor frame, in wire order: (name, length).
+/// The f32 fields of a sensor frame, in wire order: (name, length). The integer fields
+/// (`seq`, `time_us`, `valid`, `gnss_j2000_days`) are stored beside them ([`FrameJson`]).
 /// (Protocol 11 replaced `q_ref_xyzw`/`ref_rate_rad_s` by the GNSS and CSS fields: a corpus
 /// entry recorded before lacks them — they read as zeros — and its old fields are ignored.)
 pub const FRAME_FIELDS: [(&str, usize); 10] = [
@@ -135,6 +139,9 @@ pub struct FrameJson {
     pub seq: u32,
     pub time_us: u64,
     pub valid: u16,
+    /// Whole days since J2000.0 of the GNSS fix (0 in entries recorded before protocol 11).
+    #[serde(default)]
+    pub gnss_j2000_days: i32,
     #[serde(flatten)]
     pub fields: BTreeMap<String, Vec<JsonF32>>,
 }
@@ -148,7 +155,7 @@ impl From<&SensorFrame> for FrameJson {
             fields.insert(name.to_string(), v[i..i + n].iter().map(|x| JsonF32::of(*x)).collect());
             i += n;
         }
-        Self { seq: f.seq, time_us: f.time_us, valid: f.valid, fields }
+        Self { seq: f.seq, time_us: f.time_us, valid: f.valid, gnss_j2000_days: f.gnss_j2000_days, fields }
     }
 }
 
@@ -156,6 +163,7 @@ impl FrameJson {
     pub fn frame(&self) -> Result<SensorFrame> {
         let mut f = SensorFrame::empty(self.seq, self.time_us);
         f.valid = self.valid;
+        f.gnss_j2000_days = self.gnss_j2000_days;
         let mut v = Vec::with_capacity(N_FLOATS);
         for (name, n) in FRAME_FIELDS {
             let Some(xs) = self.fields.get(name) else {
@@ -265,6 +273,10 @@ pub struct Target {
     /// Path of the scenario file as given.
     pub path: PathBuf,
     pub upload: Upload,
+    /// The scenario's attitude-determination parameters (`[estimation]`); `None`: the
+    /// flight code's default ([`EstimationParams::SENSOR`], the attitude sensor as
+    /// measured), which every evaluation uploads as well (it also clears the navigation fix).
+    pub estimation: Option<EstimationParams>,
     /// The sensor frame of the scenario's initial state (the nominal input).
     pub nominal: SensorFrame,
     /// Control period.
@@ -318,6 +330,7 @@ impl Target {
             name: sc.name.clone(),
             path: path.to_path_buf(),
             upload,
+            estimation: r.estimation,
             nominal,
             dt_s: sc.control_dt(),
             modes,
@@ -345,6 +358,12 @@ pub struct Cost {
     pub mode: u8,
     /// Status bits of that step.
     pub status: u16,
+    /// What the estimation stage did in that step: [`estimate_flags`] bits (MEKF running,
+    /// navigation, Sun seen, ...) and its update counters since the upload.
+    pub estimate_flags: u16,
+    pub mekf_accepted: u32,
+    pub mekf_rejected: u32,
+    pub mekf_resets: u16,
 }
 
 /// Evaluates inputs of one scenario on a link that reports instructions (QEMU lockstep).
@@ -385,6 +404,12 @@ impl<'a> Evaluator<'a> {
                 ok && matches!(self.link.request(&HostMsg::ArmModes(t.manager))?, FswMsg::ModesArmed { .. })
             }
         };
+        // The estimation stage keeps its state (navigation fix, MEKF) across parameter
+        // uploads: a fresh one every evaluation, the scenario's or the default.
+        let est = self.target.estimation.unwrap_or(EstimationParams::SENSOR);
+        if !matches!(self.link.request(&HostMsg::ConfigureEstimation(est))?, FswMsg::ParamsAccepted { .. }) {
+            bail!("{}: the flight code rejects the scenario's estimation parameters", self.target.name);
+        }
         Ok(ok)
     }
 
@@ -415,7 +440,17 @@ impl<'a> Evaluator<'a> {
             let r = self.link.step(&f)?;
             let instructions = (r.step_cost_ticks as f64 * self.ipt).round() as u64;
             if worst.is_none_or(|w| instructions > w.instructions) {
-                worst = Some(Cost { instructions, step: k, mode: r.cmd.mode, status: r.cmd.status });
+                let e = &r.cmd.estimate;
+                worst = Some(Cost {
+                    instructions,
+                    step: k,
+                    mode: r.cmd.mode,
+                    status: r.cmd.status,
+                    estimate_flags: e.flags,
+                    mekf_accepted: e.accepted,
+                    mekf_rejected: e.rejected,
+                    mekf_resets: e.resets,
+                });
             }
         }
         Ok(worst)
@@ -437,6 +472,7 @@ mod tests {
     fn input_json_round_trip_is_bit_exact() {
         let mut f = SensorFrame::empty(7, u64::MAX - 3);
         f.valid = 0x5a;
+        f.gnss_j2000_days = -9_612;
         let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 1e-40, f32::MAX, 0.1, -3.4e-7];
         for (k, g) in floats_mut(&mut f).into_iter().enumerate() {
             *g = specials[k % specials.len()] * if k % 3 == 0 { 1.0 } else { -1.0 };
@@ -449,8 +485,8 @@ mod tests {
             |i: &Input| i.prefix.iter().chain([&i.frame]).flat_map(|f| floats(f).map(f32::to_bits)).collect::<Vec<_>>();
         assert_eq!(bits(&x), bits(&y));
         assert_eq!(
-            (x.mode, x.failed_mask, x.frame.seq, x.frame.time_us, x.frame.valid),
-            (y.mode, y.failed_mask, y.frame.seq, y.frame.time_us, y.frame.valid)
+            (x.mode, x.failed_mask, x.frame.seq, x.frame.time_us, x.frame.valid, x.frame.gnss_j2000_days),
+            (y.mode, y.failed_mask, y.frame.seq, y.frame.time_us, y.frame.valid, y.frame.gnss_j2000_days)
         );
         assert_eq!(floats(&x.frame).len(), FRAME_FIELDS.iter().map(|(_, n)| n).sum::<usize>());
     }

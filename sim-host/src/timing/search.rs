@@ -15,7 +15,9 @@
 //! reproducible up to that jitter. Use `max_evaluations` for a run that does not depend
 //! on the machine's speed (the time budget then only guards).
 
-use super::{Cost, Evaluator, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
+use super::{Cost, Evaluator, FRAME_FIELDS, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
+use acs_flight::estimation::determination::{MAX_PROPAGATION_DT_S, MAX_PROPAGATION_PIECES};
+use acs_flight::link::{SensorFrame, valid};
 use acs_flight::modes::Mode;
 use anyhow::Result;
 use rand::{RngExt, SeedableRng};
@@ -26,24 +28,36 @@ use std::time::{Duration, Instant};
 
 /// Typical magnitude of each f32 gene (scale of the Gaussian steps), in frame order.
 fn gene_scale(i: usize) -> f32 {
-    const S: [(usize, f32); 8] = [
-        (4, 0.5),
-        (3, 0.5),
-        (4, 1.0),
-        (acs_flight::params::MAX_WHEELS, 300.0),
-        (3, 5e-5),
-        (3, 1.0),
-        (4, 0.5),
-        (3, 1e-3),
-    ];
     let mut end = 0;
-    for (n, s) in S {
+    for (name, n) in FRAME_FIELDS {
         end += n;
         if i < end {
-            return s;
+            return match name {
+                "q_ib_xyzw" | "rate_rad_s" | "css_output" => 0.5,
+                "wheel_speed_rad_s" => 300.0,
+                "mag_field_t" => 5e-5,
+                "gnss_pos_m" => 7e6,
+                "gnss_vel_m_s" => 7.5e3,
+                "gnss_j2000_s" => 86_400.0,
+                _ => 1.0,
+            };
         }
     }
     1.0
+}
+
+/// Whole days since J2000.0 that take the time and field models down unusual paths
+/// (epoch, far past and future, overflow of the day count).
+const SPECIAL_DAYS: [i32; 8] = [0, -1, -36_525, 36_525, 1_000_000, -1_000_000, i32::MAX, i32::MIN];
+
+/// A plausible GNSS fix when the scenario's initial frame has none: a 7,000 km circular
+/// equatorial orbit on 2026-03-20 (days since J2000.0).
+const SYNTHETIC_FIX: ([f32; 3], [f32; 3], i32, f32) = ([7.0e6, 0.0, 0.0], [0.0, 7.546e3, 0.0], 9_575, 43_200.0);
+
+/// Longest gap between two frames that the MEKF still propagates across (pieces of at
+/// most `MAX_PROPAGATION_DT_S`), s, less half a piece (f32 rounding of the elapsed time).
+fn longest_propagated_gap_s() -> f64 {
+    (f64::from(MAX_PROPAGATION_PIECES) - 0.5) * f64::from(MAX_PROPAGATION_DT_S)
 }
 
 /// Values that take flight code down unusual paths (validation, guards, range reduction).
@@ -126,7 +140,7 @@ impl Mutator<'_> {
     }
 
     /// A frame of the input (the measured one or a prefix frame).
-    fn pick_frame<'b>(&mut self, x: &'b mut Input) -> &'b mut acs_flight::link::SensorFrame {
+    fn pick_frame<'b>(&mut self, x: &'b mut Input) -> &'b mut SensorFrame {
         let n = x.prefix.len();
         let k = if n > 0 && self.unit() < 0.3 { self.rng.random_range(0..n) } else { n };
         if k < n { &mut x.prefix[k] } else { &mut x.frame }
@@ -136,7 +150,7 @@ impl Mutator<'_> {
         let op = self.rng.random_range(0..100u32);
         match op {
             // Gaussian steps on 1-3 values at a log-uniform scale.
-            0..40 => {
+            0..34 => {
                 let n = self.rng.random_range(1..=3);
                 for _ in 0..n {
                     let i = self.rng.random_range(0..N_FLOATS);
@@ -151,7 +165,7 @@ impl Mutator<'_> {
                     normalise(&mut x.frame.q_ib_xyzw);
                 }
             }
-            40..50 => {
+            34..44 => {
                 let i = self.rng.random_range(0..N_FLOATS);
                 let s = SPECIAL[self.rng.random_range(0..SPECIAL.len())];
                 let f = self.pick_frame(x);
@@ -159,12 +173,13 @@ impl Mutator<'_> {
                     *g = s;
                 }
             }
-            50..58 => {
+            44..52 => {
+                // Any of the 8 valid bits (GNSS and CSS included).
                 let b = self.rng.random_range(0..8);
                 let f = self.pick_frame(x);
                 f.valid ^= 1 << b;
             }
-            58..72 => {
+            52..66 => {
                 // Demand along a thruster column / facet normal: body rate and attitude
                 // error both along ±d, magnitudes log-uniform.
                 let d = self.directions[self.rng.random_range(0..self.directions.len())];
@@ -178,7 +193,7 @@ impl Mutator<'_> {
                     f.q_ib_xyzw = [d[0] * s as f32, d[1] * s as f32, d[2] * s as f32, c as f32];
                 }
             }
-            72..78 => {
+            66..72 => {
                 let f = self.pick_frame(x);
                 f.time_us = match self.rng.random_range(0..3) {
                     0 => self.rng.random::<u64>() >> self.rng.random_range(0..64),
@@ -186,6 +201,7 @@ impl Mutator<'_> {
                     _ => 0,
                 };
             }
+            72..78 => self.mutate_estimation(x),
             78..88 => {
                 // The prefix: repeat the measured frame (loads integrators and the PWPF),
                 // add a mutated copy, or drop a frame.
@@ -231,6 +247,59 @@ impl Mutator<'_> {
         }
     }
 
+    /// The inputs of the estimation stage: a plausible GNSS fix (the scenario's first, or
+    /// a synthetic one), the fix's day count, plausible coarse-sun-sensor outputs, or a
+    /// clock gap before the measured frame up to the longest the MEKF propagates across.
+    fn mutate_estimation(&mut self, x: &mut Input) {
+        let nominal = self.target.nominal;
+        match self.rng.random_range(0..4) {
+            0 => {
+                let (pos, vel, days, secs) = if nominal.valid & valid::GNSS != 0 {
+                    (nominal.gnss_pos_m, nominal.gnss_vel_m_s, nominal.gnss_j2000_days, nominal.gnss_j2000_s)
+                } else {
+                    SYNTHETIC_FIX
+                };
+                let f = self.pick_frame(x);
+                (f.gnss_pos_m, f.gnss_vel_m_s, f.gnss_j2000_days, f.gnss_j2000_s) = (pos, vel, days, secs);
+                f.valid |= valid::GNSS;
+            }
+            1 => {
+                let special = self.unit() < 0.2;
+                let step = (10f64.powf(4.0 * self.unit()) as i32).max(1) * if self.unit() < 0.5 { -1 } else { 1 };
+                let pick = SPECIAL_DAYS[self.rng.random_range(0..SPECIAL_DAYS.len())];
+                let f = self.pick_frame(x);
+                f.gnss_j2000_days = if special { pick } else { f.gnss_j2000_days.saturating_add(step) };
+            }
+            2 => {
+                let out = if nominal.valid & valid::CSS != 0 && self.unit() < 0.5 {
+                    nominal.css_output
+                } else {
+                    // Lit heads of a random Sun direction, with the default head layout.
+                    let d = [self.normal(), self.normal(), self.normal()];
+                    let mut o = [0.0f32; acs_flight::params::MAX_CSS_HEADS];
+                    let normals = self.target.estimation.unwrap_or_default().css_normals_body;
+                    for (o, n) in o.iter_mut().zip(normals) {
+                        let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-20);
+                        *o = ((n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / dn).max(0.0);
+                    }
+                    o
+                };
+                let f = self.pick_frame(x);
+                f.css_output = out;
+                f.valid |= valid::CSS;
+            }
+            _ => {
+                // A gap before the measured frame (a prefix frame added if there is none).
+                if x.prefix.is_empty() {
+                    x.prefix.push(x.frame);
+                }
+                let last = x.prefix.last().map_or(x.frame.time_us, |p| p.time_us);
+                let gap_us = (longest_propagated_gap_s() * 1e6 * self.unit().sqrt()) as u64;
+                x.frame.time_us = last.wrapping_add(gap_us);
+            }
+        }
+    }
+
     /// Uniform crossover of the measured frames (the rest from `a`).
     fn cross(&mut self, a: &Input, b: &Input) -> Input {
         let mut c = a.clone();
@@ -242,6 +311,9 @@ impl Mutator<'_> {
         }
         if self.unit() < 0.5 {
             c.frame.valid = b.frame.valid;
+        }
+        if self.unit() < 0.5 {
+            c.frame.gnss_j2000_days = b.frame.gnss_j2000_days;
         }
         c
     }
@@ -258,8 +330,12 @@ fn normalise(q: &mut [f32; 4]) {
 
 /// The fixed inputs every search starts from: the nominal frame, attitude errors of 0.1,
 /// 1 and 3 rad about each body axis and each thruster direction with rates of 0.01 and
-/// 0.3 rad/s, and every valid bit cleared in turn. (Also the "fixed sweep" the search
-/// is compared with: see [`sweep`].)
+/// 0.3 rad/s, every valid bit cleared in turn (GNSS and CSS included), each mode locked,
+/// and two sequences for the stateful estimation stage: the nominal frame stepped
+/// `MAX_PREFIX + 1` times one control period apart (filter initialised on the first,
+/// propagated and updated on the rest), and the same with the GNSS fix only in the first
+/// frame and the longest gap the MEKF still propagates across before the measured frame.
+/// (Also the "fixed sweep" the search is compared with: see [`sweep`].)
 pub fn sweep_inputs(t: &Target) -> Vec<Input> {
     let base = t.nominal_input();
     let mut v = vec![base.clone()];
@@ -276,11 +352,29 @@ pub fn sweep_inputs(t: &Target) -> Vec<Input> {
             }
         }
     }
-    for b in 0..7 {
+    for b in 0..8 {
         let mut x = base.clone();
         x.frame.valid &= !(1 << b);
         v.push(x);
     }
+    let dt_us = (t.dt_s * 1e6).round() as u64;
+    let mut x = base.clone();
+    x.prefix = (0..MAX_PREFIX as u64)
+        .map(|k| {
+            let mut f = base.frame;
+            f.time_us = base.frame.time_us + k * dt_us;
+            f
+        })
+        .collect();
+    x.frame.time_us = base.frame.time_us + MAX_PREFIX as u64 * dt_us;
+    v.push(x.clone());
+    for p in x.prefix.iter_mut().skip(1) {
+        p.valid &= !valid::GNSS;
+    }
+    x.frame.valid &= !valid::GNSS;
+    let last = x.prefix.last().map_or(0, |p| p.time_us);
+    x.frame.time_us = last + (longest_propagated_gap_s() * 1e6) as u64;
+    v.push(x);
     for m in &t.modes {
         let mut x = base.clone();
         x.mode = Some((*m, true));
@@ -413,4 +507,56 @@ pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> 
 /// A mode's name from its telemetry code ("none" without a mode table).
 pub fn mode_name(code: u8) -> &'static str {
     Mode::from_code(code).map_or("none", Mode::name)
+}
+
+/// The estimation stage's telemetry flags by name (`acs_flight::link::estimate_flags`):
+/// "att" attitude available, "mekf" filter running, "nav" navigation solution, "eclipse",
+/// "sun" Sun seen; "-" for none.
+pub fn estimate_names(flags: u16) -> String {
+    use acs_flight::link::estimate_flags as e;
+    let names: Vec<&str> = [
+        (e::ATTITUDE, "att"),
+        (e::MEKF, "mekf"),
+        (e::NAVIGATION, "nav"),
+        (e::ECLIPSE, "eclipse"),
+        (e::SUN_SEEN, "sun"),
+    ]
+    .into_iter()
+    .filter(|(b, _)| flags & b != 0)
+    .map(|(_, n)| n)
+    .collect();
+    if names.is_empty() { "-".into() } else { names.join(" ") }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The step scales follow the frame's field layout: a marker written into each field
+    /// of a frame is found at an index whose scale is that field's.
+    #[test]
+    fn gene_scales_follow_the_frame_layout() {
+        type Set = fn(&mut SensorFrame);
+        let cases: [(Set, f32); 5] = [
+            (|f| f.wheel_speed_rad_s[0] = 123.0, 300.0),
+            (|f| f.css_output[5] = 123.0, 0.5),
+            (|f| f.gnss_pos_m[2] = 123.0, 7e6),
+            (|f| f.gnss_vel_m_s[0] = 123.0, 7.5e3),
+            (|f| f.gnss_j2000_s = 123.0, 86_400.0),
+        ];
+        for (set, scale) in cases {
+            let mut f = SensorFrame::empty(0, 0);
+            set(&mut f);
+            let i = super::super::floats(&f).iter().position(|x| *x == 123.0).unwrap();
+            assert_eq!(gene_scale(i), scale, "gene {i}");
+        }
+    }
+
+    /// The CLI's names of the estimation flags.
+    #[test]
+    fn estimate_flags_by_name() {
+        use acs_flight::link::estimate_flags as e;
+        assert_eq!(estimate_names(0), "-");
+        assert_eq!(estimate_names(e::MEKF | e::NAVIGATION | e::ATTITUDE), "att mekf nav");
+    }
 }
