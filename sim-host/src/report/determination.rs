@@ -10,6 +10,11 @@
 //!   σu RRW of the scenario's gyro, σb the filter's bias σ at the outage start — here
 //!   √tr P_bb, an upper bound of the per-axis σ the test uses, so the ratio reported is at
 //!   most the test's), and is back under 0.05° 60 s after the tracker returns.
+//!
+//! And the cost of the whole flight step on the Cortex-M4F with determination in the loop,
+//! read from the committed worst-case corpus (`timing/corpus/<scenario>.json`: instructions
+//! counted on the QEMU firmware by `sim-host timing search`, docs/timing.md), so this
+//! report stays free of wall-clock figures and of QEMU.
 
 use super::experiment::{Block, fly_recorded, sig};
 use crate::scenario::Scenario;
@@ -93,6 +98,57 @@ fn outage_against_the_gyro_bound(repo: &Path) -> Result<Vec<String>> {
         "error ≤ e0 + 3√3 √(σb² t² + σv² t + σu² t³/3); < 0.05° 60 s after",
         ok,
     ))
+}
+
+/// The scenarios whose step cost is reported (their corpus files are named after them).
+const COSTED: [&str; 4] = [
+    "modes/cubesat-mission.toml",
+    "estimation/mekf-hold.toml",
+    "estimation/tracker-outage-eclipse.toml",
+    "estimation/sun-safe-from-tumble.toml",
+];
+/// The flight board's clock and the cycles-per-instruction range of `timing/budget.toml`.
+const CLOCK_HZ: f64 = 168e6;
+const CPI_MAX: f64 = 2.7;
+
+/// Searched worst step per scenario (and per mode) from the timing corpus.
+pub fn cost_table(repo: &Path) -> Result<Block> {
+    let mut rows = Vec::new();
+    for rel in COSTED {
+        let sc = load(repo, rel)?;
+        let path = repo.join("timing/corpus").join(format!("{}.json", sc.name));
+        let c = crate::timing::corpus::Corpus::load(&path)?;
+        let modes: Vec<String> = c
+            .entries
+            .iter()
+            .filter_map(|e| e.label.strip_prefix("mode:").map(|m| format!("{m} {}", e.instructions)))
+            .collect();
+        let period_s = 1.0 / sc.timing.control_rate_hz;
+        let worst_s = c.worst_instructions as f64 * CPI_MAX / CLOCK_HZ;
+        rows.push(vec![
+            format!("`{}`", rel.trim_end_matches(".toml")),
+            c.worst_instructions.to_string(),
+            if modes.is_empty() { "—".into() } else { modes.join("; ") },
+            c.nominal_instructions.map_or_else(|| "—".into(), |n| n.to_string()),
+            format!("{:.0}–{:.0}", c.worst_instructions as f64 / CLOCK_HZ * 1e6, worst_s * 1e6),
+            format!("{}", sig(100.0 * worst_s / period_s, 2)),
+            c.evaluations.to_string(),
+        ]);
+    }
+    Ok(Block::Table {
+        header: [
+            "scenario",
+            "searched worst (instructions)",
+            "worst per mode",
+            "nominal input",
+            "µs at 168 MHz (1–2.7 CPI)",
+            "% of the period (2.7 CPI)",
+            "inputs evaluated",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    })
 }
 
 /// The checks table.

@@ -189,7 +189,7 @@ pub fn generate(o: &Options) -> Result<Report> {
         bail!("outcome {}/{} differs and no experiment investigates it", r.outcome.paper, r.outcome.id);
     }
     let checks = (o.papers.is_empty() || o.papers.iter().any(|p| p == "estimation"))
-        .then(|| determination::checks(&o.repo))
+        .then(|| Ok::<_, anyhow::Error>((determination::checks(&o.repo)?, determination::cost_table(&o.repo)?)))
         .transpose()
         .context("determination checks")?;
     let doc = document(&flown, &rows, &experiments, &o.papers, checks);
@@ -276,7 +276,7 @@ fn document(
     rows: &[Row],
     exps: &BTreeMap<String, Experiment>,
     papers: &[String],
-    mut checks: Option<Block>,
+    mut checks: Option<(Block, Block)>,
 ) -> Vec<Section> {
     let mut doc = Vec::new();
     let count = |v: Verdict| rows.iter().filter(|r| r.verdict == v).count();
@@ -404,18 +404,26 @@ fn document(
             doc.push(Section { level: 3, title: "Runs and figures".into(), blocks });
         }
         if *p == "estimation"
-            && let Some(table) = checks.take()
+            && let Some((table, cost)) = checks.take()
         {
             let intro = Block::Para(
                 "Flown for this report (`sim_host::report::determination`; the same criteria are asserted by \
                  `sim-host/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
                  attitude (no filter, a noise-free star tracker, no gyro model), and the gyro-only error growth \
                  through a star-tracker outage against the Farrenkopf bound (σv, σu the gyro's angle and rate \
-                 random walk, σb = √tr P_bb of the filter at the outage start). The cost of the whole mission step \
-                 on the Cortex-M4F is in `docs/timing.md`."
+                 random walk, σb = √tr P_bb of the filter at the outage start)."
                     .into(),
             );
             doc.push(Section { level: 3, title: "Determination checks".into(), blocks: vec![intro, table] });
+            let intro = Block::Para(
+                "The whole flight step (estimation stage with the MEKF and the degree-12 field model, navigation, \
+                 mode logic, law, allocation) on the Cortex-M4F: the costliest input the worst-case search found, \
+                 counted in instructions on the QEMU firmware (`timing/corpus/`, `sim-host timing search`; method, \
+                 budgets and the cycle model in `docs/timing.md`). The MEKF step alone (propagation + tracker + Sun \
+                 + field) is measured separately by `tests/tests/estimation_target.rs` (`docs/verification.md`)."
+                    .into(),
+            );
+            doc.push(Section { level: 3, title: "Cost on the flight computer".into(), blocks: vec![intro, cost] });
         }
         for e in es {
             let mut blocks = vec![Block::Para(format!("**Question.** {}", e.question))];
