@@ -37,18 +37,7 @@ const THRESHOLD: f32 = 0.05;
 
 /// Six heads on the faces of a cube: ±x ±y ±z.
 fn cube() -> CssHeads {
-    CssHeads {
-        normals_body: [
-            [1.0, 0.0, 0.0],
-            [-1.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0],
-            [0.0, -1.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [0.0, 0.0, -1.0],
-        ],
-        count: 6,
-        lit_threshold: THRESHOLD,
-    }
+    CssHeads { normals_body: acs_flight::estimation::css::CUBE_FACES, count: 6, lit_threshold: THRESHOLD }
 }
 
 /// Five-head pyramid: a boresight head on +z and four heads tilted 45° from it at

@@ -127,6 +127,16 @@ fn field_model_truncations_against_the_full_wmm() {
     eprintln!("{}", rows.join("\n"));
 }
 
+/// The flight LVLH frame of an f64 position and velocity (rounded to f32 as on board),
+/// its ECI ← LVLH quaternion in f64, and its rate (rad/s, LVLH axes).
+fn flight_lvlh(r: &Vector3<f64>, v: &Vector3<f64>) -> (nalgebra::UnitQuaternion<f64>, Vector3<f64>) {
+    let f = lvlh(&Vec3::new(r.x as f32, r.y as f32, r.z as f32), &Vec3::new(v.x as f32, v.y as f32, v.z as f32))
+        .expect("frame");
+    let q = f.q_eci_lvlh;
+    let q64 = nalgebra::Quaternion::new(f64::from(q.w), f64::from(q.i), f64::from(q.j), f64::from(q.k));
+    (nalgebra::UnitQuaternion::from_quaternion(q64), f.rate_lvlh_rad_s.map(f64::from))
+}
+
 #[test]
 fn lvlh_matches_the_host_frame_and_orbit_rate() {
     let mut rng = Rng::new(14);
@@ -136,19 +146,11 @@ fn lvlh_matches_the_host_frame_and_orbit_rate() {
         if r.cross(&v).norm() < 0.1 * r.norm() * v.norm() {
             continue;
         }
-        let f = lvlh(&Vec3::new(r.x as f32, r.y as f32, r.z as f32), &Vec3::new(v.x as f32, v.y as f32, v.z as f32))
-            .expect("frame");
+        let (ours, rate_lvlh) = flight_lvlh(&r, &v);
         let host = q_lvlh_to_eci(&r, &v);
-        let q = f.q_eci_lvlh;
-        let ours = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-            f64::from(q.w),
-            f64::from(q.i),
-            f64::from(q.j),
-            f64::from(q.k),
-        ));
         assert!(ours.angle_to(&host) < 2e-6, "LVLH off by {} rad", ours.angle_to(&host));
         let rate = r.cross(&v).norm() / r.norm_squared();
-        assert!((f64::from(-f.rate_lvlh_rad_s.y) / rate - 1.0).abs() < 1e-5);
+        assert!((-rate_lvlh.y / rate - 1.0).abs() < 1e-5);
     }
     assert!(lvlh(&Vec3::new(7e6, 0.0, 0.0), &Vec3::new(7e3, 0.0, 0.0)).is_err());
     assert!(lvlh(&Vec3::new(f32::NAN, 0.0, 0.0), &Vec3::new(0.0, 7e3, 0.0)).is_err());
@@ -195,16 +197,7 @@ fn lvlh_from_a_noisy_gnss_fix_errs_as_first_order_predicts() {
         let v = Vector3::new(-u.sin(), u.cos() * i.cos(), u.cos() * i.sin()) * vn;
         let rm = r + Vector3::new(gauss(), gauss(), gauss()) * sr;
         let vm = v + Vector3::new(gauss(), gauss(), gauss()) * sv;
-        let f =
-            lvlh(&Vec3::new(rm.x as f32, rm.y as f32, rm.z as f32), &Vec3::new(vm.x as f32, vm.y as f32, vm.z as f32))
-                .expect("frame");
-        let q = f.q_eci_lvlh;
-        let ours = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-            f64::from(q.w),
-            f64::from(q.i),
-            f64::from(q.j),
-            f64::from(q.k),
-        ));
+        let (ours, _) = flight_lvlh(&rm, &vm);
         let a = ours.angle_to(&q_lvlh_to_eci(&r, &v));
         sum_sq += a * a;
     }

@@ -47,6 +47,10 @@ pub const CSS_MAX_TRACE_INV: f32 = 20.0;
 /// Tolerance on `|n| = 1` of a head normal.
 pub const CSS_UNIT_TOL: f32 = 1e-3;
 
+/// Six heads on the faces of a cube, ±x ±y ±z (body axes): the default head set.
+pub const CUBE_FACES: [[f32; 3]; MAX_CSS_HEADS] =
+    [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
+
 /// Head geometry and the lit threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CssHeads {

@@ -16,15 +16,9 @@
 //! counted on the QEMU firmware by `sim-host timing search`, docs/timing.md), so this
 //! report stays free of wall-clock figures and of QEMU.
 
-use super::experiment::{Block, fly_recorded, sig};
-use crate::scenario::Scenario;
-use anyhow::{Context as _, Result, anyhow};
+use super::experiment::{Block, fly_recorded, load_scenario as load, sig};
+use anyhow::{Result, anyhow};
 use std::path::Path;
-
-fn load(repo: &Path, rel: &str) -> Result<Scenario> {
-    let path = repo.join("scenarios").join(rel);
-    Scenario::load(&path).with_context(|| format!("loading {}", path.display()))
-}
 
 fn row(check: &str, scenario: &str, figures: String, criterion: &str, met: bool) -> Vec<String> {
     let met = if met { "yes" } else { "**no**" };

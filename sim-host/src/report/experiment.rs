@@ -76,8 +76,7 @@ pub struct Context {
 impl Context {
     /// Loads `scenarios/<rel>` (e.g. `paper000/test3.toml`).
     pub fn scenario(&self, rel: &str) -> Result<Scenario> {
-        let path = self.repo.join("scenarios").join(rel);
-        Scenario::load(&path).with_context(|| format!("loading {}", path.display()))
+        load_scenario(&self.repo, rel)
     }
 
     /// Renders `fig` from `ts` into [`Self::fig_dir`]; returns the figure block.
@@ -99,6 +98,12 @@ pub use crate::campaign::exec::fly;
 pub fn fly_recorded(sc: &Scenario) -> Result<RunResult> {
     let mut l = in_process()?;
     runner::run(sc, l.as_mut(), false)
+}
+
+/// `scenarios/<rel>` of the repository at `repo`.
+pub fn load_scenario(repo: &std::path::Path, rel: &str) -> Result<Scenario> {
+    let path = repo.join("scenarios").join(rel);
+    Scenario::load(&path).with_context(|| format!("loading {}", path.display()))
 }
 
 /// `f` over `items` on `jobs` threads, results in item order (deterministic whatever

@@ -548,24 +548,9 @@ mod tests {
 
     #[test]
     fn tracker_exclusion_uses_the_orbit_sun_and_earth() {
-        use crate::environment::model::{Environment, FieldSource};
-        use crate::environment::torques::{Disturbances, HarmonicTorque};
         use config::StarTrackerSpec;
         use nalgebra::UnitQuaternion;
-        let mut c = craft();
-        c.env = Some(Environment {
-            orbit: None,
-            earth: EarthRotation::Simple { theta0_rad: 0.0 },
-            field: FieldSource::None,
-            disturbances: Disturbances {
-                inertia: nalgebra::Matrix3::identity(),
-                gravity_gradient: false,
-                drag: None,
-                srp: None,
-                residual_dipole_am2: Vec3::zeros(),
-                external: HarmonicTorque::default(),
-            },
-        });
+        let c = env_craft();
         let (t, r) = (100.0, Vec3::new(0.0, 7.0e6, 0.0));
         let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
         // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
