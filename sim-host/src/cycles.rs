@@ -237,6 +237,9 @@ impl FlightLink for CyclesLink {
     fn frames_dropped_host(&self) -> u32 {
         self.qemu.frames_dropped_host()
     }
+    fn anomalies(&self) -> crate::link::LinkAnomalies {
+        self.qemu.anomalies()
+    }
 }
 
 /// One step of [`measure_frames`].

@@ -215,10 +215,14 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
-    /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`).
+    /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`):
+    /// one client at a time (others get "busy"), each session from power-on state.
     Serve {
         #[arg(long, default_value = "127.0.0.1:7878")]
         listen: String,
+        /// Disconnect a client that sends nothing (or takes no reply) for this long, s.
+        #[arg(long, default_value_t = link::serve::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
+        idle_timeout_s: f64,
     },
 }
 
@@ -236,6 +240,10 @@ fn assumed_free_bytes() -> Result<Option<u64>> {
 fn main() -> std::process::ExitCode {
     match dispatch(Cli::parse().cmd) {
         Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<RunFailed>().is_some() => {
+            let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
+            std::process::ExitCode::from(3)
+        }
         Err(e) => {
             let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
             std::process::ExitCode::FAILURE
@@ -252,10 +260,14 @@ fn dispatch(cmd: Cmd) -> Result<()> {
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
             analyze_thrusters(&scenario, json, max_failed)
         }
-        Cmd::Serve { listen } => {
+        Cmd::Serve { listen, idle_timeout_s } => {
+            let idle_timeout = std::time::Duration::try_from_secs_f64(idle_timeout_s)
+                .ok()
+                .filter(|d| !d.is_zero())
+                .with_context(|| format!("--idle-timeout-s {idle_timeout_s}: must be a positive number of seconds"))?;
             let l = std::net::TcpListener::bind(&listen).with_context(|| format!("binding {listen}"))?;
-            eprintln!("flight code listening on {}", l.local_addr()?);
-            link::serve::serve(l, None)
+            eprintln!("flight code listening on {} (idle timeout {idle_timeout_s} s)", l.local_addr()?);
+            link::serve::serve_with(l, &link::serve::ServeOptions { idle_timeout, max_sessions: None })
         }
         Cmd::Check { scenario } => check(&scenario),
         Cmd::Cycles { scenario, firmware, plugin, wait_states, duration, per_step, json } => {
@@ -632,8 +644,28 @@ fn run(
     for f in files {
         say!("  wrote {}", f.display());
     }
-    Ok(())
+    let a = &summary.link_anomalies;
+    if *a != link::LinkAnomalies::default() {
+        eprintln!("warning: link anomalies: {}", serde_json::to_string(a)?);
+    }
+    match a.failure_reason() {
+        Some(reason) => Err(RunFailed(reason).into()),
+        None => Ok(()),
+    }
 }
+
+/// A run that completed (summary.json written) but whose result is not to be trusted:
+/// exit code 3 (docs/protocol.md "Link anomalies").
+#[derive(Debug)]
+struct RunFailed(String);
+
+impl std::fmt::Display for RunFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "run failed: {}", self.0)
+    }
+}
+
+impl std::error::Error for RunFailed {}
 
 fn summary_line(s: &Summary) -> String {
     let mut line = format!(

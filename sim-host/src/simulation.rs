@@ -600,6 +600,7 @@ impl<'a> Simulation<'a> {
             final_mode: m.mode_now.map(mode_name),
             frames_dropped_flight: m.frames_dropped_flight,
             frames_dropped_host: if info.is_some() { self.link.frames_dropped_host() } else { 0 },
+            link_anomalies: self.link.anomalies(),
             estimation_error_rms_deg: est.map(|e| e.error_rms_deg),
             estimation_error_max_deg: est.map(|e| e.error_max_deg),
             bias_error_final_deg_h: est.and_then(|e| e.bias_error_final_deg_h),

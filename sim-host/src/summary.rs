@@ -73,6 +73,9 @@ pub struct Summary {
     pub final_mode: Option<String>,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
+    /// Duplicate, late and unexpected replies and refused frames on the link, and whether
+    /// they may have changed the result (docs/protocol.md "Link anomalies").
+    pub link_anomalies: crate::link::LinkAnomalies,
     /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
     /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
     /// filter); innovations the chi-square gates rejected; filter restarts. Absent

@@ -3,10 +3,15 @@
 //! sensor frames, each with a chance of random byte corruption that still decodes (so
 //! NaN, huge, negative or nonsensical fields reach validation and the step). Asserts: no
 //! panic, one reply per message, every step answers its frame with finite commands, the
-//! mode code is one of the five, and a safe command is all-idle.
+//! mode code is one of the five, and a safe command is all-idle. One frame, one step: a
+//! frame (its `seq` possibly corrupted) is stepped exactly when its `seq` is above the last
+//! stepped one since the last `Hello` or accepted configuration (a model kept here), and
+//! refused with `StaleSequence` otherwise.
 
 use acs_flight::link::session::{Session, board};
-use acs_flight::link::{ActuatorCommand, FswMsg, HostMsg, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid};
+use acs_flight::link::{
+    ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
+};
 use acs_flight::modes::{Mode, ModeRequest};
 use acs_flight::params::{AttitudeSource, EstimationParams};
 use acs_tests::scenario;
@@ -65,6 +70,7 @@ fn fuzz(seed: u64) {
     let mut counter = || 0u32;
     let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) =
         (0u32, 0u32, 0u32, 0u32, [0u32; 1 + Mode::ALL.len()]);
+    let (mut model_last, mut seq_refused, mut refused_total) = (None::<u32>, 0u32, 0u32);
     for k in 0..30_000u32 {
         let msg = match rng.random_range(0..100) {
             0 => HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
@@ -108,8 +114,24 @@ fn fuzz(seed: u64) {
         corrupted += u32::from(decoded != msg);
         let msg = decoded;
         let reply = s.handle(&msg, 0, &mut counter);
+        // The sequence model: Hello and accepted configurations start a new sequence.
+        match (&msg, &reply) {
+            (_, Some(FswMsg::HelloAck { .. })) => (model_last, seq_refused) = (None, 0),
+            (HostMsg::UploadParams(_) | HostMsg::ConfigureEstimation(_), Some(FswMsg::ParamsAccepted { .. }))
+            | (_, Some(FswMsg::ModesArmed { .. })) => model_last = None,
+            _ => {}
+        }
         match (&msg, reply) {
+            (HostMsg::Sensor(f), Some(FswMsg::Error(LinkError::StaleSequence { seq, last_seq }))) => {
+                assert_eq!((seq, Some(last_seq)), (f.seq, model_last), "refused against the model");
+                assert!(seq <= last_seq);
+                seq_refused += 1;
+                refused_total += 1;
+            }
             (HostMsg::Sensor(f), Some(FswMsg::Step(r))) => {
+                assert!(model_last.is_none_or(|l| f.seq > l), "frame {} stepped after {model_last:?}", f.seq);
+                model_last = Some(f.seq);
+                assert_eq!(r.seq_refused, seq_refused);
                 steps += 1;
                 let c = r.cmd;
                 assert_eq!(c.seq, f.seq);
@@ -138,8 +160,8 @@ fn fuzz(seed: u64) {
         }
     }
     eprintln!(
-        "seed {seed}: {steps} steps, {corrupted} corrupted messages decoded, {rejected} rejected, armed {armed} times, modes seen {mode_seen:?}"
+        "seed {seed}: {steps} steps, {corrupted} corrupted messages decoded, {rejected} rejected, armed {armed} times, modes seen {mode_seen:?}, {refused_total} frames refused (seq)"
     );
-    assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100);
+    assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100 && refused_total > 10);
     assert!(mode_seen.iter().all(|n| *n > 0), "every mode (and none) was exercised: {mode_seen:?}");
 }

@@ -19,7 +19,8 @@ pub enum FrameError {
     Short,
     /// CRC mismatch.
     Crc,
-    /// CRC fine but the payload is not a valid message.
+    /// CRC fine but the payload is not exactly one valid message (undecodable, or bytes
+    /// left over after the message: a frame carries one message and nothing else).
     Decode,
     /// The output buffer is too small (encoder side).
     BufferTooSmall,
@@ -179,7 +180,12 @@ impl<const N: usize> FrameAccumulator<N> {
         if CRC32.checksum(body) != u32::from_le_bytes(*crc) {
             return Err(FrameError::Crc);
         }
-        postcard::from_bytes(body).map_err(|_| FrameError::Decode)
+        // `from_bytes` would ignore bytes after the message; a CRC-valid frame with
+        // trailing junk is not a frame any sender built, so it is refused.
+        match postcard::take_from_bytes(body) {
+            Ok((msg, [])) => Ok(msg),
+            _ => Err(FrameError::Decode),
+        }
     }
 
     /// Drop a partly received frame (e.g. after a link timeout).
@@ -317,6 +323,7 @@ mod tests {
             step_cost_ticks: u32::MAX,
             deadline_misses: u32::MAX,
             frames_dropped: u32::MAX,
+            seq_refused: u32::MAX,
         });
         assert!(postcard::to_slice(&step, &mut raw).unwrap().len() <= MAX_PAYLOAD);
     }
@@ -380,6 +387,28 @@ mod tests {
         let mut acc = FrameAccumulator::<MAX_FRAME>::new();
         assert_eq!(feed(&mut acc, &f), vec![Err(FrameError::Decode)]);
         assert_eq!(acc.stats.decode, 1);
+    }
+
+    /// A valid Sensor message followed by 1, 2 or 17 junk bytes, all under a correct CRC:
+    /// refused and counted as `decode` (one message per frame, nothing else); the same
+    /// message without the junk, and the next frame, still decode.
+    #[test]
+    fn crc_valid_frame_with_trailing_junk_is_refused_and_counted() {
+        let mut acc = FrameAccumulator::<MAX_FRAME>::new();
+        let msg = sensor(7);
+        let mut buf = [0u8; MAX_PAYLOAD];
+        let body = postcard::to_slice(&msg, &mut buf).unwrap();
+        for (k, junk) in [&[0x00u8][..], &[0xAB, 0xCD], &[0x5A; 17]].iter().enumerate() {
+            let mut raw = [&*body, junk].concat();
+            raw.extend_from_slice(&CRC32.checksum(&raw).to_le_bytes());
+            let mut out = [0u8; MAX_FRAME];
+            let n = cobs::encode(&raw, &mut out);
+            let f = [&out[..n], &[0u8]].concat();
+            assert_eq!(feed(&mut acc, &f), vec![Err(FrameError::Decode)], "junk {junk:?}");
+            assert_eq!(acc.stats.decode, k as u32 + 1);
+            assert_eq!(feed(&mut acc, &enc(&msg)), vec![Ok(msg.clone())]);
+        }
+        assert_eq!((acc.stats.dropped(), acc.stats.frames_ok), (3, 3));
     }
 
     #[test]

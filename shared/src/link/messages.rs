@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 11;
+pub const PROTOCOL_VERSION: u16 = 12;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 768;
@@ -210,6 +210,10 @@ pub struct StepReport {
     pub deadline_misses: u32,
     /// Frames the flight side dropped so far (CRC, COBS, decode, oversize).
     pub frames_dropped: u32,
+    /// Lockstep `Sensor` frames refused since the last `Hello` because their `seq` was not
+    /// above the last stepped one (a repeated or out-of-order frame; each got an
+    /// `Error(StaleSequence)` reply and was not stepped). Protocol 12.
+    pub seq_refused: u32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
@@ -233,6 +237,17 @@ pub enum LinkError {
     RealTimeNotInHold,
     /// `DebugHang` to a flight side built without the debug hook (every flight build).
     DebugDisabled,
+    /// Lockstep: a `Sensor` frame whose `seq` is not above the last stepped frame's
+    /// (`last_seq`) — a repeated or out-of-order frame. It was not stepped (one frame, one
+    /// step); `StepReport::seq_refused` counts these. Protocol 12.
+    StaleSequence {
+        seq: u32,
+        last_seq: u32,
+    },
+    /// Sent by the host's virtual flight computer (`sim-host serve`) to a client that
+    /// connects while another one is being served; the connection is then closed.
+    /// Protocol 12.
+    Busy,
 }
 
 /// Why the flight computer last started (`HelloAck::reset_cause`).

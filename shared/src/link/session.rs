@@ -3,7 +3,7 @@
 //! [`HostMsg`]s and send back what it returns.
 
 use crate::fsw::Fsw;
-use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, StepReport, schema_hash};
+use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, SensorFrame, StepReport, schema_hash};
 use crate::params::PARAMS_VERSION;
 
 /// Board identifiers reported in `HelloAck`.
@@ -26,6 +26,11 @@ pub struct Session {
     /// Reported in `HelloAck`: the firmware stores its measured stack high-water mark
     /// here before handing a `Hello` over (0 = not measured).
     pub stack_hwm_bytes: u32,
+    /// Lockstep: `seq` of the last stepped frame of the current sequence (`None` at the
+    /// start of one: after `Hello` or an accepted configuration).
+    last_seq: Option<u32>,
+    /// Lockstep frames refused since the last `Hello` (repeated or out-of-order `seq`).
+    seq_refused: u32,
 }
 
 impl Session {
@@ -39,6 +44,8 @@ impl Session {
             reset_cause: ResetCause::PowerOn,
             deadline_misses: 0,
             stack_hwm_bytes: 0,
+            last_seq: None,
+            seq_refused: 0,
         }
     }
 
@@ -73,6 +80,8 @@ impl Session {
             } else if *h != schema_hash() {
                 FswMsg::Error(LinkError::SchemaHash { flight: schema_hash() })
             } else {
+                self.last_seq = None;
+                self.seq_refused = 0;
                 FswMsg::HelloAck {
                     protocol_version: PROTOCOL_VERSION,
                     schema_hash: schema_hash(),
@@ -92,15 +101,10 @@ impl Session {
                 Some(FswMsg::Error(LinkError::RealTimeNotInHold))
             }
             HostMsg::UploadParams(p) => Some(match self.fsw.configure(p) {
-                Ok(checksum) => FswMsg::ParamsAccepted { checksum },
+                Ok(checksum) => self.restart_sequence(FswMsg::ParamsAccepted { checksum }),
                 Err(e) => FswMsg::ParamsRejected(e),
             }),
-            HostMsg::Sensor(f) => {
-                let t0 = counter();
-                let cmd = self.fsw.step(f);
-                let t1 = counter();
-                Some(FswMsg::Step(self.report(cmd, t1.wrapping_sub(t0), frames_dropped)))
-            }
+            HostMsg::Sensor(f) => Some(self.lockstep_step(f, frames_dropped, counter)),
             HostMsg::SetTarget { target_q_xyzw } => Some(match self.fsw.set_target(*target_q_xyzw) {
                 Ok(()) => FswMsg::Ack,
                 Err(_) => FswMsg::Error(LinkError::BadTarget),
@@ -110,11 +114,11 @@ impl Session {
                 Err(e) => FswMsg::ParamsRejected(e),
             }),
             HostMsg::ConfigureEstimation(p) => Some(match self.fsw.configure_estimation(p) {
-                Ok(checksum) => FswMsg::ParamsAccepted { checksum },
+                Ok(checksum) => self.restart_sequence(FswMsg::ParamsAccepted { checksum }),
                 Err(e) => FswMsg::ParamsRejected(e),
             }),
             HostMsg::ArmModes(p) => Some(match self.fsw.arm_modes(p) {
-                Ok(checksum) => FswMsg::ModesArmed { checksum },
+                Ok(checksum) => self.restart_sequence(FswMsg::ModesArmed { checksum }),
                 Err(e) => FswMsg::ParamsRejected(e),
             }),
             HostMsg::CommandMode(r) => Some(match self.fsw.command_mode(*r) {
@@ -134,8 +138,42 @@ impl Session {
         }
     }
 
+    /// One frame, one step (lockstep): a frame whose `seq` is not above the last stepped
+    /// one in this sequence is a repeat or arrived out of order (a duplicating link, a
+    /// replay); stepping it would advance the flight state twice on one measurement and
+    /// silently change every later command. It is refused without stepping, counted
+    /// (`StepReport::seq_refused`) and answered `Error(StaleSequence)` so the host sees it.
+    /// `seq` does not wrap within a sequence (u32 frames: 497 days at 100 Hz); a new
+    /// sequence starts at `Hello` and at every accepted configuration, where the flight
+    /// state restarts anyway (the timing search restarts its numbering there).
+    fn lockstep_step(&mut self, f: &SensorFrame, frames_dropped: u32, counter: &mut dyn FnMut() -> u32) -> FswMsg {
+        if let Some(last_seq) = self.last_seq
+            && f.seq <= last_seq
+        {
+            self.seq_refused = self.seq_refused.saturating_add(1);
+            return FswMsg::Error(LinkError::StaleSequence { seq: f.seq, last_seq });
+        }
+        self.last_seq = Some(f.seq);
+        let t0 = counter();
+        let cmd = self.fsw.step(f);
+        let t1 = counter();
+        FswMsg::Step(self.report(cmd, t1.wrapping_sub(t0), frames_dropped))
+    }
+
+    /// A configuration was accepted: the flight state restarted, so does the numbering.
+    fn restart_sequence(&mut self, reply: FswMsg) -> FswMsg {
+        self.last_seq = None;
+        reply
+    }
+
     pub fn report(&self, cmd: crate::link::ActuatorCommand, ticks: u32, frames_dropped: u32) -> StepReport {
-        StepReport { cmd, step_cost_ticks: ticks, deadline_misses: self.deadline_misses, frames_dropped }
+        StepReport {
+            cmd,
+            step_cost_ticks: ticks,
+            deadline_misses: self.deadline_misses,
+            frames_dropped,
+            seq_refused: self.seq_refused,
+        }
     }
 }
 
@@ -235,6 +273,72 @@ mod tests {
         let mut l = Session::new(board::HOST, 1000);
         l.set_holding(false);
         assert!(matches!(l.handle(&HostMsg::UploadParams(faster), 0, &mut c), Some(FswMsg::ParamsAccepted { .. })));
+    }
+
+    fn frame(seq: u32) -> SensorFrame {
+        SensorFrame {
+            valid: valid::ALL,
+            q_ib_xyzw: [0.1, -0.2, 0.3, 0.927],
+            rate_rad_s: [0.01, 0.002 * seq as f32, -0.02],
+            ..SensorFrame::empty(seq, 10_000 * u64::from(seq))
+        }
+    }
+
+    fn step(s: &mut Session, seq: u32) -> Option<FswMsg> {
+        s.handle(&HostMsg::Sensor(frame(seq)), 0, &mut || 0u32)
+    }
+
+    /// One frame, one step: repeats and older frames are refused with their `seq` and the
+    /// last stepped one, counted, and leave the flight state alone — the commands after
+    /// them are bit-identical to a session that never saw them (the reference). Gaps are
+    /// allowed; `Hello` and an accepted configuration start a new sequence.
+    #[test]
+    fn repeated_or_old_frames_are_refused_without_stepping() {
+        let (mut s, mut reference) = (Session::new(board::HOST, 0), Session::new(board::HOST, 0));
+        for x in [&mut s, &mut reference] {
+            assert!(matches!(
+                x.handle(&HostMsg::UploadParams(FlightParams::default()), 0, &mut || 0),
+                Some(FswMsg::ParamsAccepted { .. })
+            ));
+        }
+        let (mut refused, mut model_last) = (0, None::<u32>);
+        for seq in [1u32, 2, 2, 3, 1, 5, 5, 4, 6] {
+            // The model: stepped iff above every frame stepped before.
+            let expect_step = model_last.is_none_or(|l| seq > l);
+            match step(&mut s, seq) {
+                Some(FswMsg::Step(r)) => {
+                    assert!(expect_step, "frame {seq} stepped after {model_last:?}");
+                    model_last = Some(seq);
+                    let Some(FswMsg::Step(want)) = step(&mut reference, seq) else { panic!("reference refused {seq}") };
+                    assert_eq!(r.cmd, want.cmd, "frame {seq}: state changed by a refused frame");
+                    assert_eq!((r.cmd.seq, r.seq_refused), (seq, refused));
+                }
+                Some(FswMsg::Error(LinkError::StaleSequence { seq: q, last_seq })) => {
+                    assert!(!expect_step, "frame {seq} refused after {model_last:?}");
+                    refused += 1;
+                    assert_eq!((q, Some(last_seq)), (seq, model_last));
+                }
+                other => panic!("frame {seq}: {other:?}"),
+            }
+        }
+        // Refused: the second 2, the 1, the second 5 and the 4.
+        assert_eq!(refused, 4);
+        // A new configuration restarts the numbering (frame 1 accepted again), the count stays.
+        assert!(matches!(
+            s.handle(&HostMsg::UploadParams(FlightParams::default()), 0, &mut || 0),
+            Some(FswMsg::ParamsAccepted { .. })
+        ));
+        assert!(matches!(step(&mut s, 1), Some(FswMsg::Step(r)) if r.seq_refused == 4));
+        assert!(matches!(step(&mut s, 1), Some(FswMsg::Error(LinkError::StaleSequence { seq: 1, last_seq: 1 }))));
+        // A rejected configuration does not.
+        let mut bad = FlightParams::default();
+        bad.control_rate_hz = -1.0;
+        assert!(matches!(s.handle(&HostMsg::UploadParams(bad), 0, &mut || 0), Some(FswMsg::ParamsRejected(_))));
+        assert!(matches!(step(&mut s, 1), Some(FswMsg::Error(LinkError::StaleSequence { .. }))));
+        // Hello: new sequence and a zero count.
+        let hello = HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() };
+        assert!(matches!(s.handle(&hello, 0, &mut || 0), Some(FswMsg::HelloAck { .. })));
+        assert!(matches!(step(&mut s, 0), Some(FswMsg::Step(r)) if r.seq_refused == 0 && r.cmd.seq == 0));
     }
 
     #[test]

@@ -1,8 +1,9 @@
 //! The flight protocol over a byte stream (see `acs_flight::link`).
 
-use super::{FlightLink, LinkInfo};
+use super::{FlightLink, LinkAnomalies, LinkInfo};
 use acs_flight::link::{
-    FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport, encode_frame, schema_hash,
+    FrameAccumulator, FswMsg, HostMsg, LinkError, MAX_FRAME, PROTOCOL_VERSION, SensorFrame, StepReport, encode_frame,
+    schema_hash,
 };
 use anyhow::{Context, Result, anyhow, bail};
 use std::io::{ErrorKind, Read, Write};
@@ -21,6 +22,9 @@ pub struct Framed<S: Read + Write> {
     rx_len: usize,
     tx: Box<[u8; MAX_FRAME]>,
     pub info: Option<LinkInfo>,
+    /// The step reply last used (a bit-identical copy of it is a harmless duplicate).
+    last_step: Option<StepReport>,
+    anomalies: LinkAnomalies,
 }
 
 impl Framed<TcpStream> {
@@ -57,6 +61,8 @@ impl<S: Read + Write> Framed<S> {
             rx_len: 0,
             tx: Box::new([0; MAX_FRAME]),
             info: None,
+            last_step: None,
+            anomalies: LinkAnomalies::default(),
         }
     }
 
@@ -71,6 +77,30 @@ impl<S: Read + Write> Framed<S> {
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<()> {
         self.stream.write_all(bytes)?;
         self.stream.flush()?;
+        Ok(())
+    }
+
+    /// A reply that is not the one awaited (`waiting_for`: the frame a step waits for;
+    /// `None` while waiting for the reply to another request): counted by kind. Errors
+    /// other than a refusal of an earlier frame end a step as before.
+    fn stray(&mut self, msg: FswMsg, waiting_for: Option<u32>) -> Result<()> {
+        let a = &mut self.anomalies;
+        let older = |seq: u32| waiting_for.is_none_or(|w| seq < w);
+        match msg {
+            FswMsg::Step(r) if self.last_step == Some(r) => a.duplicate_replies += 1,
+            FswMsg::Step(r) if older(r.cmd.seq) => {
+                a.late_replies += 1;
+                a.result_affected = true;
+            }
+            FswMsg::Error(LinkError::StaleSequence { seq, .. }) if older(seq) => a.refusals_received += 1,
+            FswMsg::Error(e) if waiting_for.is_some() && !matches!(e, LinkError::StaleSequence { .. }) => {
+                bail!("{}: flight error {e:?}", self.name)
+            }
+            _ => {
+                a.unexpected_replies += 1;
+                a.result_affected = true;
+            }
+        }
         Ok(())
     }
 
@@ -144,6 +174,9 @@ impl<S: Read + Write> FlightLink for Framed<S> {
                 self.info = Some(info.clone());
                 Ok(info)
             }
+            FswMsg::Error(LinkError::Busy) => {
+                bail!("{}: flight computer busy (it is serving another host; try again later)", self.name)
+            }
             FswMsg::Error(e) => bail!("{}: flight side refused hello: {e:?}", self.name),
             other => bail!("{}: unexpected reply to hello: {other:?}", self.name),
         }
@@ -153,8 +186,8 @@ impl<S: Read + Write> FlightLink for Framed<S> {
         self.send(msg)?;
         loop {
             match self.recv()? {
-                // A late answer to a sensor frame sent before this request.
-                FswMsg::Step(_) => continue,
+                // Answers to sensor frames: copies, late steps or refusals (counted).
+                m @ (FswMsg::Step(_) | FswMsg::Error(LinkError::StaleSequence { .. })) => self.stray(m, None)?,
                 reply => return Ok(reply),
             }
         }
@@ -164,18 +197,25 @@ impl<S: Read + Write> FlightLink for Framed<S> {
         self.send(&HostMsg::Sensor(*frame))?;
         loop {
             match self.recv()? {
-                FswMsg::Step(r) if r.cmd.seq == frame.seq => return Ok(r),
-                FswMsg::Step(r) if r.cmd.seq < frame.seq => continue, // a late answer to an older frame
-                FswMsg::Step(r) => {
-                    bail!("{}: reply for frame {} while waiting for {}", self.name, r.cmd.seq, frame.seq)
+                FswMsg::Step(r) if r.cmd.seq == frame.seq => {
+                    self.anomalies.frames_refused_flight = r.seq_refused;
+                    self.last_step = Some(r);
+                    return Ok(r);
                 }
-                FswMsg::Error(e) => bail!("{}: flight error {e:?}", self.name),
-                other => bail!("{}: unexpected message {other:?}", self.name),
+                FswMsg::Error(LinkError::StaleSequence { seq, last_seq }) if seq == frame.seq => bail!(
+                    "{}: the flight side refused frame {seq} (it has stepped frame {last_seq} of this sequence)",
+                    self.name
+                ),
+                other => self.stray(other, Some(frame.seq))?,
             }
         }
     }
 
     fn frames_dropped_host(&self) -> u32 {
         self.acc.stats.dropped()
+    }
+
+    fn anomalies(&self) -> LinkAnomalies {
+        self.anomalies
     }
 }

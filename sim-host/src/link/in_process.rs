@@ -1,7 +1,7 @@
 use super::{FlightLink, LinkInfo};
 use acs_flight::link::session::{Session, board};
 use acs_flight::link::{FswMsg, HostMsg, LinkError, SensorFrame, StepReport};
-use anyhow::Result;
+use anyhow::{Result, bail};
 
 /// The flight code called directly, in this process, through the same `Session` as the
 /// firmware (no serialisation).
@@ -40,14 +40,21 @@ impl FlightLink for InProcess {
         Ok(self.session.handle(msg, 0, &mut no_counter).unwrap_or(FswMsg::Error(LinkError::UnexpectedMessage)))
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        // Reading the clock costs as much as a fifth of a step here: time one step in
-        // eight (0 = not measured; the statistics skip those).
-        if !frame.seq.is_multiple_of(8) {
-            return Ok(StepReport { cmd: self.session.fsw.step(frame), ..Default::default() });
+        // Through `Session::handle` like every other link (one frame, one step: the same
+        // sequence check as the firmware). Reading the clock costs as much as a fifth of a
+        // step here: time one step in eight (0 = not measured; the statistics skip those).
+        let timed = frame.seq.is_multiple_of(8);
+        let t0 = timed.then(std::time::Instant::now);
+        let mut clock = || t0.map_or(0, |t| t.elapsed().as_nanos().min(u128::from(u32::MAX)) as u32);
+        match self.session.handle(&HostMsg::Sensor(*frame), 0, &mut clock) {
+            Some(FswMsg::Step(mut r)) => {
+                if timed {
+                    r.step_cost_ticks = r.step_cost_ticks.max(1);
+                }
+                Ok(r)
+            }
+            Some(FswMsg::Error(e)) => bail!("in-process: the flight code refused frame {}: {e:?}", frame.seq),
+            other => bail!("in-process: unexpected answer to frame {}: {other:?}", frame.seq),
         }
-        let t0 = std::time::Instant::now();
-        let cmd = self.session.fsw.step(frame);
-        let ns = t0.elapsed().as_nanos().min(u32::MAX as u128) as u32;
-        Ok(StepReport { cmd, step_cost_ticks: ns.max(1), ..Default::default() })
     }
 }

@@ -23,6 +23,46 @@ pub struct ModeTable {
     pub manager: ModeManagerParams,
 }
 
+/// What the host saw on the link beyond one reply per message (summary.json
+/// `link_anomalies`, docs/protocol.md "Link anomalies"). Some leave the result exactly as
+/// on a clean link, the others may have changed it (`result_affected`, exit code 3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct LinkAnomalies {
+    /// Step replies bit-identical to the reply already used for that frame: a copy made
+    /// in transit (the flight side steps a frame once). Harmless.
+    pub duplicate_replies: u32,
+    /// Step replies for an already answered frame that differ from the reply used: the
+    /// flight side stepped a frame twice or out of order. Invalidates the result.
+    pub late_replies: u32,
+    /// Replies the host did not ask for: a step for a frame not sent yet, or a message of
+    /// another kind while waiting for a step. The flight side acted on a message the host
+    /// did not send then. Invalidates the result.
+    pub unexpected_replies: u32,
+    /// `Error(StaleSequence)` refusals received for frames the host had already had
+    /// answered: a repeated or late copy of a frame that the flight side did not step
+    /// (one frame, one step). Harmless.
+    pub refusals_received: u32,
+    /// The flight side's own count of refused frames (`StepReport::seq_refused` of the
+    /// last step; a refusal of the last frames of a run may only show here). Harmless.
+    pub frames_refused_flight: u32,
+    /// True when any anomaly that may have changed the result occurred.
+    pub result_affected: bool,
+}
+
+impl LinkAnomalies {
+    /// Why the result may be wrong, or `None` when the link anomalies (if any) left it as
+    /// on a clean link.
+    pub fn failure_reason(&self) -> Option<String> {
+        self.result_affected.then(|| {
+            format!(
+                "link anomalies may have changed the result: {} late step replies (a frame stepped twice or out of \
+                 order), {} unexpected replies",
+                self.late_replies, self.unexpected_replies
+            )
+        })
+    }
+}
+
 /// What the flight side said at hello.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinkInfo {
@@ -87,6 +127,10 @@ pub trait FlightLink {
     /// Frames the host side dropped (CRC, COBS, ...).
     fn frames_dropped_host(&self) -> u32 {
         0
+    }
+    /// Duplicate, late and unexpected replies and reported refusals so far.
+    fn anomalies(&self) -> LinkAnomalies {
+        LinkAnomalies::default()
     }
 }
 

@@ -160,4 +160,7 @@ impl FlightLink for QemuLink {
     fn frames_dropped_host(&self) -> u32 {
         self.link.frames_dropped_host()
     }
+    fn anomalies(&self) -> crate::link::LinkAnomalies {
+        self.link.anomalies()
+    }
 }
