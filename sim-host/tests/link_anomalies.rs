@@ -317,7 +317,8 @@ fn serve_survives_a_reset_mid_write_and_an_idle_client_and_answers_busy() {
     let mut second = Framed::tcp(&serve.addr()).unwrap();
     let e = format!("{:#}", second.hello().unwrap_err());
     assert!(e.contains("flight computer busy"), "{e}");
-    let r = run(&repo().join("scenarios/paper000/test3.toml"), &tmp.path().join("busy"), &format!("tcp:{}", serve.addr()));
+    let r =
+        run(&repo().join("scenarios/paper000/test3.toml"), &tmp.path().join("busy"), &format!("tcp:{}", serve.addr()));
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("flight computer busy"));
     // The idle client is disconnected after the 1 s timeout (EOF), well before 3 s.

@@ -331,8 +331,7 @@ mod tests {
         assert!(matches!(step(&mut s, 1), Some(FswMsg::Step(r)) if r.seq_refused == 4));
         assert!(matches!(step(&mut s, 1), Some(FswMsg::Error(LinkError::StaleSequence { seq: 1, last_seq: 1 }))));
         // A rejected configuration does not.
-        let mut bad = FlightParams::default();
-        bad.control_rate_hz = -1.0;
+        let bad = FlightParams { control_rate_hz: -1.0, ..FlightParams::default() };
         assert!(matches!(s.handle(&HostMsg::UploadParams(bad), 0, &mut || 0), Some(FswMsg::ParamsRejected(_))));
         assert!(matches!(step(&mut s, 1), Some(FswMsg::Error(LinkError::StaleSequence { .. }))));
         // Hello: new sequence and a zero count.

@@ -96,7 +96,10 @@ fn write_end(e: std::io::Error, idle: Duration) -> SessionEnd {
 
 /// Serve one TCP client with the idle timeout on both directions.
 fn serve_client(c: &TcpStream, idle: Duration) -> SessionEnd {
-    let setup = c.set_nodelay(true).and_then(|()| c.set_read_timeout(Some(idle))).and_then(|()| c.set_write_timeout(Some(idle)));
+    let setup = c
+        .set_nodelay(true)
+        .and_then(|()| c.set_read_timeout(Some(idle)))
+        .and_then(|()| c.set_write_timeout(Some(idle)));
     if let Err(e) = setup {
         return SessionEnd::Io(e);
     }
