@@ -75,6 +75,51 @@ pub fn corrupt_frames_are_dropped_and_counted<S: Read + Write>(link: &mut Framed
     }
 }
 
+/// Shared by the TCP (virtual flight computer) and QEMU (firmware) tests, so SIL and PIL
+/// are held to the same rule. One frame, one step: a repeated and an older `seq` are
+/// refused with `StaleSequence` and counted in `seq_refused`; a CRC-valid frame with
+/// trailing junk is dropped and counted in `frames_dropped` (no reply). None of them
+/// touches the flight state: the commands of the next frames equal, bit for bit, those of
+/// an in-process `Session` that only saw the clean frames.
+pub fn repeated_frames_and_trailing_junk_are_refused<S: Read + Write>(link: &mut Framed<S>) {
+    use acs_flight::link::session::{Session, board};
+    use acs_flight::link::{FswMsg, LinkError};
+    fn reference_step(s: &mut Session, seq: u32) -> acs_flight::link::ActuatorCommand {
+        match s.handle(&HostMsg::Sensor(frame(seq)), 0, &mut || 0) {
+            Some(FswMsg::Step(r)) => r.cmd,
+            other => panic!("reference: {other:?}"),
+        }
+    }
+    let params = acs_flight::params::FlightParams::default();
+    let mut reference = Session::new(board::HOST, 0);
+    assert!(matches!(
+        reference.handle(&HostMsg::UploadParams(params), 0, &mut || 0),
+        Some(FswMsg::ParamsAccepted { .. })
+    ));
+    link.hello().unwrap();
+    link.upload(&params).unwrap();
+    let first = link.step(&frame(20)).unwrap();
+    assert_eq!(first.cmd, reference_step(&mut reference, 20));
+    let dropped0 = first.frames_dropped;
+    for (seq, n) in [(20u32, 1u32), (19, 2)] {
+        link.send(&HostMsg::Sensor(frame(seq))).unwrap();
+        match link.recv().unwrap() {
+            FswMsg::Error(LinkError::StaleSequence { seq: s, last_seq }) => assert_eq!((s, last_seq), (seq, 20)),
+            other => panic!("frame {seq} again: {other:?} (refusal {n} expected)"),
+        }
+    }
+    // Frame 21 with two junk bytes after the message, under a valid CRC (postcard
+    // encodes the tuple as the message's bytes followed by the two bytes).
+    let mut buf = [0u8; MAX_FRAME];
+    link.send_raw(encode_frame(&(HostMsg::Sensor(frame(21)), [0xABu8, 0xCD]), &mut buf).unwrap()).unwrap();
+    for seq in [22u32, 23] {
+        let r = link.step(&frame(seq)).unwrap();
+        assert_eq!(r.cmd, reference_step(&mut reference, seq), "frame {seq}: a refused frame changed the flight state");
+        assert_eq!((r.seq_refused, r.frames_dropped - dropped0), (2, 1), "frame {seq}");
+    }
+    assert_eq!(link.anomalies(), sim_host::link::LinkAnomalies { frames_refused_flight: 2, ..Default::default() });
+}
+
 /// Names of the symbols of an ELF32 little-endian file (SHT_SYMTAB + its string table).
 /// Minimal reader so the check needs no binutils.
 pub fn elf32_symbols(path: &Path) -> Vec<String> {

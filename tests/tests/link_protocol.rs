@@ -39,6 +39,12 @@ fn corrupt_frames_on_the_wire_are_dropped_counted_and_survived() {
 }
 
 #[test]
+fn repeated_frames_and_trailing_junk_are_refused_not_stepped() {
+    let mut link = virtual_board();
+    acs_tests::repeated_frames_and_trailing_junk_are_refused(&mut link);
+}
+
+#[test]
 fn rejected_parameters_and_version_mismatch_are_reported() {
     let mut link = virtual_board();
     link.hello().unwrap();

@@ -63,6 +63,16 @@ fn firmware_drops_corrupt_frames_and_keeps_answering() {
 }
 
 #[test]
+fn firmware_refuses_repeated_frames_and_trailing_junk_as_in_process() {
+    if !qemu_available("PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    let mut link = QemuLink::start(None).unwrap();
+    acs_tests::repeated_frames_and_trailing_junk_are_refused(link.framed());
+}
+
+#[test]
 fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
     if !qemu_available("PIL") {
         return;
