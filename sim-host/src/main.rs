@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use sim_host::campaign::{Campaign, Shard};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::{Controller, Scenario};
-use sim_host::summary::Summary;
+use sim_host::summary::{Failure, Summary};
 use sim_host::{output, runner, timing};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -231,14 +231,34 @@ fn assumed_free_bytes() -> Result<Option<u64>> {
     }
 }
 
-/// Errors end the process with status 1 and their cause chain on one line (no backtrace,
-/// whatever `RUST_BACKTRACE` says: a bad scenario is the user's input, not a bug).
+/// A run that flew but failed (`run_status` not `ok` in its summary): exit status 3.
+#[derive(Debug)]
+struct RunFailed(String);
+
+impl std::fmt::Display for RunFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RunFailed {}
+
+/// Exit status of a run that completed but failed (diverged, every step refused).
+const EXIT_RUN_FAILED: u8 = 3;
+
+/// Errors end the process with status 1 (3 for a failed run) and their cause chain on one
+/// line (no backtrace, whatever `RUST_BACKTRACE` says: a bad scenario is the user's input,
+/// not a bug).
 fn main() -> std::process::ExitCode {
     match dispatch(Cli::parse().cmd) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
-            std::process::ExitCode::FAILURE
+            if e.downcast_ref::<RunFailed>().is_some() {
+                std::process::ExitCode::from(EXIT_RUN_FAILED)
+            } else {
+                std::process::ExitCode::FAILURE
+            }
         }
     }
 }
@@ -632,7 +652,20 @@ fn run(
     for f in files {
         say!("  wrote {}", f.display());
     }
-    Ok(())
+    match &summary.failure {
+        None => Ok(()),
+        Some(Failure::Diverged { t_s, quantity }) => Err(RunFailed(format!(
+            "{}: the run diverged: {quantity} is not finite at t = {t_s} s; the run was stopped there \
+             (summary.json: run_status \"diverged\")",
+            summary.scenario
+        ))
+        .into()),
+        Some(Failure::Refused { reason }) => Err(RunFailed(format!(
+            "{}: every control step was refused: {reason} (summary.json: run_status \"all_refused\")",
+            summary.scenario
+        ))
+        .into()),
+    }
 }
 
 fn summary_line(s: &Summary) -> String {
