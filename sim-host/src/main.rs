@@ -632,6 +632,9 @@ fn run(
     no_plots: bool,
     quiet: bool,
 ) -> Result<()> {
+    // A previous run's outputs go first: whatever happens next, the directory never shows
+    // them beside (or instead of) this run's.
+    output::clear_previous(out)?;
     let sc = Scenario::load(scenario)?;
     let open_loop = !sc.closed_loop();
     let kind = match (link, &sc.link.kind) {
