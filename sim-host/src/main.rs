@@ -573,7 +573,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let start = std::time::Instant::now();
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
-                "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, {} errors",
+                "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
+                 {} diverged, {} refused by the flight code, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -582,6 +583,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 start.elapsed().as_secs_f64(),
                 r.ok,
                 r.requirement_failed,
+                r.diverged,
+                r.all_refused,
                 r.errors
             );
         }
@@ -589,20 +592,26 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let m = sim_host::campaign::merge(&dir, !no_plots)?;
             let r = &m.result;
             say!(
-                "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} errors)",
+                "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
+                 {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
                 r.ok,
                 r.requirement_failed,
+                r.diverged.len(),
+                r.all_refused.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
                 say!("  {}", q.statement);
             }
-            if !r.missing.is_empty() {
-                let shown: Vec<String> = r.missing.iter().take(20).map(u32::to_string).collect();
-                say!("  missing runs ({}): {}", r.missing.len(), shown.join(", "));
+            for (what, runs) in [("missing", &r.missing), ("diverged", &r.diverged), ("all steps refused", &r.all_refused)]
+            {
+                if !runs.is_empty() {
+                    let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();
+                    say!("  {what} runs ({}): {}", runs.len(), shown.join(", "));
+                }
             }
             for f in &m.files {
                 say!("  wrote {}", f.display());

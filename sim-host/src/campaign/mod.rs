@@ -16,6 +16,7 @@
 
 pub mod draw;
 pub mod exec;
+pub mod lock;
 pub mod merge;
 pub mod path;
 pub mod plan;
