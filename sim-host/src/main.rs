@@ -606,7 +606,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             for q in &r.requirements {
                 say!("  {}", q.statement);
             }
-            for (what, runs) in [("missing", &r.missing), ("diverged", &r.diverged), ("all steps refused", &r.all_refused)]
+            for (what, runs) in
+                [("missing", &r.missing), ("diverged", &r.diverged), ("all steps refused", &r.all_refused)]
             {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();

@@ -251,14 +251,7 @@ pub struct RunOutput {
 
 impl RunOutput {
     pub fn new(dir: &Path, with_plots: bool) -> Self {
-        Self {
-            dir: dir.to_path_buf(),
-            with_plots,
-            free_bytes: None,
-            csv: None,
-            csv_tmp: None,
-            plot: Envelope::new(),
-        }
+        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, csv_tmp: None, plot: Envelope::new() }
     }
 
     /// Assume `bytes` free on the output filesystem (instead of `statvfs`).

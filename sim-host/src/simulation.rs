@@ -526,7 +526,8 @@ impl<'a> Simulation<'a> {
         let m = &mut self.metrics;
         if let Some(c) = &self.craft.cmg {
             m.min_singularity = nan_min(m.min_singularity, c.singularity_measure(&self.state.gimbal_rad));
-            m.max_gimbal_rate = cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| nan_max(a, r.abs() as f64));
+            m.max_gimbal_rate =
+                cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| nan_max(a, r.abs() as f64));
         }
         let n_wheels = self.craft.wheels.len();
         let wheel_out = if n_wheels > 0 { self.craft.wheel_outputs(&self.state, input) } else { Default::default() };

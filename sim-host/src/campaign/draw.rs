@@ -217,11 +217,15 @@ fn numeric(d: &Dispersion, root: &mut Value, rng: &mut Rng) -> Result<serde_json
         };
         // An overflowing draw (or product, or sum) is refused at planning, not flown.
         if !v.is_finite() {
-            bail!("key `{}`: the draw {r} {} gives {v}, not a finite number", d.key, match d.apply {
-                Apply::Set => "set".to_owned(),
-                Apply::Scale => format!("times {x}"),
-                Apply::Offset => format!("plus {x}"),
-            });
+            bail!(
+                "key `{}`: the draw {r} {} gives {v}, not a finite number",
+                d.key,
+                match d.apply {
+                    Apply::Set => "set".to_owned(),
+                    Apply::Scale => format!("times {x}"),
+                    Apply::Offset => format!("plus {x}"),
+                }
+            );
         }
         *x = v;
         drawn.push(r);

@@ -105,13 +105,7 @@ impl ShardLock {
             if let Err(TryLockError::WouldBlock) = file.try_lock() {
                 bail!("{}: another runner locked it as it was created; try again", path.display());
             }
-            let me = format!(
-                "pid {}\nhost {}\nshard {}/{}\n",
-                std::process::id(),
-                host(),
-                shard.index,
-                shard.count
-            );
+            let me = format!("pid {}\nhost {}\nshard {}/{}\n", std::process::id(), host(), shard.index, shard.count);
             file.write_all(me.as_bytes()).with_context(|| format!("writing the lock {}", path.display()))?;
             let lock = ShardLock { path, _file: file };
             lock.refuse_overlaps(dir, shard)?;
