@@ -133,7 +133,8 @@ pub fn plan(campaign: &Campaign, out: &Path, runs: Option<u32>) -> Result<Manife
         text += &body;
         let rel = format!("runs/{}/scenario.toml", run_dir_name(index));
         let path = out.join(&rel);
-        std::fs::create_dir_all(path.parent().unwrap_or(out))?;
+        let run_dir = path.parent().unwrap_or(out);
+        std::fs::create_dir_all(run_dir).with_context(|| format!("creating {}", run_dir.display()))?;
         write_atomic(&path, text.as_bytes())?;
         runs_planned.push(PlannedRun { index, scenario: rel, draws });
     }
