@@ -16,6 +16,7 @@ pub mod decimate;
 pub mod design;
 pub mod environment;
 pub mod estimation;
+pub mod files;
 pub mod link;
 pub mod output;
 pub mod plant;

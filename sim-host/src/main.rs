@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use sim_host::campaign::{Campaign, Shard};
 use sim_host::link::{self, LinkKind, LinkOptions};
 use sim_host::scenario::{Controller, Scenario};
-use sim_host::summary::Summary;
+use sim_host::summary::{Failure, Summary};
 use sim_host::{output, runner, timing};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -235,18 +235,34 @@ fn assumed_free_bytes() -> Result<Option<u64>> {
     }
 }
 
-/// Errors end the process with status 1 and their cause chain on one line (no backtrace,
-/// whatever `RUST_BACKTRACE` says: a bad scenario is the user's input, not a bug).
+/// A run that flew but failed (`run_status` not `ok` in its summary): exit status 3.
+#[derive(Debug)]
+struct RunFailed(String);
+
+impl std::fmt::Display for RunFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RunFailed {}
+
+/// Exit status of a run that completed but failed (diverged, every step refused).
+const EXIT_RUN_FAILED: u8 = 3;
+
+/// Errors end the process with status 1 (3 for a failed run) and their cause chain on one
+/// line (no backtrace, whatever `RUST_BACKTRACE` says: a bad scenario is the user's input,
+/// not a bug).
 fn main() -> std::process::ExitCode {
     match dispatch(Cli::parse().cmd) {
         Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) if e.downcast_ref::<RunFailed>().is_some() => {
-            let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
-            std::process::ExitCode::from(3)
-        }
         Err(e) => {
             let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
-            std::process::ExitCode::FAILURE
+            if e.downcast_ref::<RunFailed>().is_some() {
+                std::process::ExitCode::from(EXIT_RUN_FAILED)
+            } else {
+                std::process::ExitCode::FAILURE
+            }
         }
     }
 }
@@ -565,7 +581,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let start = std::time::Instant::now();
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
-                "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, {} errors",
+                "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
+                 {} diverged, {} refused by the flight code, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -574,6 +591,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 start.elapsed().as_secs_f64(),
                 r.ok,
                 r.requirement_failed,
+                r.diverged,
+                r.all_refused,
                 r.errors
             );
         }
@@ -581,20 +600,27 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let m = sim_host::campaign::merge(&dir, !no_plots)?;
             let r = &m.result;
             say!(
-                "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} errors)",
+                "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
+                 {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
                 r.ok,
                 r.requirement_failed,
+                r.diverged.len(),
+                r.all_refused.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
                 say!("  {}", q.statement);
             }
-            if !r.missing.is_empty() {
-                let shown: Vec<String> = r.missing.iter().take(20).map(u32::to_string).collect();
-                say!("  missing runs ({}): {}", r.missing.len(), shown.join(", "));
+            for (what, runs) in
+                [("missing", &r.missing), ("diverged", &r.diverged), ("all steps refused", &r.all_refused)]
+            {
+                if !runs.is_empty() {
+                    let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();
+                    say!("  {what} runs ({}): {}", runs.len(), shown.join(", "));
+                }
             }
             for f in &m.files {
                 say!("  wrote {}", f.display());
@@ -624,6 +650,9 @@ fn run(
     no_plots: bool,
     quiet: bool,
 ) -> Result<()> {
+    // A previous run's outputs go first: whatever happens next, the directory never shows
+    // them beside (or instead of) this run's.
+    output::clear_previous(out)?;
     let sc = Scenario::load(scenario)?;
     let open_loop = !sc.closed_loop();
     let kind = match (link, &sc.link.kind) {
@@ -648,24 +677,26 @@ fn run(
     if *a != link::LinkAnomalies::default() {
         eprintln!("warning: link anomalies: {}", serde_json::to_string(a)?);
     }
-    match a.failure_reason() {
-        Some(reason) => Err(RunFailed(reason).into()),
+    match &summary.failure {
         None => Ok(()),
+        Some(Failure::Diverged { t_s, quantity }) => Err(RunFailed(format!(
+            "{}: the run diverged: {quantity} is not finite at t = {t_s} s; the run was stopped there \
+             (summary.json: run_status \"diverged\")",
+            summary.scenario
+        ))
+        .into()),
+        Some(Failure::Refused { reason }) => Err(RunFailed(format!(
+            "{}: every control step was refused: {reason} (summary.json: run_status \"all_refused\")",
+            summary.scenario
+        ))
+        .into()),
+        Some(Failure::Link { reason }) => Err(RunFailed(format!(
+            "{}: {reason} (summary.json: run_status \"link_anomaly\")",
+            summary.scenario
+        ))
+        .into()),
     }
 }
-
-/// A run that completed (summary.json written) but whose result is not to be trusted:
-/// exit code 3 (docs/protocol.md "Link anomalies").
-#[derive(Debug)]
-struct RunFailed(String);
-
-impl std::fmt::Display for RunFailed {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "run failed: {}", self.0)
-    }
-}
-
-impl std::error::Error for RunFailed {}
 
 fn summary_line(s: &Summary) -> String {
     let mut line = format!(

@@ -215,20 +215,43 @@ pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<(
     Ok(())
 }
 
+/// The files a run writes into its output directory, besides the figures.
+pub const RUN_FILES: [&str; 2] = ["timeseries.csv", "summary.json"];
+
+/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`] and every figure of
+/// [`figures`]; nothing else, and nothing when `dir` does not exist).
+pub fn clear_previous(dir: &Path) -> Result<()> {
+    let figures = figures();
+    let names = RUN_FILES.iter().copied().chain(figures.iter().map(|f| f.file_name.as_str()));
+    for name in names {
+        crate::files::remove_if_present(&dir.join(name))?;
+    }
+    Ok(())
+}
+
 /// The outputs of a run in `dir`: streams `timeseries.csv`, keeps the plot decimation, and
 /// on [`RunOutput::finish`] writes `summary.json` and the figures.
+///
+/// Before the first step ([`Recorder::start`]) the files a previous run left there
+/// ([`RUN_FILES`] and every figure of [`figures`]; nothing else) are removed, so that a run
+/// that then fails leaves no stale summary or figure beside its own output. The CSV is
+/// streamed into a hidden temporary file renamed to `timeseries.csv` by `finish` (removed
+/// if the run ends in an error); the summary and the figures are written through a
+/// temporary file and a rename. Every error names its file.
 pub struct RunOutput {
     dir: PathBuf,
     with_plots: bool,
     /// Free space to assume instead of asking the filesystem (tests).
     free_bytes: Option<u64>,
     csv: Option<BufWriter<File>>,
+    /// The temporary CSV while the run goes (`None` once renamed or before the start).
+    csv_tmp: Option<PathBuf>,
     plot: Envelope,
 }
 
 impl RunOutput {
     pub fn new(dir: &Path, with_plots: bool) -> Self {
-        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, plot: Envelope::new() }
+        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, csv_tmp: None, plot: Envelope::new() }
     }
 
     /// Assume `bytes` free on the output filesystem (instead of `statvfs`).
@@ -241,19 +264,37 @@ impl RunOutput {
         self.dir.join("timeseries.csv")
     }
 
+    /// Removes what a previous run wrote into the directory (see [`clear_previous`]).
+    pub fn clear_previous(&self) -> Result<()> {
+        clear_previous(&self.dir)
+    }
+
     /// Flushes the CSV, writes the summary and the figures; returns the files written.
     pub fn finish(mut self, summary: &Summary) -> Result<Vec<PathBuf>> {
         let csv = self.csv_path();
         let mut w = self.csv.take().context("the run recorded nothing")?;
         w.flush().with_context(|| format!("writing {}", csv.display()))?;
         drop(w);
+        if let Some(tmp) = self.csv_tmp.take() {
+            crate::files::rename(&tmp, &csv)?;
+        }
         let json = self.dir.join("summary.json");
-        std::fs::write(&json, serde_json::to_string_pretty(summary)? + "\n")?;
+        crate::files::write_atomic(&json, (serde_json::to_string_pretty(summary)? + "\n").as_bytes())?;
         let mut files = vec![csv, json];
         if self.with_plots {
             files.extend(plots::render(&self.dir, &self.plot.series(), &figures()).context("rendering plots")?);
         }
         Ok(files)
+    }
+}
+
+impl Drop for RunOutput {
+    /// A run that ended in an error leaves no partial CSV.
+    fn drop(&mut self) {
+        if let Some(tmp) = self.csv_tmp.take() {
+            self.csv = None;
+            let _ = std::fs::remove_file(tmp);
+        }
     }
 }
 
@@ -266,12 +307,15 @@ impl Recorder for RunOutput {
             None => free_bytes(dir)?,
         };
         check_space(dir, rows, columns.len(), free)?;
+        self.clear_previous()?;
         let csv = self.csv_path();
+        let tmp = crate::files::temp_path(&csv);
         let mut w = BufWriter::with_capacity(
             1 << 16,
-            File::create(&csv).with_context(|| format!("creating {}", csv.display()))?,
+            File::create(&tmp).with_context(|| format!("creating {} (for {})", tmp.display(), csv.display()))?,
         );
-        writeln!(w, "{}", columns.join(","))?;
+        self.csv_tmp = Some(tmp);
+        writeln!(w, "{}", columns.join(",")).with_context(|| format!("writing {}", csv.display()))?;
         self.csv = Some(w);
         if self.with_plots {
             self.plot.start(columns, rows)?;

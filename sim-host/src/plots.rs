@@ -285,15 +285,18 @@ fn pad((lo, hi): (f64, f64), frac: f64) -> (f64, f64) {
     }
 }
 
+/// Encodes the image and writes it through a temporary file and a rename (a failed write
+/// leaves no truncated PNG); an error names the file.
 fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> io::Result<()> {
-    let file = io::BufWriter::new(std::fs::File::create(path)?);
-    let mut enc = png::Encoder::new(file, w, h);
+    let mut bytes = Vec::new();
+    let mut enc = png::Encoder::new(&mut bytes, w, h);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     enc.set_compression(png::Compression::Fast);
     let mut wr = enc.write_header().map_err(err)?;
     wr.write_image_data(rgb).map_err(err)?;
-    wr.finish().map_err(err)
+    wr.finish().map_err(err)?;
+    crate::files::write_atomic(path, &bytes).map_err(|e| io::Error::other(format!("{e:#}")))
 }
 
 #[cfg(test)]

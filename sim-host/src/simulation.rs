@@ -20,7 +20,9 @@ use crate::scenario::{
 };
 use crate::sensors::SensorSuite;
 use crate::series::Recorder;
-use crate::summary::{ErrorStats, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
+use crate::summary::{
+    ErrorStats, Failure, ModeTransition, RunStatus, SETTLE_BOUND_DEG, StatusCounts, Summary, nan_max, nan_min,
+};
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::{Mode, Reason};
@@ -65,6 +67,57 @@ fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
         }
     }
     c
+}
+
+/// The first non-finite quantity of the plant state and of the environment snapshot
+/// (orbit, field, LVLH frame), by name.
+fn plant_non_finite(s: &State, snap: Option<&EnvSnapshot>) -> Option<&'static str> {
+    let all = |xs: &[f64]| xs.iter().all(|x| x.is_finite());
+    let wheels = |f: fn(&crate::plant::wheel::WheelState) -> f64| s.wheels.iter().all(|w| f(w).is_finite());
+    // Rates and momenta before the attitude: the renormalised quaternion turns NaN in
+    // the same substep as the rate that drove it, and the rate names the cause.
+    let checks: [(&'static str, bool); 8] = [
+        ("rate_rad_s", all(s.w.as_slice())),
+        ("wheel_momentum_nms", wheels(|w| w.h_abs_nms)),
+        ("wheel_speed_ref_rad_s", wheels(|w| w.speed_ref_rad_s)),
+        ("wheel_friction_nm", wheels(|w| w.dahl_friction_nm)),
+        ("wheel_rotor_angle_rad", wheels(|w| w.rotor_angle_rad)),
+        ("gimbal_rate_rad_s", all(&s.gimbal_rate_rad_s)),
+        ("gimbal_rad", all(&s.gimbal_rad)),
+        ("attitude_q", all(&[s.q.i, s.q.j, s.q.k, s.q.w])),
+    ];
+    if let Some((name, _)) = checks.iter().find(|c| !c.1) {
+        return Some(name);
+    }
+    let snap = snap?;
+    let v = |x: Option<Vec3>| x.is_none_or(|x| all(x.as_slice()));
+    let env: [(&'static str, bool); 5] = [
+        ("orbit_position", v(snap.orbit.map(|o| o.0))),
+        ("orbit_velocity", v(snap.orbit.map(|o| o.1))),
+        ("magnetic_field_t", v(snap.b_ref_t)),
+        ("lvlh_frame", snap.q_lvlh.is_none_or(|q| all(&[q.i, q.j, q.k, q.w]))),
+        ("lvlh_rate", all(snap.lvlh_rate_ref.as_slice())),
+    ];
+    env.iter().find(|c| !c.1).map(|c| c.0)
+}
+
+/// The first non-finite quantity of a flight command (what drives the actuators and the
+/// telemetry the statistics use), by name.
+fn command_non_finite(c: &ActuatorCommand) -> Option<&'static str> {
+    let all = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
+    let e = &c.estimate;
+    let checks: [(&'static str, bool); 9] = [
+        ("command.gimbal_rate_cmd_rad_s", all(&c.gimbal_rate_cmd_rad_s)),
+        ("command.wheel_torque_cmd_nm", all(&c.wheel_torque_cmd_nm)),
+        ("command.dipole_cmd_am2", all(&c.dipole_cmd_am2)),
+        ("command.thruster_level", all(&c.thruster_level)),
+        ("command.torque_demand_nm", all(&c.torque_demand_nm)),
+        ("command.torque_realised_nm", all(&c.torque_realised_nm)),
+        ("command.attitude_error_rad", c.attitude_error_rad.is_finite()),
+        ("command.estimate.q_est_xyzw", all(&e.q_est_xyzw)),
+        ("command.estimate.bias_est_rad_s", all(&e.bias_est_rad_s)),
+    ];
+    checks.iter().find(|c| !c.1).map(|c| c.0)
 }
 
 /// The attitude target: relative to its frame (inertial, or LVLH when the scenario says so).
@@ -176,9 +229,9 @@ impl Metrics {
 
     fn wheels(&mut self, out: &[WheelOutput]) {
         for o in out {
-            self.max_wheel_rpm = self.max_wheel_rpm.max(o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
-            self.max_wheel_w = self.max_wheel_w.max(o.power_w.abs());
-            self.max_wheel_a = self.max_wheel_a.max(o.current_a.abs());
+            self.max_wheel_rpm = nan_max(self.max_wheel_rpm, o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
+            self.max_wheel_w = nan_max(self.max_wheel_w, o.power_w.abs());
+            self.max_wheel_a = nan_max(self.max_wheel_a, o.current_a.abs());
         }
     }
 
@@ -243,6 +296,10 @@ pub struct Simulation<'a> {
     /// The next control step.
     k: u64,
     clock: Clock,
+    /// Set when a quantity became non-finite: the run stops there.
+    failure: Option<Failure>,
+    /// Time of the last control step that ran (the divergence time after a failure), s.
+    t_end: f64,
 }
 
 impl<'a> Simulation<'a> {
@@ -318,6 +375,8 @@ impl<'a> Simulation<'a> {
             columns,
             k: 0,
             clock,
+            failure: None,
+            t_end: 0.0,
         })
     }
 
@@ -339,9 +398,25 @@ impl<'a> Simulation<'a> {
         self.k
     }
 
-    /// Whether every control step (0..=steps) has run.
+    /// Whether every control step (0..=steps) has run, or the run diverged.
     pub fn finished(&self) -> bool {
-        self.k > self.clock.steps
+        self.k > self.clock.steps || self.failure.is_some()
+    }
+
+    /// The divergence that stopped the run, if any.
+    pub fn failure(&self) -> Option<&Failure> {
+        self.failure.as_ref()
+    }
+
+    /// Ends the run at `t` if `quantity` names a non-finite one: records the failure and
+    /// counts the step's (undefined) attitude error as NaN, so the error statistics say
+    /// "not settled" rather than keep the last finite figures.
+    fn diverged_at(&mut self, t: f64, quantity: Option<&str>) -> bool {
+        let Some(q) = quantity else { return false };
+        self.failure = Some(Failure::Diverged { t_s: t, quantity: q.to_owned() });
+        self.errors.push(t, f64::NAN);
+        self.t_end = t;
+        true
     }
 
     /// The flight estimate against the truth so far (last step's error included).
@@ -361,8 +436,16 @@ impl<'a> Simulation<'a> {
         if k > 0 {
             self.snap = self.craft.env_at(t)?;
         }
+        // No point flying (or asking the flight code about) a non-finite plant.
+        if self.diverged_at(t, plant_non_finite(&self.state, self.snap.as_ref())) {
+            return Ok(());
+        }
         self.ground_commands(t)?;
         let (cmd, ticks) = self.flight_command(k, t)?;
+        if self.diverged_at(t, command_non_finite(&cmd)) {
+            return Ok(());
+        }
+        self.t_end = t;
         let (mut input, dipole_cmd) = self.act.input(&cmd);
         let q_frame = self.target.frame(self.snap.as_ref());
         let err_deg = error_angle(&self.state.q, &(q_frame * self.target.q_rel)).to_degrees();
@@ -442,8 +525,9 @@ impl<'a> Simulation<'a> {
         self.errors.push(t, err_deg);
         let m = &mut self.metrics;
         if let Some(c) = &self.craft.cmg {
-            m.min_singularity = m.min_singularity.min(c.singularity_measure(&self.state.gimbal_rad));
-            m.max_gimbal_rate = cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| a.max(r.abs() as f64));
+            m.min_singularity = nan_min(m.min_singularity, c.singularity_measure(&self.state.gimbal_rad));
+            m.max_gimbal_rate =
+                cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| nan_max(a, r.abs() as f64));
         }
         let n_wheels = self.craft.wheels.len();
         let wheel_out = if n_wheels > 0 { self.craft.wheel_outputs(&self.state, input) } else { Default::default() };
@@ -472,6 +556,9 @@ impl<'a> Simulation<'a> {
             // environment evaluated at every stage's own time (issue 9); the sensors keep
             // the snapshot of the control step.
             self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
+            if plant_non_finite(&self.state, None).is_some() {
+                break; // the next control step reports it
+            }
         }
         Ok(())
     }
@@ -552,10 +639,33 @@ impl<'a> Simulation<'a> {
         }
     }
 
+    /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
+    /// control steps the flight code answered), or ok.
+    fn outcome(&self) -> (RunStatus, Option<Failure>) {
+        if let Some(f) = &self.failure {
+            return (RunStatus::Diverged, Some(f.clone()));
+        }
+        let n = self.k;
+        if self.info.is_some() && n > 0 && self.metrics.counts.bad_input == n {
+            let reason = format!(
+                "the flight code refused the input of every one of the {n} control steps (status bad_input): \
+                 the sensor frames or the state it was given lie outside what it accepts \
+                 (initial state, sensor noise and ranges in the scenario)"
+            );
+            return (RunStatus::AllRefused, Some(Failure::Refused { reason }));
+        }
+        if let Some(reason) = self.link.anomalies().failure_reason() {
+            return (RunStatus::LinkAnomaly, Some(Failure::Link { reason }));
+        }
+        (RunStatus::Ok, None)
+    }
+
     /// The summary of the finished run; `wall_s` is the wall time of the loop.
     pub fn summary(self, wall_s: f64) -> Summary {
         let (m, info) = (&self.metrics, self.info.as_ref());
-        let sim_time = self.sim_time_s();
+        let (run_status, failure) = self.outcome();
+        // A diverged run reaches only the time of its failure.
+        let sim_time = if self.failure.is_some() { self.t_end } else { self.sim_time_s() };
         let ef = self.errors.figures(sim_time);
         let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
         let n_ticks = m.n_ticks;
@@ -567,6 +677,8 @@ impl<'a> Simulation<'a> {
         let est = self.estimation.figures();
         Summary {
             scenario: self.name.clone(),
+            run_status,
+            failure,
             link: if info.is_some() { self.link.name() } else { "open-loop".into() },
             board: info.map(|i| i.board),
             steps: self.clock.steps,

@@ -22,9 +22,43 @@ pub struct StatusCounts {
     pub no_estimate: u64,
 }
 
+/// How a run ended (`summary.json` `run_status`). Anything but `Ok` is a failed run:
+/// `sim-host run` exits with status 3 and a campaign counts it against every requirement.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// Flew to the end with a finite state.
+    #[default]
+    Ok,
+    /// A plant, environment or flight-command quantity became non-finite: the run was
+    /// stopped at that step.
+    Diverged,
+    /// The flight code refused the input of every step (`status_counts.bad_input` on each).
+    AllRefused,
+    /// The link delivered a reply that may have changed the result (a frame stepped twice
+    /// or out of order, an unexpected reply: `link_anomalies.result_affected`).
+    LinkAnomaly,
+}
+
+/// Why a run failed (`summary.json` `failure`; null for a run that is ok).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Failure {
+    /// The first non-finite quantity and the time of the control step that saw it, s.
+    Diverged { t_s: f64, quantity: String },
+    /// Why the run counts as refused.
+    Refused { reason: String },
+    /// Which link anomalies may have changed the result.
+    Link { reason: String },
+}
+
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {
     pub scenario: String,
+    /// `ok`, `diverged`, `all_refused` or `link_anomaly` (see [`RunStatus`]).
+    pub run_status: RunStatus,
+    /// Null when `run_status` is `ok`.
+    pub failure: Option<Failure>,
     pub link: String,
     /// 0 in-process, 1 QEMU mps2-an386, 2 STM32F405; null for open-loop runs.
     pub board: Option<u8>,
@@ -114,6 +148,10 @@ pub struct ModeTransition {
 /// above it) and, after the settle time, the RMS and the maximum. The accumulators after
 /// the settle time restart at every exceedance, and sums run in time order, so the figures
 /// are bit-identical to those of the whole stored history.
+///
+/// A non-finite error (NaN) is never "below the bound": it counts as an exceedance (the run
+/// has not settled at that time) and propagates into the mean, RMS and final error, so a
+/// run that saw one reports them as NaN (`null` in JSON), never as a small number.
 #[derive(Clone, Debug)]
 pub struct ErrorStats {
     dt: f64,
@@ -129,6 +167,17 @@ pub struct ErrorStats {
     n_after: u64,
     sum_sq_after: f64,
     max_after: f64,
+}
+
+/// The larger of `a` and `b`, NaN if either is NaN (`f64::max` ignores a NaN operand,
+/// which would hide a non-finite sample behind the finite extreme of the others).
+pub fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) }
+}
+
+/// The smaller of `a` and `b`, NaN if either is NaN (see [`nan_max`]).
+pub fn nan_min(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.min(b) }
 }
 
 /// The error figures of a run (see [`ErrorStats`]).
@@ -164,14 +213,15 @@ impl ErrorStats {
         self.n += 1;
         self.sum += err;
         self.sum_sq += err * err;
-        if err >= self.bound {
+        // `!(err < bound)`: NaN is an exceedance (`err >= bound` is false for NaN).
+        if !(err < self.bound) {
             self.last_above = t;
             self.settle_from = t + self.dt;
             (self.n_after, self.sum_sq_after, self.max_after) = (0, 0.0, 0.0);
         } else if t >= self.settle_from {
             self.n_after += 1;
             self.sum_sq_after += err * err;
-            self.max_after = self.max_after.max(err);
+            self.max_after = nan_max(self.max_after, err);
         }
     }
 
@@ -247,5 +297,52 @@ mod tests {
                 assert_eq!(x.to_bits(), y.to_bits(), "case {case}: {x} vs {y}");
             }
         }
+    }
+
+    /// Statistics of `errors` sampled every `dt` from 0, ended at the last sample.
+    fn stats_of(errors: &[f64], dt: f64) -> ErrorFigures {
+        let mut s = ErrorStats::new(dt, 1.0);
+        for (k, e) in errors.iter().enumerate() {
+            s.push(k as f64 * dt, *e);
+        }
+        s.figures((errors.len() - 1) as f64 * dt)
+    }
+
+    #[test]
+    fn a_nan_error_is_never_below_the_bound() {
+        let dt = 0.5;
+        // Settled from t = 1.0 (last exceedance at 0.5), then NaN at the last sample: the
+        // run has not settled, and nothing is reported as a small number.
+        let f = stats_of(&[3.0, 2.0, 0.5, 0.25, f64::NAN], dt);
+        assert_eq!(f.settle_time_s, None);
+        assert_eq!(f.max_error_after_settle_deg, None);
+        assert!(f.final_error_deg.is_nan() && f.mean_error_deg.is_nan() && f.rms_error_deg.is_nan(), "{f:?}");
+        // NaN as the very first sample and everything below the bound after it: the NaN
+        // counts as an exceedance at t = 0, so the settle time is one period later (not 0
+        // or "before the first sample"), and the mean stays NaN.
+        let f = stats_of(&[f64::NAN, 0.5, 0.25, 0.125], dt);
+        assert_eq!(f.settle_time_s, Some(dt));
+        assert_eq!(f.max_error_after_settle_deg, Some(0.5));
+        assert!(f.mean_error_deg.is_nan());
+        assert_eq!(f.final_error_deg, 0.125);
+        // NaN in the middle: the settle time restarts after it (the last exceedance is the
+        // NaN at t = 1.0), and the post-settle RMS covers the two samples after it only.
+        let f = stats_of(&[0.5, 0.5, f64::NAN, 0.6, 0.8], dt);
+        assert_eq!(f.settle_time_s, Some(1.5));
+        assert_eq!(f.max_error_after_settle_deg, Some(0.8));
+        assert_eq!(f.rms_error_deg, ((0.36f64 + 0.64) / 2.0).sqrt());
+        // An infinite error is an exceedance like any other.
+        assert_eq!(stats_of(&[0.5, f64::INFINITY], dt).settle_time_s, None);
+    }
+
+    #[test]
+    fn nan_extremes_propagate_where_f64_max_would_hide_them() {
+        assert_eq!(f64::max(1.0, f64::NAN), 1.0, "the trap: f64::max drops the NaN");
+        assert!(nan_max(1.0, f64::NAN).is_nan() && nan_max(f64::NAN, 1.0).is_nan());
+        assert!(nan_min(1.0, f64::NAN).is_nan() && nan_min(f64::NAN, -1.0).is_nan());
+        assert_eq!(nan_max(-2.0, 3.0), 3.0);
+        assert_eq!(nan_min(-2.0, 3.0), -2.0);
+        let folded = [0.1, f64::NAN, 0.3].iter().fold(0.0, |a, x| nan_max(a, *x));
+        assert!(folded.is_nan());
     }
 }

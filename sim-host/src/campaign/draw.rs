@@ -152,12 +152,12 @@ pub fn apply(d: &Dispersion, root: &mut Value, rng: &mut Rng) -> Result<serde_js
                 None => rng.random_range(0..values.len()),
             };
             let v = values[i].clone();
-            *key.get_mut(root, true)? = v.clone();
+            *replaceable(key, root)? = v.clone();
             Ok(serde_json::to_value(&v)?)
         }
         Distribution::Seed => {
             let s = rng.random::<u32>();
-            *key.get_mut(root, true)? = Value::Integer(i64::from(s));
+            *replaceable(key, root)? = Value::Integer(i64::from(s));
             Ok(json!(s))
         }
         Distribution::KOfN { n, k, item } => {
@@ -172,12 +172,23 @@ pub fn apply(d: &Dispersion, root: &mut Value, rng: &mut Rng) -> Result<serde_js
                 }
                 None => Value::Integer(i64::from(i)),
             };
-            *key.get_mut(root, true)? = Value::Array(picked.iter().map(|i| as_value(*i)).collect());
+            *replaceable(key, root)? = Value::Array(picked.iter().map(|i| as_value(*i)).collect());
             Ok(json!(picked))
         }
         Distribution::Rotation { max_deg, sd_deg } => rotate(key, root, rng, *max_deg, *sd_deg),
         _ => numeric(d, root, rng),
     }
+}
+
+/// The addressed value, for a draw that sets it whole (a missing last key is created for
+/// the planner's parse check to judge). A table is never replaced: a draw that would put
+/// a number, a string or a list in place of a scenario section is refused here.
+fn replaceable<'a>(key: &KeyPath, root: &'a mut Value) -> Result<&'a mut Value> {
+    let v = key.get_mut(root, true)?;
+    if v.is_table() {
+        bail!("key `{key}` holds a table (a scenario section): a draw must not replace it; address one of its keys");
+    }
+    Ok(v)
 }
 
 /// Uniform, normal, truncated normal, lognormal: set, scale or offset every number of the
@@ -199,11 +210,24 @@ fn numeric(d: &Dispersion, root: &mut Value, rng: &mut Rng) -> Result<serde_json
             Some(r) => r,
             None => scalar(&d.dist, rng)?,
         };
-        *x = match d.apply {
+        let v = match d.apply {
             Apply::Set => r,
             Apply::Scale => *x * r,
             Apply::Offset => *x + r,
         };
+        // An overflowing draw (or product, or sum) is refused at planning, not flown.
+        if !v.is_finite() {
+            bail!(
+                "key `{}`: the draw {r} {} gives {v}, not a finite number",
+                d.key,
+                match d.apply {
+                    Apply::Set => "set".to_owned(),
+                    Apply::Scale => format!("times {x}"),
+                    Apply::Offset => format!("plus {x}"),
+                }
+            );
+        }
+        *x = v;
         drawn.push(r);
     }
     Ok(if drawn.len() == 1 || !d.per_element { json!(drawn[0]) } else { json!(drawn) })

@@ -56,6 +56,20 @@ pub enum RunStatus {
     RequirementFailed,
     /// Did not fly to the end: invalid drawn scenario, simulation error or panic.
     Error,
+    /// Flew, but the state or a flight command became non-finite (summary `run_status`
+    /// `diverged`): misses every requirement.
+    Diverged,
+    /// Flew, but the flight code refused the input of every step (summary `run_status`
+    /// `all_refused`): misses every requirement.
+    AllRefused,
+}
+
+impl RunStatus {
+    /// Whether the run flew to the end with a result its requirements can be judged on
+    /// (`ok` or `requirement_failed`).
+    pub fn flew(self) -> bool {
+        matches!(self, RunStatus::Ok | RunStatus::RequirementFailed)
+    }
 }
 
 /// `runs/NNNNNN/result.json`.
@@ -121,13 +135,27 @@ pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> Ru
         }
     };
     let values = flatten(&summary);
+    // A diverged or refused run misses every requirement, whatever its partial figures say.
+    let failed_run = match summary.get("run_status").and_then(|s| s.as_str()) {
+        Some("diverged") => Some(RunStatus::Diverged),
+        Some("all_refused") => Some(RunStatus::AllRefused),
+        Some("ok") => None,
+        // Any other failed run (e.g. `link_anomaly`; a summary without a status is not
+        // one this simulator wrote): its figures are not to be judged either.
+        _ => Some(RunStatus::Error),
+    };
     let failed_requirements: Vec<String> = requirements
         .iter()
-        .filter(|r| !r.met_by(values.get(&r.key).copied().flatten()))
+        .filter(|r| failed_run.is_some() || !r.met_by(values.get(&r.key).copied().flatten()))
         .map(|r| r.name.clone())
         .collect();
-    let status = if failed_requirements.is_empty() { RunStatus::Ok } else { RunStatus::RequirementFailed };
-    RunRecord { index: run.index, status, error: None, failed_requirements, summary: Some(summary), wall_time_s }
+    let error = summary.get("failure").filter(|f| !f.is_null()).map(|f| f.to_string());
+    let status = match failed_run {
+        Some(s) => s,
+        None if failed_requirements.is_empty() => RunStatus::Ok,
+        None => RunStatus::RequirementFailed,
+    };
+    RunRecord { index: run.index, status, error, failed_requirements, summary: Some(summary), wall_time_s }
 }
 
 /// What one `campaign run` did.
@@ -141,6 +169,9 @@ pub struct ShardReport {
     pub ok: usize,
     pub requirement_failed: usize,
     pub errors: usize,
+    /// Runs that diverged or whose every step the flight code refused.
+    pub diverged: usize,
+    pub all_refused: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -150,6 +181,8 @@ pub const MAX_JOBS: usize = 256;
 pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Result<ShardReport> {
     let manifest = Manifest::load(dir)?;
     let requirements = manifest.campaign()?.requirements;
+    // Held until the shard returns: a second runner of these runs refuses.
+    let _lock = super::lock::ShardLock::acquire(dir, shard)?;
     let mine: Vec<&PlannedRun> = manifest.runs.iter().filter(|r| shard.owns(r.index)).collect();
     let pending: Vec<&PlannedRun> = mine.iter().copied().filter(|r| RunRecord::load(dir, r).is_none()).collect();
     let report =
@@ -182,6 +215,8 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
                         RunStatus::Ok => r.ok += 1,
                         RunStatus::RequirementFailed => r.requirement_failed += 1,
                         RunStatus::Error => r.errors += 1,
+                        RunStatus::Diverged => r.diverged += 1,
+                        RunStatus::AllRefused => r.all_refused += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

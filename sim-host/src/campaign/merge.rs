@@ -9,7 +9,7 @@ use super::spec::{Distribution, Requirement};
 use super::stats::{self, Moments};
 use super::{flatten, run_dir_name, write_atomic};
 use crate::plots::{self, Figure, Panel, Series, TimeSeries};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -110,6 +110,8 @@ pub struct GroupRow {
     pub value: serde_json::Value,
     pub runs: usize,
     pub errors: usize,
+    /// Runs of this value that diverged or whose every step was refused.
+    pub failed_runs: usize,
     /// Runs of this value that missed each requirement (by name).
     pub failed: BTreeMap<String, usize>,
 }
@@ -140,6 +142,11 @@ pub struct CampaignResult {
     pub ok: usize,
     pub requirement_failed: usize,
     pub errors: Vec<ErrorRun>,
+    /// Runs whose state or flight command became non-finite (summary `run_status`
+    /// `diverged`), and runs whose every step the flight code refused (`all_refused`):
+    /// each misses every requirement and fails the campaign.
+    pub diverged: Vec<u32>,
+    pub all_refused: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -147,9 +154,14 @@ pub struct CampaignResult {
 }
 
 impl CampaignResult {
-    /// Whether the campaign passes: every run present, none in error, every requirement met.
+    /// Whether the campaign passes: every run present, none in error, diverged or refused,
+    /// every requirement met.
     pub fn passed(&self) -> bool {
-        self.missing.is_empty() && self.errors.is_empty() && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
+        self.missing.is_empty()
+            && self.errors.is_empty()
+            && self.diverged.is_empty()
+            && self.all_refused.is_empty()
+            && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
 
@@ -180,7 +192,7 @@ fn requirement_result(r: &Requirement, keys: &Keys, records: &[Completed]) -> Re
     let mut wrong_side: Vec<(u32, f64)> = Vec::new();
     for Completed { run, rec, values } in records {
         let v = keys.get(values, &r.key);
-        let pass = rec.status != RunStatus::Error && r.met_by(v);
+        let pass = rec.status.flew() && r.met_by(v);
         if !pass {
             failed_runs.push(run.index);
         }
@@ -277,7 +289,9 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         let mut xs = Vec::new();
         let mut nulls = 0;
         for Completed { run, rec, values } in &records {
-            if rec.status == RunStatus::Error {
+            // Errors have no summary; a diverged or refused run's partial figures are no
+            // sample of the flight (they are counted apart).
+            if !rec.status.flew() {
                 continue;
             }
             match keys.get(values, key) {
@@ -309,11 +323,15 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
                 value: value.clone(),
                 runs: 0,
                 errors: 0,
+                failed_runs: 0,
                 failed: campaign.requirements.iter().map(|r| (r.name.clone(), 0)).collect(),
             });
             row.runs += 1;
             if rec.status == RunStatus::Error {
                 row.errors += 1;
+            }
+            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused) {
+                row.failed_runs += 1;
             }
             for r in &requirements {
                 if r.failed_runs.binary_search(&run.index).is_ok() {
@@ -336,6 +354,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         })
         .collect();
     let count = |s: RunStatus| records.iter().filter(|c| c.rec.status == s).count();
+    let runs_of = |s: RunStatus| records.iter().filter(|c| c.rec.status == s).map(|c| c.run.index).collect();
     let result = CampaignResult {
         campaign: manifest.campaign.name.clone(),
         description: manifest.campaign.description.clone(),
@@ -347,6 +366,8 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         ok: count(RunStatus::Ok),
         requirement_failed: count(RunStatus::RequirementFailed),
         errors,
+        diverged: runs_of(RunStatus::Diverged),
+        all_refused: runs_of(RunStatus::AllRefused),
         requirements,
         groups,
         statistics,
@@ -381,11 +402,11 @@ fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Comp
     let mut seen = std::collections::BTreeSet::new();
     plotted.retain(|k| seen.insert(k.0.clone()));
     let out = dir.join("plots");
-    std::fs::create_dir_all(&out)?;
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let mut files = Vec::new();
     for (key, req) in plotted {
         let mut xs: Vec<f64> =
-            records.iter().filter_map(|c| keys.get(&c.values, &key)).filter(|x| x.is_finite()).collect();
+            records.iter().filter(|c| c.rec.status.flew()).filter_map(|c| keys.get(&c.values, &key)).collect();
         if xs.is_empty() {
             continue;
         }
@@ -445,6 +466,7 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
     let _ = writeln!(
         s,
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
+         {} diverged (non-finite state or command), {} had every step refused by the flight code, \
          {} ended in error.\n",
         r.base_scenario,
         r.seed,
@@ -452,8 +474,16 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         r.runs,
         r.ok,
         r.requirement_failed,
+        r.diverged.len(),
+        r.all_refused.len(),
         r.errors.len()
     );
+    for (what, runs) in [("Diverged runs", &r.diverged), ("Runs with every step refused", &r.all_refused)] {
+        if !runs.is_empty() {
+            let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_command(*i))).collect();
+            let _ = writeln!(s, "**{what} ({}, each fails every requirement):** {}\n", runs.len(), shown.join(", "));
+        }
+    }
     if !r.missing.is_empty() {
         let shown: Vec<String> = r.missing.iter().take(50).map(u32::to_string).collect();
         let _ = writeln!(s, "**Missing runs ({}):** {}\n", r.missing.len(), shown.join(", "));
@@ -484,17 +514,17 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
     for g in &r.groups {
         let _ = writeln!(s, "## By `{}`\n", g.key);
         let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
-        let _ = write!(s, "| value | runs | errors |");
+        let _ = write!(s, "| value | runs | errors | diverged or refused |");
         for n in &names {
             let _ = write!(s, " missed `{n}` |");
         }
-        let _ = write!(s, "\n|---|---|---|");
+        let _ = write!(s, "\n|---|---|---|---|");
         for _ in &names {
             s.push_str("---|");
         }
         s.push('\n');
         for row in &g.rows {
-            let _ = write!(s, "| `{}` | {} | {} |", row.value, row.runs, row.errors);
+            let _ = write!(s, "| `{}` | {} | {} | {} |", row.value, row.runs, row.errors, row.failed_runs);
             for n in &names {
                 let _ = write!(s, " {} |", row.failed.get(*n).copied().unwrap_or(0));
             }

@@ -16,6 +16,7 @@
 
 pub mod draw;
 pub mod exec;
+pub mod lock;
 pub mod merge;
 pub mod path;
 pub mod plan;
@@ -23,27 +24,19 @@ pub mod slurm;
 pub mod spec;
 pub mod stats;
 
-use anyhow::{Context, Result};
 use std::collections::BTreeMap;
-use std::path::Path;
 
 pub use exec::{RunRecord, RunStatus, Shard, ShardReport, run_shard};
 pub use merge::{MergeOutcome, merge};
 pub use plan::{Manifest, plan};
 pub use spec::Campaign;
 
+/// Results, manifests and reports are written through a temporary file and a rename.
+pub use crate::files::write_atomic;
+
 /// `runs/NNNNNN`: six digits (campaigns have at most a million runs).
 pub fn run_dir_name(index: u32) -> String {
     format!("{index:06}")
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename,
-/// so a reader (or a resumed shard) never sees half a file.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("file");
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}-{:?}", std::process::id(), std::thread::current().id()));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming {} to {}", tmp.display(), path.display()))
 }
 
 /// The numeric leaves of a JSON value by key path (`a.b`, `c[2]`): numbers as `Some`,

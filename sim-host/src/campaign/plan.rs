@@ -63,6 +63,21 @@ fn probe_summary_keys(base: &Scenario) -> Result<Vec<String>> {
     Ok(flatten(&serde_json::to_value(&summary)?).into_keys().collect())
 }
 
+/// Refuses a drawn scenario that is not a scenario file at all: a key the format does not
+/// know (`spacecraft.nonexistent_key`), a value of the wrong type. Only the structure is
+/// checked here (ranges and physics are the run's: an invalid draw is a run in error).
+fn check_structure(body: &str, index: u32, campaign: &Campaign) -> Result<()> {
+    if let Err(e) = toml::from_str::<Scenario>(body) {
+        let keys: Vec<&str> = campaign.dispersions.iter().map(|d| d.key.as_str()).collect();
+        bail!(
+            "run {index}: the drawn scenario is not a valid scenario file ({}); dispersed keys: {}",
+            e.message(),
+            keys.join(", ")
+        );
+    }
+    Ok(())
+}
+
 /// Plans the campaign into `out`; `runs` overrides the file's run count. Planning the same
 /// campaign again into the same directory rewrites identical files and keeps the results;
 /// a different campaign there is refused.
@@ -113,10 +128,13 @@ pub fn plan(campaign: &Campaign, out: &Path, runs: Option<u32>) -> Result<Manife
         for (k, d) in &draws {
             text += &format!("#   {k}: {d}\n");
         }
-        text += &toml::to_string(&v).map_err(|e| anyhow!("writing run {index}'s scenario: {e}"))?;
+        let body = toml::to_string(&v).map_err(|e| anyhow!("writing run {index}'s scenario: {e}"))?;
+        check_structure(&body, index, campaign)?;
+        text += &body;
         let rel = format!("runs/{}/scenario.toml", run_dir_name(index));
         let path = out.join(&rel);
-        std::fs::create_dir_all(path.parent().unwrap_or(out))?;
+        let run_dir = path.parent().unwrap_or(out);
+        std::fs::create_dir_all(run_dir).with_context(|| format!("creating {}", run_dir.display()))?;
         write_atomic(&path, text.as_bytes())?;
         runs_planned.push(PlannedRun { index, scenario: rel, draws });
     }

@@ -60,7 +60,8 @@ pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
         head += &format!("#SBATCH --time={t}\n");
     }
     let slurm = dir.join("slurm");
-    std::fs::create_dir_all(slurm.join("logs"))?;
+    let logs = slurm.join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let s = o.shards;
     let array = format!(
         "#!/bin/bash\n\
@@ -110,7 +111,8 @@ pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;
-            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755))?;
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o755))
+                .with_context(|| format!("making {} executable", p.display()))?;
         }
         files.push(p);
     }

@@ -219,17 +219,36 @@ fn positive_finite(x: f64) -> bool {
     x.is_finite() && x > 0.0
 }
 
+/// Standard deviations within which a normal draw is checked to stay finite at planning
+/// (a draw beyond has probability < 2e-23; a non-finite draw is refused anyway).
+pub const DRAW_SD_SPAN: f64 = 10.0;
+
 impl Distribution {
     fn check(&self) -> Result<()> {
         let finite = |xs: &[f64]| xs.iter().all(|x| x.is_finite());
+        // mean ± 10 sd must be finite (a huge sd overflows `mean + sd z`).
+        let span_finite = |mean: f64, sd: f64| finite(&[mean + DRAW_SD_SPAN * sd, mean - DRAW_SD_SPAN * sd]);
         match self {
-            Distribution::Uniform { low, high } if finite(&[*low, *high]) && low <= high => Ok(()),
+            Distribution::Uniform { low, high } if finite(&[*low, *high]) && low <= high => {
+                if !(high - low).is_finite() {
+                    bail!("uniform: high − low = {} overflows (draws would not be finite)", high - low);
+                }
+                Ok(())
+            }
             Distribution::Uniform { .. } => bail!("uniform needs finite low <= high"),
-            Distribution::Normal { mean, sd } if mean.is_finite() && positive_finite(*sd) => Ok(()),
+            Distribution::Normal { mean, sd } if mean.is_finite() && positive_finite(*sd) => {
+                if !span_finite(*mean, *sd) {
+                    bail!("normal: mean ± {DRAW_SD_SPAN} sd overflows (draws would not be finite)");
+                }
+                Ok(())
+            }
             Distribution::Normal { .. } => bail!("normal needs a finite mean and sd > 0"),
             Distribution::TruncatedNormal { mean, sd, low, high }
                 if finite(&[*mean, *low, *high]) && positive_finite(*sd) && low < high =>
             {
+                if !span_finite(*mean, *sd) {
+                    bail!("truncated_normal: mean ± {DRAW_SD_SPAN} sd overflows (draws would not be finite)");
+                }
                 // Rejection sampling: refuse windows it would rarely hit.
                 let z = |x: f64| (x - mean) / sd;
                 if z(*high) < -5.0 || z(*low) > 5.0 {
@@ -238,7 +257,13 @@ impl Distribution {
                 Ok(())
             }
             Distribution::TruncatedNormal { .. } => bail!("truncated_normal needs finite mean, sd > 0, low < high"),
-            Distribution::Lognormal { mu, sigma } if mu.is_finite() && positive_finite(*sigma) => Ok(()),
+            Distribution::Lognormal { mu, sigma } if mu.is_finite() && positive_finite(*sigma) => {
+                let top = (mu + DRAW_SD_SPAN * sigma).exp();
+                if !top.is_finite() {
+                    bail!("lognormal: exp(mu + {DRAW_SD_SPAN} sigma) overflows (draws would not be finite)");
+                }
+                Ok(())
+            }
             Distribution::Lognormal { .. } => bail!("lognormal needs a finite mu and sigma > 0"),
             Distribution::Choice { values, weights } => {
                 if values.is_empty() {
@@ -248,8 +273,13 @@ impl Distribution {
                     if w.len() != values.len() {
                         bail!("choice: {} weights for {} values", w.len(), values.len());
                     }
-                    if !w.iter().all(|x| x.is_finite() && *x >= 0.0) || w.iter().sum::<f64>() <= 0.0 {
+                    let total: f64 = w.iter().sum();
+                    if !w.iter().all(|x| x.is_finite() && *x >= 0.0) || total <= 0.0 {
                         bail!("choice: weights must be finite, >= 0, not all zero");
+                    }
+                    // [1e308, 1e308] sums to inf: every draw would pick the last value.
+                    if !total.is_finite() {
+                        bail!("choice: the weights sum to {total} (they are relative: scale them down)");
                     }
                 }
                 Ok(())
@@ -406,6 +436,18 @@ probability = 0.99
                 "5 sd",
             ),
             ("[[requirement]]\nkey = \"x\"\nop = \"!=\"\nvalue = 1.0\n", "op"),
+            (
+                "[[dispersion]]\nkey = \"a\"\ndist = { type = \"choice\", values = [0.0, 1.0], weights = [1e308, 1e308] }\n",
+                "sum to inf",
+            ),
+            ("[[dispersion]]\nkey = \"a\"\ndist = { type = \"uniform\", low = -1e308, high = 1e308 }\n", "overflows"),
+            ("[[dispersion]]\nkey = \"a\"\ndist = { type = \"lognormal\", mu = 800.0, sigma = 1.0 }\n", "overflows"),
+            ("[[dispersion]]\nkey = \"a\"\ndist = { type = \"lognormal\", mu = 700.0, sigma = 1.0 }\n", "overflows"),
+            ("[[dispersion]]\nkey = \"a\"\ndist = { type = \"normal\", mean = 0.0, sd = 1e308 }\n", "overflows"),
+            (
+                "[[dispersion]]\nkey = \"a\"\ndist = { type = \"truncated_normal\", mean = 0.0, sd = 1e308, low = -1.0, high = 1.0 }\n",
+                "overflows",
+            ),
             ("[[requirement]]\nkey = \"x\"\nop = \"<\"\nvalue = 1.0\nprobability = 1.5\n", "probability"),
         ];
         for (extra, want) in cases {
@@ -413,6 +455,14 @@ probability = 0.99
             assert!(e.contains(want), "{extra}: {e}");
         }
         assert!(parse("").is_ok());
+        // Just inside the overflow checks: accepted.
+        for ok in [
+            "dist = { type = \"lognormal\", mu = 690.0, sigma = 1.0 }",
+            "dist = { type = \"uniform\", low = -1e307, high = 1e307 }",
+            "dist = { type = \"choice\", values = [0.0, 1.0], weights = [1e307, 1e307] }",
+        ] {
+            assert!(parse(&format!("[[dispersion]]\nkey = \"a\"\n{ok}\n")).is_ok(), "{ok}");
+        }
         let e = Campaign::from_file(
             toml::from_str("name = \"t\"\nbase = \"b\"\nruns = 0\nseed = 1\n").unwrap(),
             Path::new("."),

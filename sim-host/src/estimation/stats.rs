@@ -92,7 +92,7 @@ impl EstimationStats {
         let err_deg = x.fixed_rows::<3>(0).norm().to_degrees();
         self.n += 1;
         self.sum_err2_deg2 += err_deg * err_deg;
-        self.max_err_deg = self.max_err_deg.max(err_deg);
+        self.max_err_deg = crate::summary::nan_max(self.max_err_deg, err_deg);
         let bias_error_deg_h = x.fixed_rows::<3>(3).norm().to_degrees() * 3600.0;
         self.last_bias_err_deg_h = Some(bias_error_deg_h);
         let p = covariance(&t.covariance_upper);
