@@ -21,6 +21,7 @@ mod actuators;
 mod controller;
 mod environment;
 pub mod estimation;
+mod limits;
 mod modes;
 mod resolved;
 pub use actuators::{
@@ -29,11 +30,17 @@ pub use actuators::{
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
+pub use limits::{MAX_ANGLE_NOISE_DEG, MAX_INPUT_BYTES, MAX_SCALE_FACTOR_PPM, NOISE_FRACTION_OF_LIMIT, read_capped};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
 pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
+/// Most RK4 steps per control period (`timing.dynamics_substeps`).
+pub const MAX_DYNAMICS_SUBSTEPS: u32 = 1000;
+/// Most RK4 steps of a whole run (control steps × substeps): 1e9, about half an hour to a
+/// few hours of wall time at the measured 1–10 µs per RK4 step with the environment.
+pub const MAX_RK4_STEPS: u64 = 1_000_000_000;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -289,12 +296,16 @@ impl AttitudeSpec {
 impl Scenario {
     pub fn from_toml(text: &str) -> Result<Self> {
         let s: Scenario = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let given: toml::Table = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let kept = toml::Table::try_from(&s).context("writing the parsed scenario back out")?;
+        limits::exact_lengths(&given, &kept)?;
         s.validate()?;
         Ok(s)
     }
 
+    /// Reads (at most [`MAX_INPUT_BYTES`]) and validates a scenario file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let text = read_capped(path)?;
         Self::from_toml(&text).with_context(|| format!("scenario {}", path.display()))
     }
 
@@ -331,7 +342,17 @@ impl Scenario {
             self.validate_controller(c, "controller")?;
         }
         self.validate_sensors()?;
+        self.validate_input_limits()?;
         self.validate_control_source()?;
+        self.validate_estimation()?;
+        Ok(())
+    }
+
+    /// `[estimation]`: the flight code's validation of the set, refusals naming the key.
+    fn validate_estimation(&self) -> Result<()> {
+        if let Some(e) = &self.estimation {
+            e.params(self.sensors.css.as_ref().map(|c| &c.normals_body[..]))?;
+        }
         Ok(())
     }
 
@@ -584,7 +605,7 @@ impl Scenario {
             (Some(Controller::None), None) => {}
             (Some(_), None) => {
                 // Last line of defence: the flight code's own validation must accept the upload.
-                self.flight_params()?.validate().map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+                self.flight_params()?.validate().map_err(|e| limits::param_refusal(e, "controller", "target"))?;
             }
             (None, Some(m)) => self.validate_modes(m)?,
         }
@@ -733,8 +754,11 @@ impl TryFrom<&Scenario> for Clock {
         if t.control_rate_hz > 10_000.0 {
             return Err(bad("timing.control_rate_hz", "must be <= 10000"));
         }
-        if t.dynamics_substeps == 0 {
-            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
+        if !(1..=MAX_DYNAMICS_SUBSTEPS).contains(&t.dynamics_substeps) {
+            return Err(bad(
+                "timing.dynamics_substeps",
+                format!("{} must be in 1..={MAX_DYNAMICS_SUBSTEPS}", t.dynamics_substeps),
+            ));
         }
         if t.output_every == 0 {
             return Err(bad("timing.output_every", "must be >= 1"));
@@ -747,6 +771,27 @@ impl TryFrom<&Scenario> for Clock {
                     "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
                      (the step counter of the sensor frame is 32-bit)",
                     sc.duration_s, t.control_rate_hz
+                ),
+            ));
+        }
+        if steps.round() < 1.0 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "{} s is less than one control period (1 / timing.control_rate_hz = {} s)",
+                    sc.duration_s,
+                    1.0 / t.control_rate_hz
+                ),
+            ));
+        }
+        let rk4 = steps.round() * f64::from(t.dynamics_substeps);
+        if rk4 > MAX_RK4_STEPS as f64 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "duration_s × timing.control_rate_hz × timing.dynamics_substeps = {rk4:.3e} RK4 steps; \
+                     at most {:.0e} per run",
+                    MAX_RK4_STEPS as f64
                 ),
             ));
         }

@@ -159,7 +159,13 @@ impl Scenario {
         }
         let table = self.mode_table()?.ok_or_else(|| bad("modes", "missing"))?;
         for (mode, p) in &table.slots {
-            p.validate().map_err(|e| anyhow!("flight parameters of mode {} rejected: {e}", mode.name()))?;
+            let key = format!("modes.{}", mode.name());
+            let target = if m.slots().iter().any(|(md, sp)| *md == *mode && sp.is_some_and(|s| s.target.is_some())) {
+                format!("{key}.target")
+            } else {
+                "target".to_string()
+            };
+            p.validate().map_err(|e| super::limits::param_refusal(e, &format!("{key}.controller"), &target))?;
         }
         table.manager.validate().map_err(|e| anyhow!("mode manager rejected: {e}"))?;
         Ok(())
