@@ -590,8 +590,11 @@ impl Scenario {
 
     /// The magnetorquers.
     fn magnetorquer_flight_params(&self, m: &MagnetorquersSpec) -> Result<ActuatorParams> {
-        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
-            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+        for x in m.max_dipole_am2 {
+            positive("actuators.magnetorquers.max_dipole_am2", x)?;
+        }
+        for x in m.min_dipole_am2.iter().flatten() {
+            positive("actuators.magnetorquers.min_dipole_am2", *x)?;
         }
         if let Some([lo, hi]) = m.deadband_am2
             && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())

@@ -85,6 +85,59 @@ pub(super) fn num(x: f64) -> String {
     if x == 0.0 || !x.is_finite() || (1e-4..1e6).contains(&x.abs()) { format!("{x}") } else { format!("{x:e}") }
 }
 
+/// Largest magnitude of any number in a scenario: the flight code's `f32` range (a value
+/// beyond it becomes an infinity on board; no physical key comes near it).
+pub const MAX_MAGNITUDE: f64 = f32::MAX as f64;
+
+/// Every number of the parsed scenario (`kept`, defaults included) is finite and within
+/// ±[`MAX_MAGNITUDE`]; a refusal names the key.
+pub(super) fn finite_numbers(v: &Value, key: &str) -> Result<()> {
+    match v {
+        Value::Float(x) if !(x.is_finite() && x.abs() <= MAX_MAGNITUDE) => {
+            Err(bad(key, format!("{} must be finite and within ±{MAX_MAGNITUDE:e}", num(*x))))
+        }
+        Value::Array(a) => a.iter().enumerate().try_for_each(|(i, x)| finite_numbers(x, &format!("{key}[{i}]"))),
+        Value::Table(t) => t
+            .iter()
+            .try_for_each(|(k, x)| finite_numbers(x, &if key.is_empty() { k.clone() } else { format!("{key}.{k}") })),
+        _ => Ok(()),
+    }
+}
+
+/// A TOML error the reader could not pin on a key (a value inside a table read as a
+/// whole, such as `[controller]` with its `type` tag or `[initial]`): the key is found by
+/// taking the keys of the table at the error one at a time out of the document, and the
+/// first whose removal changes the error is named.
+pub(super) fn parse_error(text: &str, e: toml::de::Error) -> anyhow::Error {
+    let whole = anyhow!("{e}");
+    let Some(span) = e.span() else { return whole };
+    let Some(header) = text.get(span).map(str::trim).filter(|h| h.starts_with('[')) else { return whole };
+    let path: Vec<&str> = header.trim_matches(|c| c == '[' || c == ']').split('.').map(str::trim).collect();
+    let Ok(doc) = toml::from_str::<toml::Table>(text) else { return whole };
+    let mut table = &doc;
+    for p in &path {
+        match table.get(*p) {
+            Some(Value::Table(t)) => table = t,
+            _ => return whole,
+        }
+    }
+    let reparse = |doc: toml::Table| Value::Table(doc).try_into::<Scenario>().err().map(|e| e.message().to_string());
+    let Some(baseline) = reparse(doc.clone()) else { return whole };
+    for key in table.keys().filter(|k| k.as_str() != "type") {
+        let mut probe = doc.clone();
+        let mut t = &mut probe;
+        for p in &path {
+            let Some(Value::Table(next)) = t.get_mut(*p) else { return whole };
+            t = next;
+        }
+        t.remove(key);
+        if reparse(probe).as_deref() != Some(baseline.as_str()) {
+            return anyhow!("invalid value for `{}.{key}`: {}", path.join("."), e.message());
+        }
+    }
+    whole
+}
+
 /// Each `|x|` within `limit` (and finite), else refused naming `key` and `why`.
 fn within(key: &str, xs: &[f64], limit: f64, why: &str) -> Result<()> {
     match xs.iter().find(|x| !(x.is_finite() && x.abs() <= limit)) {

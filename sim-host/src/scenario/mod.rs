@@ -30,7 +30,9 @@ pub use actuators::{
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
-pub use limits::{MAX_ANGLE_NOISE_DEG, MAX_INPUT_BYTES, MAX_SCALE_FACTOR_PPM, NOISE_FRACTION_OF_LIMIT, read_capped};
+pub use limits::{
+    MAX_ANGLE_NOISE_DEG, MAX_INPUT_BYTES, MAX_MAGNITUDE, MAX_SCALE_FACTOR_PPM, NOISE_FRACTION_OF_LIMIT, read_capped,
+};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
 pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
@@ -295,10 +297,11 @@ impl AttitudeSpec {
 
 impl Scenario {
     pub fn from_toml(text: &str) -> Result<Self> {
-        let s: Scenario = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let s: Scenario = toml::from_str(text).map_err(|e| limits::parse_error(text, e))?;
         let given: toml::Table = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
         let kept = toml::Table::try_from(&s).context("writing the parsed scenario back out")?;
         limits::exact_lengths(&given, &kept)?;
+        limits::finite_numbers(&toml::Value::Table(kept), "")?;
         s.validate()?;
         Ok(s)
     }
