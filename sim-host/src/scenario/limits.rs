@@ -8,7 +8,7 @@
 //!   would refuse on every step are refused here, naming the key, with the flight code's
 //!   own limits (no second copy of the numbers).
 
-use super::{Scenario, bad};
+use super::{Controller, Scenario, bad};
 use acs_flight::fsw::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
 use acs_flight::params::{ParamError, ParamField, ParamReason};
 use anyhow::{Context, Result, anyhow};
@@ -269,38 +269,61 @@ impl Scenario {
     }
 }
 
-/// A flight-parameter refusal as a scenario error naming the TOML key it came from:
-/// `controller` and `target` are the keys of the law's and the target's tables
-/// (`controller`, `target`, or a mode's `modes.<mode>.controller` …).
-pub(super) fn param_refusal(e: ParamError, controller: &str, target: &str) -> anyhow::Error {
-    use ParamField as F;
-    let c = |k: &str| format!("{controller}{k}");
-    let key = match e.field {
-        F::Version => "the parameter-set version (internal)".to_string(),
-        F::ControlRate => "timing.control_rate_hz".into(),
-        F::Inertia => "spacecraft.inertia_kgm2".into(),
-        F::AttitudeGain | F::RateGain | F::IntegralGain | F::IntegralLimit | F::Controller => c(""),
-        F::TorqueLimit => c(".torque_limit_nm"),
-        F::CmgSkew => "actuators.cmg.skew_deg".into(),
-        F::CmgMomentum => "actuators.cmg.h0_nms".into(),
-        F::GimbalRateLimit => "actuators.cmg.max_gimbal_rate_deg_s".into(),
-        F::GimbalAngleRange => "actuators.cmg.gimbal_limit_deg".into(),
-        F::SteeringAlpha => "steering.alpha".into(),
-        F::SingularThreshold => "steering.singular_threshold".into(),
-        F::NullMotion => "steering.null_gain_per_s".into(),
-        F::Target => target.into(),
-        F::HoldAfterMissed => "hold_after_missed_frames (internal)".into(),
-        F::WheelCount | F::WheelLimit => "actuators.wheels".into(),
-        F::WheelAxis => "actuators.wheels.axes".into(),
-        F::WheelNullSpace => "actuators.wheels.null_gain_per_s".into(),
-        F::DipoleLimit => "actuators.magnetorquers.max_dipole_am2".into(),
-        F::DeadBand => "actuators.magnetorquers.deadband_am2".into(),
-        F::MinField => "actuators.magnetorquers".into(),
-        F::ThrusterCount | F::ThrusterTorque => "actuators.thrusters".into(),
-        F::Pwpf => "actuators.thrusters.pwpf".into(),
-        F::ModeTable => "modes".into(),
-        F::Estimation => "estimation".into(),
-    };
+impl Scenario {
+    /// A flight-parameter refusal as a scenario error naming the TOML key it came from:
+    /// `controller` and `target` are the keys of the law's and the target's tables
+    /// (`controller`, `target`, or a mode's `modes.<mode>.controller` …), `law` the law.
+    pub(super) fn param_refusal(
+        &self,
+        e: ParamError,
+        controller: &str,
+        law: Option<&Controller>,
+        target: &str,
+    ) -> anyhow::Error {
+        param_refusal(e, &self.param_key(e.field, controller, law, target))
+    }
+
+    fn param_key(&self, field: ParamField, controller: &str, law: Option<&Controller>, target: &str) -> String {
+        use ParamField as F;
+        let c = |k: &str| format!("{controller}{k}");
+        let gsr = self.steering.as_ref().is_some_and(|s| s.gsr.is_some());
+        match field {
+            F::Version => "the parameter-set version (internal)".to_string(),
+            F::ControlRate => "timing.control_rate_hz".into(),
+            // The DMCS law carries its own model inertia; the body's was checked before.
+            F::Inertia if matches!(law, Some(Controller::Dmcs { .. })) => c(".model_inertia_kgm2"),
+            F::Inertia => "spacecraft.inertia_kgm2".into(),
+            F::AttitudeGain | F::RateGain | F::IntegralGain | F::IntegralLimit | F::Controller => c(""),
+            F::TorqueLimit => c(".torque_limit_nm"),
+            F::CmgSkew => "actuators.cmg.skew_deg".into(),
+            F::CmgMomentum => "actuators.cmg.h0_nms".into(),
+            F::GimbalRateLimit => "actuators.cmg.max_gimbal_rate_deg_s".into(),
+            F::GimbalAngleRange => "actuators.cmg.gimbal_limit_deg".into(),
+            F::SteeringAlpha if gsr => "steering.gsr".into(),
+            F::SteeringAlpha => "steering.alpha".into(),
+            F::SingularThreshold => "steering.singular_threshold".into(),
+            F::NullMotion => "steering.null_gain_per_s".into(),
+            F::Target => target.into(),
+            F::HoldAfterMissed => "hold_after_missed_frames (internal)".into(),
+            F::WheelCount | F::WheelLimit => "actuators.wheels".into(),
+            F::WheelAxis => "actuators.wheels.axes".into(),
+            F::WheelNullSpace => "actuators.wheels.null_gain_per_s".into(),
+            F::DipoleLimit if self.actuators.magnetorquers.as_ref().is_some_and(|m| m.min_dipole_am2.is_some()) => {
+                "actuators.magnetorquers".into()
+            }
+            F::DipoleLimit => "actuators.magnetorquers.max_dipole_am2".into(),
+            F::DeadBand => "actuators.magnetorquers.deadband_am2".into(),
+            F::MinField => "actuators.magnetorquers".into(),
+            F::ThrusterCount | F::ThrusterTorque => "actuators.thrusters".into(),
+            F::Pwpf => "actuators.thrusters.pwpf".into(),
+            F::ModeTable => "modes".into(),
+            F::Estimation => "estimation".into(),
+        }
+    }
+}
+
+/// A flight-parameter refusal as a scenario error naming `key`.
+pub(super) fn param_refusal(e: ParamError, key: &str) -> anyhow::Error {
     let why = match e.reason {
         ParamReason::NotFinite => "not finite",
         ParamReason::OutOfRange => "out of the range the flight code accepts",
@@ -310,5 +333,5 @@ pub(super) fn param_refusal(e: ParamError, controller: &str, target: &str) -> an
         ParamReason::NotUnitQuaternion => "not a unit quaternion",
         ParamReason::TooLarge => "too large",
     };
-    bad(&key, format!("the flight code refuses it: {why} ({:?})", e.field))
+    bad(key, format!("the flight code refuses it: {why} ({:?})", e.field))
 }

@@ -38,6 +38,10 @@ pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
+/// Highest altitude of the World Magnetic Model, km (its validity range).
+pub const WMM_MAX_ALTITUDE_KM: f64 = 850.0;
+/// Largest ratio of the largest to the smallest principal moment of inertia.
+pub const MAX_INERTIA_RATIO: f64 = 1e9;
 /// Most RK4 steps per control period (`timing.dynamics_substeps`).
 pub const MAX_DYNAMICS_SUBSTEPS: u32 = 1000;
 /// Most RK4 steps of a whole run (control steps × substeps): 1e9, about half an hour to a
@@ -328,6 +332,16 @@ impl Scenario {
         if e.min() <= 0.0 {
             return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
         }
+        if e.max() > MAX_INERTIA_RATIO * e.min() {
+            return Err(bad(
+                "spacecraft.inertia_kgm2",
+                format!(
+                    "principal moments {:e} to {:e}: their ratio must be <= {MAX_INERTIA_RATIO:e}",
+                    e.min(),
+                    e.max()
+                ),
+            ));
+        }
         let (a, b, c) = (e[0], e[1], e[2]);
         if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
             return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
@@ -456,6 +470,18 @@ impl Scenario {
         }
         if let Some(r) = &self.rig {
             r.rig()?;
+        }
+        // The WMM is defined up to 850 km: the field lookup fails above it.
+        if let (Some(OrbitKind::Circular { altitude_km, .. }), "wmm") =
+            (self.orbit.as_ref().and_then(|o| o.elements().ok()), env.magnetic_field.as_str())
+            && altitude_km > WMM_MAX_ALTITUDE_KM
+        {
+            return Err(bad(
+                "orbit.altitude_km",
+                format!(
+                    "{altitude_km} km is above the WMM's {WMM_MAX_ALTITUDE_KM} km (use magnetic_field = \"dipole\")"
+                ),
+            ));
         }
         Ok(())
     }
@@ -608,7 +634,8 @@ impl Scenario {
             (Some(Controller::None), None) => {}
             (Some(_), None) => {
                 // Last line of defence: the flight code's own validation must accept the upload.
-                self.flight_params()?.validate().map_err(|e| limits::param_refusal(e, "controller", "target"))?;
+                let law = self.controller.as_ref();
+                self.flight_params()?.validate().map_err(|e| self.param_refusal(e, "controller", law, "target"))?;
             }
             (None, Some(m)) => self.validate_modes(m)?,
         }
