@@ -146,3 +146,35 @@ fn an_endless_input_file_is_refused_quickly_naming_it() {
     assert!(err.contains("/dev/zero") && err.contains("16 MiB"), "{err}");
     assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
 }
+
+/// Issue 21 finding 1's inputs that drove the plant to NaN: refused by their documented
+/// range (1e30) or by the f32 range every number must fit (1e300), naming the key; the
+/// shipped values pass.
+#[test]
+fn disturbance_and_orbit_keys_have_ranges() {
+    let base = "paper003/orbit-mtq-hold.toml";
+    let text = std::fs::read_to_string(repo().join("scenarios").join(base)).unwrap();
+    for (from, key) in [
+        ("cp_offset_m = [0.0, 0.0, 0.01]", "spacecraft.cp_offset_m"),
+        ("drag_area_m2 = 0.034", "spacecraft.drag_area_m2"),
+        ("residual_dipole_am2 = [0.0, 0.0, 0.001]", "spacecraft.residual_dipole_am2"),
+        ("altitude_km = 617.0", "orbit.altitude_km"),
+        ("density_kg_m3 = 1.68e-14", "environment.density_kg_m3"),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let (name, _) = from.split_once(" = ").unwrap();
+        for x in ["1e30", "1e300", "nan"] {
+            let to = if from.contains('[') { format!("{name} = [{x}, 0.0, 0.0]") } else { format!("{name} = {x}") };
+            refused(base, from, &to, key, "");
+        }
+    }
+    accepted(base, "duration_s", "duration_s");
+    // The keys this scenario lacks, added to paper 000 test 3.
+    for (add, key) in [
+        ("external_torque_nm = [1e30, 0, 0]", "spacecraft.external_torque_nm"),
+        ("external_torque_nm = [1e300, 0, 0]", "spacecraft.external_torque_nm"),
+    ] {
+        refused(P0, "[spacecraft]\n", &format!("[spacecraft]\n{add}\n"), key, "");
+    }
+    accepted(P0, "[spacecraft]\n", "[spacecraft]\nexternal_torque_nm = [1e-3, 0, 0]\n");
+}

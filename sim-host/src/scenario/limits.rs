@@ -146,6 +146,17 @@ fn within(key: &str, xs: &[f64], limit: f64, why: &str) -> Result<()> {
     }
 }
 
+/// Physical ranges of the plant's disturbance keys: generous for any spacecraft, and
+/// small enough that the plant stays finite (a 1e30 value used to drive it to NaN).
+pub const MAX_LENGTH_M: f64 = 100.0;
+pub const MAX_AREA_M2: f64 = 1.0e4;
+pub const MAX_DIPOLE_AM2: f64 = 1.0e4;
+pub const MAX_DISTURBANCE_TORQUE_NM: f64 = 1.0e3;
+/// Sea-level air density, kg/m³: no orbit sees more.
+pub const MAX_DENSITY_KG_M3: f64 = 1.3;
+/// Largest orbit size (altitude or semi-major axis), km: beyond the Moon.
+pub const MAX_ORBIT_KM: f64 = 1.0e6;
+
 /// A 1σ noise figure: finite, >= 0 and at most `limit`.
 fn noise(key: &str, x: f64, limit: f64, why: &str) -> Result<()> {
     if x.is_finite() && (0.0..=limit).contains(&x) {
@@ -161,7 +172,36 @@ impl Scenario {
     pub(super) fn validate_input_limits(&self) -> Result<()> {
         self.validate_rate_limits()?;
         self.validate_field_and_actuator_limits()?;
-        self.validate_angle_noise()
+        self.validate_angle_noise()?;
+        self.validate_plant_ranges()
+    }
+
+    /// The disturbance and orbit keys' documented ranges (`docs/scenario.md`).
+    fn validate_plant_ranges(&self) -> Result<()> {
+        let sc = &self.spacecraft;
+        let why = "the documented range";
+        within("spacecraft.cp_offset_m", &sc.cp_offset_m, MAX_LENGTH_M, why)?;
+        if let Some(b) = &sc.box_m {
+            within("spacecraft.box_m", b, MAX_LENGTH_M, why)?;
+        }
+        if let Some(a) = sc.drag_area_m2 {
+            within("spacecraft.drag_area_m2", &[a], MAX_AREA_M2, why)?;
+        }
+        within("spacecraft.residual_dipole_am2", &sc.residual_dipole_am2, MAX_DIPOLE_AM2, why)?;
+        within("spacecraft.external_torque_nm", &sc.external_torque_nm, MAX_DISTURBANCE_TORQUE_NM, why)?;
+        if let Some(h) = &sc.harmonic_torque {
+            within("spacecraft.harmonic_torque.amplitude_nm", &h.amplitude_nm, MAX_DISTURBANCE_TORQUE_NM, why)?;
+        }
+        if let Some(rho) = self.environment.density_kg_m3 {
+            within("environment.density_kg_m3", &[rho], MAX_DENSITY_KG_M3, "sea-level air")?;
+        }
+        match self.orbit.as_ref().and_then(|o| o.elements().ok()) {
+            Some(super::OrbitKind::Circular { altitude_km, .. }) => {
+                within("orbit.altitude_km", &[altitude_km], MAX_ORBIT_KM, why)
+            }
+            Some(super::OrbitKind::Kepler { a_km, .. }) => within("orbit.a_km", &[a_km], MAX_ORBIT_KM, why),
+            _ => Ok(()),
+        }
     }
 
     fn validate_rate_limits(&self) -> Result<()> {
