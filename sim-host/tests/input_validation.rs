@@ -112,6 +112,17 @@ fn arrays_must_have_exactly_their_length() {
     refused(base, css, "[0, 0, 1], [0, 0, -1, 5]]", "sensors.css.normals_body[5]", "has 4 elements, expected 3");
     // A short array was always refused by the reader; it still is, naming the key.
     refused(P0, GIMBALS, "initial_gimbal_deg = [0, 0, 0]", "initial_gimbal_deg", "");
+    // Inside tables the reader takes whole (`[controller]` with its `type` tag, `[initial]`
+    // with its flattened attitude) the reader named only the table; now the key.
+    let torque = "torque_limit_nm = [10.0, 10.0, 10.0]";
+    refused(P0, torque, "torque_limit_nm = [10.0, 10.0]", "`controller.torque_limit_nm`", "length");
+    refused(P0, torque, "torque_limit_nm = [10.0, 10.0, \"x\"]", "`controller.torque_limit_nm`", "string");
+    let euler = "euler_deg = [2.47, ";
+    refused(P0, euler, "euler_deg = [\"x\", ", "`initial.euler_deg`", "string");
+    accepted(P0, euler, "euler_deg = [1.0, ");
+    let (code, err) = check_edit(P0, "rate_rad_s = [0.0, 0.0, 0.0]", "rate_rad_s = [0.0, 0.0, 0.0, 0.0]");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("`initial.rate_rad_s`") && err.contains("expected 3"), "{err}");
 }
 
 #[test]
