@@ -36,7 +36,7 @@ use crate::types::{Status, Valid};
 
 pub use crate::allocation::family::ThrusterAllocator;
 pub use config::ModeError;
-pub use validate::{MAX_FIELD_T, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S, Missing};
+pub use validate::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S, Missing};
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]

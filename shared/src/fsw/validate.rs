@@ -15,6 +15,9 @@ pub const MAX_RATE_RAD_S: f32 = 50.0;
 pub const MAX_FIELD_T: f32 = 1.0e-2;
 /// Largest wheel speed accepted, rad/s (≈ 95,000 rpm).
 pub const MAX_WHEEL_SPEED_RAD_S: f32 = 1.0e4;
+/// Gimbal angles accepted are below this in magnitude, rad (a multi-turn reading; beyond
+/// it the encoder value is garbage).
+pub const MAX_GIMBAL_ANGLE_RAD: f32 = 1.0e3;
 
 /// The frame's validity bits (unknown bits from the wire are kept and ignored).
 pub fn valid_bits(f: &SensorFrame) -> Valid {
@@ -80,7 +83,8 @@ pub fn check_frame(
         None => Quat::identity(),
     };
     let w = est.rate_rad_s.ok_or(Missing::Sensor)?;
-    if required.contains(Valid::GIMBALS) && !f.gimbal_angle_rad.iter().all(|x| x.is_finite() && libm::fabsf(*x) < 1.0e3)
+    if required.contains(Valid::GIMBALS)
+        && !f.gimbal_angle_rad.iter().all(|x| x.is_finite() && libm::fabsf(*x) < MAX_GIMBAL_ANGLE_RAD)
     {
         return Err(Missing::Sensor);
     }

@@ -12,6 +12,8 @@ use serde::{Deserialize, Serialize};
 
 /// Number of coarse-sun-sensor heads the link carries.
 pub const MAX_CSS_HEADS: usize = 6;
+/// Largest noise figure or sigma accepted, rad (or rad/s, rad/√s …): about half a turn.
+pub const MAX_NOISE_FIGURE: f32 = 3.2;
 
 /// Where the attitude the laws use comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
@@ -123,7 +125,7 @@ impl EstimationParams {
         }
         // Noise figures: ≥ 0 and below a radian (or a rad/s); those that scale a
         // covariance must be > 0.
-        if !scalars.iter().all(|x| *x >= 0.0 && *x <= 3.2) {
+        if !scalars.iter().all(|x| *x >= 0.0 && *x <= MAX_NOISE_FIGURE) {
             return bad(ParamReason::OutOfRange);
         }
         let positive = [

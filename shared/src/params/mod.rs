@@ -16,7 +16,7 @@ pub mod estimation;
 
 pub use actuator::*;
 pub use controller::*;
-pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS};
+pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 

@@ -313,6 +313,16 @@ impl Scenario {
             return Err(bad("steering", "a CMG cluster under control needs [steering]"));
         }
         let steering = self.steering.as_ref().map(steering_params).transpose()?;
+        // The flight code's own check of the cluster (and law), before any design uses it.
+        let law = steering.unwrap_or(acs_flight::params::SteeringParams {
+            law: acs_flight::params::SteeringLaw::MoorePenrose,
+            singular_threshold: 1e-6,
+            null_gain_per_s: 0.0,
+            preferred_gimbal_rad: [0.0; 4],
+            saturation_check_m: 0.0,
+        });
+        acs_flight::params::validate_cmg(&cluster, &law)
+            .map_err(|e| self.param_refusal(e, "controller", None, "target"))?;
         Ok(CmgConfig { cluster, steering })
     }
 
@@ -590,8 +600,11 @@ impl Scenario {
 
     /// The magnetorquers.
     fn magnetorquer_flight_params(&self, m: &MagnetorquersSpec) -> Result<ActuatorParams> {
-        for x in m.max_dipole_am2.iter().chain(m.min_dipole_am2.iter().flatten()) {
-            positive("actuators.magnetorquers.max_dipole_am2", *x)?;
+        for x in m.max_dipole_am2 {
+            positive("actuators.magnetorquers.max_dipole_am2", x)?;
+        }
+        for x in m.min_dipole_am2.iter().flatten() {
+            positive("actuators.magnetorquers.min_dipole_am2", *x)?;
         }
         if let Some([lo, hi]) = m.deadband_am2
             && !(lo <= 0.0 && hi >= 0.0 && lo.is_finite() && hi.is_finite())

@@ -6,8 +6,8 @@
 //! Absent: the laws get the attitude sensor's quaternion and the gyro as measured (the
 //! laboratory rigs of the source papers).
 
-use acs_flight::params::{AttitudeSource, EstimationParams, MAX_CSS_HEADS};
-use anyhow::{Result, bail};
+use acs_flight::params::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
+use anyhow::{Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
@@ -20,6 +20,24 @@ pub enum SourceSpec {
 
 fn d(x: f64) -> f32 {
     x.to_radians() as f32
+}
+
+/// `p` with every probed scalar at zero (to find whether zero is accepted).
+fn zeroed(p: &EstimationParams) -> EstimationParams {
+    EstimationParams {
+        gyro_arw_rad_sqrt_s: 0.0,
+        gyro_rrw_rad_s_sqrt_s: 0.0,
+        initial_attitude_sigma_rad: 0.0,
+        initial_bias_sigma_rad_s: 0.0,
+        tracker_sigma_cross_rad: 0.0,
+        tracker_sigma_about_rad: 0.0,
+        sun_sensor_sigma_rad: 0.0,
+        css_lit_threshold: 0.0,
+        css_sigma_rad: 0.0,
+        magnetometer_sigma_rad: 0.0,
+        lost_attitude_sigma_rad: 0.0,
+        ..*p
+    }
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -89,7 +107,75 @@ fn rejections() -> u16 {
     20
 }
 
+/// One scalar of the set: its key, the value as written, and how to copy the converted
+/// value from a full set into a probe.
+type Probe = (&'static str, f64, fn(&mut EstimationParams, &EstimationParams));
+
 impl EstimationSpec {
+    fn probes(&self) -> [Probe; 11] {
+        let opt = |x: Option<f64>| x.unwrap_or(0.0);
+        [
+            ("gyro_arw_rad_sqrt_s", self.gyro_arw_rad_sqrt_s, |q, p| q.gyro_arw_rad_sqrt_s = p.gyro_arw_rad_sqrt_s),
+            ("gyro_rrw_rad_s_sqrt_s", self.gyro_rrw_rad_s_sqrt_s, |q, p| {
+                q.gyro_rrw_rad_s_sqrt_s = p.gyro_rrw_rad_s_sqrt_s
+            }),
+            ("initial_attitude_sigma_deg", self.initial_attitude_sigma_deg, |q, p| {
+                q.initial_attitude_sigma_rad = p.initial_attitude_sigma_rad
+            }),
+            ("initial_bias_sigma_deg_h", self.initial_bias_sigma_deg_h, |q, p| {
+                q.initial_bias_sigma_rad_s = p.initial_bias_sigma_rad_s
+            }),
+            ("tracker_sigma_cross_deg", self.tracker_sigma_cross_deg, |q, p| {
+                q.tracker_sigma_cross_rad = p.tracker_sigma_cross_rad
+            }),
+            ("tracker_sigma_about_deg", self.tracker_sigma_about_deg, |q, p| {
+                q.tracker_sigma_about_rad = p.tracker_sigma_about_rad
+            }),
+            ("sun_sensor_sigma_deg", opt(self.sun_sensor_sigma_deg), |q, p| {
+                q.sun_sensor_sigma_rad = p.sun_sensor_sigma_rad
+            }),
+            ("css_lit_threshold", self.css_lit_threshold, |q, p| q.css_lit_threshold = p.css_lit_threshold),
+            ("css_sigma_deg", opt(self.css_sigma_deg), |q, p| q.css_sigma_rad = p.css_sigma_rad),
+            ("magnetometer_sigma_deg", opt(self.magnetometer_sigma_deg), |q, p| {
+                q.magnetometer_sigma_rad = p.magnetometer_sigma_rad
+            }),
+            ("lost_attitude_sigma_deg", self.lost_attitude_sigma_deg, |q, p| {
+                q.lost_attitude_sigma_rad = p.lost_attitude_sigma_rad
+            }),
+        ]
+    }
+
+    /// The key of the value the flight code refuses in `p`: each value is tried alone in
+    /// the flight code's default set, so its validation stays the one source of truth (the
+    /// range quoted is the flight code's [`MAX_NOISE_FIGURE`] in the key's unit).
+    fn refused_key(&self, p: &EstimationParams) -> Option<anyhow::Error> {
+        let ok = |q: &EstimationParams| q.validate().is_ok();
+        for (key, value, copy) in self.probes() {
+            let mut q = EstimationParams::SENSOR;
+            copy(&mut q, p);
+            if !ok(&q) {
+                let max = f64::from(MAX_NOISE_FIGURE);
+                let upper = match key {
+                    "css_lit_threshold" => "1)".to_string(),
+                    "initial_bias_sigma_deg_h" => format!("{:.4}]", max.to_degrees() * 3600.0),
+                    k if k.ends_with("_deg") => format!("{:.4}]", max.to_degrees()),
+                    _ => format!("{max}]"),
+                };
+                // An open lower bound when zero is refused too.
+                copy(&mut q, &zeroed(p));
+                let lower = if ok(&q) { "[0" } else { "(0" };
+                return Some(anyhow!("estimation.{key} = {value}: out of range {lower}, {upper}"));
+            }
+        }
+        if !(1..=12).contains(&self.field_model_degree) {
+            return Some(anyhow!("estimation.field_model_degree = {}: out of range 1..=12", self.field_model_degree));
+        }
+        if self.max_consecutive_rejections == 0 {
+            return Some(anyhow!("estimation.max_consecutive_rejections = 0: must be >= 1"));
+        }
+        None
+    }
+
     /// The flight parameters; `css_heads`: the sensor suite's head normals (the default
     /// for `css_normals_body`). Errors name the key.
     pub fn params(&self, css_heads: Option<&[[f64; 3]]>) -> Result<EstimationParams> {
@@ -138,9 +224,9 @@ impl EstimationSpec {
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
-            bail!(
-                "estimation: the flight code refuses these values ({e:?}): noise figures must be finite, >= 0 and < 180 deg, sigmas > 0, field_model_degree 1..=12, css_lit_threshold in (0, 1), max_consecutive_rejections > 0"
-            );
+            return Err(self.refused_key(&p).unwrap_or_else(|| {
+                anyhow!("estimation: the flight code refuses this set ({e}) (css_normals_body must be unit directions)")
+            }));
         }
         Ok(p)
     }

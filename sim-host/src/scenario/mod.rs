@@ -21,6 +21,7 @@ mod actuators;
 mod controller;
 mod environment;
 pub mod estimation;
+mod limits;
 mod modes;
 mod resolved;
 pub use actuators::{
@@ -29,11 +30,23 @@ pub use actuators::{
 };
 pub use controller::{Controller, LqrDesign};
 pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
+pub use limits::{
+    MAX_ANGLE_NOISE_DEG, MAX_INPUT_BYTES, MAX_MAGNITUDE, MAX_SCALE_FACTOR_PPM, NOISE_FRACTION_OF_LIMIT, read_capped,
+};
 pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
 pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
+/// Highest altitude of the World Magnetic Model, km (its validity range).
+pub const WMM_MAX_ALTITUDE_KM: f64 = 850.0;
+/// Largest ratio of the largest to the smallest principal moment of inertia.
+pub const MAX_INERTIA_RATIO: f64 = 1e9;
+/// Most RK4 steps per control period (`timing.dynamics_substeps`).
+pub const MAX_DYNAMICS_SUBSTEPS: u32 = 1000;
+/// Most RK4 steps of a whole run (control steps × substeps): 1e9, about half an hour to a
+/// few hours of wall time at the measured 1–10 µs per RK4 step with the environment.
+pub const MAX_RK4_STEPS: u64 = 1_000_000_000;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -288,13 +301,18 @@ impl AttitudeSpec {
 
 impl Scenario {
     pub fn from_toml(text: &str) -> Result<Self> {
-        let s: Scenario = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let s: Scenario = toml::from_str(text).map_err(|e| limits::parse_error(text, e))?;
+        let given: toml::Table = toml::from_str(text).map_err(|e| anyhow!("{e}"))?;
+        let kept = toml::Table::try_from(&s).context("writing the parsed scenario back out")?;
+        limits::exact_lengths(&given, &kept)?;
+        limits::finite_numbers(&toml::Value::Table(kept), "")?;
         s.validate()?;
         Ok(s)
     }
 
+    /// Reads (at most [`MAX_INPUT_BYTES`]) and validates a scenario file.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let text = read_capped(path)?;
         Self::from_toml(&text).with_context(|| format!("scenario {}", path.display()))
     }
 
@@ -314,6 +332,16 @@ impl Scenario {
         if e.min() <= 0.0 {
             return Err(bad("spacecraft.inertia_kgm2", "must be positive definite"));
         }
+        if e.max() > MAX_INERTIA_RATIO * e.min() {
+            return Err(bad(
+                "spacecraft.inertia_kgm2",
+                format!(
+                    "principal moments {:e} to {:e}: their ratio must be <= {MAX_INERTIA_RATIO:e}",
+                    e.min(),
+                    e.max()
+                ),
+            ));
+        }
         let (a, b, c) = (e[0], e[1], e[2]);
         if a + b < c * (1.0 - 1e-9) || b + c < a * (1.0 - 1e-9) || a + c < b * (1.0 - 1e-9) {
             return Err(bad("spacecraft.inertia_kgm2", "principal moments violate the triangle inequality"));
@@ -331,7 +359,17 @@ impl Scenario {
             self.validate_controller(c, "controller")?;
         }
         self.validate_sensors()?;
+        self.validate_input_limits()?;
         self.validate_control_source()?;
+        self.validate_estimation()?;
+        Ok(())
+    }
+
+    /// `[estimation]`: the flight code's validation of the set, refusals naming the key.
+    fn validate_estimation(&self) -> Result<()> {
+        if let Some(e) = &self.estimation {
+            e.params(self.sensors.css.as_ref().map(|c| &c.normals_body[..]))?;
+        }
         Ok(())
     }
 
@@ -432,6 +470,18 @@ impl Scenario {
         }
         if let Some(r) = &self.rig {
             r.rig()?;
+        }
+        // The WMM is defined up to 850 km: the field lookup fails above it.
+        if let (Some(OrbitKind::Circular { altitude_km, .. }), "wmm") =
+            (self.orbit.as_ref().and_then(|o| o.elements().ok()), env.magnetic_field.as_str())
+            && altitude_km > WMM_MAX_ALTITUDE_KM
+        {
+            return Err(bad(
+                "orbit.altitude_km",
+                format!(
+                    "{altitude_km} km is above the WMM's {WMM_MAX_ALTITUDE_KM} km (use magnetic_field = \"dipole\")"
+                ),
+            ));
         }
         Ok(())
     }
@@ -584,7 +634,8 @@ impl Scenario {
             (Some(Controller::None), None) => {}
             (Some(_), None) => {
                 // Last line of defence: the flight code's own validation must accept the upload.
-                self.flight_params()?.validate().map_err(|e| anyhow!("flight parameters rejected: {e}"))?;
+                let law = self.controller.as_ref();
+                self.flight_params()?.validate().map_err(|e| self.param_refusal(e, "controller", law, "target"))?;
             }
             (None, Some(m)) => self.validate_modes(m)?,
         }
@@ -733,8 +784,11 @@ impl TryFrom<&Scenario> for Clock {
         if t.control_rate_hz > 10_000.0 {
             return Err(bad("timing.control_rate_hz", "must be <= 10000"));
         }
-        if t.dynamics_substeps == 0 {
-            return Err(bad("timing.dynamics_substeps", "must be >= 1"));
+        if !(1..=MAX_DYNAMICS_SUBSTEPS).contains(&t.dynamics_substeps) {
+            return Err(bad(
+                "timing.dynamics_substeps",
+                format!("{} must be in 1..={MAX_DYNAMICS_SUBSTEPS}", t.dynamics_substeps),
+            ));
         }
         if t.output_every == 0 {
             return Err(bad("timing.output_every", "must be >= 1"));
@@ -747,6 +801,27 @@ impl TryFrom<&Scenario> for Clock {
                     "{} s at timing.control_rate_hz = {} is {steps:.3e} control steps; at most {MAX_STEPS} \
                      (the step counter of the sensor frame is 32-bit)",
                     sc.duration_s, t.control_rate_hz
+                ),
+            ));
+        }
+        if steps.round() < 1.0 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "{} s is less than one control period (1 / timing.control_rate_hz = {} s)",
+                    sc.duration_s,
+                    1.0 / t.control_rate_hz
+                ),
+            ));
+        }
+        let rk4 = steps.round() * f64::from(t.dynamics_substeps);
+        if rk4 > MAX_RK4_STEPS as f64 {
+            return Err(bad(
+                "duration_s",
+                format!(
+                    "duration_s × timing.control_rate_hz × timing.dynamics_substeps = {rk4:.3e} RK4 steps; \
+                     at most {:.0e} per run",
+                    MAX_RK4_STEPS as f64
                 ),
             ));
         }

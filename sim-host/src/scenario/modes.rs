@@ -159,7 +159,12 @@ impl Scenario {
         }
         let table = self.mode_table()?.ok_or_else(|| bad("modes", "missing"))?;
         for (mode, p) in &table.slots {
-            p.validate().map_err(|e| anyhow!("flight parameters of mode {} rejected: {e}", mode.name()))?;
+            let key = format!("modes.{}", mode.name());
+            let spec = m.slots().into_iter().find(|(md, _)| md == mode).and_then(|(_, sp)| sp);
+            let target =
+                if spec.is_some_and(|s| s.target.is_some()) { format!("{key}.target") } else { "target".to_string() };
+            let law = spec.map(|s| &s.controller);
+            p.validate().map_err(|e| self.param_refusal(e, &format!("{key}.controller"), law, &target))?;
         }
         table.manager.validate().map_err(|e| anyhow!("mode manager rejected: {e}"))?;
         Ok(())

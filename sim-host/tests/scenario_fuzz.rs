@@ -1,0 +1,361 @@
+//! Seeded, bounded-time fuzz of the scenario loader and the run (issue 21): every shipped
+//! scenario, its duration clamped short, mutated one key at a time (extreme values, NaN and
+//! infinities, wrong array lengths, a huge array, wrong types). For every case, one of:
+//!
+//! - refused: exit 1 and the message names the mutated key;
+//! - run: exit 0, `summary.json` with finite figures and not every step refused;
+//! - failed run: exit 3, `summary.json` with `run_status` "diverged" or "all_refused".
+//!
+//! Anything else (exit 0 on a non-finite or all-refused run, a panic, a signal, a hang
+//! beyond the per-case limit) fails the test, listing every offending case.
+
+use serde_json::Value as Json;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+use toml::Value;
+
+/// The seed and the number of mutated cases (plus one unmutated run of each shipped
+/// scenario as the control); `SCENARIO_FUZZ_SEED` / `SCENARIO_FUZZ_CASES` override them to
+/// explore further.
+const SEED: u64 = 0x21_F022;
+const CASES: usize = 400;
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+/// Parallel runs (the CI machine has 2 cores).
+const WORKERS: usize = 2;
+/// One case may take this long before it counts as a hang.
+const CASE_LIMIT: Duration = Duration::from_secs(60);
+
+/// SplitMix64 (Steele, Lea & Flood 2014): the test's only source of randomness.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+#[derive(Clone, Debug)]
+enum Seg {
+    Key(String),
+    Idx(usize),
+}
+
+type KeyPath = Vec<Seg>;
+
+fn dotted(p: &KeyPath) -> String {
+    let mut s = String::new();
+    for seg in p {
+        match seg {
+            Seg::Key(k) if s.is_empty() => s += k,
+            Seg::Key(k) => s += &format!(".{k}"),
+            Seg::Idx(i) => s += &format!("[{i}]"),
+        }
+    }
+    s
+}
+
+/// The table holding a path's last key, as written in a refusal (`controller`,
+/// `modes.hold.controller`).
+fn table_of(p: &KeyPath) -> String {
+    let last_key = p.iter().rposition(|s| matches!(s, Seg::Key(_))).unwrap_or(0);
+    dotted(&p[..last_key].to_vec())
+}
+
+/// The last key name of a path: what a refusal must mention.
+fn leaf_key(p: &KeyPath) -> String {
+    p.iter()
+        .rev()
+        .find_map(|s| match s {
+            Seg::Key(k) => Some(k.clone()),
+            Seg::Idx(_) => None,
+        })
+        .unwrap_or_default()
+}
+
+/// Every number and every array of the document, with its path.
+fn collect(v: &Value, path: &mut KeyPath, numbers: &mut Vec<KeyPath>, arrays: &mut Vec<KeyPath>) {
+    match v {
+        Value::Integer(_) | Value::Float(_) => numbers.push(path.clone()),
+        Value::Array(a) => {
+            arrays.push(path.clone());
+            for (i, x) in a.iter().enumerate() {
+                path.push(Seg::Idx(i));
+                collect(x, path, numbers, arrays);
+                path.pop();
+            }
+        }
+        Value::Table(t) => {
+            for (k, x) in t {
+                path.push(Seg::Key(k.clone()));
+                collect(x, path, numbers, arrays);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+fn at<'a>(v: &'a mut Value, p: &KeyPath) -> &'a mut Value {
+    p.iter().fold(v, |v, seg| match seg {
+        Seg::Key(k) => v.get_mut(k.as_str()).expect("path exists"),
+        Seg::Idx(i) => v.get_mut(*i).expect("index exists"),
+    })
+}
+
+/// One mutation of `doc`; returns its description and the path mutated.
+fn mutate(doc: &mut Value, rng: &mut SplitMix64) -> (String, KeyPath) {
+    let (mut numbers, mut arrays) = (Vec::new(), Vec::new());
+    collect(doc, &mut Vec::new(), &mut numbers, &mut arrays);
+    let extremes = [1e300, -1e300, 0.0, -1.0, 1e-300, 1e30, f64::NAN, f64::INFINITY, f64::NEG_INFINITY];
+    let kind = rng.below(10);
+    if kind < 6 || arrays.is_empty() {
+        let p = numbers[rng.below(numbers.len())].clone();
+        let x = extremes[rng.below(extremes.len())];
+        let slot = at(doc, &p);
+        *slot = match slot {
+            // Integers get an integer extreme half of the time, a float (a wrong type) else.
+            Value::Integer(_) if rng.below(2) == 0 => Value::Integer([i64::MAX, -1, 0][rng.below(3)]),
+            _ => Value::Float(x),
+        };
+        return (format!("{} = {}", dotted(&p), slot), p);
+    }
+    let p = arrays[rng.below(arrays.len())].clone();
+    let Value::Array(a) = at(doc, &p) else { unreachable!() };
+    let what = match kind {
+        6 if !a.is_empty() => {
+            a.push(a[a.len() - 1].clone());
+            "one element more"
+        }
+        7 if !a.is_empty() => {
+            a.pop();
+            "one element less"
+        }
+        8 if !a.is_empty() => {
+            let last = a[a.len() - 1].clone();
+            a.resize(100_000, last);
+            "100,000 elements"
+        }
+        _ => {
+            let i = rng.below(a.len().max(1));
+            if a.is_empty() {
+                a.push(Value::String("x".into()));
+            } else {
+                a[i] = Value::String("x".into());
+            }
+            "a string element"
+        }
+    };
+    (format!("{} with {what}", dotted(&p)), p)
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn shipped() -> Vec<PathBuf> {
+    fn walk(d: &Path, out: &mut Vec<PathBuf>) {
+        let mut es: Vec<_> = std::fs::read_dir(d).unwrap().map(|e| e.unwrap().path()).collect();
+        es.sort();
+        for p in es {
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|e| e == "toml") {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(&repo().join("scenarios"), &mut out);
+    out
+}
+
+/// The scenario with its run clamped to at most 1 s (or 5 control periods if longer).
+fn clamped(path: &Path) -> Value {
+    let mut doc: Value = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let rate = doc["timing"]["control_rate_hz"].as_float().unwrap();
+    let d = doc["duration_s"].as_float().unwrap();
+    doc["duration_s"] = Value::Float(d.min((5.0 / rate).max(1.0)));
+    doc
+}
+
+struct Case {
+    name: String,
+    what: String,
+    /// The mutated key's name, and the key of its table (a refusal names one of them:
+    /// the flight code's parameter check knows the law's table, not each gain).
+    key: String,
+    table: String,
+    doc: Value,
+}
+
+#[derive(Debug, PartialEq)]
+enum Verdict {
+    Refused,
+    Ok,
+    Failed(String),
+    Bad(String),
+}
+
+/// Non-optional figures of the summary that a finite run always has.
+const FIGURES: [&str; 6] =
+    ["final_error_deg", "mean_error_deg", "rms_error_deg", "final_euler_deg", "final_rate_rad_s", "sim_time_s"];
+
+fn finite_json(v: &Json) -> bool {
+    match v {
+        Json::Number(n) => n.as_f64().is_some_and(f64::is_finite),
+        Json::Array(a) => a.iter().all(finite_json),
+        Json::Object(o) => o.values().all(finite_json),
+        _ => true,
+    }
+}
+
+fn judge_summary(dir: &Path, code: i32) -> Verdict {
+    let Ok(text) = std::fs::read_to_string(dir.join("summary.json")) else {
+        return Verdict::Bad(format!("exit {code} without summary.json"));
+    };
+    let s: Json = serde_json::from_str(&text).unwrap();
+    let status = s.get("run_status").and_then(Json::as_str);
+    if code == 3 {
+        return match status {
+            Some(st @ ("diverged" | "all_refused")) => Verdict::Failed(st.into()),
+            other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
+        };
+    }
+    if let Some(f) = FIGURES.iter().find(|f| s.get(**f).is_none_or(|v| v.is_null() || !finite_json(v))) {
+        return Verdict::Bad(format!("exit 0 with {f} = {}", s.get(*f).unwrap_or(&Json::Null)));
+    }
+    if !finite_json(&s) {
+        return Verdict::Bad("exit 0 with a non-finite number in summary.json".into());
+    }
+    let steps = s["steps"].as_u64().unwrap_or(0);
+    let refused = s["status_counts"]["bad_input"].as_u64().unwrap_or(0);
+    if steps > 0 && refused >= steps {
+        return Verdict::Bad(format!("exit 0 with every step refused ({refused} bad_input of {steps})"));
+    }
+    if status.is_some_and(|st| st != "ok") {
+        return Verdict::Bad(format!("exit 0 with run_status {status:?}"));
+    }
+    Verdict::Ok
+}
+
+fn run_case(c: &Case, dir: &Path) -> Verdict {
+    let sc = dir.join("sc.toml");
+    std::fs::write(&sc, toml::to_string(&c.doc).unwrap()).unwrap();
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["run", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots", "--quiet"])
+        .args(["--link", "in-process"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t0.elapsed() > CASE_LIMIT {
+            child.kill().ok();
+            child.wait().ok();
+            return Verdict::Bad(format!("no answer within {CASE_LIMIT:?}"));
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).ok();
+    match status.code() {
+        Some(1) if err.contains(&c.key) || (!c.table.is_empty() && err.contains(&format!("`{}`", c.table))) => {
+            Verdict::Refused
+        }
+        Some(1) => Verdict::Bad(format!("refused without naming `{}`: {}", c.key, err.trim())),
+        Some(code @ (0 | 3)) => judge_summary(&out, code),
+        other => Verdict::Bad(format!("exit {other:?}: {}", err.trim())),
+    }
+}
+
+fn cases() -> Vec<Case> {
+    let mut rng = SplitMix64(env_or("SCENARIO_FUZZ_SEED", SEED));
+    let bases: Vec<(String, Value)> =
+        shipped().iter().map(|p| (p.strip_prefix(repo()).unwrap().display().to_string(), clamped(p))).collect();
+    assert!(bases.len() >= 20, "found only {} shipped scenarios", bases.len());
+    let mut all: Vec<Case> = bases
+        .iter()
+        .map(|(n, d)| Case {
+            name: n.clone(),
+            what: "unmutated".into(),
+            key: "(none)".into(),
+            table: String::new(),
+            doc: d.clone(),
+        })
+        .collect();
+    for _ in 0..env_or("SCENARIO_FUZZ_CASES", CASES) {
+        let (name, base) = &bases[rng.below(bases.len())];
+        let mut doc = base.clone();
+        let (what, p) = mutate(&mut doc, &mut rng);
+        all.push(Case { name: name.clone(), what, key: leaf_key(&p), table: table_of(&p), doc });
+    }
+    all
+}
+
+#[test]
+fn mutated_scenarios_are_refused_naming_the_key_or_run_to_a_finite_or_failed_summary() {
+    let t0 = Instant::now();
+    let all = cases();
+    let tmp = tempfile::tempdir().unwrap();
+    let next = AtomicUsize::new(0);
+    let verdicts = Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..WORKERS {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(c) = all.get(i) else { break };
+                    let dir = tmp.path().join(format!("case{i}"));
+                    std::fs::create_dir_all(&dir).unwrap();
+                    let v = run_case(c, &dir);
+                    std::fs::remove_dir_all(&dir).ok();
+                    verdicts.lock().unwrap().push((i, v));
+                }
+            });
+        }
+    });
+    let mut verdicts = verdicts.into_inner().unwrap();
+    verdicts.sort_by_key(|(i, _)| *i);
+    let count = |f: fn(&Verdict) -> bool| verdicts.iter().filter(|(_, v)| f(v)).count();
+    println!(
+        "scenario_fuzz: {} cases (seed {:#x}) in {:.1} s: {} refused, {} ok, {} failed runs, {} bad",
+        verdicts.len(),
+        env_or("SCENARIO_FUZZ_SEED", SEED),
+        t0.elapsed().as_secs_f64(),
+        count(|v| *v == Verdict::Refused),
+        count(|v| *v == Verdict::Ok),
+        count(|v| matches!(v, Verdict::Failed(_))),
+        count(|v| matches!(v, Verdict::Bad(_)))
+    );
+    // Every shipped scenario runs as it is.
+    let controls = verdicts.iter().filter(|(i, _)| all[*i].what == "unmutated");
+    let broken: Vec<_> = controls.filter(|(_, v)| *v != Verdict::Ok).map(|(i, v)| (&all[*i].name, v)).collect();
+    assert!(broken.is_empty(), "shipped scenarios that do not run: {broken:#?}");
+    let bad: Vec<String> = verdicts
+        .iter()
+        .filter_map(|(i, v)| match v {
+            Verdict::Bad(why) => Some(format!("{} [{}]: {why}", all[*i].name, all[*i].what)),
+            _ => None,
+        })
+        .collect();
+    assert!(bad.is_empty(), "{} of {} cases broke the contract:\n{}", bad.len(), verdicts.len(), bad.join("\n"));
+}
