@@ -3,8 +3,9 @@
 //! Session: host sends `Hello` (protocol version and schema hash must match), then
 //! `UploadParams` (validated; rejected with the offending field) — or, for a mode table,
 //! one `UploadModeParams` per mode and `ArmModes` — then one `Sensor` frame per control
-//! step; the flight side answers each with a `Step` report. Every other message gets
-//! exactly one reply.
+//! step; the flight side answers each with a `Step` report, or, for a repeated or
+//! out-of-order `seq`, refuses it unstepped with `Error(StaleSequence)` (one frame, one
+//! step; protocol 12). Every other message gets exactly one reply.
 //!
 //! Wire types are plain arrays of f32/u32 so that no layout depends on a math library.
 //! Flag fields stay `u16` on the wire; the flight code reads and writes them through the
