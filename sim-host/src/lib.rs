@@ -17,6 +17,7 @@ pub mod design;
 pub mod environment;
 pub mod estimation;
 pub mod link;
+pub mod momentum;
 pub mod output;
 pub mod plant;
 pub mod plots;

@@ -22,6 +22,8 @@ mod controller;
 mod environment;
 pub mod estimation;
 mod modes;
+mod momentum;
+pub use momentum::MomentumSpec;
 mod resolved;
 pub use actuators::{
     Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
@@ -79,6 +81,9 @@ pub struct Scenario {
     pub estimation: Option<estimation::EstimationSpec>,
     #[serde(default)]
     pub link: LinkSpec,
+    /// Momentum management (magnetic unloading) in the flight code.
+    #[serde(default)]
+    pub momentum: Option<MomentumSpec>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -331,6 +336,7 @@ impl Scenario {
             self.validate_controller(c, "controller")?;
         }
         self.validate_sensors()?;
+        self.validate_momentum()?;
         self.validate_control_source()?;
         Ok(())
     }
@@ -655,7 +661,9 @@ impl Scenario {
     /// The parameter set uploaded to the flight code (single `[controller]`).
     pub fn flight_params(&self) -> Result<FlightParams> {
         let c = self.controller.as_ref().ok_or_else(|| bad("controller", "missing (or use [modes])"))?;
-        self.params_for(c, None, &self.target)
+        let mut p = self.params_for(c, None, &self.target)?;
+        p.momentum = self.momentum_params(None, &p.actuator);
+        Ok(p)
     }
 
     /// A parameter set for one law, on one actuator family (`None`: the only one
@@ -677,6 +685,7 @@ impl Scenario {
                 RefFrame::Lvlh => TargetFrame::Reference,
             },
             hold_after_missed_frames: 10,
+            momentum: acs_flight::params::MomentumParams::OFF,
         })
     }
 
