@@ -137,7 +137,9 @@ fn unloading_keeps_the_stored_momentum_bounded_around_its_target() {
     let err = (avg - target).norm();
     let peak = col(&r, "h_norm_nms")[at(&r, period)..].iter().fold(0.0f64, |a, x| a.max(*x));
     let no_unload_growth = tau * period;
-    println!("orbit mean {avg:?} vs target {target:?}: |error| {err:.3e} (tolerance {tol:.3e}); peak after orbit 1 {peak:.3e}, uncontrolled growth {no_unload_growth:.3e}/orbit");
+    println!(
+        "orbit mean {avg:?} vs target {target:?}: |error| {err:.3e} (tolerance {tol:.3e}); peak after orbit 1 {peak:.3e}, uncontrolled growth {no_unload_growth:.3e}/orbit"
+    );
     assert!(err < tol, "orbit-mean stored momentum {err:.3e} from the target (tolerance {tol:.3e})");
     // Bounded: never beyond the target plus one orbit's uncontrolled build-up.
     assert!(peak < target.norm() + no_unload_growth, "peak {peak:.3e}");
@@ -179,4 +181,55 @@ fn without_unloading_the_saturation_is_detected_not_silent() {
     let first = r.summary.mode_transitions.first().expect("a mode transition");
     assert_eq!((first.from.as_str(), first.to.as_str(), first.reason.as_str()), ("hold", "sun_safe", "momentum_high"));
     assert!(m.time_above_trip_s.unwrap() > 0.0);
+}
+
+/// `[momentum]` and the FDIR keys are validated at load, the error naming the key.
+#[test]
+fn momentum_keys_are_validated_naming_the_key() {
+    let text = repo_file("scenarios/modes/cubesat-two-weeks.toml");
+    let err = |from: &str, to: &str| {
+        let t = set(&text, from, to);
+        match Scenario::from_toml(&t).and_then(|sc| sc.validate().map(|_| sc)) {
+            Ok(_) => panic!("{to:?} accepted"),
+            Err(e) => format!("{e:#}"),
+        }
+    };
+    let cases = [
+        ("gain_per_s = 0.002", "gain_per_s = 0.0", "momentum.gain_per_s"),
+        ("gain_per_s = 0.002", "gain_per_s = nan", "momentum.gain_per_s"),
+        ("deadband_nms = 2.0e-5", "deadband_nms = -1.0", "momentum.deadband_nms"),
+        ("target_nms = [0.0, 0.0, 0.0]", "target_nms = [0.0, inf, 0.0]", "momentum.target_nms"),
+        ("target_nms = [0.0, 0.0, 0.0]", "modes = [\"sleep\"]", "momentum.modes"),
+        ("target_nms = [0.0, 0.0, 0.0]", "max_dipole_am2 = [0.1, 0.0, 0.1]", "momentum.max_dipole_am2"),
+        (
+            "target_nms = [0.0, 0.0, 0.0]",
+            "mag_coupling_t_per_am2 = [[1.0, 0, 0], [0, 0, 0], [0, 0, 0]]",
+            "momentum.mag_coupling_t_per_am2",
+        ),
+        ("target_nms = [0.0, 0.0, 0.0]", "gain = 1.0", "gain"),
+        (
+            "momentum_trip_speed_fraction = 0.9",
+            "momentum_trip_speed_fraction = 1.5",
+            "modes.momentum_trip_speed_fraction",
+        ),
+        (
+            "momentum_recover_speed_fraction = 0.5",
+            "momentum_recover_speed_fraction = 0.95",
+            "modes.momentum_recover_speed_fraction",
+        ),
+    ];
+    for (from, to, key) in cases {
+        let e = err(from, to);
+        assert!(e.contains(key), "expected {key} in: {e}");
+    }
+    // Unloading needs torquers.
+    let i = text.find("[actuators.magnetorquers]").unwrap();
+    let j = i + text[i..].find("\n\n").unwrap();
+    let no_mtq = format!("{}{}", &text[..i], &text[j..]);
+    // … and without them no B-dot: drop the detumble mode too.
+    let i = no_mtq.find("[modes.detumble]").unwrap();
+    let j = i + no_mtq[i..].find("\n\n").unwrap();
+    let no_mtq = format!("{}{}", &no_mtq[..i], &no_mtq[j..]);
+    let e = format!("{:#}", Scenario::from_toml(&no_mtq).and_then(|s| s.validate()).unwrap_err());
+    assert!(e.contains("`momentum`") && e.contains("magnetorquers"), "{e}");
 }

@@ -160,12 +160,18 @@ mod tests {
         assert_eq!(unload(&off, &Vec3::new(1e-3, 0.0, 0.0), &b), Unloading::default());
         assert_eq!(unload(&params(), &Vec3::new(1e-3, 0.0, 0.0), &(b * 1e-4)), Unloading::default());
         assert_eq!(unload(&params(), &Vec3::new(f32::NAN, 0.0, 0.0), &b), Unloading::default());
-        assert_eq!(unload(&params(), &Vec3::new(1e-3, 0.0, 0.0), &Vec3::new(f32::INFINITY, 0.0, 0.0)).dipole_am2, Vec3::zeros());
+        assert_eq!(
+            unload(&params(), &Vec3::new(1e-3, 0.0, 0.0), &Vec3::new(f32::INFINITY, 0.0, 0.0)).dipole_am2,
+            Vec3::zeros()
+        );
     }
 
     #[test]
     fn torquer_field_is_the_coupling_times_the_dipole() {
-        let p = MomentumParams { mag_coupling_t_per_am2: [[1e-6, 0.0, 2e-7], [0.0, -3e-6, 0.0], [0.0, 0.0, 1e-6]], ..params() };
+        let p = MomentumParams {
+            mag_coupling_t_per_am2: [[1e-6, 0.0, 2e-7], [0.0, -3e-6, 0.0], [0.0, 0.0, 1e-6]],
+            ..params()
+        };
         let f = torquer_field_t(&p, &Vec3::new(0.1, 0.2, -0.1));
         assert!((f - Vec3::new(1e-7 - 2e-8, -6e-7, -1e-7)).norm() < 1e-12);
         assert_eq!(torquer_field_t(&p, &Vec3::new(f32::NAN, 0.0, 0.0)), Vec3::zeros());

@@ -148,7 +148,10 @@ impl Scenario {
             return Err(bad("modes.momentum_trip_speed_fraction", "must be in [0, 1] (0 = off)"));
         }
         if trip > 0.0 && !(recover.is_finite() && recover >= 0.0 && recover < trip) {
-            return Err(bad("modes.momentum_recover_speed_fraction", "must be >= 0 and below momentum_trip_speed_fraction"));
+            return Err(bad(
+                "modes.momentum_recover_speed_fraction",
+                "must be >= 0 and below momentum_trip_speed_fraction",
+            ));
         }
         if trip > 0.0 && self.actuators.wheels.is_none() {
             return Err(bad("modes.momentum_trip_speed_fraction", "monitors wheel speeds: needs [actuators.wheels]"));

@@ -98,9 +98,9 @@ impl Scenario {
             _ => true,
         };
         let rods = self.actuators.magnetorquers.as_ref().map_or([0.0; 3], |r| r.max_dipole_am2);
-        let coupling = m.mag_coupling_t_per_am2.unwrap_or_else(|| {
-            self.sensors.magnetometer.as_ref().map_or([[0.0; 3]; 3], |s| s.coupling_t_per_am2)
-        });
+        let coupling = m
+            .mag_coupling_t_per_am2
+            .unwrap_or_else(|| self.sensors.magnetometer.as_ref().map_or([[0.0; 3]; 3], |s| s.coupling_t_per_am2));
         MomentumParams {
             enabled: m.enabled && stores && listed,
             gain_per_s: m.gain_per_s as f32,

@@ -152,8 +152,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
         env_torques: has_environment(sc),
         estimation: sc.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf),
-        momentum: sc.momentum.is_some()
-            || sc.modes.as_ref().is_some_and(|m| m.momentum_trip_speed_fraction > 0.0),
+        momentum: sc.momentum.is_some() || sc.modes.as_ref().is_some_and(|m| m.momentum_trip_speed_fraction > 0.0),
     }
 }
 
