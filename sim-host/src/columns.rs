@@ -130,6 +130,10 @@ pub struct Layout {
     /// σ, NEES, rejected innovations and restarts so far (7; NaN while the MEKF is not
     /// running; `sim_host::estimation::stats`).
     pub estimation: bool,
+    /// Stored actuator momentum (truth) in body and inertial axes and its norm, the
+    /// torquers' torque `m_rods × B`, the flight code's momentum FDIR event count (11;
+    /// with `[momentum]` or the momentum FDIR on).
+    pub momentum: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -174,6 +178,13 @@ impl Layout {
         }
         if self.estimation {
             v.extend(ESTIMATION.iter().map(|s| s.to_string()));
+        }
+        if self.momentum {
+            v.extend(xyz(|a| format!("h_body_{a}_nms")));
+            v.extend(xyz(|a| format!("h_inertial_{a}_nms")));
+            v.push("h_norm_nms".into());
+            v.extend(xyz(|a| format!("torque_unload_{a}_nm")));
+            v.push("momentum_events".into());
         }
         v
     }

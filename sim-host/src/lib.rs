@@ -18,6 +18,7 @@ pub mod environment;
 pub mod estimation;
 pub mod files;
 pub mod link;
+pub mod momentum;
 pub mod output;
 pub mod plant;
 pub mod plots;

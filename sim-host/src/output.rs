@@ -133,6 +133,16 @@ fn actuator_figures() -> Vec<Figure> {
             ],
         ),
         figure(
+            "momentum.png",
+            "Momentum management: stored momentum (truth) and the torquers' unloading torque",
+            vec![
+                panel("stored momentum, body axes", "N m s", xyz("h_body", "nms")),
+                panel("stored momentum, inertial axes", "N m s", xyz("h_inertial", "nms")),
+                panel("torquer torque m × B", "N m", xyz("torque_unload", "nm")),
+                panel("|h|", "N m s", vec![line("h_norm_nms", "|h|", false)]),
+            ],
+        ),
+        figure(
             "magnetorquers.png",
             "Magnetorquer dipoles (commanded dashed) and field",
             vec![panel("dipole", "A m²", dipoles), panel("field in body axes", "T", xyz("b_body", "t"))],

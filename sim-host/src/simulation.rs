@@ -11,6 +11,7 @@ use crate::columns::Layout;
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
+use crate::momentum::MomentumStats;
 use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::WheelOutput;
@@ -291,6 +292,8 @@ pub struct Simulation<'a> {
     /// The flight estimate against the truth.
     estimation: EstimationStats,
     layout: Layout,
+    /// Stored-momentum figures (with the momentum group).
+    momentum: Option<MomentumStats>,
     columns: Vec<String>,
     row: Vec<f64>,
     /// The next control step.
@@ -325,6 +328,7 @@ impl<'a> Simulation<'a> {
             open_loop,
             commands,
             layout,
+            momentum_trip,
         } = cfg;
         let info = match &upload {
             Some(up) => {
@@ -371,6 +375,7 @@ impl<'a> Simulation<'a> {
             errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
             estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
+            momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
             layout,
             columns,
             k: 0,
@@ -450,6 +455,7 @@ impl<'a> Simulation<'a> {
         let q_frame = self.target.frame(self.snap.as_ref());
         let err_deg = error_angle(&self.state.q, &(q_frame * self.target.q_rel)).to_degrees();
         let wheel_out = self.observe(t, &cmd, ticks, &input, err_deg);
+        self.observe_momentum(t, &cmd, err_deg);
         let n_wheels = self.craft.wheels.len();
 
         // Thruster valves over the first dynamics step decide what is recorded as applied.
@@ -535,6 +541,26 @@ impl<'a> Simulation<'a> {
         m.status(cmd.status);
         m.ticks(ticks);
         wheel_out
+    }
+
+    /// Stored-momentum figures of step at `t` (every step, with the momentum group).
+    fn observe_momentum(&mut self, t: f64, cmd: &ActuatorCommand, err_deg: f64) {
+        let Some(stats) = self.momentum.as_mut() else {
+            return;
+        };
+        let h = self.craft.actuator_momentum(&self.state);
+        let frac = self
+            .craft
+            .wheels
+            .iter()
+            .zip(self.state.wheels.iter())
+            // Relative speed (eq 4 solved for ω_w) over its limit.
+            .map(|(p, s)| {
+                let w = s.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&self.state.w);
+                w.abs() / p.max_speed_rad_s
+            })
+            .fold(0.0, f64::max);
+        stats.push(t, h.into(), frac, err_deg, cmd.momentum_events);
     }
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
@@ -637,6 +663,15 @@ impl<'a> Simulation<'a> {
             let (rejected, resets) = self.estimation.counters();
             row.extend([f64::from(rejected), f64::from(resets)]);
         }
+        if l.momentum {
+            let h = self.craft.actuator_momentum(state);
+            row.extend(h.iter());
+            row.extend((crate::attitude::dcm_body_to_ref(&state.q) * h).iter());
+            row.push(h.norm());
+            let b = self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::zeros(), |b| rotate_ref_to_body(&state.q, &b));
+            row.extend(Vec3::from(act.rod_dipole).cross(&b).iter());
+            row.push(f64::from(v.cmd.momentum_events));
+        }
     }
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
@@ -721,6 +756,7 @@ impl<'a> Simulation<'a> {
             estimator_resets: est.map(|e| e.resets),
             wall_time_s: wall_s,
             real_time_factor: sim_time / wall_s.max(1e-9),
+            momentum: self.momentum.as_ref().map(MomentumStats::summary),
         }
     }
 }

@@ -130,6 +130,10 @@ pub struct Summary {
     /// records to disk; plots and summary excluded).
     pub wall_time_s: f64,
     pub real_time_factor: f64,
+    /// Stored momentum, wheel speeds against their limit, momentum FDIR events and the
+    /// pointing by day (with `[momentum]` or the momentum FDIR on; docs/momentum.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub momentum: Option<crate::momentum::MomentumSummary>,
 }
 
 /// A change of the flight mode as reported in telemetry.

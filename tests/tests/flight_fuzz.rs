@@ -146,6 +146,7 @@ fn fuzz(seed: u64) {
                         mode: c.mode,
                         mode_reason: c.mode_reason,
                         mode_transitions: c.mode_transitions,
+                        momentum_events: c.momentum_events,
                         ..acs_flight::Fsw::safe_command(c.seq, c.status)
                     };
                     assert_eq!(c, idle, "safe command not idle");

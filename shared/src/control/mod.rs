@@ -7,6 +7,7 @@ pub mod dmcs;
 pub mod law;
 pub mod lqr;
 pub mod magnetic;
+pub mod momentum;
 pub mod quaternion_feedback;
 pub mod rate_damping;
 pub mod sun_safe;

@@ -161,7 +161,7 @@ impl Fsw {
         self.active_cfg().map(|c| &c.params)
     }
 
-    fn active_cfg(&self) -> Option<&Configured> {
+    pub(super) fn active_cfg(&self) -> Option<&Configured> {
         if self.table && self.manager.is_none() {
             return None;
         }

@@ -25,14 +25,14 @@ pub mod report;
 pub mod validate;
 
 use crate::allocation::family::{ActuatorFamily, Actuators};
-use crate::control::{AttitudeLaw, Law, LawInputs};
+use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
 use crate::estimation::determination::{Determination, Estimate};
 use crate::guidance::Target;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
 use crate::modes::{MODE_COUNT, ModeManager};
 use crate::params::FlightParams;
-use crate::types::{Status, Valid};
+use crate::types::{Demand, Status, Valid};
 
 pub use crate::allocation::family::ThrusterAllocator;
 pub use config::ModeError;
@@ -73,6 +73,9 @@ pub struct Fsw {
     saturated_last: bool,
     /// The estimation stage (navigation, attitude determination).
     determination: Determination,
+    /// Torquer dipole commanded last step (held until this step's sample): its field at
+    /// the magnetometer is subtracted ([`crate::control::momentum::torquer_field_t`]).
+    dipole_last_am2: Vec3,
 }
 
 impl Default for Fsw {
@@ -91,6 +94,7 @@ impl Fsw {
             torque_last: nalgebra::Vector3::new(0.0, 0.0, 0.0),
             saturated_last: false,
             determination: Determination::sensor_only(),
+            dipole_last_am2: nalgebra::Vector3::new(0.0, 0.0, 0.0),
         }
     }
 
@@ -106,6 +110,7 @@ impl Fsw {
 
     /// One control step.
     pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
+        let f = &self.without_torquer_field(f);
         // Estimate: runs whatever the mode (and unconfigured: the filter converges while
         // the ground uploads the laws).
         let est = self.determination.step(f);
@@ -114,7 +119,20 @@ impl Fsw {
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
         }
+        let dipole = Vec3::from(cmd.dipole_cmd_am2);
+        self.dipole_last_am2 = if dipole.iter().all(|x| x.is_finite()) { dipole } else { Vec3::zeros() };
         cmd
+    }
+
+    /// The frame with the torquers' field at the magnetometer removed (the calibrated
+    /// coupling of the parameter set in force times last step's dipole).
+    fn without_torquer_field(&self, f: &SensorFrame) -> SensorFrame {
+        let mut g = *f;
+        if let Some(cfg) = self.active_cfg() {
+            let field = momentum::torquer_field_t(&cfg.params.momentum, &self.dipole_last_am2);
+            g.mag_field_t = (Vec3::from(f.mag_field_t) - field).into();
+        }
+        g
     }
 
     fn step_active(&mut self, f: &SensorFrame, est: &Estimate) -> ActuatorCommand {
@@ -154,13 +172,26 @@ impl Fsw {
             flags |= Status::LAW_FAULT;
             cfg.law.reset();
         }
+        // Momentum management: the wheels (CMGs) absorb the expected magnetic torque.
+        // Only on a valid magnetometer (otherwise a zero field: nothing commanded).
+        let mag_ok = Valid::from_bits_retain(f.valid).contains(Valid::MAG);
+        let b_t = if mag_ok { m.mag_field_t } else { Vec3::zeros() };
+        let unload = momentum::unload(&cfg.params.momentum, &act.momentum_nms, &b_t);
+        if let Demand::Torque(t) = &mut out.demand {
+            *t -= unload.torque_nm;
+        }
         // Allocate.
         let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
         // Report.
         let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
         self.torque_last = r.torque_for_estimator();
         self.saturated_last = r.status.intersects(Status::SATURATING);
-        r.command(f.seq)
+        let mut cmd = r.command(f.seq);
+        if cfg.params.momentum.enabled {
+            cmd.dipole_cmd_am2 = unload.dipole_am2.into();
+            cmd.stored_momentum_nms = act.momentum_nms.into();
+        }
+        cmd
     }
 }
 
@@ -286,6 +317,8 @@ mod tests {
             hold_exit_error_rad: 0.05,
             dwell_s: 0.1,
             trigger_persistence_s: 0.02,
+            momentum_trip_fraction: 0.0,
+            momentum_recover_fraction: 0.0,
         }
     }
 
@@ -404,5 +437,53 @@ mod tests {
         fr.mag_field_t = [2.1e-5, -1.0e-5, 3.0e-5];
         let c3 = f.step(&fr);
         assert!(Vec3::from(c3.dipole_cmd_am2).norm() > 0.0, "B-dot acts on the field change");
+    }
+
+    #[test]
+    fn unloading_is_fed_forward_to_the_wheels_and_the_torquer_field_subtracted() {
+        use crate::params::MomentumParams;
+        let mut w = WheelParams::body_axes_triad(1.0);
+        w.inertia_kgm2 = 1e-3;
+        let mp = MomentumParams {
+            enabled: true,
+            gain_per_s: 1e-4,
+            max_dipole_am2: [10.0; 3],
+            residual_dipole_am2: [0.0, 0.0, 0.01],
+            mag_coupling_t_per_am2: [[1e-6, 0.0, 0.0], [0.0, 2e-6, 0.0], [3e-7, 0.0, -1e-6]],
+            ..MomentumParams::OFF
+        };
+        let base = FlightParams { actuator: ActuatorParams::Wheels(w), ..FlightParams::default() };
+        let on = FlightParams { momentum: mp, ..base };
+        let (mut f_off, mut f_on) = (Fsw::new(), Fsw::new());
+        f_off.configure(&base).unwrap();
+        f_on.configure(&on).unwrap();
+        let b_true = Vec3::new(2e-5, -1e-5, 3e-5);
+        let mut fr = frame(quat_from_euler([0.01, -0.02, 0.03], EulerSeq::Zyx321));
+        fr.wheel_speed_rad_s = [100.0, -50.0, 20.0, 0.0, 0.0, 0.0];
+        let c_off = f_off.step(&fr);
+        let c_on = f_on.step(&fr);
+        let h = Vec3::from(c_on.stored_momentum_nms);
+        assert!((h - Vec3::new(0.1, -0.05, 0.02)).norm() < 1e-7);
+        // The law is the same; the wheels are asked for law torque minus the magnetic torque.
+        let u = momentum::unload(&mp, &h, &b_true);
+        assert!(u.dipole_am2.norm() > 0.1 && !u.scaled);
+        assert_eq!(Vec3::from(c_on.dipole_cmd_am2), u.dipole_am2);
+        let d_off = Vec3::from(c_off.torque_demand_nm);
+        let d_on = Vec3::from(c_on.torque_demand_nm);
+        assert!((d_on - (d_off - u.torque_nm)).norm() < 1e-6 * d_off.norm(), "{d_on:?} {d_off:?}");
+        // What the body receives: wheels + magnetic = what the law asked for.
+        let total = Vec3::from(c_on.torque_realised_nm) + u.torque_nm;
+        assert!((total - d_off).norm() < 1e-5 * d_off.norm());
+        // Next step the magnetometer carries the torquers' field C m: it is removed.
+        let polluted = b_true + momentum::torquer_field_t(&mp, &u.dipole_am2);
+        fr.mag_field_t = polluted.into();
+        let c2 = f_on.step(&fr);
+        let clean = momentum::unload(&mp, &h, &b_true);
+        let dirty = momentum::unload(&mp, &h, &polluted);
+        assert!((Vec3::from(c2.dipole_cmd_am2) - clean.dipole_am2).norm() < 1e-6 * clean.dipole_am2.norm());
+        assert!((dirty.dipole_am2 - clean.dipole_am2).norm() > 1e-3 * clean.dipole_am2.norm(), "the test can fail");
+        // Unloading on magnetorquers (no stored momentum) is refused.
+        let bad = FlightParams { actuator: ActuatorParams::Magnetorquers(mtq(1.0)), ..on };
+        assert_eq!(Fsw::new().configure(&bad).unwrap_err().field, ParamField::Momentum);
     }
 }

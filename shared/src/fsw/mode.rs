@@ -5,6 +5,7 @@ use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
 use crate::math::{attitude_error, norm, rotation_angle};
 use crate::modes::{MODE_COUNT, ModeInputs};
+use crate::params::ActuatorParams;
 use crate::types::Valid;
 
 impl Fsw {
@@ -13,6 +14,7 @@ impl Fsw {
     /// reach detumble. Without the active mode's inputs, error and relative rate are NaN
     /// (never converged, never off target).
     pub(super) fn update_mode(&mut self, f: &SensorFrame, est: &Estimate) {
+        let wheel_speed_fraction = self.wheel_speed_fraction(f);
         let (Some(mgr), Some(Some(cfg))) = (self.manager.as_mut(), self.slots.get(self.active)) else {
             return;
         };
@@ -31,10 +33,33 @@ impl Fsw {
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
             *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required, c.needs_navigation, est).is_ok());
         }
-        let inputs = ModeInputs { rate_rad_s: norm(&w), rel_rate_rad_s, error_rad, inputs_ok };
+        let inputs = ModeInputs { rate_rad_s: norm(&w), rel_rate_rad_s, error_rad, inputs_ok, wheel_speed_fraction };
         if let Some((mode, _)) = mgr.update(&inputs) {
             self.active = mode.index();
             self.reset_law_state();
         }
+    }
+
+    /// Largest measured wheel speed as a fraction of its limit, from the first slot with
+    /// a wheel array (the wheels are the same whichever mode runs); NaN without valid
+    /// wheel speeds (the momentum monitor never trips on missing data).
+    fn wheel_speed_fraction(&self, f: &SensorFrame) -> f32 {
+        if !Valid::from_bits_truncate(f.valid).contains(Valid::WHEELS) {
+            return f32::NAN;
+        }
+        let wheels = self.slots.iter().flatten().find_map(|c| match &c.params.actuator {
+            ActuatorParams::Wheels(w) => Some(*w),
+            _ => None,
+        });
+        let Some(w) = wheels else {
+            return f32::NAN;
+        };
+        let mut peak = 0.0f32;
+        for s in f.wheel_speed_rad_s.iter().take(usize::from(w.count)) {
+            let x = libm::fabsf(*s) / w.max_speed_rad_s;
+            // NaN propagates (not `max`, which would drop it).
+            peak = if x > peak || x.is_nan() { x } else { peak };
+        }
+        peak
     }
 }

@@ -90,4 +90,8 @@ pub fn mode_telemetry(cmd: &mut ActuatorCommand, mgr: &ModeManager) {
     cmd.mode = mgr.mode.code();
     cmd.mode_reason = mgr.reason as u8;
     cmd.mode_transitions = mgr.transitions;
+    cmd.momentum_events = mgr.momentum_events;
+    if mgr.momentum_alarm() {
+        cmd.status |= Status::MOMENTUM_SATURATION.bits();
+    }
 }

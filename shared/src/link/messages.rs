@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 pub const PROTOCOL_VERSION: u16 = 12;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 768;
+pub const MAX_PAYLOAD: usize = 896;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 
@@ -159,6 +159,11 @@ pub struct ActuatorCommand {
     pub mode_transitions: u16,
     /// What attitude determination and navigation produced this step (protocol 11).
     pub estimate: EstimateTelemetry,
+    /// Stored actuator momentum the unloading law saw, body axes, N m s (zero when the
+    /// mode does not run momentum management; protocol 12).
+    pub stored_momentum_nms: [f32; 3],
+    /// Momentum FDIR events since the table was armed (saturating; protocol 12).
+    pub momentum_events: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.

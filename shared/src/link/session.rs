@@ -254,6 +254,8 @@ mod tests {
                 hold_exit_error_rad: 0.05,
                 dwell_s: 1.0,
                 trigger_persistence_s: 1.0,
+                momentum_trip_fraction: 0.0,
+                momentum_recover_fraction: 0.0,
             }),
         ] {
             assert_eq!(s.handle(&msg, 0, &mut c), Some(FswMsg::Error(LinkError::RealTimeNotInHold)), "{msg:?}");

@@ -13,6 +13,8 @@ pub struct ModeInputs {
     pub error_rad: f32,
     /// Per mode: this frame carries every input that mode's law needs.
     pub inputs_ok: [bool; MODE_COUNT],
+    /// Largest wheel speed as a fraction of its limit (NaN when unknown: never trips).
+    pub wheel_speed_fraction: f32,
 }
 
 /// Transition state. `configured[i]`: slot `i` has a parameter set.
@@ -30,8 +32,13 @@ pub struct ModeManager {
     faulty_for: u32,
     rate_high_for: u32,
     blind_for: u32,
+    /// Consecutive steps a wheel has been above `momentum_trip_fraction` (not reset by
+    /// a mode switch: one event per excursion).
+    momentum_high_for: u32,
     /// Transitions so far (saturating).
     pub transitions: u16,
+    /// Momentum FDIR events so far (saturating).
+    pub momentum_events: u16,
 }
 
 fn steps_for(seconds: f32, dt_s: f32) -> u32 {
@@ -60,7 +67,9 @@ impl ModeManager {
             faulty_for: 0,
             rate_high_for: 0,
             blind_for: 0,
+            momentum_high_for: 0,
             transitions: 0,
+            momentum_events: 0,
         })
     }
 
@@ -82,6 +91,35 @@ impl ModeManager {
         self.blind_for = 0;
         self.transitions = self.transitions.saturating_add(1);
         Some((to, why))
+    }
+
+    /// The momentum FDIR condition has persisted (reported as `MOMENTUM_SATURATION`).
+    pub fn momentum_alarm(&self) -> bool {
+        self.params.momentum_trip_fraction > 0.0 && self.momentum_high_for >= self.trigger_steps
+    }
+
+    /// Momentum FDIR: counts the event and returns the fallback mode when a pointing mode
+    /// must leave. Runs even when locked (the event is still counted; no switch).
+    fn momentum_fdir(&mut self, x: &ModeInputs) -> Option<Mode> {
+        let trip = self.params.momentum_trip_fraction;
+        if trip <= 0.0 {
+            return None;
+        }
+        let high = x.wheel_speed_fraction > trip;
+        self.momentum_high_for = if high { self.momentum_high_for.saturating_add(1) } else { 0 };
+        if self.momentum_high_for == self.trigger_steps {
+            self.momentum_events = self.momentum_events.saturating_add(1);
+        }
+        let pointing = self.mode.rank() > Mode::SunSafe.rank();
+        if self.locked || !pointing || !self.momentum_alarm() {
+            return None;
+        }
+        [Mode::SunSafe, Mode::Detumble].into_iter().find(|m| self.is_configured(*m))
+    }
+
+    fn momentum_recovered(&self, x: &ModeInputs) -> bool {
+        let p = &self.params;
+        p.momentum_trip_fraction <= 0.0 || x.wheel_speed_fraction < p.momentum_recover_fraction
     }
 
     /// Apply a ground command. `false` (and nothing changes) if the mode has no slot.
@@ -108,6 +146,9 @@ impl ModeManager {
     /// Non-finite inputs count as "not converged" and never trigger a fault on their own
     /// (`!(x < y)` / `x > y` comparisons), so a bad estimate cannot switch modes.
     pub fn update(&mut self, x: &ModeInputs) -> Option<(Mode, Reason)> {
+        if let Some(to) = self.momentum_fdir(x) {
+            return self.switch(to, Reason::MomentumHigh);
+        }
         if self.locked {
             return None;
         }
@@ -137,7 +178,8 @@ impl ModeManager {
         let (converged, fault) = match self.mode {
             Mode::Detumble => (x.rate_rad_s < p.detumble_exit_rate_rad_s, false),
             // Fine determination is back: every input of the next mode is present.
-            Mode::SunSafe => (next_ok, false),
+            // … and, with the momentum monitor on, the wheels are below the recovery level.
+            Mode::SunSafe => (next_ok && self.momentum_recovered(x), false),
             Mode::Stabilise => {
                 (x.error_rad < p.stabilise_exit_error_rad && x.rel_rate_rad_s < p.stabilise_exit_rate_rad_s, false)
             }
@@ -190,6 +232,8 @@ mod tests {
             hold_exit_error_rad: 0.03,
             dwell_s: 1.0,
             trigger_persistence_s: 0.2,
+            momentum_trip_fraction: 0.0,
+            momentum_recover_fraction: 0.0,
         }
     }
 
@@ -202,7 +246,53 @@ mod tests {
     }
 
     fn inputs(rate: f32, error: f32) -> ModeInputs {
-        ModeInputs { rate_rad_s: rate, rel_rate_rad_s: rate, error_rad: error, inputs_ok: [true; MODE_COUNT] }
+        ModeInputs {
+            rate_rad_s: rate,
+            rel_rate_rad_s: rate,
+            error_rad: error,
+            inputs_ok: [true; MODE_COUNT],
+            wheel_speed_fraction: 0.0,
+        }
+    }
+
+    #[test]
+    fn momentum_fdir_counts_one_event_per_excursion_and_falls_back_to_sun_safe() {
+        let p = ModeManagerParams {
+            initial: Mode::Hold,
+            slots: 0b1_1111,
+            momentum_trip_fraction: 0.9,
+            momentum_recover_fraction: 0.5,
+            ..params()
+        };
+        let mut m = ModeManager::new(p, [true; MODE_COUNT], DT).unwrap();
+        let at = |f: f32| ModeInputs { wheel_speed_fraction: f, ..inputs(0.0, 0.0) };
+        // Below the trip (and NaN) nothing happens, however long.
+        assert!(run(&mut m, at(0.89), 500).is_empty());
+        assert!(run(&mut m, at(f32::NAN), 500).is_empty());
+        assert_eq!(m.momentum_events, 0);
+        // Above: after the 2-step persistence, one event and sun-safe.
+        assert_eq!(run(&mut m, at(0.95), 50), vec![(1, Mode::SunSafe, Reason::MomentumHigh)]);
+        assert_eq!(m.momentum_events, 1);
+        assert!(m.momentum_alarm());
+        // Sun-safe waits for the recovery level (between recover and trip: stays) …
+        assert!(run(&mut m, at(0.7), 100).is_empty());
+        assert!(!m.momentum_alarm());
+        assert_eq!(m.momentum_events, 1);
+        // … and hands back below it after the dwell.
+        assert_eq!(run(&mut m, at(0.4), 10), vec![(9, Mode::Stabilise, Reason::EstimateValid)]);
+        // Without a sun-safe slot the fallback is detumble; a second excursion counts twice.
+        let mut m = ModeManager::new(p, [true, true, true, true, false], DT).unwrap();
+        assert_eq!(run(&mut m, at(0.95), 5), vec![(1, Mode::Detumble, Reason::MomentumHigh)]);
+        m.command(ModeRequest::Lock(Mode::Hold));
+        assert!(run(&mut m, at(0.2), 3).is_empty());
+        // Locked: counted and reported, no switch.
+        assert!(run(&mut m, at(0.95), 5).is_empty());
+        assert_eq!(m.momentum_events, 2);
+        // Validation: recover below trip, trip at most 1.
+        let e = |q: ModeManagerParams| q.validate().unwrap_err().reason;
+        assert_eq!(e(ModeManagerParams { momentum_recover_fraction: 0.95, ..p }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { momentum_trip_fraction: 1.5, ..p }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { momentum_trip_fraction: f32::NAN, ..p }), ParamReason::NotFinite);
     }
 
     #[test]

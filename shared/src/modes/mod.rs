@@ -21,7 +21,14 @@
 //!   fallback's are there, for `trigger_persistence_s`;
 //! - sun-safe → next: every input of the next mode (the fine attitude) present for
 //!   `dwell_s` (sun-safe itself needs only the gyro: it searches when the Sun is not seen);
-//! - no convergence transition goes into a mode whose inputs this frame lacks.
+//! - no convergence transition goes into a mode whose inputs this frame lacks;
+//! - momentum FDIR (`momentum_trip_fraction > 0`): a wheel above that fraction of its
+//!   speed limit for `trigger_persistence_s` counts one momentum event (reported as
+//!   `ActuatorCommand::momentum_events` and the `MOMENTUM_SATURATION` status bit while
+//!   it lasts) and sends stabilise, manoeuvre or hold to sun-safe (else detumble) with
+//!   reason `MomentumHigh`; sun-safe hands back only once every wheel is below
+//!   `momentum_recover_fraction` (the safe modes may carry their own unloading,
+//!   [`crate::params::MomentumParams`]).
 //!
 //! Hysteresis: every enter threshold is strictly beyond its exit threshold (validated),
 //! and conditions must persist, so noise at a threshold cannot make the mode chatter.
@@ -130,6 +137,9 @@ pub enum Reason {
     InputLost = 7,
     /// Sun-safe: the fine attitude (and every input of the next mode) is back.
     EstimateValid = 8,
+    /// Momentum FDIR: a wheel above `momentum_trip_fraction` of its speed limit for
+    /// `trigger_persistence_s` (protocol 12).
+    MomentumHigh = 9,
 }
 
 impl Reason {
@@ -144,6 +154,7 @@ impl Reason {
             Reason::Commanded,
             Reason::InputLost,
             Reason::EstimateValid,
+            Reason::MomentumHigh,
         ]
         .get(c as usize)
         .copied()
@@ -160,6 +171,7 @@ impl Reason {
             Reason::Commanded => "commanded",
             Reason::InputLost => "input_lost",
             Reason::EstimateValid => "estimate_valid",
+            Reason::MomentumHigh => "momentum_high",
         }
     }
 }

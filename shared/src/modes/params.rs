@@ -25,6 +25,13 @@ pub struct ModeManagerParams {
     pub dwell_s: f32,
     /// How long a fault condition (rate high, off target) must hold before it acts.
     pub trigger_persistence_s: f32,
+    /// Momentum FDIR (protocol 12): the largest wheel speed as a fraction of its limit
+    /// above which, held for `trigger_persistence_s`, a momentum event is counted and a
+    /// pointing mode falls back to sun-safe (else detumble). 0 = monitor off.
+    pub momentum_trip_fraction: f32,
+    /// Sun-safe hands back to the pointing modes only below this fraction (hysteresis,
+    /// `< momentum_trip_fraction`).
+    pub momentum_recover_fraction: f32,
 }
 
 impl ModeManagerParams {
@@ -52,6 +59,13 @@ impl ModeManagerParams {
             || !(self.hold_exit_error_rad > self.hold_enter_error_rad)
             || !(self.detumble_exit_rate_rad_s > 0.0)
         {
+            return bad(ParamReason::OutOfRange);
+        }
+        let (trip, recover) = (self.momentum_trip_fraction, self.momentum_recover_fraction);
+        if !(trip.is_finite() && recover.is_finite()) {
+            return bad(ParamReason::NotFinite);
+        }
+        if trip != 0.0 && !(trip <= 1.0 && recover >= 0.0 && recover < trip) {
             return bad(ParamReason::OutOfRange);
         }
         if self.slots & (1 << self.initial.index()) == 0 || self.slots >> MODE_COUNT != 0 {

@@ -13,18 +13,20 @@ use crate::math::{Mat3, quat_from_xyzw};
 pub mod actuator;
 pub mod controller;
 pub mod estimation;
+pub mod momentum;
 
 pub use actuator::*;
 pub use controller::*;
 pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
+pub use momentum::MomentumParams;
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 9;
+pub const PARAMS_VERSION: u16 = 10;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
-pub const PARAMS_MAX_SIZE: usize = 768;
+pub const PARAMS_MAX_SIZE: usize = 896;
 
 /// Capacity of the reaction-wheel array.
 pub const MAX_WHEELS: usize = 6;
@@ -52,6 +54,9 @@ pub struct FlightParams {
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).
     pub hold_after_missed_frames: u16,
+    /// Momentum management: magnetic unloading and the magnetometer's torquer-field
+    /// correction (params version 10).
+    pub momentum: MomentumParams,
 }
 
 /// The frame the target attitude is given in.
@@ -103,6 +108,9 @@ pub enum ParamField {
     ModeTable,
     /// Attitude-determination parameters ([`EstimationParams`]).
     Estimation,
+    /// Momentum management ([`MomentumParams`]), or unloading enabled on an actuator
+    /// family that stores no momentum.
+    Momentum,
 }
 
 /// Why it was rejected.
@@ -258,6 +266,11 @@ impl FlightParams {
         if self.hold_after_missed_frames == 0 {
             return Err(err(F::HoldAfterMissed, R::OutOfRange));
         }
+        self.momentum.validate()?;
+        let stores_momentum = matches!(self.actuator, ActuatorParams::Wheels(_) | ActuatorParams::Cmg { .. });
+        if self.momentum.enabled && !stores_momentum {
+            return Err(err(F::Momentum, R::OutOfRange));
+        }
         Ok(())
     }
 
@@ -335,6 +348,7 @@ impl Default for FlightParams {
             target_frame: TargetFrame::Inertial,
             target_q_xyzw: [0.0, 0.0, 0.0, 1.0],
             hold_after_missed_frames: 10,
+            momentum: MomentumParams::OFF,
         }
     }
 }

@@ -358,6 +358,7 @@ impl Scenario {
             F::Pwpf => "actuators.thrusters.pwpf".into(),
             F::ModeTable => "modes".into(),
             F::Estimation => "estimation".into(),
+            F::Momentum => "momentum".into(),
         }
     }
 }

@@ -23,6 +23,8 @@ mod environment;
 pub mod estimation;
 mod limits;
 mod modes;
+mod momentum;
+pub use momentum::MomentumSpec;
 mod resolved;
 pub use actuators::{
     Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
@@ -92,6 +94,9 @@ pub struct Scenario {
     pub estimation: Option<estimation::EstimationSpec>,
     #[serde(default)]
     pub link: LinkSpec,
+    /// Momentum management (magnetic unloading) in the flight code.
+    #[serde(default)]
+    pub momentum: Option<MomentumSpec>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -360,6 +365,7 @@ impl Scenario {
         }
         self.validate_sensors()?;
         self.validate_input_limits()?;
+        self.validate_momentum()?;
         self.validate_control_source()?;
         self.validate_estimation()?;
         Ok(())
@@ -706,7 +712,9 @@ impl Scenario {
     /// The parameter set uploaded to the flight code (single `[controller]`).
     pub fn flight_params(&self) -> Result<FlightParams> {
         let c = self.controller.as_ref().ok_or_else(|| bad("controller", "missing (or use [modes])"))?;
-        self.params_for(c, None, &self.target)
+        let mut p = self.params_for(c, None, &self.target)?;
+        p.momentum = self.momentum_params(None, &p.actuator);
+        Ok(p)
     }
 
     /// A parameter set for one law, on one actuator family (`None`: the only one
@@ -728,6 +736,7 @@ impl Scenario {
                 RefFrame::Lvlh => TargetFrame::Reference,
             },
             hold_after_missed_frames: 10,
+            momentum: acs_flight::params::MomentumParams::OFF,
         })
     }
 

@@ -46,6 +46,13 @@ pub struct ModesSpec {
     pub hold_exit_error_deg: f64,
     pub dwell_s: f64,
     pub trigger_persistence_s: f64,
+    /// Momentum FDIR: a wheel above this fraction of its speed limit for
+    /// `trigger_persistence_s` is a momentum event (0 = off; docs/momentum.md).
+    #[serde(default)]
+    pub momentum_trip_speed_fraction: f64,
+    /// Sun-safe hands back below this fraction (< trip).
+    #[serde(default)]
+    pub momentum_recover_speed_fraction: f64,
     #[serde(default)]
     pub detumble: Option<ModeSpec>,
     #[serde(default)]
@@ -135,6 +142,19 @@ impl Scenario {
                 "modes.detumble_enter_rate_deg_s",
                 "must exceed detumble_exit_rate_deg_s (> 0): hysteresis",
             ));
+        }
+        let (trip, recover) = (m.momentum_trip_speed_fraction, m.momentum_recover_speed_fraction);
+        if !(trip.is_finite() && (0.0..=1.0).contains(&trip)) {
+            return Err(bad("modes.momentum_trip_speed_fraction", "must be in [0, 1] (0 = off)"));
+        }
+        if trip > 0.0 && !(recover.is_finite() && recover >= 0.0 && recover < trip) {
+            return Err(bad(
+                "modes.momentum_recover_speed_fraction",
+                "must be >= 0 and below momentum_trip_speed_fraction",
+            ));
+        }
+        if trip > 0.0 && self.actuators.wheels.is_none() {
+            return Err(bad("modes.momentum_trip_speed_fraction", "monitors wheel speeds: needs [actuators.wheels]"));
         }
         if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
             return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
@@ -266,9 +286,10 @@ impl Scenario {
         for (mode, spec) in m.slots() {
             if let Some(spec) = spec {
                 let target = spec.target.as_ref().unwrap_or(&self.target);
-                let p = self
+                let mut p = self
                     .params_for(&spec.controller, spec.actuator.as_deref(), target)
                     .with_context(|| format!("modes.{}", mode.name()))?;
+                p.momentum = self.momentum_params(Some(mode), &p.actuator);
                 slots.push((mode, p));
                 mask |= 1 << mode.index();
             }
@@ -286,6 +307,8 @@ impl Scenario {
             hold_exit_error_rad: deg(m.hold_exit_error_deg),
             dwell_s: m.dwell_s as f32,
             trigger_persistence_s: m.trigger_persistence_s as f32,
+            momentum_trip_fraction: m.momentum_trip_speed_fraction as f32,
+            momentum_recover_fraction: m.momentum_recover_speed_fraction as f32,
         };
         Ok(Some(ModeTable { slots, manager }))
     }

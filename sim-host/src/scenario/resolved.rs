@@ -76,6 +76,8 @@ pub struct Resolved {
     pub commands: Vec<GroundCommand>,
     /// The recorded columns.
     pub layout: Layout,
+    /// Momentum FDIR trip (wheel speed fraction), for the summary (`None`: off).
+    pub momentum_trip: Option<f64>,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -132,6 +134,7 @@ impl TryFrom<&Scenario> for Resolved {
             inertia_change: sc.spacecraft.inertia_change.clone(),
             open_loop: sc.open_loop.as_ref().map_or_else(Vec::new, |o| o.commands.clone()),
             commands,
+            momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
         })
     }
 }
@@ -149,6 +152,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
         env_torques: has_environment(sc),
         estimation: sc.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf),
+        momentum: sc.momentum.is_some() || sc.modes.as_ref().is_some_and(|m| m.momentum_trip_speed_fraction > 0.0),
     }
 }
 

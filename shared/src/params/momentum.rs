@@ -1,0 +1,98 @@
+//! Momentum-management parameters (the outer loop in [`crate::control::momentum`]).
+
+use super::{ParamError, ParamField, ParamReason, check_finite, check_range, err, flat};
+use postcard_schema::Schema;
+use serde::{Deserialize, Serialize};
+
+/// Magnetic unloading of the stored actuator momentum (wheels or CMG cluster) and the
+/// magnetometer's torquer-field correction. Carried by every mode's parameter set; a mode
+/// whose actuator family stores no momentum must leave `enabled` false.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MomentumParams {
+    /// Run the unloading law in this mode.
+    pub enabled: bool,
+    /// Cross-product law gain `k`, 1/s: the unloading torque is `-k h_err⊥B` before
+    /// saturation (time constant `1/k` for the component perpendicular to the field).
+    pub gain_per_s: f32,
+    /// No unloading while `|h - h_target|` is below this, N m s.
+    pub deadband_nms: f32,
+    /// Commanded stored momentum, body axes, N m s (zero or a bias).
+    pub target_nms: [f32; 3],
+    /// Largest dipole per torquer rod (symmetric), A m²; the dipole is scaled as a whole
+    /// (direction kept) to respect it.
+    pub max_dipole_am2: [f32; 3],
+    /// The spacecraft's residual dipole as known on board, body axes, A m²: the torquers
+    /// cancel it (within their limit) and the feed-forward counts it.
+    pub residual_dipole_am2: [f32; 3],
+    /// Field of the torquers at the magnetometer per unit dipole, T per A m² (row = field
+    /// axis): the flight code subtracts `C · m_last` from the magnetometer before using it
+    /// (all zero: no correction). Applied in every mode whose parameter set carries it.
+    pub mag_coupling_t_per_am2: [[f32; 3]; 3],
+    /// Below this field magnitude the law commands nothing, T.
+    pub min_field_t: f32,
+}
+
+impl MomentumParams {
+    /// Off, no magnetometer correction.
+    pub const OFF: Self = Self {
+        enabled: false,
+        gain_per_s: 0.0,
+        deadband_nms: 0.0,
+        target_nms: [0.0; 3],
+        max_dipole_am2: [0.0; 3],
+        residual_dipole_am2: [0.0; 3],
+        mag_coupling_t_per_am2: [[0.0; 3]; 3],
+        min_field_t: 1e-7,
+    };
+
+    /// Every value finite and in range; enabled needs a positive gain and dipole limit.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        use ParamField as F;
+        check_range(F::Momentum, self.gain_per_s, 0.0, 10.0)?;
+        check_range(F::Momentum, self.deadband_nms, 0.0, 1.0e6)?;
+        check_finite(F::Momentum, &self.target_nms)?;
+        check_finite(F::Momentum, &self.residual_dipole_am2)?;
+        check_finite(F::Momentum, &flat(&self.mag_coupling_t_per_am2))?;
+        if flat(&self.mag_coupling_t_per_am2).iter().any(|c| libm::fabsf(*c) > 1.0e-2) {
+            return Err(err(F::Momentum, ParamReason::OutOfRange));
+        }
+        for m in self.max_dipole_am2 {
+            check_range(F::Momentum, m, 0.0, 1.0e4)?;
+        }
+        check_range(F::Momentum, self.min_field_t, 1e-9, 1.0)?;
+        if self.enabled && (self.gain_per_s <= 0.0 || self.max_dipole_am2.iter().any(|m| *m <= 0.0)) {
+            return Err(err(F::Momentum, ParamReason::OutOfRange));
+        }
+        Ok(())
+    }
+}
+
+impl Default for MomentumParams {
+    fn default() -> Self {
+        Self::OFF
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_the_momentum_field() {
+        assert_eq!(MomentumParams::OFF.validate(), Ok(()));
+        let on = MomentumParams { enabled: true, gain_per_s: 0.01, max_dipole_am2: [0.1; 3], ..MomentumParams::OFF };
+        assert_eq!(on.validate(), Ok(()));
+        for bad in [
+            MomentumParams { gain_per_s: 0.0, ..on },
+            MomentumParams { gain_per_s: f32::NAN, ..on },
+            MomentumParams { max_dipole_am2: [0.1, 0.0, 0.1], ..on },
+            MomentumParams { deadband_nms: -1.0, ..on },
+            MomentumParams { target_nms: [f32::INFINITY, 0.0, 0.0], ..on },
+            MomentumParams { mag_coupling_t_per_am2: [[1.0, 0.0, 0.0], [0.0; 3], [0.0; 3]], ..on },
+            MomentumParams { min_field_t: 0.0, ..on },
+        ] {
+            assert_eq!(bad.validate().unwrap_err().field, ParamField::Momentum, "{bad:?}");
+        }
+    }
+}
