@@ -96,7 +96,10 @@ impl EstimationStats {
         let bias_error_deg_h = x.fixed_rows::<3>(3).norm().to_degrees() * 3600.0;
         self.last_bias_err_deg_h = Some(bias_error_deg_h);
         let p = covariance(&t.covariance_upper);
-        let trace = |k: usize| (p[(k, k)] + p[(k + 1, k + 1)] + p[(k + 2, k + 2)]).max(0.0).sqrt().to_degrees();
+        // NaN-propagating clamp: a NaN covariance must not read as a zero sigma.
+        let trace = |k: usize| {
+            crate::summary::nan_max(p[(k, k)] + p[(k + 1, k + 1)] + p[(k + 2, k + 2)], 0.0).sqrt().to_degrees()
+        };
         let nees = p.cholesky().map(|ch| x.dot(&ch.solve(&x))).filter(|v| v.is_finite());
         if let Some(v) = nees {
             self.n_nees += 1;
