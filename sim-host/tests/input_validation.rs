@@ -156,6 +156,18 @@ fn an_endless_input_file_is_refused_quickly_naming_it() {
     assert_eq!(r.status.code(), Some(1), "{err}");
     assert!(err.contains("/dev/zero") && err.contains("16 MiB"), "{err}");
     assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
+    // A campaign file is read with the same cap.
+    let t0 = Instant::now();
+    let out = tempfile::tempdir().unwrap();
+    let r = Command::new(env!("CARGO_BIN_EXE_sim-host"))
+        .args(["campaign", "plan", "/dev/zero", "--out"])
+        .arg(out.path().join("c"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(err.contains("/dev/zero") && err.contains("16 MiB"), "{err}");
+    assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
 }
 
 /// Issue 21 finding 1's inputs that drove the plant to NaN: refused by their documented

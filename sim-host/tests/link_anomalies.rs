@@ -311,7 +311,9 @@ fn serve_survives_a_reset_mid_write_and_an_idle_client_and_answers_busy() {
         drop(c);
     }
     let t0 = Instant::now();
-    while !serve.log().contains("session ended") && t0.elapsed() < Duration::from_secs(5) {
+    // Wait for the whole log line (the reader may see "session ended: " before its reason).
+    let ended = |log: &str| log.find("session ended").is_some_and(|i| log[i..].contains('\n'));
+    while !ended(&serve.log()) && t0.elapsed() < Duration::from_secs(5) {
         std::thread::sleep(Duration::from_millis(50));
     }
     let log = serve.log();
