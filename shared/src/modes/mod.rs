@@ -49,7 +49,7 @@ pub mod manager;
 pub mod params;
 
 pub use manager::{ModeInputs, ModeManager};
-pub use params::ModeManagerParams;
+pub use params::{MAX_THRESHOLD, ModeManagerParams};
 
 /// Number of modes (slots of the mode table).
 pub const MODE_COUNT: usize = 5;

@@ -34,6 +34,9 @@ pub struct ModeManagerParams {
     pub momentum_recover_fraction: f32,
 }
 
+/// Largest mode-manager threshold or time the flight code accepts (rad, rad/s or s).
+pub const MAX_THRESHOLD: f32 = 1.0e6;
+
 impl ModeManagerParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         let bad = |reason| Err(ParamError { field: ParamField::ModeTable, reason });
@@ -51,7 +54,7 @@ impl ModeManagerParams {
         if !all.iter().all(|x| x.is_finite()) {
             return bad(ParamReason::NotFinite);
         }
-        if !all.iter().all(|x| *x >= 0.0 && *x <= 1.0e6) {
+        if !all.iter().all(|x| *x >= 0.0 && *x <= MAX_THRESHOLD) {
             return bad(ParamReason::OutOfRange);
         }
         // Hysteresis: the band between exit and enter must be open.

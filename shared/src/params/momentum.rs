@@ -33,6 +33,10 @@ pub struct MomentumParams {
     pub min_field_t: f32,
 }
 
+/// Largest magnitude of a torquer-to-magnetometer coupling coefficient, T per A m² (the
+/// Earth's field is ~5e-5 T: a larger coupling would swamp it at any useful dipole).
+pub const MAX_MAG_COUPLING_T_PER_AM2: f32 = 1.0e-2;
+
 impl MomentumParams {
     /// Off, no magnetometer correction.
     pub const OFF: Self = Self {
@@ -54,7 +58,7 @@ impl MomentumParams {
         check_finite(F::Momentum, &self.target_nms)?;
         check_finite(F::Momentum, &self.residual_dipole_am2)?;
         check_finite(F::Momentum, &flat(&self.mag_coupling_t_per_am2))?;
-        if flat(&self.mag_coupling_t_per_am2).iter().any(|c| libm::fabsf(*c) > 1.0e-2) {
+        if flat(&self.mag_coupling_t_per_am2).iter().any(|c| libm::fabsf(*c) > MAX_MAG_COUPLING_T_PER_AM2) {
             return Err(err(F::Momentum, ParamReason::OutOfRange));
         }
         for m in self.max_dipole_am2 {

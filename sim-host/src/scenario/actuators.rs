@@ -529,13 +529,19 @@ impl Scenario {
         if !matches!(w.model.as_str(), "ideal" | "accurate") {
             return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
         }
-        for (k, v) in [
-            ("actuators.wheels.max_torque_nm", w.max_torque_nm),
-            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm),
-            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2),
+        // Upper bounds: beyond any reaction wheel flown (speed: the flight code's own limit).
+        let max_rpm = f64::from(acs_flight::fsw::MAX_WHEEL_SPEED_RAD_S) * 60.0 / std::f64::consts::TAU;
+        // Lower bounds: below a nanonewton-metre wheel, a 1e-6 kg m² rotor or 1 rpm of speed
+        // range no wheel exists (and the speed-limit fade's time constant tends to 0).
+        for (k, v, min, max) in [
+            ("actuators.wheels.max_torque_nm", w.max_torque_nm, 1.0e-9, 1.0e3),
+            ("actuators.wheels.max_speed_rpm", w.max_speed_rpm, 1.0, max_rpm),
+            ("actuators.wheels.inertia_kgm2", w.inertia_kgm2, 1.0e-6, 1.0e3),
         ] {
             if let Some(v) = v {
-                positive(k, v)?;
+                if !(v >= min && v <= max) {
+                    return Err(bad(k, format!("{v} is outside the range [{min:e}, {max:.6e}]")));
+                }
             }
         }
         let n = self.wheel_axes(w).len();
@@ -570,7 +576,8 @@ impl Scenario {
                     format!(
                         "the dynamics step {h_s:.4} s is longer than the wheels' RK4 stability limit {h_max:.4} s \
                          (2.5 x their fastest time constant {:.4} s, the speed-limit torque fade); use \
-                         dynamics_substeps >= {need}",
+                         dynamics_substeps >= {need}, or a smaller actuators.wheels.max_torque_nm / a larger \
+                         inertia_kgm2",
                         p.fastest_time_constant_s()
                     ),
                 ));

@@ -270,11 +270,19 @@ impl Scenario {
                 format!("unknown model {model:?} (known: \"free\", \"orbit\", \"rig\")"),
             ));
         }
+        if let Some(i) = q.iter().position(|v| !(*v >= 0.0)) {
+            return Err(bad(&format!("controller.q_diag[{i}]"), "must be >= 0 (a state weight)"));
+        }
+        if let Some(i) = r.iter().position(|v| !(*v > 0.0)) {
+            return Err(bad(&format!("controller.r_diag[{i}]"), "must be > 0 (an input weight)"));
+        }
         let (a, b) = m.linear();
         let qm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(q));
         let rm = DMatrix::from_diagonal(&nalgebra::DVector::from_row_slice(r));
-        let (k, x) =
-            riccati::lqr(&a, &b, &qm, &rm).map_err(|e| bad("controller", format!("LQR design failed: {e:?}")))?;
+        let (k, x) = riccati::lqr(&a, &b, &qm, &rm).map_err(|e| {
+            // The weights are the only inputs of the design that the user chose here.
+            bad("controller.q_diag / controller.r_diag", format!("the LQR design failed with these weights: {e:?}"))
+        })?;
         let residual = riccati::care_residual_rel(&a, &b, &qm, &rm, &x).unwrap_or(f64::NAN);
         let closed = &a - &b * &k;
         let gain = (0..k.nrows()).map(|i| std::array::from_fn(|j| k[(i, j)])).collect();

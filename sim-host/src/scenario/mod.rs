@@ -511,6 +511,19 @@ impl Scenario {
             return Err(bad("sensors.latency_s", "must be <= 10"));
         }
         finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
+        // Every sensor's own sample rate (the sample clock needs a positive finite rate).
+        for (k, r) in [
+            ("sensors.gyro.rate_hz", s.gyro.as_ref().and_then(|g| g.rate_hz)),
+            ("sensors.star_tracker.rate_hz", s.star_tracker.as_ref().and_then(|t| t.rate_hz)),
+            ("sensors.magnetometer.rate_hz", s.magnetometer.as_ref().and_then(|m| m.rate_hz)),
+            ("sensors.sun.rate_hz", s.sun.as_ref().and_then(|m| m.rate_hz)),
+            ("sensors.css.rate_hz", s.css.as_ref().and_then(|c| c.rate_hz)),
+            ("sensors.gnss.rate_hz", s.gnss.as_ref().and_then(|g| g.rate_hz)),
+        ] {
+            if let Some(r) = r {
+                positive(k, r)?;
+            }
+        }
         if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
             positive("sensors.star_tracker.max_rate_deg_s", m)?;
         }
@@ -533,6 +546,13 @@ impl Scenario {
         }
         if let Some(m) = &s.magnetometer {
             finite("sensors.magnetometer.misalignment_deg", &m.misalignment_deg)?;
+            let max = f64::from(acs_flight::params::momentum::MAX_MAG_COUPLING_T_PER_AM2);
+            if !m.coupling_t_per_am2.iter().flatten().all(|c| c.is_finite() && c.abs() <= max) {
+                return Err(bad(
+                    "sensors.magnetometer.coupling_t_per_am2",
+                    format!("each coefficient must be finite with |c| <= {max:e} T per A m2"),
+                ));
+            }
         }
         if let Some(c) = &s.css {
             if let Some(r) = c.rate_hz {

@@ -24,7 +24,7 @@
 //! `[[commands]]` may change); detumble and stabilise may have their own.
 
 use super::{AttitudeSpec, Controller, RefFrame, Scenario, bad};
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
 pub use crate::link::ModeTable;
@@ -122,19 +122,23 @@ impl Scenario {
         let initial = parse_mode(&m.initial).ok_or_else(|| {
             bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\"")
         })?;
-        for (k, v) in [
-            ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s),
-            ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s),
-            ("modes.stabilise_exit_error_deg", m.stabilise_exit_error_deg),
-            ("modes.stabilise_exit_rate_deg_s", m.stabilise_exit_rate_deg_s),
-            ("modes.hold_enter_error_deg", m.hold_enter_error_deg),
-            ("modes.hold_enter_rate_deg_s", m.hold_enter_rate_deg_s),
-            ("modes.hold_exit_error_deg", m.hold_exit_error_deg),
-            ("modes.dwell_s", m.dwell_s),
-            ("modes.trigger_persistence_s", m.trigger_persistence_s),
+        // The flight code's limit, in the key's unit (degrees for angles and rates).
+        // (less one part in 1e6: the degree figure is rounded to f32 radians on upload).
+        let max_deg = f64::from(acs_flight::modes::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
+        let max_s = f64::from(acs_flight::modes::MAX_THRESHOLD);
+        for (k, v, max) in [
+            ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s, max_deg),
+            ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s, max_deg),
+            ("modes.stabilise_exit_error_deg", m.stabilise_exit_error_deg, max_deg),
+            ("modes.stabilise_exit_rate_deg_s", m.stabilise_exit_rate_deg_s, max_deg),
+            ("modes.hold_enter_error_deg", m.hold_enter_error_deg, max_deg),
+            ("modes.hold_enter_rate_deg_s", m.hold_enter_rate_deg_s, max_deg),
+            ("modes.hold_exit_error_deg", m.hold_exit_error_deg, max_deg),
+            ("modes.dwell_s", m.dwell_s, max_s),
+            ("modes.trigger_persistence_s", m.trigger_persistence_s, max_s),
         ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(k, "must be >= 0"));
+            if !(v.is_finite() && v >= 0.0 && v <= max) {
+                return Err(bad(k, format!("must be in [0, {max:.6e}] (the flight code's range)")));
             }
         }
         if !(m.detumble_enter_rate_deg_s > m.detumble_exit_rate_deg_s && m.detumble_exit_rate_deg_s > 0.0) {
@@ -186,7 +190,10 @@ impl Scenario {
             let law = spec.map(|s| &s.controller);
             p.validate().map_err(|e| self.param_refusal(e, &format!("{key}.controller"), law, &target))?;
         }
-        table.manager.validate().map_err(|e| anyhow!("mode manager rejected: {e}"))?;
+        table
+            .manager
+            .validate()
+            .map_err(|e| bad("modes", format!("the flight code refused the mode-manager thresholds: {e}")))?;
         Ok(())
     }
 
