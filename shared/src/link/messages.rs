@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 pub const PROTOCOL_VERSION: u16 = 12;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 896;
+pub const MAX_PAYLOAD: usize = 1024;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 

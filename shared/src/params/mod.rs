@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 pub const PARAMS_VERSION: u16 = 10;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
-pub const PARAMS_MAX_SIZE: usize = 896;
+pub const PARAMS_MAX_SIZE: usize = 1024;
 
 /// Capacity of the reaction-wheel array.
 pub const MAX_WHEELS: usize = 6;
