@@ -21,8 +21,12 @@ const THRUST_N: f64 = 1.0;
 const J_WHEEL: f64 = 0.05;
 
 fn scenario(h0_x_nms: f64) -> Scenario {
+    Scenario::from_toml(&scenario_text(h0_x_nms)).unwrap()
+}
+
+fn scenario_text(h0_x_nms: f64) -> String {
     let rpm = h0_x_nms / J_WHEEL * 30.0 / std::f64::consts::PI;
-    let text = format!(
+    format!(
         r#"
 name = "paper004-thruster-dump"
 duration_s = 60.0
@@ -73,8 +77,7 @@ dump_torque_max_nm = 0.3
 dump_start_nms = 1.0
 dump_stop_nms = 0.1
 "#
-    );
-    Scenario::from_toml(&text).unwrap()
+    )
 }
 
 /// Paper 004 table 2 per newton (N m per N), columns = thrusters.
@@ -147,4 +150,55 @@ fn thruster_dump_uses_the_minimum_impulse_and_holds_the_attitude() {
     assert!((prop / closed - 1.0).abs() < 0.02, "{prop} vs {closed}");
     // Attitude held while the wheels absorbed the pulses.
     assert!(max_err < 1e-3, "{max_err}");
+}
+
+/// The same spacecraft under a mode table (hold only) with the "unloading cannot keep
+/// up" monitor at 5 % of `J_w Ω_max` (0.05 × 0.05 kg m² × 628.3 rad/s = 1.571 N m s)
+/// held 5 s. `H0` = 2 N m s is above it. With the dump the stored momentum falls below
+/// 1.571 N m s within (2 - 1.571) / 0.3 = 1.4 s of capped dump torque: no event. Without
+/// it the momentum stays at 2 N m s: exactly one event after 5 s, flag only (the mode
+/// stays hold, the speed trip counts nothing).
+fn with_modes(dump: bool) -> Scenario {
+    let text = scenario_text(2.0);
+    let (c, m) = (text.find("[controller]").unwrap(), text.find("[momentum]").unwrap());
+    let mut t = format!("{}{}", &text[..c], if dump { &text[m..] } else { "" });
+    t.push_str(
+        r#"
+[modes]
+initial = "hold"
+momentum_keepup_fraction = 0.05
+slow_fdir_persistence_s = 5.0
+detumble_enter_rate_deg_s = 3.0
+detumble_exit_rate_deg_s = 1.0
+stabilise_exit_error_deg = 10.0
+stabilise_exit_rate_deg_s = 0.1
+hold_enter_error_deg = 0.5
+hold_enter_rate_deg_s = 0.02
+hold_exit_error_deg = 3.0
+dwell_s = 60.0
+trigger_persistence_s = 5.0
+
+[modes.hold]
+actuator = "wheels"
+controller = { type = "dcm_pd", kp_nm = [21.0, 53.0, 53.0], kd_nms = [-42.0, -91.0, -91.0], torque_limit_nm = [3.0, 3.0, 3.0] }
+"#,
+    );
+    Scenario::from_toml(&t).unwrap()
+}
+
+#[test]
+fn keepup_monitor_flags_momentum_the_unloading_does_not_remove() {
+    for dump in [true, false] {
+        let sc = with_modes(dump);
+        sc.validate().unwrap();
+        let r = run(&sc, &mut InProcess::new(), false).unwrap();
+        let m = r.summary.momentum.clone().unwrap();
+        eprintln!("dump {dump}: keep-up events {:?}, final |h| {:.4}", m.keepup_events, m.final_nms);
+        assert_eq!(m.keepup_events, Some(if dump { 0 } else { 1 }));
+        assert_eq!((m.gimbal_events, m.fdir_events), (Some(0), 0));
+        // Flag only: the mode never changed.
+        let last = r.series.len() - 1;
+        assert_eq!(col(&r, "mode")[last], col(&r, "mode")[0]);
+        assert!(col(&r, "mode").iter().all(|x| *x == col(&r, "mode")[0]));
+    }
 }

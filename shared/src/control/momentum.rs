@@ -91,7 +91,7 @@ pub fn torquer_field_t(p: &MomentumParams, dipole_am2: &Vec3) -> Vec3 {
 /// dump (documented safe fallback).
 pub fn dump_torque_nm(p: &MomentumParams, h_nms: &Vec3, active: &mut bool) -> Vec3 {
     let h_err = h_nms - Vec3::from(p.target_nms);
-    let e = h_err.norm();
+    let e = crate::math::norm(&h_err);
     if !p.dumps() || !e.is_finite() {
         *active = false;
         return Vec3::zeros();
@@ -105,7 +105,7 @@ pub fn dump_torque_nm(p: &MomentumParams, h_nms: &Vec3, active: &mut bool) -> Ve
         return Vec3::zeros();
     }
     let tau = h_err * -p.dump_gain_per_s;
-    let n = tau.norm();
+    let n = crate::math::norm(&tau);
     if n > p.dump_torque_max_nm && n > 0.0 { tau * (p.dump_torque_max_nm / n) } else { tau }
 }
 

@@ -360,6 +360,9 @@ mod tests {
             trigger_persistence_s: 0.02,
             momentum_trip_fraction: 0.0,
             momentum_recover_fraction: 0.0,
+            momentum_keepup_fraction: 0.0,
+            gimbal_singularity_min: 0.0,
+            slow_fdir_persistence_s: 0.0,
         }
     }
 

@@ -164,6 +164,12 @@ pub struct ActuatorCommand {
     pub stored_momentum_nms: [f32; 3],
     /// Momentum FDIR events since the table was armed (saturating; protocol 12).
     pub momentum_events: u16,
+    /// "Unloading cannot keep up" events since the table was armed (saturating; flag
+    /// only; protocol 12).
+    pub momentum_keepup_events: u16,
+    /// CMG gimbal-saturation events since the table was armed (saturating; flag only;
+    /// protocol 12).
+    pub gimbal_events: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.
