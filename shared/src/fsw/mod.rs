@@ -598,4 +598,46 @@ mod tests {
         let bad = FlightParams { actuator: ActuatorParams::Thrusters(thr), momentum: mp, ..base };
         assert_eq!(Fsw::new().configure(&bad).unwrap_err().field, ParamField::Momentum);
     }
+
+    #[test]
+    fn gimbal_monitor_counts_a_persistent_singularity_or_angle_limit_flag_only() {
+        let mut base = FlightParams::default(); // the CMG pyramid, gimbals limited to ±1.5 rad
+        if let ActuatorParams::Cmg { cmg, .. } = &mut base.actuator {
+            (cmg.gimbal_min_rad, cmg.gimbal_max_rad) = (-1.5, 1.5);
+        }
+        let arm = |sing_min: f32| {
+            let mut f = Fsw::new();
+            f.configure_mode(Mode::Hold, &base).unwrap();
+            let p = ModeManagerParams {
+                slots: 0b1000,
+                initial: Mode::Hold,
+                gimbal_singularity_min: sing_min,
+                slow_fdir_persistence_s: 0.05, // 5 steps at 100 Hz
+                ..table_params()
+            };
+            f.arm_modes(&p).unwrap();
+            f
+        };
+        let fr = frame(Quat::identity());
+        // Away from singularity and limits (the measure here is > 0.1): nothing.
+        let mut f = arm(1e-3);
+        let cmds: Vec<_> = (0..50).map(|_| f.step(&fr)).collect();
+        assert!(cmds.iter().all(|c| c.gimbal_events == 0 && c.status & status::MOMENTUM_SATURATION == 0));
+        assert!(cmds[0].singularity_measure > 1e-3);
+        // A threshold above the measure: one event after 5 steps, flagged, mode kept.
+        let mut f = arm(2.0);
+        let cmds: Vec<_> = (0..50).map(|_| f.step(&fr)).collect();
+        assert_eq!(cmds[3].gimbal_events, 0);
+        assert_eq!(cmds[4].gimbal_events, 1);
+        assert_eq!(cmds[49].gimbal_events, 1);
+        assert!(cmds[10].status & status::MOMENTUM_SATURATION != 0);
+        assert!(cmds.iter().all(|c| c.mode == Mode::Hold.code() && c.momentum_events == 0));
+        // A gimbal at its angle limit (singularity test off): counted too; 2 mrad inside: not.
+        let mut f = arm(0.0);
+        let mut at = fr;
+        at.gimbal_angle_rad[2] = 1.498;
+        assert_eq!((0..10).map(|_| f.step(&at)).last().unwrap().gimbal_events, 0);
+        at.gimbal_angle_rad[2] = 1.5;
+        assert_eq!((0..10).map(|_| f.step(&at)).last().unwrap().gimbal_events, 1);
+    }
 }
