@@ -202,7 +202,11 @@ impl Fsw {
         let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
         // Report.
         let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
-        self.torque_last = r.torque_for_estimator() + dump.map_or(Vec3::zeros(), |d| d.pulse_nm);
+        self.torque_last = match &dump {
+            Some(d) => r.torque_for_estimator() + d.pulse_nm,
+            // Not `+ 0`: a -0.0 component stays -0.0 (same bits as before the dump existed).
+            None => r.torque_for_estimator(),
+        };
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
         if let Some(d) = dump {
