@@ -690,9 +690,11 @@ fn run(
             summary.scenario
         ))
         .into()),
-        Some(Failure::Link { reason }) => {
-            Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"link_anomaly\")", summary.scenario)).into())
-        }
+        Some(Failure::Link { reason }) => Err(RunFailed(format!(
+            "{}: {reason} (summary.json: run_status \"link_anomaly\")",
+            summary.scenario
+        ))
+        .into()),
     }
 }
 

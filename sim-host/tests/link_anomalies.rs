@@ -260,11 +260,7 @@ fn a_duplicated_frame_is_refused_flagged_and_leaves_the_result_bit_identical() {
             // Refused (or a copy dropped), not stepped: the same bits as the clean run.
             assert_same_result(&clean, &out);
         } else {
-            assert!(
-                err.contains("link anomalies may have changed the result")
-                    && err.contains("run_status \"link_anomaly\""),
-                "{err}"
-            );
+            assert!(err.contains("link anomalies may have changed the result") && err.contains("run_status \"link_anomaly\""), "{err}");
             assert_eq!(summary(&out)["run_status"], "link_anomaly", "{name}");
         }
         assert!(serve.alive());
