@@ -28,6 +28,12 @@ pub struct MomentumSummary {
     pub time_above_trip_s: Option<f64>,
     /// Momentum FDIR events the flight code reported (last telemetry).
     pub fdir_events: u16,
+    /// "Unloading cannot keep up" and CMG gimbal-saturation events the flight code
+    /// reported (flag only; present only when `[modes] slow_fdir_persistence_s` > 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keepup_events: Option<u16>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gimbal_events: Option<u16>,
     /// Pointing error (truth) over [1 h, 1 d) and over [1 d, end], deg (null when the
     /// run does not reach the window).
     pub error_max_first_day_deg: Option<f64>,
@@ -71,6 +77,8 @@ pub struct MomentumStats {
     max_frac_late: Option<f64>,
     above_s: f64,
     events: u16,
+    /// Keep-up and gimbal events (None: the slow monitors are off).
+    slow_events: Option<(u16, u16)>,
     first_day: Window,
     later: Window,
 }
@@ -105,6 +113,11 @@ impl MomentumStats {
         self.events = events;
     }
 
+    /// The slow monitors are on: record their counts (last telemetry).
+    pub fn slow_events(&mut self, keepup: u16, gimbal: u16) {
+        self.slow_events = Some((keepup, gimbal));
+    }
+
     pub fn summary(&self) -> MomentumSummary {
         let n = self.n.max(1) as f64;
         MomentumSummary {
@@ -117,6 +130,8 @@ impl MomentumStats {
             trip_speed_fraction: self.trip,
             time_above_trip_s: self.trip.map(|_| self.above_s),
             fdir_events: self.events,
+            keepup_events: self.slow_events.map(|e| e.0),
+            gimbal_events: self.slow_events.map(|e| e.1),
             error_max_first_day_deg: self.first_day.max(),
             error_rms_first_day_deg: self.first_day.rms(),
             error_max_after_first_day_deg: self.later.max(),

@@ -294,6 +294,8 @@ pub struct Simulation<'a> {
     layout: Layout,
     /// Stored-momentum figures (with the momentum group).
     momentum: Option<MomentumStats>,
+    /// The keep-up and gimbal monitors are on (their counts go in the summary).
+    slow_fdir: bool,
     columns: Vec<String>,
     row: Vec<f64>,
     /// The next control step.
@@ -329,6 +331,7 @@ impl<'a> Simulation<'a> {
             commands,
             layout,
             momentum_trip,
+            slow_fdir,
         } = cfg;
         let info = match &upload {
             Some(up) => {
@@ -376,6 +379,7 @@ impl<'a> Simulation<'a> {
             estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
             momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
+            slow_fdir,
             layout,
             columns,
             k: 0,
@@ -561,6 +565,9 @@ impl<'a> Simulation<'a> {
             })
             .fold(0.0, f64::max);
         stats.push(t, h.into(), frac, err_deg, cmd.momentum_events);
+        if self.slow_fdir {
+            stats.slow_events(cmd.momentum_keepup_events, cmd.gimbal_events);
+        }
     }
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.

@@ -147,6 +147,8 @@ fn fuzz(seed: u64) {
                         mode_reason: c.mode_reason,
                         mode_transitions: c.mode_transitions,
                         momentum_events: c.momentum_events,
+                        momentum_keepup_events: c.momentum_keepup_events,
+                        gimbal_events: c.gimbal_events,
                         ..acs_flight::Fsw::safe_command(c.seq, c.status)
                     };
                     assert_eq!(c, idle, "safe command not idle");

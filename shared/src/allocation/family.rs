@@ -277,7 +277,23 @@ impl ThrusterSet {
         Ok(Self { alloc, bounds, method: t.method, pwpf })
     }
 
-    fn allocate(&mut self, u: &Vec3) -> Allocation {
+    /// Body torque of the thrusters open in `on` (bit i: thruster i) at full thrust, N m:
+    /// what the plant receives over the next period (valve delays aside).
+    pub fn pulse_torque_nm(&self, on: u16) -> Vec3 {
+        let b = self.alloc.b();
+        let mut t = Vec3::zeros();
+        for j in 0..MAX_THRUSTERS {
+            if u32::from(on) & super::thruster::lp::bit_of(j) != 0 {
+                for (tk, row) in t.iter_mut().zip(b.iter()) {
+                    *tk += row.get(j).copied().unwrap_or(0.0);
+                }
+            }
+        }
+        t
+    }
+
+    /// Allocate the torque `u` (LP), then modulate (PWPF).
+    pub fn allocate(&mut self, u: &Vec3) -> Allocation {
         let d: [f32; 3] = (*u).into();
         let r = match self.method {
             ThrusterMethod::DirectionPreserving => self.alloc.direction_preserving(&d, &self.bounds),

@@ -45,7 +45,10 @@ pub struct Unloading {
 /// or a field below `min_field_t`: nothing commanded (documented safe fallback).
 pub fn unload(p: &MomentumParams, h_nms: &Vec3, b_body_t: &Vec3) -> Unloading {
     let mut out = Unloading::default();
-    if !p.enabled || !h_nms.iter().chain(b_body_t.iter()).all(|x| x.is_finite()) {
+    if !p.enabled
+        || p.method != crate::params::UnloadMethod::Magnetic
+        || !h_nms.iter().chain(b_body_t.iter()).all(|x| x.is_finite())
+    {
         return out;
     }
     let b2 = b_body_t.norm_squared();
@@ -78,6 +81,32 @@ pub fn torquer_field_t(p: &MomentumParams, dipole_am2: &Vec3) -> Vec3 {
     let c: Mat3 = rows_to_mat(&p.mag_coupling_t_per_am2);
     let f = c * dipole_am2;
     if f.iter().all(|x| x.is_finite()) { f } else { Vec3::zeros() }
+}
+
+/// Thruster momentum dump (the `dump_*` fields): with `h_err = h - h_target`, a dump
+/// starts when `|h_err| > dump_start_nms` and ends when `|h_err| < dump_stop_nms`
+/// (hysteresis, `active` carries the state between steps). While it runs the body torque
+/// demanded of the thrusters is `τ_dump = -k_dump h_err`, scaled as a whole to
+/// `dump_torque_max_nm`. Returns zero when not dumping; a non-finite momentum ends the
+/// dump (documented safe fallback).
+pub fn dump_torque_nm(p: &MomentumParams, h_nms: &Vec3, active: &mut bool) -> Vec3 {
+    let h_err = h_nms - Vec3::from(p.target_nms);
+    let e = crate::math::norm(&h_err);
+    if !p.dumps() || !e.is_finite() {
+        *active = false;
+        return Vec3::zeros();
+    }
+    if e > p.dump_start_nms {
+        *active = true;
+    } else if e < p.dump_stop_nms {
+        *active = false;
+    }
+    if !*active {
+        return Vec3::zeros();
+    }
+    let tau = h_err * -p.dump_gain_per_s;
+    let n = crate::math::norm(&tau);
+    if n > p.dump_torque_max_nm && n > 0.0 { tau * (p.dump_torque_max_nm / n) } else { tau }
 }
 
 #[cfg(test)]
@@ -164,6 +193,43 @@ mod tests {
             unload(&params(), &Vec3::new(1e-3, 0.0, 0.0), &Vec3::new(f32::INFINITY, 0.0, 0.0)).dipole_am2,
             Vec3::zeros()
         );
+    }
+
+    #[test]
+    fn dump_starts_above_start_ends_below_stop_and_is_capped() {
+        use crate::params::UnloadMethod;
+        let p = MomentumParams {
+            enabled: true,
+            method: UnloadMethod::Thrusters,
+            dump_gain_per_s: 0.5,
+            dump_torque_max_nm: 0.2,
+            dump_start_nms: 1.0,
+            dump_stop_nms: 0.1,
+            target_nms: [0.0, 0.0, 0.05],
+            ..MomentumParams::OFF
+        };
+        let mut on = false;
+        // Below start: nothing, not active.
+        assert_eq!(dump_torque_nm(&p, &Vec3::new(0.9, 0.0, 0.05), &mut on), Vec3::zeros());
+        assert!(!on);
+        // Above start: capped at 0.2 N m, direction -h_err.
+        let t = dump_torque_nm(&p, &Vec3::new(1.2, 0.0, 0.05), &mut on);
+        assert!(on && (t - Vec3::new(-0.2, 0.0, 0.0)).norm() < 1e-6, "{t:?}");
+        // Between stop and start: still dumping (hysteresis), uncapped -k h_err.
+        let t = dump_torque_nm(&p, &Vec3::new(0.0, 0.3, 0.05), &mut on);
+        assert!(on && (t - Vec3::new(0.0, -0.15, 0.0)).norm() < 1e-6, "{t:?}");
+        // Below stop: ends, and stays off below start.
+        assert_eq!(dump_torque_nm(&p, &Vec3::new(0.0, 0.05, 0.05), &mut on), Vec3::zeros());
+        assert!(!on);
+        assert_eq!(dump_torque_nm(&p, &Vec3::new(0.0, 0.5, 0.05), &mut on), Vec3::zeros());
+        // NaN momentum or the magnetic method: off.
+        on = true;
+        assert_eq!(dump_torque_nm(&p, &Vec3::new(f32::NAN, 0.0, 0.0), &mut on), Vec3::zeros());
+        assert!(!on);
+        on = true;
+        let mag = MomentumParams { method: UnloadMethod::Magnetic, ..p };
+        assert_eq!(dump_torque_nm(&mag, &Vec3::new(5.0, 0.0, 0.0), &mut on), Vec3::zeros());
+        assert!(!on);
     }
 
     #[test]

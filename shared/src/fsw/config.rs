@@ -1,7 +1,7 @@
 //! Configuration of the flight software: single parameter sets, mode tables, targets.
 
 use super::{Configured, Fsw};
-use crate::allocation::family::Actuators;
+use crate::allocation::family::{Actuators, ThrusterSet};
 use crate::control::{AttitudeLaw, Law};
 use crate::estimation::determination::Determination;
 use crate::guidance::Target;
@@ -33,7 +33,15 @@ impl Configured {
         let attitude = if law.needs_attitude() { Valid::ATTITUDE } else { Valid::empty() };
         let required = Valid::RATE | attitude | actuators.required();
         let needs_navigation = target.needs_navigation();
-        let cfg = Self { params: *p, inertia: p.inertia(), law, dt_s, target, actuators, required, needs_navigation };
+        let dump = match p.momentum.dumps() {
+            true => Some(
+                ThrusterSet::new(&p.momentum.dump_thrusters, dt_s)
+                    .map_err(|_| ParamError { field: ParamField::MomentumDump, reason: ParamReason::OutOfRange })?,
+            ),
+            false => None,
+        };
+        let inertia = p.inertia();
+        let cfg = Self { params: *p, inertia, law, dt_s, target, actuators, required, needs_navigation, dump };
         Ok((cfg, checksum))
     }
 }
@@ -141,6 +149,7 @@ impl Fsw {
         }
         self.torque_last = Vec3::zeros();
         self.saturated_last = false;
+        self.dumping = false;
     }
 
     /// Validate and adopt the attitude-determination parameters (every mode); the

@@ -24,7 +24,7 @@ mod mode;
 pub mod report;
 pub mod validate;
 
-use crate::allocation::family::{ActuatorFamily, Actuators};
+use crate::allocation::family::{ActuatorFamily, Actuators, Commands, ThrusterSet};
 use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
 use crate::estimation::determination::{Determination, Estimate};
 use crate::guidance::Target;
@@ -53,6 +53,17 @@ struct Configured {
     required: Valid,
     /// The target needs the on-board navigation solution.
     needs_navigation: bool,
+    /// The thrusters of the momentum dump (`momentum.dumps()`), beside the family.
+    dump: Option<ThrusterSet>,
+}
+
+/// What the thruster dump commanded this step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct DumpCommand {
+    level: [f32; crate::params::MAX_THRUSTERS],
+    on: u16,
+    /// Body torque of the open thrusters, N m (fed forward to the wheels).
+    pulse_nm: Vec3,
 }
 
 /// Flight software state. `Fsw::new()` is unconfigured; `configure` must accept a
@@ -76,6 +87,8 @@ pub struct Fsw {
     /// Torquer dipole commanded last step (held until this step's sample): its field at
     /// the magnetometer is subtracted ([`crate::control::momentum::torquer_field_t`]).
     dipole_last_am2: Vec3,
+    /// A thruster momentum dump is under way (hysteresis state).
+    dumping: bool,
 }
 
 impl Default for Fsw {
@@ -95,6 +108,7 @@ impl Fsw {
             saturated_last: false,
             determination: Determination::sensor_only(),
             dipole_last_am2: nalgebra::Vector3::new(0.0, 0.0, 0.0),
+            dumping: false,
         }
     }
 
@@ -177,21 +191,52 @@ impl Fsw {
         let mag_ok = Valid::from_bits_retain(f.valid).contains(Valid::MAG);
         let b_t = if mag_ok { m.mag_field_t } else { Vec3::zeros() };
         let unload = momentum::unload(&cfg.params.momentum, &act.momentum_nms, &b_t);
+        let dump = Self::thruster_dump(cfg, &act.momentum_nms, &mut self.dumping);
         if let Demand::Torque(t) = &mut out.demand {
             *t -= unload.torque_nm;
+            if let Some(d) = &dump {
+                *t -= d.pulse_nm;
+            }
         }
         // Allocate.
         let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
         // Report.
         let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
-        self.torque_last = r.torque_for_estimator();
+        self.torque_last = match &dump {
+            Some(d) => r.torque_for_estimator() + d.pulse_nm,
+            // Not `+ 0`: a -0.0 component stays -0.0 (same bits as before the dump existed).
+            None => r.torque_for_estimator(),
+        };
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
+        if let Some(d) = dump {
+            cmd.thruster_on = d.on;
+            cmd.thruster_level = d.level;
+        }
         if cfg.params.momentum.enabled {
             cmd.dipole_cmd_am2 = unload.dipole_am2.into();
             cmd.stored_momentum_nms = act.momentum_nms.into();
         }
         cmd
+    }
+}
+
+impl Fsw {
+    /// The thruster momentum dump of a wheel or CMG mode ([`momentum::dump_torque_nm`]):
+    /// the LP allocation of `τ_dump`, modulated (PWPF). `None` when the set has no dump
+    /// or no dump runs (the modulator then starts afresh at the next dump). The wheels
+    /// are fed the open thrusters' torque, so the pointing is held.
+    fn thruster_dump(cfg: &mut Configured, h_nms: &Vec3, active: &mut bool) -> Option<DumpCommand> {
+        let set = cfg.dump.as_mut()?;
+        let tau = momentum::dump_torque_nm(&cfg.params.momentum, h_nms, active);
+        if !*active || !tau.iter().all(|x| x.is_finite()) {
+            set.pwpf.reset();
+            return None;
+        }
+        match set.allocate(&tau).commands {
+            Commands::Thrusters { level, on } => Some(DumpCommand { level, on, pulse_nm: set.pulse_torque_nm(on) }),
+            _ => None,
+        }
     }
 }
 
@@ -319,6 +364,9 @@ mod tests {
             trigger_persistence_s: 0.02,
             momentum_trip_fraction: 0.0,
             momentum_recover_fraction: 0.0,
+            momentum_keepup_fraction: 0.0,
+            gimbal_singularity_min: 0.0,
+            slow_fdir_persistence_s: 0.0,
         }
     }
 
@@ -485,5 +533,115 @@ mod tests {
         // Unloading on magnetorquers (no stored momentum) is refused.
         let bad = FlightParams { actuator: ActuatorParams::Magnetorquers(mtq(1.0)), ..on };
         assert_eq!(Fsw::new().configure(&bad).unwrap_err().field, ParamField::Momentum);
+    }
+
+    #[test]
+    fn thruster_dump_feeds_the_pulse_forward_and_stops_below_the_release() {
+        use crate::allocation::thruster::paper::{PAPER_PWPF, paper_b};
+        use crate::params::{MAX_THRUSTERS, MomentumParams, ThrusterMethod, ThrusterParams, UnloadMethod};
+        let mut torque_nm = [[0.0f32; MAX_THRUSTERS]; 3];
+        for (row, r8) in torque_nm.iter_mut().zip(paper_b(1.0).iter()) {
+            row[..8].copy_from_slice(r8);
+        }
+        let thr = ThrusterParams {
+            count: 8,
+            torque_nm,
+            method: ThrusterMethod::DirectionPreserving,
+            pwpf_km: PAPER_PWPF.km,
+            pwpf_tm_s: PAPER_PWPF.tm,
+            pwpf_u_on: PAPER_PWPF.u_on,
+            pwpf_u_off: PAPER_PWPF.u_off,
+            failed_mask: 0,
+        };
+        let mp = MomentumParams {
+            enabled: true,
+            method: UnloadMethod::Thrusters,
+            dump_gain_per_s: 0.05,
+            dump_torque_max_nm: 0.3,
+            dump_start_nms: 1.0,
+            dump_stop_nms: 0.1,
+            dump_thrusters: thr,
+            ..MomentumParams::OFF
+        };
+        let mut w = WheelParams::body_axes_triad(5.0);
+        w.inertia_kgm2 = 0.01;
+        let base = FlightParams { actuator: ActuatorParams::Wheels(w), ..FlightParams::default() };
+        let (mut f_off, mut f_on) = (Fsw::new(), Fsw::new());
+        f_off.configure(&base).unwrap();
+        f_on.configure(&FlightParams { momentum: mp, ..base }).unwrap();
+        let mut fr = frame(quat_from_euler([0.01, -0.02, 0.03], EulerSeq::Zyx321));
+        fr.wheel_speed_rad_s = [200.0, 0.0, 0.0, 0.0, 0.0, 0.0]; // h = [2, 0, 0] N m s
+        let mut fired = 0;
+        for _ in 0..100 {
+            let c_off = f_off.step(&fr);
+            let c_on = f_on.step(&fr);
+            let d_off = Vec3::from(c_off.torque_demand_nm);
+            let pulse = f_on.slots[0].as_ref().unwrap().dump.as_ref().unwrap().pulse_torque_nm(c_on.thruster_on);
+            // The wheels are asked for the law's torque minus the thrusters' pulse.
+            let d_on = Vec3::from(c_on.torque_demand_nm);
+            assert!((d_on - (d_off - pulse)).norm() < 1e-5 * (1.0 + d_off.norm()), "{d_on:?} {d_off:?} {pulse:?}");
+            // The level the LP gave makes a torque along -h_err (direction preserving).
+            let mut lvl = Vec3::zeros();
+            for (k, row) in torque_nm.iter().enumerate() {
+                lvl[k] = row.iter().zip(c_on.thruster_level.iter()).map(|(b, u)| b * u).sum();
+            }
+            assert!(lvl.y.abs() < 1e-5 && lvl.z.abs() < 1e-5 && (lvl.x + 0.1).abs() < 1e-4, "{lvl:?}");
+            fired += usize::from(c_on.thruster_on != 0);
+        }
+        assert!(fired > 0, "the PWPF fired");
+        // Below the release threshold: no thruster, demand unchanged.
+        fr.wheel_speed_rad_s = [5.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let c_on = f_on.step(&fr);
+        let c_off = f_off.step(&fr);
+        assert_eq!((c_on.thruster_on, c_on.thruster_level), (0, [0.0; MAX_THRUSTERS]));
+        assert_eq!(c_on.torque_demand_nm, c_off.torque_demand_nm);
+        // Between release and start (0.5 N m s): not restarted.
+        fr.wheel_speed_rad_s = [50.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        assert_eq!(f_on.step(&fr).thruster_on, 0);
+        // A dump on a thruster family is refused (no stored momentum).
+        let bad = FlightParams { actuator: ActuatorParams::Thrusters(thr), momentum: mp, ..base };
+        assert_eq!(Fsw::new().configure(&bad).unwrap_err().field, ParamField::Momentum);
+    }
+
+    #[test]
+    fn gimbal_monitor_counts_a_persistent_singularity_or_angle_limit_flag_only() {
+        let mut base = FlightParams::default(); // the CMG pyramid, gimbals limited to ±1.5 rad
+        if let ActuatorParams::Cmg { cmg, .. } = &mut base.actuator {
+            (cmg.gimbal_min_rad, cmg.gimbal_max_rad) = (-1.5, 1.5);
+        }
+        let arm = |sing_min: f32| {
+            let mut f = Fsw::new();
+            f.configure_mode(Mode::Hold, &base).unwrap();
+            let p = ModeManagerParams {
+                slots: 0b1000,
+                initial: Mode::Hold,
+                gimbal_singularity_min: sing_min,
+                slow_fdir_persistence_s: 0.05, // 5 steps at 100 Hz
+                ..table_params()
+            };
+            f.arm_modes(&p).unwrap();
+            f
+        };
+        let fr = frame(Quat::identity());
+        // Away from singularity and limits (the measure here is > 0.1): nothing.
+        let mut f = arm(1e-3);
+        let cmds: Vec<_> = (0..50).map(|_| f.step(&fr)).collect();
+        assert!(cmds.iter().all(|c| c.gimbal_events == 0 && c.status & status::MOMENTUM_SATURATION == 0));
+        assert!(cmds[0].singularity_measure > 1e-3);
+        // A threshold above the measure: one event after 5 steps, flagged, mode kept.
+        let mut f = arm(2.0);
+        let cmds: Vec<_> = (0..50).map(|_| f.step(&fr)).collect();
+        assert_eq!(cmds[3].gimbal_events, 0);
+        assert_eq!(cmds[4].gimbal_events, 1);
+        assert_eq!(cmds[49].gimbal_events, 1);
+        assert!(cmds[10].status & status::MOMENTUM_SATURATION != 0);
+        assert!(cmds.iter().all(|c| c.mode == Mode::Hold.code() && c.momentum_events == 0));
+        // A gimbal at its angle limit (singularity test off): counted too; 2 mrad inside: not.
+        let mut f = arm(0.0);
+        let mut at = fr;
+        at.gimbal_angle_rad[2] = 1.498;
+        assert_eq!((0..10).map(|_| f.step(&at)).last().unwrap().gimbal_events, 0);
+        at.gimbal_angle_rad[2] = 1.5;
+        assert_eq!((0..10).map(|_| f.step(&at)).last().unwrap().gimbal_events, 1);
     }
 }

@@ -1,11 +1,13 @@
 //! The mode step of `Fsw::step`: mode logic on the active mode's view of the measurements.
 
 use super::{Fsw, validate};
+use crate::allocation::cmg::{CmgPyramid, GimbalTrig};
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
+use crate::math::Vec3;
 use crate::math::{attitude_error, norm, rotation_angle};
 use crate::modes::{MODE_COUNT, ModeInputs};
-use crate::params::ActuatorParams;
+use crate::params::{ActuatorParams, WheelParams};
 use crate::types::Valid;
 
 impl Fsw {
@@ -15,6 +17,8 @@ impl Fsw {
     /// (never converged, never off target).
     pub(super) fn update_mode(&mut self, f: &SensorFrame, est: &Estimate) {
         let wheel_speed_fraction = self.wheel_speed_fraction(f);
+        let stored_momentum_fraction = self.stored_momentum_fraction(f);
+        let gimbal_saturated = self.gimbal_saturated(f);
         let (Some(mgr), Some(Some(cfg))) = (self.manager.as_mut(), self.slots.get(self.active)) else {
             return;
         };
@@ -33,11 +37,72 @@ impl Fsw {
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
             *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required, c.needs_navigation, est).is_ok());
         }
-        let inputs = ModeInputs { rate_rad_s: norm(&w), rel_rate_rad_s, error_rad, inputs_ok, wheel_speed_fraction };
+        let inputs = ModeInputs {
+            rate_rad_s: norm(&w),
+            rel_rate_rad_s,
+            error_rad,
+            inputs_ok,
+            wheel_speed_fraction,
+            stored_momentum_fraction,
+            gimbal_saturated,
+        };
         if let Some((mode, _)) = mgr.update(&inputs) {
             self.active = mode.index();
             self.reset_law_state();
         }
+    }
+
+    /// The wheel array of the first slot that has one (the wheels are the same whichever
+    /// mode runs).
+    fn wheel_array(&self) -> Option<WheelParams> {
+        self.slots.iter().flatten().find_map(|c| match &c.params.actuator {
+            ActuatorParams::Wheels(w) => Some(*w),
+            _ => None,
+        })
+    }
+
+    /// Stored wheel momentum `|Σ a_i J_w Ω_i|` over `J_w Ω_max` (the keep-up monitor);
+    /// NaN without valid wheel speeds or a wheel array (never trips).
+    fn stored_momentum_fraction(&self, f: &SensorFrame) -> f32 {
+        let Some(w) = self.wheel_array().filter(|_| Valid::from_bits_truncate(f.valid).contains(Valid::WHEELS)) else {
+            return f32::NAN;
+        };
+        if self.manager.as_ref().is_none_or(|m| m.params.slow_fdir_persistence_s <= 0.0) {
+            return f32::NAN;
+        }
+        let mut h = Vec3::zeros();
+        for (a, s) in w.axes.iter().zip(f.wheel_speed_rad_s.iter()).take(usize::from(w.count)) {
+            h += Vec3::from(*a) * (w.inertia_kgm2 * s);
+        }
+        norm(&h) / (w.inertia_kgm2 * w.max_speed_rad_s)
+    }
+
+    /// A CMG gimbal within 1e-3 rad of its angle limit, or `det(J₁J₁ᵀ)` below
+    /// `gimbal_singularity_min` (CMG geometry of the first CMG slot; false without CMGs,
+    /// valid gimbal angles or the monitor).
+    fn gimbal_saturated(&self, f: &SensorFrame) -> bool {
+        const MARGIN_RAD: f32 = 1e-3;
+        let Some(mgr) = self.manager.as_ref().filter(|m| m.params.slow_fdir_persistence_s > 0.0) else {
+            return false;
+        };
+        let cmg = self.slots.iter().flatten().find_map(|c| match &c.params.actuator {
+            ActuatorParams::Cmg { cmg, .. } => Some(*cmg),
+            _ => None,
+        });
+        let Some(c) = cmg.filter(|_| Valid::from_bits_truncate(f.valid).contains(Valid::GIMBALS)) else {
+            return false;
+        };
+        let at_limit = f.gimbal_angle_rad.iter().enumerate().any(|(i, d)| {
+            let live = u32::from(c.failed_mask) & crate::allocation::thruster::lp::bit_of(i) == 0;
+            live && (*d <= c.gimbal_min_rad + MARGIN_RAD || *d >= c.gimbal_max_rad - MARGIN_RAD)
+        });
+        let min = mgr.params.gimbal_singularity_min;
+        if at_limit || !(min > 0.0) {
+            return at_limit;
+        }
+        let p = CmgPyramid::new(c.skew_rad, c.h0_nms);
+        let j1 = p.unit_jacobian(&GimbalTrig::new(&f.gimbal_angle_rad));
+        (j1 * j1.transpose()).determinant() < min
     }
 
     /// Largest measured wheel speed as a fraction of its limit, from the first slot with

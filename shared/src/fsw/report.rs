@@ -91,7 +91,9 @@ pub fn mode_telemetry(cmd: &mut ActuatorCommand, mgr: &ModeManager) {
     cmd.mode_reason = mgr.reason as u8;
     cmd.mode_transitions = mgr.transitions;
     cmd.momentum_events = mgr.momentum_events;
-    if mgr.momentum_alarm() {
+    cmd.momentum_keepup_events = mgr.keepup_events;
+    cmd.gimbal_events = mgr.gimbal_events;
+    if mgr.momentum_alarm() || mgr.slow_alarm() {
         cmd.status |= Status::MOMENTUM_SATURATION.bits();
     }
 }

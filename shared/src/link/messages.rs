@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 pub const PROTOCOL_VERSION: u16 = 12;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 896;
+pub const MAX_PAYLOAD: usize = 1024;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 
@@ -164,6 +164,12 @@ pub struct ActuatorCommand {
     pub stored_momentum_nms: [f32; 3],
     /// Momentum FDIR events since the table was armed (saturating; protocol 12).
     pub momentum_events: u16,
+    /// "Unloading cannot keep up" events since the table was armed (saturating; flag
+    /// only; protocol 12).
+    pub momentum_keepup_events: u16,
+    /// CMG gimbal-saturation events since the table was armed (saturating; flag only;
+    /// protocol 12).
+    pub gimbal_events: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.

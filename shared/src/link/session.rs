@@ -256,6 +256,9 @@ mod tests {
                 trigger_persistence_s: 1.0,
                 momentum_trip_fraction: 0.0,
                 momentum_recover_fraction: 0.0,
+                momentum_keepup_fraction: 0.0,
+                gimbal_singularity_min: 0.0,
+                slow_fdir_persistence_s: 0.0,
             }),
         ] {
             assert_eq!(s.handle(&msg, 0, &mut c), Some(FswMsg::Error(LinkError::RealTimeNotInHold)), "{msg:?}");

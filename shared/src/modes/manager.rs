@@ -15,6 +15,11 @@ pub struct ModeInputs {
     pub inputs_ok: [bool; MODE_COUNT],
     /// Largest wheel speed as a fraction of its limit (NaN when unknown: never trips).
     pub wheel_speed_fraction: f32,
+    /// Stored wheel momentum `|h|` over the cluster capacity `J_w Ω_max` (NaN unknown).
+    pub stored_momentum_fraction: f32,
+    /// A CMG gimbal is at its angle limit or the cluster near a singularity (see
+    /// [`ModeManagerParams::gimbal_singularity_min`]); false without CMGs.
+    pub gimbal_saturated: bool,
 }
 
 /// Transition state. `configured[i]`: slot `i` has a parameter set.
@@ -35,10 +40,18 @@ pub struct ModeManager {
     /// Consecutive steps a wheel has been above `momentum_trip_fraction` (not reset by
     /// a mode switch: one event per excursion).
     momentum_high_for: u32,
+    /// Consecutive steps of the keep-up and gimbal conditions, and their persistence.
+    keepup_for: u32,
+    gimbal_for: u32,
+    slow_steps: u32,
     /// Transitions so far (saturating).
     pub transitions: u16,
     /// Momentum FDIR events so far (saturating).
     pub momentum_events: u16,
+    /// "Unloading cannot keep up" events so far (saturating; flag only).
+    pub keepup_events: u16,
+    /// CMG gimbal-saturation events so far (saturating; flag only).
+    pub gimbal_events: u16,
 }
 
 fn steps_for(seconds: f32, dt_s: f32) -> u32 {
@@ -68,8 +81,13 @@ impl ModeManager {
             rate_high_for: 0,
             blind_for: 0,
             momentum_high_for: 0,
+            keepup_for: 0,
+            gimbal_for: 0,
+            slow_steps: steps_for(params.slow_fdir_persistence_s, dt_s).max(1),
             transitions: 0,
             momentum_events: 0,
+            keepup_events: 0,
+            gimbal_events: 0,
         })
     }
 
@@ -117,6 +135,31 @@ impl ModeManager {
         [Mode::SunSafe, Mode::Detumble].into_iter().find(|m| self.is_configured(*m))
     }
 
+    /// The slow monitors (flag only, every mode, locked or not): stored momentum above
+    /// the keep-up fraction, a gimbal saturated, each held for `slow_fdir_persistence_s`,
+    /// count one event per excursion.
+    fn slow_fdir(&mut self, x: &ModeInputs) {
+        let p = &self.params;
+        if p.slow_fdir_persistence_s <= 0.0 {
+            return;
+        }
+        let high = p.momentum_keepup_fraction > 0.0 && x.stored_momentum_fraction > p.momentum_keepup_fraction;
+        self.keepup_for = if high { self.keepup_for.saturating_add(1) } else { 0 };
+        if self.keepup_for == self.slow_steps {
+            self.keepup_events = self.keepup_events.saturating_add(1);
+        }
+        self.gimbal_for = if x.gimbal_saturated { self.gimbal_for.saturating_add(1) } else { 0 };
+        if self.gimbal_for == self.slow_steps {
+            self.gimbal_events = self.gimbal_events.saturating_add(1);
+        }
+    }
+
+    /// A slow monitor's condition has persisted (reported as `MOMENTUM_SATURATION`).
+    pub fn slow_alarm(&self) -> bool {
+        self.params.slow_fdir_persistence_s > 0.0
+            && (self.keepup_for >= self.slow_steps || self.gimbal_for >= self.slow_steps)
+    }
+
     fn momentum_recovered(&self, x: &ModeInputs) -> bool {
         let p = &self.params;
         p.momentum_trip_fraction <= 0.0 || x.wheel_speed_fraction < p.momentum_recover_fraction
@@ -146,6 +189,7 @@ impl ModeManager {
     /// Non-finite inputs count as "not converged" and never trigger a fault on their own
     /// (`!(x < y)` / `x > y` comparisons), so a bad estimate cannot switch modes.
     pub fn update(&mut self, x: &ModeInputs) -> Option<(Mode, Reason)> {
+        self.slow_fdir(x);
         if let Some(to) = self.momentum_fdir(x) {
             return self.switch(to, Reason::MomentumHigh);
         }
@@ -234,6 +278,9 @@ mod tests {
             trigger_persistence_s: 0.2,
             momentum_trip_fraction: 0.0,
             momentum_recover_fraction: 0.0,
+            momentum_keepup_fraction: 0.0,
+            gimbal_singularity_min: 0.0,
+            slow_fdir_persistence_s: 0.0,
         }
     }
 
@@ -252,7 +299,57 @@ mod tests {
             error_rad: error,
             inputs_ok: [true; MODE_COUNT],
             wheel_speed_fraction: 0.0,
+            stored_momentum_fraction: 0.0,
+            gimbal_saturated: false,
         }
+    }
+
+    #[test]
+    fn keepup_and_gimbal_monitors_count_persistent_excursions_without_switching() {
+        let p = ModeManagerParams {
+            initial: Mode::Hold,
+            slots: 0b1_1111,
+            momentum_keepup_fraction: 0.6,
+            gimbal_singularity_min: 0.1,
+            slow_fdir_persistence_s: 1.0, // 10 steps at DT
+            ..params()
+        };
+        let mut m = ModeManager::new(p, [true; MODE_COUNT], DT).unwrap();
+        let at = |h: f32, g: bool| ModeInputs { stored_momentum_fraction: h, gimbal_saturated: g, ..inputs(0.0, 0.0) };
+        // Below, NaN, or above for one step short of the persistence: nothing.
+        assert!(run(&mut m, at(0.59, false), 100).is_empty());
+        assert!(run(&mut m, at(f32::NAN, false), 100).is_empty());
+        assert!(run(&mut m, at(0.7, false), 9).is_empty());
+        assert_eq!((m.keepup_events, m.slow_alarm()), (0, false));
+        // The 10th step counts one event, flags it, and switches nothing (flag only).
+        assert!(run(&mut m, at(0.7, false), 1).is_empty());
+        assert_eq!((m.keepup_events, m.slow_alarm(), m.mode), (1, true, Mode::Hold));
+        // One event per excursion: staying high counts no more; a new excursion counts.
+        assert!(run(&mut m, at(0.7, false), 500).is_empty());
+        assert_eq!(m.keepup_events, 1);
+        run(&mut m, at(0.1, false), 1);
+        assert!(!m.slow_alarm());
+        run(&mut m, at(0.7, false), 10);
+        assert_eq!(m.keepup_events, 2);
+        // The gimbal monitor is separate: its own counter, the speed trip untouched.
+        run(&mut m, at(0.1, true), 10);
+        assert_eq!((m.gimbal_events, m.keepup_events, m.momentum_events), (1, 2, 0));
+        // Locked: still counted.
+        m.command(ModeRequest::Lock(Mode::Hold));
+        run(&mut m, at(0.1, false), 1);
+        run(&mut m, at(0.1, true), 10);
+        assert_eq!(m.gimbal_events, 2);
+        // Persistence 0 turns both off.
+        let mut off =
+            ModeManager::new(ModeManagerParams { slow_fdir_persistence_s: 0.0, ..p }, [true; MODE_COUNT], DT).unwrap();
+        run(&mut off, at(0.9, true), 100);
+        assert_eq!((off.keepup_events, off.gimbal_events, off.slow_alarm()), (0, 0, false));
+        // Validation.
+        let e = |q: ModeManagerParams| q.validate().unwrap_err().reason;
+        assert_eq!(e(ModeManagerParams { momentum_keepup_fraction: 1.5, ..p }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { momentum_keepup_fraction: -0.1, ..p }), ParamReason::OutOfRange);
+        assert_eq!(e(ModeManagerParams { gimbal_singularity_min: f32::NAN, ..p }), ParamReason::NotFinite);
+        assert_eq!(e(ModeManagerParams { slow_fdir_persistence_s: -1.0, ..p }), ParamReason::OutOfRange);
     }
 
     #[test]

@@ -32,6 +32,17 @@ pub struct ModeManagerParams {
     /// Sun-safe hands back to the pointing modes only below this fraction (hysteresis,
     /// `< momentum_trip_fraction`).
     pub momentum_recover_fraction: f32,
+    /// "Unloading cannot keep up" (protocol 12): the stored wheel momentum `|h|` above
+    /// this fraction of the cluster capacity `J_w Ω_max` (one wheel at its limit) for
+    /// `slow_fdir_persistence_s` counts a keep-up event (flag only). 0 = monitor off.
+    pub momentum_keepup_fraction: f32,
+    /// CMG gimbal saturation (protocol 12): a gimbal within 1e-3 rad of its angle limit,
+    /// or the singularity measure `det(J₁J₁ᵀ)` below this, for `slow_fdir_persistence_s`
+    /// counts a gimbal event (flag only). 0 = the singularity test off (the angle test
+    /// runs whenever the persistence is set).
+    pub gimbal_singularity_min: f32,
+    /// Persistence of the keep-up and gimbal monitors, s (0 = both off).
+    pub slow_fdir_persistence_s: f32,
 }
 
 /// Largest mode-manager threshold or time the flight code accepts (rad, rad/s or s).
@@ -69,6 +80,16 @@ impl ModeManagerParams {
             return bad(ParamReason::NotFinite);
         }
         if trip != 0.0 && !(trip <= 1.0 && recover >= 0.0 && recover < trip) {
+            return bad(ParamReason::OutOfRange);
+        }
+        let slow = [self.momentum_keepup_fraction, self.gimbal_singularity_min, self.slow_fdir_persistence_s];
+        if !slow.iter().all(|x| x.is_finite()) {
+            return bad(ParamReason::NotFinite);
+        }
+        if !(0.0..=1.0).contains(&self.momentum_keepup_fraction)
+            || !(0.0..=2.0).contains(&self.gimbal_singularity_min)
+            || !(0.0..=1.0e7).contains(&self.slow_fdir_persistence_s)
+        {
             return bad(ParamReason::OutOfRange);
         }
         if self.slots & (1 << self.initial.index()) == 0 || self.slots >> MODE_COUNT != 0 {

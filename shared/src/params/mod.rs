@@ -18,7 +18,7 @@ pub mod momentum;
 pub use actuator::*;
 pub use controller::*;
 pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
-pub use momentum::MomentumParams;
+pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 pub const PARAMS_VERSION: u16 = 10;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
-pub const PARAMS_MAX_SIZE: usize = 896;
+pub const PARAMS_MAX_SIZE: usize = 1024;
 
 /// Capacity of the reaction-wheel array.
 pub const MAX_WHEELS: usize = 6;
@@ -111,6 +111,8 @@ pub enum ParamField {
     /// Momentum management ([`MomentumParams`]), or unloading enabled on an actuator
     /// family that stores no momentum.
     Momentum,
+    /// The thruster dump of [`MomentumParams`] (`dump_*` fields, params version 10).
+    MomentumDump,
 }
 
 /// Why it was rejected.

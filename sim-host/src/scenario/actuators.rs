@@ -277,7 +277,15 @@ impl Scenario {
     pub(super) fn validate_actuators(&self) -> Result<()> {
         let act = &self.actuators;
         let families = [act.cmg.is_some(), act.wheels.is_some(), act.magnetorquers.is_some(), act.thrusters.is_some()];
-        let n_families = families.iter().filter(|x| **x).count();
+        let mut n_families = families.iter().filter(|x| **x).count();
+        // A thruster momentum dump flies the thrusters beside the wheels or CMGs: the
+        // attitude law allocates to the one family, the dump to the thrusters.
+        if self.momentum.as_ref().is_some_and(|m| m.dumps())
+            && act.thrusters.is_some()
+            && (act.wheels.is_some() || act.cmg.is_some())
+        {
+            n_families -= 1;
+        }
         if self.controller.as_ref().is_some_and(|c| !matches!(c, Controller::None)) && n_families != 1 {
             return Err(bad(
                 "actuators",

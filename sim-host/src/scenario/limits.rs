@@ -359,6 +359,7 @@ impl Scenario {
             F::ModeTable => "modes".into(),
             F::Estimation => "estimation".into(),
             F::Momentum => "momentum".into(),
+            F::MomentumDump => "momentum.dump_*".into(),
         }
     }
 }

@@ -53,6 +53,17 @@ pub struct ModesSpec {
     /// Sun-safe hands back below this fraction (< trip).
     #[serde(default)]
     pub momentum_recover_speed_fraction: f64,
+    /// "Unloading cannot keep up": stored wheel momentum above this fraction of
+    /// `J_w Ω_max` for `slow_fdir_persistence_s` is a keep-up event (flag only; 0 = off).
+    #[serde(default)]
+    pub momentum_keepup_fraction: f64,
+    /// CMG gimbal saturation: `det(J₁J₁ᵀ)` below this (or a gimbal at its angle limit)
+    /// for `slow_fdir_persistence_s` is a gimbal event (flag only; 0 = angle test only).
+    #[serde(default)]
+    pub gimbal_singularity_min: f64,
+    /// Persistence of the keep-up and gimbal monitors, s (0 = both off).
+    #[serde(default)]
+    pub slow_fdir_persistence_s: f64,
     #[serde(default)]
     pub detumble: Option<ModeSpec>,
     #[serde(default)]
@@ -156,6 +167,18 @@ impl Scenario {
                 "modes.momentum_recover_speed_fraction",
                 "must be >= 0 and below momentum_trip_speed_fraction",
             ));
+        }
+        for (key, v, hi) in [
+            ("modes.momentum_keepup_fraction", m.momentum_keepup_fraction, 1.0),
+            ("modes.gimbal_singularity_min", m.gimbal_singularity_min, 2.0),
+            ("modes.slow_fdir_persistence_s", m.slow_fdir_persistence_s, 1.0e7),
+        ] {
+            if !(v.is_finite() && (0.0..=hi).contains(&v)) {
+                return Err(bad(key, format!("must be in [0, {hi}] (0 = off)")));
+            }
+        }
+        if m.momentum_keepup_fraction > 0.0 && self.actuators.wheels.is_none() {
+            return Err(bad("modes.momentum_keepup_fraction", "monitors wheel momentum: needs [actuators.wheels]"));
         }
         if trip > 0.0 && self.actuators.wheels.is_none() {
             return Err(bad("modes.momentum_trip_speed_fraction", "monitors wheel speeds: needs [actuators.wheels]"));
@@ -316,6 +339,9 @@ impl Scenario {
             trigger_persistence_s: m.trigger_persistence_s as f32,
             momentum_trip_fraction: m.momentum_trip_speed_fraction as f32,
             momentum_recover_fraction: m.momentum_recover_speed_fraction as f32,
+            momentum_keepup_fraction: m.momentum_keepup_fraction as f32,
+            gimbal_singularity_min: m.gimbal_singularity_min as f32,
+            slow_fdir_persistence_s: m.slow_fdir_persistence_s as f32,
         };
         Ok(Some(ModeTable { slots, manager }))
     }

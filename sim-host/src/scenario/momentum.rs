@@ -12,11 +12,17 @@
 //! # residual_dipole_am2 = [...]     ([spacecraft] residual_dipole_am2)
 //! # mag_coupling_t_per_am2 = [...]  ([sensors.magnetometer] coupling_t_per_am2)
 //! # modes = ["hold"]                (default: every mode on wheels or CMGs)
+//! # Thruster dump instead (needs [actuators.thrusters] beside the wheels or CMGs):
+//! # method = "thrusters"            ("magnetic" default)
+//! # dump_gain_per_s = 0.05          k_dump: tau_dump = -k_dump h_err
+//! # dump_torque_max_nm = 0.3        cap on |tau_dump|
+//! # dump_start_nms = 1.0            a dump starts above this |h - target|
+//! # dump_stop_nms = 0.05            and ends below this (< dump_start_nms)
 //! ```
 
 use super::{Scenario, bad, finite};
 use acs_flight::modes::Mode;
-use acs_flight::params::{ActuatorParams, MomentumParams};
+use acs_flight::params::{ActuatorParams, MomentumParams, NO_THRUSTERS, UnloadMethod};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
@@ -39,6 +45,28 @@ pub struct MomentumSpec {
     /// Modes that unload (names as in `[modes]`); default: every mode on wheels or CMGs.
     #[serde(default)]
     pub modes: Option<Vec<String>>,
+    /// "magnetic" (default) or "thrusters".
+    #[serde(default = "magnetic")]
+    pub method: String,
+    #[serde(default)]
+    pub dump_gain_per_s: f64,
+    #[serde(default)]
+    pub dump_torque_max_nm: f64,
+    #[serde(default)]
+    pub dump_start_nms: f64,
+    #[serde(default)]
+    pub dump_stop_nms: f64,
+}
+
+fn magnetic() -> String {
+    "magnetic".into()
+}
+
+impl MomentumSpec {
+    /// The thruster dump is selected.
+    pub fn dumps(&self) -> bool {
+        self.method == "thrusters"
+    }
 }
 
 fn yes() -> bool {
@@ -51,14 +79,21 @@ impl Scenario {
         let Some(m) = &self.momentum else {
             return Ok(());
         };
-        if !(m.gain_per_s.is_finite() && m.gain_per_s > 0.0 && m.gain_per_s <= 10.0) {
+        if !matches!(m.method.as_str(), "magnetic" | "thrusters") {
+            return Err(bad("momentum.method", "must be \"magnetic\" or \"thrusters\""));
+        }
+        if !(m.gain_per_s.is_finite() && m.gain_per_s >= 0.0 && m.gain_per_s <= 10.0)
+            || (!m.dumps() && m.gain_per_s == 0.0)
+        {
             return Err(bad("momentum.gain_per_s", "must be in (0, 10] 1/s"));
         }
         if !(m.deadband_nms.is_finite() && m.deadband_nms >= 0.0) {
             return Err(bad("momentum.deadband_nms", "must be >= 0"));
         }
         finite("momentum.target_nms", &m.target_nms)?;
-        if self.actuators.magnetorquers.is_none() {
+        if m.dumps() {
+            self.validate_dump(m)?;
+        } else if self.actuators.magnetorquers.is_none() {
             return Err(bad("momentum", "magnetic unloading needs [actuators.magnetorquers]"));
         }
         if self.actuators.wheels.is_none() && self.actuators.cmg.is_none() {
@@ -81,6 +116,26 @@ impl Scenario {
             if self.modes.is_none() {
                 return Err(bad("momentum.modes", "needs [modes]"));
             }
+        }
+        Ok(())
+    }
+
+    /// The thruster-dump keys.
+    fn validate_dump(&self, m: &MomentumSpec) -> Result<()> {
+        if !(m.dump_gain_per_s.is_finite() && m.dump_gain_per_s > 0.0 && m.dump_gain_per_s <= 10.0) {
+            return Err(bad("momentum.dump_gain_per_s", "must be in (0, 10] 1/s"));
+        }
+        if !(m.dump_torque_max_nm.is_finite() && m.dump_torque_max_nm > 0.0 && m.dump_torque_max_nm <= 1e4) {
+            return Err(bad("momentum.dump_torque_max_nm", "must be in (0, 1e4] N m"));
+        }
+        if !(m.dump_start_nms.is_finite() && m.dump_start_nms > 0.0 && m.dump_start_nms <= 1e6) {
+            return Err(bad("momentum.dump_start_nms", "must be in (0, 1e6] N m s"));
+        }
+        if !(m.dump_stop_nms.is_finite() && m.dump_stop_nms >= 0.0 && m.dump_stop_nms < m.dump_start_nms) {
+            return Err(bad("momentum.dump_stop_nms", "must be >= 0 and below momentum.dump_start_nms"));
+        }
+        if self.actuators.thrusters.is_none() {
+            return Err(bad("momentum.method", "\"thrusters\" needs [actuators.thrusters]"));
         }
         Ok(())
     }
@@ -110,6 +165,15 @@ impl Scenario {
             residual_dipole_am2: f(m.residual_dipole_am2.unwrap_or(self.spacecraft.residual_dipole_am2)),
             mag_coupling_t_per_am2: coupling.map(f),
             min_field_t: 1e-7,
+            method: if m.dumps() { UnloadMethod::Thrusters } else { UnloadMethod::Magnetic },
+            dump_gain_per_s: m.dump_gain_per_s as f32,
+            dump_torque_max_nm: m.dump_torque_max_nm as f32,
+            dump_start_nms: m.dump_start_nms as f32,
+            dump_stop_nms: m.dump_stop_nms as f32,
+            dump_thrusters: match self.actuator_params(Some("thrusters")) {
+                Ok(ActuatorParams::Thrusters(t)) if m.dumps() => t,
+                _ => NO_THRUSTERS,
+            },
         }
     }
 }

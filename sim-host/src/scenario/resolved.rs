@@ -78,6 +78,8 @@ pub struct Resolved {
     pub layout: Layout,
     /// Momentum FDIR trip (wheel speed fraction), for the summary (`None`: off).
     pub momentum_trip: Option<f64>,
+    /// The keep-up and gimbal monitors are on (`[modes] slow_fdir_persistence_s` > 0).
+    pub slow_fdir: bool,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -135,6 +137,7 @@ impl TryFrom<&Scenario> for Resolved {
             open_loop: sc.open_loop.as_ref().map_or_else(Vec::new, |o| o.commands.clone()),
             commands,
             momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
+            slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
         })
     }
 }
@@ -152,7 +155,11 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
         env_torques: has_environment(sc),
         estimation: sc.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf),
-        momentum: sc.momentum.is_some() || sc.modes.as_ref().is_some_and(|m| m.momentum_trip_speed_fraction > 0.0),
+        momentum: sc.momentum.is_some()
+            || sc
+                .modes
+                .as_ref()
+                .is_some_and(|m| m.momentum_trip_speed_fraction > 0.0 || m.slow_fdir_persistence_s > 0.0),
     }
 }
 
