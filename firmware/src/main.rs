@@ -26,7 +26,9 @@ use crate::executor::Executor;
 use crate::state::{SharedSession, SharedTx};
 
 static EXECUTOR: StaticCell<Executor> = StaticCell::new();
-static SESSION: StaticCell<SharedSession> = StaticCell::new();
+/// Built at compile time in static RAM: constructing it in `main` and moving it into a
+/// cell put the whole session (the flight state, ~13 KiB and growing) on the stack once.
+static SESSION: SharedSession = Mutex::new(Session::new(board::BOARD_ID, 0));
 static TX: StaticCell<SharedTx> = StaticCell::new();
 
 #[cortex_m_rt::entry]
@@ -46,11 +48,18 @@ fn main() -> ! {
         acs_flight::link::ResetCause::PowerOn => defmt::info!("reset cause: {}", reset_cause),
         _ => defmt::warn!("reset cause: {} (safe hold until the host reconfigures)", reset_cause),
     }
-    let mut session = Session::new(board::BOARD_ID, board::cost_counter_hz());
-    session.set_reset_cause(reset_cause);
-    let (Some(session), Some(tx), Some(executor)) =
-        (SESSION.try_init(Mutex::new(session)), TX.try_init(Mutex::new(tx)), EXECUTOR.try_init(Executor::new()))
-    else {
+    match SESSION.try_lock() {
+        Ok(mut s) => {
+            s.set_reset_cause(reset_cause);
+            s.set_cost_counter_hz(board::cost_counter_hz());
+        }
+        Err(_) => {
+            defmt::error!("session locked at start-up");
+            board::exit_failure()
+        }
+    }
+    let session: &'static SharedSession = &SESSION;
+    let (Some(tx), Some(executor)) = (TX.try_init(Mutex::new(tx)), EXECUTOR.try_init(Executor::new())) else {
         defmt::error!("main entered twice");
         board::exit_failure()
     };

@@ -49,6 +49,12 @@ impl Session {
         }
     }
 
+    /// The frequency of the cost counter, Hz (a board that measures its clock at start-up
+    /// sets it after building the session in place).
+    pub fn set_cost_counter_hz(&mut self, hz: u32) {
+        self.cost_counter_hz = hz;
+    }
+
     /// Record why the flight computer started (reported in every `HelloAck`).
     pub fn set_reset_cause(&mut self, cause: ResetCause) {
         self.reset_cause = cause;
