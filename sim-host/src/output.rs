@@ -138,7 +138,11 @@ fn actuator_figures() -> Vec<Figure> {
             vec![
                 panel("stored momentum, body axes", "N m s", xyz("h_body", "nms")),
                 panel("stored momentum, inertial axes", "N m s", xyz("h_inertial", "nms")),
-                panel("torquer torque m × B (B-dot while detumbling, unloading after)", "N m", xyz("torque_unload", "nm")),
+                panel(
+                    "torquer torque m × B (B-dot while detumbling, unloading after)",
+                    "N m",
+                    xyz("torque_unload", "nm"),
+                ),
                 panel("|h|", "N m s", vec![line("h_norm_nms", "|h|", false)]),
             ],
         ),

@@ -546,10 +546,10 @@ impl Scenario {
             ("actuators.wheels.max_speed_rpm", w.max_speed_rpm, 1.0, max_rpm),
             ("actuators.wheels.inertia_kgm2", w.inertia_kgm2, 1.0e-6, 1.0e3),
         ] {
-            if let Some(v) = v {
-                if !(v >= min && v <= max) {
-                    return Err(bad(k, format!("{v} is outside the range [{min:e}, {max:.6e}]")));
-                }
+            if let Some(v) = v
+                && !(v >= min && v <= max)
+            {
+                return Err(bad(k, format!("{v} is outside the range [{min:e}, {max:.6e}]")));
             }
         }
         let n = self.wheel_axes(w).len();
