@@ -124,7 +124,8 @@ impl Fsw {
 
     /// One control step.
     pub fn step(&mut self, f: &SensorFrame) -> ActuatorCommand {
-        let f = &self.without_torquer_field(f);
+        let corrected = self.without_torquer_field(f);
+        let f = corrected.as_ref().unwrap_or(f);
         // Estimate: runs whatever the mode (and unconfigured: the filter converges while
         // the ground uploads the laws).
         let est = self.determination.step(f);
@@ -139,14 +140,17 @@ impl Fsw {
     }
 
     /// The frame with the torquers' field at the magnetometer removed (the calibrated
-    /// coupling of the parameter set in force times last step's dipole).
-    fn without_torquer_field(&self, f: &SensorFrame) -> SensorFrame {
-        let mut g = *f;
-        if let Some(cfg) = self.active_cfg() {
-            let field = momentum::torquer_field_t(&cfg.params.momentum, &self.dipole_last_am2);
-            g.mag_field_t = (Vec3::from(f.mag_field_t) - field).into();
+    /// coupling of the parameter set in force times last step's dipole); `None` (use the
+    /// frame as it is, no copy on the hot path) when no set is in force or its coupling is 0.
+    fn without_torquer_field(&self, f: &SensorFrame) -> Option<SensorFrame> {
+        let p = &self.active_cfg()?.params.momentum;
+        if p.mag_coupling_t_per_am2.iter().flatten().all(|c| *c == 0.0) {
+            return None;
         }
-        g
+        let field = momentum::torquer_field_t(p, &self.dipole_last_am2);
+        let mut g = *f;
+        g.mag_field_t = (Vec3::from(f.mag_field_t) - field).into();
+        Some(g)
     }
 
     fn step_active(&mut self, f: &SensorFrame, est: &Estimate) -> ActuatorCommand {
