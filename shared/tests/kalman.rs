@@ -3,7 +3,7 @@
 //! Flight Kalman filter on its own (no host design tools): rejection of bad data leaves the
 //! filter untouched, singular innovation, mode switching, limited LQR. The comparisons
 //! against the f64 DARE, Monte Carlo NEES and the LQG loop are in
-//! `sim-host/tests/flight_kalman.rs` (they need `sim_host::design`).
+//! `sim-host/core/tests/flight_kalman.rs` (they need `sim_host::design`).
 use acs_flight::control::lqr::state_feedback;
 use acs_flight::estimation::kalman::{KalmanFilter, KfError, LinearModel};
 use acs_flight::math::scale_to_peak;

@@ -4,11 +4,11 @@
 //!
 //! Not a test: it prints figures. The overhead is measured by flying the same 1,000
 //! planned scenarios again, already parsed, on one thread with nothing written
-//! (`exec::fly`), and comparing with the campaign's run phase on the same number of
+//! (`sim_core::runner::fly`), and comparing with the campaign's run phase on the same number of
 //! threads: overhead per run = (threads × run-phase wall − Σ flight wall) / runs.
 
-use sim_host::campaign::{self, Campaign, Shard, exec};
-use sim_host::scenario::Scenario;
+use sim_core::scenario::Scenario;
+use sim_host::campaign::{self, Campaign, Shard};
 use std::path::Path;
 use std::time::Instant;
 
@@ -37,7 +37,7 @@ fn main() {
         m.runs.iter().map(|run| Scenario::load(&tmp.join(&run.scenario)).expect("scenario")).collect();
     let t3 = Instant::now();
     for sc in &scenarios {
-        exec::fly(sc).expect("flight");
+        sim_core::runner::fly(sc).expect("flight");
     }
     let fly_s = t3.elapsed().as_secs_f64();
     let overhead_ms = (threads as f64 * run_s - fly_s) / n as f64 * 1e3;

@@ -10,10 +10,10 @@
 //! that pairs each [`StepReport`] with that line; [`measure_frames`] runs a recorded
 //! sequence of sensor frames through it (for the worst-case search).
 
-use crate::link::qemu::QemuLink;
-use crate::link::{FlightLink, LinkInfo};
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Context, Result, bail};
+use sim_core::link::qemu::QemuLink;
+use sim_core::link::{FlightLink, LinkInfo};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -162,7 +162,7 @@ impl CyclesLink {
         ));
         let arg = format!("{},out={},ws={}", plugin.display(), out.display(), opts.wait_states);
         let qemu =
-            QemuLink::start_with(firmware, crate::link::qemu::QemuClock::Lockstep, &["-plugin".to_string(), arg])?;
+            QemuLink::start_with(firmware, sim_core::link::qemu::QemuClock::Lockstep, &["-plugin".to_string(), arg])?;
         // QEMU may open the link's socket before it installs the plugin (which creates the file).
         let deadline = Instant::now() + Duration::from_secs(10);
         let file = loop {
@@ -237,7 +237,7 @@ impl FlightLink for CyclesLink {
     fn frames_dropped_host(&self) -> u32 {
         self.qemu.frames_dropped_host()
     }
-    fn anomalies(&self) -> crate::link::LinkAnomalies {
+    fn anomalies(&self) -> sim_core::link::LinkAnomalies {
         self.qemu.anomalies()
     }
 }
@@ -276,16 +276,16 @@ pub fn measure_frames(
 /// Runs a closed-loop scenario against the QEMU firmware with the plugin; returns the
 /// run's summary, the plugin's figures per step and the firmware's instruction counts.
 pub fn run_scenario(
-    sc: &crate::scenario::Scenario,
+    sc: &sim_core::scenario::Scenario,
     firmware: Option<&Path>,
     opts: &CyclesOptions,
-) -> Result<(crate::summary::Summary, Vec<StepCycles>, Vec<f64>)> {
+) -> Result<(sim_core::recorder::summary::Summary, Vec<StepCycles>, Vec<f64>)> {
     if !sc.closed_loop() {
         bail!("{}: open-loop scenario, the flight code does not run", sc.name);
     }
     let mut link = CyclesLink::start(firmware, opts)?;
-    let mut sink = crate::series::Discard;
-    let summary = crate::runner::run_recorded(sc, &mut link, false, &mut sink)?;
+    let mut sink = sim_core::recorder::series::Discard;
+    let summary = sim_core::runner::run_recorded(sc, &mut link, false, &mut sink)?;
     let ipt = link.info.as_ref().and_then(|i| i.instructions_per_tick).unwrap_or(f64::NAN);
     let fw = link.firmware_ticks.iter().map(|&t| f64::from(t) * ipt).collect();
     Ok((summary, std::mem::take(&mut link.steps), fw))

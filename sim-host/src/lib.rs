@@ -1,32 +1,18 @@
-//! Host simulator: f64 plant models, sensors, the links to the flight code (in-process,
-//! QEMU, TCP, serial), the scenario format, the run loop and its outputs.
-//!
-//! The flight software is never re-implemented here: every run calls the `acs-flight`
-//! crate, either directly (in-process) or on the flight computer over the postcard link.
+//! The simulator's tools, on top of the [`sim_core`] library: the generated report,
+//! Monte Carlo campaigns, the worst-case timing search, cycle bounds on the emulated MCU
+//! and the analysis helpers. The `sim-host` command line (`main.rs`) is a thin layer on
+//! these modules and on `sim_core`.
+//! - [`report`]: `docs/results.md` and its figures (the papers' outcomes, experiments);
+//! - [`campaign`]: plan / run / merge of dispersed runs (local or Slurm);
+//! - [`timing`]: the search for the slowest flight step and its corpus;
+//! - [`cycles`]: cycle bounds of the firmware under QEMU (TCG plugin);
+//! - [`analysis`]: post-run analyses (thruster allocation envelopes).
 
-// Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
+// Index loops over parallel fixed-size arrays read better than zips.
 #![allow(clippy::needless_range_loop)]
 
 pub mod analysis;
-pub mod attitude;
 pub mod campaign;
-pub mod columns;
 pub mod cycles;
-pub mod decimate;
-pub mod design;
-pub mod environment;
-pub mod estimation;
-pub mod files;
-pub mod link;
-pub mod momentum;
-pub mod output;
-pub mod plant;
-pub mod plots;
 pub mod report;
-pub mod runner;
-pub mod scenario;
-pub mod sensors;
-pub mod series;
-pub mod simulation;
-pub mod summary;
 pub mod timing;

@@ -2,11 +2,13 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use sim_core::link::{self, LinkKind, LinkOptions};
+use sim_core::recorder::output;
+use sim_core::recorder::summary::{Failure, Summary};
+use sim_core::runner;
+use sim_core::scenario::{Controller, Scenario};
 use sim_host::campaign::{Campaign, Shard};
-use sim_host::link::{self, LinkKind, LinkOptions};
-use sim_host::scenario::{Controller, Scenario};
-use sim_host::summary::{Failure, Summary};
-use sim_host::{output, runner, timing};
+use sim_host::timing;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

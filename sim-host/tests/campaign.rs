@@ -3,12 +3,12 @@
 //! the distributions are what they claim, errors and interruptions are survived, and the
 //! merge's verdicts follow the binomial bounds.
 
-use sim_host::attitude::{from_xyzw, quat_from_euler};
+use sim_core::attitude::{from_xyzw, quat_from_euler};
+use sim_core::scenario::Scenario;
 use sim_host::campaign::draw::{self, haar_angle};
 use sim_host::campaign::spec::{Apply, Dispersion, Distribution};
 use sim_host::campaign::{self, Campaign, Manifest, RunStatus, Shard};
 use sim_host::campaign::{merge::Verdict, path::KeyPath};
-use sim_host::scenario::Scenario;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -138,7 +138,7 @@ fn planned_scenarios_carry_exactly_the_drawn_values() {
         let angle_deg = rv.iter().map(|x| x * x).sum::<f64>().sqrt();
         assert!(angle_deg <= 20.0);
         let q = sc.initial.attitude.quaternion();
-        let e = sim_host::attitude::error_angle(&q, &q0).to_degrees();
+        let e = sim_core::attitude::error_angle(&q, &q0).to_degrees();
         assert!((e - angle_deg).abs() < 1e-9, "run {}: {e} vs {angle_deg}", run.index);
         assert_eq!(sc.sensors.seed, run.draws["sensors.seed"].as_u64().unwrap());
         assert_eq!(sc.duration_s, base.duration_s);
@@ -248,13 +248,13 @@ fn rotations_act_on_attitudes_matrices_and_rotation_vectors() {
             let a = arr(x);
             from_xyzw([a[0], a[1], a[2], a[3]])
         };
-        let angle = sim_host::attitude::error_angle(&q(&w["a"]["quaternion_xyzw"]), &q(&base["a"]["quaternion_xyzw"]));
+        let angle = sim_core::attitude::error_angle(&q(&w["a"]["quaternion_xyzw"]), &q(&base["a"]["quaternion_xyzw"]));
         assert!((angle.to_degrees() - norm(&dq)).abs() < 1e-9);
         let e = |x: &toml::Value| {
             let a = arr(x);
             quat_from_euler([a[0], a[1], a[2]].map(f64::to_radians), acs_flight::math::EulerSeq::Xyz123)
         };
-        let angle = sim_host::attitude::error_angle(&e(&w["b"]["euler_deg"]), &e(&base["b"]["euler_deg"]));
+        let angle = sim_core::attitude::error_angle(&e(&w["b"]["euler_deg"]), &e(&base["b"]["euler_deg"]));
         assert!((angle.to_degrees() - norm(&de)).abs() < 1e-9);
         let m = |x: &toml::Value| {
             let rows: Vec<Vec<f64>> = x.as_array().unwrap().iter().map(arr).collect();

@@ -6,8 +6,8 @@
 //!
 //! Both skip (with a message) when qemu-system-arm or a C compiler is missing.
 
+use sim_core::scenario::Scenario;
 use sim_host::cycles::{self, CyclesOptions};
-use sim_host::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -112,7 +112,7 @@ fn synthetic_program_matches_the_trm_hand_count() {
 #[test]
 fn firmware_step_instructions_agree_with_the_cost_counter() {
     let Some(p) = plugin() else { return };
-    let elf = sim_host::link::qemu::default_firmware();
+    let elf = sim_core::link::qemu::default_firmware();
     if !elf.exists() {
         eprintln!("SKIPPED: no firmware ELF at {} (scripts/firmware.sh build)", elf.display());
         return;

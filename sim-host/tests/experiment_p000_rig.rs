@@ -2,7 +2,7 @@
 //! against closed forms and physics, and its verdict against the paper's figures.
 
 use acs_flight::math::EulerSeq;
-use sim_host::attitude::{error_angle, quat_from_euler};
+use sim_core::attitude::{error_angle, quat_from_euler};
 use sim_host::report::experiment::{self, Context, Experiment, Explains};
 use sim_host::report::experiments::p000_rig::{self, key_num};
 use std::sync::OnceLock;

@@ -3,7 +3,7 @@
 //! the large-angle model, the triangle inequality between plant, model and target, and
 //! the wheel pseudo-inverse (eq 26) computed here from the pyramid geometry (eq 9).
 
-use sim_host::attitude::{Quat, Vec3};
+use sim_core::attitude::{Quat, Vec3};
 use sim_host::report::experiment::{self, Context, Explains, fly_recorded};
 use sim_host::report::experiments::p001_dmcs::{self, reference_model};
 
@@ -94,7 +94,7 @@ fn dmcs_experiment_against_independent_truths() {
         // initial angle to the target.
         let q_i = sc.initial.attitude.quaternion();
         let q_t = sc.target.quaternion();
-        let theta0 = sim_host::attitude::error_angle(&q_i, &q_t);
+        let theta0 = sim_core::attitude::error_angle(&q_i, &q_t);
         let (settle, theta_end) = eigen_axis_settle_s(theta0, 0.02, sc.duration_s);
         let got = f(&format!("model_settle_s_{tag}"));
         assert!(

@@ -3,7 +3,7 @@
 //! independent truth: a closed form recomputed here, a second accounting of the same
 //! run, a trend the physics demands, or the published tables.
 
-use sim_host::plant::thrusters::G0_M_S2;
+use sim_core::plant::thrusters::G0_M_S2;
 use sim_host::report::experiment::{self, Context, Explains, fly_recorded};
 use sim_host::report::experiments::p004_unknowns as x;
 

@@ -7,12 +7,12 @@
 
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport, status};
 use anyhow::Result;
+use sim_core::link::{self, FlightLink, LinkInfo, LinkKind, LinkOptions};
+use sim_core::recorder::summary::{Failure, RunStatus as Status};
+use sim_core::runner;
+use sim_core::scenario::Scenario;
 use sim_host::campaign::lock::ShardLock;
 use sim_host::campaign::{self, Campaign, RunStatus, Shard};
-use sim_host::link::{self, FlightLink, LinkInfo, LinkKind, LinkOptions};
-use sim_host::runner;
-use sim_host::scenario::Scenario;
-use sim_host::summary::{Failure, RunStatus as Status};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

@@ -16,8 +16,8 @@
 use acs_flight::link::{FrameAccumulator, FswMsg, HostMsg, MAX_FRAME, encode_frame};
 use serde::de::DeserializeOwned;
 use serde_json::Value;
-use sim_host::link::FlightLink;
-use sim_host::link::framed::Framed;
+use sim_core::link::FlightLink;
+use sim_core::link::framed::Framed;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! of absurd duration or one whose output would not fit on the disk; the error names the
 //! scenario key to change.
 
-use sim_host::output::estimated_csv_bytes;
+use sim_core::recorder::output::estimated_csv_bytes;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -104,7 +104,7 @@ fn bad_sensor_model_keys_are_refused_naming_the_key() {
         ("[sensors.gnss]\noutages_s = [[10.0, 5.0]]\n", "sensors.gnss.outages_s"),
     ] {
         let text = format!("{base}\n{table}");
-        let err = sim_host::scenario::Scenario::from_toml(&text)
+        let err = sim_core::scenario::Scenario::from_toml(&text)
             .and_then(|s| s.validate().map(|()| s))
             .err()
             .unwrap_or_else(|| panic!("{key} accepted"));

@@ -7,9 +7,9 @@
 
 use acs_flight::link::estimate_flags;
 use acs_flight::params::AttitudeSource;
-use sim_host::link::FlightLink;
-use sim_host::link::qemu::{QemuLink, default_firmware};
-use sim_host::scenario::Scenario;
+use sim_core::link::FlightLink;
+use sim_core::link::qemu::{QemuLink, default_firmware};
+use sim_core::scenario::Scenario;
 use sim_host::timing::corpus::{BudgetFile, Corpus, replay};
 use sim_host::timing::search::{SearchOptions, mode_name, search};
 use sim_host::timing::{Evaluator, Target};
@@ -129,7 +129,7 @@ fn short_search_beats_the_closed_loop_run_and_stays_within_budget() {
     let mut sc = Scenario::load(&path).unwrap();
     sc.duration_s = 1.0;
     let mut link = QemuLink::start(None).unwrap();
-    let run = sim_host::runner::run(&sc, &mut link, false).unwrap();
+    let run = sim_core::runner::run(&sc, &mut link, false).unwrap();
     let run_max = run.summary.max_step_instructions.expect("QEMU counts instructions");
     let target = Target::load(&path).unwrap();
     let dt = target.dt_s;

@@ -1,11 +1,11 @@
 //! Helpers shared by the integration tests.
 
 use acs_flight::link::{HostMsg, MAX_FRAME, SensorFrame, encode_frame, valid};
-use sim_host::link::FlightLink;
-use sim_host::link::framed::Framed;
-use sim_host::link::in_process::InProcess;
-use sim_host::runner::{self, RunResult};
-use sim_host::scenario::Scenario;
+use sim_core::link::FlightLink;
+use sim_core::link::framed::Framed;
+use sim_core::link::in_process::InProcess;
+use sim_core::runner::{self, RunResult};
+use sim_core::scenario::Scenario;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -37,7 +37,7 @@ pub fn build_qemu_firmware() {
             .expect("scripts/firmware.sh");
         assert!(st.success(), "firmware build failed");
     });
-    assert!(sim_host::link::qemu::default_firmware().exists());
+    assert!(sim_core::link::qemu::default_firmware().exists());
 }
 
 pub fn scenario(rel: &str) -> Scenario {
@@ -117,7 +117,7 @@ pub fn repeated_frames_and_trailing_junk_are_refused<S: Read + Write>(link: &mut
         assert_eq!(r.cmd, reference_step(&mut reference, seq), "frame {seq}: a refused frame changed the flight state");
         assert_eq!((r.seq_refused, r.frames_dropped - dropped0), (2, 1), "frame {seq}");
     }
-    assert_eq!(link.anomalies(), sim_host::link::LinkAnomalies { frames_refused_flight: 2, ..Default::default() });
+    assert_eq!(link.anomalies(), sim_core::link::LinkAnomalies { frames_refused_flight: 2, ..Default::default() });
 }
 
 /// Names of the symbols of an ELF32 little-endian file (SHT_SYMTAB + its string table).

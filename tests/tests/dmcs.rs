@@ -3,7 +3,7 @@
 //! settle.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
+use sim_core::recorder::columns::Col;
 
 #[test]
 fn dmcs_manoeuvres_converge_through_the_inertia_change_and_the_gains_settle() {

@@ -2,8 +2,8 @@
 //! manoeuvre with a 3 deg/s limit never turns faster, and still arrives.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
-use sim_host::scenario::Controller;
+use sim_core::recorder::columns::Col;
+use sim_core::scenario::Controller;
 
 #[test]
 fn rate_limited_quaternion_feedback_respects_the_slew_rate_and_arrives() {

@@ -5,8 +5,8 @@
 
 use acs_flight::link::{FswMsg, HostMsg};
 use acs_tests::{corrupt_frames_are_dropped_and_counted, run_in_process, scenario};
-use sim_host::link::framed::Framed;
-use sim_host::link::{FlightLink, serve};
+use sim_core::link::framed::Framed;
+use sim_core::link::{FlightLink, serve};
 use std::net::{TcpListener, TcpStream};
 
 fn virtual_board() -> Framed<TcpStream> {
@@ -23,7 +23,7 @@ fn framed_tcp_run_equals_in_process_run_bit_for_bit() {
     sc.sensors.attitude_noise_deg = 0.5;
     let a = run_in_process(&sc);
     let mut link = virtual_board();
-    let b = sim_host::runner::run(&sc, &mut link, false).unwrap();
+    let b = sim_core::runner::run(&sc, &mut link, false).unwrap();
     for name in ["q_w", "yaw_deg", "gimbal1_deg", "gimbal_rate3_rad_s", "torque_demand_z_nm", "singularity_m"] {
         let (x, y) = (a.series.col(name).unwrap(), b.series.col(name).unwrap());
         assert!(x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits()), "column {name} differs");

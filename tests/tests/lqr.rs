@@ -3,7 +3,7 @@
 //! paper 003 (air-bearing rig with its pendulum, magnetorquers).
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
+use sim_core::recorder::columns::Col;
 
 #[test]
 fn paper002_lqr_stabilises_within_18_s_to_0_2_deg() {
@@ -50,7 +50,7 @@ fn paper003_three_axis_magnetic_lqr_keeps_every_axis_within_15_deg_over_5_orbits
     assert!(r_ < 15.0 && p_ < 15.0 && y_ < 15.0);
 }
 
-fn steady_rms(r: &sim_host::runner::RunResult, from_s: f64) -> f64 {
+fn steady_rms(r: &sim_core::runner::RunResult, from_s: f64) -> f64 {
     let (t, e) = (r.series.fixed(Col::T).unwrap(), r.series.fixed(Col::Error).unwrap());
     let v: Vec<f64> = t.iter().zip(e).filter(|(t, _)| **t >= from_s).map(|(_, e)| *e).collect();
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
@@ -116,7 +116,7 @@ fn time_varying_lqg_filter_converges_to_the_steady_state_gain_and_flies_the_same
 
     // Closed loop: the time-varying option flies paper 002 like the steady-state filter.
     let steady = run_in_process(&sc);
-    if let Some(sim_host::scenario::Controller::Lqg { time_varying, .. }) = &mut sc.controller {
+    if let Some(sim_core::scenario::Controller::Lqg { time_varying, .. }) = &mut sc.controller {
         *time_varying = true;
     }
     let varying = run_in_process(&sc);

@@ -2,9 +2,9 @@
 //! with the torquers' dead band, and B-dot detumbling of the cubesat in orbit.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
+use sim_core::recorder::columns::Col;
 
-fn rms_after(ts: &sim_host::series::TimeSeries, col: Col, t0: f64) -> f64 {
+fn rms_after(ts: &sim_core::recorder::series::TimeSeries, col: Col, t0: f64) -> f64 {
     let (t, x) = (ts.fixed(Col::T).unwrap(), ts.fixed(col).unwrap());
     let v: Vec<f64> = t.iter().zip(x).filter(|(t, _)| **t >= t0).map(|(_, x)| *x).collect();
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()

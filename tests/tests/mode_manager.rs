@@ -8,8 +8,8 @@
 //! without one.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
-use sim_host::runner::ModeTransition;
+use sim_core::recorder::columns::Col;
+use sim_core::runner::ModeTransition;
 
 struct Series {
     t: Vec<f64>,
@@ -18,7 +18,7 @@ struct Series {
     error_deg: Vec<f64>,
 }
 
-fn series(r: &sim_host::runner::RunResult) -> Series {
+fn series(r: &sim_core::runner::RunResult) -> Series {
     let ts = &r.series;
     let c = |n: Col| ts.fixed(n).unwrap_or_else(|| panic!("column {}", n.name())).to_vec();
     let (wx, wy, wz) = (c(Col::RateX), c(Col::RateY), c(Col::RateZ));
@@ -159,7 +159,7 @@ fn from_hold(
     rate_deg_s: f64,
     outage_s: Option<[f64; 2]>,
     mekf: bool,
-) -> (sim_host::scenario::Scenario, sim_host::runner::RunResult) {
+) -> (sim_core::scenario::Scenario, sim_core::runner::RunResult) {
     let mut sc = scenario("modes/cubesat-mission.toml");
     let modes = sc.modes.as_mut().unwrap();
     modes.initial = "hold".into();
@@ -183,7 +183,7 @@ fn from_hold(
     (sc, r)
 }
 
-fn steps_without_inputs(r: &sim_host::runner::RunResult) -> u64 {
+fn steps_without_inputs(r: &sim_core::runner::RunResult) -> u64 {
     r.summary.status_counts.bad_input + r.summary.status_counts.no_estimate
 }
 
@@ -250,7 +250,7 @@ fn mode_table_scenarios_are_validated_naming_the_key() {
     let text = std::fs::read_to_string(acs_tests::repo().join("scenarios/modes/cubesat-mission.toml")).unwrap();
     let err = |from: &str, to: &str| {
         assert!(text.contains(from), "{from}");
-        format!("{:#}", sim_host::scenario::Scenario::from_toml(&text.replacen(from, to, 1)).unwrap_err())
+        format!("{:#}", sim_core::scenario::Scenario::from_toml(&text.replacen(from, to, 1)).unwrap_err())
     };
     let cases = [
         ("hold_exit_error_deg = 3.0", "hold_exit_error_deg = 0.1", "modes.hold_exit_error_deg"),
@@ -279,7 +279,7 @@ fn rate_damping_detumbles_a_cmg_craft_on_the_gyro_alone_as_the_closed_form() {
     // Paper 002's 2.5 I kg m² nanosatellite (CMG pyramid, SR steering) tumbling at 3.8 deg/s
     // with a star tracker blind above 1 deg/s: T = -kd ω gives ω(t) = ω₀ e^{-kd t / I}
     // on a spherical body (the steering cancels ω × h).
-    use sim_host::scenario::{Controller, StarTrackerSpec};
+    use sim_core::scenario::{Controller, StarTrackerSpec};
     let mut sc = scenario("paper002/lqr.toml");
     let kd = 0.5;
     sc.controller = Some(Controller::RateDamping { kd_nms: [kd; 3], torque_limit_nm: [0.2; 3] });

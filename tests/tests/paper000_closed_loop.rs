@@ -4,7 +4,7 @@
 //! (gimbal rate 60 deg/s), conservation of the cluster's reachable momentum.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
+use sim_core::recorder::columns::Col;
 
 #[test]
 fn test1_and_test3_yaw_slews_reach_the_target_and_test3_is_about_three_times_faster() {
@@ -46,7 +46,7 @@ fn same_scenario_and_seed_give_the_same_bits() {
     sc.sensors.rate_noise_rad_s = 1e-3;
     sc.sensors.seed = 7;
     // Compare bit patterns (NaN columns, e.g. unmeasured step cost, compare equal too).
-    let bits = |sc: &sim_host::scenario::Scenario| -> Vec<Vec<u64>> {
+    let bits = |sc: &sim_core::scenario::Scenario| -> Vec<Vec<u64>> {
         run_in_process(sc).series.cols.iter().map(|c| c.iter().map(|x| x.to_bits()).collect()).collect()
     };
     let a = bits(&sc);

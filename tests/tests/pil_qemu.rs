@@ -4,9 +4,9 @@
 //! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
 
 use acs_tests::{build_qemu_firmware, qemu_available, run_in_process, scenario};
-use sim_host::columns::Col;
-use sim_host::link::qemu::QemuLink;
-use sim_host::runner;
+use sim_core::link::qemu::QemuLink;
+use sim_core::recorder::columns::Col;
+use sim_core::runner;
 
 #[test]
 fn qemu_run_matches_in_process_and_reports_instruction_counts() {
@@ -83,7 +83,7 @@ fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
     // tumble then sends it back to detumble).
     let mut sc = scenario("modes/cubesat-mission.toml");
     sc.duration_s = 40.0;
-    use sim_host::scenario::{AttitudeSpec, CommandSpec};
+    use sim_core::scenario::{AttitudeSpec, CommandSpec};
     let cmd = |at_s, mode: Option<&str>, lock| CommandSpec { at_s, target: None, mode: mode.map(Into::into), lock };
     let mut retarget = cmd(15.0, None, false);
     retarget.target = Some(AttitudeSpec { euler_deg: Some([10.0, 0.0, 0.0]), ..sc.target.clone() });
@@ -91,7 +91,7 @@ fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
-    let names = |r: &sim_host::runner::RunResult| -> Vec<(String, String, String, f64)> {
+    let names = |r: &sim_core::runner::RunResult| -> Vec<(String, String, String, f64)> {
         r.summary.mode_transitions.iter().map(|m| (m.from.clone(), m.to.clone(), m.reason.clone(), m.t_s)).collect()
     };
     eprintln!("PIL mode transitions: {:?}", names(&pil));

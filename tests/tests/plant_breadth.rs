@@ -4,8 +4,8 @@
 //! electrical limits.
 
 use acs_tests::{run_in_process, scenario};
-use sim_host::columns::Col;
-use sim_host::scenario::Scenario;
+use sim_core::recorder::columns::Col;
+use sim_core::scenario::Scenario;
 
 /// Times of upward zero crossings of a sampled signal (linear interpolation).
 fn zero_crossings(t: &[f64], x: &[f64]) -> Vec<f64> {

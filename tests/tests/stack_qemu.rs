@@ -8,9 +8,9 @@
 
 use acs_tests::{build_qemu_firmware, qemu_available, scenario};
 use elf_check::{Analysis, Board};
-use sim_host::link::FlightLink;
-use sim_host::link::qemu::{QemuLink, default_firmware};
-use sim_host::runner;
+use sim_core::link::FlightLink;
+use sim_core::link::qemu::{QemuLink, default_firmware};
+use sim_core::runner;
 
 #[test]
 fn measured_stack_high_water_mark_is_within_the_static_bound() {

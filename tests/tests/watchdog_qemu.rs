@@ -12,8 +12,8 @@ use acs_flight::Fsw;
 use acs_flight::link::{FswMsg, HostMsg, LinkError, ResetCause, SensorFrame, status, valid};
 use acs_flight::params::FlightParams;
 use acs_tests::{build_qemu_firmware, qemu_available};
-use sim_host::link::FlightLink;
-use sim_host::link::qemu::{QemuClock, QemuLink};
+use sim_core::link::FlightLink;
+use sim_core::link::qemu::{QemuClock, QemuLink};
 
 /// A frame every configuration accepts: level attitude, at rest, all sensors valid.
 fn frame(seq: u32) -> SensorFrame {

@@ -18,7 +18,7 @@ use crate::types::Valid;
 
 /// Longest time a fix is carried forward, s (three LEO orbits). Two-body propagation
 /// ignores J2: from a 617 km fix it is 3.5 km off after 600 s and 108 km (0.9° of LVLH)
-/// after one orbit (sim-host/tests/onboard_orbit.rs); f32 rounding adds < 4 m. Beyond
+/// after one orbit (sim-host/core/tests/onboard_orbit.rs); f32 rounding adds < 4 m. Beyond
 /// three orbits the frame is no longer worth pointing at.
 pub const MAX_FIX_AGE_S: f32 = 18_000.0;
 

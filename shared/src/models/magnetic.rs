@@ -13,7 +13,7 @@
 //! `Pₙⁿ = √((2n−1)/2n) sin θ Pₙ₋₁ⁿ⁻¹`; `Pₙᵐ = ((2n−1) cos θ Pₙ₋₁ᵐ − √((n−1)²−m²) Pₙ₋₂ᵐ) / √(n²−m²)`),
 //! `cos mλ`, `sin mλ` by the angle-addition recurrence. Degree 1 is the tilted, offset-free
 //! dipole; the error of each truncation against the full model is measured by
-//! `sim-host/tests/onboard_models.rs` and stated in docs/verification.md. Loops are bounded by
+//! `sim-host/core/tests/onboard_models.rs` and stated in docs/verification.md. Loops are bounded by
 //! [`MAX_DEGREE`]. Near the poles `sin θ` is floored at 1e-6 (within 6 m of the axis).
 
 use super::wmm2025::{G_DOT_NT_YR, G_NT, H_DOT_NT_YR, H_NT, WMM_EPOCH_YEAR, WMM_MAX_DEGREE};

@@ -22,7 +22,7 @@
 //!   `ḟ = −sin x/(√α r)`, `ġ = 1 − (1 − cos x)/(α r)`; `1 − cos x = 2 sin²(x/2)`.
 //!
 //! Accuracy (against f64 RK4 and f64 classical-elements Kepler references from the same
-//! f32 fix, `sim-host/tests/onboard_orbit.rs`): dominated by the f32 rounding of the
+//! f32 fix, `sim-host/core/tests/onboard_orbit.rs`): dominated by the f32 rounding of the
 //! mean-anomaly change ΔM (the scaling's roundings enter the mean motion), measured worst
 //! ≈ 11.4 · 2⁻²⁴ · r · (1 + |ΔM|) over 300 random orbits; typical figures are far smaller:
 //! 617 km circular orbit 0.3 m after 100 s, 1.7 m after 6,000 s (one orbit), 3.3 m after

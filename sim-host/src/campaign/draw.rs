@@ -14,7 +14,6 @@
 
 use super::path::KeyPath;
 use super::spec::{Apply, Dispersion, Distribution};
-use crate::attitude::{Quat, euler_from_quat, from_xyzw, quat_from_euler, to_xyzw};
 use acs_flight::math::EulerSeq;
 use anyhow::{Result, anyhow, bail};
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
@@ -22,6 +21,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha12Rng;
 use rand_distr::{Distribution as _, StandardNormal};
 use serde_json::json;
+use sim_core::attitude::{Quat, euler_from_quat, from_xyzw, quat_from_euler, to_xyzw};
 use toml::Value;
 
 /// SplitMix64's output function (Steele, Lea & Flood 2014).

@@ -5,13 +5,10 @@
 use super::plan::{Manifest, PlannedRun};
 use super::spec::Requirement;
 use super::{flatten, write_atomic};
-use crate::link::{self, LinkKind, LinkOptions};
-use crate::runner;
-use crate::scenario::Scenario;
-use crate::series::Discard;
-use crate::summary::Summary;
 use anyhow::{Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
+use sim_core::runner;
+use sim_core::scenario::Scenario;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::sync::Mutex;
@@ -101,12 +98,6 @@ impl RunRecord {
     }
 }
 
-/// Flies a scenario in-process, recording nothing.
-pub fn fly(sc: &Scenario) -> Result<Summary> {
-    let mut l = link::open(&LinkKind::InProcess, &LinkOptions::default())?;
-    runner::run_recorded(sc, l.as_mut(), false, &mut Discard)
-}
-
 fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
     p.downcast_ref::<&str>()
         .map(|s| (*s).to_owned())
@@ -118,7 +109,7 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> RunRecord {
     let start = Instant::now();
     let path = dir.join(&run.scenario);
-    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly(&sc)))
+    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| runner::fly(&sc)))
         .unwrap_or_else(|p| Err(anyhow!("panic: {}", panic_message(p.as_ref()))));
     let wall_time_s = start.elapsed().as_secs_f64();
     let summary = match flown.and_then(|s| Ok(serde_json::to_value(&s)?)) {

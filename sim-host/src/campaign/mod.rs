@@ -32,7 +32,7 @@ pub use plan::{Manifest, plan};
 pub use spec::Campaign;
 
 /// Results, manifests and reports are written through a temporary file and a rename.
-pub use crate::files::write_atomic;
+pub use sim_core::files::write_atomic;
 
 /// `runs/NNNNNN`: six digits (campaigns have at most a million runs).
 pub fn run_dir_name(index: u32) -> String {

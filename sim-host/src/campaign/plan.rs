@@ -5,9 +5,9 @@
 use super::draw;
 use super::spec::{Campaign, CampaignFile, MAX_RUNS};
 use super::{flatten, run_dir_name, write_atomic};
-use crate::scenario::Scenario;
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
+use sim_core::scenario::Scenario;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -59,7 +59,7 @@ impl Manifest {
 fn probe_summary_keys(base: &Scenario) -> Result<Vec<String>> {
     let mut sc = base.clone();
     sc.duration_s = 1.0 / sc.timing.control_rate_hz;
-    let summary = super::exec::fly(&sc).context("a one-step run of the base scenario")?;
+    let summary = sim_core::runner::fly(&sc).context("a one-step run of the base scenario")?;
     Ok(flatten(&serde_json::to_value(&summary)?).into_keys().collect())
 }
 

@@ -318,7 +318,7 @@ impl Distribution {
 
 impl Campaign {
     pub fn load(path: &Path) -> Result<Self> {
-        let text = crate::scenario::read_capped(path)?;
+        let text = sim_core::scenario::read_capped(path)?;
         let file: CampaignFile = toml::from_str(&text)
             .map_err(|e| anyhow!("{e}"))
             .with_context(|| format!("campaign {}", path.display()))?;

@@ -1,6 +1,6 @@
 //! The estimation section's checks (`scenarios/estimation/`): figures computed from runs
 //! flown here, each beside the criterion that decides it. The same criteria are asserted by
-//! `sim-host/tests/estimation_closed_loop.rs`; this table only reports them.
+//! `sim-host/core/tests/estimation_closed_loop.rs`; this table only reports them.
 //!
 //! - Hold on the MEKF against hold on an ideal attitude (`mekf-hold` flown again without
 //!   `[estimation]`, a noise-free star tracker and no gyro model): pointing on an estimate

@@ -7,12 +7,12 @@
 //! figure to the paper's. Its `findings` are the named numbers the report's outcome table
 //! and the experiment's test read; its `blocks` are what the report prints.
 
-use crate::link::{self, FlightLink, LinkKind, LinkOptions};
-use crate::plots::{self, Figure};
-use crate::runner::{self, RunResult};
-use crate::scenario::Scenario;
-use crate::series::TimeSeries;
 use anyhow::{Context as _, Result};
+use sim_core::link::{self, FlightLink, LinkKind, LinkOptions};
+use sim_core::recorder::plots::{self, Figure};
+use sim_core::recorder::series::TimeSeries;
+use sim_core::runner::{self, RunResult};
+use sim_core::scenario::Scenario;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -92,7 +92,7 @@ fn in_process() -> Result<Box<dyn FlightLink>> {
 }
 
 /// Flies a scenario in-process, recording nothing but the summary (the campaign runner's).
-pub use crate::campaign::exec::fly;
+pub use sim_core::runner::fly;
 
 /// Flies a scenario in-process and keeps every recorded row.
 pub fn fly_recorded(sc: &Scenario) -> Result<RunResult> {

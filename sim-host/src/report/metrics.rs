@@ -2,8 +2,8 @@
 //! `key[i]`, nested objects as `a.b`), and metrics derived from its time series that the
 //! papers report but the summary does not carry.
 
-use crate::runner::RunResult;
-use crate::series::TimeSeries;
+use sim_core::recorder::series::TimeSeries;
+use sim_core::runner::RunResult;
 use std::collections::BTreeMap;
 
 fn flatten(prefix: &str, v: &serde_json::Value, out: &mut BTreeMap<String, f64>) {

@@ -15,12 +15,12 @@ pub mod metrics;
 pub mod outcomes;
 pub mod render;
 
-use crate::plots::{self, Figure};
-use crate::runner::Summary;
 use anyhow::{Context as _, Result, bail};
 use experiment::{Block, Context, Experiment, Explains, par_map, sig};
 use outcomes::{Row, Values, Verdict};
 use render::Section;
+use sim_core::recorder::plots::{self, Figure};
+use sim_core::runner::Summary;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -114,14 +114,14 @@ struct Flown {
 }
 
 fn fly_one(s: &Scn, fig_root: &Path) -> Result<Flown> {
-    let sc = crate::scenario::Scenario::load(&s.path)?;
+    let sc = sim_core::scenario::Scenario::load(&s.path)?;
     let r = experiment::fly_recorded(&sc).with_context(|| format!("flying {}", s.rel))?;
     let dir_name = s.rel.replace('/', "-");
     let dir = fig_root.join(&dir_name);
     std::fs::create_dir_all(&dir)?;
     let wanted = figure_set(&s.paper);
     let figs: Vec<Figure> =
-        crate::output::figures().into_iter().filter(|f| wanted.contains(&f.file_name.as_str())).collect();
+        sim_core::recorder::output::figures().into_iter().filter(|f| wanted.contains(&f.file_name.as_str())).collect();
     let titles: BTreeMap<String, String> = figs.iter().map(|f| (f.file_name.clone(), f.title.clone())).collect();
     let written = plots::render(&dir, &r.series, &figs).with_context(|| format!("plotting {}", s.rel))?;
     let mut figures = Vec::new();
@@ -388,7 +388,7 @@ fn document(
                      (`summary.json`; `sim_host::estimation::stats`): attitude error |δθ| (RMS, max), gyro-bias error \
                      at the end, mean NEES with the filter's own 6×6 covariance (χ²₆: 6 for a consistent filter; \
                      the tumble and coarse phases raise it), innovations the χ² gates rejected, filter restarts. \
-                     Closed-loop proofs: `sim-host/tests/estimation_closed_loop.rs`, `tests/tests/mode_manager.rs`; \
+                     Closed-loop proofs: `sim-host/core/tests/estimation_closed_loop.rs`, `tests/tests/mode_manager.rs`; \
                      the filter against an independent f64 MEKF and the Monte Carlo consistency runs: \
                      `docs/verification.md`."
                         .into(),
@@ -408,7 +408,7 @@ fn document(
         {
             let intro = Block::Para(
                 "Flown for this report (`sim_host::report::determination`; the same criteria are asserted by \
-                 `sim-host/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
+                 `sim-host/core/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
                  attitude (no filter, a noise-free star tracker, no gyro model), and the gyro-only error growth \
                  through a star-tracker outage against the Farrenkopf bound (σv, σu the gyro's angle and rate \
                  random walk, σb = √tr P_bb of the filter at the outage start)."

@@ -15,8 +15,6 @@
 pub mod corpus;
 pub mod search;
 
-use crate::link::{FlightLink, LinkInfo, ModeTable};
-use crate::scenario::{Resolved, Scenario, Upload};
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
@@ -24,6 +22,8 @@ use acs_flight::modes::{Mode, ModeRequest};
 use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams, MAX_CSS_HEADS, MAX_WHEELS};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
+use sim_core::link::{FlightLink, LinkInfo, ModeTable};
+use sim_core::scenario::{Resolved, Scenario, Upload};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 

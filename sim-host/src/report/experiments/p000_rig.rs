@@ -14,10 +14,10 @@
 //! error shifts the curve without changing when it flattens, so `settle_plot` on the true
 //! yaw is the figure's reading.
 
-use crate::plots::{Figure, Panel, Series};
 use crate::report::experiment::{Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig};
-use crate::scenario::{RigSpec, Scenario, StarTrackerSpec};
 use anyhow::{Context as _, Result};
+use sim_core::recorder::plots::{Figure, Panel, Series};
+use sim_core::scenario::{RigSpec, Scenario, StarTrackerSpec};
 use std::collections::BTreeMap;
 
 /// Paper 000's figures for test 3 and the ratio to test 1 (SEEDS.md, table "Tests").

@@ -13,13 +13,13 @@
 //! control period. The flight model starts from the first *measured* error, ours from
 //! the true one: they differ by the attitude-sensor noise of one sample.
 
-use crate::attitude::{Quat, Vec3, euler_from_quat};
-use crate::plots::{Figure, Panel, Series};
 use crate::report::experiment::{Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig};
-use crate::scenario::Controller;
-use crate::scenario::Scenario;
-use crate::series::TimeSeries;
 use anyhow::{Context as _, Result, bail};
+use sim_core::attitude::{Quat, Vec3, euler_from_quat};
+use sim_core::recorder::plots::{Figure, Panel, Series};
+use sim_core::recorder::series::TimeSeries;
+use sim_core::scenario::Controller;
+use sim_core::scenario::Scenario;
 use std::collections::BTreeMap;
 
 /// Wheel motor-torque limit of the paper's wheels (text: 0.75 N m at 38.85 A).

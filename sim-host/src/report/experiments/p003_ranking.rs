@@ -12,12 +12,12 @@
 //! Metric: RMS of the attitude error (`error_deg`, all three axes, as in docs/results.md)
 //! over the steady part of the run, t ≥ 600 s of 1200 s, sampled at the recorded 1 Hz.
 
-use crate::plots::{Figure, Panel, Series};
 use crate::report::experiment::{
     Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig, sweep_table,
 };
-use crate::scenario::{Controller, MagnetometerSensorSpec, RigSpec, Scenario};
 use anyhow::{Context as _, Result, bail};
+use sim_core::recorder::plots::{Figure, Panel, Series};
+use sim_core::scenario::{Controller, MagnetometerSensorSpec, RigSpec, Scenario};
 use std::collections::BTreeMap;
 
 /// Published lab RMS errors (paper 003, abstract and text): PD, LQR, deg.

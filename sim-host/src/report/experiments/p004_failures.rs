@@ -8,10 +8,10 @@
 //! a surviving pair with the direction-preserving allocator.
 
 use crate::analysis::thrusters::{failure_table, max_along};
-use crate::plots::{Figure, Panel, Series};
 use crate::report::experiment::{Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig};
-use crate::scenario::ThrusterFailureSpec;
 use anyhow::{Context as _, Result};
+use sim_core::recorder::plots::{Figure, Panel, Series};
+use sim_core::scenario::ThrusterFailureSpec;
 use std::collections::BTreeMap;
 
 /// Rays per cross-section (every 0.5°): enough for the drawn polygon; the radius along

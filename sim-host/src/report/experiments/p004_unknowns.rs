@@ -16,10 +16,10 @@
 //! - The whole-run mean of the error has a floor set by the slew itself (see
 //!   [`whole_run_mean_bound_deg`]), which decides which error definition the paper used.
 
-use crate::plots::{Figure, Panel, Series};
 use crate::report::experiment::{Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig};
-use crate::scenario::{Controller, Scenario};
 use anyhow::{Context as _, Result, bail};
+use sim_core::recorder::plots::{Figure, Panel, Series};
+use sim_core::scenario::{Controller, Scenario};
 use std::collections::BTreeMap;
 
 pub const ID: &str = "p004-unknowns";

@@ -1,0 +1,348 @@
+//! Run outputs: `timeseries.csv` (streamed to disk as the run goes), `summary.json` and
+//! the PNG figures (drawn from a bounded min/max decimation of the recorded rows).
+
+use crate::recorder::columns::Col;
+use crate::recorder::decimate::Envelope;
+use crate::recorder::plots::{self, Figure, Panel, Series};
+use crate::recorder::series::{Recorder, write_csv_row};
+use crate::recorder::summary::Summary;
+use anyhow::{Context, Result, bail};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// One series per wheel / thruster (missing columns are skipped by the renderer).
+fn per_unit(prefix: &str, quantity: &str, label: &str, n: usize) -> Vec<Series> {
+    (1..=n).map(|i| line(&format!("{prefix}{i}_{quantity}"), &format!("{label}{i}"), false)).collect()
+}
+
+fn xyz(prefix: &str, suffix: &str) -> Vec<Series> {
+    ["x", "y", "z"].iter().map(|a| line(&format!("{prefix}_{a}_{suffix}"), a, false)).collect()
+}
+
+fn xyz_plain(prefix: &str) -> Vec<Series> {
+    ["x", "y", "z"].iter().map(|a| line(&format!("{prefix}_{a}"), a, false)).collect()
+}
+
+fn line(column: &str, label: &str, dashed: bool) -> Series {
+    Series { column: column.into(), label: label.into(), dashed }
+}
+
+fn panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { title: title.into(), y_label: y_label.into(), series, log_y: false }
+}
+
+fn log_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { log_y: true, ..panel(title, y_label, series) }
+}
+
+fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
+    Figure {
+        file_name: file_name.into(),
+        title: title.into(),
+        x: Col::T.name().into(),
+        x_label: "time [s]".into(),
+        panels,
+    }
+}
+
+/// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
+/// and one figure per actuator family or environment present (figures whose columns are
+/// absent are skipped).
+pub fn figures() -> Vec<Figure> {
+    let s = line;
+    let rates = || Col::RATE.iter().zip(["ωx", "ωy", "ωz"]).map(|(c, l)| s(c.name(), l, false)).collect();
+    let error = || log_panel("attitude error", "deg", vec![s(Col::Error.name(), "error", false)]);
+    let euler = |i: usize, a: &str| {
+        panel(a, "deg", vec![s(Col::EULER[i].name(), a, false), s(Col::EULER_TARGET[i].name(), "target", true)])
+    };
+    let torque = |i: usize, a: &str| {
+        let applied = s(Col::APPLIED[i].name(), "applied", false);
+        panel(a, "N m", vec![applied, s(Col::DEMAND[i].name(), "demand", true)])
+    };
+    vec![
+        figure(
+            "attitude.png",
+            "Euler angles and target",
+            vec![euler(0, "roll"), euler(1, "pitch"), euler(2, "yaw"), error()],
+        ),
+        figure(
+            "gimbals.png",
+            "CMG gimbal angles and rates",
+            vec![
+                panel("gimbal angles", "deg", per_unit("gimbal", "deg", "δ", 4)),
+                panel("commanded gimbal rates", "rad/s", per_unit("gimbal_rate", "rad_s", "δ", 4)),
+            ],
+        ),
+        figure(
+            "torque.png",
+            "Control torque: demanded (dashed) and applied by the actuators",
+            vec![torque(0, "x"), torque(1, "y"), torque(2, "z")],
+        ),
+        figure(
+            "singularity.png",
+            "Singularity measure m = det(J Jᵀ) and SR weight",
+            vec![
+                panel("singularity measure", "m", vec![s("singularity_m", "m", false)]),
+                panel("SR weight α", "α", vec![s("steering_alpha", "α", false)]),
+            ],
+        ),
+        figure("rates.png", "Body rates", vec![panel("body rate", "rad/s", rates())]),
+        figure(
+            "modes.png",
+            "Mode manager: mode, attitude error to the mission target, body rates",
+            vec![
+                panel(
+                    "mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold, 5 sun-safe",
+                    "mode",
+                    vec![s("mode", "mode", false)],
+                ),
+                error(),
+                panel("body rate", "rad/s", rates()),
+            ],
+        ),
+    ]
+    .into_iter()
+    .chain(actuator_figures())
+    .collect()
+}
+
+/// The figures of the DMCS law, the actuator families and the environment.
+fn actuator_figures() -> Vec<Figure> {
+    let s = line;
+    let mut dipoles = xyz("dipole", "am2");
+    dipoles.extend(xyz("dipole_cmd", "am2").into_iter().map(|x| Series {
+        dashed: true,
+        label: format!("{} cmd", x.label),
+        ..x
+    }));
+    vec![
+        figure(
+            "adaptive.png",
+            "DMCS adaptive feed-forward gains Δk_u",
+            vec![panel("adaptive gain", "-", xyz_plain("adaptive_gain"))],
+        ),
+        figure(
+            "wheels.png",
+            "Reaction wheels",
+            vec![
+                panel("speed", "rpm", per_unit("wheel", "speed_rpm", "w", 6)),
+                panel("motor current", "A", per_unit("wheel", "current_a", "w", 6)),
+                panel("electrical power", "W", per_unit("wheel", "power_w", "w", 6)),
+                panel("torque on the body", "N m", per_unit("wheel", "torque_nm", "w", 6)),
+            ],
+        ),
+        figure(
+            "momentum.png",
+            "Momentum management: stored momentum (truth) and the torquers' unloading torque",
+            vec![
+                panel("stored momentum, body axes", "N m s", xyz("h_body", "nms")),
+                panel("stored momentum, inertial axes", "N m s", xyz("h_inertial", "nms")),
+                panel(
+                    "torquer torque m × B (B-dot while detumbling, unloading after)",
+                    "N m",
+                    xyz("torque_unload", "nm"),
+                ),
+                panel("|h|", "N m s", vec![line("h_norm_nms", "|h|", false)]),
+            ],
+        ),
+        figure(
+            "magnetorquers.png",
+            "Magnetorquer dipoles (commanded dashed) and field",
+            vec![panel("dipole", "A m²", dipoles), panel("field in body axes", "T", xyz("b_body", "t"))],
+        ),
+        figure(
+            "thrusters.png",
+            "Thrusters",
+            vec![
+                panel("allocated level (PWPF input)", "-", per_unit("thruster", "level", "T", 12)),
+                panel("propellant used", "kg", vec![s("propellant_kg", "propellant", false)]),
+                panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
+            ],
+        ),
+        figure(
+            "estimation.png",
+            "On-board attitude determination (MEKF) against the truth: error and the filter's own sigma (dashed)",
+            vec![
+                log_panel(
+                    "attitude error |δθ| and √tr Pθθ",
+                    "deg",
+                    vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
+                ),
+                log_panel(
+                    "gyro bias error |δb| and √tr Pbb",
+                    "deg/h",
+                    vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
+                ),
+                log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
+                panel(
+                    "innovations rejected, filter restarts",
+                    "count",
+                    vec![s("est_rejected", "rejected", false), s("est_resets", "restarts", false)],
+                ),
+            ],
+        ),
+        figure(
+            "environment.png",
+            "Environment torques, body axes",
+            vec![
+                panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
+                panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
+                panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
+                panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
+                panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
+            ],
+        ),
+    ]
+}
+
+/// Estimated bytes of one CSV value: a full-precision value in Rust's shortest round-trip
+/// form is ~20 characters (more for small magnitudes, which never use an exponent), plus
+/// the separator.
+pub const CSV_BYTES_PER_VALUE: u64 = 24;
+/// Headroom kept free besides the CSV (summary, plots, the rest of the system).
+pub const DISK_RESERVE_BYTES: u64 = 64 << 20;
+
+/// Estimated size of `timeseries.csv`, bytes.
+pub fn estimated_csv_bytes(rows: u64, columns: usize) -> u64 {
+    rows.saturating_mul(columns as u64).saturating_mul(CSV_BYTES_PER_VALUE)
+}
+
+/// Free bytes for an unprivileged user on the filesystem of `dir` (which must exist).
+pub fn free_bytes(dir: &Path) -> Result<u64> {
+    fs4::available_space(dir).with_context(|| format!("free space of {}", dir.display()))
+}
+
+/// Refuses a run whose CSV would not fit in `free` bytes (keeping [`DISK_RESERVE_BYTES`]).
+pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<()> {
+    let csv = estimated_csv_bytes(rows, columns);
+    if csv.saturating_add(DISK_RESERVE_BYTES) > free {
+        bail!(
+            "the run would record {rows} rows of {columns} columns (~{:.3} GB of timeseries.csv, plus {:.3} GB kept \
+             free) but {} has {:.3} GB free: raise timing.output_every or shorten duration_s",
+            csv as f64 / 1e9,
+            DISK_RESERVE_BYTES as f64 / 1e9,
+            dir.display(),
+            free as f64 / 1e9
+        );
+    }
+    Ok(())
+}
+
+/// The files a run writes into its output directory, besides the figures.
+pub const RUN_FILES: [&str; 2] = ["timeseries.csv", "summary.json"];
+
+/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`] and every figure of
+/// [`figures`]; nothing else, and nothing when `dir` does not exist).
+pub fn clear_previous(dir: &Path) -> Result<()> {
+    let figures = figures();
+    let names = RUN_FILES.iter().copied().chain(figures.iter().map(|f| f.file_name.as_str()));
+    for name in names {
+        crate::files::remove_if_present(&dir.join(name))?;
+    }
+    Ok(())
+}
+
+/// The outputs of a run in `dir`: streams `timeseries.csv`, keeps the plot decimation, and
+/// on [`RunOutput::finish`] writes `summary.json` and the figures.
+///
+/// Before the first step ([`Recorder::start`]) the files a previous run left there
+/// ([`RUN_FILES`] and every figure of [`figures`]; nothing else) are removed, so that a run
+/// that then fails leaves no stale summary or figure beside its own output. The CSV is
+/// streamed into a hidden temporary file renamed to `timeseries.csv` by `finish` (removed
+/// if the run ends in an error); the summary and the figures are written through a
+/// temporary file and a rename. Every error names its file.
+pub struct RunOutput {
+    dir: PathBuf,
+    with_plots: bool,
+    /// Free space to assume instead of asking the filesystem (tests).
+    free_bytes: Option<u64>,
+    csv: Option<BufWriter<File>>,
+    /// The temporary CSV while the run goes (`None` once renamed or before the start).
+    csv_tmp: Option<PathBuf>,
+    plot: Envelope,
+}
+
+impl RunOutput {
+    pub fn new(dir: &Path, with_plots: bool) -> Self {
+        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, csv_tmp: None, plot: Envelope::new() }
+    }
+
+    /// Assume `bytes` free on the output filesystem (instead of `statvfs`).
+    pub fn assume_free_bytes(mut self, bytes: Option<u64>) -> Self {
+        self.free_bytes = bytes;
+        self
+    }
+
+    fn csv_path(&self) -> PathBuf {
+        self.dir.join("timeseries.csv")
+    }
+
+    /// Removes what a previous run wrote into the directory (see [`clear_previous`]).
+    pub fn clear_previous(&self) -> Result<()> {
+        clear_previous(&self.dir)
+    }
+
+    /// Flushes the CSV, writes the summary and the figures; returns the files written.
+    pub fn finish(mut self, summary: &Summary) -> Result<Vec<PathBuf>> {
+        let csv = self.csv_path();
+        let mut w = self.csv.take().context("the run recorded nothing")?;
+        w.flush().with_context(|| format!("writing {}", csv.display()))?;
+        drop(w);
+        if let Some(tmp) = self.csv_tmp.take() {
+            crate::files::rename(&tmp, &csv)?;
+        }
+        let json = self.dir.join("summary.json");
+        crate::files::write_atomic(&json, (serde_json::to_string_pretty(summary)? + "\n").as_bytes())?;
+        let mut files = vec![csv, json];
+        if self.with_plots {
+            files.extend(plots::render(&self.dir, &self.plot.series(), &figures()).context("rendering plots")?);
+        }
+        Ok(files)
+    }
+}
+
+impl Drop for RunOutput {
+    /// A run that ended in an error leaves no partial CSV.
+    fn drop(&mut self) {
+        if let Some(tmp) = self.csv_tmp.take() {
+            self.csv = None;
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+}
+
+impl Recorder for RunOutput {
+    fn start(&mut self, columns: &[String], rows: u64) -> Result<()> {
+        let dir = &self.dir;
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        let free = match self.free_bytes {
+            Some(b) => b,
+            None => free_bytes(dir)?,
+        };
+        check_space(dir, rows, columns.len(), free)?;
+        self.clear_previous()?;
+        let csv = self.csv_path();
+        let tmp = crate::files::temp_path(&csv);
+        let mut w = BufWriter::with_capacity(
+            1 << 16,
+            File::create(&tmp).with_context(|| format!("creating {} (for {})", tmp.display(), csv.display()))?,
+        );
+        self.csv_tmp = Some(tmp);
+        writeln!(w, "{}", columns.join(",")).with_context(|| format!("writing {}", csv.display()))?;
+        self.csv = Some(w);
+        if self.with_plots {
+            self.plot.start(columns, rows)?;
+        }
+        Ok(())
+    }
+
+    fn record(&mut self, row: &[f64]) -> Result<()> {
+        let w = self.csv.as_mut().context("record before start")?;
+        write_csv_row(w, row).with_context(|| format!("writing {}", self.dir.join("timeseries.csv").display()))?;
+        if self.with_plots {
+            self.plot.record(row)?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,352 @@
+//! A run's summary (`summary.json`) and the online statistics of the attitude error it
+//! reports, computed as the run goes (no stored history).
+
+use serde::Serialize;
+
+/// Attitude-error bound that defines the settle time, deg.
+pub const SETTLE_BOUND_DEG: f64 = 1.0;
+
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct StatusCounts {
+    pub torque_limited: u64,
+    pub rate_scaled: u64,
+    pub angle_limited: u64,
+    pub singular: u64,
+    pub bad_input: u64,
+    pub torque_shortfall: u64,
+    pub alloc_fallback: u64,
+    pub unrealised: u64,
+    pub law_fault: u64,
+    /// Steps the mode needed the fine attitude estimate or the navigation solution and
+    /// had neither (safe command, `Status::NO_ESTIMATE`).
+    pub no_estimate: u64,
+}
+
+/// How a run ended (`summary.json` `run_status`). Anything but `Ok` is a failed run:
+/// `sim-host run` exits with status 3 and a campaign counts it against every requirement.
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// Flew to the end with a finite state.
+    #[default]
+    Ok,
+    /// A plant, environment or flight-command quantity became non-finite: the run was
+    /// stopped at that step.
+    Diverged,
+    /// The flight code refused the input of every step (`status_counts.bad_input` on each).
+    AllRefused,
+    /// The link delivered a reply that may have changed the result (a frame stepped twice
+    /// or out of order, an unexpected reply: `link_anomalies.result_affected`).
+    LinkAnomaly,
+}
+
+/// Why a run failed (`summary.json` `failure`; null for a run that is ok).
+#[derive(Clone, Debug, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Failure {
+    /// The first non-finite quantity and the time of the control step that saw it, s.
+    Diverged { t_s: f64, quantity: String },
+    /// Why the run counts as refused.
+    Refused { reason: String },
+    /// Which link anomalies may have changed the result.
+    Link { reason: String },
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct Summary {
+    pub scenario: String,
+    /// `ok`, `diverged`, `all_refused` or `link_anomaly` (see [`RunStatus`]).
+    pub run_status: RunStatus,
+    /// Null when `run_status` is `ok`.
+    pub failure: Option<Failure>,
+    pub link: String,
+    /// 0 in-process, 1 QEMU mps2-an386, 2 STM32F405; null for open-loop runs.
+    pub board: Option<u8>,
+    pub steps: u64,
+    pub sim_time_s: f64,
+    pub control_rate_hz: f64,
+    pub dynamics_rate_hz: f64,
+    /// Principal angle between the true and the target attitude at the end, deg.
+    pub final_error_deg: f64,
+    /// Time after which the error stays below `SETTLE_BOUND_DEG`; `null` if it never does.
+    pub settle_time_s: Option<f64>,
+    pub settle_bound_deg: f64,
+    pub max_error_after_settle_deg: Option<f64>,
+    /// Mean error over the whole run, deg.
+    pub mean_error_deg: f64,
+    /// RMS error after the settle time (whole run if it never settles), deg.
+    pub rms_error_deg: f64,
+    /// Euler angles relative to the target's frame (inertial, lab or LVLH), deg.
+    pub final_euler_deg: [f64; 3],
+    pub target_euler_deg: [f64; 3],
+    pub final_rate_rad_s: [f64; 3],
+    /// Largest commanded gimbal rate, rad/s (null without CMGs).
+    pub max_gimbal_rate_rad_s: Option<f64>,
+    /// Smallest `det(J₁ J₁ᵀ)` of the true gimbal angles (unit rotor momentum).
+    pub min_singularity_measure: Option<f64>,
+    pub max_wheel_speed_rpm: Option<f64>,
+    pub max_wheel_power_w: Option<f64>,
+    pub max_wheel_current_a: Option<f64>,
+    pub propellant_kg: Option<f64>,
+    /// Most valve openings of any single thruster.
+    pub max_pulses: Option<u32>,
+    /// Largest `Fsw::step` cost in instructions (QEMU) — `null` when not measured.
+    pub max_step_instructions: Option<u64>,
+    pub mean_step_instructions: Option<f64>,
+    /// Largest `Fsw::step` cost in raw counter ticks (any board that measures).
+    pub max_step_ticks: Option<u32>,
+    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs.
+    pub mean_step_us: Option<f64>,
+    pub max_step_us: Option<f64>,
+    /// With thrusters: mean time per control step of the flight code (control law,
+    /// LP allocation, PWPF — the LP dominates), µs, on the link's clock.
+    pub allocation_us_per_call: Option<f64>,
+    pub status_counts: StatusCounts,
+    /// Every change of the flight mode (empty without `[modes]`).
+    pub mode_transitions: Vec<ModeTransition>,
+    pub final_mode: Option<String>,
+    pub frames_dropped_flight: u32,
+    pub frames_dropped_host: u32,
+    /// Duplicate, late and unexpected replies and refused frames on the link, and whether
+    /// they may have changed the result (docs/protocol.md "Link anomalies").
+    pub link_anomalies: crate::link::LinkAnomalies,
+    /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
+    /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
+    /// filter); innovations the chi-square gates rejected; filter restarts. Absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_error_rms_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_error_max_deg: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bias_error_final_deg_h: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nees_mean: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub innovations_rejected: Option<u32>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimator_resets: Option<u16>,
+    /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
+    /// records to disk; plots and summary excluded).
+    pub wall_time_s: f64,
+    pub real_time_factor: f64,
+    /// Stored momentum, wheel speeds against their limit, momentum FDIR events and the
+    /// pointing by day (with `[momentum]` or the momentum FDIR on; docs/momentum.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub momentum: Option<crate::recorder::momentum::MomentumSummary>,
+}
+
+/// A change of the flight mode as reported in telemetry.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct ModeTransition {
+    /// Time of the first step the new mode commanded, s.
+    pub t_s: f64,
+    pub from: String,
+    pub to: String,
+    /// Why the flight code switched (`acs_flight::modes::Reason`).
+    pub reason: String,
+}
+
+/// Online statistics of the attitude error: final, mean, settle time (the time after
+/// which the error stays below the bound: one control period after the last sample at or
+/// above it) and, after the settle time, the RMS and the maximum. The accumulators after
+/// the settle time restart at every exceedance, and sums run in time order, so the figures
+/// are bit-identical to those of the whole stored history.
+///
+/// A non-finite error (NaN) is never "below the bound": it counts as an exceedance (the run
+/// has not settled at that time) and propagates into the mean, RMS and final error, so a
+/// run that saw one reports them as NaN (`null` in JSON), never as a small number.
+#[derive(Clone, Debug)]
+pub struct ErrorStats {
+    dt: f64,
+    bound: f64,
+    /// Time of the last sample at or above the bound (the run starts "above": 0).
+    last_above: f64,
+    /// Samples at `t >= settle_from` count as settled (`last_above + dt`).
+    settle_from: f64,
+    last: f64,
+    n: u64,
+    sum: f64,
+    sum_sq: f64,
+    n_after: u64,
+    sum_sq_after: f64,
+    max_after: f64,
+}
+
+/// The larger of `a` and `b`, NaN if either is NaN (`f64::max` ignores a NaN operand,
+/// which would hide a non-finite sample behind the finite extreme of the others).
+pub fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) }
+}
+
+/// The smaller of `a` and `b`, NaN if either is NaN (see [`nan_max`]).
+pub fn nan_min(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.min(b) }
+}
+
+/// The error figures of a run (see [`ErrorStats`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorFigures {
+    pub final_error_deg: f64,
+    pub settle_time_s: Option<f64>,
+    pub max_error_after_settle_deg: Option<f64>,
+    pub mean_error_deg: f64,
+    pub rms_error_deg: f64,
+}
+
+impl ErrorStats {
+    pub fn new(dt: f64, bound: f64) -> Self {
+        Self {
+            dt,
+            bound,
+            last_above: 0.0,
+            settle_from: 0.0 + dt,
+            last: f64::NAN,
+            n: 0,
+            sum: 0.0,
+            sum_sq: 0.0,
+            n_after: 0,
+            sum_sq_after: 0.0,
+            max_after: 0.0,
+        }
+    }
+
+    /// The error at time `t` (non-decreasing from call to call).
+    pub fn push(&mut self, t: f64, err: f64) {
+        self.last = err;
+        self.n += 1;
+        self.sum += err;
+        self.sum_sq += err * err;
+        // `!(err < bound)`: NaN is an exceedance (`err >= bound` is false for NaN).
+        if !(err < self.bound) {
+            self.last_above = t;
+            self.settle_from = t + self.dt;
+            (self.n_after, self.sum_sq_after, self.max_after) = (0, 0.0, 0.0);
+        } else if t >= self.settle_from {
+            self.n_after += 1;
+            self.sum_sq_after += err * err;
+            self.max_after = nan_max(self.max_after, err);
+        }
+    }
+
+    /// The figures of a run that ended at `sim_time` (the time of the last sample).
+    pub fn figures(&self, sim_time: f64) -> ErrorFigures {
+        let settle_time_s = (self.last_above < sim_time).then_some(self.settle_from);
+        let (n, sum_sq) = match settle_time_s {
+            Some(_) => (self.n_after, self.sum_sq_after),
+            None => (self.n, self.sum_sq),
+        };
+        ErrorFigures {
+            final_error_deg: if self.n == 0 { f64::NAN } else { self.last },
+            settle_time_s,
+            max_error_after_settle_deg: settle_time_s.map(|_| self.max_after),
+            mean_error_deg: self.sum / self.n.max(1) as f64,
+            rms_error_deg: (sum_sq / n.max(1) as f64).sqrt(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The definitions applied to the whole stored history (what a run reported before
+    /// the statistics were computed online).
+    fn from_history(errors: &[(f64, f64)], dt: f64, bound: f64, sim_time: f64) -> ErrorFigures {
+        let last_above = errors.iter().filter(|e| e.1 >= bound).map(|e| e.0).fold(0.0, f64::max);
+        let settle = (last_above < sim_time).then_some(last_above + dt);
+        let after: Vec<f64> = errors.iter().filter(|(t, _)| settle.is_none_or(|s| *t >= s)).map(|e| e.1).collect();
+        ErrorFigures {
+            final_error_deg: errors.last().map_or(f64::NAN, |e| e.1),
+            settle_time_s: settle,
+            max_error_after_settle_deg: settle.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
+            mean_error_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
+            rms_error_deg: (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt(),
+        }
+    }
+
+    #[test]
+    fn online_figures_equal_those_of_the_history_bit_for_bit() {
+        let dt = 0.1;
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for case in 0..40 {
+            let steps = 1 + case * 37;
+            // A decaying error with noise that crosses the 1-degree bound now and then;
+            // in some cases the last sample is above the bound (never settles).
+            let errors: Vec<(f64, f64)> = (0..=steps)
+                .map(|k| {
+                    let t = k as f64 * dt;
+                    let base = 5.0 * (-(k as f64) / (steps as f64 / 3.0)).exp();
+                    let last_up = case % 4 == 0 && k == steps;
+                    (t, if last_up { 2.0 } else { base + 1.5 * rnd() * rnd() })
+                })
+                .collect();
+            let sim_time = steps as f64 * dt;
+            let mut s = ErrorStats::new(dt, 1.0);
+            for (t, e) in &errors {
+                s.push(*t, *e);
+            }
+            let (a, b) = (s.figures(sim_time), from_history(&errors, dt, 1.0, sim_time));
+            assert_eq!(a.settle_time_s, b.settle_time_s, "case {case}");
+            for (x, y) in [
+                (a.final_error_deg, b.final_error_deg),
+                (a.mean_error_deg, b.mean_error_deg),
+                (a.rms_error_deg, b.rms_error_deg),
+                (a.max_error_after_settle_deg.unwrap_or(-1.0), b.max_error_after_settle_deg.unwrap_or(-1.0)),
+            ] {
+                assert_eq!(x.to_bits(), y.to_bits(), "case {case}: {x} vs {y}");
+            }
+        }
+    }
+
+    /// Statistics of `errors` sampled every `dt` from 0, ended at the last sample.
+    fn stats_of(errors: &[f64], dt: f64) -> ErrorFigures {
+        let mut s = ErrorStats::new(dt, 1.0);
+        for (k, e) in errors.iter().enumerate() {
+            s.push(k as f64 * dt, *e);
+        }
+        s.figures((errors.len() - 1) as f64 * dt)
+    }
+
+    #[test]
+    fn a_nan_error_is_never_below_the_bound() {
+        let dt = 0.5;
+        // Settled from t = 1.0 (last exceedance at 0.5), then NaN at the last sample: the
+        // run has not settled, and nothing is reported as a small number.
+        let f = stats_of(&[3.0, 2.0, 0.5, 0.25, f64::NAN], dt);
+        assert_eq!(f.settle_time_s, None);
+        assert_eq!(f.max_error_after_settle_deg, None);
+        assert!(f.final_error_deg.is_nan() && f.mean_error_deg.is_nan() && f.rms_error_deg.is_nan(), "{f:?}");
+        // NaN as the very first sample and everything below the bound after it: the NaN
+        // counts as an exceedance at t = 0, so the settle time is one period later (not 0
+        // or "before the first sample"), and the mean stays NaN.
+        let f = stats_of(&[f64::NAN, 0.5, 0.25, 0.125], dt);
+        assert_eq!(f.settle_time_s, Some(dt));
+        assert_eq!(f.max_error_after_settle_deg, Some(0.5));
+        assert!(f.mean_error_deg.is_nan());
+        assert_eq!(f.final_error_deg, 0.125);
+        // NaN in the middle: the settle time restarts after it (the last exceedance is the
+        // NaN at t = 1.0), and the post-settle RMS covers the two samples after it only.
+        let f = stats_of(&[0.5, 0.5, f64::NAN, 0.6, 0.8], dt);
+        assert_eq!(f.settle_time_s, Some(1.5));
+        assert_eq!(f.max_error_after_settle_deg, Some(0.8));
+        assert_eq!(f.rms_error_deg, ((0.36f64 + 0.64) / 2.0).sqrt());
+        // An infinite error is an exceedance like any other.
+        assert_eq!(stats_of(&[0.5, f64::INFINITY], dt).settle_time_s, None);
+    }
+
+    #[test]
+    fn nan_extremes_propagate_where_f64_max_would_hide_them() {
+        assert_eq!(f64::max(1.0, f64::NAN), 1.0, "the trap: f64::max drops the NaN");
+        assert!(nan_max(1.0, f64::NAN).is_nan() && nan_max(f64::NAN, 1.0).is_nan());
+        assert!(nan_min(1.0, f64::NAN).is_nan() && nan_min(f64::NAN, -1.0).is_nan());
+        assert_eq!(nan_max(-2.0, 3.0), 3.0);
+        assert_eq!(nan_min(-2.0, 3.0), -2.0);
+        let folded = [0.1, f64::NAN, 0.3].iter().fold(0.0, |a, x| nan_max(a, *x));
+        assert!(folded.is_nan());
+    }
+}

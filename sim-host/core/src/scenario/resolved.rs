@@ -1,0 +1,193 @@
+//! A scenario resolved once into the typed values a run consumes (issue 9, "parse, don't
+//! validate"): the [`Clock`], the plant, the actuator models and what the flight side
+//! receives, each built by the one function that checks its tables.
+
+use super::{AttitudeSpec, Clock, Controller, InertiaChange, ModeTable, OpenLoopRow, RefFrame, Scenario};
+use crate::attitude::Quat;
+use crate::environment::model::EnvSnapshot;
+use crate::plant::magnetorquers::MagnetorquerSet;
+use crate::plant::thrusters::ThrusterSet;
+use crate::plant::{Spacecraft, State};
+use crate::recorder::columns::Layout;
+use crate::sensors::SensorSuite;
+use acs_flight::link::HostMsg;
+use acs_flight::math::EulerSeq;
+use acs_flight::params::{EstimationParams, FlightParams, MAX_THRUSTERS};
+use anyhow::Result;
+
+/// What the flight side receives before the first step of a closed-loop run.
+#[derive(Clone, Debug)]
+pub enum Upload {
+    /// One parameter set (`[controller]`, with its LQR/LQG design done).
+    Params(Box<FlightParams>),
+    /// The mode table (`[modes]`).
+    Modes(ModeTable),
+}
+
+/// The attitude target at the start of the run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetConfig {
+    /// Relative to its frame.
+    pub q_rel: Quat,
+    /// The sequence of the Euler angles reported against it.
+    pub seq: EulerSeq,
+    /// The frame is LVLH (else inertial).
+    pub lvlh: bool,
+}
+
+/// A ground command, resolved: when it is sent, its link messages in order, and the new
+/// target it sets (relative to the target's frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroundCommand {
+    pub at_s: f64,
+    pub messages: Vec<HostMsg>,
+    pub target: Option<Quat>,
+}
+
+/// A scenario whose every subsystem has been checked and built once; a run reads nothing
+/// else.
+pub struct Resolved {
+    /// The scenario's name (reported in the summary).
+    pub name: String,
+    pub clock: Clock,
+    /// Control and dynamics (RK4) rates, Hz, as reported in the summary.
+    pub control_rate_hz: f64,
+    pub dynamics_rate_hz: f64,
+    /// `None`: open loop (the flight code does not run).
+    pub upload: Option<Upload>,
+    /// Attitude determination sent after the upload (`None`: the flight code's default,
+    /// the sensor's attitude as measured).
+    pub estimation: Option<EstimationParams>,
+    /// The plant (body, CMGs, wheels, environment, rig) before its first step.
+    pub craft: Spacecraft,
+    /// The environment at t = 0 (`None` without one) and the initial state of the plant.
+    pub snap0: Option<EnvSnapshot>,
+    pub initial: State,
+    pub thrusters: Option<ThrusterSet>,
+    /// Thrusters the flight side and the recorded columns see (at most `MAX_THRUSTERS`).
+    pub n_thrusters: usize,
+    pub magnetorquers: MagnetorquerSet,
+    pub sensors: SensorSuite,
+    pub target: TargetConfig,
+    pub inertia_change: Option<InertiaChange>,
+    /// The open-loop command table (empty without `[open_loop]`).
+    pub open_loop: Vec<OpenLoopRow>,
+    /// The timed ground commands, in order.
+    pub commands: Vec<GroundCommand>,
+    /// The recorded columns.
+    pub layout: Layout,
+    /// Momentum FDIR trip (wheel speed fraction), for the summary (`None`: off).
+    pub momentum_trip: Option<f64>,
+    /// The keep-up and gimbal monitors are on (`[modes] slow_fdir_persistence_s` > 0).
+    pub slow_fdir: bool,
+}
+
+impl TryFrom<&Scenario> for Resolved {
+    type Error = anyhow::Error;
+
+    fn try_from(sc: &Scenario) -> Result<Self> {
+        let upload = if sc.closed_loop() {
+            Some(match sc.mode_table()? {
+                Some(table) => Upload::Modes(table),
+                None => Upload::Params(Box::new(sc.flight_params()?)),
+            })
+        } else {
+            None
+        };
+        let estimation = match &sc.estimation {
+            Some(e) if sc.closed_loop() => Some(e.params(sc.sensors.css.as_ref().map(|c| &c.normals_body[..]))?),
+            _ => None,
+        };
+        let mut craft = sc.spacecraft()?;
+        let snap0 = craft.env_at(0.0)?;
+        let initial = sc.initial_state(&craft, snap0.as_ref());
+        let thrusters = sc.thruster_set();
+        let n_thrusters = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
+        let target = TargetConfig {
+            q_rel: sc.target.quaternion(),
+            seq: sc.target.euler_sequence.into(),
+            lvlh: sc.target.frame == RefFrame::Lvlh,
+        };
+        let commands = sc
+            .commands
+            .iter()
+            .map(|c| GroundCommand {
+                at_s: c.at_s,
+                messages: sc.command_messages(c),
+                target: c.target.as_ref().map(AttitudeSpec::quaternion),
+            })
+            .collect();
+        Ok(Self {
+            name: sc.name.clone(),
+            clock: Clock::try_from(sc)?,
+            control_rate_hz: sc.timing.control_rate_hz,
+            dynamics_rate_hz: sc.timing.control_rate_hz * sc.timing.dynamics_substeps as f64,
+            upload,
+            estimation,
+            layout: layout(sc, craft.wheels.len(), n_thrusters),
+            craft,
+            snap0,
+            initial,
+            thrusters,
+            n_thrusters,
+            magnetorquers: sc.magnetorquer_set(),
+            sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
+            target,
+            inertia_change: sc.spacecraft.inertia_change.clone(),
+            open_loop: sc.open_loop.as_ref().map_or_else(Vec::new, |o| o.commands.clone()),
+            commands,
+            momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
+            slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
+        })
+    }
+}
+
+/// The columns a scenario records (see [`Layout`]).
+pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
+    Layout {
+        adaptive_gains: matches!(sc.controller, Some(Controller::Dmcs { .. })),
+        mode: sc.modes.is_some(),
+        flight_error: sc.closed_loop(),
+        cmg: sc.actuators.cmg.is_some(),
+        wheels: n_wheels,
+        magnetorquers: sc.actuators.magnetorquers.is_some(),
+        thrusters: n_thrusters,
+        field: sc.orbit.is_some() || sc.environment.lab_field_t.is_some(),
+        env_torques: has_environment(sc),
+        estimation: sc.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf),
+        momentum: sc.momentum.is_some()
+            || sc
+                .modes
+                .as_ref()
+                .is_some_and(|m| m.momentum_trip_speed_fraction > 0.0 || m.slow_fdir_persistence_s > 0.0),
+    }
+}
+
+/// Whether any environment or rig torque can act (the torque breakdown is recorded then).
+fn has_environment(sc: &Scenario) -> bool {
+    sc.orbit.is_some()
+        || sc.rig.is_some()
+        || sc.environment.lab_field_t.is_some()
+        || sc.spacecraft.harmonic_torque.is_some()
+        || sc.spacecraft.external_torque_nm != [0.0; 3]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::tests::MINIMAL;
+
+    #[test]
+    fn a_scenario_resolves_once_into_its_typed_parts() {
+        let sc = Scenario::from_toml(MINIMAL).unwrap();
+        let r = Resolved::try_from(&sc).unwrap();
+        let Some(Upload::Params(p)) = &r.upload else { panic!("one parameter set") };
+        assert_eq!(**p, sc.flight_params().unwrap());
+        assert_eq!(r.clock, Clock::try_from(&sc).unwrap());
+        assert!(r.craft.cmg.is_some() && r.thrusters.is_none() && r.n_thrusters == 0);
+        assert!(r.layout.cmg && r.layout.flight_error && !r.layout.mode);
+        assert!(!r.target.lvlh && r.inertia_change.is_none() && r.open_loop.is_empty());
+        assert_eq!((r.name.as_str(), r.control_rate_hz, r.dynamics_rate_hz), ("t", 100.0, 100.0));
+        assert!(r.commands.is_empty() && r.snap0.is_none() && r.initial.w == crate::attitude::Vec3::zeros());
+    }
+}

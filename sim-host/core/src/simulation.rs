@@ -1,0 +1,769 @@
+//! One run as a value: [`Simulation`] owns the plant, its environment, the sensors, the
+//! link to the flight code and the run's statistics; [`Simulation::step`] advances one
+//! control period and hands the recorded row to a [`Recorder`].
+//!
+//! Timing: the frame sampled at `t_k` is answered with commands that the plant holds over
+//! `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
+//! every dynamics step (minimum on-time, delays, failures) with exact impulse.
+
+use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_body};
+use crate::environment::model::EnvSnapshot;
+use crate::estimation::stats::EstimationStats;
+use crate::link::{FlightLink, LinkInfo};
+use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
+use crate::plant::thrusters::{ThrusterSet, ThrusterState};
+use crate::plant::wheel::WheelOutput;
+use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
+use crate::recorder::columns::Layout;
+use crate::recorder::momentum::MomentumStats;
+use crate::recorder::series::Recorder;
+use crate::recorder::summary::{
+    ErrorStats, Failure, ModeTransition, RunStatus, SETTLE_BOUND_DEG, StatusCounts, Summary, nan_max, nan_min,
+};
+use crate::scenario::{
+    Clock, GroundCommand, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout,
+};
+use crate::sensors::SensorSuite;
+use acs_flight::link::{ActuatorCommand, FswMsg, status};
+use acs_flight::math::EulerSeq;
+use acs_flight::modes::{Mode, Reason};
+use anyhow::{Context, Result, bail};
+
+/// Rows a run of `steps` control steps records with `output_every = every` (every
+/// `every`-th step and the last).
+pub fn recorded_rows(steps: u64, every: u64) -> u64 {
+    steps / every + 1 + u64::from(!steps.is_multiple_of(every))
+}
+
+fn mode_name(code: u8) -> String {
+    Mode::from_code(code).map_or("none", Mode::name).into()
+}
+
+/// The column names a scenario records.
+pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
+    layout(sc, n_wheels, n_thrusters).names()
+}
+
+/// The open-loop row in force at `t`.
+fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
+    rows.iter().take_while(|r| r.t_s <= t + 1e-12).last()
+}
+
+fn open_loop_command(row: Option<&OpenLoopRow>, seq: u32) -> ActuatorCommand {
+    let mut c = ActuatorCommand { seq, ..Default::default() };
+    if let Some(r) = row {
+        if let Some(g) = r.gimbal_rate_rad_s {
+            c.gimbal_rate_cmd_rad_s = g.map(|x| x as f32);
+        }
+        if let Some(w) = &r.wheel_torque_nm {
+            for (d, s) in c.wheel_torque_cmd_nm.iter_mut().zip(w) {
+                *d = *s as f32;
+            }
+        }
+        if let Some(d) = r.dipole_am2 {
+            c.dipole_cmd_am2 = d.map(|x| x as f32);
+        }
+        if let Some(t) = &r.thrusters_on {
+            c.thruster_on = t.iter().fold(0u16, |m, i| m | (1 << (i - 1)));
+        }
+    }
+    c
+}
+
+/// The first non-finite quantity of the plant state and of the environment snapshot
+/// (orbit, field, LVLH frame), by name.
+fn plant_non_finite(s: &State, snap: Option<&EnvSnapshot>) -> Option<&'static str> {
+    let all = |xs: &[f64]| xs.iter().all(|x| x.is_finite());
+    let wheels = |f: fn(&crate::plant::wheel::WheelState) -> f64| s.wheels.iter().all(|w| f(w).is_finite());
+    // Rates and momenta before the attitude: the renormalised quaternion turns NaN in
+    // the same substep as the rate that drove it, and the rate names the cause.
+    let checks: [(&'static str, bool); 8] = [
+        ("rate_rad_s", all(s.w.as_slice())),
+        ("wheel_momentum_nms", wheels(|w| w.h_abs_nms)),
+        ("wheel_speed_ref_rad_s", wheels(|w| w.speed_ref_rad_s)),
+        ("wheel_friction_nm", wheels(|w| w.dahl_friction_nm)),
+        ("wheel_rotor_angle_rad", wheels(|w| w.rotor_angle_rad)),
+        ("gimbal_rate_rad_s", all(&s.gimbal_rate_rad_s)),
+        ("gimbal_rad", all(&s.gimbal_rad)),
+        ("attitude_q", all(&[s.q.i, s.q.j, s.q.k, s.q.w])),
+    ];
+    if let Some((name, _)) = checks.iter().find(|c| !c.1) {
+        return Some(name);
+    }
+    let snap = snap?;
+    let v = |x: Option<Vec3>| x.is_none_or(|x| all(x.as_slice()));
+    let env: [(&'static str, bool); 5] = [
+        ("orbit_position", v(snap.orbit.map(|o| o.0))),
+        ("orbit_velocity", v(snap.orbit.map(|o| o.1))),
+        ("magnetic_field_t", v(snap.b_ref_t)),
+        ("lvlh_frame", snap.q_lvlh.is_none_or(|q| all(&[q.i, q.j, q.k, q.w]))),
+        ("lvlh_rate", all(snap.lvlh_rate_ref.as_slice())),
+    ];
+    env.iter().find(|c| !c.1).map(|c| c.0)
+}
+
+/// The first non-finite quantity of a flight command (what drives the actuators and the
+/// telemetry the statistics use), by name.
+fn command_non_finite(c: &ActuatorCommand) -> Option<&'static str> {
+    let all = |xs: &[f32]| xs.iter().all(|x| x.is_finite());
+    let e = &c.estimate;
+    let checks: [(&'static str, bool); 9] = [
+        ("command.gimbal_rate_cmd_rad_s", all(&c.gimbal_rate_cmd_rad_s)),
+        ("command.wheel_torque_cmd_nm", all(&c.wheel_torque_cmd_nm)),
+        ("command.dipole_cmd_am2", all(&c.dipole_cmd_am2)),
+        ("command.thruster_level", all(&c.thruster_level)),
+        ("command.torque_demand_nm", all(&c.torque_demand_nm)),
+        ("command.torque_realised_nm", all(&c.torque_realised_nm)),
+        ("command.attitude_error_rad", c.attitude_error_rad.is_finite()),
+        ("command.estimate.q_est_xyzw", all(&e.q_est_xyzw)),
+        ("command.estimate.bias_est_rad_s", all(&e.bias_est_rad_s)),
+    ];
+    checks.iter().find(|c| !c.1).map(|c| c.0)
+}
+
+/// The attitude target: relative to its frame (inertial, or LVLH when the scenario says so).
+struct Target {
+    q_rel: Quat,
+    euler_deg: [f64; 3],
+    seq: EulerSeq,
+    lvlh: bool,
+}
+
+impl Target {
+    fn set(&mut self, q_rel: Quat) {
+        self.q_rel = q_rel;
+        self.euler_deg = euler_from_quat(&q_rel, self.seq).map(f64::to_degrees);
+    }
+
+    /// The target's frame at this snapshot.
+    fn frame(&self, snap: Option<&EnvSnapshot>) -> Quat {
+        match (self.lvlh, snap.and_then(|s| s.q_lvlh)) {
+            (true, Some(q)) => q,
+            _ => Quat::identity(),
+        }
+    }
+}
+
+/// Magnetorquers and thrusters: command → what the plant receives.
+struct Actuation {
+    mtq: MagnetorquerSet,
+    thrusters: Option<ThrusterSet>,
+    thr_state: ThrusterState,
+    n_thr: usize,
+    rod_dipole: [f64; 3],
+    /// `[actuators.magnetorquers] delay_s` as whole control periods.
+    mtq_delay: CommandDelay,
+}
+
+impl Actuation {
+    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`]).
+    fn input(&mut self, cmd: &ActuatorCommand) -> (Input, [f64; 3]) {
+        let mut input = Input::default();
+        for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
+            *d = s as f64;
+        }
+        for (d, s) in input.wheel_torque_cmd_nm.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
+            *d = s as f64;
+        }
+        let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
+        if !self.mtq.rods.is_empty() {
+            let acting = self.mtq_delay.push(dipole_cmd);
+            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
+        }
+        input.dipole_am2 = self.rod_dipole.into();
+        input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
+        (input, dipole_cmd)
+    }
+
+    /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
+    fn thruster_torque(&mut self, mask: u32, t0: f64, h: f64) -> Vec3 {
+        match &self.thrusters {
+            Some(set) => set.wrench(&set.step(&mut self.thr_state, mask, t0, h)).1.into(),
+            None => Vec3::zeros(),
+        }
+    }
+}
+
+/// Extremes and counters over the run.
+#[derive(Default)]
+struct Metrics {
+    counts: StatusCounts,
+    max_gimbal_rate: f64,
+    min_singularity: f64,
+    max_wheel_rpm: f64,
+    max_wheel_w: f64,
+    max_wheel_a: f64,
+    max_ticks: u32,
+    sum_ticks: f64,
+    n_ticks: u64,
+    frames_dropped_flight: u32,
+    mode_now: Option<u8>,
+    mode_transitions: Vec<ModeTransition>,
+}
+
+impl Metrics {
+    fn status(&mut self, s: u16) {
+        let c = &mut self.counts;
+        for (bit, n) in [
+            (status::TORQUE_LIMITED, &mut c.torque_limited),
+            (status::RATE_SCALED, &mut c.rate_scaled),
+            (status::ANGLE_LIMITED, &mut c.angle_limited),
+            (status::SINGULAR, &mut c.singular),
+            (status::BAD_INPUT, &mut c.bad_input),
+            (status::TORQUE_SHORTFALL, &mut c.torque_shortfall),
+            (status::ALLOC_FALLBACK, &mut c.alloc_fallback),
+            (status::UNREALISED, &mut c.unrealised),
+            (status::LAW_FAULT, &mut c.law_fault),
+            (status::NO_ESTIMATE, &mut c.no_estimate),
+        ] {
+            *n += u64::from(s & bit != 0);
+        }
+    }
+
+    fn ticks(&mut self, ticks: u32) {
+        if ticks > 0 {
+            self.max_ticks = self.max_ticks.max(ticks);
+            self.sum_ticks += ticks as f64;
+            self.n_ticks += 1;
+        }
+    }
+
+    fn wheels(&mut self, out: &[WheelOutput]) {
+        for o in out {
+            self.max_wheel_rpm = nan_max(self.max_wheel_rpm, o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
+            self.max_wheel_w = nan_max(self.max_wheel_w, o.power_w.abs());
+            self.max_wheel_a = nan_max(self.max_wheel_a, o.current_a.abs());
+        }
+    }
+
+    /// Logs a change of the flight mode reported at `t`.
+    fn mode(&mut self, t: f64, cmd: &ActuatorCommand) {
+        if self.mode_now == Some(cmd.mode) {
+            return;
+        }
+        if let Some(from) = self.mode_now {
+            self.mode_transitions.push(ModeTransition {
+                t_s: t,
+                from: mode_name(from),
+                to: mode_name(cmd.mode),
+                reason: Reason::from_code(cmd.mode_reason).map_or("unknown", Reason::name).into(),
+            });
+        }
+        self.mode_now = Some(cmd.mode);
+    }
+}
+
+/// What one control step saw, for the recorded row.
+struct StepView<'a> {
+    t: f64,
+    cmd: &'a ActuatorCommand,
+    ticks: u32,
+    err_deg: f64,
+    q_frame: Quat,
+    input: &'a Input,
+    dipole_cmd: [f64; 3],
+    wheel_out: &'a [WheelOutput],
+}
+
+/// A run in progress.
+pub struct Simulation<'a> {
+    /// The scenario's name and rates, for the summary.
+    name: String,
+    control_rate_hz: f64,
+    dynamics_rate_hz: f64,
+    /// The timed ground commands, in order.
+    commands: Vec<GroundCommand>,
+    link: &'a mut dyn FlightLink,
+    info: Option<LinkInfo>,
+    craft: Spacecraft,
+    state: State,
+    snap: Option<EnvSnapshot>,
+    sensors: SensorSuite,
+    /// The step change of the inertia, if any.
+    inertia_change: Option<InertiaChange>,
+    /// The open-loop command table (empty: none).
+    open_loop: Vec<OpenLoopRow>,
+    act: Actuation,
+    target: Target,
+    /// Index of the next ground command in `commands`.
+    next_command: usize,
+    metrics: Metrics,
+    errors: ErrorStats,
+    /// The flight estimate against the truth.
+    estimation: EstimationStats,
+    layout: Layout,
+    /// Stored-momentum figures (with the momentum group).
+    momentum: Option<MomentumStats>,
+    /// The keep-up and gimbal monitors are on (their counts go in the summary).
+    slow_fdir: bool,
+    columns: Vec<String>,
+    row: Vec<f64>,
+    /// The next control step.
+    k: u64,
+    clock: Clock,
+    /// Set when a quantity became non-finite: the run stops there.
+    failure: Option<Failure>,
+    /// Time of the last control step that ran (the divergence time after a failure), s.
+    t_end: f64,
+}
+
+impl<'a> Simulation<'a> {
+    /// Opens the flight side (closed loop: hello and parameter or mode-table upload) and
+    /// starts from the resolved scenario: plant in its initial state, sensors, actuators.
+    pub fn new(cfg: Resolved, link: &'a mut dyn FlightLink) -> Result<Self> {
+        let Resolved {
+            name,
+            clock,
+            control_rate_hz,
+            dynamics_rate_hz,
+            upload,
+            estimation,
+            craft,
+            snap0: snap,
+            initial: state,
+            thrusters,
+            n_thrusters: n_thr,
+            magnetorquers,
+            sensors,
+            target: TargetConfig { q_rel, seq, lvlh },
+            inertia_change,
+            open_loop,
+            commands,
+            layout,
+            momentum_trip,
+            slow_fdir,
+        } = cfg;
+        let info = match &upload {
+            Some(up) => {
+                let info = link.hello().context("hello")?;
+                match up {
+                    Upload::Modes(table) => link.upload_modes(table).context("mode table upload")?,
+                    Upload::Params(p) => link.upload(p).context("parameter upload")?,
+                };
+                if let Some(e) = &estimation {
+                    link.configure_estimation(e).context("estimation parameters")?;
+                }
+                Some(info)
+            }
+            None => None,
+        };
+        let act = Actuation {
+            mtq_delay: CommandDelay::new(magnetorquers.delay_steps),
+            mtq: magnetorquers,
+            thrusters,
+            thr_state: ThrusterState::new(n_thr),
+            n_thr,
+            rod_dipole: [0.0; 3],
+        };
+        let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
+        target.set(q_rel);
+        let columns = layout.names();
+        Ok(Self {
+            name,
+            control_rate_hz,
+            dynamics_rate_hz,
+            commands,
+            link,
+            info,
+            sensors,
+            inertia_change,
+            open_loop,
+            craft,
+            state,
+            snap,
+            act,
+            target,
+            next_command: 0,
+            metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
+            errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
+            estimation: EstimationStats::default(),
+            row: Vec::with_capacity(columns.len()),
+            momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
+            slow_fdir,
+            layout,
+            columns,
+            k: 0,
+            clock,
+            failure: None,
+            t_end: 0.0,
+        })
+    }
+
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    /// Rows the whole run records.
+    pub fn recorded_rows(&self) -> u64 {
+        recorded_rows(self.clock.steps, self.clock.output_every)
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.clock.steps
+    }
+
+    /// Control steps done so far.
+    pub fn steps_done(&self) -> u64 {
+        self.k
+    }
+
+    /// Whether every control step (0..=steps) has run, or the run diverged.
+    pub fn finished(&self) -> bool {
+        self.k > self.clock.steps || self.failure.is_some()
+    }
+
+    /// The divergence that stopped the run, if any.
+    pub fn failure(&self) -> Option<&Failure> {
+        self.failure.as_ref()
+    }
+
+    /// Ends the run at `t` if `quantity` names a non-finite one: records the failure and
+    /// counts the step's (undefined) attitude error as NaN, so the error statistics say
+    /// "not settled" rather than keep the last finite figures.
+    fn diverged_at(&mut self, t: f64, quantity: Option<&str>) -> bool {
+        let Some(q) = quantity else { return false };
+        self.failure = Some(Failure::Diverged { t_s: t, quantity: q.to_owned() });
+        self.errors.push(t, f64::NAN);
+        self.t_end = t;
+        true
+    }
+
+    /// The flight estimate against the truth so far (last step's error included).
+    pub fn estimation(&self) -> &EstimationStats {
+        &self.estimation
+    }
+
+    pub fn sim_time_s(&self) -> f64 {
+        self.clock.steps as f64 * self.clock.dt
+    }
+
+    /// One control step at `t_k`: ground commands, sensors, flight code (or the open-loop
+    /// table), statistics, the recorded row, then the plant over `[t_k, t_k+1)`.
+    pub fn step(&mut self, rec: &mut dyn Recorder) -> Result<()> {
+        let k = self.k;
+        let t = k as f64 * self.clock.dt;
+        if k > 0 {
+            self.snap = self.craft.env_at(t)?;
+        }
+        // No point flying (or asking the flight code about) a non-finite plant.
+        if self.diverged_at(t, plant_non_finite(&self.state, self.snap.as_ref())) {
+            return Ok(());
+        }
+        self.ground_commands(t)?;
+        let (cmd, ticks) = self.flight_command(k, t)?;
+        if self.diverged_at(t, command_non_finite(&cmd)) {
+            return Ok(());
+        }
+        self.t_end = t;
+        let (mut input, dipole_cmd) = self.act.input(&cmd);
+        let q_frame = self.target.frame(self.snap.as_ref());
+        let err_deg = error_angle(&self.state.q, &(q_frame * self.target.q_rel)).to_degrees();
+        let wheel_out = self.observe(t, &cmd, ticks, &input, err_deg);
+        self.observe_momentum(t, &cmd, err_deg);
+        let n_wheels = self.craft.wheels.len();
+
+        // Thruster valves over the first dynamics step decide what is recorded as applied.
+        let thr_mask = u32::from(cmd.thruster_on);
+        let h = self.clock.h();
+        if k < self.clock.steps {
+            input.thruster_torque_nm = self.act.thruster_torque(thr_mask, t, h);
+        }
+        if k.is_multiple_of(self.clock.output_every) || k == self.clock.steps {
+            let v = StepView {
+                t,
+                cmd: &cmd,
+                ticks,
+                err_deg,
+                q_frame,
+                input: &input,
+                dipole_cmd,
+                wheel_out: &wheel_out[..n_wheels],
+            };
+            self.fill_row(&v);
+            rec.record(&self.row)?;
+        }
+        if k < self.clock.steps {
+            self.advance(t, &mut input, thr_mask)?;
+        }
+        self.k += 1;
+        Ok(())
+    }
+
+    /// Sends the ground commands due at `t` and follows their new targets.
+    fn ground_commands(&mut self, t: f64) -> Result<()> {
+        while let Some(c) = self.commands.get(self.next_command).filter(|c| c.at_s <= t + 1e-9) {
+            self.next_command += 1;
+            for msg in &c.messages {
+                match self.link.request(msg).with_context(|| format!("command at t = {t:.3} s"))? {
+                    FswMsg::Ack | FswMsg::ModeAccepted { .. } => {}
+                    other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
+                }
+            }
+            if let Some(q) = c.target {
+                self.target.set(q);
+            }
+        }
+        Ok(())
+    }
+
+    /// The actuator command of step `k`: the flight code's answer to the sampled sensor
+    /// frame (closed loop) or the open-loop table's; with the flight step's cost in ticks.
+    fn flight_command(&mut self, k: u64, t: f64) -> Result<(ActuatorCommand, u32)> {
+        let frame =
+            self.sensors.sample(k as u32, t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
+        if self.info.is_none() {
+            return Ok((open_loop_command(open_loop_at(&self.open_loop, t), k as u32), 0));
+        }
+        let report = self.link.step(&frame).with_context(|| format!("control step {k} at t = {t:.3} s"))?;
+        self.metrics.frames_dropped_flight = report.frames_dropped;
+        self.estimation.push(&self.state.q, &self.sensors.gyro_bias_rad_s(), &report.cmd.estimate);
+        if self.layout.mode {
+            self.metrics.mode(t, &report.cmd);
+        }
+        Ok((report.cmd, report.step_cost_ticks))
+    }
+
+    /// Statistics of step at `t`; returns the wheel outputs (zero without wheels).
+    fn observe(
+        &mut self,
+        t: f64,
+        cmd: &ActuatorCommand,
+        ticks: u32,
+        input: &Input,
+        err_deg: f64,
+    ) -> [WheelOutput; MAX_WHEELS] {
+        self.errors.push(t, err_deg);
+        let m = &mut self.metrics;
+        if let Some(c) = &self.craft.cmg {
+            m.min_singularity = nan_min(m.min_singularity, c.singularity_measure(&self.state.gimbal_rad));
+            m.max_gimbal_rate =
+                cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| nan_max(a, r.abs() as f64));
+        }
+        let n_wheels = self.craft.wheels.len();
+        let wheel_out = if n_wheels > 0 { self.craft.wheel_outputs(&self.state, input) } else { Default::default() };
+        m.wheels(&wheel_out[..n_wheels]);
+        m.status(cmd.status);
+        m.ticks(ticks);
+        wheel_out
+    }
+
+    /// Stored-momentum figures of step at `t` (every step, with the momentum group).
+    fn observe_momentum(&mut self, t: f64, cmd: &ActuatorCommand, err_deg: f64) {
+        let Some(stats) = self.momentum.as_mut() else {
+            return;
+        };
+        let h = self.craft.actuator_momentum(&self.state);
+        let frac = self
+            .craft
+            .wheels
+            .iter()
+            .zip(self.state.wheels.iter())
+            // Relative speed (eq 4 solved for ω_w) over its limit.
+            .map(|(p, s)| {
+                let w = s.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&self.state.w);
+                w.abs() / p.max_speed_rad_s
+            })
+            .fold(0.0, f64::max);
+        stats.push(t, h.into(), frac, err_deg, cmd.momentum_events);
+        if self.slow_fdir {
+            stats.slow_events(cmd.momentum_keepup_events, cmd.gimbal_events);
+        }
+    }
+
+    /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
+    fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) -> Result<()> {
+        if let Some(c) = &self.inertia_change
+            && t < c.at_s
+            && t + self.clock.dt >= c.at_s
+        {
+            let j = self.craft.inertia * c.factor;
+            self.craft.set_inertia(j);
+        }
+        let h = self.clock.h();
+        for j in 0..self.clock.substeps {
+            let tj = t + j as f64 * h;
+            if j > 0 {
+                input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
+            }
+            // The plant integrator (the only call): RK4 over [tj, tj + h) with the
+            // environment evaluated at every stage's own time (issue 9); the sensors keep
+            // the snapshot of the control step.
+            self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
+            if plant_non_finite(&self.state, None).is_some() {
+                break; // the next control step reports it
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the recorded row of one step (column order: [`Layout::names`]).
+    fn fill_row(&mut self, v: &StepView) {
+        let (state, cmd, l) = (&self.state, v.cmd, &self.layout);
+        let tq = self.craft.torques(v.t, state, v.input, self.snap.as_ref());
+        let row = &mut self.row;
+        row.clear();
+        row.push(v.t);
+        row.extend([state.q.i, state.q.j, state.q.k, state.q.w]);
+        row.extend(euler_from_quat(&(v.q_frame.conjugate() * state.q), self.target.seq).map(f64::to_degrees));
+        row.extend(self.target.euler_deg);
+        row.extend(state.w.iter());
+        row.extend(cmd.torque_demand_nm.iter().map(|x| *x as f64));
+        row.extend(cmd.torque_realised_nm.iter().map(|x| *x as f64));
+        row.extend((tq.actuators_nm + tq.magnetic_nm + tq.thrusters_nm).iter());
+        row.push(v.err_deg);
+        row.push(cmd.status as f64);
+        let ipt = self.info.as_ref().and_then(|i| i.instructions_per_tick);
+        row.push(ipt.map_or(f64::NAN, |f| v.ticks as f64 * f));
+        if l.adaptive_gains {
+            row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
+        }
+        if l.mode {
+            row.push(cmd.mode as f64);
+        }
+        if l.flight_error {
+            row.push((cmd.attitude_error_rad as f64).to_degrees());
+        }
+        if l.cmg {
+            row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
+            row.extend(cmd.gimbal_rate_cmd_rad_s.iter().map(|x| *x as f64));
+            row.push(self.craft.cmg.as_ref().map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)));
+            row.push(cmd.steering_alpha as f64);
+        }
+        for o in v.wheel_out {
+            let rpm = o.speed_rad_s * 30.0 / std::f64::consts::PI;
+            row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
+        }
+        self.fill_tail(v, &tq);
+    }
+
+    /// The actuator-family and environment groups at the end of the row.
+    fn fill_tail(&mut self, v: &StepView, tq: &TorqueReport) {
+        let (state, l, act, row) = (&self.state, &self.layout, &self.act, &mut self.row);
+        if l.magnetorquers {
+            row.extend(v.dipole_cmd);
+            row.extend(act.rod_dipole);
+        }
+        if l.thrusters > 0 {
+            row.push(u32::from(v.cmd.thruster_on) as f64);
+            row.push(act.thr_state.total_propellant_kg());
+            row.push(act.thr_state.pulses.iter().sum::<u32>() as f64);
+            row.extend(v.cmd.thruster_level.iter().take(act.n_thr).map(|x| *x as f64));
+        }
+        if l.field {
+            let b =
+                self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::repeat(f64::NAN), |b| rotate_ref_to_body(&state.q, &b));
+            row.extend(b.iter());
+        }
+        if l.env_torques {
+            let e = &tq.env;
+            let external = e.external + self.craft.external_torque_nm;
+            for v in [e.gravity_gradient, e.drag, e.srp, tq.magnetic_nm, tq.rig_nm, external] {
+                row.extend(v.iter());
+            }
+        }
+        if l.estimation {
+            let nan = f64::NAN;
+            let e = self.estimation.last();
+            row.extend(e.map_or([nan; 5], |e| {
+                [e.error_deg, e.sigma_deg, e.bias_error_deg_h, e.bias_sigma_deg_h, e.nees.unwrap_or(nan)]
+            }));
+            let (rejected, resets) = self.estimation.counters();
+            row.extend([f64::from(rejected), f64::from(resets)]);
+        }
+        if l.momentum {
+            let h = self.craft.actuator_momentum(state);
+            row.extend(h.iter());
+            row.extend((crate::attitude::dcm_body_to_ref(&state.q) * h).iter());
+            row.push(h.norm());
+            let b = self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::zeros(), |b| rotate_ref_to_body(&state.q, &b));
+            row.extend(Vec3::from(act.rod_dipole).cross(&b).iter());
+            row.push(f64::from(v.cmd.momentum_events));
+        }
+    }
+
+    /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
+    /// control steps the flight code answered), or ok.
+    fn outcome(&self) -> (RunStatus, Option<Failure>) {
+        if let Some(f) = &self.failure {
+            return (RunStatus::Diverged, Some(f.clone()));
+        }
+        let n = self.k;
+        if self.info.is_some() && n > 0 && self.metrics.counts.bad_input == n {
+            let reason = format!(
+                "the flight code refused the input of every one of the {n} control steps (status bad_input): \
+                 the sensor frames or the state it was given lie outside what it accepts \
+                 (initial state, sensor noise and ranges in the scenario)"
+            );
+            return (RunStatus::AllRefused, Some(Failure::Refused { reason }));
+        }
+        if let Some(reason) = self.link.anomalies().failure_reason() {
+            return (RunStatus::LinkAnomaly, Some(Failure::Link { reason }));
+        }
+        (RunStatus::Ok, None)
+    }
+
+    /// The summary of the finished run; `wall_s` is the wall time of the loop.
+    pub fn summary(self, wall_s: f64) -> Summary {
+        let (m, info) = (&self.metrics, self.info.as_ref());
+        let (run_status, failure) = self.outcome();
+        // A diverged run reaches only the time of its failure.
+        let sim_time = if self.failure.is_some() { self.t_end } else { self.sim_time_s() };
+        let ef = self.errors.figures(sim_time);
+        let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
+        let n_ticks = m.n_ticks;
+        let ipt = info.and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
+        let hz = info.map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
+        let mean_us = hz.map(|h| m.sum_ticks / n_ticks as f64 / h * 1e6);
+        let (n_wheels, n_thr, cmg) = (self.craft.wheels.len(), self.act.n_thr, self.craft.cmg.is_some());
+        let thr = &self.act.thr_state;
+        let est = self.estimation.figures();
+        Summary {
+            scenario: self.name.clone(),
+            run_status,
+            failure,
+            link: if info.is_some() { self.link.name() } else { "open-loop".into() },
+            board: info.map(|i| i.board),
+            steps: self.clock.steps,
+            sim_time_s: sim_time,
+            control_rate_hz: self.control_rate_hz,
+            dynamics_rate_hz: self.dynamics_rate_hz,
+            final_error_deg: ef.final_error_deg,
+            settle_time_s: ef.settle_time_s,
+            settle_bound_deg: SETTLE_BOUND_DEG,
+            max_error_after_settle_deg: ef.max_error_after_settle_deg,
+            mean_error_deg: ef.mean_error_deg,
+            rms_error_deg: ef.rms_error_deg,
+            final_euler_deg: euler_from_quat(&final_q_rel, self.target.seq).map(f64::to_degrees),
+            target_euler_deg: self.target.euler_deg,
+            final_rate_rad_s: self.state.w.into(),
+            max_gimbal_rate_rad_s: cmg.then_some(m.max_gimbal_rate),
+            min_singularity_measure: cmg.then_some(m.min_singularity),
+            max_wheel_speed_rpm: (n_wheels > 0).then_some(m.max_wheel_rpm),
+            max_wheel_power_w: (n_wheels > 0).then_some(m.max_wheel_w),
+            max_wheel_current_a: (n_wheels > 0).then_some(m.max_wheel_a),
+            propellant_kg: (n_thr > 0).then(|| thr.total_propellant_kg()),
+            max_pulses: (n_thr > 0).then(|| thr.pulses.iter().copied().max().unwrap_or(0)),
+            max_step_instructions: ipt.map(|f| (m.max_ticks as f64 * f).round() as u64),
+            mean_step_instructions: ipt.map(|f| m.sum_ticks / n_ticks as f64 * f),
+            max_step_ticks: (n_ticks > 0).then_some(m.max_ticks),
+            mean_step_us: mean_us,
+            max_step_us: hz.map(|h| m.max_ticks as f64 / h * 1e6),
+            allocation_us_per_call: mean_us.filter(|_| n_thr > 0),
+            status_counts: m.counts.clone(),
+            mode_transitions: m.mode_transitions.clone(),
+            final_mode: m.mode_now.map(mode_name),
+            frames_dropped_flight: m.frames_dropped_flight,
+            frames_dropped_host: if info.is_some() { self.link.frames_dropped_host() } else { 0 },
+            link_anomalies: self.link.anomalies(),
+            estimation_error_rms_deg: est.map(|e| e.error_rms_deg),
+            estimation_error_max_deg: est.map(|e| e.error_max_deg),
+            bias_error_final_deg_h: est.and_then(|e| e.bias_error_final_deg_h),
+            nees_mean: est.and_then(|e| e.nees_mean),
+            innovations_rejected: est.map(|e| e.innovations_rejected),
+            estimator_resets: est.map(|e| e.resets),
+            wall_time_s: wall_s,
+            real_time_factor: sim_time / wall_s.max(1e-9),
+            momentum: self.momentum.as_ref().map(MomentumStats::summary),
+        }
+    }
+}
