@@ -1,0 +1,342 @@
+//! The map matches the tree, and the layering has no cycle:
+//! - `docs/architecture.md` holds one generated table per crate, one row per module with
+//!   the first sentence of its `//!` doc: regenerated from the tree and compared here
+//!   (`UPDATE_DOCS=1 cargo test --release -p acs-tests --test architecture` rewrites
+//!   the tables; a module without a `//!` doc fails);
+//! - every repository path named in `README.md` and `docs/*.md` exists, and a
+//!   `path:LINE` pointer names a line the file has;
+//! - the top-level modules of every crate form a DAG (`crate::x` uses), and so do the
+//!   workspace crates with their dev-dependencies (`cargo metadata`).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The crates whose modules the architecture document lists: (source root, crate name).
+const CRATES: &[(&str, &str)] = &[
+    ("shared/src", "acs-flight"),
+    ("firmware/src", "acs-firmware"),
+    ("sim-host/core/src", "sim-core"),
+    ("sim-host/src", "sim-host"),
+    ("tests/support/src", "acs-test-support"),
+    ("tests/src", "acs-tests"),
+    ("tools/elf-check/src", "elf-check"),
+];
+
+/// Every `.rs` file under `dir` (sorted), as paths relative to `dir`.
+fn rust_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(rd) = std::fs::read_dir(&d) else { continue };
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// `estimation/mekf.rs` → `estimation::mekf`; `modes/mod.rs` → `modes`; `lib.rs` → crate root.
+fn module_path(rel: &Path) -> String {
+    let s = rel.with_extension("").to_string_lossy().replace('\\', "/");
+    let s = s.strip_suffix("/mod").unwrap_or(&s).to_owned();
+    match s.as_str() {
+        "lib" | "main" => "(crate root)".into(),
+        _ => s.replace('/', "::"),
+    }
+}
+
+/// The first sentence of the file's leading `//!` paragraph, if it has one.
+fn doc_line(text: &str) -> Option<String> {
+    let mut para = String::new();
+    for line in text.lines() {
+        let t = line.trim_start();
+        let Some(d) = t.strip_prefix("//!") else {
+            if para.is_empty() && (t.is_empty() || t.starts_with("#!") || t.starts_with("//")) {
+                continue;
+            }
+            break;
+        };
+        let d = d.trim();
+        if d.is_empty() {
+            if para.is_empty() {
+                continue;
+            }
+            break;
+        }
+        if !para.is_empty() {
+            para.push(' ');
+        }
+        para.push_str(d);
+    }
+    if para.is_empty() {
+        return None;
+    }
+    // First sentence: up to the first ". " / ":" ending a clause, or the whole paragraph.
+    let cut = para.find(". ").map(|i| i + 1).or_else(|| para.find(": ")).unwrap_or(para.len());
+    Some(para[..cut].trim_end_matches(':').replace('|', "\\|"))
+}
+
+/// The generated table of one crate, or the modules that have no `//!` doc.
+fn module_table(src: &str) -> Result<String, Vec<String>> {
+    let dir = repo().join(src);
+    let mut rows = Vec::new();
+    let mut undocumented = Vec::new();
+    for rel in rust_files(&dir) {
+        // Test-only files and `#[path]` includes are not modules of the product.
+        if rel.components().any(|c| c.as_os_str() == "tests") || rel.ends_with("tests.rs") {
+            continue;
+        }
+        let text = std::fs::read_to_string(dir.join(&rel)).unwrap();
+        match doc_line(&text) {
+            Some(d) => rows.push(format!("| `{}` | {} |", module_path(&rel), d)),
+            None => undocumented.push(format!("{src}/{}", rel.display())),
+        }
+    }
+    if !undocumented.is_empty() {
+        return Err(undocumented);
+    }
+    Ok(format!("| module | what it is (its `//!` doc) |\n|---|---|\n{}\n", rows.join("\n")))
+}
+
+fn begin_marker(src: &str) -> String {
+    format!("<!-- modules {src}: generated from the tree by tests/tests/architecture.rs (UPDATE_DOCS=1 regenerates) -->\n")
+}
+const END_MARKER: &str = "<!-- end modules -->";
+
+#[test]
+fn architecture_document_lists_every_module_with_its_doc() {
+    let path = repo().join("docs/architecture.md");
+    let mut doc = std::fs::read_to_string(&path).unwrap();
+    let mut problems = Vec::new();
+    for (src, _) in CRATES {
+        if !repo().join(src).is_dir() {
+            problems.push(format!("{src}: listed in CRATES but not in the tree"));
+            continue;
+        }
+        let table = match module_table(src) {
+            Ok(t) => t,
+            Err(missing) => {
+                problems.push(format!("modules without a `//!` doc: {}", missing.join(", ")));
+                continue;
+            }
+        };
+        let begin = begin_marker(src);
+        let Some(b) = doc.find(&begin) else {
+            problems.push(format!("docs/architecture.md has no generated table for {src}"));
+            continue;
+        };
+        let start = b + begin.len();
+        let end = start + doc[start..].find(END_MARKER).expect("end marker after a begin marker");
+        if doc[start..end] != table {
+            if std::env::var_os("UPDATE_DOCS").is_some() {
+                doc.replace_range(start..end, &table);
+            } else {
+                problems.push(format!("the module table of {src} is stale"));
+            }
+        }
+    }
+    if std::env::var_os("UPDATE_DOCS").is_some() {
+        std::fs::write(&path, &doc).unwrap();
+    }
+    assert!(
+        problems.is_empty(),
+        "{}\n(UPDATE_DOCS=1 cargo test --release -p acs-tests --test architecture regenerates the tables)",
+        problems.join("\n")
+    );
+}
+
+/// Repository paths named in a markdown text: `` `dir/...` `` spans and `](dir/...)` links,
+/// with an optional `:LINE[,LINE|-LINE]` suffix.
+fn path_pointers(text: &str) -> Vec<(String, Vec<usize>)> {
+    const ROOTS: &[&str] =
+        &["shared/", "sim-host/", "firmware/", "tests/", "tools/", "scripts/", "scenarios/", "docs/", "campaigns/", "timing/", "report/", ".ci/"];
+    let mut out = Vec::new();
+    for token in text.split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ',']).filter(|t| ROOTS.iter().any(|r| t.starts_with(r))) {
+        let (path, lines) = match token.split_once(':') {
+            Some((p, l)) => (p, l.split([',', '-']).filter_map(|n| n.parse().ok()).collect()),
+            None => (token, Vec::new()),
+        };
+        let path = path.trim_end_matches(['.', ';', ':']);
+        // Globs, placeholders and output folders are patterns, not pointers.
+        if path.contains(['*', '<', '{', '$']) || path.contains("/out") || path.ends_with('/') && path.len() < 3 {
+            continue;
+        }
+        out.push((path.to_owned(), lines));
+    }
+    out
+}
+
+#[test]
+fn every_path_the_documents_name_exists() {
+    let mut docs: Vec<PathBuf> = vec![repo().join("README.md")];
+    for e in std::fs::read_dir(repo().join("docs")).unwrap().flatten() {
+        if e.path().extension().is_some_and(|x| x == "md") {
+            docs.push(e.path());
+        }
+    }
+    docs.sort();
+    let mut dead = Vec::new();
+    let mut checked = 0;
+    for d in &docs {
+        let text = std::fs::read_to_string(d).unwrap();
+        let name = d.strip_prefix(repo()).unwrap_or(d).display().to_string();
+        for (path, lines) in path_pointers(&text) {
+            checked += 1;
+            let full = repo().join(&path);
+            if !full.exists() {
+                dead.push(format!("{name}: `{path}` does not exist"));
+                continue;
+            }
+            if let Some(&max) = lines.iter().max() {
+                let n = std::fs::read_to_string(&full).map(|t| t.lines().count()).unwrap_or(0);
+                if max > n {
+                    dead.push(format!("{name}: `{path}:{max}` but the file has {n} lines"));
+                }
+            }
+        }
+    }
+    assert!(checked > 100, "the scan found only {checked} pointers: the parser is broken");
+    assert!(dead.is_empty(), "{} dead pointers:\n{}", dead.len(), dead.join("\n"));
+}
+
+/// Edges `module → modules it uses` between the top-level modules of the crate at `src`.
+fn module_graph(src: &str) -> BTreeMap<String, BTreeSet<String>> {
+    let dir = repo().join(src);
+    let files = rust_files(&dir);
+    let top = |rel: &Path| rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_owned());
+    let mods: BTreeSet<String> = files.iter().filter_map(|r| top(r)).filter(|m| m != "lib" && m != "main").collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = mods.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
+    for rel in &files {
+        let Some(m) = top(rel).filter(|m| mods.contains(m)) else { continue };
+        let text = std::fs::read_to_string(dir.join(rel)).unwrap();
+        // Unit tests may reach across layers; the product may not.
+        let product = text.split("#[cfg(test)]\nmod tests").next().unwrap_or("");
+        for line in product.lines().map(|l| l.split("//").next().unwrap_or("")) {
+            for (i, _) in line.match_indices("crate::") {
+                let rest = &line[i + "crate::".len()..];
+                let names: Vec<&str> = match rest.strip_prefix('{') {
+                    Some(group) => group.split('}').next().unwrap_or("").split(',').collect(),
+                    None => vec![rest],
+                };
+                for n in names {
+                    let n: String = n.trim().chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+                    if n != m && mods.contains(&n) {
+                        g.get_mut(&m).unwrap().insert(n);
+                    }
+                }
+            }
+        }
+    }
+    g
+}
+
+/// The strongly connected components with more than one node (Tarjan).
+fn cycles(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
+    struct T<'a> {
+        g: &'a BTreeMap<String, BTreeSet<String>>,
+        index: BTreeMap<&'a str, usize>,
+        low: BTreeMap<&'a str, usize>,
+        stack: Vec<&'a str>,
+        out: Vec<Vec<String>>,
+    }
+    fn visit<'a>(t: &mut T<'a>, v: &'a str) {
+        let i = t.index.len();
+        t.index.insert(v, i);
+        t.low.insert(v, i);
+        t.stack.push(v);
+        for w in t.g.get(v).into_iter().flatten() {
+            let w = w.as_str();
+            if !t.index.contains_key(w) {
+                visit(t, w);
+                let lw = t.low[w];
+                let lv = t.low.get_mut(v).unwrap();
+                *lv = (*lv).min(lw);
+            } else if t.stack.contains(&w) {
+                let iw = t.index[w];
+                let lv = t.low.get_mut(v).unwrap();
+                *lv = (*lv).min(iw);
+            }
+        }
+        if t.low[v] == t.index[v] {
+            let mut comp = Vec::new();
+            while let Some(w) = t.stack.pop() {
+                comp.push(w.to_owned());
+                if w == v {
+                    break;
+                }
+            }
+            if comp.len() > 1 {
+                comp.sort();
+                t.out.push(comp);
+            }
+        }
+    }
+    let mut t = T { g, index: BTreeMap::new(), low: BTreeMap::new(), stack: Vec::new(), out: Vec::new() };
+    for v in g.keys() {
+        if !t.index.contains_key(v.as_str()) {
+            visit(&mut t, v);
+        }
+    }
+    t.out
+}
+
+#[test]
+fn cycle_finder_finds_a_planted_cycle() {
+    let g: BTreeMap<String, BTreeSet<String>> = [("a", vec!["b"]), ("b", vec!["c"]), ("c", vec!["a"]), ("d", vec!["a"])]
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), v.into_iter().map(str::to_owned).collect()))
+        .collect();
+    assert_eq!(cycles(&g), vec![vec!["a".to_owned(), "b".into(), "c".into()]]);
+}
+
+#[test]
+fn module_layering_of_every_crate_has_no_cycle() {
+    let mut found = Vec::new();
+    for (src, name) in CRATES {
+        if !repo().join(src).is_dir() {
+            continue;
+        }
+        let g = module_graph(src);
+        assert!(!g.is_empty() || *src == "tests/src", "{src}: no modules found");
+        for c in cycles(&g) {
+            found.push(format!("{name}: {}", c.join(" ↔ ")));
+        }
+    }
+    assert!(found.is_empty(), "module cycles:\n{}", found.join("\n"));
+}
+
+#[test]
+fn crate_graph_with_dev_dependencies_has_no_cycle() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["metadata", "--format-version", "1", "--no-deps", "--offline"])
+        .current_dir(repo())
+        .output()
+        .expect("cargo metadata runs");
+    assert!(out.status.success(), "cargo metadata: {}", String::from_utf8_lossy(&out.stderr));
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let packages = meta["packages"].as_array().unwrap();
+    let names: BTreeSet<String> = packages.iter().map(|p| p["name"].as_str().unwrap().to_owned()).collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for p in packages {
+        let deps = p["dependencies"].as_array().unwrap();
+        let e = g.entry(p["name"].as_str().unwrap().to_owned()).or_default();
+        for d in deps.iter().filter_map(|d| d["name"].as_str()).filter(|d| names.contains(*d)) {
+            e.insert(d.to_owned());
+        }
+    }
+    assert!(g.len() >= 4, "workspace packages: {:?}", g.keys());
+    assert!(g["sim-host"].contains("sim-core"), "the tools crate is built on the core: {:?}", g["sim-host"]);
+    assert!(!g["sim-core"].contains("sim-host"), "the core must not depend on its tools");
+    assert!(cycles(&g).is_empty(), "crate cycles: {:?}", cycles(&g));
+}
