@@ -38,7 +38,7 @@ if ! command -v llvm-objdump >/dev/null 2>&1 || ! command -v llvm-addr2line >/de
 fi
 
 # C compiler for the QEMU cycle plugin (tools/qemu-cycles; only libc, no QEMU or glib
-# headers needed). The cycle tests skip without it.
+# headers needed). Without it the cycle tests fail under CI and skip loudly otherwise.
 if ! command -v cc >/dev/null 2>&1; then
   apt_install gcc libc6-dev || echo "setup: no apt-get; install a C compiler for tools/qemu-cycles yourself" >&2
 fi
@@ -55,7 +55,7 @@ for bin in sbatch slurmctld slurmd munged; do
 done
 if [ -n "$missing" ]; then
   apt_install slurmctld slurmd slurm-client munge \
-    || echo "setup: no apt-get; install slurmctld slurmd slurm-client munge yourself (missing:$missing); the Slurm tests skip without them" >&2
+    || echo "setup: no apt-get; install slurmctld slurmd slurm-client munge yourself (missing:$missing); the Slurm tests skip (fail under CI) without them" >&2
 fi
 # (sbatch --version needs a slurm.conf; the daemons print the version without one)
 if command -v slurmctld >/dev/null 2>&1; then slurmctld -V; fi

@@ -3,8 +3,28 @@
 # the firmware for every board, then runs every test, including processor-in-the-loop
 # against the firmware under QEMU. Release mode throughout: the closed-loop simulations
 # are long and one profile avoids building the world twice.
+#
+# Tests that need a tool outside Cargo (QEMU, the QEMU cycle plugin, the firmware ELF,
+# Slurm) fail when it is missing under CI (`CI` set: .ci/run sets it) and otherwise skip
+# loudly, each appending a line to target/skipped-tests.log
+# (sim-host/tests/support/require_tool.rs); this script empties that log first and ends
+# with one summary line when anything was skipped.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+SKIP_LOG=target/skipped-tests.log
+mkdir -p target
+: >"$SKIP_LOG"
+skip_summary() {
+  if [ -s "$SKIP_LOG" ]; then
+    local n tools
+    n=$(wc -l <"$SKIP_LOG")
+    # lines read `[tool] test: why; …`: count the tests per tool
+    tools=$(sed -E 's/^\[([^]]*)\].*/\1/' "$SKIP_LOG" | sort | uniq -c | awk '{c=$1; $1=""; printf "%s%s (%d)", sep, substr($0,2), c; sep=", "}')
+    echo "SKIPPED: $n tests skipped because tools are missing: $tools (details: $SKIP_LOG; scripts/setup.sh installs them)" >&2
+  fi
+}
+trap skip_summary EXIT
 
 scripts/setup.sh
 scripts/firmware.sh build          # QEMU mps2-an386 image used by the PIL tests

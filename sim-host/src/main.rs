@@ -179,7 +179,7 @@ enum Cmd {
         /// Worker threads (default: all cores).
         #[arg(long)]
         jobs: Option<usize>,
-        /// Repository root (scenarios/, report/outcomes.toml); default: the current directory.
+        /// Repository root (scenarios/, docs/outcomes.toml); default: the current directory.
         #[arg(long, default_value = ".")]
         repo: PathBuf,
     },

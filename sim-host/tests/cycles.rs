@@ -4,38 +4,32 @@
 //! - on the firmware, the plugin's instructions per step agree with the firmware's own
 //!   cost counter, and the cycle range is consistent with the instruction count.
 //!
-//! Both skip (with a message) when qemu-system-arm or a C compiler is missing.
+//! Both need qemu-system-arm and a C compiler (the second also the firmware ELF): without
+//! them they fail under CI and skip loudly otherwise (`support/require_tool.rs`).
 
+#[path = "support/require_tool.rs"]
+mod require_tool;
+
+use require_tool::{Tool, require_tool};
 use sim_core::scenario::Scenario;
 use sim_host::cycles::{self, CyclesOptions};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn have_qemu() -> bool {
-    Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success())
-}
-
-/// The built plugin, or None (after saying why) when the test cannot run.
+/// The built plugin, or None (after saying why, [`require_tool`]) when the test cannot run.
 fn plugin() -> Option<PathBuf> {
-    if !have_qemu() {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it)");
-        return None;
-    }
-    let p = match cycles::build_plugin() {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("SKIPPED: the cycle plugin does not build here: {e:#}");
-            return None;
-        }
-    };
+    require_tool(Tool::Qemu, require_tool::qemu())?;
+    let p = require_tool(
+        Tool::CyclePlugin,
+        cycles::build_plugin().map_err(|e| format!("the cycle plugin does not build here: {e:#}")),
+    )?;
     // The plugin speaks plugin API version 1 (QEMU 4.2 … 8.x); a QEMU that dropped it
     // refuses to load it.
     let dir = tempfile::tempdir().unwrap();
     let o = qemu_synthetic(&p, 0, dir.path()).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     if !o.status.success() && err.contains("plugin") && (err.contains("version") || err.contains("load")) {
-        eprintln!("SKIPPED: this QEMU does not load the cycle plugin: {err}");
-        return None;
+        return require_tool(Tool::CyclePlugin, Err(format!("this QEMU does not load the cycle plugin: {err}")));
     }
     Some(p)
 }
@@ -113,8 +107,8 @@ fn synthetic_program_matches_the_trm_hand_count() {
 fn firmware_step_instructions_agree_with_the_cost_counter() {
     let Some(p) = plugin() else { return };
     let elf = sim_core::link::qemu::default_firmware();
-    if !elf.exists() {
-        eprintln!("SKIPPED: no firmware ELF at {} (scripts/firmware.sh build)", elf.display());
+    let found = if elf.exists() { Ok(()) } else { Err(format!("no firmware ELF at {}", elf.display())) };
+    if require_tool(Tool::FirmwareElf, found).is_none() {
         return;
     }
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");

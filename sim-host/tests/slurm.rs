@@ -3,8 +3,8 @@
 //! `--dependency=afterany:<array>`, the pattern `sim-host campaign slurm` uses), then a
 //! campaign merged three ways — local on one thread, local on every core, and the job
 //! array written by `sim-host campaign slurm` — with identical `campaign.json`.
-//! Skips (passes with a message) when Slurm/MUNGE are not installed (`scripts/setup.sh`
-//! installs them where apt is available).
+//! Needs Slurm/MUNGE (`scripts/setup.sh` installs them where apt is available): without
+//! them fails under CI and skips loudly otherwise (`support/require_tool.rs`).
 
 #[path = "support/slurm.rs"]
 mod harness;

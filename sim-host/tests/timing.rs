@@ -2,11 +2,15 @@
 //! firmware (lockstep instruction counts) must be reproducible and within
 //! `timing/budget.toml`, and a short search must find a step at least as costly as the
 //! costliest step of the scenario's own closed-loop run (the fixed sweep the timing used
-//! to rest on) and still within budget. Skips (loudly) where qemu-system-arm or the
-//! firmware build is not available.
+//! to rest on) and still within budget. Needs qemu-system-arm and the firmware build: without
+//! them fails under CI, skips loudly otherwise (`support/require_tool.rs`).
+
+#[path = "support/require_tool.rs"]
+mod require_tool;
 
 use acs_flight::link::estimate_flags;
 use acs_flight::params::AttitudeSource;
+use require_tool::{Tool, require_tool};
 use sim_core::link::FlightLink;
 use sim_core::link::qemu::{QemuLink, default_firmware};
 use sim_core::scenario::Scenario;
@@ -20,11 +24,10 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// QEMU installed and the firmware (re)built (incremental: about a second when current).
+/// QEMU installed and the firmware (re)built (incremental: about a second when current);
+/// when not, fails under CI and skips loudly otherwise ([`require_tool`]).
 fn qemu_and_firmware() -> bool {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); timing not tested");
+    if require_tool(Tool::Qemu, require_tool::qemu().map_err(|e| format!("{e}; timing not tested"))).is_none() {
         return false;
     }
     static BUILT: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
@@ -35,11 +38,12 @@ fn qemu_and_firmware() -> bool {
             .status()
             .is_ok_and(|s| s.success())
     });
-    if !built || !default_firmware().exists() {
-        eprintln!("SKIPPED: the QEMU firmware does not build here (scripts/firmware.sh build); timing not tested");
-        return false;
-    }
-    true
+    let found = if built && default_firmware().exists() {
+        Ok(())
+    } else {
+        Err("the QEMU firmware does not build here (scripts/firmware.sh build); timing not tested")
+    };
+    require_tool(Tool::FirmwareElf, found).is_some()
 }
 
 fn budget() -> BudgetFile {

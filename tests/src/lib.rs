@@ -14,14 +14,15 @@ pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// Whether `qemu-system-arm` is installed; when it is not, says loudly what `what` (the
-/// calling test) leaves untested (scripts/setup.sh installs QEMU).
+#[path = "../../sim-host/tests/support/require_tool.rs"]
+pub mod require_tool;
+pub use require_tool::{Tool, require_tool};
+
+/// Whether `qemu-system-arm` is installed; when it is not, fails under CI and otherwise says
+/// loudly (and in the skip log) what `what` (the calling test) leaves untested
+/// ([`require_tool`]; scripts/setup.sh installs QEMU).
 pub fn qemu_available(what: &str) -> bool {
-    let ok = std::process::Command::new("qemu-system-arm").arg("--version").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        eprintln!("SKIPPED: qemu-system-arm is not installed (scripts/setup.sh installs it); {what} not tested");
-    }
-    ok
+    require_tool(Tool::Qemu, require_tool::qemu().map_err(|e| format!("{e}; {what} not tested"))).is_some()
 }
 
 /// (Re)builds the QEMU firmware image once per test binary: incremental, about a second

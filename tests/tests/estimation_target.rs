@@ -9,7 +9,8 @@
 //! phase of the first read within a tick), so a call's maximum is taken as
 //! (max ticks + 1) × 40; the mean over many calls averages the phase out.
 //!
-//! Skips (loudly) only where qemu-system-arm is not installed.
+//! Where qemu-system-arm is not installed: fails under CI, skips loudly otherwise
+//! (`acs_tests::require_tool`).
 
 #[path = "../../firmware/examples/estimation_cost/scenario.rs"]
 #[allow(dead_code)]

@@ -4,7 +4,8 @@
 //! - `acs_flight::math::f32m` gives the same bits on the Cortex-M4F (QEMU mps2-an386,
 //!   firmware/examples/f32m_fingerprint.rs) as on the host, over a dense sweep.
 //!
-//! Skips (loudly) only where qemu-system-arm is not installed.
+//! Where qemu-system-arm is not installed: fails under CI, skips loudly otherwise
+//! (`acs_tests::require_tool`).
 
 use acs_tests::{SOFT_DOUBLE, repo, soft_double_symbols};
 use std::process::{Command, Stdio};

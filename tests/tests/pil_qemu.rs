@@ -1,7 +1,8 @@
 //! Processor-in-the-loop: the same scenario against the real firmware on an emulated
 //! Cortex-M4F (QEMU mps2-an386) must give the same trajectory as the in-process run
 //! (same f32 flight code, compiled for another ISA), and the firmware must report the
-//! cost of every step. Skips (loudly) only where qemu-system-arm is not installed.
+//! cost of every step. Where qemu-system-arm is not installed: fails under CI, skips
+//! loudly otherwise (`acs_tests::require_tool`).
 
 use acs_tests::{build_qemu_firmware, qemu_available, run_in_process, scenario};
 use sim_core::link::qemu::QemuLink;

@@ -3,8 +3,8 @@
 //! overwritten word in `HelloAck::stack_hwm_bytes` (firmware/src/stack.rs). A scenario
 //! that uploads parameters (the deepest static chain goes through `Configured::build`) and
 //! steps the controller must leave a high-water mark that is (a) deeper than the one
-//! right after boot, and (b) within the static bound. Skips (loudly) only where
-//! qemu-system-arm is not installed.
+//! right after boot, and (b) within the static bound. Where qemu-system-arm is not
+//! installed: fails under CI, skips loudly otherwise (`acs_tests::require_tool`).
 
 use acs_tests::{build_qemu_firmware, qemu_available, scenario};
 use elf_check::{Analysis, Board};

@@ -4,7 +4,8 @@
 //! board; the board must come back in the safe state (lockstep, unconfigured, safe
 //! command, no spontaneous reports) and report `ResetCause::Watchdog` at the next hello.
 //! Also: parameters are refused while the real-time loop steps and accepted in the hold.
-//! Skips (loudly) only where qemu-system-arm is not installed.
+//! Where qemu-system-arm is not installed: fails under CI, skips loudly otherwise
+//! (`acs_tests::require_tool`).
 
 use std::time::{Duration, Instant};
 

@@ -128,7 +128,7 @@ fn realtime_clock() -> bool {
 }
 
 // Reset-cause word: the last 256 bytes of SSRAM2 are outside every ELF segment
-// (`NOINIT` in memory-mps2-an386.x), so neither QEMU's system reset (which reloads the
+// (`NOINIT` in the root memory.x), so neither QEMU's system reset (which reloads the
 // ELF's segments, zero-filling `.bss`) nor cortex-m-rt's start-up touches them.
 // Power-on: QEMU's RAM starts zeroed.
 unsafe extern "C" {

@@ -1,4 +1,4 @@
-//! The published outcomes (`report/outcomes.toml`): each one the paper's claim, where our
+//! The published outcomes (`docs/outcomes.toml`): each one the paper's claim, where our
 //! figure comes from, the check that decides "reproduced", and what explains a difference.
 //! Parsed once into typed values; a reference to a run, metric or experiment that does not
 //! exist is an error, not an empty cell.
@@ -169,7 +169,7 @@ pub struct Row {
     pub basis: String,
 }
 
-/// Reads and checks `report/outcomes.toml`.
+/// Reads and checks `docs/outcomes.toml`.
 pub fn load(path: &Path) -> Result<Vec<Outcome>> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let f: File = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;

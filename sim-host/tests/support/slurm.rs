@@ -18,7 +18,7 @@
 //! use harness::LocalSlurm; // (in sim-host/tests/support/slurm.rs)
 //! use std::time::Duration;
 //! let dir = std::env::temp_dir().join("example");
-//! let Some(slurm) = LocalSlurm::start(&dir)? else { return Ok(()) }; // not installed: skip
+//! let Some(slurm) = LocalSlurm::start(&dir)? else { return Ok(()) }; // not installed, not CI: skip
 //! let array = slurm.sbatch(&["--array=0-2", "--wrap", "echo $SLURM_ARRAY_TASK_ID"])?;
 //! let merge = slurm.sbatch(&[&format!("--dependency=afterany:{array}"), "--wrap", "true"])?;
 //! slurm.wait_jobs_done(&[array, merge], Duration::from_secs(60))?;
@@ -34,7 +34,11 @@
 //! up to [`STOP_GRACE`], then SIGKILL — also when the test panics or `start` fails halfway
 //! (the half-built value is dropped on the `?`).
 
+#[path = "require_tool.rs"]
+mod require_tool;
+
 use anyhow::{Context, Result, anyhow, bail};
+use require_tool::{Tool, require_tool};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::fs;
@@ -53,7 +57,8 @@ pub const STOP_GRACE: Duration = Duration::from_secs(5);
 /// Upper bound on any single client command (`sbatch`, `scontrol`, ...) run by the helpers.
 pub const CLIENT_TIMEOUT: Duration = Duration::from_secs(20);
 
-/// Binaries the harness needs; if any is missing, [`LocalSlurm::start`] skips.
+/// Binaries the harness needs; if any is missing, [`LocalSlurm::start`] fails under CI and
+/// skips otherwise.
 const REQUIRED: [&str; 7] = ["munged", "slurmctld", "slurmd", "sbatch", "scontrol", "sinfo", "scancel"];
 
 /// Environment-variable prefixes read by the Slurm clients (e.g. `SQUEUE_FORMAT`,
@@ -309,8 +314,9 @@ PartitionName=debug Nodes=localhost Default=YES MaxTime=INFINITE State=UP
 impl LocalSlurm {
     /// Starts munged, slurmctld and slurmd under `dir` (which must exist, be private to the
     /// caller — e.g. a `tempfile::TempDir` — and have a short path without whitespace) and
-    /// waits until the node is idle. Returns `Ok(None)`, after printing why, when the Slurm
-    /// or MUNGE binaries are not installed (`scripts/setup.sh` installs them).
+    /// waits until the node is idle. When the Slurm or MUNGE binaries are not installed
+    /// (`scripts/setup.sh` installs them): fails under CI, else returns `Ok(None)` after
+    /// saying so loudly ([`require_tool`]).
     pub fn start(dir: &Path) -> Result<Option<LocalSlurm>> {
         let t0 = Instant::now();
         let mut missing = Vec::new();
@@ -323,12 +329,8 @@ impl LocalSlurm {
                 None => missing.push(name),
             }
         }
-        if !missing.is_empty() {
-            eprintln!(
-                "skipping: Slurm/MUNGE not installed (missing {}); run scripts/setup.sh or \
-                 apt-get install slurmctld slurmd slurm-client munge",
-                missing.join(", ")
-            );
+        let found = if missing.is_empty() { Ok(()) } else { Err(format!("missing {}", missing.join(", "))) };
+        if require_tool(Tool::Slurm, found).is_none() {
             return Ok(None);
         }
         let dir = dir.canonicalize().with_context(|| format!("test directory {}", dir.display()))?;
