@@ -30,8 +30,8 @@
 //!
 //! Cost (the MCU budget): a sample `k` nodes behind now costs one propagation and one
 //! update for itself plus `k` propagations and one update per later sample node, and a
-//! copy of up to `k` nodes to open its slot; the worst case is `HISTORY_DEPTH − 1`
-//! propagations and updates (the depth is the bound; no other loop). RAM:
+//! copy of up to `k` nodes to open its slot; the worst case is `HISTORY_DEPTH`
+//! propagations and updates (every loop is bounded by the depth). RAM:
 //! `size_of::<MekfHistory>()` (see [`HISTORY_DEPTH`]). Samples and propagation steps
 //! share the depth: it must cover the longest latency at the step rate plus the samples
 //! that arrive within it. The method follows the state-history approach of ethzasl_msf /
@@ -223,7 +223,7 @@ impl<const N: usize> History<N> {
         &self.now
     }
 
-    /// Flight-clock time of now (the last propagation or sample), µs.
+    /// Flight-clock time of now (the end of the last propagation step), µs.
     pub fn now_us(&self) -> u64 {
         self.now_us
     }
