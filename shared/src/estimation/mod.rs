@@ -8,10 +8,12 @@
 //! - attitude determination: [`mekf`] (attitude + gyro bias), [`triad`], [`quest`],
 //!   [`css`] (Sun direction from coarse sun sensors);
 //! - [`navigation`]: GNSS fixes carried forward between fixes, LVLH;
+//! - [`history`]: delayed fusion, each sample fused at its own time ([`history::MekfHistory`]);
 //! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
 
 pub mod css;
 pub mod determination;
+pub mod history;
 pub mod kalman;
 pub mod lqg;
 pub mod mekf;
