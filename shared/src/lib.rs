@@ -67,6 +67,7 @@ pub mod math;
 pub mod models;
 pub mod modes;
 pub mod params;
+pub mod session;
 pub mod types;
 
 pub use fsw::Fsw;

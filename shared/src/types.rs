@@ -3,7 +3,11 @@
 //! reverse, so no algorithm depends on the wire format.
 
 use crate::math::{Quat, Vec3};
-use crate::params::MAX_WHEELS;
+
+/// Capacity of the reaction-wheel array (the wire arrays and the wheel parameters).
+pub const MAX_WHEELS: usize = 6;
+/// Number of coarse-sun-sensor heads the link carries.
+pub const MAX_CSS_HEADS: usize = 6;
 
 bitflags::bitflags! {
     /// What a sensor frame carries (`SensorFrame::valid` on the wire, same bits).

@@ -8,7 +8,7 @@
 //! stepped one since the last `Hello` or accepted configuration (a model kept here), and
 //! refused with `StaleSequence` otherwise.
 
-use acs_flight::link::session::{Session, board};
+use acs_flight::session::{Session, board};
 use acs_flight::link::{
     ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
 };

@@ -8,10 +8,10 @@ use super::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use super::{AllocOutcome, AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::math::Vec3;
 use crate::params::{
-    ActuatorParams, MAX_THRUSTERS, MAX_WHEELS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
+    ActuatorParams, MAX_THRUSTERS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
     ThrusterMethod, ThrusterParams, WheelParams,
 };
-use crate::types::{Demand, Measurements, Setpoint, Status, Valid};
+use crate::types::{Demand, MAX_WHEELS, Measurements, Setpoint, Status, Valid};
 
 /// Thruster allocator at the configured capacity (`N + 1` LP columns: thrusters and λ).
 pub type ThrusterAllocator = Allocator<MAX_THRUSTERS, { MAX_THRUSTERS + 1 }>;

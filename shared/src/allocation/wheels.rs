@@ -16,7 +16,8 @@
 
 use super::{AllocResult, AllocStatus};
 use crate::math::{Mat3, Vec3};
-use crate::params::{MAX_WHEELS, WheelParams};
+use crate::params::WheelParams;
+use crate::types::MAX_WHEELS;
 
 /// Relative determinant of `C Cᵀ` (to its trace³/27) below which the healthy wheels are
 /// declared unable to span three axes.

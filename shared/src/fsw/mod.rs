@@ -30,8 +30,8 @@ use crate::estimation::determination::{Determination, Estimate};
 use crate::guidance::Target;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
-use crate::modes::{MODE_COUNT, ModeManager};
-use crate::params::FlightParams;
+use crate::modes::ModeManager;
+use crate::params::{FlightParams, MODE_COUNT};
 use crate::types::{Demand, Status, Valid};
 
 pub use crate::allocation::family::ThrusterAllocator;
@@ -249,7 +249,7 @@ mod tests {
     use super::*;
     use crate::link::{status, valid};
     use crate::math::{EulerSeq, Quat, quat_from_euler, quat_to_xyzw};
-    use crate::modes::{Mode, ModeManagerParams, ModeRequest};
+    use crate::params::{Mode, ModeManagerParams, ModeRequest};
     use crate::params::{ActuatorParams, ControllerParams, MagnetorquerParams, ParamField, WheelParams};
 
     fn frame(q: Quat) -> SensorFrame {
@@ -412,7 +412,7 @@ mod tests {
         assert!((0..10).all(|_| f.step(&fr).mode == Mode::Manoeuvre.code()));
         // A single parameter set replaces the table.
         f.configure(&base).unwrap();
-        assert_eq!(f.step(&fr).mode, crate::modes::MODE_NONE);
+        assert_eq!(f.step(&fr).mode, crate::params::MODE_NONE);
         assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
     }
 

@@ -6,8 +6,8 @@ use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
 use crate::math::Vec3;
 use crate::math::{attitude_error, norm, rotation_angle};
-use crate::modes::{MODE_COUNT, ModeInputs};
-use crate::params::{ActuatorParams, WheelParams};
+use crate::modes::ModeInputs;
+use crate::params::{ActuatorParams, MODE_COUNT, WheelParams};
 use crate::types::Valid;
 
 impl Fsw {

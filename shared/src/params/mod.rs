@@ -13,12 +13,16 @@ use crate::math::{Mat3, quat_from_xyzw};
 pub mod actuator;
 pub mod controller;
 pub mod estimation;
+pub mod modes;
 pub mod momentum;
+pub mod sun_safe;
 
 pub use actuator::*;
 pub use controller::*;
-pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
+pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE};
+pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
+pub use sun_safe::{SunSafeError, SunSafeParams};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
@@ -28,8 +32,6 @@ pub const PARAMS_VERSION: u16 = 10;
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1024;
 
-/// Capacity of the reaction-wheel array.
-pub const MAX_WHEELS: usize = 6;
 /// Capacity of the thruster set.
 pub const MAX_THRUSTERS: usize = 12;
 
@@ -410,7 +412,7 @@ mod tests {
         assert_eq!(p.validate(), Ok(()));
         let mut buf = [0u8; 2048];
         // The mode-table upload carries one more byte (the mode) than `UploadParams`.
-        let msg = crate::link::HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: p };
+        let msg = crate::link::HostMsg::UploadModeParams { mode: crate::params::Mode::Hold, params: p };
         let n = postcard::to_slice(&msg, &mut buf).unwrap().len();
         assert!(n <= crate::link::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
         for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {

@@ -1,5 +1,5 @@
 use super::{FlightLink, LinkInfo};
-use acs_flight::link::session::{Session, board};
+use acs_flight::session::{Session, board};
 use acs_flight::link::{FswMsg, HostMsg, LinkError, SensorFrame, StepReport};
 use anyhow::{Result, bail};
 
