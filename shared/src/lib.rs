@@ -69,5 +69,6 @@ pub mod modes;
 pub mod params;
 pub mod session;
 pub mod types;
+pub mod validation;
 
 pub use fsw::Fsw;

@@ -12,7 +12,7 @@ use acs_flight::session::{Session, board};
 use acs_flight::link::{
     ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
 };
-use acs_flight::modes::{Mode, ModeRequest};
+use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::params::{AttitudeSource, EstimationParams};
 use acs_tests::scenario;
 use rand::{RngExt, SeedableRng};

@@ -1,6 +1,6 @@
 //! The mode step of `Fsw::step`: mode logic on the active mode's view of the measurements.
 
-use super::{Fsw, validate};
+use super::{Fsw, check};
 use crate::allocation::cmg::{CmgPyramid, GimbalTrig};
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
@@ -26,7 +26,7 @@ impl Fsw {
             return;
         };
         let (error_rad, rel_rate_rad_s) =
-            match validate::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
+            match check::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
                 Ok(m) => {
                     let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
                     (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
@@ -35,7 +35,7 @@ impl Fsw {
             };
         let mut inputs_ok = [false; MODE_COUNT];
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
-            *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required, c.needs_navigation, est).is_ok());
+            *ok = slot.as_ref().is_some_and(|c| check::check_frame(f, c.required, c.needs_navigation, est).is_ok());
         }
         let inputs = ModeInputs {
             rate_rad_s: norm(&w),

@@ -18,7 +18,7 @@
 use super::{Cost, Evaluator, FRAME_FIELDS, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
 use acs_flight::estimation::determination::{MAX_PROPAGATION_DT_S, MAX_PROPAGATION_PIECES};
 use acs_flight::link::{SensorFrame, valid};
-use acs_flight::modes::Mode;
+use acs_flight::params::Mode;
 use anyhow::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
