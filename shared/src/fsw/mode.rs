@@ -1,10 +1,10 @@
 //! The mode step of `Fsw::step`: mode logic on the active mode's view of the measurements.
 
 use super::{Fsw, check};
-use crate::allocation::cmg::{CmgPyramid, GimbalTrig};
+use crate::allocation::effectiveness::cmg::{CmgPyramid, GimbalTrig};
+use crate::allocation::effectiveness::wheels::stored_momentum_nms;
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
-use crate::math::Vec3;
 use crate::math::{attitude_error, norm, rotation_angle};
 use crate::modes::ModeInputs;
 use crate::params::{ActuatorParams, MODE_COUNT, WheelParams};
@@ -70,10 +70,7 @@ impl Fsw {
         if self.manager.as_ref().is_none_or(|m| m.params.slow_fdir_persistence_s <= 0.0) {
             return f32::NAN;
         }
-        let mut h = Vec3::zeros();
-        for (a, s) in w.axes.iter().zip(f.wheel_speed_rad_s.iter()).take(usize::from(w.count)) {
-            h += Vec3::from(*a) * (w.inertia_kgm2 * s);
-        }
+        let h = stored_momentum_nms(&w, &f.wheel_speed_rad_s);
         norm(&h) / (w.inertia_kgm2 * w.max_speed_rad_s)
     }
 
