@@ -4,8 +4,8 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use acs_flight::session::Session;
 use acs_flight::link::{encode_frame, ActuatorCommand, FswMsg, SensorFrame, MAX_FRAME};
+use acs_flight::session::Session;
 use acs_flight::Fsw;
 use embassy_sync::blocking_mutex::raw::ThreadModeRawMutex;
 use embassy_sync::mutex::Mutex;

@@ -66,9 +66,7 @@ pub fn sensor_samples(f: &SensorFrame) -> SensorSamples {
             .then(|| unit_quat(f.q_ib_xyzw))
             .flatten()
             .map(|q_ib| StarTrackerAttitude { time_us, q_ib }),
-        sun_sensor: valid
-            .contains(Valid::SUN)
-            .then(|| SunSensorDirection { time_us, dir_body: Vec3::from(f.sun_dir) }),
+        sun_sensor: valid.contains(Valid::SUN).then(|| SunSensorDirection { time_us, dir_body: Vec3::from(f.sun_dir) }),
         css: valid.contains(Valid::CSS).then_some(CssOutputs { time_us, output: f.css_output }),
         magnetometer: (valid.contains(Valid::MAG) && finite(&f.mag_field_t))
             .then(|| MagnetometerField { time_us, field_body_t: Vec3::from(f.mag_field_t) }),

@@ -337,7 +337,8 @@ mod tests {
         assert!(check([90.0, 90.0, 90.0, 90.0]));
         // The elliptic internal singularity is not the envelope.
         assert!(!check([90.0, 0.0, -90.0, 0.0]));
-        let out = steer(&p, 
+        let out = steer(
+            &p,
             &sp(SteeringLaw::MoorePenrose),
             &lim(),
             &GimbalTrig::new(&deg4([90.0; 4])),

@@ -230,7 +230,8 @@ impl ActuatorFamily for CmgCluster {
                 cmg_allocation(cmd, &realised, &realised, flags)
             }
             Demand::Torque(u) => {
-                let out = steer(p, &self.steering, l, &t, &m.gimbal_angle_rad, &m.rate_rad_s, u, dt_s, sp.dither_time_s);
+                let out =
+                    steer(p, &self.steering, l, &t, &m.gimbal_angle_rad, &m.rate_rad_s, u, dt_s, sp.dither_time_s);
                 let realised = p.torque_on_body(&t, &m.rate_rad_s, &out.gimbal_rate_rad_s);
                 let cmd = Commands::Cmg {
                     gimbal_rate_rad_s: out.gimbal_rate_rad_s,

@@ -4,8 +4,8 @@
 //! cross-product law returns the part of m perpendicular to B — the only part that
 //! produces torque — and applies the dipole limits and dead band.
 
-use super::TorqueDemand;
 use crate::math::Vec3;
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BdotGains {

@@ -2,8 +2,9 @@
 //! `T = -Kp ∘ e - Kd ∘ (ω - ω_c)`, e the 3-2-1 Euler angles of the error rotation (body
 //! relative to target), then mapped to dipoles by the cross-product law of the allocation.
 
-use super::{TorqueDemand, scale_to_box};
+use super::scale_to_box;
 use crate::math::{EulerSeq, Quat, Vec3, attitude_error, euler_from_quat, rotation_angle};
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EulerPdGains {

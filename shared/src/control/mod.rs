@@ -12,7 +12,6 @@ pub mod momentum;
 pub mod quaternion_feedback;
 pub mod rate_damping;
 pub mod sun_safe;
-pub use crate::types::TorqueDemand;
 pub use bdot::{Bdot, BdotGains};
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};

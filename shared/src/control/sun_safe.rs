@@ -38,9 +38,9 @@
 //! `input_rejected` set and leave the state unchanged. No heap, no loops, no panics.
 
 use super::scale_to_box;
-use crate::params::sun_safe::{SunSafeError, SunSafeParams};
 use crate::math::f32m::{atan2, sin_cos};
 use crate::math::{Vec3, all_finite, norm};
+use crate::params::sun_safe::{SunSafeError, SunSafeParams};
 
 /// Largest accepted time step (s).
 pub const SUN_SAFE_MAX_DT_S: f32 = 10.0;

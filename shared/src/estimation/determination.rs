@@ -145,8 +145,7 @@ impl Determination {
             unit(&ecef_to_eci(&n.time, &b))
         });
         // Measured vectors.
-        let fine_sun =
-            s.sun_sensor.filter(|_| self.params.sun_sensor_sigma_rad > 0.0).and_then(|x| unit(&x.dir_body));
+        let fine_sun = s.sun_sensor.filter(|_| self.params.sun_sensor_sigma_rad > 0.0).and_then(|x| unit(&x.dir_body));
         let coarse_sun = s
             .css
             .filter(|_| self.params.css_count > 0)
@@ -366,8 +365,8 @@ const fn css_heads(p: &EstimationParams) -> CssHeads {
 mod tests {
     use super::*;
     use crate::link::{SensorFrame, valid};
-    use crate::validation::sensor_samples;
     use crate::math::{EulerSeq, quat_from_euler};
+    use crate::validation::sensor_samples;
 
     fn mekf_params() -> EstimationParams {
         EstimationParams {

@@ -8,7 +8,8 @@ use crate::guidance::Target;
 use crate::math::{Vec3, quat_from_xyzw, quat_normalized};
 use crate::modes::ModeManager;
 use crate::params::{
-    EstimationParams, FlightParams, MODE_COUNT, Mode, ModeManagerParams, ModeRequest, ParamError, ParamField, ParamReason,
+    EstimationParams, FlightParams, MODE_COUNT, Mode, ModeManagerParams, ModeRequest, ParamError, ParamField,
+    ParamReason,
 };
 use crate::types::Valid;
 

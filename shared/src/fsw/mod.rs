@@ -36,9 +36,8 @@ use crate::params::{FlightParams, MODE_COUNT};
 use crate::types::{Demand, Status, Valid};
 use crate::validation::sensor_samples;
 
-pub use crate::allocation::family::ThrusterAllocator;
-pub use config::ModeError;
 use check::Missing;
+pub use config::ModeError;
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]
@@ -251,8 +250,8 @@ mod tests {
     use super::*;
     use crate::link::{status, valid};
     use crate::math::{EulerSeq, Quat, quat_from_euler, quat_to_xyzw};
-    use crate::params::{Mode, ModeManagerParams, ModeRequest};
     use crate::params::{ActuatorParams, ControllerParams, MagnetorquerParams, ParamField, WheelParams};
+    use crate::params::{Mode, ModeManagerParams, ModeRequest};
 
     fn frame(q: Quat) -> SensorFrame {
         SensorFrame {

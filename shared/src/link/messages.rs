@@ -12,9 +12,7 @@
 //! typed [`Valid`] and [`Status`] (`from_bits_retain` / `bits`, same bits) at this boundary.
 
 use crate::checksum::CRC32;
-use crate::params::{
-    EstimationParams, FlightParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError,
-};
+use crate::params::{EstimationParams, FlightParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError};
 #[allow(unused_imports)] // doc links
 use crate::types::{MAX_CSS_HEADS, MAX_WHEELS, Status, Valid};
 use postcard_schema::Schema;

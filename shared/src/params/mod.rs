@@ -22,9 +22,9 @@ pub use controller::*;
 pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE};
 pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
-pub use sun_safe::{SunSafeError, SunSafeParams};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
+pub use sun_safe::{SunSafeError, SunSafeParams};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
 pub const PARAMS_VERSION: u16 = 10;
@@ -35,8 +35,7 @@ pub const PARAMS_MAX_SIZE: usize = 1024;
 /// Capacity of the thruster set.
 pub const MAX_THRUSTERS: usize = 12;
 
-/// The project CRC (defined in [`crate::checksum`]), re-exported for parameter users.
-pub use crate::checksum::CRC32;
+use crate::checksum::CRC32;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

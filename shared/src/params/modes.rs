@@ -178,6 +178,6 @@ impl ModeManagerParams {
         let mut buf = [0u8; 64];
         let used = postcard::to_slice(self, &mut buf)
             .map_err(|_| ParamError { field: ParamField::ModeTable, reason: ParamReason::TooLarge })?;
-        Ok(crate::params::CRC32.checksum(used))
+        Ok(crate::checksum::CRC32.checksum(used))
     }
 }

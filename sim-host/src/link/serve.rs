@@ -10,8 +10,8 @@
 //! reading, send garbage, go quiet for longer than the idle timeout — ends its own session
 //! only; the server keeps accepting.
 
-use acs_flight::session::{Session, board};
 use acs_flight::link::{FrameAccumulator, FswMsg, HostMsg, LinkError, MAX_FRAME, encode_frame};
+use acs_flight::session::{Session, board};
 use anyhow::Result;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};

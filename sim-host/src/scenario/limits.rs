@@ -9,8 +9,8 @@
 //!   own limits (no second copy of the numbers).
 
 use super::{Controller, Scenario, bad};
-use acs_flight::validation::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
 use acs_flight::params::{ParamError, ParamField, ParamReason};
+use acs_flight::validation::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
 use anyhow::{Context, Result, anyhow};
 use std::io::Read;
 use std::path::Path;

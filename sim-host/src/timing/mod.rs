@@ -20,8 +20,8 @@ use crate::scenario::{Resolved, Scenario, Upload};
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
-use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams};
+use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::types::{MAX_CSS_HEADS, MAX_WHEELS};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
