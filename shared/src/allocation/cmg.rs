@@ -277,7 +277,7 @@ mod tests {
         let (mut d, dt) = (start, 0.01f32);
         for k in 0..(seconds / dt) as usize {
             let t = GimbalTrig::new(&d);
-            let out = steer(&p, &sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, dt, k as f32 * dt);
+            let out = steer(p, &sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, dt, k as f32 * dt);
             let got = p.torque_on_body(&t, &Vec3::zeros(), &out.gimbal_rate_rad_s);
             if got.x / u.x > 0.5 {
                 return Some(k as f32 * dt);
