@@ -2,8 +2,12 @@
 //! start-up and the flight code validates before it runs a single step. One firmware
 //! image therefore runs every scenario.
 //!
-//! Split per family: [`controller`] (one variant per law) and [`actuator`] (one per
-//! actuator family); the set itself, its errors and checksum live here (the CRC in
+//! One rule: every algorithm's parameter type lives here, below the algorithms, and this
+//! module imports none of them. Split per family: [`controller`] (one variant per law),
+//! [`sun_safe`] (the sun-safe law's), [`actuator`] (one per actuator family),
+//! [`momentum`] (momentum management), [`estimation`] (attitude determination) and
+//! [`modes`] (the mode table: [`Mode`], [`ModeRequest`], [`ModeManagerParams`], shared
+//! with the wire); the set itself, its errors and checksum live here (the CRC in
 //! [`crate::checksum`]).
 //!
 //! Gains are explicit matrices: the host turns scenario-level choices (e.g. paper 000's
