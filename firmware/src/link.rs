@@ -1,6 +1,6 @@
 //! The link task: owns the UART receive side, reassembles frames and answers messages.
 //!
-//! Message semantics are `acs_flight::link::session::Session::handle` (shared with the host's
+//! Message semantics are `acs_flight::session::Session::handle` (shared with the host's
 //! virtual flight computer). Lockstep mode (default): every `Sensor` frame is stepped at
 //! once and answered with exactly one `Step` report. Real-time mode (after
 //! `StartRealTime`): `Sensor` frames only replace the latest frame; the control task

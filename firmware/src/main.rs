@@ -18,7 +18,7 @@ mod link;
 mod stack;
 mod state;
 
-use acs_flight::link::session::Session;
+use acs_flight::session::Session;
 use embassy_sync::mutex::Mutex;
 use static_cell::StaticCell;
 

@@ -4,8 +4,8 @@
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use acs_flight::link::session::Session;
 use acs_flight::link::{encode_frame, ActuatorCommand, FswMsg, SensorFrame, MAX_FRAME};
+use acs_flight::session::Session;
 use acs_flight::Fsw;
 use embassy_sync::blocking_mutex::raw::ThreadModeRawMutex;
 use embassy_sync::mutex::Mutex;
@@ -13,7 +13,7 @@ use embassy_sync::signal::Signal;
 
 use crate::board;
 
-/// The flight side of the link (`acs_flight::link::session::Session`, the same code as the
+/// The flight side of the link (`acs_flight::session::Session`, the same code as the
 /// host's virtual flight computer): owns the `Fsw`, the real-time flag and the
 /// deadline-miss count.
 pub type SharedSession = Mutex<ThreadModeRawMutex, Session>;

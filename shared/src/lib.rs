@@ -6,20 +6,38 @@
 //! and the MCU build produce the same bits).
 //!
 //! Architecture:
-//! The module tree is the data path of one step (`Fsw::step`: validate → mode → estimate
-//! → guide → control → allocate → report):
-//! - [`types`]: what the algorithms exchange (measurements, set point, demand, the typed
-//!   flag sets [`types::Valid`] and [`types::Status`]);
-//! - [`math`]: the one quaternion convention of the project and Euler conversions;
-//! - [`modes`]: the mode manager (detumble → stabilise → manoeuvre → hold);
-//! - [`estimation`]: state estimators (linear Kalman filter, the LQG estimator);
-//! - [`guidance`]: target and reference frames, the GSR dither clock;
-//! - [`control`]: attitude laws behind one trait, each owning its state;
-//! - [`allocation`]: every actuator family (CMG steering included) behind one trait with
-//!   one result type;
-//! - [`params`]: the typed, versioned, checksummed flight parameter set;
-//! - [`link`]: wire messages, COBS + CRC framing, the flight side of a session;
-//! - [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator call.
+//! `Fsw::step` runs the data path of one step: sample (the wire frame, less the torquers'
+//! field at the magnetometer, into typed samples)
+//! → estimate (navigation, reference models, attitude determination; every step, whatever
+//! the mode) → mode (the mode manager picks the parameter set in force) → validate (the
+//! frame and the estimate against what that mode needs; else the safe command) → guide
+//! → control → momentum management → allocate → report.
+//!
+//! Module layers, bottom to top; a module uses only modules below it (no cycle between
+//! top-level modules):
+//! 1. [`math`], [`checksum`]: the one quaternion convention, f32 elementary functions,
+//!    the project CRC;
+//! 2. [`types`]: what the algorithms exchange (typed sensor samples, validated
+//!    measurements, set point, demand, the flag sets [`types::Valid`] and
+//!    [`types::Status`], the array capacities);
+//! 3. [`models`]: on-board reference models (time, Sun, geomagnetic field, orbit, LVLH);
+//! 4. [`params`]: every algorithm's parameter type (one rule: all parameters live here),
+//!    the typed, versioned, checksummed flight parameter set, and the mode-table types
+//!    ([`params::Mode`]); imports no algorithm module;
+//! 5. [`link`]: wire messages and their COBS + CRC framing;
+//! 6. [`validation`]: the wire frame into typed, validated samples, and the sensor limits;
+//! 7. [`estimation`]: state estimators and the estimation stage (MEKF, TRIAD, QUEST, CSS,
+//!    navigation, Kalman/LQG);
+//! 8. [`guidance`]: target and reference frames, the GSR dither clock;
+//! 9. [`control`]: attitude laws behind one trait, each owning its state, one file per
+//!    law; momentum management;
+//! 10. [`allocation`]: actuator effectiveness apart from the allocation methods, every
+//!     family behind one trait with one result type;
+//! 11. [`modes`]: the mode manager (detumble → sun-safe → stabilise → manoeuvre → hold);
+//! 12. [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator
+//!     call;
+//! 13. [`session`]: the flight side of a link session (the firmware's link task and the
+//!     simulator's virtual flight computer).
 #![cfg_attr(not(feature = "std"), no_std)]
 // Flight rules on top of the workspace baseline (`[workspace.lints]` in the root
 // Cargo.toml; a crate cannot extend that table, hence crate attributes): no panics
@@ -67,6 +85,8 @@ pub mod math;
 pub mod models;
 pub mod modes;
 pub mod params;
+pub mod session;
 pub mod types;
+pub mod validation;
 
 pub use fsw::Fsw;

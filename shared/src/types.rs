@@ -1,9 +1,14 @@
-//! The data the algorithms exchange: measurements, set point, torque demand and typed flag
-//! sets. Algorithms use these; the link (`protocol`) converts at its boundary, never the
-//! reverse, so no algorithm depends on the wire format.
+//! The data the algorithms exchange: typed sensor samples, measurements, set point, torque
+//! demand and typed flag sets. Algorithms use these; [`crate::validation`] and `Fsw::step`
+//! convert the wire frame at their boundary, never the reverse, so no estimator depends on
+//! the wire format.
 
 use crate::math::{Quat, Vec3};
-use crate::params::MAX_WHEELS;
+
+/// Capacity of the reaction-wheel array (the wire arrays and the wheel parameters).
+pub const MAX_WHEELS: usize = 6;
+/// Number of coarse-sun-sensor heads the link carries.
+pub const MAX_CSS_HEADS: usize = 6;
 
 bitflags::bitflags! {
     /// What a sensor frame carries (`SensorFrame::valid` on the wire, same bits).
@@ -70,6 +75,74 @@ impl Status {
         .union(Self::SINGULAR)
         .union(Self::ALLOC_FALLBACK)
         .union(Self::UNREALISED);
+}
+
+/// A gyro sample: body rate, body axes, rad/s (flagged, finite, within range).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroRate {
+    /// On-board time of the sample, µs.
+    pub time_us: u64,
+    pub rate_rad_s: Vec3,
+}
+
+/// A star-tracker (attitude sensor) sample: `q_ib`, unit (normalised from a reading within
+/// 10 % of unit norm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StarTrackerAttitude {
+    /// On-board time of the sample, µs.
+    pub time_us: u64,
+    pub q_ib: Quat,
+}
+
+/// A fine-sun-sensor sample: the Sun direction, body axes, as measured (not normalised).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SunSensorDirection {
+    /// On-board time of the sample, µs.
+    pub time_us: u64,
+    pub dir_body: Vec3,
+}
+
+/// A coarse-sun-sensor sample: each head's output normalised to full Sun at normal
+/// incidence (heads as configured in `EstimationParams`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CssOutputs {
+    /// On-board time of the sample, µs.
+    pub time_us: u64,
+    pub output: [f32; MAX_CSS_HEADS],
+}
+
+/// A magnetometer sample: the field, body axes, T (finite).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MagnetometerField {
+    /// On-board time of the sample, µs.
+    pub time_us: u64,
+    pub field_body_t: Vec3,
+}
+
+/// A GNSS fix as received: inertial position and velocity (m, m/s) and the receiver's
+/// time as whole days and seconds since J2000.0 (plausibility is navigation's check).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssFix {
+    /// On-board time the fix is valid at, µs.
+    pub time_us: u64,
+    pub pos_eci_m: Vec3,
+    pub vel_eci_m_s: Vec3,
+    pub j2000_days: i32,
+    pub j2000_s: f32,
+}
+
+/// The typed sensor samples of one step (`crate::validation::sensor_samples`): what the
+/// estimation stage reads; `None` for a sensor not flagged valid or not usable.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SensorSamples {
+    /// On-board time of the step, µs.
+    pub time_us: u64,
+    pub gyro: Option<GyroRate>,
+    pub star_tracker: Option<StarTrackerAttitude>,
+    pub sun_sensor: Option<SunSensorDirection>,
+    pub css: Option<CssOutputs>,
+    pub magnetometer: Option<MagnetometerField>,
+    pub gnss: Option<GnssFix>,
 }
 
 /// Validated, normalised measurements (what `Fsw::step` checked a sensor frame into).

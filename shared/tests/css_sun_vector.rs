@@ -6,7 +6,8 @@
 // The truth is computed in f64 on the host: nalgebra's f64 norms are the reference here.
 #![allow(clippy::disallowed_methods)]
 
-use acs_flight::estimation::css::{CSS_MAX_TRACE_INV, CssError, CssHeads, CssSolution, MAX_CSS_HEADS, sun_vector};
+use acs_flight::estimation::css::{CSS_MAX_TRACE_INV, CssError, CssHeads, CssSolution, sun_vector};
+use acs_flight::types::MAX_CSS_HEADS;
 use nalgebra::{Matrix3, Vector3};
 
 type V64 = Vector3<f64>;
@@ -37,7 +38,7 @@ const THRESHOLD: f32 = 0.05;
 
 /// Six heads on the faces of a cube: ±x ±y ±z.
 fn cube() -> CssHeads {
-    CssHeads { normals_body: acs_flight::estimation::css::CUBE_FACES, count: 6, lit_threshold: THRESHOLD }
+    CssHeads { normals_body: acs_flight::params::CUBE_FACES, count: 6, lit_threshold: THRESHOLD }
 }
 
 /// Five-head pyramid: a boresight head on +z and four heads tilted 45° from it at

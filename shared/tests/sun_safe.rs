@@ -16,9 +16,11 @@
 
 #![allow(clippy::disallowed_methods)]
 
-use acs_flight::control::sun_safe::{SunSafe, SunSafeError, SunSafeOutput, SunSafeParams, SunSafePhase};
-use acs_flight::estimation::css::{CssHeads, MAX_CSS_HEADS, sun_vector};
+use acs_flight::control::sun_safe::{SunSafe, SunSafeOutput, SunSafePhase};
+use acs_flight::estimation::css::{CssHeads, sun_vector};
 use acs_flight::math::Vec3;
+use acs_flight::params::{SunSafeError, SunSafeParams};
+use acs_flight::types::MAX_CSS_HEADS;
 use nalgebra::{Quaternion, Vector3};
 
 type V64 = Vector3<f64>;

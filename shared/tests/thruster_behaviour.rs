@@ -5,7 +5,8 @@
 mod common;
 use acs_flight::allocation::thruster::paper::{paper_allocator, paper_b};
 use acs_flight::allocation::thruster::simplex::DUAL_TOL;
-use acs_flight::allocation::thruster::{AllocResult, AllocStatus, Failures, RateLimit};
+use acs_flight::allocation::thruster::{Failures, RateLimit};
+use acs_flight::allocation::{AllocResult, AllocStatus};
 use common::*;
 
 fn same_bits<const N: usize>(a: &AllocResult<N>, b: &AllocResult<N>) -> bool {

@@ -6,8 +6,9 @@
 #![allow(clippy::needless_range_loop, clippy::collapsible_if)]
 #[path = "thruster_common/mod.rs"]
 mod common;
+use acs_flight::allocation::AllocStatus;
 use acs_flight::allocation::thruster::paper::paper_allocator;
-use acs_flight::allocation::thruster::{AllocStatus, Allocator, Lp, LpStatus, Pricing};
+use acs_flight::allocation::thruster::{Allocator, Lp, LpStatus, Pricing};
 use common::*;
 
 fn check_lp<const M: usize, const N: usize>(lp: &Lp<M, N>, worst: &mut f64, counts: &mut [usize; 3]) {

@@ -5,8 +5,9 @@
 #![allow(clippy::needless_range_loop, clippy::collapsible_if)]
 #[path = "thruster_common/mod.rs"]
 mod common;
+use acs_flight::allocation::AllocStatus;
 use acs_flight::allocation::thruster::paper::PAPER_PWPF;
-use acs_flight::allocation::thruster::{AllocStatus, Allocator, Bounds, Failures, Lp, LpStatus, Pwpf, RateLimit};
+use acs_flight::allocation::thruster::{Allocator, Bounds, Failures, Lp, LpStatus, Pwpf, RateLimit};
 use common::*;
 
 fn wild(rng: &mut Rng) -> f32 {

@@ -20,8 +20,9 @@
 #![allow(clippy::needless_range_loop)]
 #[path = "thruster_common/mod.rs"]
 mod common;
+use acs_flight::allocation::AllocStatus;
 use acs_flight::allocation::thruster::paper::{paper_allocator, paper_allocator_in};
-use acs_flight::allocation::thruster::{AllocStatus, Allocator, Failures};
+use acs_flight::allocation::thruster::{Allocator, Failures};
 use common::*;
 
 #[test]

@@ -4,9 +4,10 @@
 #![allow(clippy::needless_range_loop, clippy::collapsible_if)]
 #[path = "thruster_common/mod.rs"]
 mod common;
+use acs_flight::allocation::AllocStatus;
 use acs_flight::allocation::thruster::paper::paper_allocator;
 use acs_flight::allocation::thruster::simplex::default_iteration_cap;
-use acs_flight::allocation::thruster::{AllocStatus, Allocator, Bounds, Failures, LpStatus, Pricing, RateLimit};
+use acs_flight::allocation::thruster::{Allocator, Bounds, Failures, LpStatus, Pricing, RateLimit};
 use common::*;
 
 #[derive(Default, Debug)]

@@ -8,8 +8,9 @@
 #![allow(clippy::needless_range_loop, clippy::collapsible_if)]
 #[path = "thruster_common/mod.rs"]
 mod common;
+use acs_flight::allocation::AllocStatus;
 use acs_flight::allocation::thruster::paper::paper_allocator;
-use acs_flight::allocation::thruster::{AllocStatus, Allocator, Bounds};
+use acs_flight::allocation::thruster::{Allocator, Bounds};
 use common::*;
 
 struct Stats {

@@ -5,7 +5,7 @@
 //! Every refusal has its accepted neighbour (the shipped value, or the value at the limit)
 //! so a test cannot pass by refusing everything.
 
-use acs_flight::fsw::{MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S};
+use acs_flight::validation::{MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};

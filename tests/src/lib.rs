@@ -83,8 +83,8 @@ pub fn corrupt_frames_are_dropped_and_counted<S: Read + Write>(link: &mut Framed
 /// touches the flight state: the commands of the next frames equal, bit for bit, those of
 /// an in-process `Session` that only saw the clean frames.
 pub fn repeated_frames_and_trailing_junk_are_refused<S: Read + Write>(link: &mut Framed<S>) {
-    use acs_flight::link::session::{Session, board};
     use acs_flight::link::{FswMsg, LinkError};
+    use acs_flight::session::{Session, board};
     fn reference_step(s: &mut Session, seq: u32) -> acs_flight::link::ActuatorCommand {
         match s.handle(&HostMsg::Sensor(frame(seq)), 0, &mut || 0) {
             Some(FswMsg::Step(r)) => r.cmd,

@@ -8,12 +8,12 @@
 //! stepped one since the last `Hello` or accepted configuration (a model kept here), and
 //! refused with `StaleSequence` otherwise.
 
-use acs_flight::link::session::{Session, board};
 use acs_flight::link::{
     ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
 };
-use acs_flight::modes::{Mode, ModeRequest};
 use acs_flight::params::{AttitudeSource, EstimationParams};
+use acs_flight::params::{Mode, ModeRequest};
+use acs_flight::session::{Session, board};
 use acs_tests::scenario;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

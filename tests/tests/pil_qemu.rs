@@ -48,7 +48,7 @@ fn qemu_run_matches_in_process_and_reports_instruction_counts() {
     let max = s.max_step_instructions.expect("the firmware measures every step");
     eprintln!("PIL: Fsw::step max {max} instructions, mean {:.0}", s.mean_step_instructions.unwrap());
     assert!(max > 500 && max < 20_000, "{max} instructions per step");
-    assert_eq!(s.board, Some(acs_flight::link::session::board::QEMU_MPS2_AN386));
+    assert_eq!(s.board, Some(acs_flight::session::board::QEMU_MPS2_AN386));
     assert_eq!(s.frames_dropped_flight + s.frames_dropped_host, 0);
     assert!((s.final_error_deg - sil.summary.final_error_deg).abs() < 1e-6);
 }

@@ -1,9 +1,6 @@
-//! Four single-gimbal CMGs in a pyramid (paper 000 eqs 6-8) and their steering laws.
-//!
-//! Momentum (eq 6), gimbal angles `δ_i`, skew `β`, `c = cos`, `s = sin`:
-//! `h = h0 ( [-cβ s1, c1, sβ s1] + [-c2, -cβ s2, sβ s2] + [cβ s3, -c3, sβ s3] + [c4, cβ s4, sβ s4] )`
-//! Jacobian `J = ∂h/∂δ` (eq 8), 3×4. Torque on the body (eq 4): `T = -J δ̇ - ω × h`.
-//! The steering therefore asks for `ḣ = -u - ω × h` and solves `J δ̇ = ḣ`:
+//! Steering laws of the CMG pyramid (paper 000 eqs 11-14, GSR): gimbal rates for a body
+//! torque, on the cluster's effectiveness ([`crate::allocation::effectiveness::cmg`]).
+//! The steering asks for `ḣ = -u - ω × h` and solves `J δ̇ = ḣ`:
 //! - Moore-Penrose `δ̇ = Jᵀ (J Jᵀ)⁻¹ ḣ`;
 //! - singularity-robust `δ̇ = Jᵀ (J Jᵀ + α I)⁻¹ ḣ` (eq 11) with α from eqs 12-14;
 //! - generalized SR `δ̇ = Jᵀ (J Jᵀ + λ E(t))⁻¹ ḣ` with a rotating off-diagonal dither E
@@ -12,24 +9,12 @@
 //!   body torque), and a check for the momentum-envelope (saturation) singularity: at a
 //!   singular set with singular direction u, all unit momenta on the same side of u
 //!   (`sign(h_i·u)` equal) means the cluster is saturated, not internally singular.
-//!
-//! The singularity measure `m = det(J₁ J₁ᵀ)` uses the unit-momentum Jacobian
-//! `J₁ = J / h0`, so α and `m` are dimensionless and independent of the rotor size.
 
+use super::effectiveness::cmg::{CmgPyramid, GimbalTrig};
 use crate::math::f32m::{exp, sin_cos};
 use crate::math::{Mat3, Vec3};
 use crate::params::{AlphaSchedule, CmgParams, SteeringLaw, SteeringParams};
 use crate::types::Status;
-use nalgebra::SMatrix;
-
-pub type Jacobian = SMatrix<f32, 3, 4>;
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CmgPyramid {
-    pub h0_nms: f32,
-    cos_skew: f32,
-    sin_skew: f32,
-}
 
 /// What a steering call produced.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -64,170 +49,85 @@ impl From<&CmgParams> for GimbalLimits {
     }
 }
 
-/// `[sin δ_i]`, `[cos δ_i]`, computed once per step and shared by `h` and `J`.
-#[derive(Clone, Copy, Debug)]
-pub struct GimbalTrig {
-    pub s: [f32; 4],
-    pub c: [f32; 4],
-}
-
-impl GimbalTrig {
-    pub fn new(delta_rad: &[f32; 4]) -> Self {
-        let sc = delta_rad.map(sin_cos);
-        Self { s: sc.map(|v| v.0), c: sc.map(|v| v.1) }
-    }
-}
-
-impl CmgPyramid {
-    pub fn new(skew_rad: f32, h0_nms: f32) -> Self {
-        let (sin_skew, cos_skew) = sin_cos(skew_rad);
-        Self { h0_nms, cos_skew, sin_skew }
-    }
-
-    /// Cluster momentum in body axes, N m s (eq 6).
-    pub fn momentum(&self, t: &GimbalTrig) -> Vec3 {
-        let (cb, sb) = (self.cos_skew, self.sin_skew);
-        let [s1, s2, s3, s4] = t.s;
-        let [c1, c2, c3, c4] = t.c;
-        Vec3::new(-cb * s1 - c2 + cb * s3 + c4, c1 - cb * s2 - c3 + cb * s4, sb * (s1 + s2 + s3 + s4)) * self.h0_nms
-    }
-
-    /// Unit-momentum Jacobian `J₁ = ∂h/∂δ / h0` (eq 8).
-    pub fn unit_jacobian(&self, t: &GimbalTrig) -> Jacobian {
-        let (cb, sb) = (self.cos_skew, self.sin_skew);
-        let [s1, s2, s3, s4] = t.s;
-        let [c1, c2, c3, c4] = t.c;
-        #[rustfmt::skip]
-        let j = Jacobian::new(
-            -cb * c1,  s2,       cb * c3, -s4,
-            -s1,      -cb * c2,  s3,       cb * c4,
-             sb * c1,  sb * c2,  sb * c3,  sb * c4,
-        );
-        j
-    }
-
-    /// Jacobian with units, N m s / rad.
-    pub fn jacobian(&self, t: &GimbalTrig) -> Jacobian {
-        self.unit_jacobian(t) * self.h0_nms
-    }
-
-    /// Torque the gimbal rates produce on the body (eq 4): `-J δ̇ - ω × h`.
-    pub fn torque_on_body(&self, t: &GimbalTrig, rate_rad_s: &Vec3, gimbal_rate_rad_s: &[f32; 4]) -> Vec3 {
-        let d = nalgebra::Vector4::from(*gimbal_rate_rad_s);
-        -(self.jacobian(t) * d) - rate_rad_s.cross(&self.momentum(t))
-    }
-
-    /// Unit rotor momentum vectors of the four units (columns of eq 6 with `h0 = 1`).
-    fn unit_momenta(&self, t: &GimbalTrig) -> [Vec3; 4] {
-        let (cb, sb) = (self.cos_skew, self.sin_skew);
-        let [s1, s2, s3, s4] = t.s;
-        let [c1, c2, c3, c4] = t.c;
-        [
-            Vec3::new(-cb * s1, c1, sb * s1),
-            Vec3::new(-c2, -cb * s2, sb * s2),
-            Vec3::new(cb * s3, -c3, sb * s3),
-            Vec3::new(c4, cb * s4, sb * s4),
-        ]
-    }
-
-    /// At a (near-)singular `J₁ J₁ᵀ`: is it the momentum envelope (all unit momenta on
-    /// one side of the singular direction)? The singular direction is the largest column
-    /// of the adjugate (row cross products), which needs no eigen-solver.
-    pub fn at_momentum_envelope(&self, t: &GimbalTrig, jjt: &Mat3) -> bool {
-        let r = |i: usize| Vec3::new(jjt[(i, 0)], jjt[(i, 1)], jjt[(i, 2)]);
-        let cands = [r(1).cross(&r(2)), r(2).cross(&r(0)), r(0).cross(&r(1))];
-        let u =
-            cands.iter().fold(Vec3::zeros(), |best, c| if c.norm_squared() > best.norm_squared() { *c } else { best });
-        let n = crate::math::norm(&u);
-        if !(n > 0.0) || !n.is_finite() {
-            return false;
+/// Solve for gimbal rates that produce body torque `torque_nm` at body rate `ω`.
+/// `time_s` drives the GSR dither (any clock; only its phase matters).
+#[allow(clippy::too_many_arguments)]
+pub fn steer(
+    pyramid: &CmgPyramid,
+    p: &SteeringParams,
+    limits: &GimbalLimits,
+    t: &GimbalTrig,
+    delta_rad: &[f32; 4],
+    rate_rad_s: &Vec3,
+    torque_nm: &Vec3,
+    dt_s: f32,
+    time_s: f32,
+) -> SteeringOutput {
+    let mut j1 = pyramid.unit_jacobian(t);
+    for i in 0..4 {
+        if limits.failed_mask & (1 << i) != 0 {
+            j1.set_column(i, &Vec3::zeros());
         }
-        let u = u / n;
-        let p = self.unit_momenta(t).map(|h| h.dot(&u));
-        let tol = 0.05;
-        p.iter().all(|x| *x > tol) || p.iter().all(|x| *x < -tol)
     }
-
-    /// Solve for gimbal rates that produce body torque `torque_nm` at body rate `ω`.
-    /// `time_s` drives the GSR dither (any clock; only its phase matters).
-    #[allow(clippy::too_many_arguments)]
-    pub fn steer(
-        &self,
-        p: &SteeringParams,
-        limits: &GimbalLimits,
-        t: &GimbalTrig,
-        delta_rad: &[f32; 4],
-        rate_rad_s: &Vec3,
-        torque_nm: &Vec3,
-        dt_s: f32,
-        time_s: f32,
-    ) -> SteeringOutput {
-        let mut j1 = self.unit_jacobian(t);
-        for i in 0..4 {
-            if limits.failed_mask & (1 << i) != 0 {
-                j1.set_column(i, &Vec3::zeros());
-            }
+    let jjt: Mat3 = j1 * j1.transpose();
+    let m = jjt.determinant();
+    // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
+    let hdot = (-torque_nm - rate_rad_s.cross(&pyramid.momentum(t))) / pyramid.h0_nms;
+    let mut st = Status::empty();
+    let (alpha, weight) = match &p.law {
+        SteeringLaw::MoorePenrose => (0.0, Mat3::identity()),
+        SteeringLaw::SingularityRobust(s) => (alpha_of(s, m), Mat3::identity()),
+        SteeringLaw::GeneralizedSr { lambda0, mu, eps0, omega_rad_s } => {
+            // ε_i = ε0 sin(ωt + φ_i), φ = 0, π/2, π: sin, cos, −sin of one phase. Past
+            // the f32 reduction range (|ωt| > 2^16 rad) sin_cos is NaN: the dither
+            // then stops (plain SR weight) rather than poisoning the inverse.
+            let (s, c) = sin_cos(omega_rad_s * time_s);
+            let (s, c) = if s.is_nan() { (0.0, 0.0) } else { (s, c) };
+            let e1 = eps0 * s;
+            let e2 = eps0 * c;
+            let e3 = -(eps0 * s);
+            #[rustfmt::skip]
+            let e = Mat3::new(
+                1.0, e3, e2,
+                e3, 1.0, e1,
+                e2, e1, 1.0,
+            );
+            (lambda0 * exp(-mu * m), e)
         }
-        let jjt: Mat3 = j1 * j1.transpose();
-        let m = jjt.determinant();
-        // Momentum-rate demand in unit-momentum terms: J₁ δ̇ = ḣ / h0.
-        let hdot = (-torque_nm - rate_rad_s.cross(&self.momentum(t))) / self.h0_nms;
-        let mut st = Status::empty();
-        let (alpha, weight) = match &p.law {
-            SteeringLaw::MoorePenrose => (0.0, Mat3::identity()),
-            SteeringLaw::SingularityRobust(s) => (alpha_of(s, m), Mat3::identity()),
-            SteeringLaw::GeneralizedSr { lambda0, mu, eps0, omega_rad_s } => {
-                // ε_i = ε0 sin(ωt + φ_i), φ = 0, π/2, π: sin, cos, −sin of one phase. Past
-                // the f32 reduction range (|ωt| > 2^16 rad) sin_cos is NaN: the dither
-                // then stops (plain SR weight) rather than poisoning the inverse.
-                let (s, c) = sin_cos(omega_rad_s * time_s);
-                let (s, c) = if s.is_nan() { (0.0, 0.0) } else { (s, c) };
-                let e1 = eps0 * s;
-                let e2 = eps0 * c;
-                let e3 = -(eps0 * s);
-                #[rustfmt::skip]
-                let e = Mat3::new(
-                    1.0, e3, e2,
-                    e3, 1.0, e1,
-                    e2, e1, 1.0,
-                );
-                (lambda0 * exp(-mu * m), e)
-            }
-        };
-        let a = jjt + weight * alpha;
-        let mut rates = match (m >= p.singular_threshold || alpha > 0.0, a.try_inverse()) {
-            (true, Some(inv)) => j1.transpose() * (inv * hdot),
-            _ => {
-                st |= Status::SINGULAR;
-                nalgebra::Vector4::zeros()
-            }
-        };
-        // Null motion (only where the Moore-Penrose projector is well defined).
-        if p.null_gain_per_s > 0.0
-            && m >= p.singular_threshold
-            && let Some(inv) = jjt.try_inverse()
-        {
-            let d = nalgebra::Vector4::from(*delta_rad);
-            let e = nalgebra::Vector4::from(p.preferred_gimbal_rad) - d;
-            let proj = e - j1.transpose() * (inv * (j1 * e));
-            rates += proj * p.null_gain_per_s;
-        }
-        if m < p.saturation_check_m && self.at_momentum_envelope(t, &jjt) {
-            st |= Status::MOMENTUM_SATURATION;
-        }
-        let mut r: [f32; 4] = rates.into();
-        if !r.iter().all(|x| x.is_finite()) {
+    };
+    let a = jjt + weight * alpha;
+    let mut rates = match (m >= p.singular_threshold || alpha > 0.0, a.try_inverse()) {
+        (true, Some(inv)) => j1.transpose() * (inv * hdot),
+        _ => {
             st |= Status::SINGULAR;
-            r = [0.0; 4];
+            nalgebra::Vector4::zeros()
         }
-        for (i, x) in r.iter_mut().enumerate() {
-            if limits.failed_mask & (1 << i) != 0 {
-                *x = 0.0;
-            }
-        }
-        st |= limit_rates(&mut r, delta_rad, limits, dt_s);
-        SteeringOutput { gimbal_rate_rad_s: r, singularity_measure: m, alpha, status: st }
+    };
+    // Null motion (only where the Moore-Penrose projector is well defined).
+    if p.null_gain_per_s > 0.0
+        && m >= p.singular_threshold
+        && let Some(inv) = jjt.try_inverse()
+    {
+        let d = nalgebra::Vector4::from(*delta_rad);
+        let e = nalgebra::Vector4::from(p.preferred_gimbal_rad) - d;
+        let proj = e - j1.transpose() * (inv * (j1 * e));
+        rates += proj * p.null_gain_per_s;
     }
+    if m < p.saturation_check_m && pyramid.at_momentum_envelope(t, &jjt) {
+        st |= Status::MOMENTUM_SATURATION;
+    }
+    let mut r: [f32; 4] = rates.into();
+    if !r.iter().all(|x| x.is_finite()) {
+        st |= Status::SINGULAR;
+        r = [0.0; 4];
+    }
+    for (i, x) in r.iter_mut().enumerate() {
+        if limits.failed_mask & (1 << i) != 0 {
+            *x = 0.0;
+        }
+    }
+    st |= limit_rates(&mut r, delta_rad, limits, dt_s);
+    SteeringOutput { gimbal_rate_rad_s: r, singularity_measure: m, alpha, status: st }
 }
 
 /// α from the schedule (paper 000 eqs 12-14).
@@ -277,76 +177,13 @@ pub fn limit_rates(r: &mut [f32; 4], delta_rad: &[f32; 4], l: &GimbalLimits, dt_
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::allocation::effectiveness::cmg::GimbalTrig;
     use nalgebra::Vector4;
 
     const BETA: f32 = 0.955_233_9; // 54.73 deg
 
     fn deg4(d: [f32; 4]) -> [f32; 4] {
         d.map(|x| x.to_radians())
-    }
-
-    /// Independent form of eq 6: sum of the four unit vectors as the paper prints them.
-    fn momentum_eq6(h0: f64, beta: f64, d: [f64; 4]) -> [f64; 3] {
-        let (cb, sb) = (beta.cos(), beta.sin());
-        let (s, c) = (d.map(f64::sin), d.map(f64::cos));
-        let terms = [
-            [-cb * s[0], c[0], sb * s[0]],
-            [-c[1], -cb * s[1], sb * s[1]],
-            [cb * s[2], -c[2], sb * s[2]],
-            [c[3], cb * s[3], sb * s[3]],
-        ];
-        let mut h = [0.0; 3];
-        for t in terms {
-            for k in 0..3 {
-                h[k] += h0 * t[k];
-            }
-        }
-        h
-    }
-
-    #[test]
-    fn momentum_matches_eq6_and_zero_gimbals_cancel() {
-        let p = CmgPyramid::new(BETA, 0.623);
-        let h = p.momentum(&GimbalTrig::new(&[0.0; 4]));
-        assert!(h.norm() < 1e-6, "zero gimbals store no momentum: {h:?}");
-        let d = [0.3f32, -1.1, 2.0, 0.7];
-        let h = p.momentum(&GimbalTrig::new(&d));
-        let r = momentum_eq6(0.623, BETA as f64, d.map(|x| x as f64));
-        for k in 0..3 {
-            assert!((h[k] as f64 - r[k]).abs() < 1e-6);
-        }
-    }
-
-    #[test]
-    fn jacobian_matches_central_differences_of_eq6() {
-        let p = CmgPyramid::new(BETA, 0.623);
-        for d in [[0.0f32, 0.0, 0.0, 0.0], [0.3, -1.1, 2.0, 0.7], [1.57, 0.0, -1.57, 0.0]] {
-            let j = p.jacobian(&GimbalTrig::new(&d));
-            let d64 = d.map(|x| x as f64);
-            let eps = 1e-6;
-            for i in 0..4 {
-                let (mut a, mut b) = (d64, d64);
-                a[i] += eps;
-                b[i] -= eps;
-                let (ha, hb) = (momentum_eq6(0.623, BETA as f64, a), momentum_eq6(0.623, BETA as f64, b));
-                for k in 0..3 {
-                    let fd = (ha[k] - hb[k]) / (2.0 * eps);
-                    assert!((j[(k, i)] as f64 - fd).abs() < 1e-5, "J[{k},{i}] {} vs {fd}", j[(k, i)]);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn zero_gimbal_singularity_measure_is_the_known_value() {
-        // At δ = 0 the columns are [-cβ,0,sβ], [0,-cβ,sβ], [cβ,0,sβ], [0,cβ,sβ]:
-        // J₁ J₁ᵀ = diag(2cβ², 2cβ², 4sβ²) → m = 16 cβ⁴ sβ².
-        let p = CmgPyramid::new(BETA, 1.0);
-        let j = p.unit_jacobian(&GimbalTrig::new(&[0.0; 4]));
-        let m = (j * j.transpose()).determinant();
-        let (cb, sb) = (BETA.cos(), BETA.sin());
-        let expect = 16.0 * cb.powi(4) * sb * sb;
-        assert!((m - expect).abs() < 1e-5 * expect);
     }
 
     fn sp(law: SteeringLaw) -> SteeringParams {
@@ -370,7 +207,7 @@ mod tests {
         let t = GimbalTrig::new(&d);
         let w = Vec3::new(0.01, -0.02, 0.03);
         let u = Vec3::new(0.05, -0.02, 0.08);
-        let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &w, &u, 0.01, 0.0);
+        let mp = steer(&p, &sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &w, &u, 0.01, 0.0);
         assert_eq!(mp.status, Status::empty());
         // MP realises the torque exactly (away from singularities).
         let got = p.torque_on_body(&t, &w, &mp.gimbal_rate_rad_s);
@@ -379,7 +216,7 @@ mod tests {
         let mut ratio = 0.0;
         for a0 in [1e-1f32, 1e-2, 1e-3, 1e-4] {
             let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0, mu: 0.0 });
-            let sr = p.steer(&sp(law), &lim(), &t, &d, &w, &u, 0.01, 0.0);
+            let sr = steer(&p, &sp(law), &lim(), &t, &d, &w, &u, 0.01, 0.0);
             let diff: f32 =
                 sr.gimbal_rate_rad_s.iter().zip(mp.gimbal_rate_rad_s.iter()).map(|(a, b)| (a - b).abs()).sum();
             assert!(diff < prev, "difference shrinks with alpha");
@@ -402,11 +239,11 @@ mod tests {
         let j = p.unit_jacobian(&t);
         assert!((j * j.transpose()).determinant().abs() < 1e-6);
         let u = Vec3::new(0.1, 0.0, 0.0);
-        let mp = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let mp = steer(&p, &sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         assert!(mp.gimbal_rate_rad_s.iter().all(|x| x.is_finite()));
         assert!(mp.status.contains(Status::SINGULAR));
         let law = SteeringLaw::SingularityRobust(AlphaSchedule::Exponential { a0: 0.01, mu: 10.0 });
-        let sr = p.steer(&sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let sr = steer(&p, &sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         let peak = sr.gimbal_rate_rad_s.iter().fold(0.0f32, |a, x| a.max(x.abs()));
         assert!(peak < 1e-4, "SR is stuck at the elliptic singularity: {peak}");
         assert!(sr.alpha > 0.0);
@@ -440,7 +277,7 @@ mod tests {
         let (mut d, dt) = (start, 0.01f32);
         for k in 0..(seconds / dt) as usize {
             let t = GimbalTrig::new(&d);
-            let out = p.steer(&sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, dt, k as f32 * dt);
+            let out = steer(p, &sp(law), &lim(), &t, &d, &Vec3::zeros(), &u, dt, k as f32 * dt);
             let got = p.torque_on_body(&t, &Vec3::zeros(), &out.gimbal_rate_rad_s);
             if got.x / u.x > 0.5 {
                 return Some(k as f32 * dt);
@@ -476,8 +313,8 @@ mod tests {
         let u = Vec3::new(0.02, -0.01, 0.03);
         let mut with = sp(SteeringLaw::MoorePenrose);
         with.null_gain_per_s = 0.5;
-        let a = p.steer(&sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
-        let b = p.steer(&with, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let a = steer(&p, &sp(SteeringLaw::MoorePenrose), &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let b = steer(&p, &with, &lim(), &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         let diff: f32 = a.gimbal_rate_rad_s.iter().zip(b.gimbal_rate_rad_s.iter()).map(|(x, y)| (x - y).abs()).sum();
         assert!(diff > 1e-2, "null motion is active");
         let ta = p.torque_on_body(&t, &Vec3::zeros(), &a.gimbal_rate_rad_s);
@@ -500,7 +337,8 @@ mod tests {
         assert!(check([90.0, 90.0, 90.0, 90.0]));
         // The elliptic internal singularity is not the envelope.
         assert!(!check([90.0, 0.0, -90.0, 0.0]));
-        let out = p.steer(
+        let out = steer(
+            &p,
             &sp(SteeringLaw::MoorePenrose),
             &lim(),
             &GimbalTrig::new(&deg4([90.0; 4])),
@@ -520,7 +358,7 @@ mod tests {
         let t = GimbalTrig::new(&d);
         let u = Vec3::new(0.02, -0.01, 0.03);
         let l = GimbalLimits { failed_mask: 0b0100, ..lim() };
-        let out = p.steer(&sp(SteeringLaw::MoorePenrose), &l, &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
+        let out = steer(&p, &sp(SteeringLaw::MoorePenrose), &l, &t, &d, &Vec3::zeros(), &u, 0.01, 0.0);
         assert_eq!(out.gimbal_rate_rad_s[2], 0.0);
         let got = p.torque_on_body(&t, &Vec3::zeros(), &out.gimbal_rate_rad_s);
         assert!((got - u).norm() < 1e-4 * u.norm() * 10.0, "{got:?}");

@@ -3,15 +3,17 @@
 //! returns one [`Allocation`]: the family's commands in full, the torque they realise,
 //! saturation and status. CMG steering is one family like the others.
 
-use super::cmg::{CmgPyramid, GimbalLimits, GimbalTrig, limit_rates};
+use super::cmg::{GimbalLimits, limit_rates, steer};
+use super::effectiveness::cmg::{CmgPyramid, GimbalTrig};
+use super::effectiveness::wheels::stored_momentum_nms;
 use super::thruster::{Allocator, Bounds, Failures, Pwpf, PwpfParams};
 use super::{AllocOutcome, AllocResult, AllocStatus, magnetorquers, wheels};
 use crate::math::Vec3;
 use crate::params::{
-    ActuatorParams, MAX_THRUSTERS, MAX_WHEELS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
+    ActuatorParams, MAX_THRUSTERS, MagnetorquerParams, ParamError, ParamField, ParamReason, SteeringParams,
     ThrusterMethod, ThrusterParams, WheelParams,
 };
-use crate::types::{Demand, Measurements, Setpoint, Status, Valid};
+use crate::types::{Demand, MAX_WHEELS, Measurements, Setpoint, Status, Valid};
 
 /// Thruster allocator at the configured capacity (`N + 1` LP columns: thrusters and λ).
 pub type ThrusterAllocator = Allocator<MAX_THRUSTERS, { MAX_THRUSTERS + 1 }>;
@@ -162,10 +164,7 @@ impl ActuatorFamily for Actuators {
         match self {
             Self::Cmg(c) => c.observe(m),
             Self::Wheels(w) => {
-                let mut h = Vec3::zeros();
-                for (a, s) in w.axes.iter().zip(m.wheel_speed_rad_s.iter()).take(usize::from(w.count)) {
-                    h += Vec3::from(*a) * (w.inertia_kgm2 * s);
-                }
+                let h = stored_momentum_nms(w, &m.wheel_speed_rad_s);
                 ActuatorState { momentum_nms: h, gimbal_trig: None }
             }
             Self::Magnetorquers(_) | Self::Thrusters(_) => {
@@ -231,7 +230,8 @@ impl ActuatorFamily for CmgCluster {
                 cmg_allocation(cmd, &realised, &realised, flags)
             }
             Demand::Torque(u) => {
-                let out = p.steer(&self.steering, l, &t, &m.gimbal_angle_rad, &m.rate_rad_s, u, dt_s, sp.dither_time_s);
+                let out =
+                    steer(p, &self.steering, l, &t, &m.gimbal_angle_rad, &m.rate_rad_s, u, dt_s, sp.dither_time_s);
                 let realised = p.torque_on_body(&t, &m.rate_rad_s, &out.gimbal_rate_rad_s);
                 let cmd = Commands::Cmg {
                     gimbal_rate_rad_s: out.gimbal_rate_rad_s,

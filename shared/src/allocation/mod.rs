@@ -2,15 +2,20 @@
 //! result type for every family (PX4-style: one interface, several methods, saturation
 //! reported back to the controller).
 //!
+//! Effectiveness (geometry: what commands do to the body) is kept apart from the
+//! allocation methods that invert it, as in PX4:
+//! - [`effectiveness`]: the CMG pyramid (paper 000 eqs 4, 6-8) and the wheel array
+//!   (paper 001 eq 5);
 //! - [`wheels`]: reaction-wheel pseudo-inverse with null-space momentum management;
+//! - [`cmg`]: the CMG steering laws (paper 000 eqs 11-14, GSR);
 //! - [`magnetorquers`]: the cross-product dipole law (paper 003 eqs 21-22);
-//! - [`cmg`]: the CMG pyramid (paper 000 eqs 6-8) and its steering laws (eqs 11-14, GSR);
 //! - [`thruster`]: bounded-variable simplex LP (paper 004) and PWPF modulation.
 //!
 //! [`family`] puts every family behind one trait ([`family::ActuatorFamily`]) with one
 //! result ([`family::Allocation`]); the CMG steering ([`cmg`]) is one of them.
 
 pub mod cmg;
+pub mod effectiveness;
 pub mod family;
 pub mod magnetorquers;
 pub mod thruster;

@@ -1,6 +1,7 @@
 //! Reaction-wheel torque allocation (paper 001 eq 26, `T_cmd = C⁺ u`) with null-space
 //! momentum management, saturation that keeps the torque direction, wheel failures and
-//! wheels at their speed limit.
+//! wheels at their speed limit, on the array's effectiveness
+//! ([`crate::allocation::effectiveness::wheels`]).
 //!
 //! Sign convention: `u[i]` is the torque the motor applies to wheel `i`'s rotor about
 //! its spin axis `a_i`; the body receives `-Σ a_i u_i` (paper 001 eq 5). For a body
@@ -14,9 +15,11 @@
 //! wheels in general position still give full three-axis torque. Finally the whole
 //! command is scaled so that `|u_i| <= max_torque` (direction of the body torque kept).
 
+use super::effectiveness::wheels::{axes_gram, torque_on_body_nm};
 use super::{AllocResult, AllocStatus};
 use crate::math::{Mat3, Vec3};
-use crate::params::{MAX_WHEELS, WheelParams};
+use crate::params::WheelParams;
+use crate::types::MAX_WHEELS;
 
 /// Relative determinant of `C Cᵀ` (to its trace³/27) below which the healthy wheels are
 /// declared unable to span three axes.
@@ -42,13 +45,7 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
     // Bounded: each pass removes at least one wheel or ends.
     for pass in 0..=MAX_WHEELS {
         r.outcome.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
-        let mut m = Mat3::zeros();
-        for (i, a) in p.axes.iter().enumerate().take(n) {
-            if active & (1 << i) != 0 {
-                let a = Vec3::from(*a);
-                m += a * a.transpose();
-            }
-        }
+        let m = axes_gram(p, n, active);
         let scale = (m.trace() / 3.0).max(1e-30);
         let singular = m.determinant() < RANK_TOL * scale * scale * scale;
         // Damped inverse when the healthy wheels do not span 3 axes (best effort).
@@ -108,16 +105,15 @@ fn limit_and_report(
 ) -> AllocResult<MAX_WHEELS> {
     let peak = u.iter().fold(0.0f32, |a, x| a.max(libm::fabsf(*x)));
     let s = if peak > p.max_torque_nm { p.max_torque_nm / peak } else { 1.0 };
-    let mut realised = Vec3::zeros();
-    for (i, (ui, a)) in u.iter_mut().zip(p.axes.iter()).enumerate().take(n) {
+    for (i, ui) in u.iter_mut().enumerate().take(n) {
         *ui *= s;
-        realised -= Vec3::from(*a) * *ui;
         if *ui >= p.max_torque_nm * (1.0 - 1e-6) {
             r.outcome.sat_high |= 1 << i;
         } else if *ui <= -p.max_torque_nm * (1.0 - 1e-6) {
             r.outcome.sat_low |= 1 << i;
         }
     }
+    let realised = torque_on_body_nm(p, n, &u);
     let short = torque_nm - realised;
     r.u = u;
     r.outcome.realised = realised.into();

@@ -6,8 +6,9 @@
 //! bracket is `-2 φ`: with the paper's signs (Kp > 0, Kd < 0: Kpx 21, Kdx -42,
 //! Kpy = Kpz = 53, Kdy = Kdz = -91) the law restores and damps.
 
-use super::{TorqueDemand, scale_to_box};
+use super::scale_to_box;
 use crate::math::{Quat, Vec3, attitude_error, rotation_angle};
+use crate::types::TorqueDemand;
 use nalgebra::UnitQuaternion;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -13,8 +13,9 @@
 //! MCS starts from zero gains: all the control comes from adaptation. Every gain is
 //! clamped to `± gain_limit` so that a long run cannot overflow f32.
 
-use super::{TorqueDemand, scale_to_box};
+use super::scale_to_box;
 use crate::math::{Quat, Vec3, attitude_error, rotation_angle};
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DmcsGains {

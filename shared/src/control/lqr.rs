@@ -4,8 +4,9 @@
 //! designed on the host by `sim-host lqr` / at scenario load), limited per axis with the
 //! direction kept, then allocated to the actuators like any other torque demand.
 
-use super::{TorqueDemand, scale_to_box};
+use super::scale_to_box;
 use crate::math::{EulerSeq, Quat, Vec3, attitude_error, euler_from_quat, rotation_angle};
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LqrGains {

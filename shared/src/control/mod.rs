@@ -2,21 +2,22 @@
 //! estimate; allocation turns it into actuator commands. [`law`] puts them behind one
 //! interface ([`AttitudeLaw`]) with their state.
 
+pub mod bdot;
 pub mod dcm_pd;
 pub mod dmcs;
+pub mod euler_pd;
 pub mod law;
 pub mod lqr;
-pub mod magnetic;
 pub mod momentum;
 pub mod quaternion_feedback;
 pub mod rate_damping;
 pub mod sun_safe;
-pub use crate::types::TorqueDemand;
+pub use bdot::{Bdot, BdotGains};
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};
+pub use euler_pd::{EulerPdGains, euler_pd};
 pub use law::{AttitudeLaw, Law, LawInputs, LawOutput};
 pub use lqr::{LqrGains, lqr, lqr_from_state, lqr_state, state_feedback};
-pub use magnetic::{Bdot, BdotGains, EulerPdGains, euler_pd};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains};
 pub use rate_damping::{RateDampingGains, rate_damping};
 

@@ -3,8 +3,9 @@
 //! star tracker may be blind while tumbling — and its demand is limited per axis with the
 //! direction kept. With `T = -kd ω` on a spherical body `ω(t) = ω₀ e^{-kd t / I}`.
 
-use super::{TorqueDemand, scale_to_box};
+use super::scale_to_box;
 use crate::math::Vec3;
+use crate::types::TorqueDemand;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RateDampingGains {

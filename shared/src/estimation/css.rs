@@ -29,7 +29,7 @@
 
 use crate::math::{Mat3, Vec3, norm};
 
-pub use crate::params::MAX_CSS_HEADS;
+use crate::types::MAX_CSS_HEADS;
 
 /// Largest accepted normalised current: 10× full Sun at normal incidence. Sunlight plus
 /// the brightest Earth albedo stays under 1.5; a larger reading is a failed head or a bad
@@ -46,10 +46,6 @@ pub const CSS_MAX_TRACE_INV: f32 = 20.0;
 
 /// Tolerance on `|n| = 1` of a head normal.
 pub const CSS_UNIT_TOL: f32 = 1e-3;
-
-/// Six heads on the faces of a cube, ±x ±y ±z (body axes): the default head set.
-pub const CUBE_FACES: [[f32; 3]; MAX_CSS_HEADS] =
-    [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
 
 /// Head geometry and the lit threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,7 +1,7 @@
 //! The estimation stage of `Fsw::step`: navigation, on-board reference models and attitude
 //! determination, run every step whatever the mode.
 //!
-//! Per step (frame at `time_us`):
+//! Per step (typed [`SensorSamples`] at `time_us`, never the wire frame):
 //! 1. navigation ([`super::navigation`]): GNSS fix or the last one propagated → position,
 //!    velocity, time, LVLH;
 //! 2. reference models ([`crate::models`]): Sun direction (Almanac), eclipse (cylindrical
@@ -27,14 +27,13 @@ use super::css::{CssHeads, sun_vector};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::triad::triad;
-use crate::fsw::validate;
-use crate::link::{EstimateTelemetry, SensorFrame, estimate_flags};
+use crate::link::{EstimateTelemetry, estimate_flags};
 use crate::math::{Quat, Vec3, quat_to_xyzw};
 use crate::models::magnetic::field_ecef_t;
 use crate::models::sun::{in_eclipse, sun_direction_eci};
 use crate::models::time::{ecef_to_eci, eci_to_ecef};
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
-use crate::types::Valid;
+use crate::types::SensorSamples;
 use nalgebra::Matrix3;
 
 /// Longest single MEKF propagation, s.
@@ -130,11 +129,10 @@ impl Determination {
         *self = Self::bare(self.params);
     }
 
-    /// One step of the stage on a raw frame.
-    pub fn step(&mut self, f: &SensorFrame) -> Estimate {
-        let valid = Valid::from_bits_retain(f.valid);
-        let gyro = validate::rate(f);
-        let nav = self.nav.update(f);
+    /// One step of the stage on the step's typed samples.
+    pub fn step(&mut self, s: &SensorSamples) -> Estimate {
+        let gyro = s.gyro.map(|g| g.rate_rad_s);
+        let nav = self.nav.update(s.time_us, s.gnss.as_ref());
         let sun_eci = nav.map(|n| sun_direction_eci(&n.time).0);
         let eclipse = match (nav, sun_eci) {
             (Some(n), Some(s)) => in_eclipse(&n.r_m, &s),
@@ -147,18 +145,15 @@ impl Determination {
             unit(&ecef_to_eci(&n.time, &b))
         });
         // Measured vectors.
-        let fine_sun = (valid.contains(Valid::SUN) && self.params.sun_sensor_sigma_rad > 0.0)
-            .then(|| unit(&Vec3::from(f.sun_dir)))
-            .flatten();
-        let coarse_sun = (valid.contains(Valid::CSS) && self.params.css_count > 0)
-            .then(|| sun_vector(&self.css, &f.css_output).ok().map(|s| s.dir_body))
-            .flatten();
+        let fine_sun = s.sun_sensor.filter(|_| self.params.sun_sensor_sigma_rad > 0.0).and_then(|x| unit(&x.dir_body));
+        let coarse_sun = s
+            .css
+            .filter(|_| self.params.css_count > 0)
+            .and_then(|x| sun_vector(&self.css, &x.output).ok().map(|c| c.dir_body));
         let sun_body = fine_sun.or(coarse_sun);
         let sun_sigma = if fine_sun.is_some() { self.params.sun_sensor_sigma_rad } else { self.params.css_sigma_rad };
-        let mag_body = (valid.contains(Valid::MAG) && validate::finite(&f.mag_field_t))
-            .then(|| unit(&Vec3::from(f.mag_field_t)))
-            .flatten();
-        let tracker = valid.contains(Valid::ATTITUDE).then(|| validate::unit_quat(f.q_ib_xyzw)).flatten();
+        let mag_body = s.magnetometer.and_then(|x| unit(&x.field_body_t));
+        let tracker = s.star_tracker.map(|x| x.q_ib);
 
         let mut t = EstimateTelemetry::default();
         if nav.is_some() {
@@ -172,12 +167,12 @@ impl Determination {
         }
         let (attitude, rate) = match self.params.source {
             AttitudeSource::Sensor => {
-                self.last_time_us = Some(f.time_us);
+                self.last_time_us = Some(s.time_us);
                 (tracker, gyro)
             }
             AttitudeSource::Mekf => {
                 let vectors = Vectors { sun_body, sun_eci, sun_sigma, mag_body, field_eci };
-                self.mekf_step(f.time_us, gyro, tracker, &vectors)
+                self.mekf_step(s.time_us, gyro, tracker, &vectors)
             }
         };
         if let Some(q) = attitude {
@@ -227,6 +222,8 @@ impl Determination {
         }
     }
 
+    /// The MEKF path of the stage: propagate over the elapsed time, (re)initialise, update,
+    /// and the attitude and rate the laws may use.
     fn mekf_step(
         &mut self,
         time_us: u64,
@@ -251,7 +248,31 @@ impl Determination {
             self.lose();
             return (None, None);
         };
-        // Propagate over the elapsed time.
+        self.propagate_mekf(elapsed_us, held);
+        if self.mekf.is_none() {
+            self.initialise_mekf(tracker, v);
+        }
+        let Some(mut m) = self.mekf else {
+            return (None, Some(w));
+        };
+        self.update_mekf(&mut m, tracker, v);
+        self.mekf = Some(m);
+        if self.consecutive_rejections >= self.params.max_consecutive_rejections {
+            self.lose();
+            return (None, Some(w));
+        }
+        let p = m.covariance();
+        let var = |i: usize| p.get((i, i)).copied().unwrap_or(f32::INFINITY);
+        let worst = var(0).max(var(1)).max(var(2));
+        let lost = self.params.lost_attitude_sigma_rad;
+        let fine = worst.is_finite() && worst <= lost * lost;
+        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&w)))
+    }
+
+    /// Propagate the running filter (if any) over the elapsed time with the held rate, in
+    /// pieces of at most `MAX_PROPAGATION_DT_S`; a gap beyond `MAX_PROPAGATION_PIECES`
+    /// pieces or a failed propagation loses the filter.
+    fn propagate_mekf(&mut self, elapsed_us: Option<u64>, held: Option<Vec3>) {
         if let (Some(m), Some(us), Some(wh)) = (self.mekf.as_mut(), elapsed_us, held) {
             #[allow(clippy::cast_precision_loss)]
             let dt_s = us as f32 * 1.0e-6;
@@ -271,20 +292,22 @@ impl Determination {
                 self.lose();
             }
         }
-        if self.mekf.is_none() {
-            // Initialise: the tracker, else TRIAD on Sun and field (the Sun first: the
-            // more accurate vector is TRIAD's exact one).
-            let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
-                (Some(sb), Some(mb), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
-                _ => None,
-            });
-            self.mekf = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok());
-            self.consecutive_rejections = 0;
-        }
-        let Some(mut m) = self.mekf else {
-            return (None, Some(w));
-        };
-        // Measurement updates (each gated; a rejection changes nothing).
+    }
+
+    /// Start a filter: on the tracker, else TRIAD on Sun and field (the Sun first: the
+    /// more accurate vector is TRIAD's exact one); none without either.
+    fn initialise_mekf(&mut self, tracker: Option<Quat>, v: &Vectors) {
+        let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
+            (Some(sb), Some(mb), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
+            _ => None,
+        });
+        self.mekf = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok());
+        self.consecutive_rejections = 0;
+    }
+
+    /// The measurement updates of one step: tracker, Sun, field (each gated; a rejection
+    /// changes nothing but the counters).
+    fn update_mekf(&mut self, m: &mut Mekf, tracker: Option<Quat>, v: &Vectors) {
         if let Some(q) = tracker {
             let b = Vec3::from(self.params.tracker_boresight_body);
             let (c2, a2) = (
@@ -311,17 +334,6 @@ impl Determination {
             let res = m.update_vector(&b, &r, self.params.magnetometer_sigma_rad);
             self.count(res);
         }
-        self.mekf = Some(m);
-        if self.consecutive_rejections >= self.params.max_consecutive_rejections {
-            self.lose();
-            return (None, Some(w));
-        }
-        let p = m.covariance();
-        let var = |i: usize| p.get((i, i)).copied().unwrap_or(f32::INFINITY);
-        let worst = var(0).max(var(1)).max(var(2));
-        let lost = self.params.lost_attitude_sigma_rad;
-        let fine = worst.is_finite() && worst <= lost * lost;
-        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&w)))
     }
 }
 
@@ -352,8 +364,9 @@ const fn css_heads(p: &EstimationParams) -> CssHeads {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::link::valid;
+    use crate::link::{SensorFrame, valid};
     use crate::math::{EulerSeq, quat_from_euler};
+    use crate::validation::sensor_samples;
 
     fn mekf_params() -> EstimationParams {
         EstimationParams {
@@ -365,12 +378,12 @@ mod tests {
         }
     }
 
-    fn frame(k: u32, q: &Quat) -> SensorFrame {
-        SensorFrame {
+    fn frame(k: u32, q: &Quat) -> SensorSamples {
+        sensor_samples(&SensorFrame {
             q_ib_xyzw: quat_to_xyzw(q),
             valid: valid::ATTITUDE | valid::RATE,
             ..SensorFrame::empty(k, u64::from(k) * 100_000)
-        }
+        })
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! On-board navigation: the last GNSS fix, carried forward between fixes, and what
 //! guidance and attitude determination derive from it (time, LVLH).
 //!
-//! A fix (`SensorFrame::gnss_*`, flagged `Valid::GNSS`) is accepted when finite and
+//! A fix ([`GnssFix`], from `SensorFrame::gnss_*` flagged `Valid::GNSS`) is accepted when finite and
 //! plausible (|r| within [6,000 km, 100,000 km], |v| < 20 km/s, a valid J2000 time). Between
 //! fixes the position and velocity are propagated from the last fix over its age in one
 //! closed-form two-body step ([`crate::models::orbit`], no accumulated rounding); time is
@@ -9,12 +9,11 @@
 //! [`MAX_FIX_AGE_S`] (or one the propagation refuses) gives no solution: LVLH pointing
 //! then stops commanding (`Status::NO_ESTIMATE`) rather than follow a stale orbit.
 
-use crate::link::SensorFrame;
 use crate::math::{Quat, Vec3, norm, rotate_body_to_ref};
 use crate::models::lvlh::lvlh;
 use crate::models::orbit::propagate_two_body;
 use crate::models::time::J2000Time;
-use crate::types::Valid;
+use crate::types::GnssFix;
 
 /// Longest time a fix is carried forward, s (three LEO orbits). Two-body propagation
 /// ignores J2: from a 617 km fix it is 3.5 km off after 600 s and 108 km (0.9° of LVLH)
@@ -22,7 +21,7 @@ use crate::types::Valid;
 /// three orbits the frame is no longer worth pointing at.
 pub const MAX_FIX_AGE_S: f32 = 18_000.0;
 
-/// A navigation solution at the frame's time.
+/// A navigation solution at the step's time.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NavSolution {
     /// Inertial position and velocity, m, m/s.
@@ -53,17 +52,14 @@ pub struct Navigation {
     pub refused: u32,
 }
 
-fn accept(f: &SensorFrame) -> Option<Fix> {
-    if !Valid::from_bits_retain(f.valid).contains(Valid::GNSS) {
-        return None;
-    }
-    let (r, v) = (Vec3::from(f.gnss_pos_m), Vec3::from(f.gnss_vel_m_s));
+fn accept(g: &GnssFix) -> Option<Fix> {
+    let (r, v) = (g.pos_eci_m, g.vel_eci_m_s);
     let (rn, vn) = (norm(&r), norm(&v));
     if !(rn.is_finite() && vn.is_finite() && (6.0e6..=1.0e8).contains(&rn) && vn < 2.0e4) {
         return None;
     }
-    let time = J2000Time::new(f.gnss_j2000_days, f.gnss_j2000_s)?;
-    Some(Fix { r_m: r, v_m_s: v, time, time_us: f.time_us })
+    let time = J2000Time::new(g.j2000_days, g.j2000_s)?;
+    Some(Fix { r_m: r, v_m_s: v, time, time_us: g.time_us })
 }
 
 impl Navigation {
@@ -71,17 +67,17 @@ impl Navigation {
         Self { fix: None, refused: 0 }
     }
 
-    /// Take this frame's fix (if any) and return the solution at the frame's time.
-    pub fn update(&mut self, f: &SensorFrame) -> Option<NavSolution> {
-        if Valid::from_bits_retain(f.valid).contains(Valid::GNSS) {
-            match accept(f) {
+    /// Take this step's fix (if any) and return the solution at the step's time `time_us`.
+    pub fn update(&mut self, time_us: u64, gnss: Option<&GnssFix>) -> Option<NavSolution> {
+        if let Some(g) = gnss {
+            match accept(g) {
                 Some(x) => self.fix = Some(x),
                 None => self.refused = self.refused.saturating_add(1),
             }
         }
         let fix = self.fix?;
-        // A frame older than the fix (clock reset): no solution until the next fix.
-        let age_us = f.time_us.checked_sub(fix.time_us)?;
+        // A step older than the fix (clock reset): no solution until the next fix.
+        let age_us = time_us.checked_sub(fix.time_us)?;
         #[allow(clippy::cast_precision_loss)] // µs → s: f32 keeps 1e-7 relative
         let age_s = age_us as f32 * 1.0e-6;
         if !(age_s <= MAX_FIX_AGE_S) {

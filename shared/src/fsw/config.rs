@@ -6,8 +6,11 @@ use crate::control::{AttitudeLaw, Law};
 use crate::estimation::determination::Determination;
 use crate::guidance::Target;
 use crate::math::{Vec3, quat_from_xyzw, quat_normalized};
-use crate::modes::{MODE_COUNT, Mode, ModeManager, ModeManagerParams, ModeRequest};
-use crate::params::{EstimationParams, FlightParams, ParamError, ParamField, ParamReason};
+use crate::modes::ModeManager;
+use crate::params::{
+    EstimationParams, FlightParams, MODE_COUNT, Mode, ModeManagerParams, ModeRequest, ParamError, ParamField,
+    ParamReason,
+};
 use crate::types::Valid;
 
 /// Why a mode command or a mode-table operation was refused.

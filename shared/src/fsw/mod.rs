@@ -2,11 +2,12 @@
 //! simulator's in-process link both call.
 //!
 //! `Fsw::step(&SensorFrame) -> ActuatorCommand` runs the data path top-down:
-//! 1. estimate: navigation, reference models and attitude determination
+//! 1. estimate: the frame's typed samples ([`crate::validation::sensor_samples`]) into
+//!    navigation, reference models and attitude determination
 //!    ([`crate::estimation::determination`]), every step whatever the mode;
 //! 2. mode: the mode manager picks the parameter set in force ([`mode`]);
 //! 3. validate: the frame and the estimate checked against what the mode needs
-//!    ([`validate::check_frame`]); if anything is missing, the safe command (all
+//!    ([`check::check_frame`]); if anything is missing, the safe command (all
 //!    actuators idle: gimbals stop, wheel torques, dipoles and thrusters zero) with
 //!    `BAD_INPUT` (a sensor) or `NO_ESTIMATE` (attitude estimate, navigation); then
 //!    actuator momentum and geometry (the LQG law runs its own estimator);
@@ -19,10 +20,10 @@
 //!
 //! No heap, no panics, no loops without a fixed bound.
 
+pub mod check;
 mod config;
 mod mode;
 pub mod report;
-pub mod validate;
 
 use crate::allocation::family::{ActuatorFamily, Actuators, Commands, ThrusterSet};
 use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
@@ -30,13 +31,13 @@ use crate::estimation::determination::{Determination, Estimate};
 use crate::guidance::Target;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
-use crate::modes::{MODE_COUNT, ModeManager};
-use crate::params::FlightParams;
+use crate::modes::ModeManager;
+use crate::params::{FlightParams, MODE_COUNT};
 use crate::types::{Demand, Status, Valid};
+use crate::validation::sensor_samples;
 
-pub use crate::allocation::family::ThrusterAllocator;
+use check::Missing;
 pub use config::ModeError;
-pub use validate::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S, Missing};
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]
@@ -128,7 +129,7 @@ impl Fsw {
         let f = corrected.as_ref().unwrap_or(f);
         // Estimate: runs whatever the mode (and unconfigured: the filter converges while
         // the ground uploads the laws).
-        let est = self.determination.step(f);
+        let est = self.determination.step(&sensor_samples(f));
         let mut cmd = self.step_active(f, &est);
         cmd.estimate = est.telemetry;
         if let Some(mgr) = &self.manager {
@@ -163,7 +164,7 @@ impl Fsw {
             return Self::safe(f.seq, Status::NOT_CONFIGURED);
         };
         // Validate.
-        let m = match validate::check_frame(f, cfg.required, cfg.needs_navigation, est) {
+        let m = match check::check_frame(f, cfg.required, cfg.needs_navigation, est) {
             Ok(m) => m,
             Err(Missing::Sensor) => return Self::safe(f.seq, Status::BAD_INPUT),
             Err(Missing::Estimate) => return Self::safe(f.seq, Status::NO_ESTIMATE),
@@ -249,8 +250,8 @@ mod tests {
     use super::*;
     use crate::link::{status, valid};
     use crate::math::{EulerSeq, Quat, quat_from_euler, quat_to_xyzw};
-    use crate::modes::{Mode, ModeManagerParams, ModeRequest};
     use crate::params::{ActuatorParams, ControllerParams, MagnetorquerParams, ParamField, WheelParams};
+    use crate::params::{Mode, ModeManagerParams, ModeRequest};
 
     fn frame(q: Quat) -> SensorFrame {
         SensorFrame {
@@ -412,7 +413,7 @@ mod tests {
         assert!((0..10).all(|_| f.step(&fr).mode == Mode::Manoeuvre.code()));
         // A single parameter set replaces the table.
         f.configure(&base).unwrap();
-        assert_eq!(f.step(&fr).mode, crate::modes::MODE_NONE);
+        assert_eq!(f.step(&fr).mode, crate::params::MODE_NONE);
         assert_eq!(f.command_mode(ModeRequest::Auto), Err(ModeError::NotArmed));
     }
 

@@ -1,13 +1,13 @@
 //! The mode step of `Fsw::step`: mode logic on the active mode's view of the measurements.
 
-use super::{Fsw, validate};
-use crate::allocation::cmg::{CmgPyramid, GimbalTrig};
+use super::{Fsw, check};
+use crate::allocation::effectiveness::cmg::{CmgPyramid, GimbalTrig};
+use crate::allocation::effectiveness::wheels::stored_momentum_nms;
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
-use crate::math::Vec3;
 use crate::math::{attitude_error, norm, rotation_angle};
-use crate::modes::{MODE_COUNT, ModeInputs};
-use crate::params::{ActuatorParams, WheelParams};
+use crate::modes::ModeInputs;
+use crate::params::{ActuatorParams, MODE_COUNT, WheelParams};
 use crate::types::Valid;
 
 impl Fsw {
@@ -26,7 +26,7 @@ impl Fsw {
             return;
         };
         let (error_rad, rel_rate_rad_s) =
-            match validate::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
+            match check::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
                 Ok(m) => {
                     let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
                     (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
@@ -35,7 +35,7 @@ impl Fsw {
             };
         let mut inputs_ok = [false; MODE_COUNT];
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
-            *ok = slot.as_ref().is_some_and(|c| validate::check_frame(f, c.required, c.needs_navigation, est).is_ok());
+            *ok = slot.as_ref().is_some_and(|c| check::check_frame(f, c.required, c.needs_navigation, est).is_ok());
         }
         let inputs = ModeInputs {
             rate_rad_s: norm(&w),
@@ -70,10 +70,7 @@ impl Fsw {
         if self.manager.as_ref().is_none_or(|m| m.params.slow_fdir_persistence_s <= 0.0) {
             return f32::NAN;
         }
-        let mut h = Vec3::zeros();
-        for (a, s) in w.axes.iter().zip(f.wheel_speed_rad_s.iter()).take(usize::from(w.count)) {
-            h += Vec3::from(*a) * (w.inertia_kgm2 * s);
-        }
+        let h = stored_momentum_nms(&w, &f.wheel_speed_rad_s);
         norm(&h) / (w.inertia_kgm2 * w.max_speed_rad_s)
     }
 

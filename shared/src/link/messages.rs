@@ -12,10 +12,9 @@
 //! typed [`Valid`] and [`Status`] (`from_bits_retain` / `bits`, same bits) at this boundary.
 
 use crate::checksum::CRC32;
-use crate::modes::{Mode, ModeManagerParams, ModeRequest};
-use crate::params::{EstimationParams, FlightParams, MAX_CSS_HEADS, MAX_THRUSTERS, MAX_WHEELS, ParamError};
+use crate::params::{EstimationParams, FlightParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError};
 #[allow(unused_imports)] // doc links
-use crate::types::{Status, Valid};
+use crate::types::{MAX_CSS_HEADS, MAX_WHEELS, Status, Valid};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
@@ -151,7 +150,7 @@ pub struct ActuatorCommand {
     pub saturated: u32,
     /// [`status`] bits.
     pub status: u16,
-    /// Mode in force ([`Mode::code`](crate::modes::Mode::code)); 0 without a mode table.
+    /// Mode in force ([`Mode::code`](crate::params::Mode::code)); 0 without a mode table.
     pub mode: u8,
     /// Why it was entered ([`Reason`](crate::modes::Reason) as `u8`).
     pub mode_reason: u8,

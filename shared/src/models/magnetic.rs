@@ -63,8 +63,20 @@ pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result
     let sin_t = (p_xy / r).max(1e-6);
     let lon = atan2(r_ecef_m.y, r_ecef_m.x);
     let (sin_l, cos_l) = crate::math::f32m::sin_cos(lon);
+    let (p, dp) = legendre(nmax, sin_t, cos_t);
+    let rho = WMM_RADIUS_M / r;
+    let (br, bt, bl) = local_components_nt(&p, &dp, nmax, years, rho, (sin_t, sin_l, cos_l));
+    // Local (r̂, θ̂, λ̂) → ECEF; nT → T.
+    let r_hat = Vec3::new(sin_t * cos_l, sin_t * sin_l, cos_t);
+    let t_hat = Vec3::new(cos_t * cos_l, cos_t * sin_l, -sin_t);
+    let l_hat = Vec3::new(-sin_l, cos_l, 0.0);
+    let b = (r_hat * br + t_hat * bt + l_hat * bl) * 1e-9;
+    if b.iter().all(|v| v.is_finite()) { Ok(b) } else { Err(FieldError) }
+}
 
-    // Legendre functions and θ-derivatives, n = 0 … nmax.
+/// Schmidt semi-normalised associated Legendre functions `P_n^m(cos θ)` and their
+/// θ-derivatives, n = 0 … `nmax`, by the standard recursions (slot order of [`slot`]).
+fn legendre(nmax: usize, sin_t: f32, cos_t: f32) -> ([f32; SLOTS], [f32; SLOTS]) {
     let mut p = [0.0_f32; SLOTS];
     let mut dp = [0.0_f32; SLOTS];
     if let Some(x) = p.get_mut(0) {
@@ -103,8 +115,20 @@ pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result
             }
         }
     }
+    (p, dp)
+}
 
-    let rho = WMM_RADIUS_M / r;
+/// The field's local components `(B_r, B_θ, B_λ)`, nT: the spherical-harmonic sums to
+/// degree `nmax` with the coefficients at `years` past the epoch, `rho = a / r`, and
+/// `(sin θ, sin λ, cos λ)` of the point.
+fn local_components_nt(
+    p: &[f32; SLOTS],
+    dp: &[f32; SLOTS],
+    nmax: usize,
+    years: f32,
+    rho: f32,
+    (sin_t, sin_l, cos_l): (f32, f32, f32),
+) -> (f32, f32, f32) {
     let mut rho_n2 = rho * rho * rho; // ρ^(n+2) for n = 1
     let (mut br, mut bt, mut bl) = (0.0_f32, 0.0_f32, 0.0_f32);
     for n in 1..=nmax {
@@ -114,7 +138,7 @@ pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result
         for m in 0..=n {
             let g = coeff(&G_NT, &G_DOT_NT_YR, n, m, years);
             let h = coeff(&H_NT, &H_DOT_NT_YR, n, m, years);
-            let (pv, dpv) = (get(&p, slot(n, m)), get(&dp, slot(n, m)));
+            let (pv, dpv) = (get(p, slot(n, m)), get(dp, slot(n, m)));
             let a = g * cm + h * sm;
             sr += a * pv;
             st += a * dpv;
@@ -128,10 +152,5 @@ pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result
         bl += rho_n2 * sl / sin_t;
         rho_n2 *= rho;
     }
-    // Local (r̂, θ̂, λ̂) → ECEF; nT → T.
-    let r_hat = Vec3::new(sin_t * cos_l, sin_t * sin_l, cos_t);
-    let t_hat = Vec3::new(cos_t * cos_l, cos_t * sin_l, -sin_t);
-    let l_hat = Vec3::new(-sin_l, cos_l, 0.0);
-    let b = (r_hat * br + t_hat * bt + l_hat * bl) * 1e-9;
-    if b.iter().all(|v| v.is_finite()) { Ok(b) } else { Err(FieldError) }
+    (br, bt, bl)
 }

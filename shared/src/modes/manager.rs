@@ -1,6 +1,7 @@
 //! The transition logic: which mode runs, and why (see the [module docs](super)).
 
-use super::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest, Reason};
+use super::Reason;
+use crate::params::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
 
 /// What the manager looks at each step.
 #[derive(Clone, Copy, Debug, PartialEq)]

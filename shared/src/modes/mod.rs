@@ -3,7 +3,7 @@
 //! Each mode is a complete, separately validated [`FlightParams`](crate::params::FlightParams)
 //! (its own control law, actuator family and target), uploaded one by one
 //! (`HostMsg::UploadModeParams`) so that no single message has to hold every law; the
-//! table is then armed with [`ModeManagerParams`] (`HostMsg::ArmModes`).
+//! table is then armed with [`ModeManagerParams`](crate::params::ModeManagerParams) (`HostMsg::ArmModes`).
 //!
 //! Automatic transitions (evaluated every step on the validated measurements, before the
 //! law runs, so the new mode commands the same step):
@@ -39,79 +39,17 @@
 //!
 //! Counters are in control steps, saturating: the loop has no unbounded state.
 //!
-//! [`params`] holds the thresholds and their validation ([`ModeManagerParams`]),
-//! [`manager`] the transition logic ([`ModeManager`]).
+//! The modes, the ground's requests and the thresholds with their validation are
+//! parameter-layer types ([`crate::params::modes`]: [`Mode`](crate::params::Mode),
+//! [`ModeManagerParams`](crate::params::ModeManagerParams)), shared with the wire; here
+//! are [`manager`], the transition logic ([`ModeManager`]), and the telemetry [`Reason`].
 
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 pub mod manager;
-pub mod params;
 
 pub use manager::{ModeInputs, ModeManager};
-pub use params::{MAX_THRESHOLD, ModeManagerParams};
-
-/// Number of modes (slots of the mode table).
-pub const MODE_COUNT: usize = 5;
-
-/// `ActuatorCommand::mode` when no mode table is armed (a single parameter set runs);
-/// modes are reported as [`Mode::code`] = slot index + 1.
-pub const MODE_NONE: u8 = 0;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, Schema)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Mode {
-    Detumble,
-    Stabilise,
-    Manoeuvre,
-    Hold,
-    /// Sun-pointing safe mode on the coarse sun sensors and the gyro (protocol 11; last so
-    /// the codes of the others stay).
-    SunSafe,
-}
-
-impl Mode {
-    /// Slot order (telemetry codes 1 … 5).
-    pub const ALL: [Mode; MODE_COUNT] = [Mode::Detumble, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold, Mode::SunSafe];
-    /// The nominal sequence the convergence transitions follow.
-    pub const SEQUENCE: [Mode; MODE_COUNT] =
-        [Mode::Detumble, Mode::SunSafe, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold];
-
-    /// Position in [`Mode::SEQUENCE`].
-    pub const fn rank(self) -> usize {
-        match self {
-            Mode::Detumble => 0,
-            Mode::SunSafe => 1,
-            Mode::Stabilise => 2,
-            Mode::Manoeuvre => 3,
-            Mode::Hold => 4,
-        }
-    }
-
-    /// Slot index (also the telemetry code).
-    pub const fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Telemetry code (`ActuatorCommand::mode`): 1 … 4; 0 is [`MODE_NONE`].
-    pub const fn code(self) -> u8 {
-        (self as u8).saturating_add(1)
-    }
-
-    pub fn from_code(c: u8) -> Option<Mode> {
-        Mode::ALL.get(usize::from(c).checked_sub(1)?).copied()
-    }
-
-    pub const fn name(self) -> &'static str {
-        match self {
-            Mode::Detumble => "detumble",
-            Mode::Stabilise => "stabilise",
-            Mode::Manoeuvre => "manoeuvre",
-            Mode::Hold => "hold",
-            Mode::SunSafe => "sun_safe",
-        }
-    }
-}
 
 /// Why the current mode was entered (`ActuatorCommand::mode_reason`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
@@ -174,16 +112,4 @@ impl Reason {
             Reason::MomentumHigh => "momentum_high",
         }
     }
-}
-
-/// A mode command from the ground.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum ModeRequest {
-    /// Switch now; automatic transitions continue from there.
-    Enter(Mode),
-    /// Switch now and suspend automatic transitions.
-    Lock(Mode),
-    /// Resume automatic transitions.
-    Auto,
 }

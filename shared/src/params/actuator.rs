@@ -1,7 +1,8 @@
 //! Actuator parameters: one variant per family (CMG pyramid and steering, wheels,
 //! magnetorquers, thrusters), with their validation.
 
-use super::{MAX_THRUSTERS, MAX_WHEELS, ParamError, ParamField, ParamReason, check_finite, check_range, err};
+use super::{MAX_THRUSTERS, ParamError, ParamField, ParamReason, check_finite, check_range, err};
+use crate::types::MAX_WHEELS;
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 

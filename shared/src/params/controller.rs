@@ -20,7 +20,7 @@ pub enum ControllerParams {
     },
     /// Sun-pointing safe mode on the coarse sun sensors and the gyro, no attitude
     /// ([`crate::control::sun_safe`]).
-    SunSafe(crate::control::sun_safe::SunSafeParams),
+    SunSafe(super::SunSafeParams),
     /// B-dot detumbling `m = -k dB/dt` (magnetorquers only).
     Bdot {
         gain_am2_s_per_t: f32,

@@ -7,11 +7,14 @@
 //! validated one.
 
 use super::{ParamError, ParamField, ParamReason};
+use crate::types::MAX_CSS_HEADS;
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
-/// Number of coarse-sun-sensor heads the link carries.
-pub const MAX_CSS_HEADS: usize = 6;
+/// Six heads on the faces of a cube, ±x ±y ±z (body axes): the default head set.
+pub const CUBE_FACES: [[f32; 3]; MAX_CSS_HEADS] =
+    [[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]];
+
 /// Largest noise figure or sigma accepted, rad (or rad/s, rad/√s …): about half a turn.
 pub const MAX_NOISE_FIGURE: f32 = 3.2;
 
@@ -87,7 +90,7 @@ impl EstimationParams {
         tracker_sigma_about_rad: 1.0e-3,
         tracker_boresight_body: [0.0, 0.0, 1.0],
         sun_sensor_sigma_rad: 0.0,
-        css_normals_body: crate::estimation::css::CUBE_FACES,
+        css_normals_body: CUBE_FACES,
         css_count: 0,
         css_lit_threshold: 0.05,
         css_sigma_rad: 0.0,

@@ -2,8 +2,12 @@
 //! start-up and the flight code validates before it runs a single step. One firmware
 //! image therefore runs every scenario.
 //!
-//! Split per family: [`controller`] (one variant per law) and [`actuator`] (one per
-//! actuator family); the set itself, its errors and checksum live here (the CRC in
+//! One rule: every algorithm's parameter type lives here, below the algorithms, and this
+//! module imports none of them. Split per family: [`controller`] (one variant per law),
+//! [`sun_safe`] (the sun-safe law's), [`actuator`] (one per actuator family),
+//! [`momentum`] (momentum management), [`estimation`] (attitude determination) and
+//! [`modes`] (the mode table: [`Mode`], [`ModeRequest`], [`ModeManagerParams`], shared
+//! with the wire); the set itself, its errors and checksum live here (the CRC in
 //! [`crate::checksum`]).
 //!
 //! Gains are explicit matrices: the host turns scenario-level choices (e.g. paper 000's
@@ -13,14 +17,18 @@ use crate::math::{Mat3, quat_from_xyzw};
 pub mod actuator;
 pub mod controller;
 pub mod estimation;
+pub mod modes;
 pub mod momentum;
+pub mod sun_safe;
 
 pub use actuator::*;
 pub use controller::*;
-pub use estimation::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
+pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE};
+pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
+pub use sun_safe::{SunSafeError, SunSafeParams};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
 pub const PARAMS_VERSION: u16 = 10;
@@ -28,13 +36,10 @@ pub const PARAMS_VERSION: u16 = 10;
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1024;
 
-/// Capacity of the reaction-wheel array.
-pub const MAX_WHEELS: usize = 6;
 /// Capacity of the thruster set.
 pub const MAX_THRUSTERS: usize = 12;
 
-/// The project CRC (defined in [`crate::checksum`]), re-exported for parameter users.
-pub use crate::checksum::CRC32;
+use crate::checksum::CRC32;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -410,7 +415,7 @@ mod tests {
         assert_eq!(p.validate(), Ok(()));
         let mut buf = [0u8; 2048];
         // The mode-table upload carries one more byte (the mode) than `UploadParams`.
-        let msg = crate::link::HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: p };
+        let msg = crate::link::HostMsg::UploadModeParams { mode: crate::params::Mode::Hold, params: p };
         let n = postcard::to_slice(&msg, &mut buf).unwrap().len();
         assert!(n <= crate::link::MAX_PAYLOAD, "LQG + thrusters: {n} bytes");
         for a in [ActuatorParams::Wheels(wheels), ActuatorParams::Magnetorquers(mtq), ActuatorParams::Thrusters(thr)] {

@@ -26,7 +26,8 @@ use crate::scenario::{
 use crate::sensors::SensorSuite;
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
-use acs_flight::modes::{Mode, Reason};
+use acs_flight::modes::Reason;
+use acs_flight::params::Mode;
 use anyhow::{Context, Result, bail};
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every

@@ -157,7 +157,7 @@ fn tracker_outage_through_eclipse_grows_as_the_gyro_predicts_and_recovers() {
 
 #[test]
 fn from_a_tumble_through_sun_safe_to_hold_and_back_after_an_orbit_without_tracker() {
-    use acs_flight::modes::Mode;
+    use acs_flight::params::Mode;
     let sc = load("scenarios/estimation/sun-safe-from-tumble.toml");
     let [[t0, t1]] = sc.sensors.star_tracker.as_ref().unwrap().outages_s[..] else { panic!("one outage") };
     let f = fly(&sc);

@@ -18,8 +18,9 @@ pub mod search;
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
-use acs_flight::modes::{Mode, ModeRequest};
-use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams, MAX_CSS_HEADS, MAX_WHEELS};
+use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams};
+use acs_flight::params::{Mode, ModeRequest};
+use acs_flight::types::{MAX_CSS_HEADS, MAX_WHEELS};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
 use sim_core::link::{FlightLink, LinkInfo, ModeTable};

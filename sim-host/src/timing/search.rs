@@ -18,7 +18,7 @@
 use super::{Cost, Evaluator, FRAME_FIELDS, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
 use acs_flight::estimation::determination::{MAX_PROPAGATION_DT_S, MAX_PROPAGATION_PIECES};
 use acs_flight::link::{SensorFrame, valid};
-use acs_flight::modes::Mode;
+use acs_flight::params::Mode;
 use anyhow::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -276,7 +276,7 @@ impl Mutator<'_> {
                 } else {
                     // Lit heads of a random Sun direction, with the default head layout.
                     let d = [self.normal(), self.normal(), self.normal()];
-                    let mut o = [0.0f32; acs_flight::params::MAX_CSS_HEADS];
+                    let mut o = [0.0f32; acs_flight::types::MAX_CSS_HEADS];
                     let normals = self.target.estimation.unwrap_or_default().css_normals_body;
                     for (o, n) in o.iter_mut().zip(normals) {
                         let dn = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-20);

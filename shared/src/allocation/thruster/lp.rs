@@ -67,7 +67,7 @@
 
 use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
 use super::zonotope::{self, Geo};
-pub use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
+use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
 /// `λ >= 1 - LAMBDA_TOL` counts as "demand attained".
 pub const LAMBDA_TOL: f32 = 1e-5;

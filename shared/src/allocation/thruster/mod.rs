@@ -3,7 +3,7 @@
 //! - [`simplex`]: a bounded-variable two-phase primal simplex on stack arrays
 //!   (`min cᵀx, A x = b, 0 <= x <= h`, paper eq 11), deterministic anti-cycling
 //!   pricing, documented iteration cap.
-//! - [`lp`]: the allocators built on it, with one result type ([`AllocResult`]):
+//! - [`lp`]: the allocators built on it, with one result type ([`AllocResult`](crate::allocation::AllocResult)):
 //!   the paper's direction-preserving LP (eqs 12-18) plus a fuel stage, and Bodson's
 //!   direction-preserving LP in its reduced, scaled-from-boundary form; rate limits
 //!   folded into the bounds (eq 9) and a thruster-failure mask.
@@ -18,6 +18,6 @@ pub mod pwpf;
 pub mod simplex;
 mod zonotope;
 
-pub use lp::{AllocResult, AllocStatus, Allocator, Bounds, Failures, RateLimit};
+pub use lp::{Allocator, Bounds, Failures, RateLimit};
 pub use pwpf::{Pwpf, PwpfParams};
 pub use simplex::{Basis, Fault, Lp, LpSolution, LpStatus, Pricing};

@@ -346,27 +346,10 @@ fn stage2<const N: usize>(
     let Some(f) = best_lower_facet(gens, m_d) else {
         return Ok(None);
     };
-    let nn: f32 = f.nu.iter().map(|v| v.abs()).sum();
-    let tol = DEGEN_TOL * nn * gens.gmax4;
-    // Other generators: at the bound of their side; at most one in the hyperplane.
-    let mut u = bd.lo;
-    let mut tie: Option<usize> = None;
+    let Some(OffFacet { mut u, tie }) = off_facet_at_bounds(gens, bd, &f)? else {
+        return Ok(None);
+    };
     let [t0, t1, t2] = f.t;
-    for (k, gk) in gens.g.iter().enumerate().take(gens.nc) {
-        if k == t0 || k == t1 || k == t2 {
-            continue;
-        }
-        let q = dot4(gk, &f.nu);
-        if !(q.abs() > tol) {
-            if tie.is_some() {
-                return Ok(None);
-            }
-            tie = Some(k);
-        } else if q > 0.0 {
-            let j = at(&gens.map, k)?;
-            *u.get_mut(j).ok_or(Fault)? = at(&bd.hi, j)?;
-        }
-    }
     let js = [at(&gens.map, t0)?, at(&gens.map, t1)?, at(&gens.map, t2)?];
     let [j0, j1, j2] = js;
     let mut bt = [[0.0f32; 3]; 3];
@@ -402,18 +385,7 @@ fn stage2<const N: usize>(
             let Some((tmin, tmax)) = range else {
                 return Ok(None);
             };
-            // The end of least fuel (a near-tie within DEGEN_TOL is still decided by its
-            // fuel slope); an exact tie (slope within rounding) by Σ (i + 1) u_i.
-            let (we, idx) = (at(w, e)?, |j: usize| f32::from(u16::try_from(j.saturating_add(1)).unwrap_or(u16::MAX)));
-            let (mut fuel_slope, mut fuel_scale, mut idx_slope) = (we, we.abs(), idx(e));
-            for (vj, &j) in v.iter().zip(js.iter()) {
-                let wj = at(w, j)?;
-                fuel_slope += wj * vj;
-                fuel_scale += (wj * vj).abs();
-                idx_slope += vj * idx(j);
-            }
-            let slope = if fuel_slope.abs() > FUEL_TIE * fuel_scale { fuel_slope } else { idx_slope };
-            let t = if slope > 0.0 { tmin } else { tmax };
+            let t = if least_fuel_slope(w, e, &v, &js)? > 0.0 { tmin } else { tmax };
             *u.get_mut(e).ok_or(Fault)? = lo_e + t;
             let mut z = z0;
             for (zj, vj) in z.iter_mut().zip(v.iter()) {
@@ -429,6 +401,60 @@ fn stage2<const N: usize>(
         *u.get_mut(j).ok_or(Fault)? = x;
     }
     Ok(Some(Geo::Attained { u }))
+}
+
+/// The generators of `gens` off the facet `f` at the bound of their side (`hi` where
+/// `g·ν > 0`, `lo` otherwise) as a command, and the one generator in the facet's
+/// hyperplane (within `DEGEN_TOL`), if any; `None` when two or more lie in it.
+fn off_facet_at_bounds<const N: usize>(
+    gens: &Gens<N>,
+    bd: &Bounds<N>,
+    f: &Facet4,
+) -> Result<Option<OffFacet<N>>, Fault> {
+    let nn: f32 = f.nu.iter().map(|v| v.abs()).sum();
+    let tol = DEGEN_TOL * nn * gens.gmax4;
+    // Other generators: at the bound of their side; at most one in the hyperplane.
+    let mut u = bd.lo;
+    let mut tie: Option<usize> = None;
+    let [t0, t1, t2] = f.t;
+    for (k, gk) in gens.g.iter().enumerate().take(gens.nc) {
+        if k == t0 || k == t1 || k == t2 {
+            continue;
+        }
+        let q = dot4(gk, &f.nu);
+        if !(q.abs() > tol) {
+            if tie.is_some() {
+                return Ok(None);
+            }
+            tie = Some(k);
+        } else if q > 0.0 {
+            let j = at(&gens.map, k)?;
+            *u.get_mut(j).ok_or(Fault)? = at(&bd.hi, j)?;
+        }
+    }
+    Ok(Some(OffFacet { u, tie }))
+}
+
+/// [`off_facet_at_bounds`]' result: the command so far and the generator in the plane.
+struct OffFacet<const N: usize> {
+    u: [f32; N],
+    tie: Option<usize>,
+}
+
+/// Along the tie segment `u_e = lo_e + t`, `u_T = z0 + t v`: the slope that decides its
+/// end, the fuel slope `w_e + Σ w_j v_j` (a near-tie within DEGEN_TOL is still decided by
+/// it), or for an exact tie (slope within rounding, `FUEL_TIE`) the slope of
+/// `Σ (i + 1) u_i`. The least-fuel end is `t_min` for a positive slope.
+fn least_fuel_slope<const N: usize>(w: &[f32; N], e: usize, v: &[f32; 3], js: &[usize; 3]) -> Result<f32, Fault> {
+    let (we, idx) = (at(w, e)?, |j: usize| f32::from(u16::try_from(j.saturating_add(1)).unwrap_or(u16::MAX)));
+    let (mut fuel_slope, mut fuel_scale, mut idx_slope) = (we, we.abs(), idx(e));
+    for (vj, &j) in v.iter().zip(js.iter()) {
+        let wj = at(w, j)?;
+        fuel_slope += wj * vj;
+        fuel_scale += (wj * vj).abs();
+        idx_slope += vj * idx(j);
+    }
+    Ok(if fuel_slope.abs() > FUEL_TIE * fuel_scale { fuel_slope } else { idx_slope })
 }
 
 /// `{t ∈ [0, s_e] : lo_j - tol_j <= z_j + t v_j <= hi_j + tol_j}`, `tol_j = slack · span_j`,

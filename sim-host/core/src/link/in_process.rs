@@ -1,6 +1,6 @@
 use super::{FlightLink, LinkInfo};
-use acs_flight::link::session::{Session, board};
 use acs_flight::link::{FswMsg, HostMsg, LinkError, SensorFrame, StepReport};
+use acs_flight::session::{Session, board};
 use anyhow::{Result, bail};
 
 /// The flight code called directly, in this process, through the same `Session` as the

@@ -11,8 +11,8 @@ pub mod qemu;
 pub mod serve;
 
 use acs_flight::link::{FswMsg, HostMsg, ResetCause, SensorFrame, StepReport};
-use acs_flight::modes::{Mode, ModeManagerParams};
 use acs_flight::params::{EstimationParams, FlightParams};
+use acs_flight::params::{Mode, ModeManagerParams};
 use anyhow::{Result, anyhow, bail};
 use std::path::PathBuf;
 

@@ -1,5 +1,5 @@
 //! A virtual flight computer on the host: the flight code behind the real protocol on a
-//! TCP socket (`sim-host serve`). It is the same `acs_flight::link::session::Session` the
+//! TCP socket (`sim-host serve`). It is the same `acs_flight::session::Session` the
 //! firmware runs, so `--link tcp:` can be exercised (and the framing tested end to end)
 //! without a board or QEMU. The cost counter is the host's nanosecond clock.
 //!
@@ -10,8 +10,8 @@
 //! reading, send garbage, go quiet for longer than the idle timeout — ends its own session
 //! only; the server keeps accepting.
 
-use acs_flight::link::session::{Session, board};
 use acs_flight::link::{FrameAccumulator, FswMsg, HostMsg, LinkError, MAX_FRAME, encode_frame};
+use acs_flight::session::{Session, board};
 use anyhow::Result;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpListener, TcpStream};

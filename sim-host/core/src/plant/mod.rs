@@ -33,7 +33,7 @@ use wheel::{WheelOutput, WheelParams, WheelState};
 /// Largest number of gimbals the fixed-size state holds.
 pub const MAX_GIMBALS: usize = 8;
 /// Largest number of wheels the fixed-size state holds.
-pub const MAX_WHEELS: usize = acs_flight::params::MAX_WHEELS;
+pub const MAX_WHEELS: usize = acs_flight::types::MAX_WHEELS;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {

@@ -538,7 +538,7 @@ impl Scenario {
             return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
         }
         // Upper bounds: beyond any reaction wheel flown (speed: the flight code's own limit).
-        let max_rpm = f64::from(acs_flight::fsw::MAX_WHEEL_SPEED_RAD_S) * 60.0 / std::f64::consts::TAU;
+        let max_rpm = f64::from(acs_flight::validation::MAX_WHEEL_SPEED_RAD_S) * 60.0 / std::f64::consts::TAU;
         // Lower bounds: below a nanonewton-metre wheel, a 1e-6 kg m² rotor or 1 rpm of speed
         // range no wheel exists (and the speed-limit fade's time constant tends to 0).
         for (k, v, min, max) in [

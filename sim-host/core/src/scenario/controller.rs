@@ -463,7 +463,7 @@ impl Scenario {
                     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
                     v.map(|x| (x / n) as f32)
                 };
-                let p = acs_flight::control::sun_safe::SunSafeParams {
+                let p = acs_flight::params::SunSafeParams {
                     panel_normal_body: unit(panel_normal_body),
                     kp_nm_per_rad: *kp_nm_per_rad as f32,
                     kd_nm_s_per_rad: kd_nm_s_per_rad.map(|x| x as f32),

@@ -6,7 +6,8 @@
 //! Absent: the laws get the attitude sensor's quaternion and the gyro as measured (the
 //! laboratory rigs of the source papers).
 
-use acs_flight::params::{AttitudeSource, EstimationParams, MAX_CSS_HEADS, MAX_NOISE_FIGURE};
+use acs_flight::params::{AttitudeSource, EstimationParams, MAX_NOISE_FIGURE};
+use acs_flight::types::MAX_CSS_HEADS;
 use anyhow::{Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
 

@@ -4,13 +4,13 @@
 //! - input files are read with a size cap ([`read_capped`]);
 //! - every TOML array has exactly the length its key takes ([`exact_lengths`]): the TOML
 //!   reader fills a fixed-size field from the first N elements and silently drops the rest;
-//! - sensor values the flight code's input validation ([`acs_flight::fsw::validate`])
+//! - sensor values the flight code's input validation ([`acs_flight::validation`])
 //!   would refuse on every step are refused here, naming the key, with the flight code's
 //!   own limits (no second copy of the numbers).
 
 use super::{Controller, Scenario, bad};
-use acs_flight::fsw::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
 use acs_flight::params::{ParamError, ParamField, ParamReason};
+use acs_flight::validation::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_RATE_RAD_S, MAX_WHEEL_SPEED_RAD_S};
 use anyhow::{Context, Result, anyhow};
 use std::io::Read;
 use std::path::Path;

@@ -28,7 +28,7 @@ use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
 pub use crate::link::ModeTable;
-use acs_flight::modes::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
+use acs_flight::params::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -135,8 +135,8 @@ impl Scenario {
         })?;
         // The flight code's limit, in the key's unit (degrees for angles and rates).
         // (less one part in 1e6: the degree figure is rounded to f32 radians on upload).
-        let max_deg = f64::from(acs_flight::modes::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
-        let max_s = f64::from(acs_flight::modes::MAX_THRESHOLD);
+        let max_deg = f64::from(acs_flight::params::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
+        let max_s = f64::from(acs_flight::params::MAX_THRESHOLD);
         for (k, v, max) in [
             ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s, max_deg),
             ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s, max_deg),

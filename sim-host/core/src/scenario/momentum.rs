@@ -21,7 +21,7 @@
 //! ```
 
 use super::{Scenario, bad, finite};
-use acs_flight::modes::Mode;
+use acs_flight::params::Mode;
 use acs_flight::params::{ActuatorParams, MomentumParams, NO_THRUSTERS, UnloadMethod};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};

@@ -517,7 +517,7 @@ impl SunSensor {
 // ------------------------------------------------------------------- coarse sun sensors
 
 /// Most heads a coarse sun sensor suite can have (`SensorFrame::css_output`).
-pub const MAX_CSS_HEADS: usize = acs_flight::params::MAX_CSS_HEADS;
+pub const MAX_CSS_HEADS: usize = acs_flight::types::MAX_CSS_HEADS;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CssSpec {

@@ -1,6 +1,6 @@
-//! The flight side of a link session, independent of the transport: the firmware's link
-//! task and the host's virtual flight computer (`sim-host serve`) both feed it decoded
-//! [`HostMsg`]s and send back what it returns.
+//! The flight side of a link session, independent of the transport, above [`crate::fsw`]:
+//! the firmware's link task and the host's virtual flight computer (`sim-host serve`) both
+//! feed it decoded [`HostMsg`]s and send back what it returns.
 
 use crate::fsw::Fsw;
 use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, SensorFrame, StepReport, schema_hash};
@@ -247,10 +247,10 @@ mod tests {
         faster.control_rate_hz = p.control_rate_hz * 2.0;
         for msg in [
             HostMsg::UploadParams(faster),
-            HostMsg::UploadModeParams { mode: crate::modes::Mode::Hold, params: faster },
-            HostMsg::ArmModes(crate::modes::ModeManagerParams {
+            HostMsg::UploadModeParams { mode: crate::params::Mode::Hold, params: faster },
+            HostMsg::ArmModes(crate::params::ModeManagerParams {
                 slots: 0b1000,
-                initial: crate::modes::Mode::Hold,
+                initial: crate::params::Mode::Hold,
                 detumble_enter_rate_rad_s: 0.1,
                 detumble_exit_rate_rad_s: 0.05,
                 stabilise_exit_error_rad: 0.1,

@@ -1,52 +1,14 @@
-//! Sensor-frame validation: the boundary where a wire [`SensorFrame`] and the estimation
-//! stage's [`Estimate`] become typed [`Measurements`] for one configuration (or are
-//! rejected, with the reason).
+//! The validate step of `Fsw::step`: a wire [`SensorFrame`] and the estimation stage's
+//! [`Estimate`] checked against what one configuration needs, into typed
+//! [`Measurements`] (or rejected, with the reason). The sensor limits are
+//! [`crate::validation`]'s.
 
 use crate::estimation::determination::Estimate;
 use crate::link::SensorFrame;
-use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized};
+use crate::math::{Quat, Vec3};
 use crate::params::AttitudeSource;
 use crate::types::{Measurements, Valid};
-
-/// Largest body rate the flight code accepts as a measurement, rad/s.
-pub const MAX_RATE_RAD_S: f32 = 50.0;
-/// Largest magnetometer component accepted, T (Earth's field is < 7e-5 T; a lab
-/// Helmholtz cage a few 1e-4 T).
-pub const MAX_FIELD_T: f32 = 1.0e-2;
-/// Largest wheel speed accepted, rad/s (≈ 95,000 rpm).
-pub const MAX_WHEEL_SPEED_RAD_S: f32 = 1.0e4;
-/// Gimbal angles accepted are below this in magnitude, rad (a multi-turn reading; beyond
-/// it the encoder value is garbage).
-pub const MAX_GIMBAL_ANGLE_RAD: f32 = 1.0e3;
-
-/// The frame's validity bits (unknown bits from the wire are kept and ignored).
-pub fn valid_bits(f: &SensorFrame) -> Valid {
-    Valid::from_bits_retain(f.valid)
-}
-
-pub(crate) fn finite(xs: &[f32]) -> bool {
-    xs.iter().all(|x| x.is_finite())
-}
-
-/// The measured body rate if it is flagged valid, finite and within `MAX_RATE_RAD_S`.
-pub fn rate(f: &SensorFrame) -> Option<Vec3> {
-    let w = Vec3::from(f.rate_rad_s);
-    if !valid_bits(f).contains(Valid::RATE) || !finite(&f.rate_rad_s) || w.amax() > MAX_RATE_RAD_S {
-        return None;
-    }
-    Some(w)
-}
-
-/// A measured quaternion as a unit quaternion: `None` when not finite or its norm is off
-/// by more than 10 %.
-pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
-    let q = quat_from_xyzw(q);
-    let n = crate::math::norm(&q.coords);
-    if !n.is_finite() || !(0.9..=1.1).contains(&n) {
-        return None;
-    }
-    quat_normalized(&q)
-}
+use crate::validation::{MAX_FIELD_T, MAX_GIMBAL_ANGLE_RAD, MAX_WHEEL_SPEED_RAD_S, valid_bits};
 
 /// Why a frame cannot run a configuration.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

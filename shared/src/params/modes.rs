@@ -1,9 +1,84 @@
-//! Thresholds of the automatic mode transitions and their validation.
+//! The mode table's types: the modes themselves ([`Mode`], shared by the mode manager, the
+//! wire telemetry and the upload messages), the ground's [`ModeRequest`], and the
+//! thresholds of the automatic transitions with their validation ([`ModeManagerParams`]).
 
-use super::{MODE_COUNT, Mode};
-use crate::params::{ParamError, ParamField, ParamReason};
+use super::{ParamError, ParamField, ParamReason};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
+
+/// Number of modes (slots of the mode table).
+pub const MODE_COUNT: usize = 5;
+
+/// `ActuatorCommand::mode` when no mode table is armed (a single parameter set runs);
+/// modes are reported as [`Mode::code`] = slot index + 1.
+pub const MODE_NONE: u8 = 0;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Mode {
+    Detumble,
+    Stabilise,
+    Manoeuvre,
+    Hold,
+    /// Sun-pointing safe mode on the coarse sun sensors and the gyro (protocol 11; last so
+    /// the codes of the others stay).
+    SunSafe,
+}
+
+impl Mode {
+    /// Slot order (telemetry codes 1 … 5).
+    pub const ALL: [Mode; MODE_COUNT] = [Mode::Detumble, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold, Mode::SunSafe];
+    /// The nominal sequence the convergence transitions follow.
+    pub const SEQUENCE: [Mode; MODE_COUNT] =
+        [Mode::Detumble, Mode::SunSafe, Mode::Stabilise, Mode::Manoeuvre, Mode::Hold];
+
+    /// Position in [`Mode::SEQUENCE`].
+    pub const fn rank(self) -> usize {
+        match self {
+            Mode::Detumble => 0,
+            Mode::SunSafe => 1,
+            Mode::Stabilise => 2,
+            Mode::Manoeuvre => 3,
+            Mode::Hold => 4,
+        }
+    }
+
+    /// Slot index (also the telemetry code).
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Telemetry code (`ActuatorCommand::mode`): 1 … 4; 0 is [`MODE_NONE`].
+    pub const fn code(self) -> u8 {
+        (self as u8).saturating_add(1)
+    }
+
+    pub fn from_code(c: u8) -> Option<Mode> {
+        Mode::ALL.get(usize::from(c).checked_sub(1)?).copied()
+    }
+
+    pub const fn name(self) -> &'static str {
+        match self {
+            Mode::Detumble => "detumble",
+            Mode::Stabilise => "stabilise",
+            Mode::Manoeuvre => "manoeuvre",
+            Mode::Hold => "hold",
+            Mode::SunSafe => "sun_safe",
+        }
+    }
+}
+
+/// A mode command from the ground.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModeRequest {
+    /// Switch now; automatic transitions continue from there.
+    Enter(Mode),
+    /// Switch now and suspend automatic transitions.
+    Lock(Mode),
+    /// Resume automatic transitions.
+    Auto,
+}
 
 /// Thresholds of the automatic transitions (rad, rad/s, s).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
@@ -103,6 +178,6 @@ impl ModeManagerParams {
         let mut buf = [0u8; 64];
         let used = postcard::to_slice(self, &mut buf)
             .map_err(|_| ParamError { field: ParamField::ModeTable, reason: ParamReason::TooLarge })?;
-        Ok(crate::params::CRC32.checksum(used))
+        Ok(crate::checksum::CRC32.checksum(used))
     }
 }
