@@ -4,8 +4,11 @@
 //! Per step (typed [`SensorSamples`] at `time_us`, never the wire frame):
 //! 1. navigation ([`super::navigation`]): GNSS fix or the last one propagated → position,
 //!    velocity, time, LVLH;
-//! 2. reference models ([`crate::models`]): Sun direction (Almanac), eclipse (cylindrical
-//!    shadow), Earth's field (WMM2025 to `field_model_degree`, rotated by GMST);
+//! 2. reference models ([`crate::models`]) at the rate they change ([`super::references`]):
+//!    Sun direction (Almanac, re-evaluated every `SUN_INTERVAL_S`), eclipse (cylindrical
+//!    shadow, every step), Earth's field (WMM2025 to `field_model_degree`, rotated by GMST;
+//!    only with the MEKF) evaluated at nodes `FIELD_NODE_INTERVAL_S` apart, spread over
+//!    the steps, and interpolated in between;
 //! 3. measured Sun: the fine sun sensor if valid, else the coarse sun sensors
 //!    ([`super::css`]);
 //! 4. attitude:
@@ -26,12 +29,11 @@
 use super::css::{CssHeads, sun_vector};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
+use super::references::References;
 use super::triad::triad;
 use crate::link::{EstimateTelemetry, estimate_flags};
 use crate::math::{Quat, Vec3, quat_to_xyzw};
-use crate::models::magnetic::field_ecef_t;
-use crate::models::sun::{in_eclipse, sun_direction_eci};
-use crate::models::time::{ecef_to_eci, eci_to_ecef};
+use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
 use crate::types::SensorSamples;
 use nalgebra::Matrix3;
@@ -66,6 +68,7 @@ pub struct Determination {
     css: CssHeads,
     mekf: Option<Mekf>,
     nav: Navigation,
+    references: References,
     last_time_us: Option<u64>,
     last_gyro: Option<Vec3>,
     consecutive_rejections: u16,
@@ -100,6 +103,7 @@ impl Determination {
             css: css_heads(&params),
             mekf: None,
             nav: Navigation::new(),
+            references: References::new(),
             last_time_us: None,
             last_gyro: None,
             consecutive_rejections: 0,
@@ -133,17 +137,22 @@ impl Determination {
     pub fn step(&mut self, s: &SensorSamples) -> Estimate {
         let gyro = s.gyro.map(|g| g.rate_rad_s);
         let nav = self.nav.update(s.time_us, s.gnss.as_ref());
-        let sun_eci = nav.map(|n| sun_direction_eci(&n.time).0);
+        let sun_eci = nav.map(|n| self.references.sun_eci(&n.time));
         let eclipse = match (nav, sun_eci) {
             (Some(n), Some(s)) => in_eclipse(&n.r_m, &s),
             _ => false,
         };
         // The field model (the costliest model) only feeds the MEKF.
-        let field_eci = nav.filter(|_| self.params.source == AttitudeSource::Mekf).and_then(|n| {
-            let r_ecef = eci_to_ecef(&n.time, &n.r_m);
-            let b = field_ecef_t(&r_ecef, n.time.decimal_year(), usize::from(self.params.field_model_degree)).ok()?;
-            unit(&ecef_to_eci(&n.time, &b))
-        });
+        let field_eci = match nav.filter(|_| self.params.source == AttitudeSource::Mekf) {
+            Some(n) => {
+                let degree = usize::from(self.params.field_model_degree);
+                self.references.field_eci(s.time_us, &self.nav, &n, degree)
+            }
+            None => {
+                self.references.clear_field();
+                None
+            }
+        };
         // Measured vectors.
         let fine_sun = s.sun_sensor.filter(|_| self.params.sun_sensor_sigma_rad > 0.0).and_then(|x| unit(&x.dir_body));
         let coarse_sun = s

@@ -8,6 +8,8 @@
 //! - attitude determination: [`mekf`] (attitude + gyro bias), [`triad`], [`quest`],
 //!   [`css`] (Sun direction from coarse sun sensors);
 //! - [`navigation`]: GNSS fixes carried forward between fixes, LVLH;
+//! - [`references`]: the Sun and field reference directions at the rate they change (the
+//!   field evaluated at nodes, spread over the steps, interpolated in between);
 //! - [`history`]: delayed fusion, each sample fused at its own time ([`history::MekfHistory`]);
 //! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
 
@@ -19,5 +21,6 @@ pub mod lqg;
 pub mod mekf;
 pub mod navigation;
 pub mod quest;
+pub mod references;
 pub mod triad;
 pub use lqg::LqgEstimator;

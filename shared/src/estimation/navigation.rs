@@ -75,6 +75,27 @@ impl Navigation {
                 None => self.refused = self.refused.saturating_add(1),
             }
         }
+        let (r, v, time, age_s) = self.state_at(time_us)?;
+        let frame = lvlh(&r, &v).ok()?;
+        Some(NavSolution {
+            r_m: r,
+            v_m_s: v,
+            time,
+            q_lvlh: frame.q_eci_lvlh,
+            lvlh_rate_rad_s: rotate_body_to_ref(&frame.q_eci_lvlh, &frame.rate_lvlh_rad_s),
+            fix_age_s: age_s,
+        })
+    }
+
+    /// Position (inertial, m) and time the last fix gives at `time_us` — the same numbers
+    /// as [`Navigation::update`] at that time without a new fix — for the reference models
+    /// to evaluate ahead of time (`super::references`). `None` like `update`.
+    pub fn predict(&self, time_us: u64) -> Option<(Vec3, J2000Time)> {
+        self.state_at(time_us).map(|(r, _, time, _)| (r, time))
+    }
+
+    /// Position, velocity, time and fix age at `time_us`, propagated from the last fix.
+    fn state_at(&self, time_us: u64) -> Option<(Vec3, Vec3, J2000Time, f32)> {
         let fix = self.fix?;
         // A step older than the fix (clock reset): no solution until the next fix.
         let age_us = time_us.checked_sub(fix.time_us)?;
@@ -86,15 +107,7 @@ impl Navigation {
         let (r, v) =
             if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate_two_body(&fix.r_m, &fix.v_m_s, age_s).ok()? };
         let time = fix.time.add_seconds(age_s)?;
-        let frame = lvlh(&r, &v).ok()?;
-        Some(NavSolution {
-            r_m: r,
-            v_m_s: v,
-            time,
-            q_lvlh: frame.q_eci_lvlh,
-            lvlh_rate_rad_s: rotate_body_to_ref(&frame.q_eci_lvlh, &frame.rate_lvlh_rad_s),
-            fix_age_s: age_s,
-        })
+        Some((r, v, time, age_s))
     }
 
     pub fn reset(&mut self) {
