@@ -155,25 +155,52 @@ fn architecture_document_lists_every_module_with_its_doc() {
     );
 }
 
-/// Repository paths named in a markdown text: `` `dir/...` `` spans and `](dir/...)` links,
-/// with an optional `:LINE[,LINE|-LINE]` suffix.
-fn path_pointers(text: &str) -> Vec<(String, Vec<usize>)> {
+/// A repository path named in a markdown text: `` `dir/...` `` spans and `](dir/...)`
+/// links, with an optional `#anchor` (a symbol of a source file, a heading of a document)
+/// or a `:LINE` suffix (refused: line numbers rot with every edit).
+struct Pointer {
+    path: String,
+    anchor: Option<String>,
+    line_suffix: bool,
+}
+
+fn path_pointers(text: &str) -> Vec<Pointer> {
     const ROOTS: &[&str] =
-        &["shared/", "sim-host/", "firmware/", "tests/", "tools/", "scripts/", "scenarios/", "docs/", "campaigns/", "timing/", "report/", ".ci/"];
+        &["shared/", "sim-host/", "firmware/", "tests/", "tools/", "scripts/", "scenarios/", "docs/", "campaigns/", "timing/", ".ci/"];
     let mut out = Vec::new();
     for token in text.split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ',']).filter(|t| ROOTS.iter().any(|r| t.starts_with(r))) {
-        let (path, lines) = match token.split_once(':') {
-            Some((p, l)) => (p, l.split([',', '-']).filter_map(|n| n.parse().ok()).collect()),
-            None => (token, Vec::new()),
+        let (token, anchor) = match token.split_once('#') {
+            Some((p, a)) => (p, Some(a.trim_end_matches(['.', ';', ':']).to_owned())),
+            None => (token, None),
+        };
+        let (path, line_suffix) = match token.split_once(':') {
+            Some((p, l)) => (p, l.starts_with(|c: char| c.is_ascii_digit())),
+            None => (token, false),
         };
         let path = path.trim_end_matches(['.', ';', ':']);
         // Globs, placeholders and output folders are patterns, not pointers.
-        if path.contains(['*', '<', '{', '$']) || path.contains("/out") || path.ends_with('/') && path.len() < 3 {
+        if path.contains(['*', '<', '{', '$']) || path.contains("/out") || path.contains("..") {
             continue;
         }
-        out.push((path.to_owned(), lines));
+        out.push(Pointer { path: path.to_owned(), anchor, line_suffix });
     }
     out
+}
+
+/// Whether `anchor` names something in `text`: a symbol of a source file (as a word), or a
+/// heading of a markdown document (its words, case and `-`/space insensitive).
+fn anchor_found(path: &str, text: &str, anchor: &str) -> bool {
+    if path.ends_with(".md") {
+        let norm = |s: &str| s.to_lowercase().replace(['-', '`'], " ").split_whitespace().collect::<Vec<_>>().join(" ");
+        let want = norm(anchor);
+        return text.lines().filter(|l| l.starts_with('#')).any(|h| norm(h.trim_start_matches('#')).contains(&want));
+    }
+    text.match_indices(anchor).any(|(i, _)| {
+        let before = text[..i].chars().next_back();
+        let after = text[i + anchor.len()..].chars().next();
+        let word = |c: Option<char>| c.is_some_and(|c| c.is_alphanumeric() || c == '_');
+        !word(before) && !word(after)
+    })
 }
 
 #[test]
@@ -190,23 +217,35 @@ fn every_path_the_documents_name_exists() {
     for d in &docs {
         let text = std::fs::read_to_string(d).unwrap();
         let name = d.strip_prefix(repo()).unwrap_or(d).display().to_string();
-        for (path, lines) in path_pointers(&text) {
+        for p in path_pointers(&text) {
             checked += 1;
-            let full = repo().join(&path);
+            let full = repo().join(&p.path);
             if !full.exists() {
-                dead.push(format!("{name}: `{path}` does not exist"));
-                continue;
-            }
-            if let Some(&max) = lines.iter().max() {
-                let n = std::fs::read_to_string(&full).map(|t| t.lines().count()).unwrap_or(0);
-                if max > n {
-                    dead.push(format!("{name}: `{path}:{max}` but the file has {n} lines"));
+                dead.push(format!("{name}: `{}` does not exist", p.path));
+            } else if p.line_suffix {
+                dead.push(format!("{name}: `{}:LINE`: line numbers rot, point at a symbol (`path#symbol`)", p.path));
+            } else if let Some(a) = &p.anchor {
+                let target = std::fs::read_to_string(&full).unwrap_or_default();
+                if !anchor_found(&p.path, &target, a) {
+                    dead.push(format!("{name}: `{}#{a}`: no such symbol or heading there", p.path));
                 }
             }
         }
     }
     assert!(checked > 100, "the scan found only {checked} pointers: the parser is broken");
     assert!(dead.is_empty(), "{} dead pointers:\n{}", dead.len(), dead.join("\n"));
+}
+
+#[test]
+fn pointer_checks_catch_what_they_should() {
+    let ps = path_pointers("see `shared/src/lib.rs#Fsw`, `docs/protocol.md:12` and [x](scripts/nope.sh)");
+    assert_eq!(ps.len(), 3);
+    assert_eq!(ps[0].anchor.as_deref(), Some("Fsw"));
+    assert!(ps[1].line_suffix);
+    assert!(!repo().join(&ps[2].path).exists());
+    assert!(anchor_found("a.rs", "pub use fsw::Fsw;", "Fsw"));
+    assert!(!anchor_found("a.rs", "pub struct FswX;", "Fsw"));
+    assert!(anchor_found("a.md", "# T\n## The wire `frame` format\n", "wire-frame"));
 }
 
 /// Edges `module → modules it uses` between the top-level modules of the crate at `src`.
