@@ -7,6 +7,7 @@
 //! figure to the paper's. Its `findings` are the named numbers the report's outcome table
 //! and the experiment's test read; its `blocks` are what the report prints.
 
+pub use crate::format::sig;
 use anyhow::{Context as _, Result};
 use sim_core::link::{self, FlightLink, LinkKind, LinkOptions};
 use sim_core::recorder::plots::{self, Figure};
@@ -137,28 +138,6 @@ pub fn sweep_table(header: &[&str], rows: &[Vec<f64>], digits: usize) -> Block {
     Block::Table {
         header: header.iter().map(|s| (*s).to_owned()).collect(),
         rows: rows.iter().map(|r| r.iter().map(|&x| sig(x, digits)).collect()).collect(),
-    }
-}
-
-/// `x` with `digits` significant digits, plain notation between 1e-3 and 1e6, else
-/// scientific; `—` for NaN. Deterministic text for the committed report.
-pub fn sig(x: f64, digits: usize) -> String {
-    if x.is_nan() {
-        return "—".into();
-    }
-    if x == 0.0 {
-        return "0".into();
-    }
-    if !x.is_finite() {
-        return if x > 0.0 { "∞".into() } else { "−∞".into() };
-    }
-    let digits = digits.max(1);
-    let mag = x.abs().log10().floor() as i32;
-    if (-3..6).contains(&mag) {
-        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits - 1)
     }
 }
 
