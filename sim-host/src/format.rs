@@ -44,11 +44,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn report_and_campaign_forms() {
-        assert_eq!(sig(1234.5678, 3), "1235");
-        assert_eq!(sig(0.012345, 3), "0.0123");
-        assert_eq!(sig(2.5e7, 3), "2.50e7");
-        assert_eq!((sig(0.0, 3), sig(f64::NAN, 3), sig(f64::NEG_INFINITY, 3)), ("0".into(), "—".into(), "−∞".into()));
+    fn sig_formats() {
+        assert_eq!(sig(4.7299999, 3), "4.73");
+        assert_eq!(sig(0.0521, 2), "0.052");
+        assert_eq!(sig(127.0, 3), "127");
+        assert_eq!(sig(1234.6, 3), "1235");
+        assert_eq!(sig(1.5e-7, 2), "1.5e-7");
+        assert_eq!(sig(f64::NAN, 2), "—");
+        assert_eq!((sig(0.0, 3), sig(f64::NEG_INFINITY, 3)), ("0".into(), "−∞".into()));
+    }
+
+    /// Where the campaign form differs from the report's: zero, non-finite values.
+    #[test]
+    fn campaign_form() {
         assert_eq!(sig_campaign(1234.5678), "1234.57");
         assert_eq!(sig_campaign(0.012345), "0.0123450");
         assert_eq!(sig_campaign(2.5e7), "2.50000e7");

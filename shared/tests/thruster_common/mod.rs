@@ -1,23 +1,10 @@
 //! Shared support of the thruster tests: the zonotope oracle (f64, no LP), microlp
 //! wrappers; the seeded generator and the vector helpers come from `acs_test_support`.
-#![allow(dead_code, clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used)]
+#![allow(dead_code, unused_imports, clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used)]
 
 use acs_flight::allocation::thruster::{Bounds, Lp, LpStatus};
 pub use acs_test_support::rng::SplitMix64 as Rng;
-pub use acs_test_support::vec3::{cross, dot, norm};
-
-/// Fibonacci-sphere directions (deterministic, near-uniform).
-pub fn sphere(n: usize) -> Vec<[f64; 3]> {
-    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let t = ga * i as f64;
-            [r * t.cos(), r * t.sin(), z]
-        })
-        .collect()
-}
+pub use acs_test_support::vec3::{cross, dot, norm, sphere};
 
 /// Columns of a 3×N f32 matrix as f64 vectors (exactly the f32 data).
 pub fn columns<const N: usize>(b: &[[f32; N]; 3]) -> Vec<[f64; 3]> {

@@ -25,7 +25,8 @@ pub fn norm(a: &[f64; 3]) -> f64 {
 mod tests {
     use super::*;
 
-    /// Same bits as the component formulas, over seeded data of mixed magnitudes.
+    /// Same bits as the component formulas, over seeded data of mixed magnitudes; the
+    /// tests' helpers (`acs_test_support::vec3`) too.
     #[test]
     fn bit_identical_to_the_component_formulas() {
         let mut rng = acs_test_support::rng::SplitMix64(11);
@@ -37,6 +38,10 @@ mod tests {
             assert_eq!(dot(&a, &b).to_bits(), d.to_bits());
             assert_eq!(cross(&a, &b).map(f64::to_bits), c.map(f64::to_bits));
             assert_eq!(norm(&a).to_bits(), (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().to_bits());
+            use acs_test_support::vec3 as support;
+            assert_eq!(support::dot(&a, &b).to_bits(), d.to_bits());
+            assert_eq!(support::cross(&a, &b).map(f64::to_bits), c.map(f64::to_bits));
+            assert_eq!(support::norm(&a).to_bits(), norm(&a).to_bits());
         }
     }
 }

@@ -163,16 +163,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sig_formats() {
-        assert_eq!(sig(4.7299999, 3), "4.73");
-        assert_eq!(sig(0.0521, 2), "0.052");
-        assert_eq!(sig(127.0, 3), "127");
-        assert_eq!(sig(1234.6, 3), "1235");
-        assert_eq!(sig(1.5e-7, 2), "1.5e-7");
-        assert_eq!(sig(f64::NAN, 2), "—");
-    }
-
-    #[test]
     fn par_map_keeps_order() {
         let v: Vec<u64> = (0..100).collect();
         let out = par_map(3, &v, |x| x * x);

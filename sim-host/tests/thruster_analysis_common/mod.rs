@@ -3,7 +3,7 @@
 #![allow(dead_code)]
 
 pub use acs_test_support::rng::SplitMix64 as Rng;
-pub use acs_test_support::vec3::{V3, cross, dot, norm, scale, unit};
+pub use acs_test_support::vec3::{V3, cross, dot, norm, scale, sphere, unit};
 
 pub fn moment(b: &[V3], u: &[f64]) -> V3 {
     let mut m = [0.0; 3];
@@ -29,19 +29,6 @@ pub fn corners(b: &[V3], lo: &[f64], hi: &[f64]) -> Vec<V3> {
 /// Brute-force support function: max over box corners of n·Bu.
 pub fn support_brute(corners: &[V3], n: &V3) -> f64 {
     corners.iter().map(|c| dot(n, c)).fold(f64::NEG_INFINITY, f64::max)
-}
-
-/// Fibonacci-sphere directions.
-pub fn sphere(n: usize) -> Vec<V3> {
-    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let t = ga * i as f64;
-            [r * t.cos(), r * t.sin(), z]
-        })
-        .collect()
 }
 
 /// Constructive attainability certificate for a boundary point x: find a pair (i, j) and

@@ -1,6 +1,7 @@
 //! `[f64; 3]` vector helpers for tests whose data are plain arrays (thruster columns,
 //! torque demands). nalgebra's arithmetic, the same sums in the same order as the
-//! hand-written `a[0] * b[0] + a[1] * b[1] + a[2] * b[2]` they replaced.
+//! hand-written `a[0] * b[0] + a[1] * b[1] + a[2] * b[2]` they replaced (checked bit for
+//! bit, with `sim_core::vec3`, in sim-host/core/src/vec3.rs).
 
 use nalgebra::Vector3;
 
@@ -27,21 +28,15 @@ pub fn unit(a: &V3) -> V3 {
     scale(a, 1.0 / norm(a))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Bit-identical to the component formulas the tests used before.
-    #[test]
-    fn same_bits_as_the_component_formulas() {
-        let mut r = crate::rng::SplitMix64(3);
-        for _ in 0..10_000 {
-            let (a, b) = (r.matrix(1)[0].map(|x| x * 1e3), r.matrix(1)[0].map(|x| x * 1e-3));
-            let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-            let c = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-            assert_eq!(dot(&a, &b).to_bits(), d.to_bits());
-            assert_eq!(cross(&a, &b).map(f64::to_bits), c.map(f64::to_bits));
-            assert_eq!(norm(&a).to_bits(), (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt().to_bits());
-        }
-    }
+/// Fibonacci-sphere directions (deterministic, near-uniform).
+pub fn sphere(n: usize) -> Vec<V3> {
+    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let t = ga * i as f64;
+            [r * t.cos(), r * t.sin(), z]
+        })
+        .collect()
 }
