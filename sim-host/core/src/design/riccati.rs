@@ -220,10 +220,8 @@ pub fn care_with(
     r: &DMatrix<f64>,
     opt: &SdaOptions,
 ) -> Result<RiccatiSolution> {
-    check_inputs(a, b, q, r)?;
-    check_pbh(a, b, q, Time::Continuous)?;
+    let g = checked_gram(a, b, q, r, Time::Continuous)?;
     let n = a.nrows();
-    let g = gram(b, r)?;
     let eye = DMatrix::<f64>::identity(n, n);
 
     let mut gamma = choose_gamma(a, &g, q);
@@ -266,10 +264,8 @@ pub fn dare_with(
     r: &DMatrix<f64>,
     opt: &SdaOptions,
 ) -> Result<RiccatiSolution> {
-    check_inputs(a, b, q, r)?;
-    check_pbh(a, b, q, Time::Discrete)?;
+    let g = checked_gram(a, b, q, r, Time::Discrete)?;
     let n = a.nrows();
-    let g = gram(b, r)?;
     let (x, iterations) = doubling(a.clone(), g, q.clone(), opt)?;
 
     // Newton (Hewer) refinement: ΦᵀΔΦ − Δ = −Res(X), Φ = A − BK(X).
@@ -298,6 +294,20 @@ pub fn dare_with(
         residual_rel: res,
         closed_loop_margin: margin,
     })
+}
+
+/// The checks both solvers start with (shapes, finiteness, symmetry and definiteness, then the PBH
+/// stabilisability/detectability test for `time`), and `G = B R⁻¹ Bᵀ`.
+fn checked_gram(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+    time: Time,
+) -> Result<DMatrix<f64>> {
+    check_inputs(a, b, q, r)?;
+    check_pbh(a, b, q, time)?;
+    gram(b, r)
 }
 
 /// Newton (defect-correction) refinement shared by CARE and DARE (module doc): up to
