@@ -8,6 +8,7 @@ use super::plan::{Manifest, PlannedRun};
 use super::spec::{Distribution, Requirement};
 use super::stats::{self, Moments};
 use super::{flatten, run_dir_name, write_atomic};
+use crate::format::sig_campaign;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sim_core::recorder::plots::{self, Figure, Panel, Series, TimeSeries};
@@ -170,17 +171,6 @@ pub struct MergeOutcome {
     pub files: Vec<PathBuf>,
     /// Total wall time of the completed runs, s (not in campaign.json: it times the host).
     pub run_wall_s: f64,
-}
-
-/// Six significant digits, scientific outside [1e-3, 1e6).
-fn sig(x: f64) -> String {
-    let a = x.abs();
-    if x == 0.0 || (1e-3..1e6).contains(&a) {
-        let decimals = (5 - a.log10().floor().max(-3.0) as i32).clamp(0, 8) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.5e}")
-    }
 }
 
 fn pct(x: f64) -> String {
@@ -506,7 +496,8 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         for q in &r.requirements {
             let _ = writeln!(s, "- {}", q.statement);
             for w in q.worst.iter().take(3) {
-                let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig(w.value), w.rerun);
+                let _ =
+                    writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), w.rerun);
             }
         }
         s.push('\n');
@@ -553,13 +544,13 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
             "| {k} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.n,
             st.nulls,
-            sig(m.mean),
-            sig(m.sd),
-            sig(m.min),
-            sig(m.p50),
-            sig(m.p95),
-            sig(m.p99),
-            sig(m.max),
+            sig_campaign(m.mean),
+            sig_campaign(m.sd),
+            sig_campaign(m.min),
+            sig_campaign(m.p50),
+            sig_campaign(m.p95),
+            sig_campaign(m.p99),
+            sig_campaign(m.max),
             st.worst.first().map_or(String::new(), |w| w.run.to_string())
         );
     }

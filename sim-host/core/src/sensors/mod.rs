@@ -26,7 +26,7 @@ use acs_flight::link::{SensorFrame, valid};
 use config::Sensors as SensorSpec;
 use models::{
     AttitudeSensor, AttitudeSensorSpec, CoarseSunSensors, CssGeometry, CssSpec, ExclusionGeometry, GnssReceiver,
-    GnssSpec, Gyro, GyroSpec, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
+    GnssSpec, Gyro, Magnetometer, MagnetometerSpec, SunSensor, SunSensorSpec,
 };
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -76,33 +76,7 @@ impl SensorSuite {
     /// `control_rate_hz`: default sample rate of sensors that do not give one.
     pub fn new(s: &SensorSpec, control_rate_hz: f64) -> Self {
         let seed = s.seed;
-        let gyro = match &s.gyro {
-            Some(g) => GyroSpec {
-                rate_hz: g.rate_hz.unwrap_or(control_rate_hz),
-                arw_rad_s_rthz: [g.arw_rad_s_rthz; 3],
-                rrw_rad_s2_rthz: [g.rrw_rad_s2_rthz; 3],
-                bias_rad_s: g.bias_rad_s,
-                scale_factor: [g.scale_factor_ppm * 1e-6; 3],
-                misalignment_rad: g.misalignment_deg.map(f64::to_radians),
-                saturation_rad_s: g.saturation_rad_s,
-                quantisation_rad_s: g.quantisation_rad_s,
-                bias_instability_rad_s: g.bias_instability_rad_s,
-                bias_correlation_s: g.bias_correlation_s.unwrap_or(0.0),
-            },
-            // White noise of σ per sample at the control rate: ARW = σ / √rate.
-            None => GyroSpec {
-                rate_hz: control_rate_hz,
-                arw_rad_s_rthz: [s.rate_noise_rad_s / control_rate_hz.sqrt(); 3],
-                rrw_rad_s2_rthz: [0.0; 3],
-                bias_rad_s: s.rate_bias_rad_s,
-                scale_factor: [0.0; 3],
-                misalignment_rad: [0.0; 3],
-                saturation_rad_s: None,
-                quantisation_rad_s: 0.0,
-                bias_instability_rad_s: 0.0,
-                bias_correlation_s: 0.0,
-            },
-        };
+        let gyro = s.gyro_model(control_rate_hz);
         let attitude = match &s.star_tracker {
             Some(a) => {
                 let anisotropic = a.noise_cross_deg.is_some() || a.noise_about_deg.is_some();
