@@ -558,7 +558,7 @@ impl Scenario {
             if let Some(r) = c.rate_hz {
                 positive("sensors.css.rate_hz", r)?;
             }
-            let max = crate::sensors::models::MAX_CSS_HEADS;
+            let max = crate::sensors::css::MAX_CSS_HEADS;
             if !(1..=max).contains(&c.normals_body.len()) {
                 return Err(bad(
                     "sensors.css.normals_body",
