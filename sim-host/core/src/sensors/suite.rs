@@ -109,7 +109,7 @@ impl SensorSuite {
         rod_dipole_am2: &[f64; 3],
     ) -> SensorFrame {
         let mut f = SensorFrame::empty(seq, (t_s * 1e6).round() as u64);
-        // Latency: measure the state of `latency_steps` samples ago (before the first
+        // Latency: measure the state of `latency_s` (whole steps) ago (before the first
         // sample that old exists, the initial state: the sensor's first output held).
         let (q_meas, w_meas) = self.latency.delay((s.q, s.w));
         self.measure_attitude(&mut f, t_s, (q_meas, w_meas), craft, env);

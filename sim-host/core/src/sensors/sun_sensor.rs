@@ -7,7 +7,7 @@
 //! Error model: the true direction turned by a white angular error normal to the Sun line
 //! (σ about each of the two normal axes, total rms √2 σ; three normals drawn, the part
 //! along the Sun line dropped). Invalid in eclipse and outside the field of view. Pure
-//! helpers: [`sun_in_body`], [`cylindrical_eclipse`] (Wertz 1978, cylindrical shadow).
+//! helpers: [`sun_in_body`], [`cylindrical_eclipse`].
 
 use super::clock::Clock;
 use super::config::Sensors;
