@@ -15,6 +15,9 @@
 pub mod corpus;
 pub mod search;
 
+/// What other tools read of the timing results (the report's cost table).
+pub use corpus::{StepCost, step_cost};
+
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
