@@ -379,7 +379,12 @@ pub struct CyclesReport {
 
 impl CyclesReport {
     /// The report of a run (`run_scenario`'s summary, steps and firmware counts).
-    pub fn of(summary: &sim_core::recorder::summary::Summary, steps: &[StepCycles], fw: &[f64], wait_states: u32) -> Self {
+    pub fn of(
+        summary: &sim_core::recorder::summary::Summary,
+        steps: &[StepCycles],
+        fw: &[f64],
+        wait_states: u32,
+    ) -> Self {
         Self {
             scenario: summary.scenario.clone(),
             control_rate_hz: summary.control_rate_hz,

@@ -343,9 +343,16 @@ fn outcomes_section(rs: &[&Row]) -> Section {
 /// A paper's flown scenarios: the summary table, the estimation table (if any), the figures.
 fn runs_section(runs: &[&Flown]) -> Section {
     let table = Block::Table {
-        header: ["scenario", "final error (°)", "settle < 1° (s)", "RMS after settle (°)", "mean error (°)", "actuators"]
-            .map(String::from)
-            .to_vec(),
+        header: [
+            "scenario",
+            "final error (°)",
+            "settle < 1° (s)",
+            "RMS after settle (°)",
+            "mean error (°)",
+            "actuators",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows: runs
             .iter()
             .map(|f| {

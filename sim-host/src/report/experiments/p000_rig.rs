@@ -524,12 +524,7 @@ fn render_bands(fl: &Flights) -> Vec<Block> {
                 .enumerate()
                 .map(|(b, band)| {
                     let (s3, s1) = (ideal3.settle_bands_s[b], ideal1.settle_bands_s[b]);
-                    vec![
-                        sig(*band, 1),
-                        cell(s3, 3),
-                        cell(s1, 3),
-                        s3.zip(s1).map_or("—".into(), |(a, b)| sig(a / b, 2)),
-                    ]
+                    vec![sig(*band, 1), cell(s3, 3), cell(s1, 3), s3.zip(s1).map_or("—".into(), |(a, b)| sig(a / b, 2))]
                 })
                 .collect(),
         },

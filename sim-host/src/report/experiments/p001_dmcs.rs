@@ -182,7 +182,13 @@ fn gain_metrics(ts: &TimeSeries, t: &[f64], tend: f64, change_s: f64, m: &mut Me
 /// Saturation at the start: samples with a wheel's motor current at its limit, and
 /// samples where the body demand needs more than 0.75 N m of a wheel (C⁺ u, eq 26;
 /// the pyramid has C Cᵀ diagonal, so C⁺ = Cᵀ (C Cᵀ)⁻¹ row by row).
-fn start_saturation(sc: &Scenario, ts: &TimeSeries, t: &[f64], torque_limit_nm: [f64; 3], m: &mut Metrics) -> Result<()> {
+fn start_saturation(
+    sc: &Scenario,
+    ts: &TimeSeries,
+    t: &[f64],
+    torque_limit_nm: [f64; 3],
+    m: &mut Metrics,
+) -> Result<()> {
     let wheels = sc.actuators.wheels.as_ref().context("p001-dmcs: no wheels")?;
     let axes = pyramid_axes(wheels.pyramid_alpha_deg, wheels.pyramid_beta_deg);
     let dt = 1.0 / sc.timing.control_rate_hz;

@@ -494,8 +494,11 @@ fn analyse_baseline(fl: &Flights, findings: &mut BTreeMap<String, f64>) -> Resul
     for ((c, k), o) in &fl.results {
         let v = fl.variants.unique.get(k).context("variant")?;
         let per_n = max_torque_per_newton_m(&fl.bases[*c])?;
-        let floor =
-            whole_run_mean_bound_deg(o.initial_error_deg, duration, v.thrust_n * per_n / min_inertia_kgm2(&fl.bases[*c]));
+        let floor = whole_run_mean_bound_deg(
+            o.initial_error_deg,
+            duration,
+            v.thrust_n * per_n / min_inertia_kgm2(&fl.bases[*c]),
+        );
         min_over_bound = min_over_bound.min(o.mean_error_deg / floor);
     }
     put("whole_run_mean_over_floor_min".into(), min_over_bound);
@@ -579,12 +582,7 @@ fn analyse_grid(fl: &Flights, findings: &mut BTreeMap<String, f64>) -> Result<Gr
     put("grid_points_bodson_better_both".into(), n_ranked as f64);
     put("max_rel_err_propellant_best".into(), bf.max_rel_err_propellant);
     put("max_rel_err_pulses_best".into(), bf.max_rel_err_pulses);
-    Ok(Grid {
-        fits,
-        n_reproducing: n_repro,
-        ratio_nominal_min: ratio_nom_min,
-        ratio_failed_min: ratio_fail_min,
-    })
+    Ok(Grid { fits, n_reproducing: n_repro, ratio_nominal_min: ratio_nom_min, ratio_failed_min: ratio_fail_min })
 }
 
 /// The findings of all runs.
@@ -625,7 +623,11 @@ fn sweep_figure(
         series: CASES
             .iter()
             .enumerate()
-            .map(|(c, (key, _))| Series { column: format!("{prefix}_{key}"), label: CASE_LABELS[c].into(), dashed: c >= 2 })
+            .map(|(c, (key, _))| Series {
+                column: format!("{prefix}_{key}"),
+                label: CASE_LABELS[c].into(),
+                dashed: c >= 2,
+            })
             .collect(),
         log_y,
     };
@@ -658,10 +660,7 @@ fn sweep_figures(ctx: &Context, fl: &Flights) -> Result<[Block; 3]> {
     let fig_gain = sweep_figure(
         ctx,
         fl,
-        (
-            "p004_unknowns_gains.png",
-            "Paper 004: gain scale on the printed Kp, Kd (10 N, 100 Hz; 1.76 = per degree)",
-        ),
+        ("p004_unknowns_gains.png", "Paper 004: gain scale on the printed Kp, Kd (10 N, 100 Hz; 1.76 = per degree)"),
         ("log10_gain_scale", "log10 gain scale"),
         GAIN_SCALES.iter().map(|g| g.log10()).collect(),
         GAIN_SCALES.iter().map(|&g| b.gains(g)).collect(),
