@@ -109,7 +109,9 @@ fn module_table(src: &str) -> Result<String, Vec<String>> {
 }
 
 fn begin_marker(src: &str) -> String {
-    format!("<!-- modules {src}: generated from the tree by tests/tests/architecture.rs (UPDATE_DOCS=1 regenerates) -->\n")
+    format!(
+        "<!-- modules {src}: generated from the tree by tests/tests/architecture.rs (UPDATE_DOCS=1 regenerates) -->\n"
+    )
 }
 const END_MARKER: &str = "<!-- end modules -->";
 
@@ -165,10 +167,24 @@ struct Pointer {
 }
 
 fn path_pointers(text: &str) -> Vec<Pointer> {
-    const ROOTS: &[&str] =
-        &["shared/", "sim-host/", "firmware/", "tests/", "tools/", "scripts/", "scenarios/", "docs/", "campaigns/", "timing/", ".ci/"];
+    const ROOTS: &[&str] = &[
+        "shared/",
+        "sim-host/",
+        "firmware/",
+        "tests/",
+        "tools/",
+        "scripts/",
+        "scenarios/",
+        "docs/",
+        "campaigns/",
+        "timing/",
+        ".ci/",
+    ];
     let mut out = Vec::new();
-    for token in text.split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ',']).filter(|t| ROOTS.iter().any(|r| t.starts_with(r))) {
+    for token in text
+        .split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ','])
+        .filter(|t| ROOTS.iter().any(|r| t.starts_with(r)))
+    {
         let (token, anchor) = match token.split_once('#') {
             Some((p, a)) => (p, Some(a.trim_end_matches(['.', ';', ':']).to_owned())),
             None => (token, None),
@@ -252,7 +268,9 @@ fn pointer_checks_catch_what_they_should() {
 fn module_graph(src: &str) -> BTreeMap<String, BTreeSet<String>> {
     let dir = repo().join(src);
     let files = rust_files(&dir);
-    let top = |rel: &Path| rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_owned());
+    let top = |rel: &Path| {
+        rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_owned())
+    };
     let mods: BTreeSet<String> = files.iter().filter_map(|r| top(r)).filter(|m| m != "lib" && m != "main").collect();
     let mut g: BTreeMap<String, BTreeSet<String>> = mods.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
     for rel in &files {
@@ -331,10 +349,11 @@ fn cycles(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
 
 #[test]
 fn cycle_finder_finds_a_planted_cycle() {
-    let g: BTreeMap<String, BTreeSet<String>> = [("a", vec!["b"]), ("b", vec!["c"]), ("c", vec!["a"]), ("d", vec!["a"])]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), v.into_iter().map(str::to_owned).collect()))
-        .collect();
+    let g: BTreeMap<String, BTreeSet<String>> =
+        [("a", vec!["b"]), ("b", vec!["c"]), ("c", vec!["a"]), ("d", vec!["a"])]
+            .into_iter()
+            .map(|(k, v)| (k.to_owned(), v.into_iter().map(str::to_owned).collect()))
+            .collect();
     assert_eq!(cycles(&g), vec![vec!["a".to_owned(), "b".into(), "c".into()]]);
 }
 

@@ -1,6 +1,6 @@
 //! The `[sensors]` table of a scenario: the sensor suite's own configuration.
 
-use super::models::GyroSpec;
+use super::gyro::GyroSpec;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
