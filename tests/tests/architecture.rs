@@ -55,35 +55,64 @@ fn module_path(rel: &Path) -> String {
     }
 }
 
-/// The first sentence of the file's leading `//!` paragraph, if it has one.
-fn doc_line(text: &str) -> Option<String> {
-    let mut para = String::new();
+/// The leading `//!` paragraphs of a file (at most two).
+fn doc_paragraphs(text: &str) -> Vec<String> {
+    let mut paras: Vec<String> = Vec::new();
+    let mut cur = String::new();
     for line in text.lines() {
         let t = line.trim_start();
         let Some(d) = t.strip_prefix("//!") else {
-            if para.is_empty() && (t.is_empty() || t.starts_with("#!") || t.starts_with("//")) {
+            if paras.is_empty() && cur.is_empty() && (t.is_empty() || t.starts_with("#!") || t.starts_with("//")) {
                 continue;
             }
             break;
         };
         let d = d.trim();
         if d.is_empty() {
-            if para.is_empty() {
-                continue;
+            if !cur.is_empty() {
+                paras.push(std::mem::take(&mut cur));
             }
-            break;
+            if paras.len() == 2 {
+                break;
+            }
+            continue;
         }
-        if !para.is_empty() {
-            para.push(' ');
+        if !cur.is_empty() {
+            cur.push(' ');
         }
-        para.push_str(d);
+        cur.push_str(d);
     }
-    if para.is_empty() {
-        return None;
+    if !cur.is_empty() && paras.len() < 2 {
+        paras.push(cur);
     }
-    // First sentence: up to the first ". " / ":" ending a clause, or the whole paragraph.
-    let cut = para.find(". ").map(|i| i + 1).or_else(|| para.find(": ")).unwrap_or(para.len());
-    Some(para[..cut].trim_end_matches(':').replace('|', "\\|"))
+    paras
+}
+
+/// The first sentence of a paragraph: up to a full stop followed by a capital (not after
+/// an abbreviation such as "e.g." or "eq.").
+fn first_sentence(p: &str) -> &str {
+    const ABBREV: &[&str] = &["e.g", "i.e", "cf", "eq", "eqs", "vs", "al", "Fig", "fig", "ch", "No"];
+    for (i, _) in p.match_indices(". ") {
+        let next = p[i + 2..].chars().next();
+        let word = p[..i].rsplit([' ', '(']).next().unwrap_or("");
+        if next.is_some_and(|c| c.is_uppercase() || c == '`' || c == '[') && !ABBREV.contains(&word) {
+            return &p[..=i];
+        }
+    }
+    p
+}
+
+/// One line for a module: the first sentence of its `//!` doc; a bare title ("Estimation")
+/// is followed by the first sentence of the next paragraph.
+fn doc_line(text: &str) -> Option<String> {
+    let paras = doc_paragraphs(text);
+    let first = paras.first()?;
+    let title = !first.contains(". ") && !first.ends_with('.') && first.len() < 60;
+    let line = match paras.get(1) {
+        Some(next) if title => format!("{} — {}", first.trim_end_matches(':'), first_sentence(next)),
+        _ => first_sentence(first).to_owned(),
+    };
+    Some(line.replace('|', "\\|"))
 }
 
 /// The generated table of one crate, or the modules that have no `//!` doc.
@@ -91,7 +120,9 @@ fn module_table(src: &str) -> Result<String, Vec<String>> {
     let dir = repo().join(src);
     let mut rows = Vec::new();
     let mut undocumented = Vec::new();
-    for rel in rust_files(&dir) {
+    let mut files = rust_files(&dir);
+    files.sort_by_key(|rel| module_path(rel).replace("(crate root)", ""));
+    for rel in files {
         // Test-only files and `#[path]` includes are not modules of the product.
         if rel.components().any(|c| c.as_os_str() == "tests") || rel.ends_with("tests.rs") {
             continue;
