@@ -225,8 +225,12 @@ fn path_pointers(text: &str) -> Vec<Pointer> {
             None => (token, false),
         };
         let path = path.trim_end_matches(['.', ';', ':']);
-        // Globs, placeholders and output folders are patterns, not pointers.
-        if path.contains(['*', '<', '{', '$']) || path.contains("/out") || path.contains("..") {
+        // Globs, placeholders, output folders and build outputs are patterns, not pointers.
+        if path.contains(['*', '<', '{', '$'])
+            || path.contains("/out")
+            || path.contains("/target/")
+            || path.contains("..")
+        {
             continue;
         }
         out.push(Pointer { path: path.to_owned(), anchor, line_suffix });

@@ -76,6 +76,8 @@ pub fn field_ecef_t(r_ecef_m: &Vec3, decimal_year: f32, degree: usize) -> Result
 
 /// Schmidt semi-normalised associated Legendre functions `P_n^m(cos θ)` and their
 /// θ-derivatives, n = 0 … `nmax`, by the standard recursions (slot order of [`slot`]).
+// Inlined (as `local_components_nt`): the tables stay in the caller, not copied out.
+#[inline(always)]
 fn legendre(nmax: usize, sin_t: f32, cos_t: f32) -> ([f32; SLOTS], [f32; SLOTS]) {
     let mut p = [0.0_f32; SLOTS];
     let mut dp = [0.0_f32; SLOTS];
@@ -121,6 +123,7 @@ fn legendre(nmax: usize, sin_t: f32, cos_t: f32) -> ([f32; SLOTS], [f32; SLOTS])
 /// The field's local components `(B_r, B_θ, B_λ)`, nT: the spherical-harmonic sums to
 /// degree `nmax` with the coefficients at `years` past the epoch, `rho = a / r`, and
 /// `(sin θ, sin λ, cos λ)` of the point.
+#[inline(always)]
 fn local_components_nt(
     p: &[f32; SLOTS],
     dp: &[f32; SLOTS],
