@@ -17,6 +17,7 @@
 //! worst and mean LP iterations; under callgrind, instructions / 4000 is the mean cost.
 use acs_flight::allocation::thruster::paper::paper_allocator_in;
 use acs_flight::allocation::thruster::{Allocator, Failures};
+use acs_test_support::rng::Lcg64;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -44,11 +45,8 @@ fn sweep(method: &str, failed: &[String]) {
     let failed: Vec<usize> = failed.iter().map(|s| s.parse().expect("thruster id")).collect();
     let al = allocator();
     let bd = al.bounds(None, Failures::off_1based(&failed));
-    let mut seed = 0x1234_5678_9abc_def0u64;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg64(0x1234_5678_9abc_def0);
+    let mut rnd = || lcg.symmetric();
     let (mut worst, mut sum, n) = (0u16, 0u64, 4000);
     for _ in 0..n {
         let d = [rnd(), rnd(), rnd()];

@@ -55,6 +55,8 @@ pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
 /// (normalised), magnetometer finite. The Sun sensors and the GNSS fix are handed over as
 /// flagged: their plausibility is the estimators' (unit direction, the CSS fit, the fix's
 /// orbit and time checks).
+// Inlined: the samples are built in place in `Fsw::step` (no copy of the struct).
+#[inline(always)]
 pub fn sensor_samples(f: &SensorFrame) -> SensorSamples {
     let valid = valid_bits(f);
     let time_us = f.time_us;
@@ -67,10 +69,10 @@ pub fn sensor_samples(f: &SensorFrame) -> SensorSamples {
             .flatten()
             .map(|q_ib| StarTrackerAttitude { time_us, q_ib }),
         sun_sensor: valid.contains(Valid::SUN).then(|| SunSensorDirection { time_us, dir_body: Vec3::from(f.sun_dir) }),
-        css: valid.contains(Valid::CSS).then_some(CssOutputs { time_us, output: f.css_output }),
+        css: valid.contains(Valid::CSS).then(|| CssOutputs { time_us, output: f.css_output }),
         magnetometer: (valid.contains(Valid::MAG) && finite(&f.mag_field_t))
             .then(|| MagnetometerField { time_us, field_body_t: Vec3::from(f.mag_field_t) }),
-        gnss: valid.contains(Valid::GNSS).then_some(GnssFix {
+        gnss: valid.contains(Valid::GNSS).then(|| GnssFix {
             time_us,
             pos_eci_m: Vec3::from(f.gnss_pos_m),
             vel_eci_m_s: Vec3::from(f.gnss_vel_m_s),

@@ -10,35 +10,8 @@ use acs_flight::estimation::mekf::{CHI2_2DOF_999, CHI2_3DOF_999, Mekf, MekfConfi
 use acs_flight::estimation::quest::{Observation, quest, quest_covariance};
 use acs_flight::estimation::triad::{WahbaError, triad};
 use acs_flight::math::{Mat3, Quat, Vec3, quat_from_rotation_matrix, rotate_ref_to_body};
+use acs_test_support::rng::SplitMix64 as Rng;
 use nalgebra::{Matrix3, Quaternion, Vector3};
-
-/// SplitMix64 + Box–Muller: a small seeded generator for the tests.
-struct Rng(u64);
-impl Rng {
-    fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-    fn vec(&mut self) -> Vector3<f64> {
-        Vector3::new(self.normal(), self.normal(), self.normal())
-    }
-    fn unit(&mut self) -> Vector3<f64> {
-        self.vec().normalize()
-    }
-    fn quat(&mut self) -> Quaternion<f64> {
-        Quaternion::new(self.normal(), self.normal(), self.normal(), self.normal()).normalize()
-    }
-}
 
 type Q64 = Quaternion<f64>;
 type V64 = Vector3<f64>;

@@ -8,31 +8,10 @@
 
 use acs_flight::estimation::css::{CSS_MAX_TRACE_INV, CssError, CssHeads, CssSolution, sun_vector};
 use acs_flight::types::MAX_CSS_HEADS;
+use acs_test_support::rng::SplitMix64 as Rng;
 use nalgebra::{Matrix3, Vector3};
 
 type V64 = Vector3<f64>;
-
-/// SplitMix64 + Box–Muller: a small seeded generator for the tests.
-struct Rng(u64);
-impl Rng {
-    fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-    fn unit(&mut self) -> V64 {
-        V64::new(self.normal(), self.normal(), self.normal()).normalize()
-    }
-}
 
 const THRESHOLD: f32 = 0.05;
 
@@ -282,17 +261,17 @@ fn absurd_inputs_never_panic() {
         let mut heads = if k % 2 == 0 { cube() } else { pyramid() };
         let mut c = [0.0f32; 6];
         for x in c.iter_mut() {
-            *x = match rng.u64() % 4 {
-                0 => f32::from_bits(rng.u64() as u32),
+            *x = match rng.next_u64() % 4 {
+                0 => f32::from_bits(rng.next_u64() as u32),
                 1 => (rng.uniform() * 2.0 - 0.5) as f32,
                 2 => (rng.normal() * 1e3) as f32,
                 _ => 0.0,
             };
         }
         if k % 7 == 0 {
-            heads.count = (rng.u64() % 9) as u8;
-            heads.lit_threshold = f32::from_bits(rng.u64() as u32);
-            heads.normals_body[(rng.u64() % 6) as usize] = [f32::from_bits(rng.u64() as u32), 0.0, 0.0];
+            heads.count = (rng.next_u64() % 9) as u8;
+            heads.lit_threshold = f32::from_bits(rng.next_u64() as u32);
+            heads.normals_body[(rng.next_u64() % 6) as usize] = [f32::from_bits(rng.next_u64() as u32), 0.0, 0.0];
         }
         match sun_vector(&heads, &c) {
             Ok(s) => {

@@ -21,6 +21,7 @@ use acs_flight::estimation::css::{CssHeads, sun_vector};
 use acs_flight::math::Vec3;
 use acs_flight::params::{SunSafeError, SunSafeParams};
 use acs_flight::types::MAX_CSS_HEADS;
+use acs_test_support::rng::SplitMix64 as Rng;
 use nalgebra::{Quaternion, Vector3};
 
 type V64 = Vector3<f64>;
@@ -34,30 +35,6 @@ const SEARCH_RATE: f64 = 0.02;
 const DT: f64 = 0.1;
 const SETTLED_ANGLE_DEG: f64 = 5.0;
 const SETTLED_RATE_DEG_S: f64 = 0.05;
-
-struct Rng(u64);
-impl Rng {
-    fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-    fn unit(&mut self) -> V64 {
-        V64::new(self.normal(), self.normal(), self.normal()).normalize()
-    }
-    fn quat(&mut self) -> Q64 {
-        Q64::new(self.normal(), self.normal(), self.normal(), self.normal()).normalize()
-    }
-}
 
 fn kp() -> f64 {
     J[0] * OMEGA_N * OMEGA_N
@@ -502,7 +479,7 @@ fn validation_and_absurd_inputs() {
     let mut law = SunSafe::new(params()).unwrap();
     for k in 0..100_000u32 {
         let f = |rng: &mut Rng| -> f32 {
-            if rng.u64().is_multiple_of(3) { f32::from_bits(rng.u64() as u32) } else { rng.normal() as f32 }
+            if rng.next_u64().is_multiple_of(3) { f32::from_bits(rng.next_u64() as u32) } else { rng.normal() as f32 }
         };
         let sun = if k % 3 == 0 { None } else { Some(Vec3::new(f(&mut rng), f(&mut rng), f(&mut rng))) };
         let gyro = Vec3::new(f(&mut rng), f(&mut rng), f(&mut rng)) * 0.1;

@@ -223,10 +223,10 @@ fn rate_limits_and_stuck_on() {
     for _ in 0..3000 {
         let mut rl = RateLimit { u_prev: [0.0; 8], rho_min: [-2.0; 8], rho_max: [2.0; 8], dt: 0.1 };
         for v in rl.u_prev.iter_mut() {
-            *v = rng.f64() as f32;
+            *v = rng.uniform() as f32;
         }
         let fail =
-            if rng.f64() < 0.3 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
+            if rng.uniform() < 0.3 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
         let bd = al.bounds(Some(&rl), fail);
         for j in 0..8 {
             assert!(bd.lo[j] <= bd.hi[j]);

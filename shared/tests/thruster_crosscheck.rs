@@ -44,13 +44,13 @@ fn generic_random_lps() {
         let mut x = [0.0f64; 10];
         for j in 0..10 {
             lp.h[j] = rng.range(0.1, 2.0) as f32;
-            if kind == 2 && rng.f64() < 0.3 {
+            if kind == 2 && rng.uniform() < 0.3 {
                 lp.h[j] = f32::INFINITY;
             }
             lp.c[j] = rng.range(-1.0, 1.0) as f32;
             x[j] = if lp.h[j].is_finite() { rng.range(0.0, lp.h[j] as f64) } else { rng.range(0.0, 2.0) };
             // degenerate starts: some x at bounds
-            if rng.f64() < 0.3 {
+            if rng.uniform() < 0.3 {
                 x[j] = 0.0;
             }
             for i in 0..3 {

@@ -27,7 +27,7 @@ fn wild(rng: &mut Rng) -> f32 {
 }
 
 fn maybe_wild(rng: &mut Rng, p: f64, normal: f32) -> f32 {
-    if rng.f64() < p { wild(rng) } else { normal }
+    if rng.uniform() < p { wild(rng) } else { normal }
 }
 
 #[test]
@@ -65,12 +65,12 @@ fn fuzz_100k() {
                 maybe_wild(&mut rng, p, v)
             },
         ];
-        let rate = if rng.f64() < 0.3 {
+        let rate = if rng.uniform() < 0.3 {
             let mut rl =
                 RateLimit { u_prev: [0.0; 8], rho_min: [-1.0; 8], rho_max: [1.0; 8], dt: maybe_wild(&mut rng, p, 0.1) };
             for j in 0..8 {
                 rl.u_prev[j] = {
-                    let v = rng.f64() as f32;
+                    let v = rng.uniform() as f32;
                     maybe_wild(&mut rng, p, v)
                 };
                 rl.rho_min[j] = maybe_wild(&mut rng, p, -1.0);
@@ -81,11 +81,11 @@ fn fuzz_100k() {
             None
         };
         let fail = Failures {
-            failed: rng.next_u64() as u32 & if rng.f64() < 0.2 { 0xffff_ffff } else { 0 },
+            failed: rng.next_u64() as u32 & if rng.uniform() < 0.2 { 0xffff_ffff } else { 0 },
             stuck_on: rng.next_u64() as u32,
         };
         let bd = al.bounds(rate.as_ref(), fail);
-        let bd = if rng.f64() < 0.05 {
+        let bd = if rng.uniform() < 0.05 {
             // raw garbage bounds too
             let mut g = Bounds { lo: [0.0; 8], hi: [0.0; 8] };
             for j in 0..8 {
@@ -125,7 +125,7 @@ fn fuzz_100k() {
             }
         }
         // raw LP with garbage
-        let mut lp = Lp::<3, 9>::zeroed(rng.below(5) as usize, rng.below(12) as usize);
+        let mut lp = Lp::<3, 9>::zeroed(rng.below(5), rng.below(12));
         for i in 0..3 {
             lp.b[i] = {
                 let v = rng.range(-2.0, 2.0) as f32;

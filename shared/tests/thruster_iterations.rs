@@ -90,10 +90,10 @@ fn worst_case_iterations() {
     for _ in 0..20000 {
         let mut rl = RateLimit { u_prev: [0.0; 8], rho_min: [-3.0; 8], rho_max: [3.0; 8], dt: 0.1 };
         for v in rl.u_prev.iter_mut() {
-            *v = if rng.f64() < 0.5 { 0.0 } else { rng.f64() as f32 };
+            *v = if rng.uniform() < 0.5 { 0.0 } else { rng.uniform() as f32 };
         }
         let fail =
-            if rng.f64() < 0.2 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
+            if rng.uniform() < 0.2 { Failures { failed: 1 << rng.below(8), stuck_on: 0xff } } else { Failures::NONE };
         let bd = al.bounds(Some(&rl), fail);
         let d = rng.unit3();
         let s = rng.range(0.0, 2.0);

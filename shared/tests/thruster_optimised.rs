@@ -78,9 +78,9 @@ fn demands(rng: &mut Rng, b: &[[f32; 12]; 3], n: usize) -> Vec<[f32; 3]> {
     for k in 0..n {
         let d = match k % 3 {
             0 => rng.unit3(),
-            1 => dirs[(rng.below(dirs.len() as u64)) as usize],
+            1 => dirs[rng.below(dirs.len())],
             _ => {
-                let s = dirs[(rng.below(dirs.len() as u64)) as usize];
+                let s = dirs[rng.below(dirs.len())];
                 let e = 10f64.powf(rng.range(-6.0, -2.0)) * norm(&s);
                 let r = rng.unit3();
                 [s[0] + e * r[0], s[1] + e * r[1], s[2] + e * r[2]]
@@ -99,8 +99,8 @@ fn demands(rng: &mut Rng, b: &[[f32; 12]; 3], n: usize) -> Vec<[f32; 3]> {
 fn masks(rng: &mut Rng) -> Vec<Failures> {
     let mut v = vec![Failures::NONE, Failures::off_1based(&[1, 4]), Failures::off_1based(&[1, 3, 7])];
     for _ in 0..5 {
-        let k = 1 + rng.below(3) as usize;
-        let ids: Vec<usize> = (0..k).map(|_| 1 + rng.below(8) as usize).collect();
+        let k = 1 + rng.below(3);
+        let ids: Vec<usize> = (0..k).map(|_| 1 + rng.below(8)).collect();
         v.push(Failures::off_1based(&ids));
     }
     v
@@ -273,7 +273,7 @@ fn warm_start_generic_lps() {
         let mut lp = Lp::<3, 8>::zeroed(3, 8);
         let mut x = [0.0f64; 8];
         for j in 0..8 {
-            lp.h[j] = if rng.f64() < 0.1 { 0.0 } else { rng.range(0.1, 2.0) as f32 };
+            lp.h[j] = if rng.uniform() < 0.1 { 0.0 } else { rng.range(0.1, 2.0) as f32 };
             lp.c[j] = rng.range(-1.0, 1.0) as f32;
             x[j] = rng.range(0.0, lp.h[j] as f64);
             for i in 0..3 {
@@ -285,10 +285,10 @@ fn warm_start_generic_lps() {
         }
         let mut w = Basis::<3, 8>::default();
         for v in w.vars.iter_mut() {
-            *v = rng.below(12) as usize; // structurals 0..8, artificials 8..11, duplicates
+            *v = rng.below(12); // structurals 0..8, artificials 8..11, duplicates
         }
         for u in w.upper.iter_mut() {
-            *u = rng.f64() < 0.5;
+            *u = rng.uniform() < 0.5;
         }
         let cold = lp.solve();
         let warm = lp.solve_from(64, Some(&w), None);

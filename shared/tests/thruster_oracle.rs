@@ -105,7 +105,7 @@ fn random_b_1000() {
         for _ in 0..20 {
             let d = rng.unit3();
             let (_, reach) = z.ray_interval(&d).unwrap();
-            let f = if rng.f64() < 0.1 { 1.0 } else { rng.range(0.1, 3.0) };
+            let f = if rng.uniform() < 0.1 { 1.0 } else { rng.range(0.1, 3.0) };
             let s = if reach > 1e-9 {
                 reach * f
             } else {

@@ -348,6 +348,128 @@ impl CycleStats {
     }
 }
 
+/// The per-step table of `sim-host cycles --per-step FILE`: tab-separated, one row per
+/// step (firmware instructions `fw`, the plugin's counts, bounds and instruction mix).
+pub fn per_step_table(steps: &[StepCycles], fw: &[f64]) -> String {
+    let mut t = String::from("step\tfirmware_instructions\tinstructions\tcycles_lower\tcycles_upper");
+    let keys: Vec<String> = steps.first().map(|s| s.mix.keys().cloned().collect()).unwrap_or_default();
+    for k in &keys {
+        t += &format!("\t{k}");
+    }
+    t.push('\n');
+    for (k, (s, f)) in steps.iter().zip(fw).enumerate() {
+        t += &format!("{k}\t{f}\t{}\t{}\t{}", s.instructions, s.cycles_lower, s.cycles_upper);
+        for key in &keys {
+            t += &format!("\t{}", s.get(key));
+        }
+        t.push('\n');
+    }
+    t
+}
+
+/// What `sim-host cycles` reports of a run: the statistics of its steps on the STM32F405.
+pub struct CyclesReport {
+    pub scenario: String,
+    pub control_rate_hz: f64,
+    pub wait_states: u32,
+    pub stats: CycleStats,
+    /// The firmware's own instruction counts per step.
+    pub firmware_instructions: WorstMean,
+}
+
+impl CyclesReport {
+    /// The report of a run (`run_scenario`'s summary, steps and firmware counts).
+    pub fn of(
+        summary: &sim_core::recorder::summary::Summary,
+        steps: &[StepCycles],
+        fw: &[f64],
+        wait_states: u32,
+    ) -> Self {
+        Self {
+            scenario: summary.scenario.clone(),
+            control_rate_hz: summary.control_rate_hz,
+            wait_states,
+            stats: CycleStats::of(steps),
+            firmware_instructions: WorstMean::of(fw.iter().copied()),
+        }
+    }
+
+    fn period_us(&self) -> f64 {
+        1e6 / self.control_rate_hz
+    }
+
+    /// The report as JSON (`--json`).
+    pub fn json(&self) -> serde_json::Value {
+        let (st, fw_stats, period_us) = (&self.stats, self.firmware_instructions, self.period_us());
+        let us = |c: f64| c / STM32F405_HZ * 1e6;
+        serde_json::json!({
+            "scenario": self.scenario,
+            "steps": st.steps,
+            "control_rate_hz": self.control_rate_hz,
+            "wait_states": self.wait_states,
+            "cpu_hz": STM32F405_HZ,
+            "firmware_instructions": {"worst": fw_stats.worst, "mean": fw_stats.mean},
+            "instructions": {"worst": st.instructions.worst, "mean": st.instructions.mean},
+            "cycles_lower": {"worst": st.cycles_lower.worst, "mean": st.cycles_lower.mean},
+            "cycles_upper": {"worst": st.cycles_upper.worst, "mean": st.cycles_upper.mean},
+            "us_worst": [us(st.cycles_lower.worst), us(st.cycles_upper.worst)],
+            "period_fraction_worst": [us(st.cycles_lower.worst) / period_us, us(st.cycles_upper.worst) / period_us],
+            "mix": {
+                "fp": st.fp_share, "load_store": st.load_store_share, "branch": st.branch_share,
+                "taken": st.taken_share, "soft_float": st.soft_float_share,
+                "soft_float_calls_per_step": st.soft_float_calls_per_step,
+                "vdiv_vsqrt_per_step": st.vdiv_vsqrt_per_step,
+            },
+        })
+    }
+
+    /// Writes the report as text; write errors are ignored (a closed pipe must not stop
+    /// the command).
+    pub fn write_text(&self, w: &mut dyn std::io::Write) {
+        let (st, fw_stats, period_us) = (&self.stats, self.firmware_instructions, self.period_us());
+        let us = |c: f64| c / STM32F405_HZ * 1e6;
+        let mut say = |line: std::fmt::Arguments| {
+            let _ = writeln!(w, "{line}");
+        };
+        say(format_args!(
+            "{}: {} steps at {} Hz (period {:.0} us), STM32F405 at {:.0} MHz, {} wait states",
+            self.scenario,
+            st.steps,
+            self.control_rate_hz,
+            period_us,
+            STM32F405_HZ / 1e6,
+            self.wait_states
+        ));
+        say(format_args!("                         worst        mean"));
+        say(format_args!("  instructions (fw)  {:>10.0}  {:>10.0}", fw_stats.worst, fw_stats.mean));
+        say(format_args!("  instructions       {:>10.0}  {:>10.0}", st.instructions.worst, st.instructions.mean));
+        say(format_args!("  cycles lower       {:>10.0}  {:>10.0}", st.cycles_lower.worst, st.cycles_lower.mean));
+        say(format_args!("  cycles upper       {:>10.0}  {:>10.0}", st.cycles_upper.worst, st.cycles_upper.mean));
+        for (name, w) in [
+            ("worst", (st.cycles_lower.worst, st.cycles_upper.worst)),
+            ("mean", (st.cycles_lower.mean, st.cycles_upper.mean)),
+        ] {
+            say(format_args!(
+                "  {name:<5} {:.1}–{:.1} us = {:.3}–{:.3} % of the period",
+                us(w.0),
+                us(w.1),
+                100.0 * us(w.0) / period_us,
+                100.0 * us(w.1) / period_us
+            ));
+        }
+        say(format_args!(
+            "  mix: FP {:.1} %, loads/stores {:.1} %, branches {:.1} % (taken {:.1} %), soft-float {:.1} % ({:.1} calls/step), VDIV/VSQRT {:.1}/step",
+            100.0 * st.fp_share,
+            100.0 * st.load_store_share,
+            100.0 * st.branch_share,
+            100.0 * st.taken_share,
+            100.0 * st.soft_float_share,
+            st.soft_float_calls_per_step,
+            st.vdiv_vsqrt_per_step
+        ));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

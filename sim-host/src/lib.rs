@@ -6,7 +6,8 @@
 //! - [`campaign`]: plan / run / merge of dispersed runs (local or Slurm);
 //! - [`timing`]: the search for the slowest flight step and its corpus;
 //! - [`cycles`]: cycle bounds of the firmware under QEMU (TCG plugin);
-//! - [`analysis`]: post-run analyses (thruster allocation envelopes).
+//! - [`analysis`]: post-run analyses (thruster allocation envelopes);
+//! - [`format`]: number formatting of the text outputs.
 
 // Index loops over parallel fixed-size arrays read better than zips.
 #![allow(clippy::needless_range_loop)]
@@ -14,5 +15,6 @@
 pub mod analysis;
 pub mod campaign;
 pub mod cycles;
+pub mod format;
 pub mod report;
 pub mod timing;

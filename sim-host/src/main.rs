@@ -319,148 +319,81 @@ fn corpus_scenario(c: &timing::corpus::Corpus) -> PathBuf {
     if p.exists() { p } else { timing::corpus::repo_root().join(p) }
 }
 
-/// `sim-host timing …`.
-fn timing(what: TimingCmd) -> Result<()> {
-    use timing::corpus::{BudgetFile, Corpus};
-    use timing::search::{SearchOptions, estimate_names, mode_name};
-    let verdict = |b: &Option<BudgetFile>, name: &str, mode: &str, instr: u64, dt: f64, failed: &mut bool| {
-        if let Some(b) = b {
-            let v = b.check(name, mode, instr, dt);
-            *failed |= !v.ok;
-            format!("{}: {}", if v.ok { "ok" } else { "OVER BUDGET" }, v.message)
-        } else {
-            "no budget file".into()
-        }
+/// `sim-host timing search`: the search, its summary, the corpus (with `out`).
+fn timing_search(what: TimingCmd) -> Result<()> {
+    use timing::corpus::Corpus;
+    use timing::search::SearchOptions;
+    let TimingCmd::Search { scenario, budget_seconds, seed, evaluations, out, seed_corpus, demands, budget, firmware } =
+        what
+    else {
+        anyhow::bail!("not a timing search");
     };
-    match what {
-        TimingCmd::Search {
-            scenario,
-            budget_seconds,
-            seed,
-            evaluations,
-            out,
-            seed_corpus,
-            demands,
-            budget,
-            firmware,
-        } => {
-            let budget = budget_file(budget)?;
-            let target = timing::Target::load(&scenario)?;
-            let mut seeds = Vec::new();
-            for c in &seed_corpus {
-                let c = Corpus::load(c)?;
-                for e in &c.entries {
-                    seeds.push(e.input.input()?);
-                }
-            }
-            let directions = match &demands {
-                Some(p) => timing::corpus::demand_directions(p)?,
-                None => Vec::new(),
-            };
-            let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
-            let mut ev = timing::Evaluator::new(target, &mut l)?;
-            let opts = SearchOptions {
-                budget: std::time::Duration::from_secs_f64(budget_seconds.max(0.0)),
-                seed,
-                max_evaluations: evaluations,
-                seeds,
-                directions,
-                ..SearchOptions::default()
-            };
-            let r = timing::search::search(&mut ev, &opts)?;
-            let t = &ev.target;
-            let mut failed = false;
-            say!(
-                "{}: {} evaluations ({} refused) in {} generations, {:.1} s (seed {seed})",
-                t.name,
-                r.evaluations,
-                r.rejected,
-                r.generations,
-                r.elapsed_s
-            );
-            if let Some(n) = r.nominal {
-                say!("  nominal input: {} instructions", n.instructions);
-            }
-            let w = &r.worst.cost;
-            say!(
-                "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}, estimation [{}], \
-                 MEKF updates accepted/rejected/restarts {}/{}/{}); {}",
-                w.instructions,
-                w.step,
-                mode_name(w.mode),
-                w.status,
-                estimate_names(w.estimate_flags),
-                w.mekf_accepted,
-                w.mekf_rejected,
-                w.mekf_resets,
-                verdict(&budget, &t.name, mode_name(r.worst.cost.mode), r.worst.cost.instructions, t.dt_s, &mut failed)
-            );
-            say!(
-                "  mean: {:.0} instructions over the evaluated inputs, {:.0} over the final population",
-                r.mean_instructions,
-                r.population_mean
-            );
-            if let Some(f) = r.worst_no_failures.as_ref().filter(|f| f.cost != r.worst.cost) {
-                say!("  worst without extra actuator failures: {} instructions", f.cost.instructions);
-            }
-            if !t.modes.is_empty() {
-                for (code, f) in &r.per_mode {
-                    let name = mode_name(*code);
-                    say!(
-                        "  mode {name}: worst {} instructions (estimation [{}]); {}",
-                        f.cost.instructions,
-                        estimate_names(f.cost.estimate_flags),
-                        verdict(&budget, &t.name, name, f.cost.instructions, t.dt_s, &mut failed)
-                    );
-                }
-            }
-            say!("  worst input: {}", serde_json::to_string(&timing::InputJson::from(&r.worst.input))?);
-            if let Some(out) = out {
-                let file = scenario.display().to_string();
-                Corpus::from_search(&file, &t.name, seed, budget_seconds, &r).save(&out)?;
-                say!("  wrote {}", out.display());
-            }
-            if failed {
-                anyhow::bail!("{}: the searched worst exceeds the budget", t.name);
-            }
-        }
-        TimingCmd::Replay { corpus, budget, firmware } => {
-            let budget = budget_file(budget)?;
-            let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
-            let mut failed = false;
-            for path in &corpus {
-                let c = Corpus::load(path)?;
-                let target = timing::Target::load(&corpus_scenario(&c))?;
-                let dt = target.dt_s;
-                let mut ev = timing::Evaluator::new(target, &mut l)?;
-                say!("{} ({}):", c.scenario, path.display());
-                for r in timing::corpus::replay(&mut ev, &c)? {
-                    match r.measured {
-                        Some(m) => {
-                            let mode = mode_name(m.mode);
-                            say!(
-                                "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}]; {}",
-                                r.label,
-                                m.instructions,
-                                r.recorded,
-                                m.instructions as i64 - r.recorded as i64,
-                                estimate_names(m.estimate_flags),
-                                verdict(&budget, &c.scenario, mode, m.instructions, dt, &mut failed)
-                            );
-                        }
-                        None => say!("  {:<16} refused by the flight code (recorded {})", r.label, r.recorded),
-                    }
-                }
-            }
-            if budget.is_none() {
-                anyhow::bail!("no budget file (timing/budget.toml or --budget)");
-            }
-            if failed {
-                anyhow::bail!("a replayed step exceeds its budget");
-            }
+    let budget = budget_file(budget)?;
+    let target = timing::Target::load(&scenario)?;
+    let mut seeds = Vec::new();
+    for c in &seed_corpus {
+        let c = Corpus::load(c)?;
+        for e in &c.entries {
+            seeds.push(e.input.input()?);
         }
     }
+    let directions = match &demands {
+        Some(p) => timing::corpus::demand_directions(p)?,
+        None => Vec::new(),
+    };
+    let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+    let mut ev = timing::Evaluator::new(target, &mut l)?;
+    let opts = SearchOptions {
+        budget: std::time::Duration::from_secs_f64(budget_seconds.max(0.0)),
+        seed,
+        max_evaluations: evaluations,
+        seeds,
+        directions,
+        ..SearchOptions::default()
+    };
+    let r = timing::search::search(&mut ev, &opts)?;
+    let t = &ev.target;
+    let failed = timing::text::write_search(&mut std::io::stdout(), t, &r, seed, budget.as_ref())?;
+    if let Some(out) = out {
+        let file = scenario.display().to_string();
+        Corpus::from_search(&file, &t.name, seed, budget_seconds, &r).save(&out)?;
+        say!("  wrote {}", out.display());
+    }
+    if failed {
+        anyhow::bail!("{}: the searched worst exceeds the budget", t.name);
+    }
     Ok(())
+}
+
+/// `sim-host timing replay`: every corpus entry measured again against its budget.
+fn timing_replay(corpus: &[PathBuf], budget: Option<PathBuf>, firmware: Option<PathBuf>) -> Result<()> {
+    let budget = budget_file(budget)?;
+    let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+    let mut failed = false;
+    for path in corpus {
+        let c = timing::corpus::Corpus::load(path)?;
+        let target = timing::Target::load(&corpus_scenario(&c))?;
+        let dt = target.dt_s;
+        let mut ev = timing::Evaluator::new(target, &mut l)?;
+        say!("{} ({}):", c.scenario, path.display());
+        let replayed = timing::corpus::replay(&mut ev, &c)?;
+        timing::text::write_replayed(&mut std::io::stdout(), &c.scenario, &replayed, dt, budget.as_ref(), &mut failed);
+    }
+    if budget.is_none() {
+        anyhow::bail!("no budget file (timing/budget.toml or --budget)");
+    }
+    if failed {
+        anyhow::bail!("a replayed step exceeds its budget");
+    }
+    Ok(())
+}
+
+/// `sim-host timing …`.
+fn timing(what: TimingCmd) -> Result<()> {
+    match what {
+        TimingCmd::Replay { corpus, budget, firmware } => timing_replay(&corpus, budget, firmware),
+        search @ TimingCmd::Search { .. } => timing_search(search),
+    }
 }
 
 /// `sim-host cycles`: per-step instructions and Cortex-M4 cycle bounds on the QEMU firmware.
@@ -473,7 +406,7 @@ fn cycles(
     per_step: Option<PathBuf>,
     json: bool,
 ) -> Result<()> {
-    use sim_host::cycles::{CycleStats, CyclesOptions, STM32F405_HZ, run_scenario};
+    use sim_host::cycles::{CyclesOptions, CyclesReport, per_step_table, run_scenario};
     let mut sc = Scenario::load(scenario)?;
     if let Some(d) = duration {
         sc.duration_s = d;
@@ -481,84 +414,14 @@ fn cycles(
     let opts = CyclesOptions { plugin, wait_states };
     let (summary, steps, fw) = run_scenario(&sc, firmware.as_deref(), &opts)?;
     if let Some(p) = &per_step {
-        let mut t = String::from("step\tfirmware_instructions\tinstructions\tcycles_lower\tcycles_upper");
-        let keys: Vec<String> = steps.first().map(|s| s.mix.keys().cloned().collect()).unwrap_or_default();
-        for k in &keys {
-            t += &format!("\t{k}");
-        }
-        t.push('\n');
-        for (k, (s, f)) in steps.iter().zip(&fw).enumerate() {
-            t += &format!("{k}\t{f}\t{}\t{}\t{}", s.instructions, s.cycles_lower, s.cycles_upper);
-            for key in &keys {
-                t += &format!("\t{}", s.get(key));
-            }
-            t.push('\n');
-        }
-        std::fs::write(p, t).with_context(|| format!("writing {}", p.display()))?;
+        std::fs::write(p, per_step_table(&steps, &fw)).with_context(|| format!("writing {}", p.display()))?;
     }
-    let st = CycleStats::of(&steps);
-    let fw_stats = sim_host::cycles::WorstMean::of(fw.iter().copied());
-    let period_us = 1e6 / summary.control_rate_hz;
-    let us = |c: f64| c / STM32F405_HZ * 1e6;
+    let report = CyclesReport::of(&summary, &steps, &fw, wait_states);
     if json {
-        let v = serde_json::json!({
-            "scenario": summary.scenario,
-            "steps": st.steps,
-            "control_rate_hz": summary.control_rate_hz,
-            "wait_states": wait_states,
-            "cpu_hz": STM32F405_HZ,
-            "firmware_instructions": {"worst": fw_stats.worst, "mean": fw_stats.mean},
-            "instructions": {"worst": st.instructions.worst, "mean": st.instructions.mean},
-            "cycles_lower": {"worst": st.cycles_lower.worst, "mean": st.cycles_lower.mean},
-            "cycles_upper": {"worst": st.cycles_upper.worst, "mean": st.cycles_upper.mean},
-            "us_worst": [us(st.cycles_lower.worst), us(st.cycles_upper.worst)],
-            "period_fraction_worst": [us(st.cycles_lower.worst) / period_us, us(st.cycles_upper.worst) / period_us],
-            "mix": {
-                "fp": st.fp_share, "load_store": st.load_store_share, "branch": st.branch_share,
-                "taken": st.taken_share, "soft_float": st.soft_float_share,
-                "soft_float_calls_per_step": st.soft_float_calls_per_step,
-                "vdiv_vsqrt_per_step": st.vdiv_vsqrt_per_step,
-            },
-        });
-        say!("{}", serde_json::to_string_pretty(&v)?);
-        return Ok(());
+        say!("{}", serde_json::to_string_pretty(&report.json())?);
+    } else {
+        report.write_text(&mut std::io::stdout());
     }
-    say!(
-        "{}: {} steps at {} Hz (period {:.0} us), STM32F405 at {:.0} MHz, {} wait states",
-        summary.scenario,
-        st.steps,
-        summary.control_rate_hz,
-        period_us,
-        STM32F405_HZ / 1e6,
-        wait_states
-    );
-    say!("                         worst        mean");
-    say!("  instructions (fw)  {:>10.0}  {:>10.0}", fw_stats.worst, fw_stats.mean);
-    say!("  instructions       {:>10.0}  {:>10.0}", st.instructions.worst, st.instructions.mean);
-    say!("  cycles lower       {:>10.0}  {:>10.0}", st.cycles_lower.worst, st.cycles_lower.mean);
-    say!("  cycles upper       {:>10.0}  {:>10.0}", st.cycles_upper.worst, st.cycles_upper.mean);
-    for (name, w) in [
-        ("worst", (st.cycles_lower.worst, st.cycles_upper.worst)),
-        ("mean", (st.cycles_lower.mean, st.cycles_upper.mean)),
-    ] {
-        say!(
-            "  {name:<5} {:.1}–{:.1} us = {:.3}–{:.3} % of the period",
-            us(w.0),
-            us(w.1),
-            100.0 * us(w.0) / period_us,
-            100.0 * us(w.1) / period_us
-        );
-    }
-    say!(
-        "  mix: FP {:.1} %, loads/stores {:.1} %, branches {:.1} % (taken {:.1} %), soft-float {:.1} % ({:.1} calls/step), VDIV/VSQRT {:.1}/step",
-        100.0 * st.fp_share,
-        100.0 * st.load_store_share,
-        100.0 * st.branch_share,
-        100.0 * st.taken_share,
-        100.0 * st.soft_float_share,
-        st.soft_float_calls_per_step,
-        st.vdiv_vsqrt_per_step
-    );
     Ok(())
 }
 

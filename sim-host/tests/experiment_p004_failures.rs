@@ -4,10 +4,9 @@
 //! ray radius of the attainable set as a linear programme solved by enumerating its
 //! basic solutions.
 
+use acs_test_support::vec3::{V3, cross, dot, norm};
 use sim_host::report::experiment::{self, Context, Explains};
 use sim_host::report::experiments::p004_failures::{losing_pairs, section, u_max_failed};
-
-type V3 = [f64; 3];
 
 /// Paper 004 table 2 times the scenarios' 10 N (SEEDS.md section 004), columns = thrusters.
 fn table2_b() -> Vec<V3> {
@@ -15,16 +14,6 @@ fn table2_b() -> Vec<V3> {
     let rows =
         [[r, 0.0, r, -0.43, -r, 0.0, -r, 0.43], [d, -0.43, -d, 0.0, -d, 0.43, d, 0.0], [d, -d, d, -d, d, -d, d, -d]];
     (0..8).map(|k| [rows[0][k] * s, rows[1][k] * s, rows[2][k] * s]).collect()
-}
-
-fn dot(a: &V3, b: &V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: &V3, b: &V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-fn norm(a: &V3) -> f64 {
-    dot(a, a).sqrt()
 }
 
 /// Whether the columns positively span R³. They do iff they span R³ and no nonzero c has

@@ -5,9 +5,9 @@
 //! runner per campaign shard; a failed re-run leaves no stale output; I/O errors name
 //! their file.
 
-use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport, status};
-use anyhow::Result;
-use sim_core::link::{self, FlightLink, LinkInfo, LinkKind, LinkOptions};
+use acs_flight::link::{StepReport, status};
+use sim_core::link::tap::Tap;
+use sim_core::link::{self, LinkKind, LinkOptions};
 use sim_core::recorder::summary::{Failure, RunStatus as Status};
 use sim_core::runner;
 use sim_core::scenario::Scenario;
@@ -155,34 +155,12 @@ fn a_run_whose_every_step_was_refused_fails_and_says_why() {
     }
 }
 
-/// The in-process flight code behind a hook that may corrupt its step reports: a flight
-/// computer that answers NaN, or refuses everything, whatever the scenario's validation
-/// lets through.
-struct Tampered {
-    inner: Box<dyn FlightLink>,
-    hook: fn(u32, &mut StepReport),
-}
-
-impl FlightLink for Tampered {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-    fn hello(&mut self) -> Result<LinkInfo> {
-        self.inner.hello()
-    }
-    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
-        self.inner.request(msg)
-    }
-    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        let mut r = self.inner.step(frame)?;
-        (self.hook)(frame.seq, &mut r);
-        Ok(r)
-    }
-}
-
+/// The in-process flight code behind a telemetry tap whose hook may corrupt its step
+/// reports (`hook(seq, report)`, `seq` of the frame answered): a flight computer that
+/// answers NaN, or refuses everything, whatever the scenario's validation lets through.
 fn fly(sc: &Scenario, hook: fn(u32, &mut StepReport)) -> runner::RunResult {
     let inner = link::open(&LinkKind::InProcess, &LinkOptions::default()).unwrap();
-    let mut l = Tampered { inner, hook };
+    let mut l = Tap::new(inner, |r: &mut StepReport| hook(r.cmd.seq, r));
     runner::run(sc, &mut l, false).unwrap()
 }
 

@@ -9,6 +9,8 @@
 //! Anything else (exit 0 on a non-finite or all-refused run, a panic, a signal, a hang
 //! beyond the per-case limit) fails the test, listing every offending case.
 
+// SplitMix64 (Steele, Lea & Flood 2014): the test's only source of randomness.
+use acs_test_support::rng::SplitMix64;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -30,23 +32,6 @@ fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
 const WORKERS: usize = 2;
 /// One case may take this long before it counts as a hang.
 const CASE_LIMIT: Duration = Duration::from_secs(60);
-
-/// SplitMix64 (Steele, Lea & Flood 2014): the test's only source of randomness.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
 
 #[derive(Clone, Debug)]
 enum Seg {

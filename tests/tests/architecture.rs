@@ -55,35 +55,64 @@ fn module_path(rel: &Path) -> String {
     }
 }
 
-/// The first sentence of the file's leading `//!` paragraph, if it has one.
-fn doc_line(text: &str) -> Option<String> {
-    let mut para = String::new();
+/// The leading `//!` paragraphs of a file (at most two).
+fn doc_paragraphs(text: &str) -> Vec<String> {
+    let mut paras: Vec<String> = Vec::new();
+    let mut cur = String::new();
     for line in text.lines() {
         let t = line.trim_start();
         let Some(d) = t.strip_prefix("//!") else {
-            if para.is_empty() && (t.is_empty() || t.starts_with("#!") || t.starts_with("//")) {
+            if paras.is_empty() && cur.is_empty() && (t.is_empty() || t.starts_with("#!") || t.starts_with("//")) {
                 continue;
             }
             break;
         };
         let d = d.trim();
         if d.is_empty() {
-            if para.is_empty() {
-                continue;
+            if !cur.is_empty() {
+                paras.push(std::mem::take(&mut cur));
             }
-            break;
+            if paras.len() == 2 {
+                break;
+            }
+            continue;
         }
-        if !para.is_empty() {
-            para.push(' ');
+        if !cur.is_empty() {
+            cur.push(' ');
         }
-        para.push_str(d);
+        cur.push_str(d);
     }
-    if para.is_empty() {
-        return None;
+    if !cur.is_empty() && paras.len() < 2 {
+        paras.push(cur);
     }
-    // First sentence: up to the first ". " / ":" ending a clause, or the whole paragraph.
-    let cut = para.find(". ").map(|i| i + 1).or_else(|| para.find(": ")).unwrap_or(para.len());
-    Some(para[..cut].trim_end_matches(':').replace('|', "\\|"))
+    paras
+}
+
+/// The first sentence of a paragraph: up to a full stop followed by a capital (not after
+/// an abbreviation such as "e.g." or "eq.").
+fn first_sentence(p: &str) -> &str {
+    const ABBREV: &[&str] = &["e.g", "i.e", "cf", "eq", "eqs", "vs", "al", "Fig", "fig", "ch", "No"];
+    for (i, _) in p.match_indices(". ") {
+        let next = p[i + 2..].chars().next();
+        let word = p[..i].rsplit([' ', '(']).next().unwrap_or("");
+        if next.is_some_and(|c| c.is_uppercase() || c == '`' || c == '[') && !ABBREV.contains(&word) {
+            return &p[..=i];
+        }
+    }
+    p
+}
+
+/// One line for a module: the first sentence of its `//!` doc; a bare title ("Estimation")
+/// is followed by the first sentence of the next paragraph.
+fn doc_line(text: &str) -> Option<String> {
+    let paras = doc_paragraphs(text);
+    let first = paras.first()?;
+    let title = !first.contains(". ") && !first.ends_with('.') && first.len() < 60;
+    let line = match paras.get(1) {
+        Some(next) if title => format!("{} — {}", first.trim_end_matches(':'), first_sentence(next)),
+        _ => first_sentence(first).to_owned(),
+    };
+    Some(line.replace('|', "\\|"))
 }
 
 /// The generated table of one crate, or the modules that have no `//!` doc.
@@ -91,7 +120,9 @@ fn module_table(src: &str) -> Result<String, Vec<String>> {
     let dir = repo().join(src);
     let mut rows = Vec::new();
     let mut undocumented = Vec::new();
-    for rel in rust_files(&dir) {
+    let mut files = rust_files(&dir);
+    files.sort_by_key(|rel| module_path(rel).replace("(crate root)", ""));
+    for rel in files {
         // Test-only files and `#[path]` includes are not modules of the product.
         if rel.components().any(|c| c.as_os_str() == "tests") || rel.ends_with("tests.rs") {
             continue;
@@ -109,7 +140,9 @@ fn module_table(src: &str) -> Result<String, Vec<String>> {
 }
 
 fn begin_marker(src: &str) -> String {
-    format!("<!-- modules {src}: generated from the tree by tests/tests/architecture.rs (UPDATE_DOCS=1 regenerates) -->\n")
+    format!(
+        "<!-- modules {src}: generated from the tree by tests/tests/architecture.rs (UPDATE_DOCS=1 regenerates) -->\n"
+    )
 }
 const END_MARKER: &str = "<!-- end modules -->";
 
@@ -155,25 +188,70 @@ fn architecture_document_lists_every_module_with_its_doc() {
     );
 }
 
-/// Repository paths named in a markdown text: `` `dir/...` `` spans and `](dir/...)` links,
-/// with an optional `:LINE[,LINE|-LINE]` suffix.
-fn path_pointers(text: &str) -> Vec<(String, Vec<usize>)> {
-    const ROOTS: &[&str] =
-        &["shared/", "sim-host/", "firmware/", "tests/", "tools/", "scripts/", "scenarios/", "docs/", "campaigns/", "timing/", "report/", ".ci/"];
+/// A repository path named in a markdown text: `` `dir/...` `` spans and `](dir/...)`
+/// links, with an optional `#anchor` (a symbol of a source file, a heading of a document)
+/// or a `:LINE` suffix (refused: line numbers rot with every edit).
+struct Pointer {
+    path: String,
+    anchor: Option<String>,
+    line_suffix: bool,
+}
+
+fn path_pointers(text: &str) -> Vec<Pointer> {
+    const ROOTS: &[&str] = &[
+        "shared/",
+        "sim-host/",
+        "firmware/",
+        "tests/",
+        "tools/",
+        "scripts/",
+        "scenarios/",
+        "docs/",
+        "campaigns/",
+        "timing/",
+        ".ci/",
+    ];
     let mut out = Vec::new();
-    for token in text.split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ',']).filter(|t| ROOTS.iter().any(|r| t.starts_with(r))) {
-        let (path, lines) = match token.split_once(':') {
-            Some((p, l)) => (p, l.split([',', '-']).filter_map(|n| n.parse().ok()).collect()),
-            None => (token, Vec::new()),
+    for token in text
+        .split(['`', '(', ')', ' ', '\n', '[', ']', '"', '\'', ','])
+        .filter(|t| ROOTS.iter().any(|r| t.starts_with(r)))
+    {
+        let (token, anchor) = match token.split_once('#') {
+            Some((p, a)) => (p, Some(a.trim_end_matches(['.', ';', ':']).to_owned())),
+            None => (token, None),
+        };
+        let (path, line_suffix) = match token.split_once(':') {
+            Some((p, l)) => (p, l.starts_with(|c: char| c.is_ascii_digit())),
+            None => (token, false),
         };
         let path = path.trim_end_matches(['.', ';', ':']);
-        // Globs, placeholders and output folders are patterns, not pointers.
-        if path.contains(['*', '<', '{', '$']) || path.contains("/out") || path.ends_with('/') && path.len() < 3 {
+        // Globs, placeholders, output folders and build outputs are patterns, not pointers.
+        if path.contains(['*', '<', '{', '$'])
+            || path.contains("/out")
+            || path.contains("/target/")
+            || path.contains("..")
+        {
             continue;
         }
-        out.push((path.to_owned(), lines));
+        out.push(Pointer { path: path.to_owned(), anchor, line_suffix });
     }
     out
+}
+
+/// Whether `anchor` names something in `text`: a symbol of a source file (as a word), or a
+/// heading of a markdown document (its words, case and `-`/space insensitive).
+fn anchor_found(path: &str, text: &str, anchor: &str) -> bool {
+    if path.ends_with(".md") {
+        let norm = |s: &str| s.to_lowercase().replace(['-', '`'], " ").split_whitespace().collect::<Vec<_>>().join(" ");
+        let want = norm(anchor);
+        return text.lines().filter(|l| l.starts_with('#')).any(|h| norm(h.trim_start_matches('#')).contains(&want));
+    }
+    text.match_indices(anchor).any(|(i, _)| {
+        let before = text[..i].chars().next_back();
+        let after = text[i + anchor.len()..].chars().next();
+        let word = |c: Option<char>| c.is_some_and(|c| c.is_alphanumeric() || c == '_');
+        !word(before) && !word(after)
+    })
 }
 
 #[test]
@@ -190,17 +268,17 @@ fn every_path_the_documents_name_exists() {
     for d in &docs {
         let text = std::fs::read_to_string(d).unwrap();
         let name = d.strip_prefix(repo()).unwrap_or(d).display().to_string();
-        for (path, lines) in path_pointers(&text) {
+        for p in path_pointers(&text) {
             checked += 1;
-            let full = repo().join(&path);
+            let full = repo().join(&p.path);
             if !full.exists() {
-                dead.push(format!("{name}: `{path}` does not exist"));
-                continue;
-            }
-            if let Some(&max) = lines.iter().max() {
-                let n = std::fs::read_to_string(&full).map(|t| t.lines().count()).unwrap_or(0);
-                if max > n {
-                    dead.push(format!("{name}: `{path}:{max}` but the file has {n} lines"));
+                dead.push(format!("{name}: `{}` does not exist", p.path));
+            } else if p.line_suffix {
+                dead.push(format!("{name}: `{}:LINE`: line numbers rot, point at a symbol (`path#symbol`)", p.path));
+            } else if let Some(a) = &p.anchor {
+                let target = std::fs::read_to_string(&full).unwrap_or_default();
+                if !anchor_found(&p.path, &target, a) {
+                    dead.push(format!("{name}: `{}#{a}`: no such symbol or heading there", p.path));
                 }
             }
         }
@@ -209,11 +287,25 @@ fn every_path_the_documents_name_exists() {
     assert!(dead.is_empty(), "{} dead pointers:\n{}", dead.len(), dead.join("\n"));
 }
 
+#[test]
+fn pointer_checks_catch_what_they_should() {
+    let ps = path_pointers("see `shared/src/lib.rs#Fsw`, `docs/protocol.md:12` and [x](scripts/nope.sh)");
+    assert_eq!(ps.len(), 3);
+    assert_eq!(ps[0].anchor.as_deref(), Some("Fsw"));
+    assert!(ps[1].line_suffix);
+    assert!(!repo().join(&ps[2].path).exists());
+    assert!(anchor_found("a.rs", "pub use fsw::Fsw;", "Fsw"));
+    assert!(!anchor_found("a.rs", "pub struct FswX;", "Fsw"));
+    assert!(anchor_found("a.md", "# T\n## The wire `frame` format\n", "wire-frame"));
+}
+
 /// Edges `module → modules it uses` between the top-level modules of the crate at `src`.
 fn module_graph(src: &str) -> BTreeMap<String, BTreeSet<String>> {
     let dir = repo().join(src);
     let files = rust_files(&dir);
-    let top = |rel: &Path| rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_owned());
+    let top = |rel: &Path| {
+        rel.components().next().map(|c| c.as_os_str().to_string_lossy().trim_end_matches(".rs").to_owned())
+    };
     let mods: BTreeSet<String> = files.iter().filter_map(|r| top(r)).filter(|m| m != "lib" && m != "main").collect();
     let mut g: BTreeMap<String, BTreeSet<String>> = mods.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
     for rel in &files {
@@ -292,10 +384,11 @@ fn cycles(g: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
 
 #[test]
 fn cycle_finder_finds_a_planted_cycle() {
-    let g: BTreeMap<String, BTreeSet<String>> = [("a", vec!["b"]), ("b", vec!["c"]), ("c", vec!["a"]), ("d", vec!["a"])]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), v.into_iter().map(str::to_owned).collect()))
-        .collect();
+    let g: BTreeMap<String, BTreeSet<String>> =
+        [("a", vec!["b"]), ("b", vec!["c"]), ("c", vec!["a"]), ("d", vec!["a"])]
+            .into_iter()
+            .map(|(k, v)| (k.to_owned(), v.into_iter().map(str::to_owned).collect()))
+            .collect();
     assert_eq!(cycles(&g), vec![vec!["a".to_owned(), "b".into(), "c".into()]]);
 }
 

@@ -1,3 +1,7 @@
+//! Quaternion helpers of the one convention (scalar-last storage `[x, y, z, w]`, Hamilton
+//! product, body → reference; docs/conventions.md): storage conversion, products,
+//! rotations and Euler angles, all in pure f32.
+
 use super::f32m::{asin, atan2, sin_cos, sqrt};
 use super::{Quat, Vec3};
 

@@ -1,62 +1,10 @@
-//! Shared test support: seeded PRNG, the zonotope oracle (f64, no LP), microlp wrappers.
-#![allow(dead_code, clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used)]
+//! Shared support of the thruster tests: the zonotope oracle (f64, no LP), microlp
+//! wrappers; the seeded generator and the vector helpers come from `acs_test_support`.
+#![allow(dead_code, unused_imports, clippy::indexing_slicing, clippy::unwrap_used, clippy::expect_used)]
 
 use acs_flight::allocation::thruster::{Bounds, Lp, LpStatus};
-
-/// SplitMix64: tiny, seeded, reproducible.
-pub struct Rng(pub u64);
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform [0, 1).
-    pub fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.f64()
-    }
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n
-    }
-    /// Uniform direction on the unit sphere.
-    pub fn unit3(&mut self) -> [f64; 3] {
-        loop {
-            let v = [self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0)];
-            let n = norm(&v);
-            if n > 1e-3 && n <= 1.0 {
-                return [v[0] / n, v[1] / n, v[2] / n];
-            }
-        }
-    }
-}
-
-pub fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-pub fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-pub fn norm(a: &[f64; 3]) -> f64 {
-    dot(a, a).sqrt()
-}
-
-/// Fibonacci-sphere directions (deterministic, near-uniform).
-pub fn sphere(n: usize) -> Vec<[f64; 3]> {
-    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let t = ga * i as f64;
-            [r * t.cos(), r * t.sin(), z]
-        })
-        .collect()
-}
+pub use acs_test_support::rng::SplitMix64 as Rng;
+pub use acs_test_support::vec3::{cross, dot, norm, sphere};
 
 /// Columns of a 3×N f32 matrix as f64 vectors (exactly the f32 data).
 pub fn columns<const N: usize>(b: &[[f32; N]; 3]) -> Vec<[f64; 3]> {

@@ -28,6 +28,8 @@
 
 use acs_flight::link::{SensorFrame, valid};
 use acs_flight::params::{ActuatorParams, FlightParams};
+use acs_test_support::rng::SplitMix64 as Rng;
+use acs_test_support::vec3::cross;
 use sim_core::link::FlightLink;
 use sim_core::link::qemu::QemuLink;
 use sim_core::scenario::Scenario;
@@ -36,40 +38,18 @@ use std::path::{Path, PathBuf};
 const MU: usize = 12;
 const CHILDREN: usize = 48;
 
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        // SplitMix64
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.uniform().max(1e-300), self.uniform());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-    fn unit(&mut self) -> [f64; 3] {
-        let v = [self.normal(), self.normal(), self.normal()];
-        normalise(v)
-    }
-}
-
 fn normalise(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-300);
     v.map(|x| x / n)
 }
 
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+/// A direction uniform on the sphere: three normal draws, normalised.
+fn unit(rng: &mut Rng) -> [f64; 3] {
+    normalise([rng.normal(), rng.normal(), rng.normal()])
 }
 
 fn tilt(d: &[f64; 3], eps: f64, rng: &mut Rng) -> [f64; 3] {
-    let r = rng.unit();
+    let r = unit(rng);
     normalise([d[0] + eps * r[0], d[1] + eps * r[1], d[2] + eps * r[2]])
 }
 
@@ -183,7 +163,7 @@ fn main() {
         }
 
         // Seed directions.
-        let mut dirs: Vec<[f64; 3]> = (0..60).map(|_| rng.unit()).collect();
+        let mut dirs: Vec<[f64; 3]> = (0..60).map(|_| unit(&mut rng)).collect();
         let mut special: Vec<[f64; 3]> = vec![];
         for (i, bi) in b.iter().enumerate() {
             special.push(normalise(*bi));
@@ -231,7 +211,7 @@ fn main() {
                 let mg = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
                 let d = if rng.uniform() < 0.1 {
                     tilt(
-                        &special[(rng.next() % special.len() as u64) as usize],
+                        &special[(rng.next_u64() % special.len() as u64) as usize],
                         10f64.powf(-6.0 + 5.0 * rng.uniform()),
                         &mut rng,
                     )

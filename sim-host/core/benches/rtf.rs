@@ -8,6 +8,8 @@
 //! closed loop (no file output).
 
 use acs_flight::link::{SensorFrame, valid};
+use acs_test_support::rng::Lcg64;
+use acs_test_support::vec3::cross;
 use sim_core::link::FlightLink;
 use sim_core::link::in_process::InProcess;
 use sim_core::link::qemu::{QemuLink, default_firmware};
@@ -29,18 +31,15 @@ fn allocation_sweep() {
         let b = sc.thruster_set().expect("thrusters").torque_matrix();
         let kd = [-42.0, -91.0, -91.0];
         let mut dirs: Vec<[f64; 3]> = Vec::new();
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        };
+        let mut lcg = Lcg64(12345);
+        let mut rnd = || lcg.symmetric();
         for _ in 0..100 {
             dirs.push([rnd(), rnd(), rnd()]);
         }
         for (i, bi) in b.iter().enumerate() {
             dirs.push(*bi);
             for bj in &b[i + 1..] {
-                let n = [bi[1] * bj[2] - bi[2] * bj[1], bi[2] * bj[0] - bi[0] * bj[2], bi[0] * bj[1] - bi[1] * bj[0]];
+                let n = cross(bi, bj);
                 dirs.push(n);
                 dirs.push(n.map(|x| -x));
             }

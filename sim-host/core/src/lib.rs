@@ -18,7 +18,8 @@
 //! - [`runner`]: the run loop, and "fly one scenario" ([`runner::fly`]);
 //! - [`recorder`]: columns, series, decimation, summary, output files and figures;
 //! - [`estimation`]: estimation-error statistics of a run; [`attitude`]: f64 quaternion
-//!   helpers of the truth side; [`files`]: atomic file writes.
+//!   helpers of the truth side; [`vec3`]: `[f64; 3]` dot, cross and norm (nalgebra's
+//!   arithmetic); [`files`]: atomic file writes.
 
 // Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
 #![allow(clippy::needless_range_loop)]
@@ -35,3 +36,4 @@ pub mod runner;
 pub mod scenario;
 pub mod sensors;
 pub mod simulation;
+pub mod vec3;

@@ -2,6 +2,7 @@
 //! independent Newton–Kleinman solution.
 #[path = "design_common/mod.rs"]
 mod common;
+use acs_test_support::rng::Lcg64;
 use nalgebra::{DMatrix, dmatrix};
 use sim_core::design::c2d;
 use sim_core::design::riccati::*;
@@ -120,11 +121,8 @@ fn agrees_with_newton_kleinman() {
 #[test]
 fn random_12_state_4_input_problems() {
     // Deterministic LCG data; A has unstable modes.
-    let mut s = 0x9e3779b97f4a7c15u64;
-    let mut rnd = move || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-    };
+    let mut lcg = Lcg64(0x9e3779b97f4a7c15);
+    let mut rnd = move || lcg.symmetric();
     for _ in 0..5 {
         let a = DMatrix::from_fn(12, 12, |_, _| rnd());
         let b = DMatrix::from_fn(12, 4, |_, _| rnd());

@@ -6,37 +6,13 @@
 //! - `scenarios/estimation/tracker-outage-eclipse.toml`: through the outage the error
 //!   stays inside the gyro-noise bound computed here, and the filter recovers after it.
 
-use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport, estimate_flags};
-use anyhow::Result;
+use acs_flight::link::{StepReport, estimate_flags};
 use sim_core::link::in_process::InProcess;
-use sim_core::link::{FlightLink, LinkInfo};
+use sim_core::link::tap::Tap;
 use sim_core::recorder::series::Discard;
 use sim_core::recorder::summary::Summary;
 use sim_core::scenario::{Resolved, Scenario};
 use sim_core::simulation::Simulation;
-
-/// An in-process link that keeps each step's report.
-struct Recording {
-    inner: InProcess,
-    reports: Vec<StepReport>,
-}
-
-impl FlightLink for Recording {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-    fn hello(&mut self) -> Result<LinkInfo> {
-        self.inner.hello()
-    }
-    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
-        self.inner.request(msg)
-    }
-    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        let r = self.inner.step(frame)?;
-        self.reports.push(r);
-        Ok(r)
-    }
-}
 
 /// Per control step: time, estimation error (deg, while the MEKF runs), the report.
 struct Flight {
@@ -47,7 +23,9 @@ struct Flight {
 }
 
 fn fly(sc: &Scenario) -> Flight {
-    let mut link = Recording { inner: InProcess::new(), reports: Vec::new() };
+    // Keeps each step's report.
+    let mut reports = Vec::new();
+    let mut link = Tap::new(InProcess::new(), |r: &mut StepReport| reports.push(*r));
     let r = Resolved::try_from(sc).unwrap();
     let dt = 1.0 / sc.timing.control_rate_hz;
     let (mut t_s, mut err_deg) = (Vec::new(), Vec::new());
@@ -61,7 +39,7 @@ fn fly(sc: &Scenario) -> Flight {
         }
         sim.summary(1.0)
     };
-    Flight { t_s, err_deg, reports: link.reports, summary }
+    Flight { t_s, err_deg, reports, summary }
 }
 
 fn load(rel: &str) -> Scenario {

@@ -1,5 +1,5 @@
 //! The f32 flight MEKF (`acs_flight::estimation::mekf`) against the independent f64
-//! reference (`sim_core::estimation::mekf_ref`, Crassidis & Junkins Table 7.1 with van
+//! reference (`acs_test_support::mekf_ref`, Crassidis & Junkins Table 7.1 with van
 //! Loan's discretisation) on the same seeded measurement stream, and the flight's
 //! closed-form process noise (M&C eq 6.93) against van Loan's.
 //!
@@ -13,11 +13,11 @@
 
 use acs_flight::estimation::mekf::{CHI2_2DOF_999, CHI2_3DOF_999, Mekf, MekfConfig};
 use acs_flight::math::{Quat, Vec3};
+use acs_test_support::mekf_ref::{MekfRef, MekfRefConfig, cross_matrix, discretise};
 use nalgebra::{Matrix3, Matrix6, Quaternion, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use sim_core::estimation::mekf_ref::{MekfRef, MekfRefConfig, cross_matrix, discretise};
 
 type V64 = Vector3<f64>;
 type Q64 = Quaternion<f64>;

@@ -9,6 +9,7 @@
 
 use acs_flight::math::Vec3;
 use acs_flight::models::orbit::{MU_EARTH_M3_S2, OrbitError, propagate_two_body};
+use acs_test_support::rng::SplitMix64 as Rng;
 use nalgebra::Vector3;
 
 type V64 = Vector3<f64>;
@@ -20,20 +21,6 @@ fn mu() -> f64 {
 }
 const R_EARTH_M: f64 = 6_378_137.0;
 const J2: f64 = 1.082_626_68e-3;
-
-struct Rng(u64);
-impl Rng {
-    fn u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        (self.u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 fn accel(r: &V64, j2: bool) -> V64 {
     let rn = r.norm();
@@ -272,7 +259,11 @@ fn typed_errors_and_random_inputs() {
     let (mut ok, mut err) = (0, 0);
     for k in 0..100_000 {
         let pick = |rng: &mut Rng, scale: f64| -> f32 {
-            if k % 3 == 0 { f32::from_bits(rng.u64() as u32) } else { ((rng.uniform() * 2.0 - 1.0) * scale) as f32 }
+            if k % 3 == 0 {
+                f32::from_bits(rng.next_u64() as u32)
+            } else {
+                ((rng.uniform() * 2.0 - 1.0) * scale) as f32
+            }
         };
         let rr = Vec3::new(pick(&mut rng, 2e7), pick(&mut rng, 2e7), pick(&mut rng, 2e7));
         let vv = Vec3::new(pick(&mut rng, 1e4), pick(&mut rng, 1e4), pick(&mut rng, 1e4));

@@ -21,21 +21,13 @@
 //! parallel; generators with `|n̂·b_k| <= 1e-9 |b_k|` lie in the plane of n̂.
 
 use serde::Serialize;
+use sim_core::vec3::{cross, dot, norm};
 
 /// Relative tolerance for parallel / coplanar decisions and the zero-authority threshold.
 pub const REL_TOL: f64 = 1e-9;
 
 type V3 = [f64; 3];
 
-fn dot(a: &V3, b: &V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: &V3, b: &V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-fn norm(a: &V3) -> f64 {
-    dot(a, a).sqrt()
-}
 fn scaled(a: &V3, s: f64) -> V3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }

@@ -5,9 +5,10 @@
 
 use super::exec::{RunRecord, RunStatus};
 use super::plan::{Manifest, PlannedRun};
-use super::spec::{Distribution, Requirement};
+use super::spec::{Campaign, Distribution, Requirement};
 use super::stats::{self, Moments};
 use super::{flatten, run_dir_name, write_atomic};
+use crate::format::sig_campaign;
 use anyhow::{Context, Result};
 use serde::Serialize;
 use sim_core::recorder::plots::{self, Figure, Panel, Series, TimeSeries};
@@ -172,17 +173,6 @@ pub struct MergeOutcome {
     pub run_wall_s: f64,
 }
 
-/// Six significant digits, scientific outside [1e-3, 1e6).
-fn sig(x: f64) -> String {
-    let a = x.abs();
-    if x == 0.0 || (1e-3..1e6).contains(&a) {
-        let decimals = (5 - a.log10().floor().max(-3.0) as i32).clamp(0, 8) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.5e}")
-    }
-}
-
 fn pct(x: f64) -> String {
     format!("{:.2} %", 100.0 * x)
 }
@@ -263,12 +253,9 @@ fn value_order(a: &serde_json::Value, b: &serde_json::Value) -> std::cmp::Orderi
     }
 }
 
-/// Merges the campaign in `dir`: writes `campaign.json`, `report.md` and (with `plots`)
-/// `plots/*.png`.
-pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
-    let manifest = Manifest::load(dir)?;
-    let campaign = manifest.campaign()?;
-    let keys = Keys::new(&manifest.summary_keys);
+/// The runs of the manifest that left a record (with their summary values), and the
+/// indices of those that did not.
+fn load_records<'a>(dir: &Path, manifest: &'a Manifest, keys: &Keys) -> (Vec<Completed<'a>>, Vec<u32>) {
     let mut records = Vec::new();
     let mut missing = Vec::new();
     for run in &manifest.runs {
@@ -280,15 +267,16 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
             None => missing.push(run.index),
         }
     }
-    let run_wall_s = records.iter().map(|c| c.rec.wall_time_s).sum();
-    let requirements: Vec<RequirementResult> =
-        campaign.requirements.iter().map(|r| requirement_result(r, &keys, &records)).collect();
+    (records, missing)
+}
 
+/// Moments, nulls and worst runs of every summary key over the runs that flew.
+fn key_statistics(keys: &Keys, records: &[Completed]) -> BTreeMap<String, KeyStats> {
     let mut statistics = BTreeMap::new();
     for key in &keys.names {
         let mut xs = Vec::new();
         let mut nulls = 0;
-        for Completed { run, rec, values } in &records {
+        for Completed { run, rec, values } in records {
             // Errors have no summary; a diverged or refused run's partial figures are no
             // sample of the flight (they are counted apart).
             if !rec.status.flew() {
@@ -308,7 +296,12 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
             statistics.insert(key.clone(), KeyStats { moments, nulls, worst });
         }
     }
+    statistics
+}
 
+/// Runs, errors and missed requirements per value of each discrete dispersion (choice,
+/// k-of-n).
+fn groups(campaign: &Campaign, records: &[Completed], requirements: &[RequirementResult]) -> Vec<Group> {
     let mut groups = Vec::new();
     for d in campaign
         .dispersions
@@ -317,7 +310,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     {
         let key = d.key.as_str();
         let mut rows: BTreeMap<String, GroupRow> = BTreeMap::new();
-        for Completed { run, rec, .. } in &records {
+        for Completed { run, rec, .. } in records {
             let value = run.draws.get(key).cloned().unwrap_or(serde_json::Value::Null);
             let row = rows.entry(value.to_string()).or_insert_with(|| GroupRow {
                 value: value.clone(),
@@ -333,7 +326,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
             if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused) {
                 row.failed_runs += 1;
             }
-            for r in &requirements {
+            for r in requirements {
                 if r.failed_runs.binary_search(&run.index).is_ok() {
                     *row.failed.entry(r.requirement.name.clone()).or_default() += 1;
                 }
@@ -343,7 +336,21 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         rows.sort_by(|a, b| value_order(&a.value, &b.value));
         groups.push(Group { key: key.to_owned(), rows });
     }
+    groups
+}
 
+/// Merges the campaign in `dir`: writes `campaign.json`, `report.md` and (with `plots`)
+/// `plots/*.png`.
+pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
+    let manifest = Manifest::load(dir)?;
+    let campaign = manifest.campaign()?;
+    let keys = Keys::new(&manifest.summary_keys);
+    let (records, missing) = load_records(dir, &manifest, &keys);
+    let run_wall_s = records.iter().map(|c| c.rec.wall_time_s).sum();
+    let requirements: Vec<RequirementResult> =
+        campaign.requirements.iter().map(|r| requirement_result(r, &keys, &records)).collect();
+    let statistics = key_statistics(&keys, &records);
+    let groups = groups(&campaign, &records, &requirements);
     let errors = records
         .iter()
         .filter(|c| c.rec.status == RunStatus::Error)
@@ -457,8 +464,8 @@ fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Comp
     Ok(files)
 }
 
-fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall_s: f64) -> String {
-    let mut s = String::new();
+/// The report's head: base scenario, run counts, failed and missing runs, the verdict.
+fn md_head(s: &mut String, r: &CampaignResult) {
     let _ = writeln!(s, "# Campaign `{}`\n", r.campaign);
     if !r.description.is_empty() {
         let _ = writeln!(s, "{}\n", r.description);
@@ -489,28 +496,37 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         let _ = writeln!(s, "**Missing runs ({}):** {}\n", r.missing.len(), shown.join(", "));
     }
     let _ = writeln!(s, "**Verdict: {}**\n", if r.passed() { "PASS" } else { "FAIL" });
-    if !r.requirements.is_empty() {
-        let _ = writeln!(s, "## Requirements\n\n| requirement | passed | CP lower | verdict |\n|---|---|---|---|");
-        for q in &r.requirements {
-            let _ = writeln!(
-                s,
-                "| {} | {}/{} | {} | {:?} |",
-                q.requirement.name,
-                q.passed,
-                q.runs,
-                pct(q.clopper_pearson_lower),
-                q.verdict
-            );
-        }
-        s.push('\n');
-        for q in &r.requirements {
-            let _ = writeln!(s, "- {}", q.statement);
-            for w in q.worst.iter().take(3) {
-                let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig(w.value), w.rerun);
-            }
-        }
-        s.push('\n');
+}
+
+/// The requirements table and each requirement's statement with its worst runs.
+fn md_requirements(s: &mut String, r: &CampaignResult) {
+    if r.requirements.is_empty() {
+        return;
     }
+    let _ = writeln!(s, "## Requirements\n\n| requirement | passed | CP lower | verdict |\n|---|---|---|---|");
+    for q in &r.requirements {
+        let _ = writeln!(
+            s,
+            "| {} | {}/{} | {} | {:?} |",
+            q.requirement.name,
+            q.passed,
+            q.runs,
+            pct(q.clopper_pearson_lower),
+            q.verdict
+        );
+    }
+    s.push('\n');
+    for q in &r.requirements {
+        let _ = writeln!(s, "- {}", q.statement);
+        for w in q.worst.iter().take(3) {
+            let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), w.rerun);
+        }
+    }
+    s.push('\n');
+}
+
+/// One table per discrete dispersion, then the runs in error.
+fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
     for g in &r.groups {
         let _ = writeln!(s, "## By `{}`\n", g.key);
         let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
@@ -539,6 +555,10 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         }
         s.push('\n');
     }
+}
+
+/// The statistics table of the keys that vary over the campaign.
+fn md_statistics(s: &mut String, r: &CampaignResult) {
     let _ = writeln!(
         s,
         "## Statistics\n\n| key | n | nulls | mean | sd | min | p50 | p95 | p99 | max | worst run |\n|---|---|---|---|---|---|---|---|---|---|---|"
@@ -553,17 +573,25 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
             "| {k} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.n,
             st.nulls,
-            sig(m.mean),
-            sig(m.sd),
-            sig(m.min),
-            sig(m.p50),
-            sig(m.p95),
-            sig(m.p99),
-            sig(m.max),
+            sig_campaign(m.mean),
+            sig_campaign(m.sd),
+            sig_campaign(m.min),
+            sig_campaign(m.p50),
+            sig_campaign(m.p95),
+            sig_campaign(m.p99),
+            sig_campaign(m.max),
             st.worst.first().map_or(String::new(), |w| w.run.to_string())
         );
     }
     s.push_str("\n(Keys constant over every run are left out; see campaign.json.)\n\n");
+}
+
+fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall_s: f64) -> String {
+    let mut s = String::new();
+    md_head(&mut s, r);
+    md_requirements(&mut s, r);
+    md_groups_and_errors(&mut s, r);
+    md_statistics(&mut s, r);
     if !figures.is_empty() {
         let _ = writeln!(s, "## Figures\n");
         for f in figures {

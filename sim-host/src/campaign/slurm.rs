@@ -31,25 +31,8 @@ fn sbatch_value(s: &str, what: &str) -> Result<()> {
     Ok(())
 }
 
-/// Writes `slurm/array.sbatch`, `slurm/merge.sbatch` and `slurm/submit.sh` into the
-/// campaign directory; returns their paths.
-pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
-    let manifest = Manifest::load(dir)?;
-    if o.shards == 0 || o.shards as usize > manifest.runs.len() {
-        bail!("--shards: 1..={} (the campaign's runs), got {}", manifest.runs.len(), o.shards);
-    }
-    if o.cpus_per_task == 0 {
-        bail!("--cpus-per-task must be >= 1");
-    }
-    let dir = std::fs::canonicalize(dir).with_context(|| format!("resolving {}", dir.display()))?;
-    let d = dir.to_str().context("the campaign directory's path is not UTF-8")?;
-    let sim = o.sim_host.to_str().context("the sim-host path is not UTF-8")?;
-    let name: String = manifest
-        .campaign
-        .name
-        .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '-' })
-        .collect();
+/// The optional `#SBATCH` lines (partition, time limit), checked.
+fn sbatch_head(o: &SlurmOptions) -> Result<String> {
     let mut head = String::new();
     if let Some(p) = &o.partition {
         sbatch_value(p, "--partition")?;
@@ -59,9 +42,21 @@ pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
         sbatch_value(t, "--time")?;
         head += &format!("#SBATCH --time={t}\n");
     }
-    let slurm = dir.join("slurm");
-    let logs = slurm.join("logs");
-    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    Ok(head)
+}
+
+/// What the three scripts are made of: job name, campaign directory, `sim-host` path,
+/// the optional `#SBATCH` lines.
+struct ScriptParts<'a> {
+    name: &'a str,
+    dir: &'a str,
+    sim_host: &'a str,
+    head: &'a str,
+}
+
+/// The texts of `array.sbatch`, `merge.sbatch` and `submit.sh`.
+fn script_texts(p: &ScriptParts, o: &SlurmOptions) -> [(&'static str, String); 3] {
+    let (name, d, sim, head) = (p.name, p.dir, p.sim_host, p.head);
     let s = o.shards;
     let array = format!(
         "#!/bin/bash\n\
@@ -104,8 +99,35 @@ pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
          echo \"$runs $merge\" > jobs\n",
         dq = sh_quote(d),
     );
+    [("array.sbatch", array), ("merge.sbatch", merge), ("submit.sh", submit)]
+}
+
+/// Writes `slurm/array.sbatch`, `slurm/merge.sbatch` and `slurm/submit.sh` into the
+/// campaign directory; returns their paths.
+pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
+    let manifest = Manifest::load(dir)?;
+    if o.shards == 0 || o.shards as usize > manifest.runs.len() {
+        bail!("--shards: 1..={} (the campaign's runs), got {}", manifest.runs.len(), o.shards);
+    }
+    if o.cpus_per_task == 0 {
+        bail!("--cpus-per-task must be >= 1");
+    }
+    let dir = std::fs::canonicalize(dir).with_context(|| format!("resolving {}", dir.display()))?;
+    let d = dir.to_str().context("the campaign directory's path is not UTF-8")?;
+    let sim = o.sim_host.to_str().context("the sim-host path is not UTF-8")?;
+    let name: String = manifest
+        .campaign
+        .name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '-' })
+        .collect();
+    let head = sbatch_head(o)?;
+    let slurm = dir.join("slurm");
+    let logs = slurm.join("logs");
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let texts = script_texts(&ScriptParts { name: &name, dir: d, sim_host: sim, head: &head }, o);
     let mut files = Vec::new();
-    for (file, text) in [("array.sbatch", array), ("merge.sbatch", merge), ("submit.sh", submit)] {
+    for (file, text) in texts {
         let p = slurm.join(file);
         std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))?;
         #[cfg(unix)]

@@ -12,11 +12,13 @@
 //!   most the test's), and is back under 0.05° 60 s after the tracker returns.
 //!
 //! And the cost of the whole flight step on the Cortex-M4F with determination in the loop,
-//! read from the committed worst-case corpus (`timing/corpus/<scenario>.json`: instructions
-//! counted on the QEMU firmware by `sim-host timing search`, docs/timing.md), so this
-//! report stays free of wall-clock figures and of QEMU.
+//! as the timing module reports it from its committed worst-case corpus
+//! ([`crate::timing::step_cost`]: instructions counted on the QEMU firmware by
+//! `sim-host timing search`, docs/timing.md), so this report stays free of wall-clock
+//! figures and of QEMU.
 
 use super::experiment::{Block, fly_recorded, load_scenario as load, sig};
+use crate::timing::step_cost;
 use anyhow::{Result, anyhow};
 use std::path::Path;
 
@@ -110,13 +112,8 @@ pub fn cost_table(repo: &Path) -> Result<Block> {
     let mut rows = Vec::new();
     for rel in COSTED {
         let sc = load(repo, rel)?;
-        let path = repo.join("timing/corpus").join(format!("{}.json", sc.name));
-        let c = crate::timing::corpus::Corpus::load(&path)?;
-        let modes: Vec<String> = c
-            .entries
-            .iter()
-            .filter_map(|e| e.label.strip_prefix("mode:").map(|m| format!("{m} {}", e.instructions)))
-            .collect();
+        let c = step_cost(repo, &sc.name)?;
+        let modes: Vec<String> = c.worst_per_mode.iter().map(|(m, n)| format!("{m} {n}")).collect();
         let period_s = 1.0 / sc.timing.control_rate_hz;
         let worst_s = c.worst_instructions as f64 * CPI_MAX / CLOCK_HZ;
         rows.push(vec![

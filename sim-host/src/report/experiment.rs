@@ -7,6 +7,7 @@
 //! figure to the paper's. Its `findings` are the named numbers the report's outcome table
 //! and the experiment's test read; its `blocks` are what the report prints.
 
+pub use crate::format::sig;
 use anyhow::{Context as _, Result};
 use sim_core::link::{self, FlightLink, LinkKind, LinkOptions};
 use sim_core::recorder::plots::{self, Figure};
@@ -140,28 +141,6 @@ pub fn sweep_table(header: &[&str], rows: &[Vec<f64>], digits: usize) -> Block {
     }
 }
 
-/// `x` with `digits` significant digits, plain notation between 1e-3 and 1e6, else
-/// scientific; `—` for NaN. Deterministic text for the committed report.
-pub fn sig(x: f64, digits: usize) -> String {
-    if x.is_nan() {
-        return "—".into();
-    }
-    if x == 0.0 {
-        return "0".into();
-    }
-    if !x.is_finite() {
-        return if x > 0.0 { "∞".into() } else { "−∞".into() };
-    }
-    let digits = digits.max(1);
-    let mag = x.abs().log10().floor() as i32;
-    if (-3..6).contains(&mag) {
-        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits - 1)
-    }
-}
-
 /// Builds a time series from named columns of equal length (for sweep figures drawn with
 /// [`plots::render`], whose x axis may be any column).
 pub fn columns(cols: &[(&str, Vec<f64>)]) -> TimeSeries {
@@ -182,16 +161,6 @@ pub fn repo_root() -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn sig_formats() {
-        assert_eq!(sig(4.7299999, 3), "4.73");
-        assert_eq!(sig(0.0521, 2), "0.052");
-        assert_eq!(sig(127.0, 3), "127");
-        assert_eq!(sig(1234.6, 3), "1235");
-        assert_eq!(sig(1.5e-7, 2), "1.5e-7");
-        assert_eq!(sig(f64::NAN, 2), "—");
-    }
 
     #[test]
     fn par_map_keeps_order() {

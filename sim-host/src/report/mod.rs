@@ -271,14 +271,8 @@ fn title_word(file: &str, _title: &str) -> String {
     file.rsplit('/').next().unwrap_or(file).trim_end_matches(".png").to_owned()
 }
 
-fn document(
-    flown: &[Flown],
-    rows: &[Row],
-    exps: &BTreeMap<String, Experiment>,
-    papers: &[String],
-    mut checks: Option<(Block, Block)>,
-) -> Vec<Section> {
-    let mut doc = Vec::new();
+/// The report's opening section: what it is, the verdict counts, one row per paper.
+fn intro_section(rows: &[Row]) -> Section {
     let count = |v: Verdict| rows.iter().filter(|r| r.verdict == v).count();
     let mut intro = vec![
         Block::Para(
@@ -320,8 +314,125 @@ fn document(
         header: ["paper", "outcomes", "reproduced", "differs, explained", "differs, open"].map(String::from).to_vec(),
         rows: summary_rows,
     });
-    doc.push(Section { level: 1, title: "Reproduction report: the five source papers".into(), blocks: intro });
+    Section { level: 1, title: "Reproduction report: the five source papers".into(), blocks: intro }
+}
 
+/// A paper's published outcomes beside ours.
+fn outcomes_section(rs: &[&Row]) -> Section {
+    let table = Block::Table {
+        header: ["outcome", "paper", "ours", "reproduced if", "verdict", "basis"].map(String::from).to_vec(),
+        rows: rs
+            .iter()
+            .map(|r| {
+                let u = &r.outcome.unit;
+                let ours = outcomes::with_unit(r.ours, r.outcome.digits, u);
+                vec![
+                    r.outcome.claim.clone(),
+                    r.outcome.paper_value.clone(),
+                    ours,
+                    r.outcome.check.text(u),
+                    r.verdict.text().to_owned(),
+                    r.basis.clone(),
+                ]
+            })
+            .collect(),
+    };
+    Section { level: 3, title: "Published outcomes".into(), blocks: vec![table] }
+}
+
+/// A paper's flown scenarios: the summary table, the estimation table (if any), the figures.
+fn runs_section(runs: &[&Flown]) -> Section {
+    let table = Block::Table {
+        header: [
+            "scenario",
+            "final error (°)",
+            "settle < 1° (s)",
+            "RMS after settle (°)",
+            "mean error (°)",
+            "actuators",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: runs
+            .iter()
+            .map(|f| {
+                let s = &f.summary;
+                vec![
+                    format!("`scenarios/{}.toml`", f.scn.rel),
+                    sig(s.final_error_deg, 3),
+                    opt(s.settle_time_s, 4),
+                    sig(s.rms_error_deg, 3),
+                    sig(s.mean_error_deg, 3),
+                    actuator_cell(s),
+                ]
+            })
+            .collect(),
+    };
+    let mut blocks = vec![table];
+    if let Some(t) = estimation_table(runs) {
+        blocks.push(Block::Para(
+            "On-board attitude determination against the simulator's truth, over the steps the MEKF ran \
+             (`summary.json`; `sim_host::estimation::stats`): attitude error |δθ| (RMS, max), gyro-bias error \
+             at the end, mean NEES with the filter's own 6×6 covariance (χ²₆: 6 for a consistent filter; \
+             the tumble and coarse phases raise it), innovations the χ² gates rejected, filter restarts. \
+             Closed-loop proofs: `sim-host/core/tests/estimation_closed_loop.rs`, `tests/tests/mode_manager.rs`; \
+             the filter against an independent f64 MEKF and the Monte Carlo consistency runs: \
+             `docs/verification.md`."
+                .into(),
+        ));
+        blocks.push(t);
+    }
+    for f in runs {
+        blocks.extend(f.figures.iter().map(|(file, title)| Block::Figure {
+            file: file.clone(),
+            caption: format!("`{}` {}", f.scn.rel, title_word(file, title)),
+        }));
+    }
+    Section { level: 3, title: "Runs and figures".into(), blocks }
+}
+
+/// The estimation paper's determination checks and the flight-computer cost.
+fn determination_sections(table: Block, cost: Block) -> [Section; 2] {
+    let intro = Block::Para(
+        "Flown for this report (`sim_host::report::determination`; the same criteria are asserted by \
+         `sim-host/core/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
+         attitude (no filter, a noise-free star tracker, no gyro model), and the gyro-only error growth \
+         through a star-tracker outage against the Farrenkopf bound (σv, σu the gyro's angle and rate \
+         random walk, σb = √tr P_bb of the filter at the outage start)."
+            .into(),
+    );
+    let checks = Section { level: 3, title: "Determination checks".into(), blocks: vec![intro, table] };
+    let intro = Block::Para(
+        "The whole flight step (estimation stage with the MEKF and the degree-12 field model, navigation, \
+         mode logic, law, allocation) on the Cortex-M4F: the costliest input the worst-case search found, \
+         counted in instructions on the QEMU firmware (`timing/corpus/`, `sim-host timing search`; method, \
+         budgets and the cycle model in `docs/timing.md`). The MEKF step alone (propagation + tracker + Sun \
+         + field) is measured separately by `tests/tests/estimation_target.rs` (`docs/verification.md`)."
+            .into(),
+    );
+    [checks, Section { level: 3, title: "Cost on the flight computer".into(), blocks: vec![intro, cost] }]
+}
+
+/// An experiment: its question, blocks and conclusion.
+fn experiment_section(e: &Experiment) -> Section {
+    let mut blocks = vec![Block::Para(format!("**Question.** {}", e.question))];
+    blocks.extend(e.blocks.iter().cloned());
+    let verdict = match e.explains {
+        Explains::Yes => "explains the gap",
+        Explains::No => "does not explain the gap",
+    };
+    blocks.push(Block::Para(format!("**Conclusion ({verdict}).** {}", e.conclusion)));
+    Section { level: 3, title: format!("Experiment `{}`: {}", e.id, e.title), blocks }
+}
+
+fn document(
+    flown: &[Flown],
+    rows: &[Row],
+    exps: &BTreeMap<String, Experiment>,
+    papers: &[String],
+    mut checks: Option<(Block, Block)>,
+) -> Vec<Section> {
+    let mut doc = vec![intro_section(rows)];
     for (p, title) in PAPERS {
         if !papers.is_empty() && !papers.iter().any(|x| x == p) {
             continue;
@@ -334,107 +445,17 @@ fn document(
         }
         doc.push(Section { level: 2, title: (*title).to_owned(), blocks: vec![] });
         if !rs.is_empty() {
-            let table = Block::Table {
-                header: ["outcome", "paper", "ours", "reproduced if", "verdict", "basis"].map(String::from).to_vec(),
-                rows: rs
-                    .iter()
-                    .map(|r| {
-                        let u = &r.outcome.unit;
-                        let ours = outcomes::with_unit(r.ours, r.outcome.digits, u);
-                        vec![
-                            r.outcome.claim.clone(),
-                            r.outcome.paper_value.clone(),
-                            ours,
-                            r.outcome.check.text(u),
-                            r.verdict.text().to_owned(),
-                            r.basis.clone(),
-                        ]
-                    })
-                    .collect(),
-            };
-            doc.push(Section { level: 3, title: "Published outcomes".into(), blocks: vec![table] });
+            doc.push(outcomes_section(&rs));
         }
         if !runs.is_empty() {
-            let table = Block::Table {
-                header: [
-                    "scenario",
-                    "final error (°)",
-                    "settle < 1° (s)",
-                    "RMS after settle (°)",
-                    "mean error (°)",
-                    "actuators",
-                ]
-                .map(String::from)
-                .to_vec(),
-                rows: runs
-                    .iter()
-                    .map(|f| {
-                        let s = &f.summary;
-                        vec![
-                            format!("`scenarios/{}.toml`", f.scn.rel),
-                            sig(s.final_error_deg, 3),
-                            opt(s.settle_time_s, 4),
-                            sig(s.rms_error_deg, 3),
-                            sig(s.mean_error_deg, 3),
-                            actuator_cell(s),
-                        ]
-                    })
-                    .collect(),
-            };
-            let mut blocks = vec![table];
-            if let Some(t) = estimation_table(&runs) {
-                blocks.push(Block::Para(
-                    "On-board attitude determination against the simulator's truth, over the steps the MEKF ran \
-                     (`summary.json`; `sim_host::estimation::stats`): attitude error |δθ| (RMS, max), gyro-bias error \
-                     at the end, mean NEES with the filter's own 6×6 covariance (χ²₆: 6 for a consistent filter; \
-                     the tumble and coarse phases raise it), innovations the χ² gates rejected, filter restarts. \
-                     Closed-loop proofs: `sim-host/core/tests/estimation_closed_loop.rs`, `tests/tests/mode_manager.rs`; \
-                     the filter against an independent f64 MEKF and the Monte Carlo consistency runs: \
-                     `docs/verification.md`."
-                        .into(),
-                ));
-                blocks.push(t);
-            }
-            for f in &runs {
-                blocks.extend(f.figures.iter().map(|(file, title)| Block::Figure {
-                    file: file.clone(),
-                    caption: format!("`{}` {}", f.scn.rel, title_word(file, title)),
-                }));
-            }
-            doc.push(Section { level: 3, title: "Runs and figures".into(), blocks });
+            doc.push(runs_section(&runs));
         }
         if *p == "estimation"
             && let Some((table, cost)) = checks.take()
         {
-            let intro = Block::Para(
-                "Flown for this report (`sim_host::report::determination`; the same criteria are asserted by \
-                 `sim-host/core/tests/estimation_closed_loop.rs`): hold on the MEKF against the same hold on an ideal \
-                 attitude (no filter, a noise-free star tracker, no gyro model), and the gyro-only error growth \
-                 through a star-tracker outage against the Farrenkopf bound (σv, σu the gyro's angle and rate \
-                 random walk, σb = √tr P_bb of the filter at the outage start)."
-                    .into(),
-            );
-            doc.push(Section { level: 3, title: "Determination checks".into(), blocks: vec![intro, table] });
-            let intro = Block::Para(
-                "The whole flight step (estimation stage with the MEKF and the degree-12 field model, navigation, \
-                 mode logic, law, allocation) on the Cortex-M4F: the costliest input the worst-case search found, \
-                 counted in instructions on the QEMU firmware (`timing/corpus/`, `sim-host timing search`; method, \
-                 budgets and the cycle model in `docs/timing.md`). The MEKF step alone (propagation + tracker + Sun \
-                 + field) is measured separately by `tests/tests/estimation_target.rs` (`docs/verification.md`)."
-                    .into(),
-            );
-            doc.push(Section { level: 3, title: "Cost on the flight computer".into(), blocks: vec![intro, cost] });
+            doc.extend(determination_sections(table, cost));
         }
-        for e in es {
-            let mut blocks = vec![Block::Para(format!("**Question.** {}", e.question))];
-            blocks.extend(e.blocks.iter().cloned());
-            let verdict = match e.explains {
-                Explains::Yes => "explains the gap",
-                Explains::No => "does not explain the gap",
-            };
-            blocks.push(Block::Para(format!("**Conclusion ({verdict}).** {}", e.conclusion)));
-            doc.push(Section { level: 3, title: format!("Experiment `{}`: {}", e.id, e.title), blocks });
-        }
+        doc.extend(es.into_iter().map(experiment_section));
     }
     doc
 }

@@ -104,6 +104,37 @@ impl Corpus {
     }
 }
 
+/// The searched cost of one flight step of a scenario, as other tools quote it (the
+/// report's cost table): the committed corpus's figures, in instructions.
+#[derive(Clone, Debug)]
+pub struct StepCost {
+    /// Costliest input found.
+    pub worst_instructions: u64,
+    /// Costliest input per mode: (mode name, instructions), in corpus order.
+    pub worst_per_mode: Vec<(String, u64)>,
+    /// The scenario's nominal input, when measured.
+    pub nominal_instructions: Option<u64>,
+    /// Inputs evaluated by the search.
+    pub evaluations: u64,
+}
+
+/// The step cost of the scenario named `scenario_name`, read from the committed corpus
+/// `timing/corpus/<scenario_name>.json` of the repository at `repo`.
+pub fn step_cost(repo: &Path, scenario_name: &str) -> Result<StepCost> {
+    let path = repo.join("timing/corpus").join(format!("{scenario_name}.json"));
+    let c = Corpus::load(&path)?;
+    Ok(StepCost {
+        worst_instructions: c.worst_instructions,
+        worst_per_mode: c
+            .entries
+            .iter()
+            .filter_map(|e| e.label.strip_prefix("mode:").map(|m| (m.to_owned(), e.instructions)))
+            .collect(),
+        nominal_instructions: c.nominal_instructions,
+        evaluations: c.evaluations,
+    })
+}
+
 /// The repository root (where `scenarios/` and `timing/` live): the working directory if
 /// it has `timing/` or `scenarios/`, else the source tree this binary was built from.
 pub fn repo_root() -> PathBuf {

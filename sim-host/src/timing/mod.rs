@@ -10,10 +10,15 @@
 //! evaluated before it (checked by the replay of the corpus).
 //!
 //! - [`search`]: seeded (μ+λ) evolutionary search for the costliest input;
-//! - [`corpus`]: the committed worst inputs, their replay and the budget file.
+//! - [`corpus`]: the committed worst inputs, their replay and the budget file;
+//! - [`text`]: what `sim-host timing search|replay` print.
 
 pub mod corpus;
 pub mod search;
+pub mod text;
+
+/// What other tools read of the timing results (the report's cost table).
+pub use corpus::{StepCost, step_cost};
 
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;

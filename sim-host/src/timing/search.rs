@@ -146,25 +146,11 @@ impl Mutator<'_> {
         if k < n { &mut x.prefix[k] } else { &mut x.frame }
     }
 
+    /// One random mutation of `x` (operators drawn by weight).
     fn mutate(&mut self, x: &mut Input) {
         let op = self.rng.random_range(0..100u32);
         match op {
-            // Gaussian steps on 1-3 values at a log-uniform scale.
-            0..34 => {
-                let n = self.rng.random_range(1..=3);
-                for _ in 0..n {
-                    let i = self.rng.random_range(0..N_FLOATS);
-                    let s = gene_scale(i) * 10f32.powf(-3.0 + 3.5 * self.unit() as f32);
-                    let d = s * self.normal();
-                    let f = self.pick_frame(x);
-                    let v = floats_mut(f);
-                    let g = v.into_iter().nth(i).expect("i < N_FLOATS");
-                    *g = if g.is_finite() { *g + d } else { d };
-                }
-                if self.unit() < 0.5 {
-                    normalise(&mut x.frame.q_ib_xyzw);
-                }
-            }
+            0..34 => self.gaussian_steps(x),
             34..44 => {
                 let i = self.rng.random_range(0..N_FLOATS);
                 let s = SPECIAL[self.rng.random_range(0..SPECIAL.len())];
@@ -179,20 +165,7 @@ impl Mutator<'_> {
                 let f = self.pick_frame(x);
                 f.valid ^= 1 << b;
             }
-            52..66 => {
-                // Demand along a thruster column / facet normal: body rate and attitude
-                // error both along ±d, magnitudes log-uniform.
-                let d = self.directions[self.rng.random_range(0..self.directions.len())];
-                let sign = if self.unit() < 0.5 { -1.0 } else { 1.0 };
-                let w = sign * 10f32.powf(-3.0 + 4.0 * self.unit() as f32);
-                let th = (sign as f64) * std::f64::consts::PI * self.unit();
-                let f = &mut x.frame;
-                f.rate_rad_s = d.map(|c| c * w);
-                if self.unit() < 0.7 {
-                    let (s, c) = (th / 2.0).sin_cos();
-                    f.q_ib_xyzw = [d[0] * s as f32, d[1] * s as f32, d[2] * s as f32, c as f32];
-                }
-            }
+            52..66 => self.demand_along_direction(x),
             66..72 => {
                 let f = self.pick_frame(x);
                 f.time_us = match self.rng.random_range(0..3) {
@@ -202,30 +175,7 @@ impl Mutator<'_> {
                 };
             }
             72..78 => self.mutate_estimation(x),
-            78..88 => {
-                // The prefix: repeat the measured frame (loads integrators and the PWPF),
-                // add a mutated copy, or drop a frame.
-                match self.rng.random_range(0..3) {
-                    0 => {
-                        let n = self.rng.random_range(1..=MAX_PREFIX);
-                        x.prefix = vec![x.frame; n];
-                    }
-                    1 if x.prefix.len() < MAX_PREFIX => {
-                        let mut f = x.frame;
-                        f.rate_rad_s = f.rate_rad_s.map(|r| r * (1.0 + 0.5 * self.normal()));
-                        x.prefix.push(f);
-                    }
-                    _ => {
-                        x.prefix.pop();
-                    }
-                }
-                let dt_us = (self.target.dt_s * 1e6) as u64;
-                // Consistent clocks along the sequence (the measured frame last).
-                let n = x.prefix.len() as u64;
-                for (k, p) in x.prefix.iter_mut().enumerate() {
-                    p.time_us = x.frame.time_us.wrapping_sub((n - k as u64) * dt_us);
-                }
-            }
+            78..88 => self.mutate_prefix(x),
             88..94 if !self.target.modes.is_empty() => {
                 let modes = &self.target.modes;
                 x.mode = if self.unit() < 0.15 {
@@ -244,6 +194,63 @@ impl Mutator<'_> {
                     *g = s;
                 }
             }
+        }
+    }
+
+    /// Gaussian steps on 1-3 values at a log-uniform scale.
+    fn gaussian_steps(&mut self, x: &mut Input) {
+        let n = self.rng.random_range(1..=3);
+        for _ in 0..n {
+            let i = self.rng.random_range(0..N_FLOATS);
+            let s = gene_scale(i) * 10f32.powf(-3.0 + 3.5 * self.unit() as f32);
+            let d = s * self.normal();
+            let f = self.pick_frame(x);
+            let v = floats_mut(f);
+            let g = v.into_iter().nth(i).expect("i < N_FLOATS");
+            *g = if g.is_finite() { *g + d } else { d };
+        }
+        if self.unit() < 0.5 {
+            normalise(&mut x.frame.q_ib_xyzw);
+        }
+    }
+
+    /// Demand along a thruster column / facet normal: body rate and attitude error both
+    /// along ±d, magnitudes log-uniform.
+    fn demand_along_direction(&mut self, x: &mut Input) {
+        let d = self.directions[self.rng.random_range(0..self.directions.len())];
+        let sign = if self.unit() < 0.5 { -1.0 } else { 1.0 };
+        let w = sign * 10f32.powf(-3.0 + 4.0 * self.unit() as f32);
+        let th = (sign as f64) * std::f64::consts::PI * self.unit();
+        let f = &mut x.frame;
+        f.rate_rad_s = d.map(|c| c * w);
+        if self.unit() < 0.7 {
+            let (s, c) = (th / 2.0).sin_cos();
+            f.q_ib_xyzw = [d[0] * s as f32, d[1] * s as f32, d[2] * s as f32, c as f32];
+        }
+    }
+
+    /// The prefix: repeat the measured frame (loads integrators and the PWPF), add a
+    /// mutated copy, or drop a frame.
+    fn mutate_prefix(&mut self, x: &mut Input) {
+        match self.rng.random_range(0..3) {
+            0 => {
+                let n = self.rng.random_range(1..=MAX_PREFIX);
+                x.prefix = vec![x.frame; n];
+            }
+            1 if x.prefix.len() < MAX_PREFIX => {
+                let mut f = x.frame;
+                f.rate_rad_s = f.rate_rad_s.map(|r| r * (1.0 + 0.5 * self.normal()));
+                x.prefix.push(f);
+            }
+            _ => {
+                x.prefix.pop();
+            }
+        }
+        let dt_us = (self.target.dt_s * 1e6) as u64;
+        // Consistent clocks along the sequence (the measured frame last).
+        let n = x.prefix.len() as u64;
+        for (k, p) in x.prefix.iter_mut().enumerate() {
+            p.time_us = x.frame.time_us.wrapping_sub((n - k as u64) * dt_us);
         }
     }
 
@@ -396,31 +403,30 @@ pub fn sweep(ev: &mut Evaluator) -> Result<Option<Found>> {
     Ok(best)
 }
 
-/// Runs the search on `ev` (see the module documentation).
-pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> {
-    let start = Instant::now();
-    let target = ev.target.clone();
-    let mut directions = target.directions.clone();
-    directions.extend(opts.directions.iter().copied());
-    let mut m = Mutator { target: &target, directions, rng: ChaCha8Rng::seed_from_u64(opts.seed) };
-    let (mu, lambda) = (opts.mu.max(1), opts.lambda.max(1));
-    let out_of_budget =
-        |ev: &Evaluator| start.elapsed() >= opts.budget || opts.max_evaluations.is_some_and(|n| ev.evaluations >= n);
-    let (mut sum, mut n_ok, mut rejected) = (0.0f64, 0u64, 0u64);
-    let mut per_mode: BTreeMap<u8, Found> = BTreeMap::new();
-    let mut no_fail: Option<Found> = None;
-    let mut pop: Vec<Found> = Vec::new();
-    let mut record = |x: Input, c: Option<Cost>, pop: &mut Vec<Found>| {
+/// What the search keeps of every evaluation besides the population: the running sum
+/// for the mean, the refused inputs, the costliest per mode and without failures.
+#[derive(Default)]
+struct Tally {
+    sum_instructions: f64,
+    n_ok: u64,
+    rejected: u64,
+    per_mode: BTreeMap<u8, Found>,
+    no_fail: Option<Found>,
+}
+
+impl Tally {
+    /// Records the cost `c` of `x` (`None`: refused) and adds it to `pop`.
+    fn record(&mut self, x: Input, c: Option<Cost>, pop: &mut Vec<Found>) {
         let Some(c) = c else {
-            rejected += 1;
+            self.rejected += 1;
             return;
         };
-        sum += c.instructions as f64;
-        n_ok += 1;
-        let e = per_mode.entry(c.mode);
+        self.sum_instructions += c.instructions as f64;
+        self.n_ok += 1;
+        let e = self.per_mode.entry(c.mode);
         let f = Found { input: x, cost: c };
-        if f.input.failed_mask == 0 && no_fail.as_ref().is_none_or(|b| c.instructions > b.cost.instructions) {
-            no_fail = Some(f.clone());
+        if f.input.failed_mask == 0 && self.no_fail.as_ref().is_none_or(|b| c.instructions > b.cost.instructions) {
+            self.no_fail = Some(f.clone());
         }
         match e {
             std::collections::btree_map::Entry::Vacant(v) => {
@@ -433,73 +439,100 @@ pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> 
             }
         }
         pop.push(f);
-    };
-    // Generation 0: the seeds, the sweep, then random variations of the nominal input.
-    let nominal = ev.evaluate(&target.nominal_input())?;
+    }
+}
+
+/// Generation 0: the seeds, the sweep, then random variations of the nominal input, at
+/// least `n` inputs.
+fn generation0(m: &mut Mutator, opts: &SearchOptions, n: usize) -> Vec<Input> {
+    let target = m.target;
     let mut gen0: Vec<Input> = opts.seeds.clone();
-    gen0.extend(sweep_inputs(&target));
-    while gen0.len() < mu + lambda {
+    gen0.extend(sweep_inputs(target));
+    while gen0.len() < n {
         let mut x = target.nominal_input();
         for _ in 0..m.rng.random_range(1..=4) {
             m.mutate(&mut x);
         }
         gen0.push(x);
     }
-    for x in gen0 {
+    gen0
+}
+
+/// `lambda` children of the (sorted) population: binary tournament, crossover with
+/// probability 0.15, then 1 + geometric(0.5) mutations.
+fn children(m: &mut Mutator, pop: &[Found], lambda: usize) -> Vec<Input> {
+    let mut children = Vec::with_capacity(lambda);
+    for _ in 0..lambda {
+        let pick = |m: &mut Mutator| {
+            let (i, j) = (m.rng.random_range(0..pop.len()), m.rng.random_range(0..pop.len()));
+            i.min(j) // the costlier of two (pop is sorted)
+        };
+        let a = pick(m);
+        let mut x = if m.unit() < 0.15 {
+            let b = pick(m);
+            m.cross(&pop[a].input, &pop[b].input)
+        } else {
+            pop[a].input.clone()
+        };
+        // 1 + geometric(0.5) mutations.
+        m.mutate(&mut x);
+        while m.unit() < 0.5 {
+            m.mutate(&mut x);
+        }
+        children.push(x);
+    }
+    children
+}
+
+/// Keeps the `mu` costliest. Stable: among equal costs the earlier (older) input stays.
+fn keep(pop: &mut Vec<Found>, mu: usize) {
+    pop.sort_by_key(|f| std::cmp::Reverse(f.cost.instructions));
+    pop.truncate(mu);
+}
+
+/// Runs the search on `ev` (see the module documentation).
+pub fn search(ev: &mut Evaluator, opts: &SearchOptions) -> Result<SearchResult> {
+    let start = Instant::now();
+    let target = ev.target.clone();
+    let mut directions = target.directions.clone();
+    directions.extend(opts.directions.iter().copied());
+    let mut m = Mutator { target: &target, directions, rng: ChaCha8Rng::seed_from_u64(opts.seed) };
+    let (mu, lambda) = (opts.mu.max(1), opts.lambda.max(1));
+    let out_of_budget =
+        |ev: &Evaluator| start.elapsed() >= opts.budget || opts.max_evaluations.is_some_and(|n| ev.evaluations >= n);
+    let mut tally = Tally::default();
+    let mut pop: Vec<Found> = Vec::new();
+    let nominal = ev.evaluate(&target.nominal_input())?;
+    for x in generation0(&mut m, opts, mu + lambda) {
         if out_of_budget(ev) && !pop.is_empty() {
             break;
         }
         let c = ev.evaluate(&x)?;
-        record(x, c, &mut pop);
+        tally.record(x, c, &mut pop);
     }
-    let keep = |pop: &mut Vec<Found>| {
-        // Stable: among equal costs the earlier (older) input stays.
-        pop.sort_by_key(|f| std::cmp::Reverse(f.cost.instructions));
-        pop.truncate(mu);
-    };
-    keep(&mut pop);
+    keep(&mut pop, mu);
     anyhow::ensure!(!pop.is_empty(), "{}: the flight code refused every input", target.name);
     let mut generations = 0;
     while !out_of_budget(ev) {
-        let mut children = Vec::with_capacity(lambda);
-        for _ in 0..lambda {
-            let pick = |m: &mut Mutator| {
-                let (i, j) = (m.rng.random_range(0..pop.len()), m.rng.random_range(0..pop.len()));
-                i.min(j) // the costlier of two (pop is sorted)
-            };
-            let a = pick(&mut m);
-            let mut x = if m.unit() < 0.15 {
-                let b = pick(&mut m);
-                m.cross(&pop[a].input, &pop[b].input)
-            } else {
-                pop[a].input.clone()
-            };
-            // 1 + geometric(0.5) mutations.
-            m.mutate(&mut x);
-            while m.unit() < 0.5 {
-                m.mutate(&mut x);
-            }
-            children.push(x);
-        }
-        for x in children {
+        for x in children(&mut m, &pop, lambda) {
             let c = ev.evaluate(&x)?;
-            record(x, c, &mut pop);
+            tally.record(x, c, &mut pop);
         }
-        keep(&mut pop);
+        keep(&mut pop, mu);
         generations += 1;
     }
     let population_mean = pop.iter().map(|f| f.cost.instructions as f64).sum::<f64>() / pop.len() as f64;
     Ok(SearchResult {
         worst: pop[0].clone(),
-        mean_instructions: sum / n_ok.max(1) as f64,
+        mean_instructions: tally.sum_instructions / tally.n_ok.max(1) as f64,
         population_mean,
         nominal,
         evaluations: ev.evaluations,
-        rejected,
+        rejected: tally.rejected,
         generations,
         elapsed_s: start.elapsed().as_secs_f64(),
-        per_mode,
-        worst_no_failures: no_fail,
+        per_mode: tally.per_mode,
+        worst_no_failures: tally.no_fail,
         population: pop,
     })
 }

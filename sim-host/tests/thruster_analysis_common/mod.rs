@@ -1,55 +1,9 @@
-//! Shared test helpers (independent of the library's internals).
+//! Shared test helpers (independent of the library's internals); the seeded generator and
+//! the vector helpers come from `acs_test_support`.
 #![allow(dead_code)]
 
-pub type V3 = [f64; 3];
-
-pub struct Rng(pub u64);
-impl Rng {
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    pub fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    pub fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.f64()
-    }
-    pub fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
-    }
-    pub fn unit3(&mut self) -> V3 {
-        loop {
-            let v = [self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0)];
-            let n = norm(&v);
-            if n > 1e-3 && n <= 1.0 {
-                return [v[0] / n, v[1] / n, v[2] / n];
-            }
-        }
-    }
-    pub fn matrix(&mut self, n: usize) -> Vec<V3> {
-        (0..n).map(|_| [self.range(-1.0, 1.0), self.range(-1.0, 1.0), self.range(-1.0, 1.0)]).collect()
-    }
-}
-
-pub fn dot(a: &V3, b: &V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-pub fn cross(a: &V3, b: &V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-pub fn norm(a: &V3) -> f64 {
-    dot(a, a).sqrt()
-}
-pub fn scale(a: &V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-pub fn unit(a: &V3) -> V3 {
-    scale(a, 1.0 / norm(a))
-}
+pub use acs_test_support::rng::SplitMix64 as Rng;
+pub use acs_test_support::vec3::{V3, cross, dot, norm, scale, sphere, unit};
 
 pub fn moment(b: &[V3], u: &[f64]) -> V3 {
     let mut m = [0.0; 3];
@@ -75,19 +29,6 @@ pub fn corners(b: &[V3], lo: &[f64], hi: &[f64]) -> Vec<V3> {
 /// Brute-force support function: max over box corners of n·Bu.
 pub fn support_brute(corners: &[V3], n: &V3) -> f64 {
     corners.iter().map(|c| dot(n, c)).fold(f64::NEG_INFINITY, f64::max)
-}
-
-/// Fibonacci-sphere directions.
-pub fn sphere(n: usize) -> Vec<V3> {
-    let ga = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let t = ga * i as f64;
-            [r * t.cos(), r * t.sin(), z]
-        })
-        .collect()
 }
 
 /// Constructive attainability certificate for a boundary point x: find a pair (i, j) and

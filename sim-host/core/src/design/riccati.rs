@@ -220,10 +220,8 @@ pub fn care_with(
     r: &DMatrix<f64>,
     opt: &SdaOptions,
 ) -> Result<RiccatiSolution> {
-    check_inputs(a, b, q, r)?;
-    check_pbh(a, b, q, Time::Continuous)?;
+    let g = checked_gram(a, b, q, r, Time::Continuous)?;
     let n = a.nrows();
-    let g = gram(b, r)?;
     let eye = DMatrix::<f64>::identity(n, n);
 
     let mut gamma = choose_gamma(a, &g, q);
@@ -236,29 +234,20 @@ pub fn care_with(
         gamma *= 1.618; // γ hit (near) an eigenvalue of A or made W_γ singular: move it
     }
     let (e0, g0, h0) = start.ok_or(RiccatiError::CayleyIllConditioned)?;
-    let (mut x, iterations) = doubling(e0, g0, h0, opt)?;
+    let (x, iterations) = doubling(e0, g0, h0, opt)?;
 
     // Newton refinement: (A − GX)ᵀΔ + Δ(A − GX) = −Res(X).
-    let mut res = care_residual_rel(a, b, q, r, &x)?;
-    let mut accepted = 0;
-    for _ in 0..opt.newton_steps {
-        if res < 1e-15 {
-            break;
-        }
-        let phi = a - &g * &x;
-        let rhs = care_residual(a, &g, q, &x);
-        let op = eye.kronecker(&phi.transpose()) + phi.transpose().kronecker(&eye);
-        let Some(d) = solve_vec(&op, &rhs) else { break };
-        let xn = sym(&(&x + d));
-        let rn = care_residual_rel(a, b, q, r, &xn)?;
-        if rn.is_finite() && rn < res {
-            x = xn;
-            res = rn;
-            accepted += 1;
-        } else {
-            break;
-        }
-    }
+    let (x, res, accepted) = newton_refine(
+        x,
+        opt.newton_steps,
+        |x| care_residual_rel(a, b, q, r, x),
+        |x| {
+            let phi = a - &g * x;
+            let rhs = care_residual(a, &g, q, x);
+            let op = eye.kronecker(&phi.transpose()) + phi.transpose().kronecker(&eye);
+            Ok((op, rhs))
+        },
+    )?;
 
     let margin = spectral_margin(&(a - &g * &x), Time::Continuous)?;
     if margin >= 0.0 {
@@ -275,34 +264,23 @@ pub fn dare_with(
     r: &DMatrix<f64>,
     opt: &SdaOptions,
 ) -> Result<RiccatiSolution> {
-    check_inputs(a, b, q, r)?;
-    check_pbh(a, b, q, Time::Discrete)?;
+    let g = checked_gram(a, b, q, r, Time::Discrete)?;
     let n = a.nrows();
-    let g = gram(b, r)?;
-    let (mut x, iterations) = doubling(a.clone(), g, q.clone(), opt)?;
+    let (x, iterations) = doubling(a.clone(), g, q.clone(), opt)?;
 
     // Newton (Hewer) refinement: ΦᵀΔΦ − Δ = −Res(X), Φ = A − BK(X).
-    let mut res = dare_residual_rel(a, b, q, r, &x)?;
-    let mut accepted = 0;
-    for _ in 0..opt.newton_steps {
-        if res < 1e-15 {
-            break;
-        }
-        let k = dlqr_gain(a, b, r, &x)?;
-        let phi = a - b * k;
-        let (rhs, _) = dare_residual_parts(a, b, q, r, &x)?;
-        let op = phi.transpose().kronecker(&phi.transpose()) - DMatrix::<f64>::identity(n * n, n * n);
-        let Some(d) = solve_vec(&op, &rhs) else { break };
-        let xn = sym(&(&x + d));
-        let rn = dare_residual_rel(a, b, q, r, &xn)?;
-        if rn.is_finite() && rn < res {
-            x = xn;
-            res = rn;
-            accepted += 1;
-        } else {
-            break;
-        }
-    }
+    let (x, res, accepted) = newton_refine(
+        x,
+        opt.newton_steps,
+        |x| dare_residual_rel(a, b, q, r, x),
+        |x| {
+            let k = dlqr_gain(a, b, r, x)?;
+            let phi = a - b * k;
+            let (rhs, _) = dare_residual_parts(a, b, q, r, x)?;
+            let op = phi.transpose().kronecker(&phi.transpose()) - DMatrix::<f64>::identity(n * n, n * n);
+            Ok((op, rhs))
+        },
+    )?;
     let k = dlqr_gain(a, b, r, &x)?;
     let margin = spectral_margin(&(a - b * k), Time::Discrete)?;
     if margin >= 1.0 {
@@ -316,6 +294,53 @@ pub fn dare_with(
         residual_rel: res,
         closed_loop_margin: margin,
     })
+}
+
+/// The checks both solvers start with (shapes, finiteness, symmetry and definiteness, then the PBH
+/// stabilisability/detectability test for `time`), and `G = B R⁻¹ Bᵀ`.
+fn checked_gram(
+    a: &DMatrix<f64>,
+    b: &DMatrix<f64>,
+    q: &DMatrix<f64>,
+    r: &DMatrix<f64>,
+    time: Time,
+) -> Result<DMatrix<f64>> {
+    check_inputs(a, b, q, r)?;
+    check_pbh(a, b, q, time)?;
+    gram(b, r)
+}
+
+/// Newton (defect-correction) refinement shared by CARE and DARE (module doc): up to
+/// `steps` steps `X ← sym(X + Δ)`, `Δ` solving `op(X) vec Δ = vec Res(X)` where
+/// `linearise(X)` returns `(op, Res)`; a step is accepted only if the relative residual
+/// `residual_rel` falls (and stays finite), and the refinement stops at the first step
+/// refused, unsolvable, or once the residual is below 1e-15. Returns `(X, residual,
+/// steps accepted)`.
+fn newton_refine(
+    mut x: DMatrix<f64>,
+    steps: usize,
+    residual_rel: impl Fn(&DMatrix<f64>) -> Result<f64>,
+    linearise: impl Fn(&DMatrix<f64>) -> Result<(DMatrix<f64>, DMatrix<f64>)>,
+) -> Result<(DMatrix<f64>, f64, usize)> {
+    let mut res = residual_rel(&x)?;
+    let mut accepted = 0;
+    for _ in 0..steps {
+        if res < 1e-15 {
+            break;
+        }
+        let (op, rhs) = linearise(&x)?;
+        let Some(d) = solve_vec(&op, &rhs) else { break };
+        let xn = sym(&(&x + d));
+        let rn = residual_rel(&xn)?;
+        if rn.is_finite() && rn < res {
+            x = xn;
+            res = rn;
+            accepted += 1;
+        } else {
+            break;
+        }
+    }
+    Ok((x, res, accepted))
 }
 
 /// The SDA kernel; returns `(H_∞ = X, steps)`.

@@ -1,3 +1,6 @@
+//! The in-process link (SIL): the flight code called directly, through the same `Session`
+//! as the firmware, with no serialisation.
+
 use super::{FlightLink, LinkInfo};
 use acs_flight::link::{FswMsg, HostMsg, LinkError, SensorFrame, StepReport};
 use acs_flight::session::{Session, board};

@@ -3,12 +3,14 @@
 //! - [`in_process::InProcess`]: calls `acs_flight::Fsw` directly (no serialisation);
 //! - [`framed::Framed`]: the postcard/COBS/CRC protocol over any byte stream
 //!   (TCP to a board bridge or to QEMU, a serial port);
-//! - [`qemu`]: starts the real firmware under QEMU and connects a `Framed` link to it.
+//! - [`qemu`]: starts the real firmware under QEMU and connects a `Framed` link to it;
+//! - [`tap::Tap`]: wraps any link and hands every step reply to a hook (the telemetry tap).
 
 pub mod framed;
 pub mod in_process;
 pub mod qemu;
 pub mod serve;
+pub mod tap;
 
 use acs_flight::link::{FswMsg, HostMsg, ResetCause, SensorFrame, StepReport};
 use acs_flight::params::{EstimationParams, FlightParams};
@@ -131,6 +133,38 @@ pub trait FlightLink {
     /// Duplicate, late and unexpected replies and reported refusals so far.
     fn anomalies(&self) -> LinkAnomalies {
         LinkAnomalies::default()
+    }
+}
+
+/// A boxed link (what [`open`] returns) is a link: every call goes to the box's content,
+/// so a `Box<dyn FlightLink>` can be wrapped (e.g. by [`tap::Tap`]).
+impl<T: FlightLink + ?Sized> FlightLink for Box<T> {
+    fn name(&self) -> String {
+        (**self).name()
+    }
+    fn hello(&mut self) -> Result<LinkInfo> {
+        (**self).hello()
+    }
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        (**self).request(msg)
+    }
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        (**self).step(frame)
+    }
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        (**self).upload(params)
+    }
+    fn upload_modes(&mut self, table: &ModeTable) -> Result<u32> {
+        (**self).upload_modes(table)
+    }
+    fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32> {
+        (**self).configure_estimation(p)
+    }
+    fn frames_dropped_host(&self) -> u32 {
+        (**self).frames_dropped_host()
+    }
+    fn anomalies(&self) -> LinkAnomalies {
+        (**self).anomalies()
     }
 }
 

@@ -71,6 +71,7 @@
 //! rate (1.2 kHz at 6000 rpm); they do not affect stability, but resolving them needs
 //! [`WheelParams::harmonic_step_s`]. Coarser steps alias them (bounded effect `≤ (C_s+B) dt`
 //! on `h_a` per step).
+use crate::vec3::{cross, dot, norm};
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -185,13 +186,6 @@ pub struct WheelOutput {
     pub imbalance_torque_nm: [f64; 3],
 }
 
-fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-
 /// Largest `x ≥ 0` with `r x² + b x - c ≤ 0` (`r > 0`, `c ≥ 0`), cancellation-free.
 fn quad_root(r: f64, b: f64, c: f64) -> f64 {
     let sq = (b * b + 4.0 * r * c).sqrt();
@@ -257,7 +251,7 @@ impl WheelParams {
             if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(format!("{n} must be finite and >= 0 (got {v})")) }
         };
         pos("inertia_kgm2", self.inertia_kgm2)?;
-        let n = dot(&self.spin_axis, &self.spin_axis).sqrt();
+        let n = norm(&self.spin_axis);
         if !n.is_finite() || (n - 1.0).abs() >= 1e-9 {
             return Err(format!("spin_axis must be a unit vector (norm {n})"));
         }
@@ -356,7 +350,7 @@ impl WheelParams {
         let mut e = [0.0; 3];
         e[i] = 1.0;
         let u = cross(&e, a);
-        let n = dot(&u, &u).sqrt();
+        let n = norm(&u);
         let u1 = [u[0] / n, u[1] / n, u[2] / n];
         (u1, cross(a, &u1))
     }

@@ -104,10 +104,11 @@ pub fn figures() -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
+    .chain([estimation_figure(), environment_figure()])
     .collect()
 }
 
-/// The figures of the DMCS law, the actuator families and the environment.
+/// The figures of the DMCS law and the actuator families.
 fn actuator_figures() -> Vec<Figure> {
     let s = line;
     let mut dipoles = xyz("dipole", "am2");
@@ -160,40 +161,49 @@ fn actuator_figures() -> Vec<Figure> {
                 panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
             ],
         ),
-        figure(
-            "estimation.png",
-            "On-board attitude determination (MEKF) against the truth: error and the filter's own sigma (dashed)",
-            vec![
-                log_panel(
-                    "attitude error |δθ| and √tr Pθθ",
-                    "deg",
-                    vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
-                ),
-                log_panel(
-                    "gyro bias error |δb| and √tr Pbb",
-                    "deg/h",
-                    vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
-                ),
-                log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
-                panel(
-                    "innovations rejected, filter restarts",
-                    "count",
-                    vec![s("est_rejected", "rejected", false), s("est_resets", "restarts", false)],
-                ),
-            ],
-        ),
-        figure(
-            "environment.png",
-            "Environment torques, body axes",
-            vec![
-                panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
-                panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
-                panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
-                panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
-                panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
-            ],
-        ),
     ]
+}
+
+/// The on-board attitude determination against the truth.
+fn estimation_figure() -> Figure {
+    let s = line;
+    figure(
+        "estimation.png",
+        "On-board attitude determination (MEKF) against the truth: error and the filter's own sigma (dashed)",
+        vec![
+            log_panel(
+                "attitude error |δθ| and √tr Pθθ",
+                "deg",
+                vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
+            ),
+            log_panel(
+                "gyro bias error |δb| and √tr Pbb",
+                "deg/h",
+                vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
+            ),
+            log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
+            panel(
+                "innovations rejected, filter restarts",
+                "count",
+                vec![s("est_rejected", "rejected", false), s("est_resets", "restarts", false)],
+            ),
+        ],
+    )
+}
+
+/// The environment torques.
+fn environment_figure() -> Figure {
+    figure(
+        "environment.png",
+        "Environment torques, body axes",
+        vec![
+            panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
+            panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
+            panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
+            panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
+            panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
+        ],
+    )
 }
 
 /// Estimated bytes of one CSV value: a full-precision value in Rust's shortest round-trip

@@ -268,11 +268,8 @@ mod tests {
     #[test]
     fn online_figures_equal_those_of_the_history_bit_for_bit() {
         let dt = 0.1;
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut lcg = acs_test_support::rng::Lcg64(7);
+        let mut rnd = || lcg.uniform();
         for case in 0..40 {
             let steps = 1 + case * 37;
             // A decaying error with noise that crosses the 1-degree bound now and then;

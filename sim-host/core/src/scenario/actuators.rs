@@ -509,34 +509,34 @@ impl Scenario {
 
     /// The reaction wheels.
     fn wheel_flight_params(&self, w: &WheelsSpec) -> Result<ActuatorParams> {
-        match w.layout.as_str() {
-            "pyramid4" => {
-                finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
-                if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
-                    return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
-                }
-            }
-            "axes" => {
-                if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
-                    return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
-                }
-                for a in &w.axes {
-                    let n = Vec3::from(*a).norm();
-                    if !n.is_finite() || n < 1e-9 {
-                        return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
-                    }
-                }
-            }
-            other => {
-                return Err(bad(
-                    "actuators.wheels.layout",
-                    format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
-                ));
-            }
+        validate_wheel_layout(w)?;
+        self.validate_wheel_ranges(w)?;
+        self.validate_wheel_step()?;
+        let plant = self.wheel_params()?;
+        let mut axes = [[0.0f32; 3]; MAX_WHEELS];
+        let mut bias = [0.0f32; MAX_WHEELS];
+        let rpm = std::f64::consts::PI / 30.0;
+        for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
+            axes[i] = p.spin_axis.map(|x| x as f32);
+            bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
         }
-        if !matches!(w.model.as_str(), "ideal" | "accurate") {
-            return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
-        }
+        let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
+        let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
+        Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
+            count: plant.len() as u8,
+            axes,
+            max_torque_nm: p0.max_torque_nm as f32,
+            max_speed_rad_s: p0.max_speed_rad_s as f32,
+            inertia_kgm2: p0.inertia_kgm2 as f32,
+            null_gain_per_s: w.null_gain_per_s as f32,
+            bias_speed_rad_s: bias,
+            failed_mask,
+        }))
+    }
+
+    /// The wheels' torque, speed and inertia ranges, the per-wheel lists, the failed
+    /// wheels and the null-motion gain.
+    fn validate_wheel_ranges(&self, w: &WheelsSpec) -> Result<()> {
         // Upper bounds: beyond any reaction wheel flown (speed: the flight code's own limit).
         let max_rpm = f64::from(acs_flight::validation::MAX_WHEEL_SPEED_RAD_S) * 60.0 / std::f64::consts::TAU;
         // Lower bounds: below a nanonewton-metre wheel, a 1e-6 kg m² rotor or 1 rpm of speed
@@ -568,6 +568,11 @@ impl Scenario {
         if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
             return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
         }
+        Ok(())
+    }
+
+    /// The dynamics step against the wheels' RK4 stability limit.
+    fn validate_wheel_step(&self) -> Result<()> {
         // RK4 on the plant: a wheel's fastest own dynamics (the ideal model's torque fade at
         // its speed limit, the accurate model's loops) must be resolved by the dynamics step,
         // else the wheel speed and its reaction torque oscillate numerically at the limit and
@@ -591,26 +596,7 @@ impl Scenario {
                 ));
             }
         }
-        let plant = self.wheel_params()?;
-        let mut axes = [[0.0f32; 3]; MAX_WHEELS];
-        let mut bias = [0.0f32; MAX_WHEELS];
-        let rpm = std::f64::consts::PI / 30.0;
-        for (i, p) in plant.iter().enumerate().take(MAX_WHEELS) {
-            axes[i] = p.spin_axis.map(|x| x as f32);
-            bias[i] = (w.bias_speed_rpm.get(i).copied().unwrap_or(0.0) * rpm) as f32;
-        }
-        let p0 = plant.first().ok_or_else(|| bad("actuators.wheels", "no wheels"))?;
-        let failed_mask = w.failed.iter().fold(0u8, |m, i| m | (1u8 << (i - 1)));
-        Ok(ActuatorParams::Wheels(acs_flight::params::WheelParams {
-            count: plant.len() as u8,
-            axes,
-            max_torque_nm: p0.max_torque_nm as f32,
-            max_speed_rad_s: p0.max_speed_rad_s as f32,
-            inertia_kgm2: p0.inertia_kgm2 as f32,
-            null_gain_per_s: w.null_gain_per_s as f32,
-            bias_speed_rad_s: bias,
-            failed_mask,
-        }))
+        Ok(())
     }
 
     /// The magnetorquers.
@@ -852,4 +838,37 @@ fn steering_law(st: &Steering) -> Result<SteeringLaw> {
         }
         (other, _) => Err(bad("steering.law", format!("unknown law {other:?} (known: \"mp\", \"sr\", \"gsr\")"))),
     }
+}
+
+/// The wheel layout (a four-wheel pyramid or explicit axes) and the wheel model.
+fn validate_wheel_layout(w: &WheelsSpec) -> Result<()> {
+    match w.layout.as_str() {
+        "pyramid4" => {
+            finite("actuators.wheels.pyramid_alpha_deg", &[w.pyramid_alpha_deg])?;
+            if !(w.pyramid_beta_deg > 0.0 && w.pyramid_beta_deg < 90.0) {
+                return Err(bad("actuators.wheels.pyramid_beta_deg", "must be in (0, 90)"));
+            }
+        }
+        "axes" => {
+            if w.axes.is_empty() || w.axes.len() > MAX_WHEELS {
+                return Err(bad("actuators.wheels.axes", format!("needs 1..={MAX_WHEELS} axes")));
+            }
+            for a in &w.axes {
+                let n = Vec3::from(*a).norm();
+                if !n.is_finite() || n < 1e-9 {
+                    return Err(bad("actuators.wheels.axes", "zero-norm or non-finite axis"));
+                }
+            }
+        }
+        other => {
+            return Err(bad(
+                "actuators.wheels.layout",
+                format!("unknown layout {other:?} (known: \"pyramid4\", \"axes\")"),
+            ));
+        }
+    }
+    if !matches!(w.model.as_str(), "ideal" | "accurate") {
+        return Err(bad("actuators.wheels.model", "must be \"ideal\" or \"accurate\""));
+    }
+    Ok(())
 }

@@ -410,90 +410,110 @@ impl Scenario {
             Controller::EulerPd { kp_nm, kd_nms, torque_limit_nm } => {
                 ControllerParams::EulerPd(pd_params(key, kp_nm, kd_nms, torque_limit_nm)?)
             }
-            Controller::Lqr { torque_limit_nm, .. } => {
-                let d = self.lqr_design_of(c)?;
-                let row = |i: usize| d.gain.get(i).copied().unwrap_or_default().map(|x| x as f32);
-                if d.input == "gimbal_rates" {
-                    return Ok(ControllerParams::LqrGimbalRate { k: std::array::from_fn(row) });
-                }
-                ControllerParams::Lqr {
-                    k: std::array::from_fn(row),
-                    torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-                }
-            }
+            Controller::Lqr { torque_limit_nm, .. } => self.lqr_params(c, torque_limit_nm)?,
             Controller::Lqg { .. } => ControllerParams::Lqg(self.lqg_design_of(c)?),
-            Controller::Dmcs {
-                wn_rad_s,
-                zeta,
-                model_inertia_kgm2,
-                alpha,
-                beta,
-                q_weights,
-                gain_limit,
-                torque_limit_nm,
-            } => ControllerParams::Dmcs(acs_flight::params::DmcsParams {
-                wn_rad_s: *wn_rad_s as f32,
-                zeta: *zeta as f32,
-                model_inertia_kgm2: model_inertia_kgm2.map(|x| x as f32),
-                alpha: *alpha as f32,
-                beta: *beta as f32,
-                q_weights: q_weights.map(|x| x as f32),
-                gain_limit: *gain_limit as f32,
-                torque_limit_nm: torque_limit_nm.map(|x| x as f32),
-            }),
-            Controller::RateDamping { kd_nms, torque_limit_nm } => {
-                if !kd_nms.iter().all(|k| k.is_finite() && *k >= 0.0) {
-                    return Err(bad(&format!("{key}.kd_nms"), "must be >= 0"));
-                }
-                ControllerParams::RateDamping {
-                    kd_nms: kd_nms.map(|x| x as f32),
-                    torque_limit_nm: torque_limits(key, torque_limit_nm)?,
-                }
-            }
-            Controller::SunSafe {
-                panel_normal_body,
-                kp_nm_per_rad,
-                kd_nm_s_per_rad,
-                search_axis_body,
-                search_rate_deg_s,
-                torque_limit_nm,
-                sun_timeout_s,
-            } => {
-                let unit = |v: &[f64; 3]| {
-                    let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-                    v.map(|x| (x / n) as f32)
-                };
-                let p = acs_flight::params::SunSafeParams {
-                    panel_normal_body: unit(panel_normal_body),
-                    kp_nm_per_rad: *kp_nm_per_rad as f32,
-                    kd_nm_s_per_rad: kd_nm_s_per_rad.map(|x| x as f32),
-                    search_axis_body: unit(search_axis_body),
-                    search_rate_rad_s: search_rate_deg_s.to_radians() as f32,
-                    torque_limit_nm: torque_limits(key, torque_limit_nm)?,
-                    sun_timeout_s: *sun_timeout_s as f32,
-                };
-                p.validate().map_err(|e| {
-                    bad(key, format!("{e}: unit non-zero panel normal and search axis, ⟂ within 0.01, gains and rate > 0, timeout >= 0"))
-                })?;
-                ControllerParams::SunSafe(p)
-            }
+            Controller::Dmcs { .. } => dmcs_params(c, key)?,
+            Controller::RateDamping { kd_nms, torque_limit_nm } => rate_damping_params(key, kd_nms, torque_limit_nm)?,
+            Controller::SunSafe { .. } => sun_safe_params(c, key)?,
             Controller::Bdot { gain_am2_s_per_t, filter_time_constant_s } => {
-                positive(&format!("{key}.gain_am2_s_per_t"), *gain_am2_s_per_t)?;
-                if !(filter_time_constant_s.is_finite() && *filter_time_constant_s >= 0.0) {
-                    return Err(bad(&format!("{key}.filter_time_constant_s"), "must be >= 0"));
-                }
-                if self.actuators.magnetorquers.is_none() {
-                    return Err(bad(key, "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
-                }
-                ControllerParams::Bdot {
-                    gain_am2_s_per_t: *gain_am2_s_per_t as f32,
-                    filter_time_constant_s: *filter_time_constant_s as f32,
-                }
+                self.bdot_params(key, *gain_am2_s_per_t, *filter_time_constant_s)?
             }
             Controller::None => bail!("controller.type = \"none\" uploads no flight parameters"),
         };
         Ok(p)
     }
+
+    /// LQR: the designed (or given) gain rows; a gimbal-rate LQR has no torque limit.
+    fn lqr_params(&self, c: &Controller, torque_limit_nm: &[f64; 3]) -> Result<ControllerParams> {
+        let d = self.lqr_design_of(c)?;
+        let row = |i: usize| d.gain.get(i).copied().unwrap_or_default().map(|x| x as f32);
+        if d.input == "gimbal_rates" {
+            return Ok(ControllerParams::LqrGimbalRate { k: std::array::from_fn(row) });
+        }
+        Ok(ControllerParams::Lqr { k: std::array::from_fn(row), torque_limit_nm: torque_limit_nm.map(|x| x as f32) })
+    }
+
+    /// B-dot: positive gain, non-negative filter time constant, and torquers to command.
+    fn bdot_params(&self, key: &str, gain_am2_s_per_t: f64, filter_time_constant_s: f64) -> Result<ControllerParams> {
+        positive(&format!("{key}.gain_am2_s_per_t"), gain_am2_s_per_t)?;
+        if !(filter_time_constant_s.is_finite() && filter_time_constant_s >= 0.0) {
+            return Err(bad(&format!("{key}.filter_time_constant_s"), "must be >= 0"));
+        }
+        if self.actuators.magnetorquers.is_none() {
+            return Err(bad(key, "B-dot commands dipoles: it needs [actuators.magnetorquers]"));
+        }
+        Ok(ControllerParams::Bdot {
+            gain_am2_s_per_t: gain_am2_s_per_t as f32,
+            filter_time_constant_s: filter_time_constant_s as f32,
+        })
+    }
+}
+
+/// DMCS: the law's parameters in f32 (checked by the flight code).
+fn dmcs_params(c: &Controller, key: &str) -> Result<ControllerParams> {
+    let Controller::Dmcs { wn_rad_s, zeta, model_inertia_kgm2, alpha, beta, q_weights, gain_limit, torque_limit_nm } =
+        c
+    else {
+        bail!("{key}: not a DMCS law");
+    };
+    Ok(ControllerParams::Dmcs(acs_flight::params::DmcsParams {
+        wn_rad_s: *wn_rad_s as f32,
+        zeta: *zeta as f32,
+        model_inertia_kgm2: model_inertia_kgm2.map(|x| x as f32),
+        alpha: *alpha as f32,
+        beta: *beta as f32,
+        q_weights: q_weights.map(|x| x as f32),
+        gain_limit: *gain_limit as f32,
+        torque_limit_nm: torque_limit_nm.map(|x| x as f32),
+    }))
+}
+
+/// Rate damping: non-negative gains, positive torque limits.
+fn rate_damping_params(key: &str, kd_nms: &[f64; 3], torque_limit_nm: &[f64; 3]) -> Result<ControllerParams> {
+    if !kd_nms.iter().all(|k| k.is_finite() && *k >= 0.0) {
+        return Err(bad(&format!("{key}.kd_nms"), "must be >= 0"));
+    }
+    Ok(ControllerParams::RateDamping {
+        kd_nms: kd_nms.map(|x| x as f32),
+        torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+    })
+}
+
+/// Sun-safe pointing and search: unit panel normal and search axis, checked by the
+/// flight code.
+fn sun_safe_params(c: &Controller, key: &str) -> Result<ControllerParams> {
+    let Controller::SunSafe {
+        panel_normal_body,
+        kp_nm_per_rad,
+        kd_nm_s_per_rad,
+        search_axis_body,
+        search_rate_deg_s,
+        torque_limit_nm,
+        sun_timeout_s,
+    } = c
+    else {
+        bail!("{key}: not a sun-safe law");
+    };
+    let unit = |v: &[f64; 3]| {
+        let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        v.map(|x| (x / n) as f32)
+    };
+    let p = acs_flight::params::SunSafeParams {
+        panel_normal_body: unit(panel_normal_body),
+        kp_nm_per_rad: *kp_nm_per_rad as f32,
+        kd_nm_s_per_rad: kd_nm_s_per_rad.map(|x| x as f32),
+        search_axis_body: unit(search_axis_body),
+        search_rate_rad_s: search_rate_deg_s.to_radians() as f32,
+        torque_limit_nm: torque_limits(key, torque_limit_nm)?,
+        sun_timeout_s: *sun_timeout_s as f32,
+    };
+    p.validate().map_err(|e| {
+        bad(
+            key,
+            format!("{e}: unit non-zero panel normal and search axis, ⟂ within 0.01, gains and rate > 0, timeout >= 0"),
+        )
+    })?;
+    Ok(ControllerParams::SunSafe(p))
 }
 
 /// Torque limits of a law: each > 0.

@@ -26,6 +26,7 @@ mod modes;
 mod momentum;
 pub use momentum::MomentumSpec;
 mod resolved;
+mod sensors;
 pub use actuators::{
     Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
     ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
@@ -488,134 +489,6 @@ impl Scenario {
                     "{altitude_km} km is above the WMM's {WMM_MAX_ALTITUDE_KM} km (use magnetic_field = \"dipole\")"
                 ),
             ));
-        }
-        Ok(())
-    }
-
-    /// `[sensors]`.
-    fn validate_sensors(&self) -> Result<()> {
-        let s = &self.sensors;
-        for (k, v) in [
-            ("sensors.attitude_noise_deg", s.attitude_noise_deg),
-            ("sensors.rate_noise_rad_s", s.rate_noise_rad_s),
-            ("sensors.gimbal_noise_deg", s.gimbal_noise_deg),
-            ("sensors.magnetometer_noise_t", s.magnetometer_noise_t),
-            ("sensors.wheel_speed_noise_rad_s", s.wheel_speed_noise_rad_s),
-            ("sensors.latency_s", s.latency_s),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(bad(k, "must be >= 0"));
-            }
-        }
-        if s.latency_s > 10.0 {
-            return Err(bad("sensors.latency_s", "must be <= 10"));
-        }
-        finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)?;
-        // Every sensor's own sample rate (the sample clock needs a positive finite rate).
-        for (k, r) in [
-            ("sensors.gyro.rate_hz", s.gyro.as_ref().and_then(|g| g.rate_hz)),
-            ("sensors.star_tracker.rate_hz", s.star_tracker.as_ref().and_then(|t| t.rate_hz)),
-            ("sensors.magnetometer.rate_hz", s.magnetometer.as_ref().and_then(|m| m.rate_hz)),
-            ("sensors.sun.rate_hz", s.sun.as_ref().and_then(|m| m.rate_hz)),
-            ("sensors.css.rate_hz", s.css.as_ref().and_then(|c| c.rate_hz)),
-            ("sensors.gnss.rate_hz", s.gnss.as_ref().and_then(|g| g.rate_hz)),
-        ] {
-            if let Some(r) = r {
-                positive(k, r)?;
-            }
-        }
-        if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
-            positive("sensors.star_tracker.max_rate_deg_s", m)?;
-        }
-        if let Some(g) = &s.gyro {
-            finite("sensors.gyro.misalignment_deg", &g.misalignment_deg)?;
-            if let Some(sat) = g.saturation_rad_s {
-                positive("sensors.gyro.saturation_rad_s", sat)?;
-            }
-            if !(g.quantisation_rad_s.is_finite() && g.quantisation_rad_s >= 0.0) {
-                return Err(bad("sensors.gyro.quantisation_rad_s", "must be >= 0"));
-            }
-            non_negative("sensors.gyro.bias_instability_rad_s", g.bias_instability_rad_s)?;
-            match g.bias_correlation_s {
-                Some(tau) => positive("sensors.gyro.bias_correlation_s", tau)?,
-                None if g.bias_instability_rad_s > 0.0 => {
-                    return Err(bad("sensors.gyro.bias_correlation_s", "required with bias_instability_rad_s > 0"));
-                }
-                None => {}
-            }
-        }
-        if let Some(m) = &s.magnetometer {
-            finite("sensors.magnetometer.misalignment_deg", &m.misalignment_deg)?;
-            let max = f64::from(acs_flight::params::momentum::MAX_MAG_COUPLING_T_PER_AM2);
-            if !m.coupling_t_per_am2.iter().flatten().all(|c| c.is_finite() && c.abs() <= max) {
-                return Err(bad(
-                    "sensors.magnetometer.coupling_t_per_am2",
-                    format!("each coefficient must be finite with |c| <= {max:e} T per A m2"),
-                ));
-            }
-        }
-        if let Some(c) = &s.css {
-            if let Some(r) = c.rate_hz {
-                positive("sensors.css.rate_hz", r)?;
-            }
-            let max = crate::sensors::models::MAX_CSS_HEADS;
-            if !(1..=max).contains(&c.normals_body.len()) {
-                return Err(bad(
-                    "sensors.css.normals_body",
-                    format!("needs 1 to {max} heads (got {})", c.normals_body.len()),
-                ));
-            }
-            for n in &c.normals_body {
-                finite("sensors.css.normals_body", n)?;
-                if n.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
-                    return Err(bad("sensors.css.normals_body", "a normal must not be zero"));
-                }
-            }
-            non_negative("sensors.css.noise", c.noise)?;
-            if !(c.albedo.is_finite() && (0.0..=1.0).contains(&c.albedo)) {
-                return Err(bad("sensors.css.albedo", format!("{} must be in [0, 1]", c.albedo)));
-            }
-        }
-        if let Some(g) = &s.gnss {
-            if let Some(r) = g.rate_hz {
-                positive("sensors.gnss.rate_hz", r)?;
-            }
-            non_negative("sensors.gnss.position_noise_m", g.position_noise_m)?;
-            non_negative("sensors.gnss.velocity_noise_m_s", g.velocity_noise_m_s)?;
-            for [a, b] in &g.outages_s {
-                if !(a.is_finite() && b.is_finite() && a <= b) {
-                    return Err(bad("sensors.gnss.outages_s", format!("[{a}, {b}] must be finite with start <= end")));
-                }
-            }
-        }
-        if let Some(t) = &s.star_tracker {
-            for [a, b] in &t.outages_s {
-                if !(a.is_finite() && b.is_finite() && a <= b) {
-                    return Err(bad(
-                        "sensors.star_tracker.outages_s",
-                        format!("[{a}, {b}] must be finite with start <= end"),
-                    ));
-                }
-            }
-            for (k, v) in [("noise_cross_deg", t.noise_cross_deg), ("noise_about_deg", t.noise_about_deg)] {
-                if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
-                    return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be >= 0")));
-                }
-            }
-            for (k, v) in [("sun_exclusion_deg", t.sun_exclusion_deg), ("earth_exclusion_deg", t.earth_exclusion_deg)] {
-                if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=180.0).contains(v))) {
-                    return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be in [0, 180]")));
-                }
-            }
-            if let Some(b) = t.boresight_body {
-                finite("sensors.star_tracker.boresight_body", &b)?;
-                if b.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
-                    return Err(bad("sensors.star_tracker.boresight_body", "must not be zero"));
-                }
-            }
-            if !(t.latency_s.is_finite() && (0.0..=10.0).contains(&t.latency_s)) {
-                return Err(bad("sensors.star_tracker.latency_s", "must be in [0, 10]"));
-            }
         }
         Ok(())
     }

@@ -128,36 +128,51 @@ impl ModesSpec {
     }
 }
 
+/// The mode manager's thresholds: each within the flight code's range, and the detumble
+/// hysteresis.
+fn validate_mode_thresholds(m: &ModesSpec) -> Result<()> {
+    // The flight code's limit, in the key's unit (degrees for angles and rates).
+    // (less one part in 1e6: the degree figure is rounded to f32 radians on upload).
+    let max_deg = f64::from(acs_flight::params::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
+    let max_s = f64::from(acs_flight::params::MAX_THRESHOLD);
+    for (k, v, max) in [
+        ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s, max_deg),
+        ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s, max_deg),
+        ("modes.stabilise_exit_error_deg", m.stabilise_exit_error_deg, max_deg),
+        ("modes.stabilise_exit_rate_deg_s", m.stabilise_exit_rate_deg_s, max_deg),
+        ("modes.hold_enter_error_deg", m.hold_enter_error_deg, max_deg),
+        ("modes.hold_enter_rate_deg_s", m.hold_enter_rate_deg_s, max_deg),
+        ("modes.hold_exit_error_deg", m.hold_exit_error_deg, max_deg),
+        ("modes.dwell_s", m.dwell_s, max_s),
+        ("modes.trigger_persistence_s", m.trigger_persistence_s, max_s),
+    ] {
+        if !(v.is_finite() && v >= 0.0 && v <= max) {
+            return Err(bad(k, format!("must be in [0, {max:.6e}] (the flight code's range)")));
+        }
+    }
+    if !(m.detumble_enter_rate_deg_s > m.detumble_exit_rate_deg_s && m.detumble_exit_rate_deg_s > 0.0) {
+        return Err(bad("modes.detumble_enter_rate_deg_s", "must exceed detumble_exit_rate_deg_s (> 0): hysteresis"));
+    }
+    Ok(())
+}
+
 impl Scenario {
     pub(super) fn validate_modes(&self, m: &ModesSpec) -> Result<()> {
         let initial = parse_mode(&m.initial).ok_or_else(|| {
             bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\"")
         })?;
-        // The flight code's limit, in the key's unit (degrees for angles and rates).
-        // (less one part in 1e6: the degree figure is rounded to f32 radians on upload).
-        let max_deg = f64::from(acs_flight::params::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
-        let max_s = f64::from(acs_flight::params::MAX_THRESHOLD);
-        for (k, v, max) in [
-            ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s, max_deg),
-            ("modes.detumble_exit_rate_deg_s", m.detumble_exit_rate_deg_s, max_deg),
-            ("modes.stabilise_exit_error_deg", m.stabilise_exit_error_deg, max_deg),
-            ("modes.stabilise_exit_rate_deg_s", m.stabilise_exit_rate_deg_s, max_deg),
-            ("modes.hold_enter_error_deg", m.hold_enter_error_deg, max_deg),
-            ("modes.hold_enter_rate_deg_s", m.hold_enter_rate_deg_s, max_deg),
-            ("modes.hold_exit_error_deg", m.hold_exit_error_deg, max_deg),
-            ("modes.dwell_s", m.dwell_s, max_s),
-            ("modes.trigger_persistence_s", m.trigger_persistence_s, max_s),
-        ] {
-            if !(v.is_finite() && v >= 0.0 && v <= max) {
-                return Err(bad(k, format!("must be in [0, {max:.6e}] (the flight code's range)")));
-            }
+        validate_mode_thresholds(m)?;
+        self.validate_mode_monitors(m)?;
+        if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
+            return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
         }
-        if !(m.detumble_enter_rate_deg_s > m.detumble_exit_rate_deg_s && m.detumble_exit_rate_deg_s > 0.0) {
-            return Err(bad(
-                "modes.detumble_enter_rate_deg_s",
-                "must exceed detumble_exit_rate_deg_s (> 0): hysteresis",
-            ));
-        }
+        self.validate_mode_slots(m, initial)?;
+        self.validate_mode_table(m)
+    }
+
+    /// The momentum, singularity and slow-FDIR monitors: ranges, and the wheels the
+    /// momentum monitors need.
+    fn validate_mode_monitors(&self, m: &ModesSpec) -> Result<()> {
         let (trip, recover) = (m.momentum_trip_speed_fraction, m.momentum_recover_speed_fraction);
         if !(trip.is_finite() && (0.0..=1.0).contains(&trip)) {
             return Err(bad("modes.momentum_trip_speed_fraction", "must be in [0, 1] (0 = off)"));
@@ -183,9 +198,11 @@ impl Scenario {
         if trip > 0.0 && self.actuators.wheels.is_none() {
             return Err(bad("modes.momentum_trip_speed_fraction", "monitors wheel speeds: needs [actuators.wheels]"));
         }
-        if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
-            return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
-        }
+        Ok(())
+    }
+
+    /// Each `[modes.<mode>]` table present (the initial mode's must be).
+    fn validate_mode_slots(&self, m: &ModesSpec, initial: Mode) -> Result<()> {
         let n_families = [
             self.actuators.cmg.is_some(),
             self.actuators.wheels.is_some(),
@@ -204,6 +221,12 @@ impl Scenario {
             };
             self.validate_mode_spec(mode, spec, n_families)?;
         }
+        Ok(())
+    }
+
+    /// The flight code's own checks of the built mode table: each mode's law parameters
+    /// and the mode manager's thresholds.
+    fn validate_mode_table(&self, m: &ModesSpec) -> Result<()> {
         let table = self.mode_table()?.ok_or_else(|| bad("modes", "missing"))?;
         for (mode, p) in &table.slots {
             let key = format!("modes.{}", mode.name());

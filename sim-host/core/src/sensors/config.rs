@@ -1,5 +1,6 @@
 //! The `[sensors]` table of a scenario: the sensor suite's own configuration.
 
+use super::gyro::GyroSpec;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, Default, Deserialize, Serialize)]
@@ -81,6 +82,50 @@ pub struct GyroSensorSpec {
     /// `bias_instability_rad_s` > 0).
     #[serde(default)]
     pub bias_correlation_s: Option<f64>,
+}
+
+impl Sensors {
+    /// The gyro model's specification (SI units, per axis) from this table: the
+    /// `[sensors.gyro]` table when there is one, else the legacy white rate noise
+    /// `rate_noise_rad_s` and bias `rate_bias_rad_s`. The one place where the file's form
+    /// ([`GyroSensorSpec`]: ppm, degrees, scalars, optional rate) becomes the model's.
+    pub fn gyro_model(&self, control_rate_hz: f64) -> GyroSpec {
+        match &self.gyro {
+            Some(g) => g.model(control_rate_hz),
+            // White noise of σ per sample at the control rate: ARW = σ / √rate.
+            None => GyroSpec {
+                rate_hz: control_rate_hz,
+                arw_rad_s_rthz: [self.rate_noise_rad_s / control_rate_hz.sqrt(); 3],
+                rrw_rad_s2_rthz: [0.0; 3],
+                bias_rad_s: self.rate_bias_rad_s,
+                scale_factor: [0.0; 3],
+                misalignment_rad: [0.0; 3],
+                saturation_rad_s: None,
+                quantisation_rad_s: 0.0,
+                bias_instability_rad_s: 0.0,
+                bias_correlation_s: 0.0,
+            },
+        }
+    }
+}
+
+impl GyroSensorSpec {
+    /// The model's specification: the same quantities in SI units, the same value on
+    /// each axis; `control_rate_hz` is the rate when the table gives none.
+    pub fn model(&self, control_rate_hz: f64) -> GyroSpec {
+        GyroSpec {
+            rate_hz: self.rate_hz.unwrap_or(control_rate_hz),
+            arw_rad_s_rthz: [self.arw_rad_s_rthz; 3],
+            rrw_rad_s2_rthz: [self.rrw_rad_s2_rthz; 3],
+            bias_rad_s: self.bias_rad_s,
+            scale_factor: [self.scale_factor_ppm * 1e-6; 3],
+            misalignment_rad: self.misalignment_deg.map(f64::to_radians),
+            saturation_rad_s: self.saturation_rad_s,
+            quantisation_rad_s: self.quantisation_rad_s,
+            bias_instability_rad_s: self.bias_instability_rad_s,
+            bias_correlation_s: self.bias_correlation_s.unwrap_or(0.0),
+        }
+    }
 }
 
 /// Attitude sensor (star tracker / AHRS): small-rotation noise and bias per axis.

@@ -250,7 +250,37 @@ pub fn key_num(x: f64) -> String {
     sig(x, 2).replace('.', "p")
 }
 
-pub fn run(ctx: &Context) -> Result<Experiment> {
+/// Every flight's metrics: the one-at-a-time sweeps (tests 3 and 1 per level), then the
+/// combinations (per friction level and seed).
+struct Flights {
+    metrics: Vec<Metrics>,
+    /// Number of sweep flights (start of the combinations).
+    n_sweep: usize,
+}
+
+impl Flights {
+    /// Effect `e` at level `level` on test `test` (0: test 3, 1: test 1).
+    fn sweep(&self, e: usize, level: usize, test: usize) -> &Metrics {
+        &self.metrics[(e * 6 + level) * 2 + test]
+    }
+    /// All effects with friction `fi` and seed `si` on test `test`.
+    fn combo(&self, fi: usize, si: usize, test: usize) -> &Metrics {
+        &self.metrics[self.n_sweep + (fi * SEEDS.len() + si) * 2 + test]
+    }
+    fn ideal3(&self) -> &Metrics {
+        self.sweep(0, 0, 0)
+    }
+    fn ideal1(&self) -> &Metrics {
+        self.sweep(0, 0, 1)
+    }
+    /// The named combination, seed 1: (test 3, test 1).
+    fn named(&self) -> (&Metrics, &Metrics) {
+        (self.combo(NAMED_FRICTION, 0, 0), self.combo(NAMED_FRICTION, 0, 1))
+    }
+}
+
+/// Flies every effect alone on tests 3 and 1, then all effects per friction level and seed.
+fn fly(ctx: &Context) -> Result<Flights> {
     let base3 = ctx.scenario("paper000/test3.toml")?;
     let base1 = ctx.scenario("paper000/test1.toml")?;
     let bases = [&base3, &base1];
@@ -277,13 +307,54 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         }
     }
     let out: Vec<Result<Metrics>> = par_map(ctx.jobs, &runs, |(_, sc)| fly_metrics(sc));
-    let m: Vec<Metrics> = out.into_iter().collect::<Result<_>>()?;
-    let sweep = |e: usize, level: usize, test: usize| &m[(e * 6 + level) * 2 + test];
-    let combo = |fi: usize, si: usize, test: usize| &m[n_sweep + (fi * SEEDS.len() + si) * 2 + test];
+    let metrics: Vec<Metrics> = out.into_iter().collect::<Result<_>>()?;
+    Ok(Flights { metrics, n_sweep })
+}
 
-    let mut f = BTreeMap::new();
-    let ideal3 = sweep(0, 0, 0);
-    let ideal1 = sweep(0, 0, 1);
+/// One friction level of the combinations: (min, mean, max) over the seeds, and whether
+/// every seed meets the paper's three figures.
+struct Combo {
+    settle_plot_s: (f64, f64, f64),
+    ratio: (f64, f64, f64),
+    steady3_max_deg: f64,
+    steady1_deg: (f64, f64, f64),
+    all_ok: bool,
+}
+
+/// (min, mean, max) of `v`.
+fn stats(v: &[f64]) -> (f64, f64, f64) {
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (lo, v.iter().sum::<f64>() / v.len().max(1) as f64, hi)
+}
+
+/// Per friction level, the spread over the seeds.
+fn combos(fl: &Flights) -> Vec<Combo> {
+    (0..COMBO_FRICTION_NM.len())
+        .map(|fi| {
+            let runs: Vec<(&Metrics, &Metrics)> =
+                (0..SEEDS.len()).map(|si| (fl.combo(fi, si, 0), fl.combo(fi, si, 1))).collect();
+            let settle: Vec<f64> = runs.iter().map(|(a, _)| opt(a.settle_plot_s)).collect();
+            let ratios: Vec<f64> = runs.iter().map(|(a, b)| opt(ratio(a, b))).collect();
+            let steady1: Vec<f64> = runs.iter().map(|(_, b)| b.steady_error_deg).collect();
+            let all_ok = runs.iter().all(|(a, b)| match (a.settle_plot_s, ratio(a, b)) {
+                (Some(s), Some(r)) => reproduces(s, r, b.steady_error_deg),
+                _ => false,
+            });
+            Combo {
+                settle_plot_s: stats(&settle),
+                ratio: stats(&ratios),
+                steady3_max_deg: runs.iter().map(|(a, _)| a.steady_error_deg).fold(f64::NEG_INFINITY, f64::max),
+                steady1_deg: stats(&steady1),
+                all_ok,
+            }
+        })
+        .collect()
+}
+
+/// The ideal runs' and the one-at-a-time sweeps' findings.
+fn sweep_findings(fl: &Flights, f: &mut BTreeMap<String, f64>) {
+    let (ideal3, ideal1) = (fl.ideal3(), fl.ideal1());
     f.insert("settle_s_ideal".to_owned(), opt(ideal3.settle_true_s));
     f.insert("settle_plot_s_ideal".to_owned(), opt(ideal3.settle_plot_s));
     f.insert("settle_s_test1_ideal".to_owned(), opt(ideal1.settle_true_s));
@@ -295,15 +366,10 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         f.insert(format!("settle_s_test1_ideal_band_{}deg", key_num(*band)), s1);
         f.insert(format!("ratio_test3_test1_ideal_band_{}deg", key_num(*band)), s3 / s1);
     }
-
-    // Sweep table and per-level findings.
-    let mut rows = vec![row("none (ideal)", "", ideal3, ideal1)];
     for (ei, e) in EFFECTS.iter().enumerate() {
         for li in 1..6 {
-            let (a, b) = (sweep(ei, li, 0), sweep(ei, li, 1));
-            let x = e.levels[li];
-            rows.push(row(e.label, &format!("{} {}", sig(x, 2), e.unit), a, b));
-            let tag = format!("{}_{}", e.key, key_num(x));
+            let (a, b) = (fl.sweep(ei, li, 0), fl.sweep(ei, li, 1));
+            let tag = format!("{}_{}", e.key, key_num(e.levels[li]));
             f.insert(format!("settle_s_{tag}"), opt(a.settle_true_s));
             f.insert(format!("settle_plot_s_{tag}"), opt(a.settle_plot_s));
             f.insert(format!("steady_error_deg_{tag}"), a.steady_error_deg);
@@ -312,43 +378,12 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             f.insert(format!("ratio_test3_test1_{tag}"), opt(ratio(a, b)));
         }
     }
+}
 
-    // Combinations: per friction level, the spread over the seeds and whether every seed
-    // meets the paper's three figures.
-    struct Combo {
-        settle: (f64, f64, f64),
-        ratio: (f64, f64, f64),
-        steady3_max: f64,
-        steady1: (f64, f64, f64),
-        all_ok: bool,
-    }
-    let stats = |v: &[f64]| {
-        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        (lo, v.iter().sum::<f64>() / v.len().max(1) as f64, hi)
-    };
-    let combos: Vec<Combo> = (0..COMBO_FRICTION_NM.len())
-        .map(|fi| {
-            let runs: Vec<(&Metrics, &Metrics)> =
-                (0..SEEDS.len()).map(|si| (combo(fi, si, 0), combo(fi, si, 1))).collect();
-            let settle: Vec<f64> = runs.iter().map(|(a, _)| opt(a.settle_plot_s)).collect();
-            let ratios: Vec<f64> = runs.iter().map(|(a, b)| opt(ratio(a, b))).collect();
-            let steady1: Vec<f64> = runs.iter().map(|(_, b)| b.steady_error_deg).collect();
-            let all_ok = runs.iter().all(|(a, b)| match (a.settle_plot_s, ratio(a, b)) {
-                (Some(s), Some(r)) => reproduces(s, r, b.steady_error_deg),
-                _ => false,
-            });
-            Combo {
-                settle: stats(&settle),
-                ratio: stats(&ratios),
-                steady3_max: runs.iter().map(|(a, _)| a.steady_error_deg).fold(f64::NEG_INFINITY, f64::max),
-                steady1: stats(&steady1),
-                all_ok,
-            }
-        })
-        .collect();
+/// The combinations' findings.
+fn combo_findings(fl: &Flights, combos: &[Combo], f: &mut BTreeMap<String, f64>) {
     let named = &combos[NAMED_FRICTION];
-    let (a1, b1) = (combo(NAMED_FRICTION, 0, 0), combo(NAMED_FRICTION, 0, 1));
+    let (a1, b1) = fl.named();
     let tf_named = COMBO_FRICTION_NM[NAMED_FRICTION];
     f.insert("gimbal_friction_nm_all_effects".to_owned(), tf_named);
     f.insert("gimbal_dead_zone_deg_s_all_effects".to_owned(), dead_zone_deg_s(tf_named));
@@ -358,40 +393,50 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
     f.insert("steady_error_deg_all_effects".to_owned(), a1.steady_error_deg);
     f.insert("steady_error_deg_test1_all_effects".to_owned(), b1.steady_error_deg);
     f.insert("ratio_test3_test1_all_effects".to_owned(), opt(ratio(a1, b1)));
-    f.insert("settle_s_all_effects_min_over_seeds".to_owned(), named.settle.0);
-    f.insert("settle_s_all_effects_max_over_seeds".to_owned(), named.settle.2);
+    f.insert("settle_s_all_effects_min_over_seeds".to_owned(), named.settle_plot_s.0);
+    f.insert("settle_s_all_effects_max_over_seeds".to_owned(), named.settle_plot_s.2);
     f.insert("ratio_test3_test1_all_effects_min_over_seeds".to_owned(), named.ratio.0);
     f.insert("ratio_test3_test1_all_effects_max_over_seeds".to_owned(), named.ratio.2);
-    f.insert("steady_error_deg_all_effects_max_over_seeds".to_owned(), named.steady3_max);
-    f.insert("steady_error_deg_test1_all_effects_max_over_seeds".to_owned(), named.steady1.2);
+    f.insert("steady_error_deg_all_effects_max_over_seeds".to_owned(), named.steady3_max_deg);
+    f.insert("steady_error_deg_test1_all_effects_max_over_seeds".to_owned(), named.steady1_deg.2);
     for (fi, c) in combos.iter().enumerate() {
         let tag = key_num(COMBO_FRICTION_NM[fi]);
-        f.insert(format!("settle_s_all_effects_gimbal_friction_{tag}_mean_over_seeds"), c.settle.1);
+        f.insert(format!("settle_s_all_effects_gimbal_friction_{tag}_mean_over_seeds"), c.settle_plot_s.1);
         f.insert(format!("ratio_test3_test1_all_effects_gimbal_friction_{tag}_mean_over_seeds"), c.ratio.1);
-        f.insert(format!("steady_error_deg_test1_all_effects_gimbal_friction_{tag}_max_over_seeds"), c.steady1.2);
+        f.insert(format!("steady_error_deg_test1_all_effects_gimbal_friction_{tag}_max_over_seeds"), c.steady1_deg.2);
         f.insert(format!("reproduces_all_seeds_gimbal_friction_{tag}"), if c.all_ok { 1.0 } else { 0.0 });
     }
-    let ok_levels: Vec<f64> =
-        COMBO_FRICTION_NM.iter().zip(&combos).filter(|(_, c)| c.all_ok).map(|(x, _)| *x).collect();
-    let explains = if named.all_ok { Explains::Yes } else { Explains::No };
-    let combo_rows: Vec<Vec<String>> = COMBO_FRICTION_NM
-        .iter()
-        .zip(&combos)
-        .map(|(tf, c)| {
-            let range = |x: (f64, f64, f64), d: usize| format!("{} ({}–{})", sig(x.1, d), sig(x.0, d), sig(x.2, d));
-            vec![
-                sig(tf * 1e3, 2),
-                sig(dead_zone_deg_s(*tf), 2),
-                range(c.settle, 3),
-                range(c.ratio, 2),
-                sig(c.steady3_max, 2),
-                range(c.steady1, 2),
-                if c.all_ok { "yes".into() } else { "no".into() },
-            ]
-        })
-        .collect();
+}
 
-    // Figures.
+/// What the runs show.
+struct Findings {
+    map: BTreeMap<String, f64>,
+    combos: Vec<Combo>,
+    /// Friction levels at which every seed meets the paper, N m.
+    ok_friction_nm: Vec<f64>,
+}
+
+fn analyse(fl: &Flights) -> Findings {
+    let mut map = BTreeMap::new();
+    sweep_findings(fl, &mut map);
+    let combos = combos(fl);
+    combo_findings(fl, &combos, &mut map);
+    let ok_friction_nm: Vec<f64> =
+        COMBO_FRICTION_NM.iter().zip(&combos).filter(|(_, c)| c.all_ok).map(|(x, _)| *x).collect();
+    // "Never settled" is a missing finding (the tables say "never").
+    map.retain(|_, v| v.is_finite());
+    Findings { map, combos, ok_friction_nm }
+}
+
+/// The set-up paragraph, the sweep table and the sweep figure.
+fn render_sweeps(ctx: &Context, fl: &Flights) -> Result<Vec<Block>> {
+    let mut rows = vec![row("none (ideal)", "", fl.ideal3(), fl.ideal1())];
+    for (ei, e) in EFFECTS.iter().enumerate() {
+        for li in 1..6 {
+            let (a, b) = (fl.sweep(ei, li, 0), fl.sweep(ei, li, 1));
+            rows.push(row(e.label, &format!("{} {}", sig(e.levels[li], 2), e.unit), a, b));
+        }
+    }
     let mut blocks = Vec::new();
     blocks.push(Block::Para(format!(
         "Each effect is flown alone on tests 3 and 1 (scenarios `paper000/test3.toml`, `test1.toml`) \
@@ -416,13 +461,17 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         "ratio 3/1 (plot)",
     ];
     blocks.push(Block::Table { header: header.iter().map(|s| (*s).to_owned()).collect(), rows });
+    blocks.push(figure_sweeps(ctx, fl)?);
+    Ok(blocks)
+}
 
-    // Sweep figure: x = sweep level index.
+/// Test-3 settle and test-1 steady error against each effect's level (x = level index).
+fn figure_sweeps(ctx: &Context, fl: &Flights) -> Result<Block> {
     let lvl: Vec<f64> = (0..6).map(|i| i as f64).collect();
     let mut cols: Vec<(String, Vec<f64>)> = vec![("level".into(), lvl)];
     for (ei, e) in EFFECTS.iter().enumerate() {
-        cols.push((format!("settle3_{}", e.key), (0..6).map(|l| opt(sweep(ei, l, 0).settle_plot_s)).collect()));
-        cols.push((format!("steady1_{}", e.key), (0..6).map(|l| sweep(ei, l, 1).steady_error_deg).collect()));
+        cols.push((format!("settle3_{}", e.key), (0..6).map(|l| opt(fl.sweep(ei, l, 0).settle_plot_s)).collect()));
+        cols.push((format!("steady1_{}", e.key), (0..6).map(|l| fl.sweep(ei, l, 1).steady_error_deg).collect()));
     }
     let named_cols: Vec<(&str, Vec<f64>)> = cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
     let ts = columns(&named_cols);
@@ -432,7 +481,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             .map(|e| Series { column: format!("{prefix}_{}", e.key), label: e.key.into(), dashed: false })
             .collect::<Vec<_>>()
     };
-    blocks.push(ctx.figure(
+    ctx.figure(
         &ts,
         Figure {
             file_name: "p000_rig_sweeps.png".into(),
@@ -456,25 +505,51 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         },
         "Test-3 settle time (top) and test-1 steady error (bottom) against each effect's level; a \
          missing point: the yaw never stops moving by 1°.",
-    )?);
+    )
+}
 
-    blocks.push(Block::Para(
-        "Ideal response read at tighter bands (true error): the asymptotic decay rates are ζωn = \
-         0.99 /s (test 3) and 0.329 /s (test 1), ratio 0.332."
-            .into(),
-    ));
-    blocks.push(Block::Table {
-        header: vec!["band (deg)".into(), "test 3 (s)".into(), "test 1 (s)".into(), "ratio 3/1".into()],
-        rows: BANDS_DEG
-            .iter()
-            .enumerate()
-            .map(|(b, band)| {
-                let (s3, s1) = (ideal3.settle_bands_s[b], ideal1.settle_bands_s[b]);
-                vec![sig(*band, 1), cell(s3, 3), cell(s1, 3), s3.zip(s1).map_or("—".into(), |(a, b)| sig(a / b, 2))]
-            })
-            .collect(),
-    });
-    blocks.push(Block::Para(format!(
+/// The ideal response read at tighter bands.
+fn render_bands(fl: &Flights) -> Vec<Block> {
+    let (ideal3, ideal1) = (fl.ideal3(), fl.ideal1());
+    vec![
+        Block::Para(
+            "Ideal response read at tighter bands (true error): the asymptotic decay rates are ζωn = \
+             0.99 /s (test 3) and 0.329 /s (test 1), ratio 0.332."
+                .into(),
+        ),
+        Block::Table {
+            header: vec!["band (deg)".into(), "test 3 (s)".into(), "test 1 (s)".into(), "ratio 3/1".into()],
+            rows: BANDS_DEG
+                .iter()
+                .enumerate()
+                .map(|(b, band)| {
+                    let (s3, s1) = (ideal3.settle_bands_s[b], ideal1.settle_bands_s[b]);
+                    vec![sig(*band, 1), cell(s3, 3), cell(s1, 3), s3.zip(s1).map_or("—".into(), |(a, b)| sig(a / b, 2))]
+                })
+                .collect(),
+        },
+    ]
+}
+
+/// The combinations' paragraph and table.
+fn render_combos(combos: &[Combo]) -> Vec<Block> {
+    let combo_rows: Vec<Vec<String>> = COMBO_FRICTION_NM
+        .iter()
+        .zip(combos)
+        .map(|(tf, c)| {
+            let range = |x: (f64, f64, f64), d: usize| format!("{} ({}–{})", sig(x.1, d), sig(x.0, d), sig(x.2, d));
+            vec![
+                sig(tf * 1e3, 2),
+                sig(dead_zone_deg_s(*tf), 2),
+                range(c.settle_plot_s, 3),
+                range(c.ratio, 2),
+                sig(c.steady3_max_deg, 2),
+                range(c.steady1_deg, 2),
+                if c.all_ok { "yes".into() } else { "no".into() },
+            ]
+        })
+        .collect();
+    let para = Block::Para(format!(
         "All effects together ({}; servo τ {FRICTION_SWEEP_TAU_S} s), gimbal friction swept, seeds {}–{}: \
          mean (min–max) over the seeds. \"meets\": every seed within 10 ± {SETTLE_TOL_S} s, ratio 1/3 ± \
          {RATIO_TOL} and test-1 steady error ≤ {PAPER_STEADY_BOUND_DEG}°.",
@@ -485,35 +560,34 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             .join(", "),
         SEEDS[0],
         SEEDS[SEEDS.len() - 1]
-    )));
-    blocks.push(Block::Table {
-        header: [
-            "gimbal friction (mN m)",
-            "dead zone (deg/s)",
-            "test 3 settle plot (s)",
-            "ratio 3/1",
-            "test 3 steady error, max (deg)",
-            "test 1 steady error (deg)",
-            "meets",
-        ]
-        .iter()
-        .map(|s| (*s).to_owned())
-        .collect(),
-        rows: combo_rows,
-    });
+    ));
+    let header = [
+        "gimbal friction (mN m)",
+        "dead zone (deg/s)",
+        "test 3 settle plot (s)",
+        "ratio 3/1",
+        "test 3 steady error, max (deg)",
+        "test 1 steady error (deg)",
+        "meets",
+    ];
+    vec![para, Block::Table { header: header.iter().map(|s| (*s).to_owned()).collect(), rows: combo_rows }]
+}
+
+/// The combinations against gimbal friction, beside the paper's figures.
+fn figure_combos(ctx: &Context, combos: &[Combo]) -> Result<Block> {
     let fr = columns(&[
         ("friction_mnm", COMBO_FRICTION_NM.iter().map(|x| x * 1e3).collect()),
-        ("settle_mean", combos.iter().map(|c| c.settle.1).collect()),
-        ("settle_min", combos.iter().map(|c| c.settle.0).collect()),
-        ("settle_max", combos.iter().map(|c| c.settle.2).collect()),
+        ("settle_mean", combos.iter().map(|c| c.settle_plot_s.1).collect()),
+        ("settle_min", combos.iter().map(|c| c.settle_plot_s.0).collect()),
+        ("settle_max", combos.iter().map(|c| c.settle_plot_s.2).collect()),
         ("settle_paper", vec![PAPER_SETTLE_S; COMBO_FRICTION_NM.len()]),
         ("ratio_mean", combos.iter().map(|c| c.ratio.1).collect()),
         ("ratio_paper", vec![PAPER_RATIO; COMBO_FRICTION_NM.len()]),
-        ("steady1_max", combos.iter().map(|c| c.steady1.2).collect()),
+        ("steady1_max", combos.iter().map(|c| c.steady1_deg.2).collect()),
         ("steady_bound", vec![PAPER_STEADY_BOUND_DEG; COMBO_FRICTION_NM.len()]),
     ]);
     let sd = |c: &str, l: &str, dashed: bool| Series { column: c.into(), label: l.into(), dashed };
-    blocks.push(ctx.figure(
+    ctx.figure(
         &fr,
         Figure {
             file_name: "p000_rig_combination.png".into(),
@@ -548,9 +622,13 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         },
         "With every other effect present, the gimbal friction alone moves test 3 from its ideal timing to \
          the paper's ~10 s and the ratio to ~1/3; dashed: the paper's figures.",
-    )?);
+    )
+}
 
-    // Yaw vs time, ideal vs all effects (test 1 is longer: test 3 padded with NaN).
+/// Yaw vs time, ideal vs all effects (test 1 is longer: test 3 padded with NaN).
+fn figure_yaw(ctx: &Context, fl: &Flights) -> Result<Block> {
+    let (ideal3, ideal1) = (fl.ideal3(), fl.ideal1());
+    let (a1, b1) = fl.named();
     let t1 = ideal1.t.clone();
     let yaw = columns(&[
         ("t_s", t1),
@@ -560,7 +638,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         ("yaw1_all", b1.yaw_deg.clone()),
     ]);
     let s = |c: &str, l: &str| Series { column: c.into(), label: l.into(), dashed: false };
-    blocks.push(ctx.figure(
+    ctx.figure(
         &yaw,
         Figure {
             file_name: "p000_rig_yaw.png".into(),
@@ -583,13 +661,30 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             ],
         },
         "True yaw of tests 3 and 1, ideal rig vs all effects (seed 1).",
-    )?);
+    )
+}
 
-    let ok_text = match (ok_levels.first(), ok_levels.last()) {
+/// The report's blocks: sweeps, tighter bands, combinations, yaw.
+fn render(ctx: &Context, fl: &Flights, fd: &Findings) -> Result<Vec<Block>> {
+    let mut blocks = render_sweeps(ctx, fl)?;
+    blocks.extend(render_bands(fl));
+    blocks.extend(render_combos(&fd.combos));
+    blocks.push(figure_combos(ctx, &fd.combos)?);
+    blocks.push(figure_yaw(ctx, fl)?);
+    Ok(blocks)
+}
+
+/// The conclusion paragraph.
+fn conclusion(fl: &Flights, fd: &Findings) -> String {
+    let (ideal3, ideal1) = (fl.ideal3(), fl.ideal1());
+    let (a1, b1) = fl.named();
+    let named = &fd.combos[NAMED_FRICTION];
+    let tf_named = COMBO_FRICTION_NM[NAMED_FRICTION];
+    let ok_text = match (fd.ok_friction_nm.first(), fd.ok_friction_nm.last()) {
         (Some(lo), Some(hi)) => format!("{}–{} mN m", sig(lo * 1e3, 2), sig(hi * 1e3, 2)),
         _ => "no level".into(),
     };
-    let conclusion = format!(
+    format!(
         "Ideal: test 3 settles in {} s, test 1 in {} s, ratio {} (both within a few per cent of the \
          linear ζ/ωn response; test 3 a little slower because its initial torque demand exceeds the \
          cluster's). One at a time, sensor latency ≤ 0.3 s, servo lag ≤ 0.2 s, air-bearing viscous \
@@ -609,20 +704,20 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         sig(opt(ideal3.settle_true_s), 3),
         sig(opt(ideal1.settle_true_s), 3),
         sig(opt(ratio(ideal3, ideal1)), 2),
-        cell(sweep(2, 2, 0).settle_plot_s, 2),
-        cell(sweep(2, 3, 0).settle_plot_s, 2),
+        cell(fl.sweep(2, 2, 0).settle_plot_s, 2),
+        cell(fl.sweep(2, 3, 0).settle_plot_s, 2),
         sig(tf_named * 1e3, 2),
         sig(dead_zone_deg_s(tf_named), 3),
         sig(opt(a1.settle_plot_s), 3),
-        sig(named.settle.0, 3),
-        sig(named.settle.2, 3),
+        sig(named.settle_plot_s.0, 3),
+        sig(named.settle_plot_s.2, 3),
         sig(opt(b1.settle_plot_s), 3),
         sig(opt(ratio(a1, b1)), 2),
         sig(named.ratio.0, 2),
         sig(named.ratio.2, 2),
         sig(a1.steady_error_deg, 2),
         sig(b1.steady_error_deg, 2),
-        sig(named.steady1.2, 2),
+        sig(named.steady1_deg.2, 2),
         if named.all_ok {
             "Every seed meets them within the stated tolerances, so this named combination reproduces \
              the paper; without the gimbal friction the same effects leave test 3 at its ideal timing."
@@ -630,9 +725,15 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             "Not every seed meets them within the stated tolerances, so the combination is not claimed \
              to reproduce the paper."
         }
-    );
-    // "Never settled" is a missing finding (the tables say "never").
-    f.retain(|_, v| v.is_finite());
+    )
+}
+
+pub fn run(ctx: &Context) -> Result<Experiment> {
+    let flights = fly(ctx)?;
+    let findings = analyse(&flights);
+    let blocks = render(ctx, &flights, &findings)?;
+    let conclusion = conclusion(&flights, &findings);
+    let explains = if findings.combos[NAMED_FRICTION].all_ok { Explains::Yes } else { Explains::No };
     Ok(Experiment {
         id: "p000-rig-effects",
         paper: "000",
@@ -641,11 +742,11 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             "The rig's test 3 took about 10 s, about a third of test 1, with a small steady error; our \
              ideal run settles in {} s (test 1: {} s). Which of the rig effects the paper names bring \
              ours to the paper's figures?",
-            sig(opt(ideal3.settle_true_s), 3),
-            sig(opt(ideal1.settle_true_s), 3)
+            sig(opt(flights.ideal3().settle_true_s), 3),
+            sig(opt(flights.ideal1().settle_true_s), 3)
         ),
         blocks,
-        findings: f,
+        findings: findings.map,
         conclusion,
         explains,
     })

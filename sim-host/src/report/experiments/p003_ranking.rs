@@ -254,11 +254,28 @@ pub fn pd_yaw_rad(edge_am2: f64, kp_z: f64, b_t: [f64; 3]) -> f64 {
     edge_am2 * b2 / (kp_z * b_t[0])
 }
 
-pub fn run(ctx: &Context) -> Result<Experiment> {
-    let fs = factors();
+/// Every run (PD and LQR in turn), and where each part of the list starts.
+struct Flights {
+    steady: Vec<Steady>,
+    /// End of the factor sweeps (start of the CM-direction sweep).
+    n_factor: usize,
+    /// End of the direction sweep (start of the combination sweep).
+    n_dir: usize,
+    /// End of the combination sweep (start of the two-unknown grid).
+    n_combo: usize,
+}
+
+impl Flights {
+    fn at(&self, i: usize) -> Result<Steady> {
+        self.steady.get(i).copied().context("missing run")
+    }
+}
+
+/// Flies each factor alone, the CM direction, the combination and the two-unknown grid.
+fn fly(ctx: &Context, fs: &[Factor]) -> Result<Flights> {
     // 1. Each factor alone, both laws.
     let mut runs: Vec<(Law, Rig)> = Vec::new();
-    for f in &fs {
+    for f in fs {
         // Order per level: PD, LQR at +k, then (signed factors) PD, LQR at −k.
         for &k in &LEVELS {
             runs.extend([Law::Pd, Law::Lqr].map(|law| (law, (f.apply)(k))));
@@ -290,63 +307,63 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             }
         }
     }
-    let out = fly_all(ctx, &runs)?;
-    let at = |i: usize| out.get(i).copied().context("missing run");
+    let steady = fly_all(ctx, &runs)?;
+    Ok(Flights { steady, n_factor, n_dir, n_combo })
+}
 
-    // Factor sweeps → table rows and figure columns (x = level).
-    let mut rows = Vec::new();
-    let mut fig_cols: Vec<(String, Vec<f64>)> = vec![("level".into(), LEVELS.to_vec())];
+/// Per factor (by column), per level: steady RMS of PD, LQR at +level and PD, LQR at
+/// −level (NaN for unsigned factors), deg.
+type FactorRms = BTreeMap<&'static str, Vec<[f64; 4]>>;
+
+/// The factor sweeps' RMS errors.
+fn analyse_factors(fl: &Flights, fs: &[Factor]) -> Result<FactorRms> {
     let mut idx = 0usize;
-    let mut factor_rms: BTreeMap<&str, Vec<[f64; 4]>> = BTreeMap::new();
-    for f in &fs {
+    let mut factor_rms: FactorRms = BTreeMap::new();
+    for f in fs {
         let mut v = Vec::new();
         for &k in &LEVELS {
-            let (pd, lqr) = (at(idx)?, at(idx + 1)?);
+            let (pd, lqr) = (fl.at(idx)?, fl.at(idx + 1)?);
             idx += 2;
             let (mut npd, mut nlqr) = (f64::NAN, f64::NAN);
             if f.signed && k > 0.0 {
-                npd = at(idx)?.rms_deg;
-                nlqr = at(idx + 1)?.rms_deg;
+                npd = fl.at(idx)?.rms_deg;
+                nlqr = fl.at(idx + 1)?.rms_deg;
                 idx += 2;
             } else if f.signed {
                 (npd, nlqr) = (pd.rms_deg, lqr.rms_deg);
             }
             v.push([pd.rms_deg, lqr.rms_deg, npd, nlqr]);
-            rows.push(vec![
-                f.title.to_owned(),
-                format!("{} × {}", sig(k, 2), f.reference),
-                sig(pd.rms_deg, 3),
-                sig(lqr.rms_deg, 3),
-                if f.signed { sig(npd, 3) } else { String::new() },
-                if f.signed { sig(nlqr, 3) } else { String::new() },
-            ]);
-        }
-        fig_cols.push((format!("{}_pd", f.column), v.iter().map(|r| r[0]).collect()));
-        fig_cols.push((format!("{}_lqr", f.column), v.iter().map(|r| r[1]).collect()));
-        if f.signed {
-            fig_cols.push((format!("{}_pd_neg", f.column), v.iter().map(|r| r[2]).collect()));
-            fig_cols.push((format!("{}_lqr_neg", f.column), v.iter().map(|r| r[3]).collect()));
         }
         factor_rms.insert(f.column, v);
     }
-    debug_assert_eq!(idx, n_factor);
-    let fr = |c: &str, level: usize, col: usize| -> Result<f64> {
-        factor_rms.get(c).and_then(|v| v.get(level)).and_then(|r| r.get(col)).copied().context("factor")
-    };
+    debug_assert_eq!(idx, fl.n_factor);
+    Ok(factor_rms)
+}
 
-    // Direction sweep.
-    let mut dir_pd = Vec::new();
-    let mut dir_lqr = Vec::new();
-    for i in 0..DIRS_DEG.len() {
-        dir_pd.push(at(n_factor + 2 * i)?.rms_deg);
-        dir_lqr.push(at(n_factor + 2 * i + 1)?.rms_deg);
-    }
-    // Combination sweep.
+/// The combination sweep (reference noise + platform dipole) and where it crosses.
+struct Combo {
+    pd_rms_deg: Vec<f64>,
+    lqr_rms_deg: Vec<f64>,
+    pd_yaw_mean_deg: Vec<f64>,
+    /// Index of the zero dipole in [`COMBO_DIPOLES_AM2`].
+    zero: usize,
+    /// Dipoles beyond which the LQR wins.
+    flip_dipole_am2_pos: f64,
+    flip_dipole_am2_neg: f64,
+    /// Dipoles at which the PD reaches the paper's RMS.
+    pd_match_dipole_am2_pos: f64,
+    pd_match_dipole_am2_neg: f64,
+    /// The LQR's RMS at those dipoles (linear interpolation), deg.
+    lqr_rms_deg_at_pd_match_pos: f64,
+    lqr_rms_deg_at_pd_match_neg: f64,
+}
+
+fn analyse_combo(fl: &Flights) -> Result<Combo> {
     let mut combo_pd = Vec::new();
     let mut combo_lqr = Vec::new();
     let mut combo_pd_yaw = Vec::new();
     for i in 0..COMBO_DIPOLES_AM2.len() {
-        let (p, l) = (at(n_dir + 2 * i)?, at(n_dir + 2 * i + 1)?);
+        let (p, l) = (fl.at(fl.n_dir + 2 * i)?, fl.at(fl.n_dir + 2 * i + 1)?);
         combo_pd.push(p.rms_deg);
         combo_lqr.push(l.rms_deg);
         combo_pd_yaw.push(p.yaw_mean_deg);
@@ -368,91 +385,225 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
     };
     let lqr_at_pd_match_pos = interp(pd_match_pos, &combo_lqr);
     let lqr_at_pd_match_neg = interp(pd_match_neg, &combo_lqr);
+    Ok(Combo {
+        pd_rms_deg: combo_pd,
+        lqr_rms_deg: combo_lqr,
+        pd_yaw_mean_deg: combo_pd_yaw,
+        zero,
+        flip_dipole_am2_pos: flip_pos,
+        flip_dipole_am2_neg: flip_neg,
+        pd_match_dipole_am2_pos: pd_match_pos,
+        pd_match_dipole_am2_neg: pd_match_neg,
+        lqr_rms_deg_at_pd_match_pos: lqr_at_pd_match_pos,
+        lqr_rms_deg_at_pd_match_neg: lqr_at_pd_match_neg,
+    })
+}
 
-    // Two-unknown grid (+ the combination sweep at 0°): closest to both published figures.
-    let mut cands: Vec<(f64, f64, f64, f64)> = Vec::new(); // (dir, m, pd, lqr)
+/// A candidate of the two-unknown grid: (CM direction deg, dipole A m², PD RMS deg, LQR RMS deg).
+type Candidate = (f64, f64, f64, f64);
+
+/// Largest relative miss of a candidate against the two published figures.
+fn miss(c: &Candidate) -> f64 {
+    ((c.2 / PAPER_RMS_PD_DEG - 1.0).abs()).max((c.3 / PAPER_RMS_LQR_DEG - 1.0).abs())
+}
+
+/// The two-unknown grid (with the combination sweep at 0°).
+struct GridBest {
+    /// Closest candidate to both published figures.
+    best: Candidate,
+    both_within_tol: bool,
+    /// Candidates with |m_y| ∈ {3, 4} A m², and those of them where the LQR wins.
+    n_strong: usize,
+    n_strong_flipped: usize,
+}
+
+fn analyse_grid(fl: &Flights, combo: &Combo) -> Result<GridBest> {
+    let mut cands: Vec<Candidate> = Vec::new();
     for (i, &m) in COMBO_DIPOLES_AM2.iter().enumerate() {
-        cands.push((0.0, m, combo_pd[i], combo_lqr[i]));
+        cands.push((0.0, m, combo.pd_rms_deg[i], combo.lqr_rms_deg[i]));
     }
-    let mut g = n_combo;
+    let mut g = fl.n_combo;
     for &d in &GRID_DIRS_DEG {
         for &m in &GRID_DIPOLES_AM2 {
-            cands.push((d, m, at(g)?.rms_deg, at(g + 1)?.rms_deg));
+            cands.push((d, m, fl.at(g)?.rms_deg, fl.at(g + 1)?.rms_deg));
             g += 2;
         }
     }
-    let miss =
-        |c: &(f64, f64, f64, f64)| ((c.2 / PAPER_RMS_PD_DEG - 1.0).abs()).max((c.3 / PAPER_RMS_LQR_DEG - 1.0).abs());
     let best = cands.iter().min_by(|a, b| miss(a).total_cmp(&miss(b))).copied().context("empty grid")?;
     let both_within_tol = miss(&best) <= MATCH_TOL;
     // |m_y| ∈ {3, 4} A m² at each of the eight directions.
-    let strong = |c: &&(f64, f64, f64, f64)| c.1.abs() >= 3.0 && c.1.fract() == 0.0;
-    let n_flipped_grid = cands.iter().filter(strong).filter(|c| c.3 < c.2).count();
-    let n_grid_3 = cands.iter().filter(strong).count();
+    let strong = |c: &&Candidate| c.1.abs() >= 3.0 && c.1.fract() == 0.0;
+    let n_strong_flipped = cands.iter().filter(strong).filter(|c| c.3 < c.2).count();
+    let n_strong = cands.iter().filter(strong).count();
+    Ok(GridBest { best, both_within_tol, n_strong, n_strong_flipped })
+}
 
-    // Closed forms for the PD (the shipped rig's lab field and kp_z).
+/// The shipped PD's lab field and yaw gain, for the closed forms.
+struct PdRig {
+    lab_field_t: [f64; 3],
+    kp_z: f64,
+}
+
+fn pd_rig(ctx: &Context) -> Result<PdRig> {
     let base = variant(ctx, Law::Pd, &PAPER_RIG)?;
     let b_lab = base.environment.lab_field_t.context("rig without lab_field_t")?;
     let kp_z = match &base.controller {
         Some(Controller::EulerPd { kp_nm, .. }) => kp_nm[2],
         _ => bail!("rig-pd.toml is not an Euler PD"),
     };
-    let stall_lo_deg = pd_yaw_rad(-DEADBAND_AM2[0], kp_z, b_lab).to_degrees();
-    let dipole_for_paper_pd_am2 = PAPER_RMS_PD_DEG.to_radians() / pd_yaw_rad(1.0, kp_z, b_lab);
+    Ok(PdRig { lab_field_t: b_lab, kp_z })
+}
 
-    let (pd0, lqr0) = (fr("att", 0, 0)?, fr("att", 0, 1)?);
+/// What the runs show.
+struct Findings {
+    factor_rms: FactorRms,
+    dir_pd_rms_deg: Vec<f64>,
+    dir_lqr_rms_deg: Vec<f64>,
+    combo: Combo,
+    grid: GridBest,
+    rig: PdRig,
+    /// Baseline PD yaw mean, deg.
+    pd_yaw_mean_deg_baseline: f64,
+    /// Dipole at which the PD's closed-form offset is the paper's RMS, A m².
+    dipole_for_paper_pd_am2: f64,
+    /// Dead-band scale and CM-offset scale that flip the ranking noise-free.
+    flip_deadband_scale: f64,
+    flip_cm_scale: f64,
+    /// The ranking flips within the combination sweep.
+    flips: bool,
+    /// Smallest |dipole| that flips it, A m².
+    flip_min_am2: f64,
+    /// Horizontal lab field, T.
+    b_h_t: f64,
+}
+
+impl Findings {
+    /// A factor's RMS at a level: col 0 PD, 1 LQR, 2 PD (−), 3 LQR (−).
+    fn fr(&self, c: &str, level: usize, col: usize) -> Result<f64> {
+        self.factor_rms.get(c).and_then(|v| v.get(level)).and_then(|r| r.get(col)).copied().context("factor")
+    }
+}
+
+fn analyse(ctx: &Context, fl: &Flights, fs: &[Factor]) -> Result<Findings> {
+    let factor_rms = analyse_factors(fl, fs)?;
+    // Direction sweep.
+    let mut dir_pd = Vec::new();
+    let mut dir_lqr = Vec::new();
+    for i in 0..DIRS_DEG.len() {
+        dir_pd.push(fl.at(fl.n_factor + 2 * i)?.rms_deg);
+        dir_lqr.push(fl.at(fl.n_factor + 2 * i + 1)?.rms_deg);
+    }
+    let combo = analyse_combo(fl)?;
+    let grid = analyse_grid(fl, &combo)?;
+    // Closed forms for the PD (the shipped rig's lab field and kp_z).
+    let rig = pd_rig(ctx)?;
+    let dipole_for_paper_pd_am2 = PAPER_RMS_PD_DEG.to_radians() / pd_yaw_rad(1.0, rig.kp_z, rig.lab_field_t);
+    let mut fd = Findings {
+        factor_rms,
+        dir_pd_rms_deg: dir_pd,
+        dir_lqr_rms_deg: dir_lqr,
+        flips: combo.flip_dipole_am2_pos.is_finite() || combo.flip_dipole_am2_neg.is_finite(),
+        flip_min_am2: [combo.flip_dipole_am2_pos.abs(), combo.flip_dipole_am2_neg.abs()]
+            .into_iter()
+            .filter(|x| x.is_finite())
+            .fold(f64::NAN, f64::min),
+        b_h_t: rig.lab_field_t[0].hypot(rig.lab_field_t[1]),
+        combo,
+        grid,
+        rig,
+        pd_yaw_mean_deg_baseline: fl.at(0)?.yaw_mean_deg,
+        dipole_for_paper_pd_am2,
+        flip_deadband_scale: f64::NAN,
+        flip_cm_scale: f64::NAN,
+    };
     // Single factors that flip the ranking noise-free (levels outward from the paper's, 1×).
     let diff_of =
-        |c: &str| -> Result<Vec<f64>> { (0..LEVELS.len()).map(|i| Ok(fr(c, i, 0)? - fr(c, i, 1)?)).collect() };
+        |c: &str| -> Result<Vec<f64>> { (0..LEVELS.len()).map(|i| Ok(fd.fr(c, i, 0)? - fd.fr(c, i, 1)?)).collect() };
     let flip_db = crossing(&LEVELS, &diff_of("db")?, 2, 1);
     let flip_cm = crossing(&LEVELS, &diff_of("cm")?, 2, -1);
-    let noisy_pd = combo_pd[zero];
-    let noisy_lqr = combo_lqr[zero];
-    let flips = flip_pos.is_finite() || flip_neg.is_finite();
-    let flip_min = [flip_pos.abs(), flip_neg.abs()].into_iter().filter(|x| x.is_finite()).fold(f64::NAN, f64::min);
-    let b_h = b_lab[0].hypot(b_lab[1]);
+    (fd.flip_deadband_scale, fd.flip_cm_scale) = (flip_db, flip_cm);
+    Ok(fd)
+}
 
+/// The named findings.
+fn named(fd: &Findings) -> Result<BTreeMap<String, f64>> {
+    let (c, g, rig) = (&fd.combo, &fd.grid, &fd.rig);
+    let (kp_z, b_lab) = (rig.kp_z, rig.lab_field_t);
+    let stall_lo_deg = pd_yaw_rad(-DEADBAND_AM2[0], kp_z, b_lab).to_degrees();
     let mut findings = BTreeMap::new();
     let mut put = |k: &str, v: f64| {
         findings.insert(k.to_owned(), v);
     };
-    put("rms_deg_pd_baseline", pd0);
-    put("rms_deg_lqr_baseline", lqr0);
-    put("rms_deg_pd_no_deadband", fr("db", 0, 0)?);
-    put("rms_deg_lqr_no_deadband", fr("db", 0, 1)?);
-    put("rms_deg_pd_deadband_x2", fr("db", 3, 0)?);
-    put("rms_deg_lqr_no_cm_offset", fr("cm", 0, 1)?);
-    put("rms_deg_pd_no_cm_offset", fr("cm", 0, 0)?);
-    put("rms_deg_pd_ref_noise", noisy_pd);
-    put("rms_deg_lqr_ref_noise", noisy_lqr);
-    put("rms_deg_pd_att_noise_1deg", fr("att", 5, 0)?);
-    put("rms_deg_lqr_att_noise_1deg", fr("att", 5, 1)?);
-    put("rms_deg_lqr_delay_1s", fr("delay", 5, 1)?);
-    put("rms_deg_pd_delay_1s", fr("delay", 5, 0)?);
-    put("yaw_deg_pd_baseline_mean", at(0)?.yaw_mean_deg);
+    put("rms_deg_pd_baseline", fd.fr("att", 0, 0)?);
+    put("rms_deg_lqr_baseline", fd.fr("att", 0, 1)?);
+    put("rms_deg_pd_no_deadband", fd.fr("db", 0, 0)?);
+    put("rms_deg_lqr_no_deadband", fd.fr("db", 0, 1)?);
+    put("rms_deg_pd_deadband_x2", fd.fr("db", 3, 0)?);
+    put("rms_deg_lqr_no_cm_offset", fd.fr("cm", 0, 1)?);
+    put("rms_deg_pd_no_cm_offset", fd.fr("cm", 0, 0)?);
+    put("rms_deg_pd_ref_noise", c.pd_rms_deg[c.zero]);
+    put("rms_deg_lqr_ref_noise", c.lqr_rms_deg[c.zero]);
+    put("rms_deg_pd_att_noise_1deg", fd.fr("att", 5, 0)?);
+    put("rms_deg_lqr_att_noise_1deg", fd.fr("att", 5, 1)?);
+    put("rms_deg_lqr_delay_1s", fd.fr("delay", 5, 1)?);
+    put("rms_deg_pd_delay_1s", fd.fr("delay", 5, 0)?);
+    put("yaw_deg_pd_baseline_mean", fd.pd_yaw_mean_deg_baseline);
     put("yaw_deg_pd_stall_closed_form", -stall_lo_deg);
-    put("ranking_flips", if flips { 1.0 } else { 0.0 });
-    put("flip_deadband_scale", flip_db);
-    put("flip_cm_offset_scale", flip_cm);
-    put("flip_dipole_am2_pos", flip_pos);
-    put("flip_dipole_am2_neg", flip_neg);
-    put("flip_yaw_torque_nm", flip_min * b_h);
-    put("pd_match_dipole_am2_pos", pd_match_pos);
-    put("pd_match_dipole_am2_neg", pd_match_neg);
-    put("pd_match_dipole_am2_closed_form", dipole_for_paper_pd_am2);
-    put("rms_deg_lqr_at_pd_match_pos", lqr_at_pd_match_pos);
-    put("rms_deg_lqr_at_pd_match_neg", lqr_at_pd_match_neg);
-    put("rms_deg_pd_best", best.2);
-    put("rms_deg_lqr_best", best.3);
-    put("best_dipole_am2", best.1);
-    put("best_cm_dir_deg", best.0);
-    put("best_rel_miss", miss(&best));
-    put("both_magnitudes_within_tol", if both_within_tol { 1.0 } else { 0.0 });
-    put("grid_flipped_share_dipole_ge_3", n_flipped_grid as f64 / n_grid_3.max(1) as f64);
-    put("yaw_deg_pd_dipole_3_mean", combo_pd_yaw[COMBO_DIPOLES_AM2.iter().position(|&m| m == 3.0).unwrap_or(0)]);
+    put("ranking_flips", if fd.flips { 1.0 } else { 0.0 });
+    put("flip_deadband_scale", fd.flip_deadband_scale);
+    put("flip_cm_offset_scale", fd.flip_cm_scale);
+    put("flip_dipole_am2_pos", c.flip_dipole_am2_pos);
+    put("flip_dipole_am2_neg", c.flip_dipole_am2_neg);
+    put("flip_yaw_torque_nm", fd.flip_min_am2 * fd.b_h_t);
+    put("pd_match_dipole_am2_pos", c.pd_match_dipole_am2_pos);
+    put("pd_match_dipole_am2_neg", c.pd_match_dipole_am2_neg);
+    put("pd_match_dipole_am2_closed_form", fd.dipole_for_paper_pd_am2);
+    put("rms_deg_lqr_at_pd_match_pos", c.lqr_rms_deg_at_pd_match_pos);
+    put("rms_deg_lqr_at_pd_match_neg", c.lqr_rms_deg_at_pd_match_neg);
+    put("rms_deg_pd_best", g.best.2);
+    put("rms_deg_lqr_best", g.best.3);
+    put("best_dipole_am2", g.best.1);
+    put("best_cm_dir_deg", g.best.0);
+    put("best_rel_miss", miss(&g.best));
+    put("both_magnitudes_within_tol", if g.both_within_tol { 1.0 } else { 0.0 });
+    put("grid_flipped_share_dipole_ge_3", g.n_strong_flipped as f64 / g.n_strong.max(1) as f64);
+    put("yaw_deg_pd_dipole_3_mean", c.pd_yaw_mean_deg[COMBO_DIPOLES_AM2.iter().position(|&m| m == 3.0).unwrap_or(0)]);
     put("yaw_deg_pd_dipole_3_closed_form", -pd_yaw_rad(3.0, kp_z, b_lab).to_degrees());
+    Ok(findings)
+}
 
-    // Figures.
+/// The factor sweeps' table rows: factor, level, PD, LQR (and both at −level).
+fn factor_rows(fs: &[Factor], fd: &Findings) -> Result<Vec<Vec<String>>> {
+    let mut rows = Vec::new();
+    for f in fs {
+        let v = fd.factor_rms.get(f.column).context("factor")?;
+        for (&k, r) in LEVELS.iter().zip(v) {
+            let [pd, lqr, npd, nlqr] = *r;
+            rows.push(vec![
+                f.title.to_owned(),
+                format!("{} × {}", sig(k, 2), f.reference),
+                sig(pd, 3),
+                sig(lqr, 3),
+                if f.signed { sig(npd, 3) } else { String::new() },
+                if f.signed { sig(nlqr, 3) } else { String::new() },
+            ]);
+        }
+    }
+    Ok(rows)
+}
+
+/// Steady RMS against each factor's level, one panel per factor.
+fn figure_factors(ctx: &Context, fs: &[Factor], fd: &Findings) -> Result<Block> {
+    let mut fig_cols: Vec<(String, Vec<f64>)> = vec![("level".into(), LEVELS.to_vec())];
+    for f in fs {
+        let v = fd.factor_rms.get(f.column).context("factor")?;
+        fig_cols.push((format!("{}_pd", f.column), v.iter().map(|r| r[0]).collect()));
+        fig_cols.push((format!("{}_lqr", f.column), v.iter().map(|r| r[1]).collect()));
+        if f.signed {
+            fig_cols.push((format!("{}_pd_neg", f.column), v.iter().map(|r| r[2]).collect()));
+            fig_cols.push((format!("{}_lqr_neg", f.column), v.iter().map(|r| r[3]).collect()));
+        }
+    }
     let fig_cols_ref: Vec<(&str, Vec<f64>)> = fig_cols.iter().map(|(n, v)| (n.as_str(), v.clone())).collect();
     let ts = columns(&fig_cols_ref);
     let panels = fs
@@ -477,7 +628,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             }
         })
         .collect();
-    let fig1 = ctx.figure(
+    ctx.figure(
         &ts,
         Figure {
             file_name: "p003_factors.png".into(),
@@ -490,13 +641,18 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          factor alone at 0 … 4 × a plausible reference level (panel titles); signed factors at \
          both signs (dashed: negative). Only a constant yaw disturbance (the platform dipole in the \
          lab field) moves the PD past the LQR.",
-    )?;
+    )
+}
+
+/// The combination sweep against the platform dipole, with the PD's closed form.
+fn figure_combo(ctx: &Context, fd: &Findings) -> Result<Block> {
+    let (kp_z, b_lab) = (fd.rig.kp_z, fd.rig.lab_field_t);
     let n = COMBO_DIPOLES_AM2.len();
     let ts3 =
         columns(&[
             ("m_y", COMBO_DIPOLES_AM2.to_vec()),
-            ("pd", combo_pd.clone()),
-            ("lqr", combo_lqr.clone()),
+            ("pd", fd.combo.pd_rms_deg.clone()),
+            ("lqr", fd.combo.lqr_rms_deg.clone()),
             ("paper_pd", vec![PAPER_RMS_PD_DEG; n]),
             ("paper_lqr", vec![PAPER_RMS_LQR_DEG; n]),
             (
@@ -513,7 +669,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                     .collect(),
             ),
         ]);
-    let fig3 = ctx.figure(
+    ctx.figure(
         &ts3,
         Figure {
             file_name: "p003_combination.png".into(),
@@ -539,9 +695,14 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          torque m_y B_h) drives the PD's error up linearly (closed form: the yaw at which the \
          commanded rod dipole cancels m_y) while the high-gain LQR holds; the ranking flips beyond \
          the crossings.",
-    )?;
-    let ts2 = columns(&[("dir", DIRS_DEG.to_vec()), ("pd", dir_pd.clone()), ("lqr", dir_lqr.clone())]);
-    let fig2 = ctx.figure(
+    )
+}
+
+/// Steady RMS against the direction of the horizontal CM offset.
+fn figure_cm_direction(ctx: &Context, fd: &Findings) -> Result<Block> {
+    let ts2 =
+        columns(&[("dir", DIRS_DEG.to_vec()), ("pd", fd.dir_pd_rms_deg.clone()), ("lqr", fd.dir_lqr_rms_deg.clone())]);
+    ctx.figure(
         &ts2,
         Figure {
             file_name: "p003_cm_direction.png".into(),
@@ -561,8 +722,16 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         "The LQR's steady error is set by the rig's balance: its roll/pitch gains saturate the \
          torquers against the pendulum, and the direction of the residual tilt decides the yaw \
          error left; the PD barely notices.",
-    )?;
+    )
+}
 
+/// The report's blocks: set-up, factor table and figures, combination, grid.
+fn render(ctx: &Context, fs: &[Factor], fd: &Findings) -> Result<Vec<Block>> {
+    let rows = factor_rows(fs, fd)?;
+    let fig1 = figure_factors(ctx, fs, fd)?;
+    let fig3 = figure_combo(ctx, fd)?;
+    let fig2 = figure_cm_direction(ctx, fd)?;
+    let best = fd.grid.best;
     let mut blocks = vec![Block::Para(format!(
         "Both laws fly the shipped scenarios `paper003/rig-pd.toml` and `rig-lqr.toml` (1200 s, \
          10 Hz) with one factor changed at a time; the metric is the RMS of the attitude error \
@@ -577,7 +746,9 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
     });
     blocks.push(fig1);
     blocks.push(fig2);
-    let combo_rows: Vec<Vec<f64>> = (0..n).map(|i| vec![COMBO_DIPOLES_AM2[i], combo_pd[i], combo_lqr[i]]).collect();
+    let (combo_pd, combo_lqr) = (&fd.combo.pd_rms_deg, &fd.combo.lqr_rms_deg);
+    let combo_rows: Vec<Vec<f64>> =
+        (0..COMBO_DIPOLES_AM2.len()).map(|i| vec![COMBO_DIPOLES_AM2[i], combo_pd[i], combo_lqr[i]]).collect();
     blocks.push(Block::Para(
         "Combination: the reference sensor noise plus a platform dipole m_y across the lab field:".into(),
     ));
@@ -595,8 +766,14 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         sig(miss(&best), 2),
         sig(MATCH_TOL, 2),
     )));
+    Ok(blocks)
+}
 
-    let conclusion = format!(
+/// The conclusion paragraph.
+fn conclusion(fd: &Findings) -> Result<String> {
+    let (c, best, both_within_tol) = (&fd.combo, fd.grid.best, fd.grid.both_within_tol);
+    let (kp_z, b_lab) = (fd.rig.kp_z, fd.rig.lab_field_t);
+    Ok(format!(
         "One named effect accounts for the ranking and the PD's magnitude: a constant yaw \
          disturbance torque, here a platform dipole across the 47 µT lab field (torquer-core \
          remanence, batteries, steel; equally any parasitic torque of the bearing or the air). \
@@ -616,20 +793,20 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          The flip is not robust to the balance: over the eight CM directions with |m_y| ≥ 3 A m² \
          the LQR wins in {share} % of the cases.",
         per_am2 = sig(pd_yaw_rad(1.0, kp_z, b_lab).to_degrees(), 3),
-        fp = sig(flip_pos, 2),
-        fn = sig(flip_neg, 2),
-        ft = sig(flip_min * b_h, 2),
-        pm = sig(pd_match_pos.abs().min(pd_match_neg.abs()), 2),
-        pmc = sig(dipole_for_paper_pd_am2, 3),
-        tq = sig(dipole_for_paper_pd_am2 * b_lab[0], 2),
-        pdn = sig(noisy_pd, 3),
-        pd0 = sig(pd0, 3),
-        dbf = sig(flip_db, 2),
-        cmf = sig(flip_cm, 2),
-        lqr_bal = sig(fr("cm", 0, 1)?, 2),
-        lp = sig(lqr_at_pd_match_pos, 3),
-        ln = sig(lqr_at_pd_match_neg, 3),
-        share = sig(100.0 * n_flipped_grid as f64 / n_grid_3.max(1) as f64, 2),
+        fp = sig(c.flip_dipole_am2_pos, 2),
+        fn = sig(c.flip_dipole_am2_neg, 2),
+        ft = sig(fd.flip_min_am2 * fd.b_h_t, 2),
+        pm = sig(c.pd_match_dipole_am2_pos.abs().min(c.pd_match_dipole_am2_neg.abs()), 2),
+        pmc = sig(fd.dipole_for_paper_pd_am2, 3),
+        tq = sig(fd.dipole_for_paper_pd_am2 * b_lab[0], 2),
+        pdn = sig(c.pd_rms_deg[c.zero], 3),
+        pd0 = sig(fd.fr("att", 0, 0)?, 3),
+        dbf = sig(fd.flip_deadband_scale, 2),
+        cmf = sig(fd.flip_cm_scale, 2),
+        lqr_bal = sig(fd.fr("cm", 0, 1)?, 2),
+        lp = sig(c.lqr_rms_deg_at_pd_match_pos, 3),
+        ln = sig(c.lqr_rms_deg_at_pd_match_neg, 3),
+        share = sig(100.0 * fd.grid.n_strong_flipped as f64 / fd.grid.n_strong.max(1) as f64, 2),
         both = if both_within_tol {
             format!(
                 "both magnitudes are matched within {} % (PD {}°, LQR {}°, m_y = {} A m²) only by also \
@@ -651,7 +828,16 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                 sig(best.3, 3)
             )
         },
-    );
+    ))
+}
+
+pub fn run(ctx: &Context) -> Result<Experiment> {
+    let fs = factors();
+    let flights = fly(ctx, &fs)?;
+    let fd = analyse(ctx, &flights, &fs)?;
+    let blocks = render(ctx, &fs, &fd)?;
+    let conclusion = conclusion(&fd)?;
+    let (pd0, lqr0) = (fd.fr("att", 0, 0)?, fd.fr("att", 0, 1)?);
     Ok(Experiment {
         id: "p003-ranking",
         paper: "003",
@@ -664,8 +850,8 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
             sig(lqr0, 3)
         ),
         blocks,
-        findings,
+        findings: named(&fd)?,
         conclusion,
-        explains: if flips && both_within_tol { Explains::Yes } else { Explains::No },
+        explains: if fd.flips && fd.grid.both_within_tol { Explains::Yes } else { Explains::No },
     })
 }

@@ -7,11 +7,12 @@
 //! the boundary of Z: a half-space of demands with no authority), and flies a losing and
 //! a surviving pair with the direction-preserving allocator.
 
-use crate::analysis::thrusters::{failure_table, max_along};
+use crate::analysis::thrusters::{FailureCase, FailureTable, failure_table, max_along};
 use crate::report::experiment::{Block, Context, Experiment, Explains, columns, fly_recorded, par_map, sig};
 use anyhow::{Context as _, Result};
 use sim_core::recorder::plots::{Figure, Panel, Series};
-use sim_core::scenario::ThrusterFailureSpec;
+use sim_core::runner::RunResult;
+use sim_core::scenario::{Scenario, ThrusterFailureSpec};
 use std::collections::BTreeMap;
 
 /// Rays per cross-section (every 0.5°): enough for the drawn polygon; the radius along
@@ -75,24 +76,54 @@ fn key(f: &[usize]) -> String {
     }
 }
 
-pub fn run(ctx: &Context) -> Result<Experiment> {
-    let nominal = ctx.scenario("paper004/dp-nominal.toml")?;
-    let b = nominal.thruster_set().context("p004-failures: dp-nominal has no thrusters")?.torque_matrix();
-    let n = b.len();
-    let thrust_n = nominal.actuators.thrusters.as_ref().map_or(f64::NAN, |t| t.thrust_n);
-    let table = failure_table(&b, &vec![1.0; n], 3);
-    let count = |k: usize| table.cases.iter().filter(|c| c.failed.len() == k).count();
-    let lost = |k: usize| table.lost.iter().filter(|c| c.len() == k).count();
-    let case = |f: &[usize]| table.cases.iter().find(|c| c.failed == f);
-    let auth = |f: &[usize]| case(f).map_or(f64::NAN, |c| c.min_authority_nm);
-    let pairs = losing_pairs(&b);
-    let lost_137 = case(&[1, 3, 7]).is_some_and(|c| !c.three_axis);
+/// The failure analysis of table 2's B: every set of up to three failed thrusters.
+struct Geometry {
+    /// Torque per thruster at full thrust, N m (columns of B).
+    b: Vec<[f64; 3]>,
+    thrust_n: f64,
+    table: FailureTable,
+    /// Failed pairs (1-based) that lose three-axis authority.
+    losing_pairs: Vec<(usize, usize)>,
+}
 
-    // Closed loop: the shipped nominal and {1,4} runs, and {1,3} and {1,3,7} as variants
-    // of the {1,4} scenario (the same craft, law, allocator and manoeuvre).
-    let sets: Vec<Vec<usize>> = vec![vec![], vec![1, 4], vec![1, 3], vec![1, 3, 7]];
+impl Geometry {
+    fn of(nominal: &Scenario) -> Result<Self> {
+        let b = nominal.thruster_set().context("p004-failures: dp-nominal has no thrusters")?.torque_matrix();
+        let thrust_n = nominal.actuators.thrusters.as_ref().map_or(f64::NAN, |t| t.thrust_n);
+        let table = failure_table(&b, &vec![1.0; b.len()], 3);
+        let losing_pairs = losing_pairs(&b);
+        Ok(Self { b, thrust_n, table, losing_pairs })
+    }
+    /// Failure sets of `k` thrusters, and those of them that lose three-axis authority.
+    fn count(&self, k: usize) -> usize {
+        self.table.cases.iter().filter(|c| c.failed.len() == k).count()
+    }
+    fn lost(&self, k: usize) -> usize {
+        self.table.lost.iter().filter(|c| c.len() == k).count()
+    }
+    fn case(&self, f: &[usize]) -> Option<&FailureCase> {
+        self.table.cases.iter().find(|c| c.failed == f)
+    }
+    /// Minimum authority with `f` failed, N m.
+    fn auth(&self, f: &[usize]) -> f64 {
+        self.case(f).map_or(f64::NAN, |c| c.min_authority_nm)
+    }
+    fn lost_137(&self) -> bool {
+        self.case(&[1, 3, 7]).is_some_and(|c| !c.three_axis)
+    }
+}
+
+/// The failure sets flown in closed loop.
+fn flown_sets() -> Vec<Vec<usize>> {
+    vec![vec![], vec![1, 4], vec![1, 3], vec![1, 3, 7]]
+}
+
+/// Closed loop: the shipped nominal and {1,4} runs, and {1,3} and {1,3,7} as variants
+/// of the {1,4} scenario (the same craft, law, allocator and manoeuvre); in
+/// [`flown_sets`] order.
+fn fly(ctx: &Context, nominal: &Scenario) -> Result<Vec<RunResult>> {
     let mut scs = Vec::new();
-    for f in &sets {
+    for f in &flown_sets() {
         let mut sc = if f.is_empty() { nominal.clone() } else { ctx.scenario("paper004/dp-fail-1-4.toml")? };
         if let Some(t) = sc.actuators.thrusters.as_mut() {
             t.failures = f
@@ -103,35 +134,41 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         sc.timing.output_every = 10;
         scs.push(sc);
     }
-    let runs: Vec<_> = par_map(ctx.jobs, &scs, fly_recorded).into_iter().collect::<Result<_>>()?;
+    par_map(ctx.jobs, &scs, fly_recorded).into_iter().collect()
+}
 
+fn analyse(g: &Geometry, runs: &[RunResult]) -> BTreeMap<String, f64> {
     let mut findings = BTreeMap::new();
-    findings.insert("double_failures_losing".to_owned(), lost(2) as f64);
-    findings.insert("double_failures_total".to_owned(), count(2) as f64);
-    findings.insert("single_failures_losing".to_owned(), lost(1) as f64);
-    findings.insert("triple_failures_losing".to_owned(), lost(3) as f64);
-    findings.insert("triple_failures_total".to_owned(), count(3) as f64);
-    findings.insert("fail_1_3_7_lost".to_owned(), if lost_137 { 1.0 } else { 0.0 });
-    findings.insert("min_authority_nominal_nm".to_owned(), table.nominal.min_authority_nm);
-    findings.insert("min_authority_1_4_nm".to_owned(), auth(&[1, 4]));
-    findings.insert("min_authority_1_4_nm_per_n".to_owned(), auth(&[1, 4]) / thrust_n);
-    findings.insert("min_authority_1_3_nm".to_owned(), auth(&[1, 3]));
-    let surv2 = table.cases.iter().filter(|c| c.failed.len() == 2 && c.three_axis);
+    findings.insert("double_failures_losing".to_owned(), g.lost(2) as f64);
+    findings.insert("double_failures_total".to_owned(), g.count(2) as f64);
+    findings.insert("single_failures_losing".to_owned(), g.lost(1) as f64);
+    findings.insert("triple_failures_losing".to_owned(), g.lost(3) as f64);
+    findings.insert("triple_failures_total".to_owned(), g.count(3) as f64);
+    findings.insert("fail_1_3_7_lost".to_owned(), if g.lost_137() { 1.0 } else { 0.0 });
+    findings.insert("min_authority_nominal_nm".to_owned(), g.table.nominal.min_authority_nm);
+    findings.insert("min_authority_1_4_nm".to_owned(), g.auth(&[1, 4]));
+    findings.insert("min_authority_1_4_nm_per_n".to_owned(), g.auth(&[1, 4]) / g.thrust_n);
+    findings.insert("min_authority_1_3_nm".to_owned(), g.auth(&[1, 3]));
+    let surv2 = g.table.cases.iter().filter(|c| c.failed.len() == 2 && c.three_axis);
     findings.insert(
         "min_authority_surviving_pair_nm".to_owned(),
         surv2.map(|c| c.min_authority_nm).fold(f64::INFINITY, f64::min),
     );
-    for (f, r) in sets.iter().zip(&runs) {
+    for (f, r) in flown_sets().iter().zip(runs) {
         findings.insert(format!("final_error_deg_{}", key(f)), r.summary.final_error_deg);
     }
+    findings
+}
 
-    // Figure 1: cross-sections, every polygon in its own block of rows (NaN elsewhere) so
-    // that one x column serves them all; the plotter draws each in row order.
+/// Figure 1: cross-sections, every polygon in its own block of rows (NaN elsewhere) so
+/// that one x column serves them all; the plotter draws each in row order.
+fn figure_sections(ctx: &Context, g: &Geometry) -> Result<Block> {
+    let n = g.b.len();
     let shown: Vec<Vec<usize>> = vec![vec![], vec![1, 4], vec![1, 3], vec![1, 7]];
     let (mut xs, mut ys): (Vec<f64>, Vec<Vec<f64>>) = (Vec::new(), vec![Vec::new(); PLANES.len() * shown.len()]);
     for (p, (_, e1, e2)) in PLANES.iter().enumerate() {
         for (s, f) in shown.iter().enumerate() {
-            let poly = section(&b, &u_max_failed(n, f), *e1, *e2, RAYS);
+            let poly = section(&g.b, &u_max_failed(n, f), *e1, *e2, RAYS);
             let col = p * shown.len() + s;
             for (x, y) in poly {
                 xs.push(x);
@@ -162,13 +199,13 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                 .map(|f| Series {
                     column: format!("p{p}_{}", key(f)),
                     label: set_name(f),
-                    dashed: !f.is_empty() && case(f).is_some_and(|c| !c.three_axis),
+                    dashed: !f.is_empty() && g.case(f).is_some_and(|c| !c.three_axis),
                 })
                 .collect(),
             log_y: false,
         })
         .collect();
-    let fig1 = ctx.figure(
+    ctx.figure(
         &ts,
         Figure {
             file_name: "p004-failures-sections.png".into(),
@@ -182,17 +219,20 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          thrusters {1,4} failed (survives) and the losing pairs {1,3} and {1,7} (dashed). For a losing pair the \
          origin lies on the section's boundary: the moments on the other side of it (about +x+z for {1,3}, \
          +y+z for {1,7}) cannot be produced at all.",
-    )?;
+    )
+}
 
-    // Figure 2: closed-loop error.
+/// Figure 2: closed-loop error.
+fn figure_closed_loop(ctx: &Context, runs: &[RunResult]) -> Result<Block> {
+    let sets = flown_sets();
     let t = runs[0].series.col("t_s").context("t_s")?.to_vec();
     let mut owned: Vec<(String, Vec<f64>)> = vec![("t_s".into(), t)];
-    for (f, r) in sets.iter().zip(&runs) {
+    for (f, r) in sets.iter().zip(runs) {
         owned.push((format!("err_{}", key(f)), r.series.col("error_deg").context("error_deg")?.to_vec()));
     }
     let cols: Vec<(&str, Vec<f64>)> = owned.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
     let ts2 = columns(&cols);
-    let fig2 = ctx.figure(
+    ctx.figure(
         &ts2,
         Figure {
             file_name: "p004-failures-closed-loop.png".into(),
@@ -212,12 +252,19 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
         },
         "Attitude error of the paper's manoeuvre with the direction-preserving LP allocator and PWPF, intact and \
          with thrusters {1,4}, {1,3} and {1,3,7} failed (known to the flight code).",
-    )?;
+    )
+}
 
-    let pair_list = pairs.iter().map(|(i, j)| format!("{{{i},{j}}}")).collect::<Vec<_>>().join(" ");
+/// The losing pairs as `{i,j} {k,l} …`.
+fn pair_list(g: &Geometry) -> String {
+    g.losing_pairs.iter().map(|(i, j)| format!("{{{i},{j}}}")).collect::<Vec<_>>().join(" ")
+}
+
+/// The claims table: each claim, ours, the verdict.
+fn claims_table(g: &Geometry, findings: &BTreeMap<String, f64>) -> Block {
     let verdict = |ok: bool| if ok { "reproduced" } else { "differs" };
-    let tolerates_all = lost(2) == 0;
-    let claims = Block::Table {
+    let (lost, count, auth, thrust_n) = (|k| g.lost(k), |k| g.count(k), |f: &[usize]| g.auth(f), g.thrust_n);
+    Block::Table {
         header: vec!["paper's claim".into(), "ours".into(), "verdict".into()],
         rows: vec![
             vec![
@@ -226,13 +273,13 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                     "{} of {} pairs lose it: {}; the weakest surviving pair keeps {} N m ({{1,4}}: {} N m = {} m × {} N)",
                     lost(2),
                     count(2),
-                    pair_list,
+                    pair_list(g),
                     sig(findings["min_authority_surviving_pair_nm"], 3),
                     sig(auth(&[1, 4]), 3),
                     sig(auth(&[1, 4]) / thrust_n, 3),
                     sig(thrust_n, 3)
                 ),
-                verdict(tolerates_all).into(),
+                verdict(lost(2) == 0).into(),
             ],
             vec![
                 "control is lost with thrusters 1, 3 and 7 failed".into(),
@@ -243,7 +290,7 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                     count(3),
                     sig(findings["final_error_deg_fail_1_3_7"], 3)
                 ),
-                verdict(lost_137).into(),
+                verdict(g.lost_137()).into(),
             ],
             vec![
                 "(closed loop) {1,4} converges, a losing pair does not".into(),
@@ -256,9 +303,13 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                 "—".into(),
             ],
         ],
-    };
+    }
+}
 
-    let conclusion = format!(
+/// The conclusion paragraph.
+fn conclusion(g: &Geometry, findings: &BTreeMap<String, f64>) -> String {
+    let nominal_nm = g.table.nominal.min_authority_nm;
+    format!(
         "The paper's claim that the layout tolerates every two-thruster failure does not follow from its own \
          table 2: with thrusters {} failed the remaining torque columns all lie in a closed half-space (they do \
          not positively span R³), so the attainable set has the origin on its boundary and a whole half-space of \
@@ -267,14 +318,25 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
          loss of control with {{1,3,7}} out is reproduced, and follows from the losing pairs it contains. No \
          named effect restores the pairs: the loss is a property of B (the thrust level only scales Z). \
          Explained: the published claim cannot come from the stated B.",
-        pair_list,
+        pair_list(g),
         sig(findings["final_error_deg_fail_1_3"], 3),
-        sig(auth(&[1, 4]), 3),
-        sig(100.0 * auth(&[1, 4]) / table.nominal.min_authority_nm, 3),
-        sig(table.nominal.min_authority_nm, 3),
+        sig(g.auth(&[1, 4]), 3),
+        sig(100.0 * g.auth(&[1, 4]) / nominal_nm, 3),
+        sig(nominal_nm, 3),
         sig(findings["final_error_deg_fail_1_4"], 2),
-    );
+    )
+}
 
+pub fn run(ctx: &Context) -> Result<Experiment> {
+    let nominal = ctx.scenario("paper004/dp-nominal.toml")?;
+    let geometry = Geometry::of(&nominal)?;
+    let runs = fly(ctx, &nominal)?;
+    let findings = analyse(&geometry, &runs);
+    let fig1 = figure_sections(ctx, &geometry)?;
+    let fig2 = figure_closed_loop(ctx, &runs)?;
+    let claims = claims_table(&geometry, &findings);
+    let conclusion = conclusion(&geometry, &findings);
+    let tolerates_all = geometry.lost(2) == 0;
     Ok(Experiment {
         id: "p004-failures",
         paper: "004",
@@ -289,8 +351,8 @@ pub fn run(ctx: &Context) -> Result<Experiment> {
                 "Attainable moments `Z = {{B u : 0 <= u <= 1}}` with B of table 2 at {} N per thruster \
                  (`sim-host analyze thrusters scenarios/paper004/dp-nominal.toml`): intact minimum authority {} N m; \
                  a failure set loses three-axis control when the origin leaves the interior of Z.",
-                sig(thrust_n, 3),
-                sig(table.nominal.min_authority_nm, 3)
+                sig(geometry.thrust_n, 3),
+                sig(geometry.table.nominal.min_authority_nm, 3)
             )),
             claims,
             fig1,

@@ -1,5 +1,7 @@
 //! Reference multiplicative EKF (attitude + gyro bias) in f64, written from the literature
-//! independently of the flight filter (`acs_flight::estimation::mekf`), to check it.
+//! independently of the flight filter (`acs_flight::estimation::mekf`), to check it: a
+//! test oracle (sim-host/core/tests/mekf_reference.rs), kept in the test-support crate so
+//! that it is not compiled into the product.
 //!
 //! Crassidis & Junkins, *Optimal Estimation of Dynamic Systems* (2nd ed. 2012), Table 7.1
 //! ("Extended Kalman filter for attitude estimation"), and Markley & Crassidis,

@@ -1,0 +1,112 @@
+//! The telemetry tap: a [`FlightLink`] that wraps another and hands every step reply
+//! (`StepReport`: the command, with the `seq` of the frame it answers, step cost, link
+//! counters) to a hook before the simulation sees it. Tools and the Python package read every step's telemetry (commands, step
+//! cost, link counters) through it; tests also use it to alter a reply (fault injection)
+//! and check what the host makes of it.
+
+use super::{FlightLink, LinkAnomalies, LinkInfo, ModeTable};
+use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
+use acs_flight::params::{EstimationParams, FlightParams};
+use anyhow::Result;
+
+/// A link that calls `hook(&mut reply)` on every step reply of `inner`; every other
+/// message (hello, requests, uploads, link counters) passes through untouched.
+pub struct Tap<L, F> {
+    inner: L,
+    hook: F,
+}
+
+impl<L: FlightLink, F: FnMut(&mut StepReport)> Tap<L, F> {
+    pub fn new(inner: L, hook: F) -> Self {
+        Self { inner, hook }
+    }
+
+    /// The wrapped link, back.
+    pub fn into_inner(self) -> L {
+        self.inner
+    }
+}
+
+impl<L: FlightLink, F: FnMut(&mut StepReport)> FlightLink for Tap<L, F> {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn hello(&mut self) -> Result<LinkInfo> {
+        self.inner.hello()
+    }
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        self.inner.request(msg)
+    }
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        let mut reply = self.inner.step(frame)?;
+        (self.hook)(&mut reply);
+        Ok(reply)
+    }
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        self.inner.upload(params)
+    }
+    fn upload_modes(&mut self, table: &ModeTable) -> Result<u32> {
+        self.inner.upload_modes(table)
+    }
+    fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32> {
+        self.inner.configure_estimation(p)
+    }
+    fn frames_dropped_host(&self) -> u32 {
+        self.inner.frames_dropped_host()
+    }
+    fn anomalies(&self) -> LinkAnomalies {
+        self.inner.anomalies()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A stand-in flight side: answers each frame with its `seq` and counts requests.
+    struct Echo {
+        requests: u32,
+    }
+
+    impl FlightLink for Echo {
+        fn name(&self) -> String {
+            "echo".into()
+        }
+        fn hello(&mut self) -> Result<LinkInfo> {
+            anyhow::bail!("not used")
+        }
+        fn request(&mut self, _msg: &HostMsg) -> Result<FswMsg> {
+            self.requests += 1;
+            Ok(FswMsg::ParamsAccepted { checksum: 7 })
+        }
+        fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+            let mut r = StepReport::default();
+            r.cmd.seq = frame.seq;
+            Ok(r)
+        }
+        fn frames_dropped_host(&self) -> u32 {
+            5
+        }
+    }
+
+    /// The hook sees every step reply, in order; what it changes is what the caller gets;
+    /// everything else passes through.
+    #[test]
+    fn the_hook_sees_and_may_alter_every_step_reply() {
+        let mut seen = Vec::new();
+        let mut tap = Tap::new(Echo { requests: 0 }, |reply: &mut StepReport| {
+            seen.push(reply.cmd.seq);
+            reply.deadline_misses = 10 * reply.cmd.seq;
+        });
+        assert_eq!(tap.name(), "echo");
+        assert_eq!(tap.frames_dropped_host(), 5);
+        assert!(matches!(tap.request(&HostMsg::StartRealTime), Ok(FswMsg::ParamsAccepted { checksum: 7 })));
+        for seq in 1..=3 {
+            let frame = SensorFrame::empty(seq, 0);
+            let reply = tap.step(&frame).unwrap();
+            assert_eq!((reply.cmd.seq, reply.deadline_misses), (seq, 10 * seq));
+        }
+        assert_eq!(tap.into_inner().requests, 1);
+        assert_eq!(seen, [1, 2, 3]);
+    }
+}

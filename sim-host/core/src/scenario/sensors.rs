@@ -1,0 +1,175 @@
+//! Validation of the `[sensors]` table: the shortcut noises and latency, every sensor's
+//! sample rate, then one validator per sensor table (gyro, magnetometer, coarse sun
+//! sensors, GNSS receiver, star tracker), in that order (the first error is reported).
+
+use super::{Scenario, bad, finite, non_negative, positive};
+use crate::sensors::config::{
+    CssSpecToml, GnssSpecToml, GyroSensorSpec, MagnetometerSensorSpec, Sensors, StarTrackerSpec,
+};
+use anyhow::Result;
+
+impl Scenario {
+    /// `[sensors]`.
+    pub(super) fn validate_sensors(&self) -> Result<()> {
+        let s = &self.sensors;
+        validate_shortcuts(s)?;
+        validate_rates(s)?;
+        if let Some(g) = &s.gyro {
+            validate_gyro(g)?;
+        }
+        if let Some(m) = &s.magnetometer {
+            validate_magnetometer(m)?;
+        }
+        if let Some(c) = &s.css {
+            validate_css(c)?;
+        }
+        if let Some(g) = &s.gnss {
+            validate_gnss(g)?;
+        }
+        if let Some(t) = &s.star_tracker {
+            validate_star_tracker(t)?;
+        }
+        Ok(())
+    }
+}
+
+/// The shortcut noises, the suite latency and the constant rate bias.
+fn validate_shortcuts(s: &Sensors) -> Result<()> {
+    for (k, v) in [
+        ("sensors.attitude_noise_deg", s.attitude_noise_deg),
+        ("sensors.rate_noise_rad_s", s.rate_noise_rad_s),
+        ("sensors.gimbal_noise_deg", s.gimbal_noise_deg),
+        ("sensors.magnetometer_noise_t", s.magnetometer_noise_t),
+        ("sensors.wheel_speed_noise_rad_s", s.wheel_speed_noise_rad_s),
+        ("sensors.latency_s", s.latency_s),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(bad(k, "must be >= 0"));
+        }
+    }
+    if s.latency_s > 10.0 {
+        return Err(bad("sensors.latency_s", "must be <= 10"));
+    }
+    finite("sensors.rate_bias_rad_s", &s.rate_bias_rad_s)
+}
+
+/// Every sensor's own sample rate (the sample clock needs a positive finite rate), and the
+/// star tracker's rate limit.
+fn validate_rates(s: &Sensors) -> Result<()> {
+    for (k, r) in [
+        ("sensors.gyro.rate_hz", s.gyro.as_ref().and_then(|g| g.rate_hz)),
+        ("sensors.star_tracker.rate_hz", s.star_tracker.as_ref().and_then(|t| t.rate_hz)),
+        ("sensors.magnetometer.rate_hz", s.magnetometer.as_ref().and_then(|m| m.rate_hz)),
+        ("sensors.sun.rate_hz", s.sun.as_ref().and_then(|m| m.rate_hz)),
+        ("sensors.css.rate_hz", s.css.as_ref().and_then(|c| c.rate_hz)),
+        ("sensors.gnss.rate_hz", s.gnss.as_ref().and_then(|g| g.rate_hz)),
+    ] {
+        if let Some(r) = r {
+            positive(k, r)?;
+        }
+    }
+    if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
+        positive("sensors.star_tracker.max_rate_deg_s", m)?;
+    }
+    Ok(())
+}
+
+/// `[sensors.gyro]`.
+fn validate_gyro(g: &GyroSensorSpec) -> Result<()> {
+    finite("sensors.gyro.misalignment_deg", &g.misalignment_deg)?;
+    if let Some(sat) = g.saturation_rad_s {
+        positive("sensors.gyro.saturation_rad_s", sat)?;
+    }
+    if !(g.quantisation_rad_s.is_finite() && g.quantisation_rad_s >= 0.0) {
+        return Err(bad("sensors.gyro.quantisation_rad_s", "must be >= 0"));
+    }
+    non_negative("sensors.gyro.bias_instability_rad_s", g.bias_instability_rad_s)?;
+    match g.bias_correlation_s {
+        Some(tau) => positive("sensors.gyro.bias_correlation_s", tau)?,
+        None if g.bias_instability_rad_s > 0.0 => {
+            return Err(bad("sensors.gyro.bias_correlation_s", "required with bias_instability_rad_s > 0"));
+        }
+        None => {}
+    }
+    Ok(())
+}
+
+/// `[sensors.magnetometer]`.
+fn validate_magnetometer(m: &MagnetometerSensorSpec) -> Result<()> {
+    finite("sensors.magnetometer.misalignment_deg", &m.misalignment_deg)?;
+    let max = f64::from(acs_flight::params::momentum::MAX_MAG_COUPLING_T_PER_AM2);
+    if !m.coupling_t_per_am2.iter().flatten().all(|c| c.is_finite() && c.abs() <= max) {
+        return Err(bad(
+            "sensors.magnetometer.coupling_t_per_am2",
+            format!("each coefficient must be finite with |c| <= {max:e} T per A m2"),
+        ));
+    }
+    Ok(())
+}
+
+/// `[sensors.css]`.
+fn validate_css(c: &CssSpecToml) -> Result<()> {
+    if let Some(r) = c.rate_hz {
+        positive("sensors.css.rate_hz", r)?;
+    }
+    let max = crate::sensors::css::MAX_CSS_HEADS;
+    if !(1..=max).contains(&c.normals_body.len()) {
+        return Err(bad("sensors.css.normals_body", format!("needs 1 to {max} heads (got {})", c.normals_body.len())));
+    }
+    for n in &c.normals_body {
+        finite("sensors.css.normals_body", n)?;
+        if n.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
+            return Err(bad("sensors.css.normals_body", "a normal must not be zero"));
+        }
+    }
+    non_negative("sensors.css.noise", c.noise)?;
+    if !(c.albedo.is_finite() && (0.0..=1.0).contains(&c.albedo)) {
+        return Err(bad("sensors.css.albedo", format!("{} must be in [0, 1]", c.albedo)));
+    }
+    Ok(())
+}
+
+/// `[sensors.gnss]`.
+fn validate_gnss(g: &GnssSpecToml) -> Result<()> {
+    if let Some(r) = g.rate_hz {
+        positive("sensors.gnss.rate_hz", r)?;
+    }
+    non_negative("sensors.gnss.position_noise_m", g.position_noise_m)?;
+    non_negative("sensors.gnss.velocity_noise_m_s", g.velocity_noise_m_s)?;
+    validate_outages("sensors.gnss.outages_s", &g.outages_s)
+}
+
+/// `[sensors.star_tracker]` (its rates are checked with the others').
+fn validate_star_tracker(t: &StarTrackerSpec) -> Result<()> {
+    validate_outages("sensors.star_tracker.outages_s", &t.outages_s)?;
+    for (k, v) in [("noise_cross_deg", t.noise_cross_deg), ("noise_about_deg", t.noise_about_deg)] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && *v >= 0.0)) {
+            return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be >= 0")));
+        }
+    }
+    for (k, v) in [("sun_exclusion_deg", t.sun_exclusion_deg), ("earth_exclusion_deg", t.earth_exclusion_deg)] {
+        if let Some(v) = v.filter(|v| !(v.is_finite() && (0.0..=180.0).contains(v))) {
+            return Err(bad(&format!("sensors.star_tracker.{k}"), format!("{v} must be in [0, 180]")));
+        }
+    }
+    if let Some(b) = t.boresight_body {
+        finite("sensors.star_tracker.boresight_body", &b)?;
+        if b.iter().map(|x| x * x).sum::<f64>() < 1e-12 {
+            return Err(bad("sensors.star_tracker.boresight_body", "must not be zero"));
+        }
+    }
+    if !(t.latency_s.is_finite() && (0.0..=10.0).contains(&t.latency_s)) {
+        return Err(bad("sensors.star_tracker.latency_s", "must be in [0, 10]"));
+    }
+    Ok(())
+}
+
+/// Outage intervals `[start, end]`: finite, start <= end.
+fn validate_outages(key: &str, intervals: &[[f64; 2]]) -> Result<()> {
+    for [a, b] in intervals {
+        if !(a.is_finite() && b.is_finite() && a <= b) {
+            return Err(bad(key, format!("[{a}, {b}] must be finite with start <= end")));
+        }
+    }
+    Ok(())
+}

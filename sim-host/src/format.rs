@@ -1,0 +1,66 @@
+//! Number formatting of the tools' text outputs (the report and the campaign summary).
+//! Both print significant digits, plain between 1e-3 and 1e6 and scientific outside; they
+//! differ in their edge cases (zero, NaN, ±∞, the decade bounds), and each output is
+//! committed or compared as it is, so both forms are kept, on one renderer.
+
+/// `x` with `digits` significant digits, plain notation between 1e-3 and 1e6, else
+/// scientific; `—` for NaN. Deterministic text for the committed report.
+pub fn sig(x: f64, digits: usize) -> String {
+    if x.is_nan() {
+        return "—".into();
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    if !x.is_finite() {
+        return if x > 0.0 { "∞".into() } else { "−∞".into() };
+    }
+    let digits = digits.max(1);
+    let mag = x.abs().log10().floor() as i32;
+    let decimals = (-3..6).contains(&mag).then(|| (digits as i32 - 1 - mag).max(0) as usize);
+    plain_or_scientific(x, decimals, digits)
+}
+
+/// The campaign summary's form: six significant digits, plain for `|x|` in [1e-3, 1e6)
+/// (the bound tested on `|x|`, not on its decade) and for zero (`0.00000000`), else
+/// scientific; NaN and ±∞ as Rust prints them (`NaN`, `inf`).
+pub fn sig_campaign(x: f64) -> String {
+    let a = x.abs();
+    let plain = x == 0.0 || (1e-3..1e6).contains(&a);
+    let decimals = plain.then(|| (5 - a.log10().floor().max(-3.0) as i32).clamp(0, 8) as usize);
+    plain_or_scientific(x, decimals, 6)
+}
+
+/// `x` with `decimals` decimals, or (`None`) scientific with `digits` significant digits.
+fn plain_or_scientific(x: f64, decimals: Option<usize>, digits: usize) -> String {
+    match decimals {
+        Some(decimals) => format!("{x:.decimals$}"),
+        None => format!("{x:.prec$e}", prec = digits - 1),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sig_formats() {
+        assert_eq!(sig(4.7299999, 3), "4.73");
+        assert_eq!(sig(0.0521, 2), "0.052");
+        assert_eq!(sig(127.0, 3), "127");
+        assert_eq!(sig(1234.6, 3), "1235");
+        assert_eq!(sig(1.5e-7, 2), "1.5e-7");
+        assert_eq!(sig(f64::NAN, 2), "—");
+        assert_eq!((sig(0.0, 3), sig(f64::NEG_INFINITY, 3)), ("0".into(), "−∞".into()));
+    }
+
+    /// Where the campaign form differs from the report's: zero, non-finite values.
+    #[test]
+    fn campaign_form() {
+        assert_eq!(sig_campaign(1234.5678), "1234.57");
+        assert_eq!(sig_campaign(0.012345), "0.0123450");
+        assert_eq!(sig_campaign(2.5e7), "2.50000e7");
+        assert_eq!(sig_campaign(0.0), "0.00000000");
+        assert_eq!((sig_campaign(f64::NAN), sig_campaign(f64::INFINITY)), ("NaN".into(), "inf".into()));
+    }
+}
