@@ -69,7 +69,7 @@ pub fn sensor_samples(f: &SensorFrame) -> SensorSamples {
             .flatten()
             .map(|q_ib| StarTrackerAttitude { time_us, q_ib }),
         sun_sensor: valid.contains(Valid::SUN).then(|| SunSensorDirection { time_us, dir_body: Vec3::from(f.sun_dir) }),
-        css: valid.contains(Valid::CSS).then(|| CssOutputs { time_us, output: f.css_output }),
+        css: valid.contains(Valid::CSS).then_some(CssOutputs { time_us, output: f.css_output }),
         magnetometer: (valid.contains(Valid::MAG) && finite(&f.mag_field_t))
             .then(|| MagnetometerField { time_us, field_body_t: Vec3::from(f.mag_field_t) }),
         gnss: valid.contains(Valid::GNSS).then(|| GnssFix {
