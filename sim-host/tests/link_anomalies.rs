@@ -351,6 +351,11 @@ fn serve_survives_a_reset_mid_write_and_an_idle_client_and_answers_busy() {
     assert!(e.contains("closed the link"), "idle client not disconnected: {e}");
     let waited = connected.elapsed();
     assert!(waited > Duration::from_millis(1900) && waited < Duration::from_secs(5), "{waited:?}");
+    // The server logs the disconnection after it closes the socket: wait for the line.
+    let t1 = Instant::now();
+    while !serve.log().contains("idle for 2.0 s") && t1.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
     assert!(serve.log().contains("idle for 2.0 s"), "{}", serve.log());
     assert!(serve.alive());
     normal_run_succeeds(&serve, &tmp.path().join("after-idle"));
