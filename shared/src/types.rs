@@ -77,12 +77,22 @@ impl Status {
         .union(Self::UNREALISED);
 }
 
-/// A gyro sample: body rate, body axes, rad/s (flagged, finite, within range).
+/// A gyro sample: body rate, body axes, rad/s (flagged, finite, within range), and the
+/// integrated angle increment ending at the same time when the gyro gives one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GyroRate {
     /// On-board time of the sample, µs.
     pub time_us: u64,
     pub rate_rad_s: Vec3,
+    pub increment: Option<GyroIncrement>,
+}
+
+/// The gyro's angle increment ∫ω dt over `interval_s` ending at the sample's time, body
+/// axes, rad (finite, interval > 0, mean rate within range).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroIncrement {
+    pub angle_rad: Vec3,
+    pub interval_s: f32,
 }
 
 /// A star-tracker (attitude sensor) sample: `q_ib`, unit (normalised from a reading within

@@ -6,7 +6,8 @@
 use crate::link::SensorFrame;
 use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized};
 use crate::types::{
-    CssOutputs, GnssFix, GyroRate, MagnetometerField, SensorSamples, StarTrackerAttitude, SunSensorDirection, Valid,
+    CssOutputs, GnssFix, GyroIncrement, GyroRate, MagnetometerField, SensorSamples, StarTrackerAttitude,
+    SunSensorDirection, Valid,
 };
 
 /// Largest body rate the flight code accepts as a measurement, rad/s.
@@ -38,6 +39,19 @@ pub fn rate(f: &SensorFrame) -> Option<Vec3> {
     Some(w)
 }
 
+/// The gyro's angle increment if it gives one (`gyro_interval_us > 0`), finite, with a
+/// mean rate within `MAX_RATE_RAD_S`; otherwise `None` (the rates are used instead).
+pub fn gyro_increment(f: &SensorFrame) -> Option<GyroIncrement> {
+    if f.gyro_interval_us == 0 || !finite(&f.gyro_angle_rad) {
+        return None;
+    }
+    // ≤ 2^32 µs: the conversion rounds, never overflows.
+    #[allow(clippy::cast_precision_loss)]
+    let interval_s = f.gyro_interval_us as f32 * 1.0e-6;
+    let angle_rad = Vec3::from(f.gyro_angle_rad);
+    (angle_rad.amax() <= MAX_RATE_RAD_S * interval_s).then_some(GyroIncrement { angle_rad, interval_s })
+}
+
 /// A measured quaternion as a unit quaternion: `None` when not finite or its norm is off
 /// by more than 10 %.
 pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
@@ -49,7 +63,8 @@ pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
     quat_normalized(&q)
 }
 
-/// The typed samples of one frame, each taken at the frame's time: a sample is present
+/// The typed samples of one frame, each at its own time (`SensorFrame::sampled_at`; their
+/// plausibility against the frame's time is the estimation stage's): a sample is present
 /// when flagged valid and (gyro, star tracker, magnetometer) usable — gyro finite and
 /// within [`MAX_RATE_RAD_S`], tracker quaternion finite with a norm within 10 % of 1
 /// (normalised), magnetometer finite. The Sun sensors and the GNSS fix are handed over as
@@ -59,21 +74,23 @@ pub(crate) fn unit_quat(q: [f32; 4]) -> Option<Quat> {
 #[inline(always)]
 pub fn sensor_samples(f: &SensorFrame) -> SensorSamples {
     let valid = valid_bits(f);
-    let time_us = f.time_us;
+    let at = &f.sampled_at;
     SensorSamples {
-        time_us,
-        gyro: rate(f).map(|rate_rad_s| GyroRate { time_us, rate_rad_s }),
+        time_us: f.time_us,
+        gyro: rate(f).map(|rate_rad_s| GyroRate { time_us: at.gyro_us, rate_rad_s, increment: gyro_increment(f) }),
         star_tracker: valid
             .contains(Valid::ATTITUDE)
             .then(|| unit_quat(f.q_ib_xyzw))
             .flatten()
-            .map(|q_ib| StarTrackerAttitude { time_us, q_ib }),
-        sun_sensor: valid.contains(Valid::SUN).then(|| SunSensorDirection { time_us, dir_body: Vec3::from(f.sun_dir) }),
-        css: valid.contains(Valid::CSS).then_some(CssOutputs { time_us, output: f.css_output }),
+            .map(|q_ib| StarTrackerAttitude { time_us: at.star_tracker_us, q_ib }),
+        sun_sensor: valid
+            .contains(Valid::SUN)
+            .then(|| SunSensorDirection { time_us: at.sun_sensor_us, dir_body: Vec3::from(f.sun_dir) }),
+        css: valid.contains(Valid::CSS).then_some(CssOutputs { time_us: at.css_us, output: f.css_output }),
         magnetometer: (valid.contains(Valid::MAG) && finite(&f.mag_field_t))
-            .then(|| MagnetometerField { time_us, field_body_t: Vec3::from(f.mag_field_t) }),
+            .then(|| MagnetometerField { time_us: at.magnetometer_us, field_body_t: Vec3::from(f.mag_field_t) }),
         gnss: valid.contains(Valid::GNSS).then(|| GnssFix {
-            time_us,
+            time_us: at.gnss_us,
             pos_eci_m: Vec3::from(f.gnss_pos_m),
             vel_eci_m_s: Vec3::from(f.gnss_vel_m_s),
             j2000_days: f.gnss_j2000_days,

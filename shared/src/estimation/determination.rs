@@ -27,15 +27,16 @@
 //! No heap, no panics; every loop is bounded by a constant.
 
 use super::css::{CssHeads, sun_vector};
+use super::history::{FuseRefusal, Measurement, MekfHistory, SensorTrack, span_s};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::references::References;
 use super::triad::triad;
-use crate::link::{EstimateTelemetry, estimate_flags};
+use crate::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags};
 use crate::math::{Quat, Vec3, quat_to_xyzw};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
-use crate::types::SensorSamples;
+use crate::types::{GyroRate, SensorSamples, Valid};
 use nalgebra::Matrix3;
 
 /// Longest single MEKF propagation, s.
@@ -57,7 +58,35 @@ pub struct Estimate {
     pub sun_body: Option<Vec3>,
     /// The models put the spacecraft in the Earth's shadow (false without navigation).
     pub eclipse: bool,
+    /// Sensors whose newest sample is older than `max_sample_age_s` (or from the future):
+    /// lost, whatever their valid bit says.
+    pub stale: Valid,
     pub telemetry: EstimateTelemetry,
+}
+
+/// One sensor's bookkeeping: the time of the newest sample seen (a sample repeated with
+/// the same time is the same sample, held: not fused again) and the history's track.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Track {
+    seen_us: Option<u64>,
+    fusion: SensorTrack,
+}
+
+impl Track {
+    /// True the first time a sample with this time is seen.
+    fn fresh(&mut self, t_us: u64) -> bool {
+        let fresh = self.seen_us != Some(t_us);
+        self.seen_us = Some(t_us);
+        fresh
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Tracks {
+    star_tracker: Track,
+    sun_sensor: Track,
+    css: Track,
+    magnetometer: Track,
 }
 
 /// The estimation stage's state.
@@ -66,16 +95,19 @@ pub struct Determination {
     params: EstimationParams,
     mekf_cfg: MekfConfig,
     css: CssHeads,
-    mekf: Option<Mekf>,
+    /// The MEKF and its short history of past states (delayed fusion).
+    history: Option<MekfHistory>,
     nav: Navigation,
     references: References,
-    last_time_us: Option<u64>,
+    /// The previous gyro rate sample (trapezoid propagation without an increment).
     last_gyro: Option<Vec3>,
+    tracks: Tracks,
     consecutive_rejections: u16,
     resets: u16,
     /// Counters kept across filter restarts.
     accepted: u32,
     rejected: u32,
+    fusion: FusionCounters,
 }
 
 impl Default for Determination {
@@ -87,6 +119,15 @@ impl Default for Determination {
 /// A direction, or `None` for a zero or non-finite vector (TRIAD's normalisation).
 fn unit(v: &Vec3) -> Option<Vec3> {
     super::triad::unit(v).ok()
+}
+
+/// Age of a sample at `now_us`, s (−1 without one; negative for one from the future).
+fn age_s(now_us: u64, sample_us: Option<u64>) -> f32 {
+    match sample_us {
+        None => -1.0,
+        Some(t) if t <= now_us => span_s(t, now_us).unwrap_or(0.0),
+        Some(t) => -span_s(now_us, t).unwrap_or(0.0),
+    }
 }
 
 impl Determination {
@@ -101,15 +142,29 @@ impl Determination {
             params,
             mekf_cfg: mekf_config(&params),
             css: css_heads(&params),
-            mekf: None,
+            history: None,
             nav: Navigation::new(),
             references: References::new(),
-            last_time_us: None,
             last_gyro: None,
+            tracks: Tracks {
+                star_tracker: Track::EMPTY,
+                sun_sensor: Track::EMPTY,
+                css: Track::EMPTY,
+                magnetometer: Track::EMPTY,
+            },
             consecutive_rejections: 0,
             resets: 0,
             accepted: 0,
             rejected: 0,
+            fusion: FusionCounters {
+                fused_now: 0,
+                fused_late: 0,
+                too_old: 0,
+                from_the_future: 0,
+                out_of_order: 0,
+                bad_input: 0,
+                max_replayed_nodes: 0,
+            },
         }
     }
 
@@ -123,9 +178,9 @@ impl Determination {
         &self.params
     }
 
-    /// The running filter, if any.
+    /// The running filter (at the newest gyro time), if any.
     pub fn mekf(&self) -> Option<&Mekf> {
-        self.mekf.as_ref()
+        self.history.as_ref().map(|h| h.filter())
     }
 
     /// Restart everything (a new configuration).
@@ -133,9 +188,44 @@ impl Determination {
         *self = Self::bare(self.params);
     }
 
+    /// Drop samples from the future (later than the step's time): counted, never used.
+    fn drop_future(&mut self, s: &SensorSamples) -> SensorSamples {
+        let mut s = *s;
+        let now = s.time_us;
+        let mut future = 0u32;
+        let mut keep = |t: u64| {
+            let ok = t <= now;
+            future += u32::from(!ok);
+            ok
+        };
+        s.gyro = s.gyro.filter(|x| keep(x.time_us));
+        s.star_tracker = s.star_tracker.filter(|x| keep(x.time_us));
+        s.sun_sensor = s.sun_sensor.filter(|x| keep(x.time_us));
+        s.css = s.css.filter(|x| keep(x.time_us));
+        s.magnetometer = s.magnetometer.filter(|x| keep(x.time_us));
+        s.gnss = s.gnss.filter(|x| keep(x.time_us));
+        self.fusion.from_the_future = self.fusion.from_the_future.saturating_add(future);
+        s
+    }
+
+    /// Sensors whose newest sample is older than `max_sample_age_s`.
+    fn stale(&self, s: &SensorSamples) -> Valid {
+        let max = self.params.max_sample_age_s;
+        let old = |t: Option<u64>| t.is_some_and(|t| age_s(s.time_us, Some(t)) > max);
+        let mut v = Valid::empty();
+        v.set(Valid::RATE, old(s.gyro.map(|x| x.time_us)));
+        v.set(Valid::ATTITUDE, old(s.star_tracker.map(|x| x.time_us)));
+        v.set(Valid::SUN, old(s.sun_sensor.map(|x| x.time_us)));
+        v.set(Valid::CSS, old(s.css.map(|x| x.time_us)));
+        v.set(Valid::MAG, old(s.magnetometer.map(|x| x.time_us)));
+        v
+    }
+
     /// One step of the stage on the step's typed samples.
-    pub fn step(&mut self, s: &SensorSamples) -> Estimate {
-        let gyro = s.gyro.map(|g| g.rate_rad_s);
+    pub fn step(&mut self, samples: &SensorSamples) -> Estimate {
+        let s = &self.drop_future(samples);
+        let stale = self.stale(s);
+        let gyro = s.gyro.filter(|_| !stale.contains(Valid::RATE));
         let nav = self.nav.update(s.time_us, s.gnss.as_ref());
         let sun_eci = nav.map(|n| self.references.sun_eci(&n.time));
         let eclipse = match (nav, sun_eci) {
@@ -153,42 +243,67 @@ impl Determination {
                 None
             }
         };
-        // Measured vectors.
-        let fine_sun = s.sun_sensor.filter(|_| self.params.sun_sensor_sigma_rad > 0.0).and_then(|x| unit(&x.dir_body));
-        let coarse_sun = s
-            .css
-            .filter(|_| self.params.css_count > 0)
-            .and_then(|x| sun_vector(&self.css, &x.output).ok().map(|c| c.dir_body));
-        let sun_body = fine_sun.or(coarse_sun);
-        let sun_sigma = if fine_sun.is_some() { self.params.sun_sensor_sigma_rad } else { self.params.css_sigma_rad };
-        let mag_body = s.magnetometer.and_then(|x| unit(&x.field_body_t));
-        let tracker = s.star_tracker.map(|x| x.q_ib);
-
-        let mut t = EstimateTelemetry::default();
+        let v = self.vectors(s, sun_eci, field_eci);
+        let (attitude, rate) = match self.params.source {
+            AttitudeSource::Sensor => (
+                s.star_tracker.map(|x| x.q_ib).filter(|_| !stale.contains(Valid::ATTITUDE)),
+                gyro.map(|g| g.rate_rad_s),
+            ),
+            AttitudeSource::Mekf => self.mekf_step(s.time_us, gyro.as_ref(), s, &v),
+        };
+        let mut t = self.telemetry(s, attitude);
         if nav.is_some() {
             t.flags |= estimate_flags::NAVIGATION;
         }
         if eclipse {
             t.flags |= estimate_flags::ECLIPSE;
         }
-        if sun_body.is_some() {
+        if v.sun_body.is_some() {
             t.flags |= estimate_flags::SUN_SEEN;
         }
-        let (attitude, rate) = match self.params.source {
-            AttitudeSource::Sensor => {
-                self.last_time_us = Some(s.time_us);
-                (tracker, gyro)
-            }
-            AttitudeSource::Mekf => {
-                let vectors = Vectors { sun_body, sun_eci, sun_sigma, mag_body, field_eci };
-                self.mekf_step(s.time_us, gyro, tracker, &vectors)
-            }
-        };
+        Estimate {
+            source: self.params.source,
+            attitude,
+            rate_rad_s: rate,
+            nav,
+            sun_body: v.sun_body,
+            eclipse,
+            stale,
+            telemetry: t,
+        }
+    }
+
+    /// The measured vectors of the step and their reference directions.
+    fn vectors(&self, s: &SensorSamples, sun_eci: Option<Vec3>, field_eci: Option<Vec3>) -> Vectors {
+        let fine_sun = s
+            .sun_sensor
+            .filter(|_| self.params.sun_sensor_sigma_rad > 0.0)
+            .and_then(|x| unit(&x.dir_body).map(|d| (d, x.time_us)));
+        let coarse_sun = s
+            .css
+            .filter(|_| self.params.css_count > 0)
+            .and_then(|x| sun_vector(&self.css, &x.output).ok().map(|c| (c.dir_body, x.time_us)));
+        let sun = fine_sun.or(coarse_sun);
+        let sun_sigma = if fine_sun.is_some() { self.params.sun_sensor_sigma_rad } else { self.params.css_sigma_rad };
+        Vectors {
+            sun_body: sun.map(|x| x.0),
+            sun_time_us: sun.map_or(0, |x| x.1),
+            sun_is_fine: fine_sun.is_some(),
+            sun_eci,
+            sun_sigma,
+            mag_body: s.magnetometer.and_then(|x| unit(&x.field_body_t).map(|d| (d, x.time_us))),
+            field_eci,
+        }
+    }
+
+    /// The step's telemetry: estimate, covariance, counters, sample ages.
+    fn telemetry(&self, s: &SensorSamples, attitude: Option<Quat>) -> EstimateTelemetry {
+        let mut t = EstimateTelemetry::default();
         if let Some(q) = attitude {
             t.q_est_xyzw = quat_to_xyzw(&q);
             t.flags |= estimate_flags::ATTITUDE;
         }
-        if let Some(m) = &self.mekf {
+        if let Some(m) = self.mekf() {
             t.flags |= estimate_flags::MEKF;
             t.q_est_xyzw = quat_to_xyzw(&m.attitude());
             t.bias_est_rad_s = m.bias_rad_s().into();
@@ -207,16 +322,24 @@ impl Determination {
         t.accepted = self.accepted;
         t.rejected = self.rejected;
         t.resets = self.resets;
-        Estimate { source: self.params.source, attitude, rate_rad_s: rate, nav, sun_body, eclipse, telemetry: t }
+        t.sample_age_s = SampleAges {
+            gyro: age_s(s.time_us, s.gyro.map(|x| x.time_us)),
+            star_tracker: age_s(s.time_us, s.star_tracker.map(|x| x.time_us)),
+            sun: age_s(s.time_us, s.sun_sensor.map(|x| x.time_us).or(s.css.map(|x| x.time_us))),
+            magnetometer: age_s(s.time_us, s.magnetometer.map(|x| x.time_us)),
+        };
+        t.fusion = self.fusion;
+        t
     }
 
     fn lose(&mut self) {
-        if self.mekf.take().is_some() {
+        if self.history.take().is_some() {
             self.resets = self.resets.saturating_add(1);
         }
         self.consecutive_rejections = 0;
     }
 
+    /// Count a filter outcome: accepted / gate-rejected.
     fn count(&mut self, r: Result<f32, MekfError>) -> bool {
         match r {
             Ok(_) => {
@@ -231,127 +354,218 @@ impl Determination {
         }
     }
 
-    /// The MEKF path of the stage: propagate over the elapsed time, (re)initialise, update,
-    /// and the attitude and rate the laws may use.
+    /// The MEKF path of the stage: propagate the history to the gyro's time,
+    /// (re)initialise, fuse each new sample at its own time, and the attitude (predicted
+    /// to the step's time) and rate the laws may use.
     fn mekf_step(
         &mut self,
-        time_us: u64,
-        gyro: Option<Vec3>,
-        tracker: Option<Quat>,
+        now_us: u64,
+        gyro: Option<&GyroRate>,
+        s: &SensorSamples,
         v: &Vectors,
     ) -> (Option<Quat>, Option<Vec3>) {
-        let elapsed_us = self.last_time_us.and_then(|t0| time_us.checked_sub(t0));
-        self.last_time_us = Some(time_us);
-        // The rate over the interval: the mean of its two end readings. The readings are
-        // instantaneous samples and the torque is held over the step, so the rate is
-        // ~linear in between: the trapezoid integrates that exactly, where the previous
-        // reading alone is off by ½ α dt² (0.24° per 0.5 s step at the cubesat's 0.033
-        // rad/s² about z: hundreds of tracker σ, every slew start rejected the tracker).
-        let held = match (self.last_gyro, gyro) {
-            (Some(a), Some(b)) => Some((a + b) * 0.5),
-            (a, b) => a.or(b),
-        };
-        self.last_gyro = gyro;
-        let Some(w) = gyro else {
+        let Some(g) = gyro else {
             // No gyro, no propagation: the attitude cannot be carried forward.
+            self.last_gyro = None;
             self.lose();
             return (None, None);
         };
-        self.propagate_mekf(elapsed_us, held);
-        if self.mekf.is_none() {
-            self.initialise_mekf(tracker, v);
+        self.propagate_history(g);
+        if self.history.is_none() {
+            self.initialise_mekf(g.time_us, s, v);
         }
-        let Some(mut m) = self.mekf else {
-            return (None, Some(w));
-        };
-        self.update_mekf(&mut m, tracker, v);
-        self.mekf = Some(m);
+        self.fuse_new(s, v);
         if self.consecutive_rejections >= self.params.max_consecutive_rejections {
             self.lose();
-            return (None, Some(w));
+        }
+        let Some(h) = self.history.as_ref() else {
+            return (None, Some(g.rate_rad_s));
+        };
+        let mut m = *h.filter();
+        // The gyro may lag the step (its own latency): predict to the step's time.
+        if let Some(dt) = span_s(h.now_us(), now_us).filter(|dt| *dt > 0.0) {
+            let predicted = m.rate_rad_s(&g.rate_rad_s);
+            let mut ahead = m;
+            if ahead.propagate(&(predicted + m.bias_rad_s()), dt).is_ok() {
+                m = ahead;
+            }
         }
         let p = m.covariance();
         let var = |i: usize| p.get((i, i)).copied().unwrap_or(f32::INFINITY);
         let worst = var(0).max(var(1)).max(var(2));
         let lost = self.params.lost_attitude_sigma_rad;
         let fine = worst.is_finite() && worst <= lost * lost;
-        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&w)))
+        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&g.rate_rad_s)))
     }
 
-    /// Propagate the running filter (if any) over the elapsed time with the held rate, in
-    /// pieces of at most `MAX_PROPAGATION_DT_S`; a gap beyond `MAX_PROPAGATION_PIECES`
-    /// pieces or a failed propagation loses the filter.
-    fn propagate_mekf(&mut self, elapsed_us: Option<u64>, held: Option<Vec3>) {
-        if let (Some(m), Some(us), Some(wh)) = (self.mekf.as_mut(), elapsed_us, held) {
-            #[allow(clippy::cast_precision_loss)]
-            let dt_s = us as f32 * 1.0e-6;
-            let pieces = libm::ceilf(dt_s / MAX_PROPAGATION_DT_S);
-            let ok = if dt_s <= 0.0 {
-                true
-            } else if pieces <= MAX_PROPAGATION_PIECES as f32 {
-                // Integral and ≤ 16, checked above.
-                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-                let n = pieces as u32;
-                let h = dt_s / pieces;
-                (0..n).all(|_| m.propagate(&wh, h).is_ok())
-            } else {
-                false
-            };
-            if !ok {
-                self.lose();
+    /// Carry the history from its newest time to the gyro sample's time with the
+    /// increment's mean rate (without an increment: the mean of the previous and this
+    /// rate sample, the trapezoid), in pieces of at most `MAX_PROPAGATION_DT_S`. A held
+    /// gyro sample (same time) propagates nothing; one older than the history is counted
+    /// out of order; a gap beyond `MAX_PROPAGATION_PIECES` pieces or a failed
+    /// propagation loses the filter.
+    fn propagate_history(&mut self, g: &GyroRate) {
+        // The rate over the interval without an increment: the mean of its two end
+        // readings. The readings are instantaneous samples and the torque is held over the
+        // step, so the rate is ~linear in between: the trapezoid integrates that exactly.
+        let rate = match (g.increment, self.last_gyro) {
+            (Some(inc), _) => inc.angle_rad / inc.interval_s,
+            (None, Some(a)) => (a + g.rate_rad_s) * 0.5,
+            (None, None) => g.rate_rad_s,
+        };
+        let Some(h) = self.history.as_mut() else {
+            self.last_gyro = Some(g.rate_rad_s);
+            return;
+        };
+        let now = h.now_us();
+        if g.time_us <= now {
+            if g.time_us < now {
+                self.fusion.out_of_order = self.fusion.out_of_order.saturating_add(1);
+            }
+            return;
+        }
+        self.last_gyro = Some(g.rate_rad_s);
+        let span_us = g.time_us.saturating_sub(now);
+        let span = span_s(now, g.time_us).unwrap_or(f32::INFINITY);
+        let pieces = libm::ceilf(span / MAX_PROPAGATION_DT_S);
+        let ok = pieces <= MAX_PROPAGATION_PIECES as f32 && {
+            // Integral, 1 … 16 (checked above).
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let n = (pieces as u64).max(1);
+            (1..=n).all(|i| {
+                let t_i = now.saturating_add(span_us.saturating_mul(i) / n);
+                h.propagate_rate(&rate, t_i).is_ok()
+            })
+        };
+        if !ok {
+            self.lose();
+        }
+    }
+
+    /// Start a filter at `t0_us`: on the tracker, else TRIAD on Sun and field (the Sun
+    /// first: the more accurate vector is TRIAD's exact one); none without either. The
+    /// samples that start it are not fused again.
+    fn initialise_mekf(&mut self, t0_us: u64, s: &SensorSamples, v: &Vectors) {
+        let tracker = s.star_tracker.map(|x| x.q_ib);
+        let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
+            (Some(sb), Some((mb, _)), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
+            _ => None,
+        });
+        let Some(m) = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok()) else {
+            return;
+        };
+        self.history = Some(MekfHistory::new(m, t0_us));
+        self.consecutive_rejections = 0;
+        // Consumed by the initialisation.
+        if let Some(x) = s.star_tracker {
+            self.tracks.star_tracker.fresh(x.time_us);
+        } else {
+            if v.sun_body.is_some() {
+                self.sun_track(v.sun_is_fine).fresh(v.sun_time_us);
+            }
+            if let Some((_, t)) = v.mag_body {
+                self.tracks.magnetometer.fresh(t);
             }
         }
     }
 
-    /// Start a filter: on the tracker, else TRIAD on Sun and field (the Sun first: the
-    /// more accurate vector is TRIAD's exact one); none without either.
-    fn initialise_mekf(&mut self, tracker: Option<Quat>, v: &Vectors) {
-        let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
-            (Some(sb), Some(mb), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
-            _ => None,
-        });
-        self.mekf = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok());
-        self.consecutive_rejections = 0;
+    fn sun_track(&mut self, fine: bool) -> &mut Track {
+        if fine { &mut self.tracks.sun_sensor } else { &mut self.tracks.css }
     }
 
-    /// The measurement updates of one step: tracker, Sun, field (each gated; a rejection
-    /// changes nothing but the counters).
-    fn update_mekf(&mut self, m: &mut Mekf, tracker: Option<Quat>, v: &Vectors) {
-        if let Some(q) = tracker {
+    /// Fuse every sample first seen this step at its own time: tracker, Sun, field.
+    fn fuse_new(&mut self, s: &SensorSamples, v: &Vectors) {
+        if self.history.is_none() {
+            return;
+        }
+        if let Some(x) = s.star_tracker.filter(|x| self.tracks.star_tracker.fresh(x.time_us)) {
             let b = Vec3::from(self.params.tracker_boresight_body);
             let (c2, a2) = (
                 self.params.tracker_sigma_cross_rad * self.params.tracker_sigma_cross_rad,
                 self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
             );
-            let r = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
-            let res = m.update_attitude(&q, &r);
-            if self.count(res) {
-                self.consecutive_rejections = 0;
-            } else if matches!(res, Err(MekfError::Rejected { .. })) {
-                self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+            let r_rad2 = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
+            match self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 }) {
+                Some(Ok(_)) => self.consecutive_rejections = 0,
+                Some(Err(MekfError::Rejected { .. })) => {
+                    self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+                }
+                _ => {}
             }
         }
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
+            && self.sun_track(v.sun_is_fine).fresh(v.sun_time_us)
         {
-            let res = m.update_vector(&b, &r, v.sun_sigma);
-            self.count(res);
+            let sensor = if v.sun_is_fine { Sensor::SunSensor } else { Sensor::Css };
+            let m = Measurement::Vector { body: b, reference: r, sigma_rad: v.sun_sigma };
+            self.fuse(sensor, v.sun_time_us, &m);
         }
-        if let (Some(b), Some(r)) = (v.mag_body, v.field_eci)
+        if let (Some((b, t)), Some(r)) = (v.mag_body, v.field_eci)
             && self.params.magnetometer_sigma_rad > 0.0
+            && self.tracks.magnetometer.fresh(t)
         {
-            let res = m.update_vector(&b, &r, self.params.magnetometer_sigma_rad);
-            self.count(res);
+            let m = Measurement::Vector { body: b, reference: r, sigma_rad: self.params.magnetometer_sigma_rad };
+            self.fuse(Sensor::Magnetometer, t, &m);
+        }
+    }
+
+    /// Fuse one sample at `t_us` through the history; counts the outcome. `None`: refused.
+    fn fuse(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) -> Option<Result<f32, MekfError>> {
+        let h = self.history.as_mut()?;
+        let late = t_us < h.now_us();
+        let track = match sensor {
+            Sensor::StarTracker => &mut self.tracks.star_tracker.fusion,
+            Sensor::SunSensor => &mut self.tracks.sun_sensor.fusion,
+            Sensor::Css => &mut self.tracks.css.fusion,
+            Sensor::Magnetometer => &mut self.tracks.magnetometer.fusion,
+        };
+        let f = &mut self.fusion;
+        match h.fuse_at(track, t_us, m) {
+            Ok(outcome) => {
+                let c = if late { &mut f.fused_late } else { &mut f.fused_now };
+                *c = c.saturating_add(1);
+                let replayed = u16::try_from(outcome.replayed_nodes).unwrap_or(u16::MAX);
+                f.max_replayed_nodes = f.max_replayed_nodes.max(replayed);
+                self.count(outcome.result);
+                Some(outcome.result)
+            }
+            Err(reason) => {
+                let c = match reason {
+                    FuseRefusal::TooOld => &mut f.too_old,
+                    FuseRefusal::FromTheFuture => &mut f.from_the_future,
+                    FuseRefusal::Repeated => &mut f.out_of_order,
+                    FuseRefusal::NonFiniteInput | FuseRefusal::ReplayFailed => &mut f.bad_input,
+                };
+                *c = c.saturating_add(1);
+                None
+            }
         }
     }
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Sensor {
+    StarTracker,
+    SunSensor,
+    Css,
+    Magnetometer,
+}
+
 struct Vectors {
     sun_body: Option<Vec3>,
+    /// Time of the sample the Sun direction comes from, and whether it is the fine sensor.
+    sun_time_us: u64,
+    sun_is_fine: bool,
     sun_eci: Option<Vec3>,
     sun_sigma: f32,
-    mag_body: Option<Vec3>,
+    /// Measured field direction and its sample time.
+    mag_body: Option<(Vec3, u64)>,
     field_eci: Option<Vec3>,
+}
+
+impl Track {
+    const EMPTY: Self = Self { seen_us: None, fusion: SensorTrack { last_fused_us: None, fused: 0, refused: 0 } };
 }
 
 const fn mekf_config(p: &EstimationParams) -> MekfConfig {

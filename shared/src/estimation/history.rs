@@ -307,11 +307,23 @@ impl<const N: usize> History<N> {
         result
     }
 
+    /// Append one propagation step ending at `t_end_us` with the rate `rate_rad_s` held
+    /// over it (a gyro that gives rate samples only).
+    pub fn propagate_rate(&mut self, rate_rad_s: &Vec3, t_end_us: u64) -> Result<(), StepError> {
+        let result = self.try_propagate_rate(*rate_rad_s, t_end_us);
+        let c = if result.is_ok() { &mut self.counters.steps } else { &mut self.counters.steps_refused };
+        *c = c.saturating_add(1);
+        result
+    }
+
     fn try_propagate(&mut self, increment: &Vec3, interval_s: f32, t_end_us: u64) -> Result<(), StepError> {
         if !(interval_s.is_finite() && interval_s > 0.0 && increment.iter().all(|v| v.is_finite())) {
             return Err(StepError::NonFiniteInput);
         }
-        let rate = increment / interval_s;
+        self.try_propagate_rate(increment / interval_s, t_end_us)
+    }
+
+    fn try_propagate_rate(&mut self, rate: Vec3, t_end_us: u64) -> Result<(), StepError> {
         if !rate.iter().all(|v| v.is_finite()) {
             return Err(StepError::NonFiniteInput);
         }

@@ -23,14 +23,16 @@ pub enum Missing {
 /// The validated measurements for a configuration that needs the sensor bits `required`
 /// (`Valid::ATTITUDE` there means the attitude from the estimation stage) and, with
 /// `needs_navigation`, the navigation solution. Rejects NaN/inf, rates > 50 rad/s, field
-/// components > 1e-2 T, wheel speeds > 1e4 rad/s, gimbal angles > 1e3 rad.
+/// components > 1e-2 T, wheel speeds > 1e4 rad/s, gimbal angles > 1e3 rad; a sensor
+/// whose newest sample is older than `max_sample_age_s` (`Estimate::stale`) counts as
+/// missing, whatever its valid bit (the mode manager's "input lost").
 pub fn check_frame(
     f: &SensorFrame,
     required: Valid,
     needs_navigation: bool,
     est: &Estimate,
 ) -> Result<Measurements, Missing> {
-    let valid = valid_bits(f);
+    let valid = valid_bits(f).difference(est.stale);
     if !valid.contains(required.difference(Valid::ATTITUDE)) {
         return Err(Missing::Sensor);
     }

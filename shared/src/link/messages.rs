@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 12;
+pub const PROTOCOL_VERSION: u16 = 13;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1024;
@@ -61,16 +61,59 @@ pub mod status {
     pub const NO_ESTIMATE: u16 = Status::NO_ESTIMATE.bits();
 }
 
-/// One sample of everything the flight code reads, taken at `time_us`.
+/// When each sensor's sample in a frame was taken, on the flight clock, µs (protocol 13).
+/// A sensor slower than the control loop repeats its last sample, with its old time, in
+/// every frame until the next one: the flight code fuses a sample once, when its time
+/// first changes, at that time, and knows its age (`SensorFrame::time_us` − the sample's
+/// time). The gimbal encoders and wheel tachometers are read at the frame's time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SampleTimes {
+    /// End of the gyro's angle increment and time of its rate sample.
+    pub gyro_us: u64,
+    /// Star tracker: the exposure, not the delivery.
+    pub star_tracker_us: u64,
+    pub sun_sensor_us: u64,
+    pub css_us: u64,
+    pub magnetometer_us: u64,
+    /// The GNSS fix's validity time.
+    pub gnss_us: u64,
+}
+
+impl SampleTimes {
+    /// Every sample taken at `time_us`.
+    pub const fn all(time_us: u64) -> Self {
+        Self {
+            gyro_us: time_us,
+            star_tracker_us: time_us,
+            sun_sensor_us: time_us,
+            css_us: time_us,
+            magnetometer_us: time_us,
+            gnss_us: time_us,
+        }
+    }
+}
+
+/// Everything the flight code reads at one control step (`time_us`, the frame's time on
+/// the flight clock); each sensor's sample carries its own time in `sampled_at`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SensorFrame {
     pub seq: u32,
     pub time_us: u64,
+    /// Each sensor's sample time (protocol 13).
+    pub sampled_at: SampleTimes,
     /// Measured attitude `q_ib`, scalar-last.
     pub q_ib_xyzw: [f32; 4],
-    /// Measured body rate, body axes.
+    /// Measured body rate, body axes: the gyro's instantaneous sample at
+    /// `sampled_at.gyro_us` (what the rate loop feeds back).
     pub rate_rad_s: [f32; 3],
+    /// The gyro's integrated angle increment ∫ω dt, body axes, rad, over the
+    /// `gyro_interval_us` ending at `sampled_at.gyro_us` (what an IMU's delta-angle output
+    /// gives; the MEKF propagates with it). `gyro_interval_us = 0`: no increment, the
+    /// flight code falls back to the rate samples (protocol 13).
+    pub gyro_angle_rad: [f32; 3],
+    pub gyro_interval_us: u32,
     /// Measured gimbal angles of the four CMGs.
     pub gimbal_angle_rad: [f32; 4],
     /// Measured wheel speeds relative to the body.
@@ -82,7 +125,7 @@ pub struct SensorFrame {
     /// Coarse sun sensors: each head's output normalised to full Sun at normal incidence
     /// (≈ max(0, n·s) plus albedo and noise); heads as configured in `EstimationParams`.
     pub css_output: [f32; MAX_CSS_HEADS],
-    /// GNSS fix valid at `time_us`: position and velocity in the inertial frame (m, m/s)
+    /// GNSS fix valid at `sampled_at.gnss_us`: position and velocity in the inertial frame (m, m/s)
     /// and the receiver's time as whole days and seconds since J2000.0. Protocol 11
     /// (replaces the ready-made reference frame of protocol ≤ 10).
     pub gnss_pos_m: [f32; 3],
@@ -94,13 +137,17 @@ pub struct SensorFrame {
 }
 
 impl SensorFrame {
-    /// A frame with nothing valid yet (identity attitudes, zeros).
+    /// A frame with nothing valid yet (identity attitudes, zeros; every sample time the
+    /// frame's, no gyro increment).
     pub const fn empty(seq: u32, time_us: u64) -> Self {
         Self {
             seq,
             time_us,
+            sampled_at: SampleTimes::all(time_us),
             q_ib_xyzw: [0.0, 0.0, 0.0, 1.0],
             rate_rad_s: [0.0; 3],
+            gyro_angle_rad: [0.0; 3],
+            gyro_interval_us: 0,
             gimbal_angle_rad: [0.0; 4],
             wheel_speed_rad_s: [0.0; MAX_WHEELS],
             mag_field_t: [0.0; 3],
@@ -208,6 +255,40 @@ pub struct EstimateTelemetry {
     pub resets: u16,
     /// [`estimate_flags`] bits.
     pub flags: u16,
+    /// Age of the newest sample of each sensor at this step (frame time − sample time), s;
+    /// −1 for a sensor without a sample (protocol 13).
+    pub sample_age_s: SampleAges,
+    /// Samples fused at their own time and samples refused, with the reason (protocol 13).
+    pub fusion: FusionCounters,
+}
+
+/// Age of the newest sample of each sensor, s (−1: none yet).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SampleAges {
+    pub gyro: f32,
+    pub star_tracker: f32,
+    pub sun: f32,
+    pub magnetometer: f32,
+}
+
+/// What the estimator did with the samples since configuration (saturating counters).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FusionCounters {
+    /// Samples fused at the newest filter time / at an earlier time (late, replayed).
+    pub fused_now: u32,
+    pub fused_late: u32,
+    /// Refused: older than the filter history.
+    pub too_old: u32,
+    /// Refused: newer than the frame or the gyro (from the future).
+    pub from_the_future: u32,
+    /// Refused: not newer than the sensor's last fused sample (out of order).
+    pub out_of_order: u32,
+    /// Refused: non-finite or degenerate input, or a failed replay.
+    pub bad_input: u32,
+    /// Most history nodes re-run to carry one late sample to now.
+    pub max_replayed_nodes: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.

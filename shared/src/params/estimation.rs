@@ -68,6 +68,11 @@ pub struct EstimationParams {
     /// Consecutive tracker rejections after which the filter is declared diverged and
     /// re-initialised from the next tracker (or TRIAD) solution.
     pub max_consecutive_rejections: u16,
+    /// A sensor whose newest sample is older than this is lost (frame time − sample time),
+    /// s, > 0: the configurations that need it refuse the step (`Status::BAD_INPUT`) and
+    /// the mode manager counts the input as lost (protocol 13; before, only a cleared valid
+    /// bit did).
+    pub max_sample_age_s: f32,
 }
 
 impl Default for EstimationParams {
@@ -98,6 +103,7 @@ impl EstimationParams {
         field_model_degree: 12,
         lost_attitude_sigma_rad: 0.02,
         max_consecutive_rejections: 20,
+        max_sample_age_s: 3.0,
     };
 }
 
@@ -129,6 +135,9 @@ impl EstimationParams {
         // Noise figures: ≥ 0 and below a radian (or a rad/s); those that scale a
         // covariance must be > 0.
         if !scalars.iter().all(|x| *x >= 0.0 && *x <= MAX_NOISE_FIGURE) {
+            return bad(ParamReason::OutOfRange);
+        }
+        if !(self.max_sample_age_s.is_finite() && self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
             return bad(ParamReason::OutOfRange);
         }
         let positive = [

@@ -84,6 +84,13 @@ pub struct EstimationSpec {
     pub lost_attitude_sigma_deg: f64,
     #[serde(default = "rejections")]
     pub max_consecutive_rejections: u16,
+    /// A sensor whose newest sample is older than this is lost, s (> 0, ≤ 3600).
+    #[serde(default = "max_sample_age_s")]
+    pub max_sample_age_s: f64,
+}
+
+fn max_sample_age_s() -> f64 {
+    f64::from(EstimationParams::SENSOR.max_sample_age_s)
 }
 
 fn initial_attitude_sigma_deg() -> f64 {
@@ -174,6 +181,9 @@ impl EstimationSpec {
         if self.max_consecutive_rejections == 0 {
             return Some(anyhow!("estimation.max_consecutive_rejections = 0: must be >= 1"));
         }
+        if !(self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
+            return Some(anyhow!("estimation.max_sample_age_s = {}: out of range (0, 3600]", self.max_sample_age_s));
+        }
         None
     }
 
@@ -222,6 +232,7 @@ impl EstimationSpec {
             field_model_degree: self.field_model_degree,
             lost_attitude_sigma_rad: d(self.lost_attitude_sigma_deg),
             max_consecutive_rejections: self.max_consecutive_rejections,
+            max_sample_age_s: self.max_sample_age_s as f32,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
