@@ -195,7 +195,7 @@ impl Determination {
         let mut future = 0u32;
         let mut keep = |t: u64| {
             let ok = t <= now;
-            future += u32::from(!ok);
+            future = future.saturating_add(u32::from(!ok));
             ok
         };
         s.gyro = s.gyro.filter(|x| keep(x.time_us));
@@ -244,14 +244,16 @@ impl Determination {
             }
         };
         let v = self.vectors(s, sun_eci, field_eci);
-        let (attitude, rate) = match self.params.source {
-            AttitudeSource::Sensor => (
-                s.star_tracker.map(|x| x.q_ib).filter(|_| !stale.contains(Valid::ATTITUDE)),
-                gyro.map(|g| g.rate_rad_s),
-            ),
+        let out = match self.params.source {
+            AttitudeSource::Sensor => MekfOutput {
+                attitude: s.star_tracker.map(|x| x.q_ib).filter(|_| !stale.contains(Valid::ATTITUDE)),
+                rate_rad_s: gyro.map(|g| g.rate_rad_s),
+                filter: None,
+            },
             AttitudeSource::Mekf => self.mekf_step(s.time_us, gyro.as_ref(), s, &v),
         };
-        let mut t = self.telemetry(s, attitude);
+        let (attitude, rate) = (out.attitude, out.rate_rad_s);
+        let mut t = self.telemetry(s, attitude, out.filter.as_ref());
         if nav.is_some() {
             t.flags |= estimate_flags::NAVIGATION;
         }
@@ -296,14 +298,15 @@ impl Determination {
         }
     }
 
-    /// The step's telemetry: estimate, covariance, counters, sample ages.
-    fn telemetry(&self, s: &SensorSamples, attitude: Option<Quat>) -> EstimateTelemetry {
+    /// The step's telemetry: estimate and covariance (`filter`: the MEKF at the step's
+    /// time), counters, sample ages.
+    fn telemetry(&self, s: &SensorSamples, attitude: Option<Quat>, filter: Option<&Mekf>) -> EstimateTelemetry {
         let mut t = EstimateTelemetry::default();
         if let Some(q) = attitude {
             t.q_est_xyzw = quat_to_xyzw(&q);
             t.flags |= estimate_flags::ATTITUDE;
         }
-        if let Some(m) = self.mekf() {
+        if let Some(m) = filter {
             t.flags |= estimate_flags::MEKF;
             t.q_est_xyzw = quat_to_xyzw(&m.attitude());
             t.bias_est_rad_s = m.bias_rad_s().into();
@@ -357,18 +360,12 @@ impl Determination {
     /// The MEKF path of the stage: propagate the history to the gyro's time,
     /// (re)initialise, fuse each new sample at its own time, and the attitude (predicted
     /// to the step's time) and rate the laws may use.
-    fn mekf_step(
-        &mut self,
-        now_us: u64,
-        gyro: Option<&GyroRate>,
-        s: &SensorSamples,
-        v: &Vectors,
-    ) -> (Option<Quat>, Option<Vec3>) {
+    fn mekf_step(&mut self, now_us: u64, gyro: Option<&GyroRate>, s: &SensorSamples, v: &Vectors) -> MekfOutput {
         let Some(g) = gyro else {
             // No gyro, no propagation: the attitude cannot be carried forward.
             self.last_gyro = None;
             self.lose();
-            return (None, None);
+            return MekfOutput { attitude: None, rate_rad_s: None, filter: None };
         };
         self.propagate_history(g);
         if self.history.is_none() {
@@ -379,7 +376,7 @@ impl Determination {
             self.lose();
         }
         let Some(h) = self.history.as_ref() else {
-            return (None, Some(g.rate_rad_s));
+            return MekfOutput { attitude: None, rate_rad_s: Some(g.rate_rad_s), filter: None };
         };
         let mut m = *h.filter();
         // The gyro may lag the step (its own latency): predict to the step's time.
@@ -395,7 +392,11 @@ impl Determination {
         let worst = var(0).max(var(1)).max(var(2));
         let lost = self.params.lost_attitude_sigma_rad;
         let fine = worst.is_finite() && worst <= lost * lost;
-        (fine.then(|| m.attitude()), Some(m.rate_rad_s(&g.rate_rad_s)))
+        MekfOutput {
+            attitude: fine.then(|| m.attitude()),
+            rate_rad_s: Some(m.rate_rad_s(&g.rate_rad_s)),
+            filter: Some(m),
+        }
     }
 
     /// Carry the history from its newest time to the gyro sample's time with the
@@ -433,7 +434,7 @@ impl Determination {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let n = (pieces as u64).max(1);
             (1..=n).all(|i| {
-                let t_i = now.saturating_add(span_us.saturating_mul(i) / n);
+                let t_i = now.saturating_add(span_us.saturating_mul(i).checked_div(n).unwrap_or(span_us));
                 h.propagate_rate(&rate, t_i).is_ok()
             })
         };
@@ -497,7 +498,7 @@ impl Determination {
             && v.sun_sigma > 0.0
             && self.sun_track(v.sun_is_fine).fresh(v.sun_time_us)
         {
-            let sensor = if v.sun_is_fine { Sensor::SunSensor } else { Sensor::Css };
+            let sensor = if v.sun_is_fine { Sensor::FineSun } else { Sensor::Css };
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: v.sun_sigma };
             self.fuse(sensor, v.sun_time_us, &m);
         }
@@ -516,7 +517,7 @@ impl Determination {
         let late = t_us < h.now_us();
         let track = match sensor {
             Sensor::StarTracker => &mut self.tracks.star_tracker.fusion,
-            Sensor::SunSensor => &mut self.tracks.sun_sensor.fusion,
+            Sensor::FineSun => &mut self.tracks.sun_sensor.fusion,
             Sensor::Css => &mut self.tracks.css.fusion,
             Sensor::Magnetometer => &mut self.tracks.magnetometer.fusion,
         };
@@ -544,10 +545,18 @@ impl Determination {
     }
 }
 
+/// What the MEKF path gives the step: the attitude the laws may use, the corrected rate
+/// and the filter predicted to the step's time (its telemetry).
+struct MekfOutput {
+    attitude: Option<Quat>,
+    rate_rad_s: Option<Vec3>,
+    filter: Option<Mekf>,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Sensor {
     StarTracker,
-    SunSensor,
+    FineSun,
     Css,
     Magnetometer,
 }
