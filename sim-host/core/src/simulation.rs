@@ -670,6 +670,7 @@ impl<'a> Simulation<'a> {
             }));
             let (rejected, resets) = self.estimation.counters();
             row.extend([f64::from(rejected), f64::from(resets)]);
+            row.extend(self.estimation.sample_columns());
         }
         if l.momentum {
             let h = self.craft.actuator_momentum(state);
@@ -762,6 +763,7 @@ impl<'a> Simulation<'a> {
             nees_mean: est.and_then(|e| e.nees_mean),
             innovations_rejected: est.map(|e| e.innovations_rejected),
             estimator_resets: est.map(|e| e.resets),
+            sample_fusion: est.map(|e| e.sample_fusion),
             wall_time_s: wall_s,
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),

@@ -8,8 +8,9 @@
 //! every step as its upper triangle). For a consistent filter its mean is 6.
 
 use crate::attitude::{Quat, Vec3, from_xyzw};
-use acs_flight::link::{EstimateTelemetry, estimate_flags};
+use acs_flight::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags};
 use nalgebra::{Matrix6, Vector6};
+use serde::Serialize;
 
 /// Running sums; steps count only while the MEKF runs.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -23,6 +24,29 @@ pub struct EstimationStats {
     last: Option<EstimationSample>,
     rejected: u32,
     resets: u16,
+    /// The flight code's sample ages of the last step and their largest values so far.
+    ages: SampleAges,
+    max_ages: SampleAges,
+    fusion: FusionCounters,
+}
+
+/// What the flight estimator did with the sensor samples over a run (`summary.json`
+/// `sample_fusion`, with the MEKF): samples fused at their own time (of them, late: taken
+/// before the filter's newest time and carried forward through its history), refused by
+/// reason, and the largest sample age per sensor, s (−1: never sampled).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SampleFusion {
+    pub fused: u32,
+    pub fused_late: u32,
+    pub refused_too_old: u32,
+    pub refused_from_the_future: u32,
+    pub refused_out_of_order: u32,
+    pub refused_bad_input: u32,
+    pub max_replayed_nodes: u16,
+    pub max_age_gyro_s: f32,
+    pub max_age_tracker_s: f32,
+    pub max_age_sun_s: f32,
+    pub max_age_mag_s: f32,
 }
 
 /// One step's estimate against the truth (the `est_*` columns of `timeseries.csv`).
@@ -51,6 +75,7 @@ pub struct EstimationFigures {
     pub nees_mean: Option<f64>,
     pub innovations_rejected: u32,
     pub resets: u16,
+    pub sample_fusion: SampleFusion,
 }
 
 /// The 6×6 covariance from its row-major upper triangle.
@@ -84,6 +109,18 @@ impl EstimationStats {
     pub fn push(&mut self, q_true: &Quat, bias_true: &Vec3, t: &EstimateTelemetry) {
         self.rejected = t.rejected;
         self.resets = t.resets;
+        self.ages = t.sample_age_s;
+        self.fusion = t.fusion;
+        let a = &t.sample_age_s;
+        let m = &mut self.max_ages;
+        for (max, age) in [
+            (&mut m.gyro, a.gyro),
+            (&mut m.star_tracker, a.star_tracker),
+            (&mut m.sun, a.sun),
+            (&mut m.magnetometer, a.magnetometer),
+        ] {
+            *max = max.max(age);
+        }
         if t.flags & estimate_flags::MEKF == 0 {
             self.last = None;
             return;
@@ -127,6 +164,41 @@ impl EstimationStats {
         (self.rejected, self.resets)
     }
 
+    /// The last step's sample ages (gyro, tracker, Sun, magnetometer; s, NaN without a
+    /// sample) and the samples fused, fused late and refused so far.
+    pub fn sample_columns(&self) -> [f64; 7] {
+        let age = |a: f32| if a < 0.0 { f64::NAN } else { f64::from(a) };
+        let (a, f) = (&self.ages, &self.fusion);
+        let refused =
+            f.too_old.saturating_add(f.from_the_future).saturating_add(f.out_of_order).saturating_add(f.bad_input);
+        [
+            age(a.gyro),
+            age(a.star_tracker),
+            age(a.sun),
+            age(a.magnetometer),
+            f64::from(f.fused_now.saturating_add(f.fused_late)),
+            f64::from(f.fused_late),
+            f64::from(refused),
+        ]
+    }
+
+    fn sample_fusion(&self) -> SampleFusion {
+        let (m, f) = (&self.max_ages, &self.fusion);
+        SampleFusion {
+            fused: f.fused_now.saturating_add(f.fused_late),
+            fused_late: f.fused_late,
+            refused_too_old: f.too_old,
+            refused_from_the_future: f.from_the_future,
+            refused_out_of_order: f.out_of_order,
+            refused_bad_input: f.bad_input,
+            max_replayed_nodes: f.max_replayed_nodes,
+            max_age_gyro_s: m.gyro,
+            max_age_tracker_s: m.star_tracker,
+            max_age_sun_s: m.sun,
+            max_age_mag_s: m.magnetometer,
+        }
+    }
+
     /// Attitude-estimation error of the last step, deg (`None` when the MEKF was not
     /// running then).
     pub fn last_error_deg(&self) -> Option<f64> {
@@ -143,6 +215,7 @@ impl EstimationStats {
             nees_mean: (self.n_nees > 0).then(|| self.sum_nees / self.n_nees as f64),
             innovations_rejected: self.rejected,
             resets: self.resets,
+            sample_fusion: self.sample_fusion(),
         })
     }
 }

@@ -95,7 +95,7 @@ pub const WHEEL_QUANTITIES: [&str; 6] = ["speed_rpm", "current_a", "voltage_v", 
 pub const ENV_TORQUES: [&str; 6] = ["gravity_gradient", "drag", "srp", "magnetic", "rig", "external"];
 
 /// The estimation group, in column order.
-pub const ESTIMATION: [&str; 7] = [
+pub const ESTIMATION: [&str; 14] = [
     "est_error_deg",
     "est_sigma_deg",
     "est_bias_error_deg_h",
@@ -103,6 +103,13 @@ pub const ESTIMATION: [&str; 7] = [
     "est_nees",
     "est_rejected",
     "est_resets",
+    "est_age_gyro_s",
+    "est_age_tracker_s",
+    "est_age_sun_s",
+    "est_age_mag_s",
+    "est_fused",
+    "est_fused_late",
+    "est_refused",
 ];
 
 /// Which optional groups a run records (in this order after the fixed block).
@@ -127,8 +134,10 @@ pub struct Layout {
     /// Environment and rig torque breakdown (18).
     pub env_torques: bool,
     /// The flight MEKF against the truth: attitude and bias errors and the filter's own
-    /// σ, NEES, rejected innovations and restarts so far (7; NaN while the MEKF is not
-    /// running; `sim_host::estimation::stats`).
+    /// σ, NEES, rejected innovations and restarts so far (NaN while the MEKF is not
+    /// running; `sim_host::estimation::stats`); the age of each sensor's newest sample at
+    /// the step (NaN without one) and the samples fused, fused late and refused so far
+    /// (14).
     pub estimation: bool,
     /// Stored actuator momentum (truth) in body and inertial axes and its norm, the
     /// torquers' torque `m_rods × B`, the flight code's momentum FDIR event count (11;

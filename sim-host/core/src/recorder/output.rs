@@ -183,9 +183,28 @@ fn estimation_figure() -> Figure {
             ),
             log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
             panel(
-                "innovations rejected, filter restarts",
+                "innovations rejected, filter restarts; samples refused (too old, from the future, out of order)",
                 "count",
-                vec![s("est_rejected", "rejected", false), s("est_resets", "restarts", false)],
+                vec![
+                    s("est_rejected", "rejected", false),
+                    s("est_resets", "restarts", false),
+                    s("est_refused", "refused", true),
+                ],
+            ),
+            panel(
+                "age of each sensor's newest sample at the step",
+                "s",
+                vec![
+                    s("est_age_gyro_s", "gyro", false),
+                    s("est_age_tracker_s", "tracker", false),
+                    s("est_age_sun_s", "Sun", false),
+                    s("est_age_mag_s", "magnetometer", false),
+                ],
+            ),
+            panel(
+                "samples fused at their own time (late: carried forward through the history)",
+                "count",
+                vec![s("est_fused", "fused", false), s("est_fused_late", "fused late", true)],
             ),
         ],
     )

@@ -126,6 +126,10 @@ pub struct Summary {
     pub innovations_rejected: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimator_resets: Option<u16>,
+    /// With the MEKF: samples fused (late among them), refused by reason, the largest
+    /// sample age per sensor (`estimation::stats::SampleFusion`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sample_fusion: Option<crate::estimation::stats::SampleFusion>,
     /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
     /// records to disk; plots and summary excluded).
     pub wall_time_s: f64,
