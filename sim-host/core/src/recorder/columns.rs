@@ -227,8 +227,9 @@ mod tests {
         assert_eq!(names[Col::COUNT + 10 + 6], "wheel2_speed_rpm");
         assert_eq!(names.last().unwrap(), "torque_external_z_nm");
         let names = Layout { estimation: true, ..l }.names();
-        assert_eq!(names.len(), Col::COUNT + 10 + 12 + 4 + 18 + 7);
+        assert_eq!(names.len(), Col::COUNT + 10 + 12 + 4 + 18 + 14);
         assert_eq!(names[Col::COUNT + 44], "est_error_deg");
-        assert_eq!(names.last().unwrap(), "est_resets");
+        assert_eq!(names[Col::COUNT + 44 + 6], "est_resets");
+        assert_eq!(names.last().unwrap(), "est_refused");
     }
 }
