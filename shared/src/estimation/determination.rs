@@ -470,6 +470,16 @@ impl Determination {
         }
     }
 
+    /// A coarse vector sample at `t_us` may be fused: at least `coarse_update_interval_s`
+    /// after the sensor's last fused one (the errors' decorrelation interval).
+    fn coarse_due(&self, track: &Track, t_us: u64) -> bool {
+        track
+            .fusion
+            .last_fused_us
+            .and_then(|last| span_s(last, t_us))
+            .is_none_or(|dt| dt >= self.params.coarse_update_interval_s)
+    }
+
     fn sun_track(&mut self, fine: bool) -> &mut Track {
         if fine { &mut self.tracks.sun_sensor } else { &mut self.tracks.css }
     }
@@ -497,6 +507,7 @@ impl Determination {
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
             && self.sun_track(v.sun_is_fine).fresh(v.sun_time_us)
+            && (v.sun_is_fine || self.coarse_due(&self.tracks.css, v.sun_time_us))
         {
             let sensor = if v.sun_is_fine { Sensor::FineSun } else { Sensor::Css };
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: v.sun_sigma };
@@ -505,6 +516,7 @@ impl Determination {
         if let (Some((b, t)), Some(r)) = (v.mag_body, v.field_eci)
             && self.params.magnetometer_sigma_rad > 0.0
             && self.tracks.magnetometer.fresh(t)
+            && self.coarse_due(&self.tracks.magnetometer, t)
         {
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: self.params.magnetometer_sigma_rad };
             self.fuse(Sensor::Magnetometer, t, &m);

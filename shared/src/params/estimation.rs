@@ -73,6 +73,13 @@ pub struct EstimationParams {
     /// the mode manager counts the input as lost (protocol 13; before, only a cleared valid
     /// bit did).
     pub max_sample_age_s: f32,
+    /// Shortest time between two fused samples of the coarse vector sensors (coarse sun
+    /// sensors, magnetometer), s, ≥ 0 (0: every sample). Their errors (Earth albedo, few
+    /// lit heads, field-model error) are correlated over minutes, not white: fusing every
+    /// sample would count one error many times and make the filter overconfident. Spacing
+    /// the updates by about the errors' correlation time keeps its covariance honest
+    /// (docs/estimation-timing.md).
+    pub coarse_update_interval_s: f32,
 }
 
 impl Default for EstimationParams {
@@ -104,6 +111,7 @@ impl EstimationParams {
         lost_attitude_sigma_rad: 0.02,
         max_consecutive_rejections: 20,
         max_sample_age_s: 3.0,
+        coarse_update_interval_s: 0.0,
     };
 }
 
@@ -138,6 +146,9 @@ impl EstimationParams {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.max_sample_age_s.is_finite() && self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
+            return bad(ParamReason::OutOfRange);
+        }
+        if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {
             return bad(ParamReason::OutOfRange);
         }
         let positive = [

@@ -87,6 +87,10 @@ pub struct EstimationSpec {
     /// A sensor whose newest sample is older than this is lost, s (> 0, ≤ 3600).
     #[serde(default = "max_sample_age_s")]
     pub max_sample_age_s: f64,
+    /// Shortest time between fused coarse-sun-sensor or magnetometer samples, s (≥ 0;
+    /// default 0: every sample): about the correlation time of their errors.
+    #[serde(default)]
+    pub coarse_update_interval_s: f64,
 }
 
 fn max_sample_age_s() -> f64 {
@@ -184,6 +188,12 @@ impl EstimationSpec {
         if !(self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
             return Some(anyhow!("estimation.max_sample_age_s = {}: out of range (0, 3600]", self.max_sample_age_s));
         }
+        if !(0.0..=86_400.0).contains(&self.coarse_update_interval_s) {
+            return Some(anyhow!(
+                "estimation.coarse_update_interval_s = {}: out of range [0, 86400]",
+                self.coarse_update_interval_s
+            ));
+        }
         None
     }
 
@@ -233,6 +243,7 @@ impl EstimationSpec {
             lost_attitude_sigma_rad: d(self.lost_attitude_sigma_deg),
             max_consecutive_rejections: self.max_consecutive_rejections,
             max_sample_age_s: self.max_sample_age_s as f32,
+            coarse_update_interval_s: self.coarse_update_interval_s as f32,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
