@@ -6,10 +6,11 @@
 //! mode code is one of the five, and a safe command is all-idle. One frame, one step: a
 //! frame (its `seq` possibly corrupted) is stepped exactly when its `seq` is above the last
 //! stepped one since the last `Hello` or accepted configuration (a model kept here), and
-//! refused with `StaleSequence` otherwise.
+//! refused with `StaleSequence` otherwise. Frames carry protocol 13's sample times
+//! (late, beyond the history, from the future, absurd) and gyro increments.
 
 use acs_flight::link::{
-    ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SensorFrame, schema_hash, status, valid,
+    ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SampleTimes, SensorFrame, schema_hash, status, valid,
 };
 use acs_flight::params::{AttitudeSource, EstimationParams};
 use acs_flight::params::{Mode, ModeRequest};
@@ -47,8 +48,36 @@ fn frame(rng: &mut ChaCha8Rng, seq: u32) -> SensorFrame {
         gnss_j2000_days: rng.random_range(9000..10000),
         gnss_j2000_s: rng.random_range(0.0..86_400.0),
         css_output: std::array::from_fn(|_| rng.random_range(0.0..1.0)),
+        // Protocol 13: the gyro increment (absurd intervals included) and each sensor's
+        // sample time — current, late, beyond the history, from the future.
+        gyro_angle_rad: std::array::from_fn(|_| rng.random_range(-0.2..0.2)),
+        gyro_interval_us: [0, 1, 500_000, rng.random()][rng.random_range(0..4)],
+        sampled_at: SampleTimes {
+            gyro_us: sample_time(rng, seq),
+            star_tracker_us: sample_time(rng, seq),
+            sun_sensor_us: sample_time(rng, seq),
+            css_us: sample_time(rng, seq),
+            magnetometer_us: sample_time(rng, seq),
+            gnss_us: sample_time(rng, seq),
+        },
         valid: valid::ALL,
-        ..SensorFrame::empty(seq, seq as u64 * 500_000)
+        ..SensorFrame::empty(seq, frame_time_us(seq))
+    }
+}
+
+fn frame_time_us(seq: u32) -> u64 {
+    seq as u64 * 500_000
+}
+
+/// A sample time for the frame `seq`: mostly the frame's or up to 0.4 s before it, some
+/// far behind (beyond the history), some after it (from the future), some absurd.
+fn sample_time(rng: &mut ChaCha8Rng, seq: u32) -> u64 {
+    let t = frame_time_us(seq);
+    match rng.random_range(0..10) {
+        0..=4 => t,
+        5..=7 => t.saturating_sub(rng.random_range(0..400_000)),
+        8 => t.saturating_sub(rng.random_range(0..60_000_000)),
+        _ => [t + rng.random_range(1..2_000_000), 0, u64::MAX][rng.random_range(0..3)],
     }
 }
 
