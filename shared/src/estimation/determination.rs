@@ -670,4 +670,58 @@ mod tests {
         let e = crate::math::rotation_angle(&crate::math::attitude_error(&last.attitude.unwrap(), &moved));
         assert!(e < 1.0e-3, "{e}");
     }
+
+    #[test]
+    fn a_sample_older_than_max_sample_age_is_a_lost_input_whatever_its_valid_bit() {
+        // The tracker keeps sending its last sample (valid bit set) with its old time:
+        // lost once older than 3 s, for the sensor source and for the check of a frame.
+        let p = EstimationParams { max_sample_age_s: 3.0, ..EstimationParams::SENSOR };
+        let mut d = Determination::new(&p).unwrap();
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        let frozen_at_us = 1_000_000;
+        for k in 10..=50u32 {
+            let mut f = SensorFrame {
+                q_ib_xyzw: quat_to_xyzw(&q),
+                valid: valid::ATTITUDE | valid::RATE,
+                ..SensorFrame::empty(k, u64::from(k) * 100_000)
+            };
+            f.sampled_at.star_tracker_us = frozen_at_us;
+            let e = d.step(&sensor_samples(&f));
+            let age_s = (u64::from(k) * 100_000 - frozen_at_us) as f32 * 1e-6;
+            assert!((e.telemetry.sample_age_s.star_tracker - age_s).abs() < 1e-6);
+            assert_eq!(e.telemetry.sample_age_s.gyro, 0.0);
+            let lost = age_s > 3.0;
+            assert_eq!(e.stale.contains(Valid::ATTITUDE), lost, "k = {k}");
+            assert_eq!(e.attitude.is_none(), lost, "k = {k}");
+            let checked = crate::fsw::check::check_frame(&f, Valid::ATTITUDE | Valid::RATE, false, &e);
+            assert_eq!(checked.is_err(), lost, "k = {k}");
+        }
+    }
+
+    #[test]
+    fn samples_from_the_future_are_refused_and_counted() {
+        let mut d = Determination::new(&mekf_params()).unwrap();
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        for k in 0..20 {
+            d.step(&frame(k, &q));
+        }
+        let mut f = SensorFrame {
+            q_ib_xyzw: quat_to_xyzw(&q),
+            valid: valid::ATTITUDE | valid::RATE,
+            ..SensorFrame::empty(20, 2_000_000)
+        };
+        f.sampled_at.star_tracker_us = 2_000_001;
+        let e = d.step(&sensor_samples(&f));
+        assert_eq!(e.telemetry.fusion.from_the_future, 1);
+        assert_eq!(e.telemetry.fusion.fused_now + e.telemetry.fusion.fused_late, 19);
+        // The same sample time again is the same (held) sample: fused once, not refused.
+        let before = e.telemetry.fusion;
+        let mut g = SensorFrame { seq: 21, time_us: 2_100_000, ..f };
+        g.sampled_at =
+            crate::link::SampleTimes { star_tracker_us: 2_000_000, ..crate::link::SampleTimes::all(2_100_000) };
+        let e1 = d.step(&sensor_samples(&g));
+        let e2 = d.step(&sensor_samples(&SensorFrame { seq: 22, time_us: 2_200_000, ..g }));
+        assert_eq!(e1.telemetry.fusion.fused_late, before.fused_late + 1);
+        assert_eq!(e2.telemetry.fusion, e1.telemetry.fusion);
+    }
 }
