@@ -433,7 +433,9 @@ impl Determination {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let n = (pieces as u64).max(1);
             (1..=n).all(|i| {
-                let t_i = now.saturating_add(span_us.saturating_mul(i) / n);
+                // n ≥ 1: `checked_div` never fails, but unlike `/` it leaves no
+                // division-by-zero panic in the image (tools/elf-check).
+                let t_i = now.saturating_add(span_us.saturating_mul(i).checked_div(n).unwrap_or(span_us));
                 h.propagate_rate(&rate, t_i).is_ok()
             })
         };
