@@ -195,7 +195,7 @@ impl Determination {
         let mut future = 0u32;
         let mut keep = |t: u64| {
             let ok = t <= now;
-            future += u32::from(!ok);
+            future = future.saturating_add(u32::from(!ok));
             ok
         };
         s.gyro = s.gyro.filter(|x| keep(x.time_us));
@@ -546,6 +546,8 @@ impl Determination {
     }
 }
 
+// The sensors' own names ("sun sensor" is the fine one).
+#[allow(clippy::enum_variant_names)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Sensor {
     StarTracker,
