@@ -481,8 +481,8 @@ pub fn sweep_inputs(t: &Target) -> Vec<Input> {
 /// Hand-made worst cases of the MEKF's state history (`estimation::history`, scenarios on
 /// the MEKF only): `MAX_PREFIX` frames, then the measured one, one step apart (the
 /// scenario's period, and a faster clock that keeps the whole sequence within half of
-/// `max_sample_age_s`), each frame's samples new at its own time and the gyro increment
-/// consistent with the rate. Variants:
+/// `max_sample_age_s`), each frame's samples new at its own time, the tracker and gyro
+/// valid, and the gyro increment consistent with the rate. Variants:
 /// - every sensor new at once in every frame (the measured one included);
 /// - one sensor (tracker, fine Sun, CSS, magnetometer, GNSS, gyro) held at the first frame's
 ///   sample through the prefix, then late in the measured frame at the time of an earlier
@@ -508,6 +508,9 @@ pub fn history_inputs(t: &Target) -> Vec<Input> {
         let frame_at = |k: u64| {
             let mut f = base;
             retime(&mut f, base.time_us + k * step_us);
+            // The tracker and the gyro valid even where the scenario starts without them
+            // (the mission: the tracker locks later): the filter starts on the first frame.
+            f.valid |= valid::ATTITUDE | valid::RATE;
             f.gyro_interval_us = u32::try_from(step_us).unwrap_or(u32::MAX);
             f.gyro_angle_rad = f.rate_rad_s.map(|w| w * step_us as f32 * 1e-6);
             f
