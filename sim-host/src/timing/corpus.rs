@@ -24,6 +24,10 @@ pub struct Entry {
     pub estimate: String,
     #[serde(default)]
     pub mekf_updates: [u32; 3],
+    /// Most state-history nodes one late sample re-ran since the upload (0 in entries
+    /// recorded before protocol 13).
+    #[serde(default)]
+    pub replayed_nodes: u16,
     pub input: InputJson,
 }
 
@@ -36,6 +40,7 @@ impl Entry {
             status: f.cost.status,
             estimate: super::search::estimate_names(f.cost.estimate_flags),
             mekf_updates: [f.cost.mekf_accepted, f.cost.mekf_rejected, u32::from(f.cost.mekf_resets)],
+            replayed_nodes: f.cost.replayed_nodes,
             input: InputJson::from(&f.input),
         }
     }

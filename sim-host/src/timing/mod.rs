@@ -3,8 +3,9 @@
 //!
 //! An [`Input`] is what one measurement feeds the flight code: the scenario's parameters
 //! (or mode table) with an optional extra failure mask, an optional ground mode command,
-//! a short prefix of sensor frames (the flight code has state: integrators, PWPF, mode
-//! manager, estimator, navigation fix, MEKF) and the measured frame. Every evaluation
+//! a prefix of up to [`MAX_PREFIX`] sensor frames (the flight code has state: integrators,
+//! PWPF, mode manager, estimator, navigation fix, the MEKF and its state history) and the
+//! measured frame, each with its per-sensor sample times and gyro increment (protocol 13). Every evaluation
 //! re-uploads the parameters (or mode table) and the estimation parameters first, which
 //! gives the flight code fresh state, so an input's cost does not depend on what was
 //! evaluated before it (checked by the replay of the corpus).
@@ -22,7 +23,8 @@ pub use corpus::{StepCost, step_cost};
 
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
-use acs_flight::link::{FswMsg, HostMsg, SensorFrame};
+use acs_flight::estimation::history::HISTORY_DEPTH;
+use acs_flight::link::{FswMsg, HostMsg, SampleTimes, SensorFrame};
 use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams};
 use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::types::{MAX_CSS_HEADS, MAX_WHEELS};
@@ -33,18 +35,22 @@ use sim_core::scenario::{Resolved, Scenario, Upload};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Longest prefix of frames before the measured one (a bound on the cost of one
-/// evaluation; the flight code's longest memory that matters here is the PWPF and the
-/// integrators, which a few steps already load).
-pub const MAX_PREFIX: usize = 4;
+/// Longest prefix of frames before the measured one: the MEKF's state history
+/// ([`HISTORY_DEPTH`] nodes) filled with one propagation node per frame, so a late sample
+/// can replay it all even without sample nodes or clock gaps (which fill it faster); it also
+/// reaches the field model's first bracket (24 steps at 2 Hz). A bound on the cost of one
+/// evaluation: 33 frames take ~0.3 s of the emulated UART.
+pub const MAX_PREFIX: usize = HISTORY_DEPTH;
 
 /// The f32 fields of a sensor frame, in wire order: (name, length). The integer fields
-/// (`seq`, `time_us`, `valid`, `gnss_j2000_days`) are stored beside them ([`FrameJson`]).
-/// (Protocol 11 replaced `q_ref_xyzw`/`ref_rate_rad_s` by the GNSS and CSS fields: a corpus
-/// entry recorded before lacks them — they read as zeros — and its old fields are ignored.)
-pub const FRAME_FIELDS: [(&str, usize); 10] = [
+/// (`seq`, `time_us`, `sampled_at`, `gyro_interval_us`, `valid`, `gnss_j2000_days`) are
+/// stored beside them ([`FrameJson`]). (Protocol 11 replaced `q_ref_xyzw`/`ref_rate_rad_s`
+/// by the GNSS and CSS fields, protocol 13 added `gyro_angle_rad`: a corpus entry recorded
+/// before lacks them — they read as zeros — and its old fields are ignored.)
+pub const FRAME_FIELDS: [(&str, usize); 11] = [
     ("q_ib_xyzw", 4),
     ("rate_rad_s", 3),
+    ("gyro_angle_rad", 3),
     ("gimbal_angle_rad", 4),
     ("wheel_speed_rad_s", MAX_WHEELS),
     ("mag_field_t", 3),
@@ -56,7 +62,7 @@ pub const FRAME_FIELDS: [(&str, usize); 10] = [
 ];
 
 /// Number of f32 genes of a frame.
-pub const N_FLOATS: usize = 4 + 3 + 4 + MAX_WHEELS + 3 + 3 + MAX_CSS_HEADS + 3 + 3 + 1;
+pub const N_FLOATS: usize = 4 + 3 + 3 + 4 + MAX_WHEELS + 3 + 3 + MAX_CSS_HEADS + 3 + 3 + 1;
 
 /// The f32 fields of `f` in [`FRAME_FIELDS`] order.
 pub fn floats(f: &SensorFrame) -> [f32; N_FLOATS] {
@@ -65,6 +71,7 @@ pub fn floats(f: &SensorFrame) -> [f32; N_FLOATS] {
         .q_ib_xyzw
         .iter()
         .chain(&f.rate_rad_s)
+        .chain(&f.gyro_angle_rad)
         .chain(&f.gimbal_angle_rad)
         .chain(&f.wheel_speed_rad_s)
         .chain(&f.mag_field_t)
@@ -84,6 +91,7 @@ pub fn floats_mut(f: &mut SensorFrame) -> Vec<&mut f32> {
     f.q_ib_xyzw
         .iter_mut()
         .chain(&mut f.rate_rad_s)
+        .chain(&mut f.gyro_angle_rad)
         .chain(&mut f.gimbal_angle_rad)
         .chain(&mut f.wheel_speed_rad_s)
         .chain(&mut f.mag_field_t)
@@ -148,6 +156,13 @@ pub struct FrameJson {
     /// Whole days since J2000.0 of the GNSS fix (0 in entries recorded before protocol 11).
     #[serde(default)]
     pub gnss_j2000_days: i32,
+    /// Each sensor's sample time, µs (protocol 13; an entry recorded before has none: every
+    /// sample at `time_us`, as `SensorFrame::empty` gives).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sampled_at: Option<SampleTimes>,
+    /// The gyro increment's interval, µs (0 = none; 0 in entries recorded before protocol 13).
+    #[serde(default)]
+    pub gyro_interval_us: u32,
     #[serde(flatten)]
     pub fields: BTreeMap<String, Vec<JsonF32>>,
 }
@@ -161,7 +176,15 @@ impl From<&SensorFrame> for FrameJson {
             fields.insert(name.to_string(), v[i..i + n].iter().map(|x| JsonF32::of(*x)).collect());
             i += n;
         }
-        Self { seq: f.seq, time_us: f.time_us, valid: f.valid, gnss_j2000_days: f.gnss_j2000_days, fields }
+        Self {
+            seq: f.seq,
+            time_us: f.time_us,
+            valid: f.valid,
+            gnss_j2000_days: f.gnss_j2000_days,
+            sampled_at: Some(f.sampled_at),
+            gyro_interval_us: f.gyro_interval_us,
+            fields,
+        }
     }
 }
 
@@ -170,6 +193,10 @@ impl FrameJson {
         let mut f = SensorFrame::empty(self.seq, self.time_us);
         f.valid = self.valid;
         f.gnss_j2000_days = self.gnss_j2000_days;
+        if let Some(t) = self.sampled_at {
+            f.sampled_at = t;
+        }
+        f.gyro_interval_us = self.gyro_interval_us;
         let mut v = Vec::with_capacity(N_FLOATS);
         for (name, n) in FRAME_FIELDS {
             let Some(xs) = self.fields.get(name) else {
@@ -370,6 +397,8 @@ pub struct Cost {
     pub mekf_accepted: u32,
     pub mekf_rejected: u32,
     pub mekf_resets: u16,
+    /// Most history nodes one late sample re-ran since the upload (`FusionCounters`).
+    pub replayed_nodes: u16,
 }
 
 /// Evaluates inputs of one scenario on a link that reports instructions (QEMU lockstep).
@@ -456,6 +485,7 @@ impl<'a> Evaluator<'a> {
                     mekf_accepted: e.accepted,
                     mekf_rejected: e.rejected,
                     mekf_resets: e.resets,
+                    replayed_nodes: e.fusion.max_replayed_nodes,
                 });
             }
         }
@@ -479,6 +509,15 @@ mod tests {
         let mut f = SensorFrame::empty(7, u64::MAX - 3);
         f.valid = 0x5a;
         f.gnss_j2000_days = -9_612;
+        f.sampled_at = SampleTimes {
+            gyro_us: u64::MAX - 4,
+            star_tracker_us: 0,
+            sun_sensor_us: 1,
+            css_us: u64::MAX,
+            magnetometer_us: 123_456_789,
+            gnss_us: u64::MAX - 3,
+        };
+        f.gyro_interval_us = u32::MAX;
         let specials = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -0.0, 1e-40, f32::MAX, 0.1, -3.4e-7];
         for (k, g) in floats_mut(&mut f).into_iter().enumerate() {
             *g = specials[k % specials.len()] * if k % 3 == 0 { 1.0 } else { -1.0 };
@@ -494,7 +533,20 @@ mod tests {
             (x.mode, x.failed_mask, x.frame.seq, x.frame.time_us, x.frame.valid, x.frame.gnss_j2000_days),
             (y.mode, y.failed_mask, y.frame.seq, y.frame.time_us, y.frame.valid, y.frame.gnss_j2000_days)
         );
+        assert_eq!((x.frame.sampled_at, x.frame.gyro_interval_us), (y.frame.sampled_at, y.frame.gyro_interval_us));
         assert_eq!(floats(&x.frame).len(), FRAME_FIELDS.iter().map(|(_, n)| n).sum::<usize>());
+    }
+
+    /// An entry recorded before protocol 13 (no sample times, no gyro increment) reads as
+    /// `SensorFrame::empty` gives them: every sample at the frame's time, no increment.
+    #[test]
+    fn frames_recorded_before_protocol_13_read_with_the_empty_frame_defaults() {
+        let old = r#"{"seq": 3, "time_us": 250000, "valid": 3, "q_ib_xyzw": [0, 0, 0, 1], "rate_rad_s": [0.1, 0, 0]}"#;
+        let f = serde_json::from_str::<FrameJson>(old).unwrap().frame().unwrap();
+        let empty = SensorFrame::empty(3, 250_000);
+        assert_eq!(f.sampled_at, SampleTimes::all(250_000));
+        assert_eq!((f.gyro_angle_rad, f.gyro_interval_us), (empty.gyro_angle_rad, empty.gyro_interval_us));
+        assert_eq!(f.rate_rad_s, [0.1, 0.0, 0.0]);
     }
 
     /// Failure bits beyond the family's actuator count are dropped, the scenario's own

@@ -6,8 +6,11 @@
 //! (flip a valid bit; set a value to NaN, ±inf, ±1e30, f32::MAX, a subnormal, 0; align
 //! the body rate and the attitude error with a thruster column or an attainable-set facet
 //! normal, where the allocation does the most work; move the clock; grow, shrink or
-//! repeat the prefix; change the commanded mode; flip a failure bit) and uniform
-//! crossover of the measured frames. Selection: the μ costliest of parents and children.
+//! repeat the prefix, up to a full MEKF state history; move one sensor's sample time —
+//! late, at a node of the history, in the future, held — or the gyro increment; change
+//! the commanded mode; flip a failure bit) and uniform crossover of the measured frames.
+//! Generation 0 adds hand-made worst cases of the state history ([`history_inputs`]).
+//! Selection: the μ costliest of parents and children.
 //!
 //! Reproducibility: the random stream is ChaCha8 seeded with `seed` and the flight code
 //! is deterministic under lockstep, but the cost counter reads ±1 tick (40 instructions)
@@ -16,9 +19,10 @@
 //! on the machine's speed (the time budget then only guards).
 
 use super::{Cost, Evaluator, FRAME_FIELDS, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
+use acs_flight::estimation::history::HISTORY_DEPTH;
 use acs_flight::estimation::determination::{MAX_PROPAGATION_DT_S, MAX_PROPAGATION_PIECES};
-use acs_flight::link::{SensorFrame, valid};
-use acs_flight::params::Mode;
+use acs_flight::link::{SampleTimes, SensorFrame, valid};
+use acs_flight::params::{AttitudeSource, Mode};
 use anyhow::Result;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -34,6 +38,7 @@ fn gene_scale(i: usize) -> f32 {
         if i < end {
             return match name {
                 "q_ib_xyzw" | "rate_rad_s" | "css_output" => 0.5,
+                "gyro_angle_rad" => 0.05,
                 "wheel_speed_rad_s" => 300.0,
                 "mag_field_t" => 5e-5,
                 "gnss_pos_m" => 7e6,
@@ -166,17 +171,22 @@ impl Mutator<'_> {
                 f.valid ^= 1 << b;
             }
             52..66 => self.demand_along_direction(x),
-            66..72 => {
+            66..70 => {
+                // The frame's clock; its samples keep their ages.
+                let random = self.rng.random::<u64>() >> self.rng.random_range(0..64);
+                let step = self.rng.random_range(0..3);
                 let f = self.pick_frame(x);
-                f.time_us = match self.rng.random_range(0..3) {
-                    0 => self.rng.random::<u64>() >> self.rng.random_range(0..64),
+                let t = match step {
+                    0 => random,
                     1 => f.time_us.wrapping_add((self.target.dt_s * 1e6) as u64),
                     _ => 0,
                 };
+                retime(f, t);
             }
-            72..78 => self.mutate_estimation(x),
-            78..88 => self.mutate_prefix(x),
-            88..94 if !self.target.modes.is_empty() => {
+            70..76 => self.mutate_estimation(x),
+            76..84 => self.mutate_prefix(x),
+            84..94 => self.mutate_sample_times(x),
+            94..97 if !self.target.modes.is_empty() => {
                 let modes = &self.target.modes;
                 x.mode = if self.unit() < 0.15 {
                     None
@@ -184,7 +194,7 @@ impl Mutator<'_> {
                     Some((modes[self.rng.random_range(0..modes.len())], self.unit() < 0.7))
                 };
             }
-            88..100 if self.target.n_actuators > 0 => {
+            94..100 if self.target.n_actuators > 0 => {
                 x.failed_mask ^= 1 << self.rng.random_range(0..self.target.n_actuators.min(16));
             }
             _ => {
@@ -229,12 +239,17 @@ impl Mutator<'_> {
         }
     }
 
-    /// The prefix: repeat the measured frame (loads integrators and the PWPF), add a
-    /// mutated copy, or drop a frame.
+    /// The prefix: repeat the measured frame (loads integrators and the PWPF; up to
+    /// `MAX_PREFIX` frames fill the MEKF's history; half the time 1-4 frames, which keeps
+    /// the mean evaluation short), add a mutated copy, or drop a frame.
     fn mutate_prefix(&mut self, x: &mut Input) {
         match self.rng.random_range(0..3) {
             0 => {
-                let n = self.rng.random_range(1..=MAX_PREFIX);
+                let n = if self.unit() < 0.5 {
+                    self.rng.random_range(1..=4.min(MAX_PREFIX))
+                } else {
+                    self.rng.random_range(1..=MAX_PREFIX)
+                };
                 x.prefix = vec![x.frame; n];
             }
             1 if x.prefix.len() < MAX_PREFIX => {
@@ -247,10 +262,53 @@ impl Mutator<'_> {
             }
         }
         let dt_us = (self.target.dt_s * 1e6) as u64;
-        // Consistent clocks along the sequence (the measured frame last).
+        // Consistent clocks along the sequence (the measured frame last), each frame's
+        // samples moved with it (same ages: every frame brings new samples).
         let n = x.prefix.len() as u64;
         for (k, p) in x.prefix.iter_mut().enumerate() {
-            p.time_us = x.frame.time_us.wrapping_sub((n - k as u64) * dt_us);
+            retime(p, x.frame.time_us.wrapping_sub((n - k as u64) * dt_us));
+        }
+    }
+
+    /// Protocol 13's inputs: one sensor's sample time (any age up to beyond
+    /// `max_sample_age_s` and the history, an earlier frame's gyro time — where the
+    /// history's nodes lie —, the future, held from the frame before, or every sensor at
+    /// the frame's time: all new at once) or the gyro increment (consistent with the rate,
+    /// none, an absurd interval or angle).
+    fn mutate_sample_times(&mut self, x: &mut Input) {
+        let n = x.prefix.len();
+        let k = if n > 0 && self.unit() < 0.3 { self.rng.random_range(0..n) } else { n };
+        let earlier: Vec<SampleTimes> = x.prefix.iter().take(k).map(|p| p.sampled_at).collect();
+        let sensor = self.rng.random_range(0..SENSORS);
+        let op = self.rng.random_range(0..10u32);
+        let age_us = 10f64.powf(6.8 * self.unit()) as u64;
+        let ahead_us = 10f64.powf(7.0 * self.unit()) as u64;
+        let dt_us = (self.target.dt_s * 1e6) as u64;
+        let node = earlier.get(self.rng.random_range(0..earlier.len().max(1))).map(|t| t.gyro_us);
+        let plus = self.rng.random_range(0..2u64);
+        let (special, component) = (SPECIAL[self.rng.random_range(0..SPECIAL.len())], self.rng.random_range(0..3));
+        let absurd = [1, u32::MAX, self.rng.random::<u32>()][self.rng.random_range(0..3)];
+        let f = if k < n { &mut x.prefix[k] } else { &mut x.frame };
+        let now = f.time_us;
+        let held = earlier.last().map_or(now, |t| {
+            let mut t = *t;
+            *sample_time(&mut t, sensor)
+        });
+        match op {
+            0 | 1 => *sample_time(&mut f.sampled_at, sensor) = now.saturating_sub(age_us),
+            2 => *sample_time(&mut f.sampled_at, sensor) = node.map_or(now, |t| t.saturating_add(plus)),
+            3 => *sample_time(&mut f.sampled_at, sensor) = if plus == 0 { now.saturating_add(ahead_us) } else { u64::MAX },
+            4 => *sample_time(&mut f.sampled_at, sensor) = held,
+            5 => f.sampled_at = SampleTimes::all(now),
+            6 | 7 => {
+                // The increment of the rate over the interval since the previous frame's gyro.
+                let since = earlier.last().map_or(dt_us, |t| f.sampled_at.gyro_us.wrapping_sub(t.gyro_us));
+                f.gyro_interval_us = u32::try_from(since).unwrap_or(u32::MAX);
+                let s = f.gyro_interval_us as f32 * 1e-6;
+                f.gyro_angle_rad = f.rate_rad_s.map(|w| w * s);
+            }
+            8 => f.gyro_interval_us = if plus == 0 { 0 } else { absurd },
+            _ => f.gyro_angle_rad[component] = special,
         }
     }
 
@@ -302,7 +360,7 @@ impl Mutator<'_> {
                 }
                 let last = x.prefix.last().map_or(x.frame.time_us, |p| p.time_us);
                 let gap_us = (longest_propagated_gap_s() * 1e6 * self.unit().sqrt()) as u64;
-                x.frame.time_us = last.wrapping_add(gap_us);
+                retime(&mut x.frame, last.wrapping_add(gap_us));
             }
         }
     }
@@ -326,6 +384,32 @@ impl Mutator<'_> {
     }
 }
 
+/// Sensors with a sample time in `SampleTimes`.
+const SENSORS: usize = 6;
+
+/// Sample time of sensor `i` (gyro, star tracker, fine Sun, CSS, magnetometer, GNSS).
+fn sample_time(t: &mut SampleTimes, i: usize) -> &mut u64 {
+    match i {
+        0 => &mut t.gyro_us,
+        1 => &mut t.star_tracker_us,
+        2 => &mut t.sun_sensor_us,
+        3 => &mut t.css_us,
+        4 => &mut t.magnetometer_us,
+        _ => &mut t.gnss_us,
+    }
+}
+
+/// Moves the frame's clock to `t` and every sample time with it (the samples keep their
+/// ages; modular, as the genome's clocks may be anything).
+fn retime(f: &mut SensorFrame, t: u64) {
+    let d = t.wrapping_sub(f.time_us);
+    f.time_us = t;
+    for i in 0..SENSORS {
+        let s = sample_time(&mut f.sampled_at, i);
+        *s = s.wrapping_add(d);
+    }
+}
+
 fn normalise(q: &mut [f32; 4]) {
     let n = q.iter().map(|x| x * x).sum::<f32>().sqrt();
     if n.is_finite() && n > 1e-20 {
@@ -335,13 +419,17 @@ fn normalise(q: &mut [f32; 4]) {
     }
 }
 
+/// Length of the sweep's fixed estimation sequences (prefix frames before the measured one).
+const SWEEP_PREFIX: usize = 4;
+
 /// The fixed inputs every search starts from: the nominal frame, attitude errors of 0.1,
 /// 1 and 3 rad about each body axis and each thruster direction with rates of 0.01 and
 /// 0.3 rad/s, every valid bit cleared in turn (GNSS and CSS included), each mode locked,
-/// and two sequences for the stateful estimation stage: the nominal frame stepped
-/// `MAX_PREFIX + 1` times one control period apart (filter initialised on the first,
+/// two sequences for the stateful estimation stage: the nominal frame stepped
+/// `SWEEP_PREFIX + 1` times one control period apart (filter initialised on the first,
 /// propagated and updated on the rest), and the same with the GNSS fix only in the first
-/// frame and the longest gap the MEKF still propagates across before the measured frame.
+/// frame and the longest gap the MEKF still propagates across before the measured frame;
+/// and for a scenario on the MEKF the state history's worst cases ([`history_inputs`]).
 /// (Also the "fixed sweep" the search is compared with: see [`sweep`].)
 pub fn sweep_inputs(t: &Target) -> Vec<Input> {
     let base = t.nominal_input();
@@ -365,27 +453,105 @@ pub fn sweep_inputs(t: &Target) -> Vec<Input> {
         v.push(x);
     }
     let dt_us = (t.dt_s * 1e6).round() as u64;
+    let at = |k: u64| {
+        let mut f = base.frame;
+        retime(&mut f, base.frame.time_us + k * dt_us);
+        f
+    };
     let mut x = base.clone();
-    x.prefix = (0..MAX_PREFIX as u64)
-        .map(|k| {
-            let mut f = base.frame;
-            f.time_us = base.frame.time_us + k * dt_us;
-            f
-        })
-        .collect();
-    x.frame.time_us = base.frame.time_us + MAX_PREFIX as u64 * dt_us;
+    x.prefix = (0..SWEEP_PREFIX as u64).map(at).collect();
+    x.frame = at(SWEEP_PREFIX as u64);
     v.push(x.clone());
     for p in x.prefix.iter_mut().skip(1) {
         p.valid &= !valid::GNSS;
     }
     x.frame.valid &= !valid::GNSS;
     let last = x.prefix.last().map_or(0, |p| p.time_us);
-    x.frame.time_us = last + (longest_propagated_gap_s() * 1e6) as u64;
+    retime(&mut x.frame, last + (longest_propagated_gap_s() * 1e6) as u64);
     v.push(x);
     for m in &t.modes {
         let mut x = base.clone();
         x.mode = Some((*m, true));
         v.push(x);
+    }
+    v.extend(history_inputs(t));
+    v
+}
+
+/// Hand-made worst cases of the MEKF's state history (`estimation::history`, scenarios on
+/// the MEKF only): `MAX_PREFIX` frames, then the measured one, one step apart (the
+/// scenario's period, and a faster clock that keeps the whole sequence within half of
+/// `max_sample_age_s`), each frame's samples new at its own time, the tracker and gyro
+/// valid, and the gyro increment consistent with the rate. Variants:
+/// - every sensor new at once in every frame (the measured one included);
+/// - one sensor (tracker, fine Sun, CSS, magnetometer, GNSS, gyro) held at the first frame's
+///   sample through the prefix, then late in the measured frame at the time of an earlier
+///   frame where the oldest node of the full history lies — with 0 to 3 sample nodes per
+///   frame besides the propagation node, frame `⌊((1 + m)·n + 1 − HISTORY_DEPTH)/(1 + m)⌋`,
+///   i.e. maximum replay (for the CSS the fine Sun is cleared in the
+///   measured frame, as the flight code prefers it);
+/// - the tracker held, then tracker, CSS and magnetometer all late in the measured frame
+///   (three replays in one step).
+pub fn history_inputs(t: &Target) -> Vec<Input> {
+    let Some(est) = t.estimation.filter(|e| e.source == AttitudeSource::Mekf) else {
+        return Vec::new();
+    };
+    let n = MAX_PREFIX as u64;
+    let base = t.nominal;
+    let dt_us = ((t.dt_s * 1e6).round() as u64).max(1);
+    let max_age_us = f64::from(est.max_sample_age_s) * 1e6;
+    let fast_us = ((0.5 * max_age_us / (n + 1) as f64) as u64).clamp(1, dt_us);
+    let mut steps = vec![fast_us, dt_us];
+    steps.dedup();
+    let mut v = Vec::new();
+    for step_us in steps {
+        let frame_at = |k: u64| {
+            let mut f = base;
+            retime(&mut f, base.time_us + k * step_us);
+            // The tracker and the gyro valid even where the scenario starts without them
+            // (the mission: the tracker locks later): the filter starts on the first frame.
+            f.valid |= valid::ATTITUDE | valid::RATE;
+            f.gyro_interval_us = u32::try_from(step_us).unwrap_or(u32::MAX);
+            f.gyro_angle_rad = f.rate_rad_s.map(|w| w * step_us as f32 * 1e-6);
+            f
+        };
+        // Sensor `held` keeps the first frame's sample time through the sequence.
+        let sequence = |held: Option<usize>| {
+            let hold = |mut f: SensorFrame| {
+                if let Some(s) = held {
+                    *sample_time(&mut f.sampled_at, s) = *sample_time(&mut frame_at(0).sampled_at, s);
+                }
+                f
+            };
+            Input { mode: None, failed_mask: 0, prefix: (0..n).map(|k| hold(frame_at(k))).collect(), frame: hold(frame_at(n)) }
+        };
+        v.push(sequence(None));
+        // Frames where the oldest node lies with m = 0..3 sample nodes per frame, and the
+        // oldest frame within the sample age limit.
+        let mut oldest: Vec<u64> = (0..4u64)
+            .map(|m| ((1 + m) * n + 1).saturating_sub(HISTORY_DEPTH as u64) / (1 + m))
+            .chain([n.saturating_sub((0.9 * max_age_us / step_us as f64) as u64)])
+            .map(|j| j.clamp(1, n - 1))
+            .collect();
+        oldest.sort_unstable();
+        oldest.dedup();
+        for &j in &oldest {
+            let t_j = frame_at(j).time_us;
+            for s in 0..SENSORS {
+                let mut x = sequence(Some(s));
+                *sample_time(&mut x.frame.sampled_at, s) = t_j;
+                if s == 3 {
+                    x.frame.valid = (x.frame.valid & !valid::SUN) | valid::CSS;
+                }
+                v.push(x);
+            }
+            let mut x = sequence(Some(1));
+            x.frame.valid = (x.frame.valid & !valid::SUN) | valid::CSS;
+            x.frame.sampled_at.star_tracker_us = t_j;
+            x.frame.sampled_at.css_us = t_j + 1;
+            x.frame.sampled_at.magnetometer_us = t_j + 2;
+            v.push(x);
+        }
     }
     v
 }

@@ -61,7 +61,7 @@ pub fn write_search(
     out!(
         w,
         "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}, estimation [{}], \
-         MEKF updates accepted/rejected/restarts {}/{}/{}); {}",
+         MEKF updates accepted/rejected/restarts {}/{}/{}, most history nodes replayed {}); {}",
         c.instructions,
         c.step,
         mode_name(c.mode),
@@ -70,6 +70,7 @@ pub fn write_search(
         c.mekf_accepted,
         c.mekf_rejected,
         c.mekf_resets,
+        c.replayed_nodes,
         budget_verdict(budget, &t.name, mode_name(r.worst.cost.mode), r.worst.cost.instructions, t.dt_s, &mut failed)
     );
     out!(
@@ -113,12 +114,14 @@ pub fn write_replayed(
                 let mode = mode_name(m.mode);
                 out!(
                     w,
-                    "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}]; {}",
+                    "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}], \
+                     replayed {}; {}",
                     r.label,
                     m.instructions,
                     r.recorded,
                     m.instructions as i64 - r.recorded as i64,
                     estimate_names(m.estimate_flags),
+                    m.replayed_nodes,
                     budget_verdict(budget, scenario, mode, m.instructions, dt_s, failed)
                 );
             }
