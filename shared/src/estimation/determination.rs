@@ -527,6 +527,11 @@ impl Determination {
     fn fuse(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) -> Option<Result<f32, MekfError>> {
         let h = self.history.as_mut()?;
         let late = t_us < h.now_us();
+        // Beyond the latency horizon: refused before any replay (bounds the step's cost).
+        if span_s(t_us, h.now_us()).is_some_and(|age| age > self.params.max_sample_latency_s) {
+            self.fusion.too_old = self.fusion.too_old.saturating_add(1);
+            return None;
+        }
         let track = match sensor {
             Sensor::StarTracker => &mut self.tracks.star_tracker.fusion,
             Sensor::FineSun => &mut self.tracks.sun_sensor.fusion,

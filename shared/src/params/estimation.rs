@@ -80,6 +80,13 @@ pub struct EstimationParams {
     /// the updates by about the errors' correlation time keeps its covariance honest
     /// (docs/estimation-timing.md).
     pub coarse_update_interval_s: f32,
+    /// Oldest sample fused, s before the filter's newest time, > 0: an older sample is
+    /// refused as too old. It bounds the replay of a late sample (one propagation and the
+    /// stored updates per history node it passes, ≈ 4,000 instructions each on the
+    /// Cortex-M4F) and so the worst step; it must cover the slowest sensor's latency
+    /// (a star tracker's 50–300 ms). The history's depth (`HISTORY_DEPTH` nodes: control
+    /// steps plus samples) bounds it too.
+    pub max_sample_latency_s: f32,
 }
 
 impl Default for EstimationParams {
@@ -112,6 +119,7 @@ impl EstimationParams {
         max_consecutive_rejections: 20,
         max_sample_age_s: 3.0,
         coarse_update_interval_s: 0.0,
+        max_sample_latency_s: 0.5,
     };
 }
 
@@ -146,6 +154,12 @@ impl EstimationParams {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.max_sample_age_s.is_finite() && self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
+            return bad(ParamReason::OutOfRange);
+        }
+        if !(self.max_sample_latency_s.is_finite()
+            && self.max_sample_latency_s > 0.0
+            && self.max_sample_latency_s <= 60.0)
+        {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {

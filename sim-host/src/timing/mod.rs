@@ -21,9 +21,9 @@ pub mod text;
 /// What other tools read of the timing results (the report's cost table).
 pub use corpus::{StepCost, step_cost};
 
+use acs_flight::estimation::history::HISTORY_DEPTH;
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
-use acs_flight::estimation::history::HISTORY_DEPTH;
 use acs_flight::link::{FswMsg, HostMsg, SampleTimes, SensorFrame};
 use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams};
 use acs_flight::params::{Mode, ModeRequest};

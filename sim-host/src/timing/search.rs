@@ -19,8 +19,8 @@
 //! on the machine's speed (the time budget then only guards).
 
 use super::{Cost, Evaluator, FRAME_FIELDS, Input, MAX_PREFIX, N_FLOATS, Target, floats_mut};
-use acs_flight::estimation::history::HISTORY_DEPTH;
 use acs_flight::estimation::determination::{MAX_PROPAGATION_DT_S, MAX_PROPAGATION_PIECES};
+use acs_flight::estimation::history::HISTORY_DEPTH;
 use acs_flight::link::{SampleTimes, SensorFrame, valid};
 use acs_flight::params::{AttitudeSource, Mode};
 use anyhow::Result;
@@ -297,7 +297,10 @@ impl Mutator<'_> {
         match op {
             0 | 1 => *sample_time(&mut f.sampled_at, sensor) = now.saturating_sub(age_us),
             2 => *sample_time(&mut f.sampled_at, sensor) = node.map_or(now, |t| t.saturating_add(plus)),
-            3 => *sample_time(&mut f.sampled_at, sensor) = if plus == 0 { now.saturating_add(ahead_us) } else { u64::MAX },
+            3 => {
+                *sample_time(&mut f.sampled_at, sensor) =
+                    if plus == 0 { now.saturating_add(ahead_us) } else { u64::MAX }
+            }
             4 => *sample_time(&mut f.sampled_at, sensor) = held,
             5 => f.sampled_at = SampleTimes::all(now),
             6 | 7 => {
@@ -523,7 +526,12 @@ pub fn history_inputs(t: &Target) -> Vec<Input> {
                 }
                 f
             };
-            Input { mode: None, failed_mask: 0, prefix: (0..n).map(|k| hold(frame_at(k))).collect(), frame: hold(frame_at(n)) }
+            Input {
+                mode: None,
+                failed_mask: 0,
+                prefix: (0..n).map(|k| hold(frame_at(k))).collect(),
+                frame: hold(frame_at(n)),
+            }
         };
         v.push(sequence(None));
         // Frames where the oldest node lies with m = 0..3 sample nodes per frame, and the

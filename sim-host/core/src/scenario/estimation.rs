@@ -91,6 +91,14 @@ pub struct EstimationSpec {
     /// default 0: every sample): about the correlation time of their errors.
     #[serde(default)]
     pub coarse_update_interval_s: f64,
+    /// Oldest sample fused, s before the filter's newest time ((0, 60]; default 0.5): an
+    /// older one is refused as too old. Bounds the flight step's worst case.
+    #[serde(default = "max_sample_latency_s")]
+    pub max_sample_latency_s: f64,
+}
+
+fn max_sample_latency_s() -> f64 {
+    f64::from(EstimationParams::SENSOR.max_sample_latency_s)
 }
 
 fn max_sample_age_s() -> f64 {
@@ -188,6 +196,12 @@ impl EstimationSpec {
         if !(self.max_sample_age_s > 0.0 && self.max_sample_age_s <= 3600.0) {
             return Some(anyhow!("estimation.max_sample_age_s = {}: out of range (0, 3600]", self.max_sample_age_s));
         }
+        if !(self.max_sample_latency_s > 0.0 && self.max_sample_latency_s <= 60.0) {
+            return Some(anyhow!(
+                "estimation.max_sample_latency_s = {}: out of range (0, 60]",
+                self.max_sample_latency_s
+            ));
+        }
         if !(0.0..=86_400.0).contains(&self.coarse_update_interval_s) {
             return Some(anyhow!(
                 "estimation.coarse_update_interval_s = {}: out of range [0, 86400]",
@@ -244,6 +258,7 @@ impl EstimationSpec {
             max_consecutive_rejections: self.max_consecutive_rejections,
             max_sample_age_s: self.max_sample_age_s as f32,
             coarse_update_interval_s: self.coarse_update_interval_s as f32,
+            max_sample_latency_s: self.max_sample_latency_s as f32,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
