@@ -42,7 +42,9 @@ pub struct GnssFix {
 pub struct GnssReceiver {
     pub spec: GnssSpec,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
 }
 
 impl GnssReceiver {
