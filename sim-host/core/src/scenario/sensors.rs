@@ -1,5 +1,5 @@
 //! Validation of the `[sensors]` table: the shortcut noises and latency, every sensor's
-//! sample rate, then one validator per sensor table (gyro, magnetometer, coarse sun
+//! sample rate and sample timing (phase, jitter, latency), then one validator per sensor table (gyro, magnetometer, coarse sun
 //! sensors, GNSS receiver, star tracker), in that order (the first error is reported).
 
 use super::{Scenario, bad, finite, non_negative, positive};
