@@ -2,8 +2,10 @@
 //! link to the flight code and the run's statistics; [`Simulation::step`] advances one
 //! control period and hands the recorded row to a [`Recorder`].
 //!
-//! Timing: the frame sampled at `t_k` is answered with commands that the plant holds over
-//! `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
+//! Timing: the sensors are offered the true state at t = 0 and after every RK4 substep
+//! (in `Simulation::advance`), each sampling on its own clock; the frame of `t_k` carries the
+//! newest samples that have arrived by then and is answered with commands that the plant
+//! holds over `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
 use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_body};
@@ -279,6 +281,9 @@ pub struct Simulation<'a> {
     craft: Spacecraft,
     state: State,
     snap: Option<EnvSnapshot>,
+    /// `snap` already holds the environment of the next control step (built at the last
+    /// substep boundary for the sensors).
+    snap_ready: bool,
     sensors: SensorSuite,
     /// The step change of the inertia, if any.
     inertia_change: Option<InertiaChange>,
@@ -372,6 +377,7 @@ impl<'a> Simulation<'a> {
             craft,
             state,
             snap,
+            snap_ready: false,
             act,
             target,
             next_command: 0,
@@ -443,9 +449,10 @@ impl<'a> Simulation<'a> {
     pub fn step(&mut self, rec: &mut dyn Recorder) -> Result<()> {
         let k = self.k;
         let t = k as f64 * self.clock.dt;
-        if k > 0 {
+        if k > 0 && !self.snap_ready {
             self.snap = self.craft.env_at(t)?;
         }
+        self.snap_ready = false;
         // No point flying (or asking the flight code about) a non-finite plant.
         if self.diverged_at(t, plant_non_finite(&self.state, self.snap.as_ref())) {
             return Ok(());
@@ -510,8 +517,11 @@ impl<'a> Simulation<'a> {
     /// The actuator command of step `k`: the flight code's answer to the sampled sensor
     /// frame (closed loop) or the open-loop table's; with the flight step's cost in ticks.
     fn flight_command(&mut self, k: u64, t: f64) -> Result<(ActuatorCommand, u32)> {
-        let frame =
-            self.sensors.sample(k as u32, t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
+        if k == 0 {
+            // The sensors' first offer of the truth (the later ones: after each substep).
+            self.sensors.sample_due(t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
+        }
+        let frame = self.sensors.frame(k as u32, t, &self.state, &self.craft, self.snap.as_ref());
         if self.info.is_none() {
             return Ok((open_loop_command(open_loop_at(&self.open_loop, t), k as u32), 0));
         }
@@ -587,13 +597,32 @@ impl<'a> Simulation<'a> {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
             }
             // The plant integrator (the only call): RK4 over [tj, tj + h) with the
-            // environment evaluated at every stage's own time (issue 9); the sensors keep
-            // the snapshot of the control step.
+            // environment evaluated at every stage's own time (issue 9).
             self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
             if plant_non_finite(&self.state, None).is_some() {
                 break; // the next control step reports it
             }
+            // The last boundary is the next control step, at the time the step computes.
+            let last = j + 1 == self.clock.substeps;
+            self.offer_truth(if last { (self.k + 1) as f64 * self.clock.dt } else { tj + h }, last)?;
         }
+        Ok(())
+    }
+
+    /// The true state at the substep boundary `t` to the sensors due there, with the
+    /// environment at `t` when one of them reads it. At the control step (`control_step`)
+    /// the step's own snapshot is built here and kept for it.
+    fn offer_truth(&mut self, t: f64, control_step: bool) -> Result<()> {
+        let env = if control_step {
+            self.snap = self.craft.env_at(t)?;
+            self.snap_ready = true;
+            self.snap
+        } else if self.sensors.needs_env_at(t) {
+            self.craft.env_at(t)?
+        } else {
+            None
+        };
+        self.sensors.sample_due(t, &self.state, &self.craft, env.as_ref(), &self.act.rod_dipole);
         Ok(())
     }
 

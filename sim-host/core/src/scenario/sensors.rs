@@ -1,10 +1,10 @@
 //! Validation of the `[sensors]` table: the shortcut noises and latency, every sensor's
-//! sample rate, then one validator per sensor table (gyro, magnetometer, coarse sun
+//! sample rate and sample timing (phase, jitter, latency), then one validator per sensor table (gyro, magnetometer, coarse sun
 //! sensors, GNSS receiver, star tracker), in that order (the first error is reported).
 
 use super::{Scenario, bad, finite, non_negative, positive};
 use crate::sensors::config::{
-    CssSpecToml, GnssSpecToml, GyroSensorSpec, MagnetometerSensorSpec, Sensors, StarTrackerSpec,
+    CssSpecToml, GnssSpecToml, GyroSensorSpec, MagnetometerSensorSpec, Sampled, Sensors, StarTrackerSpec,
 };
 use anyhow::Result;
 
@@ -14,6 +14,7 @@ impl Scenario {
         let s = &self.sensors;
         validate_shortcuts(s)?;
         validate_rates(s)?;
+        validate_timing(s, self.timing.control_rate_hz)?;
         if let Some(g) = &s.gyro {
             validate_gyro(g)?;
         }
@@ -70,6 +71,30 @@ fn validate_rates(s: &Sensors) -> Result<()> {
     }
     if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
         positive("sensors.star_tracker.max_rate_deg_s", m)?;
+    }
+    Ok(())
+}
+
+/// Every sensor table's sample grid and delay: `phase_s` in [0, 1/rate), `jitter_s` in
+/// [0, 1/(2 rate)) (so the jittered grid points keep their order), `latency_s` in [0, 10]
+/// (rates checked before: [`validate_rates`]).
+fn validate_timing(s: &Sensors, control_rate_hz: f64) -> Result<()> {
+    for which in Sampled::ALL {
+        let Some((rate, phase, jitter, latency)) = s.timing_keys(which) else { continue };
+        let key = |k: &str| format!("sensors.{}.{k}", which.key());
+        let period = 1.0 / rate.unwrap_or(control_rate_hz);
+        if !(latency.is_finite() && (0.0..=10.0).contains(&latency)) {
+            return Err(bad(&key("latency_s"), format!("must be in [0, 10] s (got {latency})")));
+        }
+        if !(phase.is_finite() && phase >= 0.0 && phase < period) {
+            return Err(bad(&key("phase_s"), format!("must be in [0, 1/rate_hz = {period}) s (got {phase})")));
+        }
+        if !(jitter.is_finite() && jitter >= 0.0 && jitter < 0.5 * period) {
+            return Err(bad(
+                &key("jitter_s"),
+                format!("must be in [0, half the period = {}) s (got {jitter})", 0.5 * period),
+            ));
+        }
     }
     Ok(())
 }

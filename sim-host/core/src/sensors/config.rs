@@ -1,5 +1,6 @@
 //! The `[sensors]` table of a scenario: the sensor suite's own configuration.
 
+use super::clock::SampleTiming;
 use super::gyro::GyroSpec;
 use serde::{Deserialize, Serialize};
 
@@ -26,9 +27,9 @@ pub struct Sensors {
     /// 1σ wheel tachometer noise, rad/s.
     #[serde(default)]
     pub wheel_speed_noise_rad_s: f64,
-    /// Transport delay of the attitude and rate measurements, s, rounded to whole control
-    /// periods (paper 000 names the rig's latency): the frame of step k carries the
-    /// attitude and rate of step k − n. 0 = none.
+    /// Transport delay of the attitude and rate measurements, s, exact (paper 000 names the
+    /// rig's latency): added to the gyro's and the star tracker's own `latency_s`; a sample
+    /// of the truth at t reaches the first frame at or after t + latency. 0 = none.
     #[serde(default)]
     pub latency_s: f64,
     /// Detailed models (replace the shortcuts above when given).
@@ -57,6 +58,15 @@ pub struct GyroSensorSpec {
     /// Sample rate (default: the control rate).
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+    /// The gyro's own latency on top of the suite's `latency_s`, s, exact (default 0).
+    #[serde(default)]
+    pub latency_s: f64,
     #[serde(default)]
     pub arw_rad_s_rthz: f64,
     #[serde(default)]
@@ -134,6 +144,12 @@ impl GyroSensorSpec {
 pub struct StarTrackerSpec {
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
     #[serde(default)]
     pub noise_deg: f64,
     #[serde(default)]
@@ -156,8 +172,8 @@ pub struct StarTrackerSpec {
     /// Earth-limb exclusion angle about the boresight, deg (default: none).
     #[serde(default)]
     pub earth_exclusion_deg: Option<f64>,
-    /// The tracker's own latency on top of the suite's `latency_s`, s, rounded to whole
-    /// control steps (default 0).
+    /// The tracker's own latency on top of the suite's `latency_s`, s, exact (exposure →
+    /// delivery; default 0).
     #[serde(default)]
     pub latency_s: f64,
     /// Intervals [start, end] (s, closed) without a solution (a tracker switched off, a
@@ -173,6 +189,15 @@ pub struct StarTrackerSpec {
 pub struct MagnetometerSensorSpec {
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+    /// Exposure → delivery, s, exact (not rounded to control steps; default 0).
+    #[serde(default)]
+    pub latency_s: f64,
     /// 1σ white noise per axis, T.
     #[serde(default)]
     pub noise_t: f64,
@@ -194,6 +219,15 @@ pub struct MagnetometerSensorSpec {
 pub struct SunSensorSpecToml {
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+    /// Exposure → delivery, s, exact (not rounded to control steps; default 0).
+    #[serde(default)]
+    pub latency_s: f64,
     #[serde(default)]
     pub noise_deg: f64,
     pub boresight_body: [f64; 3],
@@ -207,6 +241,15 @@ pub struct CssSpecToml {
     /// Sample rate (default: the control rate).
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+    /// Exposure → delivery, s, exact (not rounded to control steps; default 0).
+    #[serde(default)]
+    pub latency_s: f64,
     /// Outward normals of the heads in body axes, 1 to 6 (normalised); the order is the
     /// `css_output` index.
     pub normals_body: Vec<[f64; 3]>,
@@ -225,6 +268,15 @@ pub struct GnssSpecToml {
     /// Fix rate (default: the control rate).
     #[serde(default)]
     pub rate_hz: Option<f64>,
+    /// Offset of the sample grid from t = 0, s, in [0, 1/rate) (default 0).
+    #[serde(default)]
+    pub phase_s: f64,
+    /// Timing jitter of each sample: uniform on ±this, s, < half the period (default 0).
+    #[serde(default)]
+    pub jitter_s: f64,
+    /// Fix validity time → delivery, s, exact (default 0).
+    #[serde(default)]
+    pub latency_s: f64,
     /// 1σ white noise per axis of the position, m.
     #[serde(default)]
     pub position_noise_m: f64,
@@ -234,4 +286,58 @@ pub struct GnssSpecToml {
     /// Intervals `[start, end]` of simulation time, s (closed), without a fix.
     #[serde(default)]
     pub outages_s: Vec<[f64; 2]>,
+}
+
+/// Which sensor's sample clock ([`Sensors::timing`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampled {
+    Gyro,
+    StarTracker,
+    Magnetometer,
+    Sun,
+    Css,
+    Gnss,
+}
+
+impl Sampled {
+    pub const ALL: [Sampled; 6] =
+        [Sampled::Gyro, Sampled::StarTracker, Sampled::Magnetometer, Sampled::Sun, Sampled::Css, Sampled::Gnss];
+
+    /// The sensor's table key (`sensors.<key>`).
+    pub fn key(self) -> &'static str {
+        match self {
+            Sampled::Gyro => "gyro",
+            Sampled::StarTracker => "star_tracker",
+            Sampled::Magnetometer => "magnetometer",
+            Sampled::Sun => "sun",
+            Sampled::Css => "css",
+            Sampled::Gnss => "gnss",
+        }
+    }
+}
+
+impl Sensors {
+    /// `(rate_hz, phase_s, jitter_s, own latency_s)` as written in the sensor's table
+    /// (`None`: no table).
+    pub fn timing_keys(&self, which: Sampled) -> Option<(Option<f64>, f64, f64, f64)> {
+        match which {
+            Sampled::Gyro => self.gyro.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s)),
+            Sampled::StarTracker => self.star_tracker.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s)),
+            Sampled::Magnetometer => {
+                self.magnetometer.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s))
+            }
+            Sampled::Sun => self.sun.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s)),
+            Sampled::Css => self.css.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s)),
+            Sampled::Gnss => self.gnss.as_ref().map(|x| (x.rate_hz, x.phase_s, x.jitter_s, x.latency_s)),
+        }
+    }
+
+    /// A sensor's sample grid and delivery delay: its table's keys (defaults: the control
+    /// rate, no phase, no jitter, no delay), the suite's `latency_s` added for the gyro and
+    /// the star tracker (the attitude and rate measurements).
+    pub fn timing(&self, which: Sampled, control_rate_hz: f64) -> SampleTiming {
+        let (rate, phase_s, jitter_s, latency_s) = self.timing_keys(which).unwrap_or((None, 0.0, 0.0, 0.0));
+        let suite = if matches!(which, Sampled::Gyro | Sampled::StarTracker) { self.latency_s } else { 0.0 };
+        SampleTiming { rate_hz: rate.unwrap_or(control_rate_hz), phase_s, jitter_s, latency_s: suite + latency_s }
+    }
 }

@@ -71,7 +71,9 @@ pub struct CoarseSunSensors {
     pub spec: CssSpec,
     normals: Vec<Vec3>,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
     last: CssReading,
 }
 

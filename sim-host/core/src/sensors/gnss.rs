@@ -2,7 +2,8 @@
 //!
 //! Input: the true position (m) and velocity (m/s), inertial. Output: a fix
 //! ([`GnssFix`]) at each point of the receiver's sample grid outside its outages, nothing
-//! otherwise (no hold: the flight code sees each fix once).
+//! otherwise (the suite holds the last fix in the frames with its validity time, so the
+//! flight code tells a new fix from a held one).
 //!
 //! Error model: white noise per axis on position and velocity (six normals at every grid
 //! point, outage or not, so an outage does not shift the later noise); no clock or
@@ -35,14 +36,16 @@ pub struct GnssFix {
 }
 
 /// GNSS receiver: a fix `r + n_r`, `v + n_v` (white, per axis) at each point of its sample
-/// grid outside the outages, nothing otherwise (no hold: the flight code sees each fix
-/// once). Six normals are drawn at every grid point, outage or not, so an outage does not
+/// grid outside the outages, nothing otherwise (the suite holds the last fix, with its
+/// time). Six normals are drawn at every grid point, outage or not, so an outage does not
 /// shift the later noise.
 #[derive(Clone, Debug)]
 pub struct GnssReceiver {
     pub spec: GnssSpec,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
 }
 
 impl GnssReceiver {

@@ -19,6 +19,10 @@ use nalgebra::UnitQuaternion;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+/// Sub-stream of the gyro's stream for the angle random walk of its angle increments
+/// ([`sensor_sub_rng`]; 1 is the bias instability, 2 the sample-time jitter).
+pub const INCREMENT_SUB_STREAM: u32 = 3;
+
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GyroSpec {
     pub rate_hz: f64,
@@ -73,7 +77,12 @@ pub struct Gyro {
     pub spec: GyroSpec,
     rng: ChaCha8Rng,
     gm_rng: ChaCha8Rng,
-    clock: Clock,
+    /// Angle random walk of the angle increments (sub-stream 3: the rate samples' white
+    /// noise keeps its sequence).
+    increment_rng: ChaCha8Rng,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
     bias_rw: Vec3,
     bias_gm: Vec3,
     gm_started: bool,
@@ -93,6 +102,7 @@ impl Gyro {
             spec,
             rng: sensor_rng(scenario_seed, index),
             gm_rng: sensor_sub_rng(scenario_seed, index, 1),
+            increment_rng: sensor_sub_rng(scenario_seed, index, INCREMENT_SUB_STREAM),
             bias_rw: Vec3::zeros(),
             bias_gm: Vec3::zeros(),
             gm_started: false,
@@ -157,6 +167,28 @@ impl Gyro {
 
     pub fn reading(&self) -> GyroReading {
         self.last
+    }
+
+    /// The measured angle increment (rad, triad axes) over `interval_s` whose true value is
+    /// `angle_true_rad` = ∫ω dt (body axes), with the error model of the rate samples
+    /// applied consistently: misalignment and scale factor on the integrated angle, the
+    /// bias now (constant + random walk + Gauss–Markov, after this sample's update) times
+    /// the interval, and the angle random walk, σ = N √interval per axis (white rate noise
+    /// of density N integrates to an angle variance N² T; IEEE Std 952-1997 §B), drawn from
+    /// sub-stream [`INCREMENT_SUB_STREAM`]. Not clipped or quantised (an IMU's delta-angle
+    /// counter has range and resolution to spare).
+    pub fn angle_increment(&mut self, angle_true_rad: &[f64; 3], interval_s: f64) -> [f64; 3] {
+        let mut a = Vec3::from(*angle_true_rad);
+        if self.spec.misalignment_rad != [0.0; 3] {
+            a = UnitQuaternion::from_scaled_axis(Vec3::from(self.spec.misalignment_rad)).inverse() * a;
+        }
+        let mut m =
+            a + a.component_mul(&Vec3::from(self.spec.scale_factor)) + Vec3::from(self.bias_rad_s()) * interval_s;
+        if self.spec.arw_rad_s_rthz != [0.0; 3] {
+            let sd = interval_s.max(0.0).sqrt();
+            m += gauss3(&mut self.increment_rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
+        }
+        m.into()
     }
 
     /// Current total bias (constant + random walk + Gauss–Markov), rad/s — truth for

@@ -50,7 +50,9 @@ pub struct MagReading {
 pub struct Magnetometer {
     pub spec: MagnetometerSpec,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
     last: MagReading,
 }
 

@@ -11,15 +11,19 @@
 //! One file per sensor, each a small type built from its `[sensors]` table
 //! (`…Spec::from_config`) with one sample step `update(t, truth…)`: [`gyro`],
 //! [`star_tracker`], [`magnetometer`], [`sun_sensor`], [`css`], [`gnss`], [`encoders`].
-//! Shared by them: the sample grid ([`clock`]), the noise streams ([`noise`]) and the
-//! transport delay ([`latency`]). [`suite`] samples them all into one frame; [`config`] is
-//! the scenario's `[sensors]` table.
+//! Shared by them: the sample grid with its phase and jitter ([`clock`]), the noise streams
+//! ([`noise`]) and the transport delay in seconds ([`latency`]). [`suite`] offers them the
+//! truth at every dynamics substep, each samples on its own clock, time-tagged, and it
+//! assembles at each control step the frame of the newest samples that have arrived (with
+//! their times, and the gyro's integrated angle increment); [`config`] is the scenario's
+//! `[sensors]` table.
 //!
-//! Each sensor has its own sample rate and its own noise stream derived from the scenario
+//! Each sensor has its own sample clock and its own noise stream derived from the scenario
 //! seed, so the same scenario and seed give the same bits and adding a sensor does not
-//! change another's noise. Streams: 0 encoders and tachometers, 1 gyro (its bias
-//! instability on a sub-stream of 1), 2 attitude sensor, 3 magnetometer, 4 sun sensor,
-//! 5 coarse sun sensors, 6 GNSS receiver.
+//! change another's noise. Streams: 0 encoders and tachometers, 1 gyro, 2 attitude sensor,
+//! 3 magnetometer, 4 sun sensor, 5 coarse sun sensors, 6 GNSS receiver; sub-streams of a
+//! sensor's stream: 1 the gyro's bias instability, 2 every sensor's sample-time jitter, 3
+//! the angle random walk of the gyro's angle increments.
 //!
 //! Conventions: Hamilton quaternions, `q_ib` rotates body → inertial; nalgebra's
 //! `Quaternion` stores `[x, y, z, w]` (scalar last). Vectors are `[f64; 3]` or

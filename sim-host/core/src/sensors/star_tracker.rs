@@ -73,7 +73,9 @@ pub struct AttitudeReading {
 pub struct AttitudeSensor {
     pub spec: AttitudeSensorSpec,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
     last: AttitudeReading,
 }
 

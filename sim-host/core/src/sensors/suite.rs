@@ -1,18 +1,31 @@
-//! The sensor suite: every sensor of a scenario, sampled together into the flight code's
-//! [`SensorFrame`] at each control step.
+//! The sensor suite: every sensor of a scenario, each sampling the truth on its own clock,
+//! and the flight code's [`SensorFrame`] assembled from what has arrived at each control
+//! step.
 //!
-//! The suite is the bridge between the truth (plant state, environment snapshot) and the
-//! sensor models: it delays the attitude and rate (suite latency, then the star tracker's
-//! own), works out the Sun and Earth geometry the models need, calls each model's sample
-//! step at `t` in a fixed order and writes its reading and validity bit into the frame.
+//! Two halves. [`SensorSuite::sample_due`] is offered the true state at every
+//! dynamics-substep boundary (and at t = 0); each sensor whose grid point has come
+//! ([`super::clock`]) samples there, the reading is time-tagged with the time the truth
+//! was sampled (µs, `(t·1e6).round()`), and queued until `tag + latency`
+//! ([`super::latency`]). [`SensorSuite::frame`] then builds the frame of control step
+//! `t_k`: per sensor, the newest sample available at `t_k`, its tag in
+//! `frame.sampled_at.<sensor>_us`; without a new one the previous is held with its old tag;
+//! before the first, the sensor is not valid. The gyro also delivers its angle increment
+//! `gyro_angle_rad` = ∫ω_measured dt since the previous frame's gyro sample, over
+//! `gyro_interval_us`: the true body rate is integrated over the substeps (trapezoid rule on
+//! the substep boundaries, error O(h²) per interval) and the gyro's error model applied to
+//! the integral ([`Gyro::angle_increment`]); several gyro samples in one frame add up.
+//! Encoders, tachometers and the ideal GNSS fix (no `[sensors.gnss]`) are read at the frame
+//! time.
 
-use super::config::Sensors as SensorSpec;
-use super::css::{CoarseSunSensors, CssGeometry, CssSpec};
+use super::clock::SampleTiming;
+use super::config::{Sampled, Sensors as SensorSpec};
+use super::css::{CoarseSunSensors, CssGeometry, CssSpec, MAX_CSS_HEADS};
 use super::encoders::Encoders;
 use super::gnss::{GnssReceiver, GnssSpec};
 use super::gyro::{Gyro, GyroSpec};
-use super::latency::DelayLine;
+use super::latency::SampleQueue;
 use super::magnetometer::{Magnetometer, MagnetometerSpec};
+use super::noise::sensor_sub_rng;
 use super::star_tracker::{AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry};
 use super::sun_sensor::{SunSensor, SunSensorSpec};
 use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
@@ -31,6 +44,8 @@ const MAGNETOMETER_STREAM: u32 = 3;
 const SUN_STREAM: u32 = 4;
 const CSS_STREAM: u32 = 5;
 const GNSS_STREAM: u32 = 6;
+/// Sub-stream of each sensor's stream for its sample-time jitter.
+const JITTER_SUB_STREAM: u32 = 2;
 
 /// Julian date (UT1) at simulation time `t_s` for the Sun ephemeris.
 fn julian_date(env_model: &Environment, t_s: f64) -> f64 {
@@ -47,6 +62,112 @@ pub fn j2000_days_seconds(jd: f64) -> (i32, f32) {
     (days as i32, ((d - days) * 86_400.0) as f32)
 }
 
+/// A time in µs on the flight clock (the frames' and the tags' unit).
+fn micros(t_s: f64) -> u64 {
+    (t_s * 1e6).round() as u64
+}
+
+/// One sensor's samples on their way to the frames: in flight (queued until their
+/// arrival), arrived since the last frame (merged: the newest, with the gyro's angle
+/// increments added up, so the queue holds only what is still in flight), and the newest
+/// delivered to a frame (held).
+#[derive(Clone, Debug)]
+pub struct Channel<T> {
+    pub queue: SampleQueue<T>,
+    /// How an arrived sample combines with the ones before it since the last frame.
+    merge: fn(T, T) -> T,
+    /// Arrived since the last frame: (first tag, newest tag, merged reading).
+    arrived: Option<(u64, u64, T)>,
+    /// The newest sample delivered: (tag µs, reading).
+    held: Option<(u64, T)>,
+}
+
+/// The newer sample replaces the older (every sensor but the gyro).
+fn newest<T>(_: T, newer: T) -> T {
+    newer
+}
+
+impl<T: Copy> Channel<T> {
+    fn new(timing: &SampleTiming, merge: fn(T, T) -> T) -> Self {
+        Self { queue: SampleQueue::new(timing.latency_s, timing.rate_hz), merge, arrived: None, held: None }
+    }
+
+    /// Moves the samples that have arrived by `now_us` out of the queue.
+    fn settle(&mut self, now_us: u64) {
+        while let Some(p) = self.queue.pop_available(now_us) {
+            self.arrived = Some(match self.arrived {
+                None => (p.tag_us, p.tag_us, p.value),
+                Some((first, _, v)) => (first, p.tag_us, (self.merge)(v, p.value)),
+            });
+        }
+    }
+
+    /// A sample of the truth at `tag_us` (tags increasing).
+    fn push(&mut self, tag_us: u64, value: T) {
+        self.settle(tag_us);
+        self.queue.push(tag_us, value);
+    }
+
+    /// At the frame of `now_us`: the sample held now (the newest arrived, else the one held
+    /// before) and, when new samples arrived, the tag of the first of them.
+    fn deliver(&mut self, now_us: u64) -> (Option<(u64, T)>, Option<u64>) {
+        self.settle(now_us);
+        let first_new = self.arrived.take().map(|(first, tag, v)| {
+            self.held = Some((tag, v));
+            first
+        });
+        (self.held, first_new)
+    }
+
+    /// The sample held at the frame of `now_us`.
+    fn deliver_newest(&mut self, now_us: u64) -> Option<(u64, T)> {
+        self.deliver(now_us).0
+    }
+}
+
+/// One gyro sample: the rate, and the angle increment since the previous sample (zero
+/// over zero time for the first).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroSample {
+    pub rate_rad_s: [f64; 3],
+    pub angle_rad: [f64; 3],
+}
+
+impl GyroSample {
+    /// The newer sample, with the angle increments since the older's interval began.
+    fn merge(older: Self, newer: Self) -> Self {
+        Self { angle_rad: (Vec3::from(older.angle_rad) + Vec3::from(newer.angle_rad)).into(), ..newer }
+    }
+}
+
+/// A GNSS fix with its receiver time (days and seconds since J2000.0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixSample {
+    pub pos_m: [f64; 3],
+    pub vel_m_s: [f64; 3],
+    pub j2000: (i32, f32),
+}
+
+/// The true body rate integrated since the gyro's last sample (trapezoid rule on the
+/// boundaries offered to [`SensorSuite::sample_due`]).
+#[derive(Clone, Debug, Default)]
+struct RateIntegral {
+    /// The last boundary offered: (t, ω).
+    last: Option<(f64, Vec3)>,
+    angle_rad: Vec3,
+    /// Time of the gyro's last sample.
+    last_sample_t_s: Option<f64>,
+}
+
+impl RateIntegral {
+    fn offer(&mut self, t_s: f64, w: &Vec3) {
+        if let Some((t0, w0)) = self.last {
+            self.angle_rad += (w0 + w) * (0.5 * (t_s - t0));
+        }
+        self.last = Some((t_s, *w));
+    }
+}
+
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
     encoders: Encoders,
@@ -57,12 +178,13 @@ pub struct SensorSuite {
     css: Option<CoarseSunSensors>,
     /// `None`: ideal fix on every frame (the default without `[sensors.gnss]`).
     gnss: Option<GnssReceiver>,
-    /// Latency of the attitude and rate measurements in control steps: the true attitude
-    /// and rate of `latency_s` ago.
-    latency: DelayLine<(Quat, Vec3)>,
-    /// The star tracker's own extra delay, control steps, on the (suite-delayed) true
-    /// attitude and rate.
-    tracker_latency: DelayLine<(Quat, Vec3)>,
+    rate_integral: RateIntegral,
+    pub gyro_channel: Channel<GyroSample>,
+    pub attitude_channel: Channel<(Quat, bool)>,
+    pub mag_channel: Channel<[f64; 3]>,
+    pub sun_channel: Channel<([f64; 3], bool)>,
+    pub css_channel: Channel<[f64; MAX_CSS_HEADS]>,
+    pub gnss_channel: Channel<FixSample>,
     /// `[sensors.star_tracker] outages_s`.
     tracker_outages: Vec<[f64; 2]>,
 }
@@ -71,13 +193,13 @@ impl SensorSuite {
     /// `control_rate_hz`: default sample rate of sensors that do not give one.
     pub fn new(s: &SensorSpec, control_rate_hz: f64) -> Self {
         let seed = s.seed;
-        let steps = |latency_s: f64| (latency_s * control_rate_hz).round() as usize;
+        let timing = |w: Sampled| s.timing(w, control_rate_hz);
         // Built in this order (the optional sensors first) so that a bad table fails on
         // the same check as before.
         let sun = SunSensorSpec::from_config(s, control_rate_hz).map(|x| SunSensor::new(x, seed, SUN_STREAM));
         let css = CssSpec::from_config(s, control_rate_hz).map(|c| CoarseSunSensors::new(c, seed, CSS_STREAM));
         let gnss = GnssSpec::from_config(s, control_rate_hz).map(|g| GnssReceiver::new(g, seed, GNSS_STREAM));
-        Self {
+        let mut suite = Self {
             encoders: Encoders::new(seed, s.gimbal_noise_deg.to_radians(), s.wheel_speed_noise_rad_s),
             gyro: Gyro::new(GyroSpec::from_config(s, control_rate_hz), seed, GYRO_STREAM),
             attitude: AttitudeSensor::new(AttitudeSensorSpec::from_config(s, control_rate_hz), seed, ATTITUDE_STREAM),
@@ -85,9 +207,42 @@ impl SensorSuite {
             sun,
             css,
             gnss,
-            latency: DelayLine::new(steps(s.latency_s)),
-            tracker_latency: DelayLine::new(s.star_tracker.as_ref().map_or(0, |a| steps(a.latency_s))),
+            rate_integral: RateIntegral::default(),
+            gyro_channel: Channel::new(&timing(Sampled::Gyro), GyroSample::merge),
+            attitude_channel: Channel::new(&timing(Sampled::StarTracker), newest),
+            mag_channel: Channel::new(&timing(Sampled::Magnetometer), newest),
+            sun_channel: Channel::new(&timing(Sampled::Sun), newest),
+            css_channel: Channel::new(&timing(Sampled::Css), newest),
+            gnss_channel: Channel::new(&timing(Sampled::Gnss), newest),
             tracker_outages: s.star_tracker.as_ref().map_or_else(Vec::new, |a| a.outages_s.clone()),
+        };
+        suite.set_grids(s, control_rate_hz);
+        suite
+    }
+
+    /// Each clock's phase and jitter (its jitter from the sensor's sub-stream 2).
+    fn set_grids(&mut self, s: &SensorSpec, control_rate_hz: f64) {
+        for (which, stream) in [
+            (Sampled::Gyro, GYRO_STREAM),
+            (Sampled::StarTracker, ATTITUDE_STREAM),
+            (Sampled::Magnetometer, MAGNETOMETER_STREAM),
+            (Sampled::Sun, SUN_STREAM),
+            (Sampled::Css, CSS_STREAM),
+            (Sampled::Gnss, GNSS_STREAM),
+        ] {
+            let t = s.timing(which, control_rate_hz);
+            let rng = sensor_sub_rng(s.seed, stream, JITTER_SUB_STREAM);
+            let clock = match which {
+                Sampled::Gyro => Some(&mut self.gyro.clock),
+                Sampled::StarTracker => Some(&mut self.attitude.clock),
+                Sampled::Magnetometer => Some(&mut self.mag.clock),
+                Sampled::Sun => self.sun.as_mut().map(|x| &mut x.clock),
+                Sampled::Css => self.css.as_mut().map(|x| &mut x.clock),
+                Sampled::Gnss => self.gnss.as_mut().map(|x| &mut x.clock),
+            };
+            if let Some(c) = clock {
+                c.set_grid(t.phase_s, t.jitter_s, rng);
+            }
         }
     }
 
@@ -97,55 +252,85 @@ impl SensorSuite {
         Vec3::from(self.gyro.bias_rad_s())
     }
 
-    /// Measure the true state at time `t_s`. `rod_dipole_am2`: the torquers' dipole now
-    /// (magnetometer coupling).
-    pub fn sample(
+    /// Whether a sensor that reads the environment (magnetometer, sun sensors, GNSS
+    /// receiver, a star tracker with exclusion rules) samples at `t_s`: the caller builds
+    /// the environment snapshot only then.
+    pub fn needs_env_at(&self, t_s: f64) -> bool {
+        self.mag.clock.is_due(t_s)
+            || (self.attitude.spec.has_exclusion() && self.attitude.clock.is_due(t_s))
+            || self.sun.as_ref().is_some_and(|x| x.clock.is_due(t_s))
+            || self.css.as_ref().is_some_and(|x| x.clock.is_due(t_s))
+            || self.gnss.as_ref().is_some_and(|x| x.clock.is_due(t_s))
+    }
+
+    /// Offers the true state at `t_s` (a dynamics-substep boundary, or t = 0; times
+    /// increasing): the sensors due sample it and queue the reading. `env`: the environment
+    /// at `t_s` when [`Self::needs_env_at`] said so; `rod_dipole_am2`: the torquers' dipole
+    /// now (magnetometer coupling).
+    pub fn sample_due(
         &mut self,
-        seq: u32,
         t_s: f64,
         s: &State,
         craft: &Spacecraft,
         env: Option<&EnvSnapshot>,
         rod_dipole_am2: &[f64; 3],
-    ) -> SensorFrame {
-        let mut f = SensorFrame::empty(seq, (t_s * 1e6).round() as u64);
-        // Latency: measure the state of `latency_s` (whole steps) ago (before the first
-        // sample that old exists, the initial state: the sensor's first output held).
-        let (q_meas, w_meas) = self.latency.delay((s.q, s.w));
-        self.measure_attitude(&mut f, t_s, (q_meas, w_meas), craft, env);
-        self.measure_rate(&mut f, t_s, &w_meas);
-        self.measure_gimbals(&mut f, s, craft);
-        self.measure_wheels(&mut f, s, craft);
-        if let Some(e) = env {
-            if let Some(b) = e.b_ref_t {
-                self.measure_field(&mut f, t_s, &s.q, &b, rod_dipole_am2);
-            }
-            if let (Some(orbit), Some(env_model)) = (e.orbit, craft.env.as_ref()) {
-                self.measure_gnss(&mut f, t_s, orbit, env_model);
-                self.measure_css(&mut f, t_s, &s.q, &orbit.0, env_model);
-                self.measure_sun(&mut f, t_s, &s.q, &orbit.0, env_model);
+    ) {
+        self.rate_integral.offer(t_s, &s.w);
+        if self.gyro.clock.is_due(t_s) {
+            self.sample_gyro(t_s, &s.w);
+        }
+        if self.attitude.clock.is_due(t_s) {
+            self.sample_attitude(t_s, s, craft, env);
+        }
+        if self.mag.clock.is_due(t_s) {
+            match env.and_then(|e| e.b_ref_t) {
+                Some(b) => {
+                    let m = self.mag.update(t_s, &rotate_ref_to_body(&s.q, &b).into(), rod_dipole_am2);
+                    self.mag_channel.push(micros(t_s), m.b_body_t);
+                }
+                // No field to measure: the grid point passes without a sample.
+                None => _ = self.mag.clock.due(t_s),
             }
         }
-        f
+        let orbit = env.and_then(|e| e.orbit);
+        match (orbit, craft.env.as_ref()) {
+            (Some(o), Some(m)) => self.sample_orbit_sensors(t_s, &s.q, o, m),
+            // Without an orbit the Sun and GNSS sensors have nothing to see.
+            _ => {
+                for c in [
+                    self.sun.as_mut().map(|x| &mut x.clock),
+                    self.css.as_mut().map(|x| &mut x.clock),
+                    self.gnss.as_mut().map(|x| &mut x.clock),
+                ]
+                .into_iter()
+                .flatten()
+                {
+                    c.due(t_s);
+                }
+            }
+        }
     }
 
-    /// Star tracker on the suite-delayed attitude and rate `delayed`, behind its own
-    /// latency; not valid in an outage or when the model says so.
-    fn measure_attitude(
-        &mut self,
-        f: &mut SensorFrame,
-        t_s: f64,
-        delayed: (Quat, Vec3),
-        craft: &Spacecraft,
-        env: Option<&EnvSnapshot>,
-    ) {
-        let (q_att, w_att) = self.tracker_latency.delay(delayed);
+    /// The gyro's rate sample and its angle increment since its previous sample.
+    fn sample_gyro(&mut self, t_s: f64, w: &Vec3) {
+        let rate = self.gyro.update(t_s, &(*w).into()).rate_rad_s;
+        let ri = &mut self.rate_integral;
+        let angle_rad = match ri.last_sample_t_s {
+            Some(t0) => self.gyro.angle_increment(&ri.angle_rad.into(), t_s - t0),
+            None => [0.0; 3],
+        };
+        ri.angle_rad = Vec3::zeros();
+        ri.last_sample_t_s = Some(t_s);
+        self.gyro_channel.push(micros(t_s), GyroSample { rate_rad_s: rate, angle_rad });
+    }
+
+    /// Star tracker on the true attitude and rate at `t_s`; not valid in an outage (at the
+    /// exposure time) or when the model says so.
+    fn sample_attitude(&mut self, t_s: f64, s: &State, craft: &Spacecraft, env: Option<&EnvSnapshot>) {
         let geometry = self.exclusion_geometry(t_s, craft, env);
-        let att = self.attitude.update_with(t_s, &q_att, &w_att, geometry.as_ref());
-        f.q_ib_xyzw = to_xyzw(&att.q_ib).map(|x| x as f32);
-        if att.valid && !self.tracker_outages.iter().any(|[a, b]| (*a..=*b).contains(&t_s)) {
-            f.valid |= valid::ATTITUDE;
-        }
+        let att = self.attitude.update_with(t_s, &s.q, &s.w, geometry.as_ref());
+        let valid = att.valid && !self.tracker_outages.iter().any(|[a, b]| (*a..=*b).contains(&t_s));
+        self.attitude_channel.push(micros(t_s), (att.q_ib, valid));
     }
 
     /// Where the Sun and the Earth are for the tracker's exclusion rules: `None` without a
@@ -165,11 +350,123 @@ impl SensorSuite {
         })
     }
 
-    /// Rate gyro on the suite-delayed body rate; always valid.
-    fn measure_rate(&mut self, f: &mut SensorFrame, t_s: f64, w_meas: &Vec3) {
-        let g = self.gyro.update(t_s, &(*w_meas).into());
-        f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
-        f.valid |= valid::RATE;
+    /// The sensors that need the orbit: fine and coarse sun sensors, GNSS receiver (each
+    /// when fitted and due).
+    fn sample_orbit_sensors(&mut self, t_s: f64, q: &Quat, (r, v): (Vec3, Vec3), env_model: &Environment) {
+        let tag = micros(t_s);
+        let rs = sun_position_eci(julian_date(env_model, t_s));
+        let eclipse = in_shadow_cylindrical(&r, &rs);
+        if let Some(sun) = self.sun.as_mut().filter(|x| x.clock.is_due(t_s)) {
+            let rd = sun.update(t_s, q, &(rs - r).normalize().into(), eclipse);
+            self.sun_channel.push(tag, (rd.sun_body, rd.valid));
+        }
+        if let Some(css) = self.css.as_mut().filter(|x| x.clock.is_due(t_s)) {
+            let g = CssGeometry { sun_ref: (rs - r).normalize(), r_m: r, eclipse };
+            let rd = css.update(t_s, q, &g);
+            self.css_channel.push(tag, rd.output);
+        }
+        if let Some(g) = self.gnss.as_mut().filter(|x| x.clock.is_due(t_s))
+            && let Some(fix) = g.update(t_s, &r.into(), &v.into())
+        {
+            let j2000 = j2000_days_seconds(julian_date(env_model, t_s));
+            self.gnss_channel.push(tag, FixSample { pos_m: fix.pos_m, vel_m_s: fix.vel_m_s, j2000 });
+        }
+    }
+
+    /// [`Self::sample_due`] then [`Self::frame`] at one time (a suite offered the truth only
+    /// at the control steps).
+    pub fn sample(
+        &mut self,
+        seq: u32,
+        t_s: f64,
+        s: &State,
+        craft: &Spacecraft,
+        env: Option<&EnvSnapshot>,
+        rod_dipole_am2: &[f64; 3],
+    ) -> SensorFrame {
+        self.sample_due(t_s, s, craft, env, rod_dipole_am2);
+        self.frame(seq, t_s, s, craft, env)
+    }
+
+    /// The frame of the control step at `t_s`: each sensor's newest sample available then
+    /// (with its tag), the encoders and tachometers on the state `s` now, and the ideal
+    /// GNSS fix from `env` without a receiver model.
+    pub fn frame(
+        &mut self,
+        seq: u32,
+        t_s: f64,
+        s: &State,
+        craft: &Spacecraft,
+        env: Option<&EnvSnapshot>,
+    ) -> SensorFrame {
+        let now = micros(t_s);
+        let mut f = SensorFrame::empty(seq, now);
+        self.deliver_gyro(&mut f, now);
+        if let Some((tag, (q, ok))) = self.attitude_channel.deliver_newest(now) {
+            f.q_ib_xyzw = to_xyzw(&q).map(|x| x as f32);
+            f.sampled_at.star_tracker_us = tag;
+            f.valid |= if ok { valid::ATTITUDE } else { 0 };
+        }
+        if let Some((tag, b)) = self.mag_channel.deliver_newest(now) {
+            f.mag_field_t = b.map(|x| x as f32);
+            f.sampled_at.magnetometer_us = tag;
+            f.valid |= valid::MAG;
+        }
+        if let Some((tag, (d, ok))) = self.sun_channel.deliver_newest(now) {
+            f.sampled_at.sun_sensor_us = tag;
+            if ok {
+                f.sun_dir = d.map(|x| x as f32);
+                f.valid |= valid::SUN;
+            }
+        }
+        if let Some((tag, out)) = self.css_channel.deliver_newest(now) {
+            f.css_output = out.map(|x| x as f32);
+            f.sampled_at.css_us = tag;
+            f.valid |= valid::CSS;
+        }
+        self.deliver_gnss(&mut f, now, t_s, craft, env);
+        self.measure_gimbals(&mut f, s, craft);
+        self.measure_wheels(&mut f, s, craft);
+        f
+    }
+
+    /// The gyro's newest rate sample and the sum of the increments arrived since the
+    /// previous frame's gyro sample (interval: from that sample's tag, or the first
+    /// sample's, to the newest's; none without a new sample).
+    fn deliver_gyro(&mut self, f: &mut SensorFrame, now: u64) {
+        let since = self.gyro_channel.held.map(|(tag, _)| tag);
+        let (held, first_new) = self.gyro_channel.deliver(now);
+        if let Some((tag, g)) = held {
+            f.rate_rad_s = g.rate_rad_s.map(|x| x as f32);
+            f.sampled_at.gyro_us = tag;
+            f.valid |= valid::RATE;
+            if let Some(start) = first_new.map(|first| since.unwrap_or(first)) {
+                f.gyro_angle_rad = g.angle_rad.map(|x| x as f32);
+                f.gyro_interval_us = u32::try_from(tag - start).unwrap_or(u32::MAX);
+            }
+        }
+    }
+
+    /// GNSS fix: with a receiver model, its newest fix (held, with its validity time);
+    /// without one the ideal orbit state and time of every frame.
+    fn deliver_gnss(&mut self, f: &mut SensorFrame, now: u64, t_s: f64, craft: &Spacecraft, env: Option<&EnvSnapshot>) {
+        let fix = match self.gnss {
+            Some(_) => self.gnss_channel.deliver_newest(now),
+            None => match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
+                (Some((r, v)), Some(m)) => Some((
+                    now,
+                    FixSample { pos_m: r.into(), vel_m_s: v.into(), j2000: j2000_days_seconds(julian_date(m, t_s)) },
+                )),
+                _ => None,
+            },
+        };
+        if let Some((tag, x)) = fix {
+            f.gnss_pos_m = x.pos_m.map(|x| x as f32);
+            f.gnss_vel_m_s = x.vel_m_s.map(|x| x as f32);
+            (f.gnss_j2000_days, f.gnss_j2000_s) = x.j2000;
+            f.sampled_at.gnss_us = tag;
+            f.valid |= valid::GNSS;
+        }
     }
 
     /// Gimbal encoders (up to four gimbals), when the craft has CMGs.
@@ -192,57 +489,6 @@ impl SensorSuite {
                 f.wheel_speed_rad_s[i] = self.encoders.wheel_speed(rel) as f32;
             }
             f.valid |= valid::WHEELS;
-        }
-    }
-
-    /// Magnetometer on the true (undelayed) field `b_ref_t` seen in body axes.
-    fn measure_field(&mut self, f: &mut SensorFrame, t_s: f64, q: &Quat, b_ref_t: &Vec3, rod_dipole_am2: &[f64; 3]) {
-        let m = self.mag.update(t_s, &rotate_ref_to_body(q, b_ref_t).into(), rod_dipole_am2);
-        f.mag_field_t = m.b_body_t.map(|x| x as f32);
-        f.valid |= valid::MAG;
-    }
-
-    /// GNSS fix: position, velocity, time. Without a receiver model: ideal, every frame;
-    /// with one: noisy, at its rate, none in an outage.
-    fn measure_gnss(&mut self, f: &mut SensorFrame, t_s: f64, (r, v): (Vec3, Vec3), env_model: &Environment) {
-        let fix = match self.gnss.as_mut() {
-            None => Some(([r.x, r.y, r.z], [v.x, v.y, v.z])),
-            Some(g) => g.update(t_s, &r.into(), &v.into()).map(|x| (x.pos_m, x.vel_m_s)),
-        };
-        if let Some((pos, vel)) = fix {
-            let jd = julian_date(env_model, t_s);
-            let (days, seconds) = j2000_days_seconds(jd);
-            f.gnss_pos_m = pos.map(|x| x as f32);
-            f.gnss_vel_m_s = vel.map(|x| x as f32);
-            f.gnss_j2000_days = days;
-            f.gnss_j2000_s = seconds;
-            f.valid |= valid::GNSS;
-        }
-    }
-
-    /// Coarse sun sensors, when fitted: zeros in eclipse are a valid measurement.
-    fn measure_css(&mut self, f: &mut SensorFrame, t_s: f64, q: &Quat, r: &Vec3, env_model: &Environment) {
-        if let Some(css) = self.css.as_mut() {
-            let rs = sun_position_eci(julian_date(env_model, t_s));
-            let g = CssGeometry { sun_ref: (rs - r).normalize(), r_m: *r, eclipse: in_shadow_cylindrical(r, &rs) };
-            let rd = css.update(t_s, q, &g);
-            for (o, x) in f.css_output.iter_mut().zip(rd.output) {
-                *o = x as f32;
-            }
-            f.valid |= valid::CSS;
-        }
-    }
-
-    /// Sun sensor, when fitted: valid outside eclipse with the Sun in its field of view.
-    fn measure_sun(&mut self, f: &mut SensorFrame, t_s: f64, q: &Quat, r: &Vec3, env_model: &Environment) {
-        if let Some(sun) = self.sun.as_mut() {
-            let rs = sun_position_eci(julian_date(env_model, t_s));
-            let eclipse = in_shadow_cylindrical(r, &rs);
-            let rd = sun.update(t_s, q, &(rs - r).normalize().into(), eclipse);
-            if rd.valid {
-                f.sun_dir = rd.sun_body.map(|x| x as f32);
-                f.valid |= valid::SUN;
-            }
         }
     }
 }
@@ -382,19 +628,29 @@ mod tests {
         // whole second.
         let gnss = config::GnssSpecToml {
             rate_hz: Some(1.0),
+            phase_s: 0.0,
+            jitter_s: 0.0,
+            latency_s: 0.0,
             position_noise_m: 3.0,
             velocity_noise_m_s: 0.01,
             outages_s: vec![[50.5, 60.5]],
         };
         let mut s = SensorSuite::new(&SensorSpec { seed: 5, gnss: Some(gnss), ..Default::default() }, 10.0);
-        let mut fixes = Vec::new();
+        let mut fixes: Vec<(u32, SensorFrame)> = Vec::new();
         for k in 0..2000u32 {
             let t = k as f64 / 10.0;
             let f = s.sample(k, t, &state(), &c, Some(&snap(t)), &[0.0; 3]);
-            if f.valid & valid::GNSS != 0 {
-                fixes.push((k, f));
-            } else {
-                assert_eq!(f.gnss_pos_m, [0.0; 3], "no fix, no data");
+            // A new fix carries a new validity time; between fixes the last one is held
+            // with its old time (always valid once the first has come).
+            assert!(f.valid & valid::GNSS != 0, "frame {k}: the first fix is at t = 0");
+            match fixes.last() {
+                Some((_, last)) if last.sampled_at.gnss_us == f.sampled_at.gnss_us => {
+                    assert_eq!((f.gnss_pos_m, f.gnss_vel_m_s), (last.gnss_pos_m, last.gnss_vel_m_s), "held");
+                }
+                _ => {
+                    assert_eq!(f.sampled_at.gnss_us, f.time_us, "a fix is delivered at its own time");
+                    fixes.push((k, f));
+                }
             }
         }
         println!("gnss: {} fixes in 200 s at 1 Hz with a 10 s outage", fixes.len());
@@ -435,6 +691,9 @@ mod tests {
         let sun = sun_position_eci(2_451_545.0 + t / 86_400.0).normalize();
         let css = config::CssSpecToml {
             rate_hz: None,
+            phase_s: 0.0,
+            jitter_s: 0.0,
+            latency_s: 0.0,
             normals_body: vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]],
             noise: 0.0,
             albedo: 0.0,

@@ -57,7 +57,9 @@ pub fn cylindrical_eclipse(r_m: &[f64; 3], sun_inertial: &[f64; 3]) -> bool {
 pub struct SunSensor {
     pub spec: SunSensorSpec,
     rng: ChaCha8Rng,
-    clock: Clock,
+    /// The sample clock (the suite sets its phase and jitter and asks it whether a
+    /// sample is due before it builds the truth the sample needs).
+    pub(crate) clock: Clock,
     last: SunReading,
 }
 
