@@ -274,16 +274,18 @@ fn late_and_slow_tracker_samples_keep_the_filter_consistent() {
 
 #[test]
 fn samples_older_than_the_history_are_refused_counted_and_the_filter_stays_consistent() {
-    // Every tracker sample 8 s late: beyond the history (32 nodes of 0.2 s steps plus
-    // samples, < 6.4 s). The first one starts the filter (at rest, its age does not
-    // matter); each later one is refused as too old, once; the filter runs on the gyro
-    // alone and says so (its covariance grows with the truth's error). It starts with the
-    // σ its starting sample has (at rest), so that its claim can be checked.
+    // Every tracker sample 8 s late: beyond the latency horizon (`max_sample_latency_s`,
+    // 0.5 s) and the history (32 nodes of 0.2 s steps plus samples, < 6.4 s). The first
+    // one starts the filter (at rest its age does not matter); each later one is refused
+    // as too old, once; the filter runs on the gyro alone and says so (its
+    // covariance grows with the truth's error). It starts with the σ its starting sample
+    // has, so that its claim can be checked.
     let case = Case { initial_attitude_sigma: TRACKER_SIGMA, ..case(1.0, 8.0, 0.0) };
     for r in 0..RUNS {
         let res = run(&case, 1000 + r as u64, false);
         let f = res.telemetry.fusion;
         assert_eq!(f.too_old, res.delivered - 1, "run {r}: {f:?}");
+        // The first sample started the filter (now, its age covered by the initial σ).
         assert_eq!((f.fused_now, f.fused_late, f.out_of_order, f.from_the_future, f.bad_input), (0, 0, 0, 0, 0));
     }
     // An unobserved random walk is strongly correlated in time: 4× the runs for the RMS.

@@ -36,7 +36,7 @@ use crate::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags}
 use crate::math::{Quat, Vec3, quat_to_xyzw};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
-use crate::types::{GyroRate, SensorSamples, Valid};
+use crate::types::{GyroRate, SensorSamples, StarTrackerAttitude, Valid};
 use nalgebra::Matrix3;
 
 /// Longest single MEKF propagation, s.
@@ -367,10 +367,10 @@ impl Determination {
             self.lose();
             return MekfOutput { attitude: None, rate_rad_s: None, filter: None };
         };
-        self.propagate_history(g);
         if self.history.is_none() {
-            self.initialise_mekf(g.time_us, s, v);
+            self.initialise_mekf(g, s, v);
         }
+        self.propagate_history(g);
         self.fuse_new(s, v);
         if self.consecutive_rejections >= self.params.max_consecutive_rejections {
             self.lose();
@@ -443,30 +443,48 @@ impl Determination {
         }
     }
 
-    /// Start a filter at `t0_us`: on the tracker, else TRIAD on Sun and field (the Sun
-    /// first: the more accurate vector is TRIAD's exact one); none without either. The
-    /// samples that start it are not fused again.
-    fn initialise_mekf(&mut self, t0_us: u64, s: &SensorSamples, v: &Vectors) {
-        let tracker = s.star_tracker.map(|x| x.q_ib);
-        let q0 = tracker.or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
+    /// Start a filter on the tracker, else on TRIAD (Sun and field; the Sun first: the more
+    /// accurate vector is TRIAD's exact one); none without either. A tracker sample taken
+    /// within the gyro's current increment starts the filter at its own time and is fused
+    /// there (the increment's mean rate carries it to the gyro's time, as for any sample
+    /// within a step); an older one, or TRIAD, starts it at the gyro's time and is consumed
+    /// by the start (the initial σ covers its age: one increment's mean rate held over a
+    /// longer span would claim a drift it cannot know).
+    fn initialise_mekf(&mut self, g: &GyroRate, s: &SensorSamples, v: &Vectors) {
+        let gyro_us = g.time_us;
+        let span_us = g.increment.map_or(0, |inc| {
+            // ≤ 2^32 µs (the wire's u32 interval): the conversion is exact enough.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let us = libm::roundf(inc.interval_s * 1.0e6) as u64;
+            us
+        });
+        let tracker = s.star_tracker;
+        let at_its_time = tracker.filter(|x| x.time_us <= gyro_us && gyro_us.saturating_sub(x.time_us) <= span_us);
+        let q0 = tracker.map(|x| x.q_ib).or_else(|| match (v.sun_body, v.mag_body, v.sun_eci, v.field_eci) {
             (Some(sb), Some((mb, _)), Some(sr), Some(mr)) => triad(&sb, &mb, &sr, &mr).ok(),
             _ => None,
         });
         let Some(m) = q0.and_then(|q| Mekf::new(self.mekf_cfg, q, Vec3::zeros()).ok()) else {
             return;
         };
-        self.history = Some(MekfHistory::new(m, t0_us));
         self.consecutive_rejections = 0;
-        // Consumed by the initialisation.
-        if let Some(x) = s.star_tracker {
+        // Samples seen before this start are history: only later ones are fused.
+        self.tracks = Tracks::default();
+        if let Some(x) = at_its_time {
+            self.history = Some(MekfHistory::new(m, x.time_us));
+            self.fuse_tracker(x);
+            return;
+        }
+        self.history = Some(MekfHistory::new(m, gyro_us));
+        if let Some(x) = tracker {
             self.tracks.star_tracker.fresh(x.time_us);
-        } else {
-            if v.sun_body.is_some() {
-                self.sun_track(v.sun_is_fine).fresh(v.sun_time_us);
-            }
-            if let Some((_, t)) = v.mag_body {
-                self.tracks.magnetometer.fresh(t);
-            }
+            return;
+        }
+        if v.sun_body.is_some() {
+            self.sun_track(v.sun_is_fine).fresh(v.sun_time_us);
+        }
+        if let Some((_, t)) = v.mag_body {
+            self.tracks.magnetometer.fresh(t);
         }
     }
 
@@ -489,20 +507,8 @@ impl Determination {
         if self.history.is_none() {
             return;
         }
-        if let Some(x) = s.star_tracker.filter(|x| self.tracks.star_tracker.fresh(x.time_us)) {
-            let b = Vec3::from(self.params.tracker_boresight_body);
-            let (c2, a2) = (
-                self.params.tracker_sigma_cross_rad * self.params.tracker_sigma_cross_rad,
-                self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
-            );
-            let r_rad2 = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
-            match self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 }) {
-                Some(Ok(_)) => self.consecutive_rejections = 0,
-                Some(Err(MekfError::Rejected { .. })) => {
-                    self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
-                }
-                _ => {}
-            }
+        if let Some(x) = s.star_tracker {
+            self.fuse_tracker(x);
         }
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
@@ -520,6 +526,26 @@ impl Determination {
         {
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: self.params.magnetometer_sigma_rad };
             self.fuse(Sensor::Magnetometer, t, &m);
+        }
+    }
+
+    /// Fuse a tracker sample at its time if it is new; counts consecutive rejections.
+    fn fuse_tracker(&mut self, x: StarTrackerAttitude) {
+        if !self.tracks.star_tracker.fresh(x.time_us) {
+            return;
+        }
+        let b = Vec3::from(self.params.tracker_boresight_body);
+        let (c2, a2) = (
+            self.params.tracker_sigma_cross_rad * self.params.tracker_sigma_cross_rad,
+            self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
+        );
+        let r_rad2 = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
+        match self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 }) {
+            Some(Ok(_)) => self.consecutive_rejections = 0,
+            Some(Err(MekfError::Rejected { .. })) => {
+                self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+            }
+            _ => {}
         }
     }
 
@@ -718,7 +744,8 @@ mod tests {
         f.sampled_at.star_tracker_us = 2_000_001;
         let e = d.step(&sensor_samples(&f));
         assert_eq!(e.telemetry.fusion.from_the_future, 1);
-        assert_eq!(e.telemetry.fusion.fused_now + e.telemetry.fusion.fused_late, 19);
+        // Every tracker sample fused once (the first where it started the filter).
+        assert_eq!(e.telemetry.fusion.fused_now + e.telemetry.fusion.fused_late, 20);
         // The same sample time again is the same (held) sample: fused once, not refused.
         let before = e.telemetry.fusion;
         let mut g = SensorFrame { seq: 21, time_us: 2_100_000, ..f };
