@@ -108,6 +108,8 @@ pub struct Determination {
     accepted: u32,
     rejected: u32,
     fusion: FusionCounters,
+    /// `params.max_sample_age_s` in µs.
+    max_sample_age_us: u64,
 }
 
 impl Default for Determination {
@@ -156,6 +158,9 @@ impl Determination {
             resets: 0,
             accepted: 0,
             rejected: 0,
+            // Validated: 0 < max_sample_age_s ≤ 3600, so the product fits.
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            max_sample_age_us: (params.max_sample_age_s * 1.0e6) as u64,
             fusion: FusionCounters {
                 fused_now: 0,
                 fused_late: 0,
@@ -210,8 +215,9 @@ impl Determination {
 
     /// Sensors whose newest sample is older than `max_sample_age_s`.
     fn stale(&self, s: &SensorSamples) -> Valid {
-        let max = self.params.max_sample_age_s;
-        let old = |t: Option<u64>| t.is_some_and(|t| age_s(s.time_us, Some(t)) > max);
+        // In µs on the flight clock (no float conversion per sensor).
+        let max_us = self.max_sample_age_us;
+        let old = |t: Option<u64>| t.is_some_and(|t| s.time_us.saturating_sub(t) > max_us);
         let mut v = Valid::empty();
         v.set(Valid::RATE, old(s.gyro.map(|x| x.time_us)));
         v.set(Valid::ATTITUDE, old(s.star_tracker.map(|x| x.time_us)));

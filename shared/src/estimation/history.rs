@@ -57,8 +57,13 @@ const _: () = assert!(core::mem::size_of::<MekfHistory>() <= 10 * 1024);
 /// Seconds between two flight-clock times (µs), or `None` if `t1_us < t0_us`. The one
 /// conversion every propagation of the history uses (exact below 2²⁴ µs ≈ 16.7 s).
 pub fn span_s(t0_us: u64, t1_us: u64) -> Option<f32> {
-    // Precision loss only above 2^24 µs, far beyond any accepted step (`max_dt_s`).
-    t1_us.checked_sub(t0_us).map(|d| d as f32 / 1.0e6)
+    // Precision loss only above 2^24 µs, far beyond any accepted step (`max_dt_s`). Below
+    // 2^32 µs through u32: the same rounding of the same integer, but one VCVT on the
+    // Cortex-M4F instead of a u64 → f32 library call.
+    t1_us.checked_sub(t0_us).map(|d| match u32::try_from(d) {
+        Ok(d32) => d32 as f32 / 1.0e6,
+        Err(_) => d as f32 / 1.0e6,
+    })
 }
 
 /// A sample the history can fuse and, on a later replay, fuse again.

@@ -127,12 +127,14 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
         return (f32::NAN, f32::NAN);
     };
     let (s, c) = (sin_poly(r), cos_poly(r));
-    match q {
-        0 => (s, c),
-        1 => (c, -s),
-        2 => (-s, -c),
-        _ => (-c, s),
-    }
+    // Quadrant q: (s, c), (c, −s), (−s, −c), (−c, s) — as selects and exact negations, not
+    // a `match`: LLVM may lower a 4-way match to a computed jump (`mov pc, rN`), an
+    // indirect branch the firmware's static check cannot bound.
+    let odd = q & 1 == 1;
+    let (sin_abs, cos_abs) = if odd { (c, s) } else { (s, c) };
+    let sin = if q & 2 == 2 { -sin_abs } else { sin_abs };
+    let cos = if q == 1 || q == 2 { -cos_abs } else { cos_abs };
+    (sin, cos)
 }
 
 /// sin x; NaN for NaN, ±inf and |x| > [`SIN_COS_MAX_ARG`]. sin(±0) = ±0.
