@@ -483,16 +483,18 @@ pub fn sweep_inputs(t: &Target) -> Vec<Input> {
 
 /// Hand-made worst cases of the MEKF's state history (`estimation::history`, scenarios on
 /// the MEKF only): `MAX_PREFIX` frames, then the measured one, one step apart (the
-/// scenario's period, and a faster clock that keeps the whole sequence within half of
-/// `max_sample_age_s`), each frame's samples new at its own time, the tracker and gyro
+/// scenario's period, and faster clocks that put the frames of a full history with 0 to 3
+/// sample nodes per frame just inside `max_sample_latency_s`: the flight code sets no
+/// minimum step), each frame's samples new at its own time, the tracker and gyro
 /// valid, and the gyro increment consistent with the rate. Variants:
 /// - every sensor new at once in every frame (the measured one included);
 /// - one sensor (tracker, fine Sun, CSS, magnetometer, GNSS, gyro) held at the first frame's
 ///   sample through the prefix, then late in the measured frame at the time of an earlier
 ///   frame where the oldest node of the full history lies — with 0 to 3 sample nodes per
 ///   frame besides the propagation node, frame `⌊((1 + m)·n + 1 − HISTORY_DEPTH)/(1 + m)⌋`,
-///   i.e. maximum replay (for the CSS the fine Sun is cleared in the
-///   measured frame, as the flight code prefers it);
+///   i.e. maximum replay, when that frame is within `max_sample_latency_s` (older samples
+///   are refused), and the oldest frame within it (for the CSS the fine Sun is cleared in
+///   the measured frame, as the flight code prefers it);
 /// - the tracker held, then tracker, CSS and magnetometer all late in the measured frame
 ///   (three replays in one step).
 pub fn history_inputs(t: &Target) -> Vec<Input> {
@@ -503,8 +505,18 @@ pub fn history_inputs(t: &Target) -> Vec<Input> {
     let base = t.nominal;
     let dt_us = ((t.dt_s * 1e6).round() as u64).max(1);
     let max_age_us = f64::from(est.max_sample_age_s) * 1e6;
-    let fast_us = ((0.5 * max_age_us / (n + 1) as f64) as u64).clamp(1, dt_us);
-    let mut steps = vec![fast_us, dt_us];
+    // A sample older than the latency horizon behind now is refused before any replay.
+    let latency_us = f64::from(est.max_sample_latency_s) * 1e6;
+    // Frames holding the full history with m = 0..3 sample nodes per frame besides the
+    // propagation node.
+    let frames_of_history = |m: u64| (HISTORY_DEPTH as u64 - 1).div_ceil(1 + m);
+    // Faster clocks (the flight code sets no minimum step): for each m, the full history's
+    // frames one step inside the latency horizon, so its oldest node can take a late sample.
+    let mut steps: Vec<u64> = (0..4u64)
+        .map(|m| ((latency_us.min(0.5 * max_age_us) / (frames_of_history(m) + 1) as f64) as u64).clamp(1, dt_us))
+        .chain([dt_us])
+        .collect();
+    steps.sort_unstable();
     steps.dedup();
     let mut v = Vec::new();
     for step_us in steps {
@@ -535,10 +547,13 @@ pub fn history_inputs(t: &Target) -> Vec<Input> {
         };
         v.push(sequence(None));
         // Frames where the oldest node lies with m = 0..3 sample nodes per frame, and the
-        // oldest frame within the sample age limit.
+        // oldest frame within the latency horizon; a frame beyond the horizon only gives
+        // refused samples (too old), so it is left out.
+        let horizon = n.saturating_sub((latency_us.min(0.9 * max_age_us) / step_us as f64) as u64);
         let mut oldest: Vec<u64> = (0..4u64)
             .map(|m| ((1 + m) * n + 1).saturating_sub(HISTORY_DEPTH as u64) / (1 + m))
-            .chain([n.saturating_sub((0.9 * max_age_us / step_us as f64) as u64)])
+            .filter(|&j| j >= horizon)
+            .chain([horizon])
             .map(|j| j.clamp(1, n - 1))
             .collect();
         oldest.sort_unstable();
