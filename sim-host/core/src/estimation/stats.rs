@@ -8,9 +8,9 @@
 //! every step as its upper triangle). For a consistent filter its mean is 6.
 
 use crate::attitude::{Quat, Vec3, from_xyzw};
+use crate::recorder::summary::SampleFusion;
 use acs_flight::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags};
 use nalgebra::{Matrix6, Vector6};
-use serde::Serialize;
 
 /// Running sums; steps count only while the MEKF runs.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -28,25 +28,6 @@ pub struct EstimationStats {
     ages: SampleAges,
     max_ages: SampleAges,
     fusion: FusionCounters,
-}
-
-/// What the flight estimator did with the sensor samples over a run (`summary.json`
-/// `sample_fusion`, with the MEKF): samples fused at their own time (of them, late: taken
-/// before the filter's newest time and carried forward through its history), refused by
-/// reason, and the largest sample age per sensor, s (−1: never sampled).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct SampleFusion {
-    pub fused: u32,
-    pub fused_late: u32,
-    pub refused_too_old: u32,
-    pub refused_from_the_future: u32,
-    pub refused_out_of_order: u32,
-    pub refused_bad_input: u32,
-    pub max_replayed_nodes: u16,
-    pub max_age_gyro_s: f32,
-    pub max_age_tracker_s: f32,
-    pub max_age_sun_s: f32,
-    pub max_age_mag_s: f32,
 }
 
 /// One step's estimate against the truth (the `est_*` columns of `timeseries.csv`).

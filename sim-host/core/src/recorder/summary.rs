@@ -127,9 +127,9 @@ pub struct Summary {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimator_resets: Option<u16>,
     /// With the MEKF: samples fused (late among them), refused by reason, the largest
-    /// sample age per sensor (`estimation::stats::SampleFusion`).
+    /// sample age per sensor ([`SampleFusion`]).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub sample_fusion: Option<crate::estimation::stats::SampleFusion>,
+    pub sample_fusion: Option<SampleFusion>,
     /// Wall time of the run loop, s (streaming `timeseries.csv` included when the CLI
     /// records to disk; plots and summary excluded).
     pub wall_time_s: f64,
@@ -138,6 +138,25 @@ pub struct Summary {
     /// pointing by day (with `[momentum]` or the momentum FDIR on; docs/momentum.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub momentum: Option<crate::recorder::momentum::MomentumSummary>,
+}
+
+/// What the flight estimator did with the sensor samples over a run (`summary.json`
+/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at their own time (of them, late: taken
+/// before the filter's newest time and carried forward through its history), refused by
+/// reason, and the largest sample age per sensor, s (−1: never sampled).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SampleFusion {
+    pub fused: u32,
+    pub fused_late: u32,
+    pub refused_too_old: u32,
+    pub refused_from_the_future: u32,
+    pub refused_out_of_order: u32,
+    pub refused_bad_input: u32,
+    pub max_replayed_nodes: u16,
+    pub max_age_gyro_s: f32,
+    pub max_age_tracker_s: f32,
+    pub max_age_sun_s: f32,
+    pub max_age_mag_s: f32,
 }
 
 /// A change of the flight mode as reported in telemetry.
