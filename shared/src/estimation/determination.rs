@@ -559,8 +559,11 @@ impl Determination {
     fn fuse(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) -> Option<Result<f32, MekfError>> {
         let h = self.history.as_mut()?;
         let late = t_us < h.now_us();
-        // Beyond the latency horizon: refused before any replay (bounds the step's cost).
-        if span_s(t_us, h.now_us()).is_some_and(|age| age > self.params.max_sample_latency_s) {
+        // Beyond the latency horizon or the replay cap: refused before any replay (bounds
+        // the step's cost however close the frames come).
+        if span_s(t_us, h.now_us()).is_some_and(|age| age > self.params.max_sample_latency_s)
+            || h.nodes_after(t_us) > usize::from(self.params.max_replayed_nodes)
+        {
             self.fusion.too_old = self.fusion.too_old.saturating_add(1);
             return None;
         }
@@ -761,5 +764,36 @@ mod tests {
         let e2 = d.step(&sensor_samples(&SensorFrame { seq: 22, time_us: 2_200_000, ..g }));
         assert_eq!(e1.telemetry.fusion.fused_late, before.fused_late + 1);
         assert_eq!(e2.telemetry.fusion, e1.telemetry.fusion);
+    }
+
+    #[test]
+    fn a_late_sample_that_would_replay_more_than_the_cap_is_refused_as_too_old() {
+        // Frames 10 ms apart: a tracker sample 20 frames back is within the 0.5 s horizon
+        // but would re-run 20 nodes, more than the 8 allowed: refused, counted, nothing
+        // replayed; one 5 frames back is fused late, replaying 5 nodes.
+        let mut d = Determination::new(&EstimationParams { max_replayed_nodes: 8, ..mekf_params() }).unwrap();
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        let at = |k: u32, tracker_us: Option<u64>| {
+            let mut f = SensorFrame {
+                q_ib_xyzw: quat_to_xyzw(&q),
+                valid: valid::RATE,
+                ..SensorFrame::empty(k, u64::from(k) * 10_000)
+            };
+            if let Some(t) = tracker_us {
+                f.valid |= valid::ATTITUDE;
+                f.sampled_at.star_tracker_us = t;
+            }
+            sensor_samples(&f)
+        };
+        d.step(&at(0, Some(0)));
+        for k in 1..40 {
+            d.step(&at(k, None));
+        }
+        let e = d.step(&at(40, Some(200_000)));
+        assert_eq!(e.telemetry.fusion.too_old, 1);
+        assert_eq!(e.telemetry.fusion.max_replayed_nodes, 0);
+        let e = d.step(&at(41, Some(360_000)));
+        assert_eq!((e.telemetry.fusion.too_old, e.telemetry.fusion.fused_late), (1, 1));
+        assert_eq!(e.telemetry.fusion.max_replayed_nodes, 5);
     }
 }

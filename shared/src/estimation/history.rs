@@ -248,6 +248,11 @@ impl<const N: usize> History<N> {
         self.len == 0
     }
 
+    /// Nodes later than `t_us`: what fusing a sample taken then would re-run.
+    pub fn nodes_after(&self, t_us: u64) -> usize {
+        (0..self.len).rev().take_while(|&k| self.at(k).is_some_and(|n| n.time_us > t_us)).count()
+    }
+
     pub fn counters(&self) -> HistoryCounters {
         self.counters
     }

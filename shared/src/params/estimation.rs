@@ -87,6 +87,12 @@ pub struct EstimationParams {
     /// (a star tracker's 50–300 ms). The history's depth (`HISTORY_DEPTH` nodes: control
     /// steps plus samples) bounds it too.
     pub max_sample_latency_s: f32,
+    /// Most history nodes a late sample may re-run, 1 … `HISTORY_DEPTH − 1`: a sample that
+    /// would replay more is refused as too old. With `max_sample_latency_s` it bounds the
+    /// step's worst case however close the frames come (≈ 4,000–5,500 instructions per
+    /// node on the Cortex-M4F); it must cover the control steps within the latency plus
+    /// the samples fused in it.
+    pub max_replayed_nodes: u8,
 }
 
 impl Default for EstimationParams {
@@ -120,6 +126,7 @@ impl EstimationParams {
         max_sample_age_s: 3.0,
         coarse_update_interval_s: 0.0,
         max_sample_latency_s: 0.5,
+        max_replayed_nodes: 8,
     };
 }
 
@@ -160,6 +167,10 @@ impl EstimationParams {
             && self.max_sample_latency_s > 0.0
             && self.max_sample_latency_s <= 60.0)
         {
+            return bad(ParamReason::OutOfRange);
+        }
+        let depth = crate::estimation::history::HISTORY_DEPTH;
+        if self.max_replayed_nodes == 0 || usize::from(self.max_replayed_nodes) >= depth {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {

@@ -95,6 +95,14 @@ pub struct EstimationSpec {
     /// older one is refused as too old. Bounds the flight step's worst case.
     #[serde(default = "max_sample_latency_s")]
     pub max_sample_latency_s: f64,
+    /// Most history nodes a late sample may re-run (1 … 31; default 8): bounds the flight
+    /// step's worst case with `max_sample_latency_s`.
+    #[serde(default = "max_replayed_nodes")]
+    pub max_replayed_nodes: u8,
+}
+
+fn max_replayed_nodes() -> u8 {
+    EstimationParams::SENSOR.max_replayed_nodes
 }
 
 fn max_sample_latency_s() -> f64 {
@@ -202,6 +210,14 @@ impl EstimationSpec {
                 self.max_sample_latency_s
             ));
         }
+        let depth = acs_flight::estimation::history::HISTORY_DEPTH;
+        if self.max_replayed_nodes == 0 || usize::from(self.max_replayed_nodes) >= depth {
+            return Some(anyhow!(
+                "estimation.max_replayed_nodes = {}: out of range 1..={}",
+                self.max_replayed_nodes,
+                depth - 1
+            ));
+        }
         if !(0.0..=86_400.0).contains(&self.coarse_update_interval_s) {
             return Some(anyhow!(
                 "estimation.coarse_update_interval_s = {}: out of range [0, 86400]",
@@ -259,6 +275,7 @@ impl EstimationSpec {
             max_sample_age_s: self.max_sample_age_s as f32,
             coarse_update_interval_s: self.coarse_update_interval_s as f32,
             max_sample_latency_s: self.max_sample_latency_s as f32,
+            max_replayed_nodes: self.max_replayed_nodes,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {
