@@ -53,6 +53,8 @@ pub type MekfHistory = History<HISTORY_DEPTH>;
 // The RAM it costs, bounded on every target at compile time (10,016 B on the M4F, 10,024 B
 // on the x86-64 host: 32 nodes of 312/313 B and the mirror of now).
 const _: () = assert!(core::mem::size_of::<MekfHistory>() <= 10 * 1024);
+// The parameters' cap on the nodes one late sample may re-run is the depth less one.
+const _: () = assert!(crate::params::MAX_REPLAYED_NODES_LIMIT as usize == HISTORY_DEPTH - 1);
 
 /// Seconds between two flight-clock times (µs), or `None` if `t1_us < t0_us`. The one
 /// conversion every propagation of the history uses (exact below 2²⁴ µs ≈ 16.7 s).

@@ -95,6 +95,11 @@ pub struct EstimationParams {
     pub max_replayed_nodes: u8,
 }
 
+/// Largest `max_replayed_nodes`: every node of the flight history but the one a late
+/// sample is inserted after (`estimation::history::HISTORY_DEPTH` − 1, checked there at
+/// compile time; a constant here so that the parameters do not depend on the estimators).
+pub const MAX_REPLAYED_NODES_LIMIT: u8 = 31;
+
 impl Default for EstimationParams {
     fn default() -> Self {
         Self::SENSOR
@@ -169,8 +174,7 @@ impl EstimationParams {
         {
             return bad(ParamReason::OutOfRange);
         }
-        let depth = crate::estimation::history::HISTORY_DEPTH;
-        if self.max_replayed_nodes == 0 || usize::from(self.max_replayed_nodes) >= depth {
+        if self.max_replayed_nodes == 0 || self.max_replayed_nodes > MAX_REPLAYED_NODES_LIMIT {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {

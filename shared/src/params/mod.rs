@@ -23,7 +23,7 @@ pub mod sun_safe;
 
 pub use actuator::*;
 pub use controller::*;
-pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE};
+pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE, MAX_REPLAYED_NODES_LIMIT};
 pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;

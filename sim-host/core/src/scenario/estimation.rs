@@ -210,12 +210,11 @@ impl EstimationSpec {
                 self.max_sample_latency_s
             ));
         }
-        let depth = acs_flight::estimation::history::HISTORY_DEPTH;
-        if self.max_replayed_nodes == 0 || usize::from(self.max_replayed_nodes) >= depth {
+        let limit = acs_flight::params::MAX_REPLAYED_NODES_LIMIT;
+        if self.max_replayed_nodes == 0 || self.max_replayed_nodes > limit {
             return Some(anyhow!(
-                "estimation.max_replayed_nodes = {}: out of range 1..={}",
-                self.max_replayed_nodes,
-                depth - 1
+                "estimation.max_replayed_nodes = {}: out of range 1..={limit}",
+                self.max_replayed_nodes
             ));
         }
         if !(0.0..=86_400.0).contains(&self.coarse_update_interval_s) {
