@@ -6,12 +6,14 @@
 //! - [`summary`]: `summary.json` and the statistics it is built from;
 //! - [`momentum`]: stored-momentum statistics (every control step);
 //! - [`output`]: the streamed files of `sim-host run`;
-//! - [`plots`]: the PNG figures.
+//! - [`plots`]: the PNG figures;
+//! - [`pointing`]: pointing-performance indices (APE, MPE, RPE, PDE, stability), streamed.
 
 pub mod columns;
 pub mod decimate;
 pub mod momentum;
 pub mod output;
 pub mod plots;
+pub mod pointing;
 pub mod series;
 pub mod summary;
