@@ -225,10 +225,10 @@ impl PointingStats {
     pub fn push(&mut self, e: [f64; 3]) {
         self.ape.push(e);
         self.recent.push_back(e);
-        if self.recent.len() > self.windows.stability {
-            if let Some(old) = self.recent.pop_front() {
-                self.stability.push(sub(e, old));
-            }
+        if self.recent.len() > self.windows.stability
+            && let Some(old) = self.recent.pop_front()
+        {
+            self.stability.push(sub(e, old));
         }
         self.current.push(e);
         if self.current.len() == self.windows.window {
@@ -251,10 +251,10 @@ impl PointingStats {
         self.current.clear();
         self.mpe.push(mean);
         self.means.push_back(mean);
-        if self.means.len() > self.windows.drift_separation {
-            if let Some(old) = self.means.pop_front() {
-                self.pde.push(sub(mean, old));
-            }
+        if self.means.len() > self.windows.drift_separation
+            && let Some(old) = self.means.pop_front()
+        {
+            self.pde.push(sub(mean, old));
         }
     }
 }
