@@ -125,3 +125,54 @@ fn white_noise_indices_follow_from_its_variance() {
         check("stability", s.stability.figures(0.95), sigma * 2f64.sqrt());
     }
 }
+
+/// Nearest-rank p-quantile of `xs` (the definition the streamed bound must not undercut).
+fn nearest_rank(mut xs: Vec<f64>, p: f64) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs[((p * xs.len() as f64).ceil() as usize).clamp(1, xs.len()) - 1]
+}
+
+#[test]
+fn a_run_reports_the_indices_of_its_recorded_error() {
+    // Paper 000 test 1 (inertial target), every step recorded, indices from 20 s. The APE
+    // is checked against the recorded error: the total against the `error_deg` column, the
+    // axes against the small-angle error 2 vec(q_t* ⊗ q) of the recorded quaternion and the
+    // target quaternion built here from the scenario's Euler angles (nalgebra's own
+    // composition, not the simulator's).
+    use sim_core::link::in_process::InProcess;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/paper000/test1.toml");
+    let mut sc = sim_core::scenario::Scenario::load(&path).unwrap();
+    sc.timing.output_every = 1;
+    sc.performance.from_s = 20.0;
+    let run = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
+    let p = &run.summary.pointing;
+    assert_eq!((p.from_s, p.confidence, p.window_s, p.stability_window_s), (20.0, 0.95, 10.0, 1.0));
+    let ts = &run.series;
+    let t = ts.col("t_s").unwrap();
+    let after: Vec<usize> = (0..t.len()).filter(|&i| t[i] >= 20.0).collect();
+    assert_eq!(p.ape_deg.samples, after.len() as u64);
+    let err = ts.col("error_deg").unwrap();
+    let exact = nearest_rank(after.iter().map(|&i| err[i]).collect(), 0.95);
+    let got = p.ape_deg.total.unwrap();
+    assert!(got >= exact && got <= exact * RATIO, "APE total {got} vs recorded {exact}");
+    let [r, pi, y] = sc.target.euler_deg.unwrap().map(f64::to_radians);
+    let q_t = nalgebra::UnitQuaternion::from_euler_angles(r, pi, y);
+    let q = ["q_x", "q_y", "q_z", "q_w"].map(|c| ts.col(c).unwrap());
+    for (axis, got) in [p.ape_deg.x, p.ape_deg.y, p.ape_deg.z].into_iter().enumerate() {
+        let e_axis: Vec<f64> = after
+            .iter()
+            .map(|&i| {
+                let qi = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                    q[3][i], q[0][i], q[1][i], q[2][i],
+                ));
+                let e = q_t.inverse() * qi;
+                let s = if e.w < 0.0 { -2.0 } else { 2.0 };
+                (s * e.imag()[axis]).to_degrees()
+            })
+            .collect();
+        let exact = nearest_rank(e_axis.iter().map(|x| x.abs()).collect(), 0.95);
+        let got = got.unwrap();
+        // small-angle: 2 sin(θ/2) against θ, 1e-6 relative at these errors
+        assert!(got >= exact * (1.0 - 1e-6) && got <= exact * RATIO * (1.0 + 1e-6), "axis {axis}: {got} vs {exact}");
+    }
+}
