@@ -558,6 +558,11 @@ fn run(
         Some(Failure::Link { reason }) => {
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"link_anomaly\")", summary.scenario)).into())
         }
+        Some(Failure::Sensors { reason }) => Err(RunFailed(format!(
+            "{}: {reason} (summary.json: run_status \"samples_dropped\")",
+            summary.scenario
+        ))
+        .into()),
     }
 }
 

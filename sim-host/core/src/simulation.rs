@@ -451,6 +451,11 @@ impl<'a> Simulation<'a> {
         }
     }
 
+    /// The sensor models, for tests that inject a fault into them mid-run.
+    pub fn sensors_mut(&mut self) -> &mut SensorSuite {
+        &mut self.sensors
+    }
+
     /// The flight estimate against the truth so far (last step's error included).
     pub fn estimation(&self) -> &EstimationStats {
         &self.estimation
@@ -748,6 +753,12 @@ impl<'a> Simulation<'a> {
         if let Some(reason) = self.link.anomalies().failure_reason() {
             return (RunStatus::LinkAnomaly, Some(Failure::Link { reason }));
         }
+        let dropped = self.sensors.samples_dropped();
+        if dropped.iter().any(|(_, n)| *n > 0) {
+            let lost: Vec<String> = dropped.iter().filter(|(_, n)| *n > 0).map(|(s, n)| format!("{s} {n}")).collect();
+            let reason = format!("sensor samples dropped by the latency queues: {}", lost.join(", "));
+            return (RunStatus::SamplesDropped, Some(Failure::Sensors { reason }));
+        }
         (RunStatus::Ok, None)
     }
 
@@ -801,6 +812,7 @@ impl<'a> Simulation<'a> {
             status_counts: m.counts.clone(),
             mode_transitions: m.mode_transitions.clone(),
             final_mode: m.mode_now.map(mode_name),
+            sensor_samples_dropped: self.sensors.samples_dropped().iter().map(|(_, n)| n).sum(),
             frames_dropped_flight: m.frames_dropped_flight,
             frames_dropped_host: if info.is_some() { self.link.frames_dropped_host() } else { 0 },
             link_anomalies: self.link.anomalies(),

@@ -379,3 +379,42 @@ fn bad_timing_keys_are_refused_naming_the_key() {
         assert_eq!(validate_with(table, extra), None, "{table}: {extra}");
     }
 }
+
+#[test]
+fn a_sensor_sample_lost_by_its_queue_fails_the_run() {
+    // The latency queues are sized so that nothing is ever dropped; should a queue
+    // overflow anyway (injected here: a burst of samples beyond its cap mid-run), the
+    // summary counts it and the run fails with `samples_dropped`, never `ok`.
+    use sim_core::link::in_process::InProcess;
+    use sim_core::recorder::series::Discard;
+    use sim_core::recorder::summary::{Failure, RunStatus};
+    use sim_core::runner::Simulation;
+    use sim_core::scenario::{Resolved, Scenario};
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/estimation/mekf-hold.toml");
+    let mut sc = Scenario::load(&path).unwrap();
+    sc.duration_s = 5.0;
+    let clean = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap().summary;
+    assert_eq!((clean.run_status, clean.sensor_samples_dropped), (RunStatus::Ok, 0));
+    let mut link = InProcess::new();
+    let mut sim = Simulation::new(Resolved::try_from(&sc).unwrap(), &mut link).unwrap();
+    let mut rec = Discard;
+    let mut injected = false;
+    while !sim.finished() {
+        sim.step(&mut rec).unwrap();
+        if !injected && sim.steps_done() == 10 {
+            let q = &mut sim.sensors_mut().mag_channel.queue;
+            let cap = q.cap() as u64;
+            for k in 0..=cap + 2 {
+                q.push(u64::MAX / 2 + k, [0.0; 3]);
+            }
+            injected = true;
+        }
+    }
+    let s = sim.summary(1.0);
+    assert_eq!(s.run_status, RunStatus::SamplesDropped);
+    assert!(s.sensor_samples_dropped >= 3, "{}", s.sensor_samples_dropped);
+    match s.failure {
+        Some(Failure::Sensors { reason }) => assert!(reason.contains("magnetometer"), "{reason}"),
+        other => panic!("{other:?}"),
+    }
+}

@@ -39,6 +39,10 @@ pub enum RunStatus {
     /// The link delivered a reply that may have changed the result (a frame stepped twice
     /// or out of order, an unexpected reply: `link_anomalies.result_affected`).
     LinkAnomaly,
+    /// A sensor's transport-delay queue overflowed and dropped samples
+    /// (`sensor_samples_dropped` > 0): the flight code did not see the sensor the scenario
+    /// describes. Zero by construction of the queues' cap; this says so if it ever is not.
+    SamplesDropped,
 }
 
 /// Why a run failed (`summary.json` `failure`; null for a run that is ok).
@@ -51,6 +55,8 @@ pub enum Failure {
     Refused { reason: String },
     /// Which link anomalies may have changed the result.
     Link { reason: String },
+    /// Which sensors' samples the simulator lost.
+    Sensors { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -106,6 +112,9 @@ pub struct Summary {
     /// Every change of the flight mode (empty without `[modes]`).
     pub mode_transitions: Vec<ModeTransition>,
     pub final_mode: Option<String>,
+    /// Sensor samples the simulator's latency queues dropped at their cap (any: the run
+    /// fails with `run_status` `samples_dropped`).
+    pub sensor_samples_dropped: u64,
     pub frames_dropped_flight: u32,
     pub frames_dropped_host: u32,
     /// Duplicate, late and unexpected replies and refused frames on the link, and whether

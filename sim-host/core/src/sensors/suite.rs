@@ -190,6 +190,19 @@ pub struct SensorSuite {
 }
 
 impl SensorSuite {
+    /// Samples each sensor's latency queue dropped at its cap, by sensor (0 in a
+    /// consistent configuration: see [`SampleQueue`]).
+    pub fn samples_dropped(&self) -> [(&'static str, u64); 6] {
+        [
+            ("gyro", self.gyro_channel.queue.dropped),
+            ("star tracker", self.attitude_channel.queue.dropped),
+            ("magnetometer", self.mag_channel.queue.dropped),
+            ("sun sensor", self.sun_channel.queue.dropped),
+            ("coarse sun sensors", self.css_channel.queue.dropped),
+            ("gnss", self.gnss_channel.queue.dropped),
+        ]
+    }
+
     /// `control_rate_hz`: default sample rate of sensors that do not give one.
     pub fn new(s: &SensorSpec, control_rate_hz: f64) -> Self {
         let seed = s.seed;
