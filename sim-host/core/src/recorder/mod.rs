@@ -5,13 +5,17 @@
 //! - [`decimate`]: bounded-memory row decimation of long runs;
 //! - [`summary`]: `summary.json` and the statistics it is built from;
 //! - [`momentum`]: stored-momentum statistics (every control step);
-//! - [`output`]: the streamed files of `sim-host run`;
+//! - [`csv`]: `timeseries.csv`, written with a fast shortest round-trip float formatter;
+//! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;
+//! - [`output`]: the streamed files of `sim-host run` and [`output::read_run`];
 //! - [`plots`]: the PNG figures.
 
 pub mod columns;
+pub mod csv;
 pub mod decimate;
 pub mod momentum;
 pub mod output;
+pub mod parquet;
 pub mod plots;
 pub mod series;
 pub mod summary;
