@@ -20,6 +20,72 @@ const MAX_DIGITS: usize = 32;
 /// (as `zmij` or `ryu` write it: optional `-`, digits with an optional `.`, optional
 /// `e`/`E` exponent with an optional sign) is `shortest`.
 pub fn push_display(out: &mut Vec<u8>, x: f64, shortest: &[u8]) {
+    if may_tie(x) {
+        return push_display_general(out, x, shortest);
+    }
+    let (negative, s) = match shortest.split_first() {
+        Some((b'-', rest)) => (true, rest),
+        _ => (false, shortest),
+    };
+    // An exponent is at most a sign and three digits: its `e` is in the last five bytes.
+    let tail = s.len().saturating_sub(5);
+    match s[tail..].iter().rposition(|&b| b == b'e' || b == b'E').map(|i| tail + i) {
+        // Positional already: only an integer's ".0" to drop.
+        None => out.extend_from_slice(shortest.strip_suffix(b".0").unwrap_or(shortest)),
+        Some(i) => {
+            if !push_exponential(out, negative, &s[..i], parse_exponent(&s[i + 1..])) {
+                push_display_general(out, x, shortest);
+            }
+        }
+    }
+}
+
+/// The common exponential form `d[.ddd]e±X` (nonzero lead digit, no trailing zero) laid
+/// out positionally; `false` (nothing written) for any other form.
+fn push_exponential(out: &mut Vec<u8>, negative: bool, mantissa: &[u8], exp: i32) -> bool {
+    let (lead, frac) = match mantissa {
+        [d, b'.', frac @ ..] => (*d, frac),
+        [d] => (*d, &[][..]),
+        _ => return false,
+    };
+    if lead == b'0' || frac.last() == Some(&b'0') || frac.len() >= MAX_DIGITS {
+        return false;
+    }
+    if negative {
+        out.push(b'-');
+    }
+    if exp < 0 {
+        out.extend_from_slice(b"0.");
+        push_zeros(out, exp.unsigned_abs() as usize - 1);
+        out.push(lead);
+        out.extend_from_slice(frac);
+    } else if (exp as usize) < frac.len() {
+        let (int, rest) = frac.split_at(exp as usize);
+        out.push(lead);
+        out.extend_from_slice(int);
+        out.push(b'.');
+        out.extend_from_slice(rest);
+    } else {
+        out.push(lead);
+        out.extend_from_slice(frac);
+        push_zeros(out, exp as usize - frac.len());
+    }
+    true
+}
+
+/// Appends `n` zeros.
+fn push_zeros(out: &mut Vec<u8>, n: usize) {
+    const ZEROS: [u8; 64] = [b'0'; 64];
+    let mut n = n;
+    while n > 0 {
+        let k = n.min(ZEROS.len());
+        out.extend_from_slice(&ZEROS[..k]);
+        n -= k;
+    }
+}
+
+/// [`push_display`] for any shortest text: the digits laid out positionally.
+fn push_display_general(out: &mut Vec<u8>, x: f64, shortest: &[u8]) {
     let (negative, s) = match shortest.split_first() {
         Some((b'-', rest)) => (true, rest),
         _ => (false, shortest),
@@ -96,20 +162,29 @@ pub fn push_display(out: &mut Vec<u8>, x: f64, shortest: &[u8]) {
 /// 5: with `x` = m 2^e (m odd, e < 0) that is m 5^-e × 10^e, so at most 18 significant
 /// digits: -e ≤ 27 and m 5^-e = 10 digits + 5.
 fn is_tie_rounded_down(x: f64, digits: &[u8], exp10: i32) -> bool {
-    let bits = x.to_bits();
-    let biased = ((bits >> 52) & 0x7ff) as i32;
-    let fraction = bits & ((1 << 52) - 1);
-    let (m, e) = if biased == 0 { (fraction, -1074) } else { (fraction | (1 << 52), biased - 1075) };
-    if m == 0 {
-        return false;
-    }
-    let (m, e) = (m >> m.trailing_zeros(), e + m.trailing_zeros() as i32);
-    if e >= 0 || e < -27 || exp10 != e + 1 || digits.len() > 18 {
+    let (m, e) = odd_significand(x);
+    if !(-27..0).contains(&e) || exp10 != e + 1 || digits.len() > 18 {
         return false;
     }
     let exact = u128::from(m) * 5u128.pow(e.unsigned_abs());
     let shown = digits.iter().fold(0u128, |d, &c| d * 10 + u128::from(c - b'0'));
     exact == shown * 10 + 5
+}
+
+/// `x` = m 2^e with m odd (m = 0 for zero).
+fn odd_significand(x: f64) -> (u64, i32) {
+    let bits = x.to_bits();
+    let biased = ((bits >> 52) & 0x7ff) as i32;
+    let fraction = bits & ((1 << 52) - 1);
+    let (m, e) = if biased == 0 { (fraction, -1074) } else { (fraction | (1 << 52), biased - 1075) };
+    if m == 0 { (0, 0) } else { (m >> m.trailing_zeros(), e + m.trailing_zeros() as i32) }
+}
+
+/// Whether two shortest candidates of `x` can be equally near it (see
+/// [`is_tie_rounded_down`]): rare, values with few significant bits.
+fn may_tie(x: f64) -> bool {
+    let (m, e) = odd_significand(x);
+    m != 0 && (-27..0).contains(&e)
 }
 
 fn parse_exponent(s: &[u8]) -> i32 {

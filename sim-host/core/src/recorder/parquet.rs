@@ -13,7 +13,8 @@
 
 use crate::recorder::series::TimeSeries;
 use anyhow::{Context, Result, bail};
-use parquet::basic::{Compression, Encoding, Repetition, Type as PhysicalType, ZstdLevel};
+pub use parquet::basic::{Compression, Encoding, ZstdLevel};
+use parquet::basic::{Repetition, Type as PhysicalType};
 use parquet::data_type::DoubleType;
 use parquet::file::metadata::KeyValue;
 use parquet::file::properties::{EnabledStatistics, WriterProperties};
@@ -33,8 +34,24 @@ pub const FORMAT_VERSION: u32 = 1;
 pub const ROW_GROUP_MAX_BYTES: usize = 8 << 20;
 /// Most rows of a row group.
 pub const ROW_GROUP_MAX_ROWS: usize = 1 << 20;
-/// zstd level: 3 (the library default) (docs/outputs.md).
+/// zstd level (docs/outputs.md).
 const ZSTD_LEVEL: i32 = 3;
+
+/// How the values are compressed and encoded. [`ParquetOptions::default`] is the choice of
+/// docs/outputs.md (zstd, BYTE_STREAM_SPLIT); the build enables only that codec, the
+/// others are for `benches/outputs.rs` (with the crate's other codec features).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParquetOptions {
+    pub compression: Compression,
+    pub encoding: Encoding,
+}
+
+impl Default for ParquetOptions {
+    fn default() -> Self {
+        let level = ZstdLevel::try_new(ZSTD_LEVEL).unwrap_or_default();
+        Self { compression: Compression::ZSTD(level), encoding: Encoding::BYTE_STREAM_SPLIT }
+    }
+}
 
 /// What the file says about the run besides its columns (key-value metadata).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -75,11 +92,11 @@ pub fn rows_per_group(columns: usize) -> usize {
     (ROW_GROUP_MAX_BYTES / (8 * columns.max(1))).clamp(1, ROW_GROUP_MAX_ROWS)
 }
 
-/// The writer settings (the codec and encoding chosen in docs/outputs.md).
-fn properties(rows: usize, key_values: Vec<(String, String)>) -> Result<WriterProperties> {
+/// The writer settings.
+fn properties(o: ParquetOptions, rows: usize, key_values: Vec<(String, String)>) -> Result<WriterProperties> {
     Ok(WriterProperties::builder()
-        .set_compression(Compression::ZSTD(ZstdLevel::try_new(ZSTD_LEVEL)?))
-        .set_encoding(Encoding::BYTE_STREAM_SPLIT)
+        .set_compression(o.compression)
+        .set_encoding(o.encoding)
         .set_dictionary_enabled(false)
         .set_statistics_enabled(EnabledStatistics::Chunk)
         .set_max_row_group_row_count(Some(rows))
@@ -100,6 +117,16 @@ impl<W: Write + Send> ParquetStream<W> {
     /// Starts the file: `names` become the REQUIRED DOUBLE columns, `key_values` the file's
     /// key-value metadata.
     pub fn new(sink: W, names: &[String], key_values: Vec<(String, String)>) -> Result<Self> {
+        Self::with_options(sink, names, key_values, ParquetOptions::default())
+    }
+
+    /// [`ParquetStream::new`] with another codec or encoding.
+    pub fn with_options(
+        sink: W,
+        names: &[String],
+        key_values: Vec<(String, String)>,
+        options: ParquetOptions,
+    ) -> Result<Self> {
         let fields = names
             .iter()
             .map(|n| {
@@ -111,7 +138,7 @@ impl<W: Write + Send> ParquetStream<W> {
             .collect::<parquet::errors::Result<Vec<_>>>()?;
         let schema = Arc::new(Type::group_type_builder("timeseries").with_fields(fields).build()?);
         let rows = rows_per_group(names.len());
-        let writer = SerializedFileWriter::new(sink, schema, Arc::new(properties(rows, key_values)?))?;
+        let writer = SerializedFileWriter::new(sink, schema, Arc::new(properties(options, rows, key_values)?))?;
         Ok(Self { writer, columns: names.iter().map(|_| Vec::with_capacity(rows)).collect(), rows_per_group: rows })
     }
 
