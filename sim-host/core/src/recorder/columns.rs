@@ -1,6 +1,6 @@
-//! The columns of `timeseries.csv`: a fixed block ([`Col`]) then one optional group per
-//! actuator family and environment model present ([`Layout`]). The names and the order of
-//! the values in a row are defined here only.
+//! The columns of a run's time series: a fixed block ([`Col`]) then one optional group per
+//! actuator family and environment model present ([`Layout`]). The names, the order of
+//! the values in a row and the units ([`unit`]) are defined here only.
 
 /// The columns every run records, in order (index = position in the row).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -157,7 +157,8 @@ const UNIT_SUFFIXES: [(&str, &str); 15] = [
 /// The unit of a recorded column (`"1"`: dimensionless), `None` for a name this module
 /// does not define. The one place units are derived (the Parquet file's `units`).
 pub fn unit(name: &str) -> Option<&'static str> {
-    let gain_or_level = name.starts_with("adaptive_gain_") || (name.starts_with("thruster") && name.ends_with("_level"));
+    let gain_or_level =
+        name.starts_with("adaptive_gain_") || (name.starts_with("thruster") && name.ends_with("_level"));
     if DIMENSIONLESS.contains(&name) || gain_or_level {
         return Some("1");
     }
@@ -307,9 +308,18 @@ mod tests {
             assert!(unit(&name).is_some(), "{name} has no unit");
         }
         let units = |names: &[&str]| names.iter().map(|n| unit(n).unwrap()).collect::<Vec<_>>();
-        assert_eq!(units(&["t_s", "q_w", "rate_x_rad_s", "wheel2_power_w", "singularity_m"]), ["s", "1", "rad/s", "W", "1"]);
-        assert_eq!(units(&["h_norm_nms", "est_bias_error_deg_h", "b_body_z_t", "dipole_cmd_x_am2"]), ["N m s", "deg/h", "T", "A m^2"]);
-        assert_eq!(units(&["thruster12_level", "adaptive_gain_z", "wheel1_current_a", "torque_srp_y_nm"]), ["1", "1", "A", "N m"]);
+        assert_eq!(
+            units(&["t_s", "q_w", "rate_x_rad_s", "wheel2_power_w", "singularity_m"]),
+            ["s", "1", "rad/s", "W", "1"]
+        );
+        assert_eq!(
+            units(&["h_norm_nms", "est_bias_error_deg_h", "b_body_z_t", "dipole_cmd_x_am2"]),
+            ["N m s", "deg/h", "T", "A m^2"]
+        );
+        assert_eq!(
+            units(&["thruster12_level", "adaptive_gain_z", "wheel1_current_a", "torque_srp_y_nm"]),
+            ["1", "1", "A", "N m"]
+        );
         assert_eq!(unit("no_unit_here"), None);
     }
 }

@@ -356,7 +356,11 @@ mod tests {
         let mut line = Vec::new();
         let mut rows = CsvRows::default();
         for i in 0..3_000_000u32 {
-            let x = if i % 2 == 0 { f64::from_bits(rng.next_u64()) } else { rng.normal() * 10f64.powi(rng.below(24) as i32 - 12) };
+            let x = if i % 2 == 0 {
+                f64::from_bits(rng.next_u64())
+            } else {
+                rng.normal() * 10f64.powi(rng.below(24) as i32 - 12)
+            };
             line.clear();
             rows.write_row(&mut line, &[x]).unwrap();
             line.pop();
@@ -380,7 +384,10 @@ mod tests {
         let back = parse_csv(std::str::from_utf8(&text).unwrap()).unwrap();
         assert_eq!(back.names, ts.names);
         for (a, b) in back.cols.iter().zip(&ts.cols) {
-            assert_eq!(a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(), b.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
+            assert_eq!(
+                a.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                b.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            );
         }
         assert!(parse_csv("a,b\n1\n").is_err());
         assert!(parse_csv("a\nx\n").is_err());

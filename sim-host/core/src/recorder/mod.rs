@@ -1,5 +1,6 @@
 //! What a run leaves behind: the recorded columns and their rows, decimation of long
-//! runs, the summary, the output files (CSV, `summary.json`) and the figures.
+//! runs, the summary, the output files (`timeseries.parquet` or `.csv`, `summary.json`)
+//! and the figures.
 //! - [`columns`]: the column set of a run (names, units);
 //! - [`series`]: the [`series::Recorder`] trait and the in-memory [`series::TimeSeries`];
 //! - [`decimate`]: bounded-memory row decimation of long runs;

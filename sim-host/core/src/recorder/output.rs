@@ -379,7 +379,13 @@ pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
     }
     for (name, (x, y)) in a.names.iter().zip(a.cols.iter().zip(&b.cols)) {
         if let Some(r) = x.iter().zip(y).position(|(p, q)| !same_value(*p, *q)) {
-            return Some(format!("{name} row {r}: {:e} ({:#x}) and {:e} ({:#x})", x[r], x[r].to_bits(), y[r], y[r].to_bits()));
+            return Some(format!(
+                "{name} row {r}: {:e} ({:#x}) and {:e} ({:#x})",
+                x[r],
+                x[r].to_bits(),
+                y[r],
+                y[r].to_bits()
+            ));
         }
     }
     None
@@ -514,7 +520,8 @@ impl Recorder for RunOutput {
         self.clear_previous()?;
         let tmp = crate::files::temp_path(&self.series_path());
         self.tmp = Some(tmp.clone());
-        let sink = self.open_sink(columns, &tmp).with_context(|| format!("writing {}", self.series_path().display()))?;
+        let sink =
+            self.open_sink(columns, &tmp).with_context(|| format!("writing {}", self.series_path().display()))?;
         self.sink = Some(sink);
         if self.with_plots {
             self.plot.start(columns, rows)?;

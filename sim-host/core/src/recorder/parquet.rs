@@ -8,8 +8,8 @@
 //! a row group of at most [`ROW_GROUP_MAX_BYTES`] of values (and [`ROW_GROUP_MAX_ROWS`]
 //! rows), which is written out when full, so memory does not grow with the run's length.
 //! Values are BYTE_STREAM_SPLIT-encoded (the bytes of each significance together) and
-//! compressed with zstd, no dictionary: the smallest file for about the same instructions
-//! as snappy or lz4 (measured in docs/outputs.md).
+//! compressed with LZ4_RAW, no dictionary, no statistics: within 5 % of zstd's size for
+//! ~3/4 of its instructions, a pure-Rust codec (measured in docs/outputs.md).
 
 use crate::recorder::series::TimeSeries;
 use anyhow::{Context, Result, bail};
@@ -34,12 +34,10 @@ pub const FORMAT_VERSION: u32 = 1;
 pub const ROW_GROUP_MAX_BYTES: usize = 8 << 20;
 /// Most rows of a row group.
 pub const ROW_GROUP_MAX_ROWS: usize = 1 << 20;
-/// zstd level (docs/outputs.md).
-const ZSTD_LEVEL: i32 = 3;
 
 /// How the values are compressed and encoded. [`ParquetOptions::default`] is the choice of
-/// docs/outputs.md (zstd, BYTE_STREAM_SPLIT); the build enables only that codec, the
-/// others are for `benches/outputs.rs` (with the crate's other codec features).
+/// docs/outputs.md (LZ4_RAW, BYTE_STREAM_SPLIT); the build enables only that codec, the
+/// others are for `benches/outputs.rs` (with `--features parquet/zstd,parquet/snap`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ParquetOptions {
     pub compression: Compression,
@@ -48,8 +46,7 @@ pub struct ParquetOptions {
 
 impl Default for ParquetOptions {
     fn default() -> Self {
-        let level = ZstdLevel::try_new(ZSTD_LEVEL).unwrap_or_default();
-        Self { compression: Compression::ZSTD(level), encoding: Encoding::BYTE_STREAM_SPLIT }
+        Self { compression: Compression::LZ4_RAW, encoding: Encoding::BYTE_STREAM_SPLIT }
     }
 }
 
@@ -71,10 +68,8 @@ impl RunMetadata {
     /// `scenario_path`, `seed`, `scenario_toml`, `protocol_version` (of the link) and
     /// `format_version` ([`FORMAT_VERSION`]).
     pub fn key_values(&self, columns: &[String]) -> Result<Vec<(String, String)>> {
-        let units: serde_json::Map<String, serde_json::Value> = columns
-            .iter()
-            .map(|c| (c.clone(), crate::recorder::columns::unit(c).unwrap_or("").into()))
-            .collect();
+        let units: serde_json::Map<String, serde_json::Value> =
+            columns.iter().map(|c| (c.clone(), crate::recorder::columns::unit(c).unwrap_or("").into())).collect();
         Ok(vec![
             ("units".into(), serde_json::to_string(&units)?),
             ("scenario".into(), self.scenario.clone()),
@@ -98,7 +93,8 @@ fn properties(o: ParquetOptions, rows: usize, key_values: Vec<(String, String)>)
         .set_compression(o.compression)
         .set_encoding(o.encoding)
         .set_dictionary_enabled(false)
-        .set_statistics_enabled(EnabledStatistics::Chunk)
+        // No min/max statistics: ~10 instructions a value, and a time series is read whole.
+        .set_statistics_enabled(EnabledStatistics::None)
         .set_max_row_group_row_count(Some(rows))
         .set_created_by(format!("sim-host {} (parquet-rs)", env!("CARGO_PKG_VERSION")))
         .set_key_value_metadata(Some(key_values.into_iter().map(|(k, v)| KeyValue::new(k, v)).collect()))
@@ -108,8 +104,12 @@ fn properties(o: ParquetOptions, rows: usize, key_values: Vec<(String, String)>)
 /// Streams rows into a Parquet file, one row group per [`rows_per_group`] rows.
 pub struct ParquetStream<W: Write + Send> {
     writer: SerializedFileWriter<W>,
-    /// The rows of the row group being filled, column by column.
-    columns: Vec<Vec<f64>>,
+    /// The rows of the row group being filled, one after the other (a row is one copy:
+    /// cheaper than a push per column).
+    rows: Vec<f64>,
+    /// One column of the group, gathered from `rows` when the group is written.
+    column: Vec<f64>,
+    columns: usize,
     rows_per_group: usize,
 }
 
@@ -139,22 +139,32 @@ impl<W: Write + Send> ParquetStream<W> {
         let schema = Arc::new(Type::group_type_builder("timeseries").with_fields(fields).build()?);
         let rows = rows_per_group(names.len());
         let writer = SerializedFileWriter::new(sink, schema, Arc::new(properties(options, rows, key_values)?))?;
-        Ok(Self { writer, columns: names.iter().map(|_| Vec::with_capacity(rows)).collect(), rows_per_group: rows })
+        Ok(Self {
+            writer,
+            rows: Vec::with_capacity(rows * names.len()),
+            column: Vec::with_capacity(rows),
+            columns: names.len(),
+            rows_per_group: rows,
+        })
     }
 
-    /// Rows buffered in the row group being filled (never more than [`rows_per_group`]).
+    /// Rows buffered in the row group being filled (always fewer than [`rows_per_group`]).
     pub fn buffered_rows(&self) -> usize {
-        self.columns.first().map_or(0, Vec::len)
+        self.rows.len().checked_div(self.columns).unwrap_or(0)
+    }
+
+    /// Bytes of values buffered (at most [`ROW_GROUP_MAX_BYTES`] for the group being
+    /// filled plus one column of it).
+    pub fn buffered_capacity_bytes(&self) -> usize {
+        8 * (self.rows.capacity() + self.column.capacity())
     }
 
     /// Buffers one row (one value per column), writing the row group out when it is full.
     pub fn push_row(&mut self, row: &[f64]) -> Result<()> {
-        if row.len() != self.columns.len() {
-            bail!("a row of {} values for {} columns", row.len(), self.columns.len());
+        if row.len() != self.columns {
+            bail!("a row of {} values for {} columns", row.len(), self.columns);
         }
-        for (c, x) in self.columns.iter_mut().zip(row) {
-            c.push(*x);
-        }
+        self.rows.extend_from_slice(row);
         if self.buffered_rows() >= self.rows_per_group {
             self.write_group()?;
         }
@@ -166,14 +176,16 @@ impl<W: Write + Send> ParquetStream<W> {
             return Ok(());
         }
         let mut group = self.writer.next_row_group()?;
-        let mut values = self.columns.iter_mut();
+        let mut index = 0..self.columns;
         while let Some(mut column) = group.next_column()? {
-            let v = values.next().context("more columns in the schema than buffered")?;
-            column.typed::<DoubleType>().write_batch(v, None, None)?;
+            let c = index.next().context("more columns in the schema than buffered")?;
+            self.column.clear();
+            self.column.extend(self.rows.iter().skip(c).step_by(self.columns));
+            column.typed::<DoubleType>().write_batch(&self.column, None, None)?;
             column.close()?;
-            v.clear();
         }
         group.close()?;
+        self.rows.clear();
         Ok(())
     }
 
@@ -280,7 +292,7 @@ mod tests {
         for _ in 0..total {
             w.push_row(&row).unwrap();
             assert!(w.buffered_rows() < cap);
-            assert!(w.columns.iter().all(|c| c.capacity() <= cap));
+            assert!(w.buffered_capacity_bytes() <= ROW_GROUP_MAX_BYTES + 8 * cap);
         }
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.parquet");
