@@ -372,7 +372,15 @@ pub fn same_value(a: f64, b: f64) -> bool {
 /// [`same_value`]), `None` when they are the same.
 pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
     if a.names != b.names {
-        return Some(format!("columns {:?} and {:?}", a.names, b.names));
+        let i = a.names.iter().zip(&b.names).position(|(x, y)| x != y).unwrap_or(a.names.len().min(b.names.len()));
+        let name = |n: &[String]| n.get(i).map_or("(none)".to_string(), Clone::clone);
+        return Some(format!(
+            "{} and {} columns, column {i} is {} and {}",
+            a.names.len(),
+            b.names.len(),
+            name(&a.names),
+            name(&b.names)
+        ));
     }
     if a.len() != b.len() {
         return Some(format!("{} and {} rows", a.len(), b.len()));
