@@ -58,6 +58,21 @@ pub fn error_angle(q: &Quat, q_cmd: &Quat) -> f64 {
     2.0 * e.imag().norm().atan2(e.w.abs())
 }
 
+/// Rotation vector of the error from `q_cmd` to `q` in body axes, rad: the axis of
+/// `e = q_cmd* ⊗ q` times its principal angle (shortest way round, so its norm is
+/// [`error_angle`]).
+pub fn error_vector(q: &Quat, q_cmd: &Quat) -> [f64; 3] {
+    let e = q_cmd.conjugate() * q;
+    let e = if e.w < 0.0 { -e } else { e };
+    let v = e.imag();
+    let s = v.norm();
+    if s == 0.0 {
+        return [0.0; 3];
+    }
+    let k = 2.0 * s.atan2(e.w) / s;
+    [v.x * k, v.y * k, v.z * k]
+}
+
 /// Express a reference-frame vector in body axes: `v_B = q* ⊗ v_I ⊗ q`.
 pub fn rotate_ref_to_body(q: &Quat, v: &Vec3) -> Vec3 {
     UnitQuaternion::new_unchecked(*q).inverse_transform_vector(v)

@@ -8,7 +8,7 @@
 //! holds over `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
-use crate::attitude::{Quat, Vec3, error_angle, euler_from_quat, rotate_ref_to_body};
+use crate::attitude::{Quat, Vec3, error_angle, error_vector, euler_from_quat, rotate_ref_to_body};
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
@@ -18,12 +18,13 @@ use crate::plant::wheel::WheelOutput;
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
+use crate::recorder::pointing::PointingStats;
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
-    ErrorStats, Failure, ModeTransition, RunStatus, SETTLE_BOUND_DEG, StatusCounts, Summary, nan_max, nan_min,
+    ErrorStats, Failure, ModeTransition, RunStatus, StatusCounts, Summary, nan_max, nan_min,
 };
 use crate::scenario::{
-    Clock, GroundCommand, InertiaChange, OpenLoopRow, Resolved, Scenario, TargetConfig, Upload, layout,
+    Clock, GroundCommand, InertiaChange, OpenLoopRow, Performance, Resolved, Scenario, TargetConfig, Upload, layout,
 };
 use crate::sensors::SensorSuite;
 use acs_flight::link::{ActuatorCommand, FswMsg, status};
@@ -295,6 +296,9 @@ pub struct Simulation<'a> {
     next_command: usize,
     metrics: Metrics,
     errors: ErrorStats,
+    /// Pointing-performance indices over `[performance] from_s ..` (body-axis error).
+    pointing: PointingStats,
+    performance: Performance,
     /// The flight estimate against the truth.
     estimation: EstimationStats,
     layout: Layout,
@@ -338,6 +342,7 @@ impl<'a> Simulation<'a> {
             layout,
             momentum_trip,
             slow_fdir,
+            performance,
         } = cfg;
         let info = match &upload {
             Some(up) => {
@@ -382,7 +387,9 @@ impl<'a> Simulation<'a> {
             target,
             next_command: 0,
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
-            errors: ErrorStats::new(clock.dt, SETTLE_BOUND_DEG),
+            errors: ErrorStats::new(clock.dt, performance.settle_bound_deg),
+            pointing: PointingStats::new(performance.windows),
+            performance,
             estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
             momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
@@ -431,8 +438,17 @@ impl<'a> Simulation<'a> {
         let Some(q) = quantity else { return false };
         self.failure = Some(Failure::Diverged { t_s: t, quantity: q.to_owned() });
         self.errors.push(t, f64::NAN);
+        self.push_pointing(t, [f64::NAN; 3]);
         self.t_end = t;
         true
+    }
+
+    /// The body-axis attitude error at `t`, deg, into the pointing indices (from
+    /// `[performance] from_s` on).
+    fn push_pointing(&mut self, t: f64, err_deg: [f64; 3]) {
+        if t >= self.performance.from_s {
+            self.pointing.push(err_deg);
+        }
     }
 
     /// The flight estimate against the truth so far (last step's error included).
@@ -465,7 +481,9 @@ impl<'a> Simulation<'a> {
         self.t_end = t;
         let (mut input, dipole_cmd) = self.act.input(&cmd);
         let q_frame = self.target.frame(self.snap.as_ref());
-        let err_deg = error_angle(&self.state.q, &(q_frame * self.target.q_rel)).to_degrees();
+        let q_cmd = q_frame * self.target.q_rel;
+        let err_deg = error_angle(&self.state.q, &q_cmd).to_degrees();
+        self.push_pointing(t, error_vector(&self.state.q, &q_cmd).map(f64::to_degrees));
         let wheel_out = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
         let n_wheels = self.craft.wheels.len();
@@ -760,7 +778,7 @@ impl<'a> Simulation<'a> {
             dynamics_rate_hz: self.dynamics_rate_hz,
             final_error_deg: ef.final_error_deg,
             settle_time_s: ef.settle_time_s,
-            settle_bound_deg: SETTLE_BOUND_DEG,
+            settle_bound_deg: self.performance.settle_bound_deg,
             max_error_after_settle_deg: ef.max_error_after_settle_deg,
             mean_error_deg: ef.mean_error_deg,
             rms_error_deg: ef.rms_error_deg,
@@ -796,6 +814,7 @@ impl<'a> Simulation<'a> {
             wall_time_s: wall_s,
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),
+            pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
         }
     }
 }

@@ -9,7 +9,8 @@
 //! - [`csv`]: `timeseries.csv`, written with a fast shortest round-trip float formatter;
 //! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;
 //! - [`output`]: the streamed files of `sim-host run` and [`output::read_run`];
-//! - [`plots`]: the PNG figures.
+//! - [`plots`]: the PNG figures;
+//! - [`pointing`]: pointing-performance indices (APE, MPE, RPE, PDE, stability), streamed.
 
 pub mod columns;
 pub mod csv;
@@ -18,5 +19,6 @@ pub mod momentum;
 pub mod output;
 pub mod parquet;
 pub mod plots;
+pub mod pointing;
 pub mod series;
 pub mod summary;

@@ -3,7 +3,8 @@
 
 use serde::Serialize;
 
-/// Attitude-error bound that defines the settle time, deg.
+/// Default attitude-error bound that defines the settle time, deg (`[performance]
+/// settle_bound_deg`).
 pub const SETTLE_BOUND_DEG: f64 = 1.0;
 
 #[derive(Clone, Debug, Default, Serialize, PartialEq)]
@@ -68,7 +69,7 @@ pub struct Summary {
     pub dynamics_rate_hz: f64,
     /// Principal angle between the true and the target attitude at the end, deg.
     pub final_error_deg: f64,
-    /// Time after which the error stays below `SETTLE_BOUND_DEG`; `null` if it never does.
+    /// Time after which the error stays below `settle_bound_deg`; `null` if it never does.
     pub settle_time_s: Option<f64>,
     pub settle_bound_deg: f64,
     pub max_error_after_settle_deg: Option<f64>,
@@ -138,6 +139,10 @@ pub struct Summary {
     /// pointing by day (with `[momentum]` or the momentum FDIR on; docs/momentum.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub momentum: Option<crate::recorder::momentum::MomentumSummary>,
+    /// Pointing-performance indices (APE, MPE, RPE, PDE, stability) of the body-axis
+    /// attitude error over `[performance] from_s` to the end, at its confidence level
+    /// (docs/pointing.md).
+    pub pointing: crate::recorder::pointing::PointingSummary,
 }
 
 /// What the flight estimator did with the sensor samples over a run (`summary.json`

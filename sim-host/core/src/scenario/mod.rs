@@ -25,6 +25,8 @@ mod limits;
 mod modes;
 mod momentum;
 pub use momentum::MomentumSpec;
+mod performance;
+pub use performance::{Performance, PerformanceSpec};
 mod resolved;
 mod sensors;
 pub use actuators::{
@@ -98,6 +100,10 @@ pub struct Scenario {
     /// Momentum management (magnetic unloading) in the flight code.
     #[serde(default)]
     pub momentum: Option<MomentumSpec>,
+    /// How the run's pointing is judged: settle bound, pointing-performance windows and
+    /// confidence (defaults when absent).
+    #[serde(default)]
+    pub performance: PerformanceSpec,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -369,6 +375,7 @@ impl Scenario {
         self.validate_momentum()?;
         self.validate_control_source()?;
         self.validate_estimation()?;
+        self.performance()?;
         Ok(())
     }
 

@@ -80,6 +80,8 @@ pub struct Resolved {
     pub momentum_trip: Option<f64>,
     /// The keep-up and gimbal monitors are on (`[modes] slow_fdir_persistence_s` > 0).
     pub slow_fdir: bool,
+    /// Settle bound and pointing-performance windows (`[performance]`).
+    pub performance: super::Performance,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -138,6 +140,7 @@ impl TryFrom<&Scenario> for Resolved {
             commands,
             momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
             slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
+            performance: sc.performance()?,
         })
     }
 }

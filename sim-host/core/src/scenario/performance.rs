@@ -1,0 +1,126 @@
+//! `[performance]`: how a run's pointing is judged — the settle bound and the windows and
+//! confidence of the pointing-performance indices (`crate::recorder::pointing`,
+//! docs/pointing.md). Every key has a default, so the table is optional.
+//!
+//! ```toml
+//! [performance]
+//! settle_bound_deg = 1.0        # settle_time_s: the error stays below this from then on
+//! from_s = 0.0                  # the indices are taken over [from_s, end of the run]
+//! confidence = 0.95             # fraction of the period each index stays below its figure
+//! window_s = 10.0               # Δt of MPE, RPE and PDE (rounded to whole control steps)
+//! drift_separation_s = 100.0    # Δt_s between the two PDE windows (whole windows)
+//! stability_window_s = 1.0      # Δt of the stability index e(t + Δt) − e(t)
+//! ```
+
+use super::{Scenario, bad};
+use crate::recorder::pointing::Windows;
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PerformanceSpec {
+    #[serde(default = "settle_bound")]
+    pub settle_bound_deg: f64,
+    #[serde(default)]
+    pub from_s: f64,
+    #[serde(default = "confidence")]
+    pub confidence: f64,
+    #[serde(default = "window")]
+    pub window_s: f64,
+    #[serde(default = "drift_separation")]
+    pub drift_separation_s: f64,
+    #[serde(default = "stability_window")]
+    pub stability_window_s: f64,
+}
+
+fn settle_bound() -> f64 {
+    1.0
+}
+fn confidence() -> f64 {
+    0.95
+}
+fn window() -> f64 {
+    10.0
+}
+fn drift_separation() -> f64 {
+    100.0
+}
+fn stability_window() -> f64 {
+    1.0
+}
+
+impl Default for PerformanceSpec {
+    fn default() -> Self {
+        Self {
+            settle_bound_deg: settle_bound(),
+            from_s: 0.0,
+            confidence: confidence(),
+            window_s: window(),
+            drift_separation_s: drift_separation(),
+            stability_window_s: stability_window(),
+        }
+    }
+}
+
+/// The validated `[performance]` of a run at its control period.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Performance {
+    pub settle_bound_deg: f64,
+    pub from_s: f64,
+    pub confidence: f64,
+    pub windows: Windows,
+}
+
+impl PerformanceSpec {
+    /// Validates the table against the control period `dt_s`, naming the key at fault.
+    pub fn resolve(&self, dt_s: f64) -> Result<Performance> {
+        let k = |name: &str| format!("performance.{name}");
+        let b = self.settle_bound_deg;
+        if !(b.is_finite() && b > 0.0) {
+            return Err(bad(&k("settle_bound_deg"), format!("must be > 0 (got {b})")));
+        }
+        if !(self.from_s.is_finite() && self.from_s >= 0.0) {
+            return Err(bad(&k("from_s"), format!("must be >= 0 (got {})", self.from_s)));
+        }
+        let p = self.confidence;
+        if !(p > 0.0 && p <= 1.0) {
+            return Err(bad(&k("confidence"), format!("must be in (0, 1] (got {p})")));
+        }
+        let windows = Windows::from_seconds(dt_s, self.window_s, self.drift_separation_s, self.stability_window_s)
+            .map_err(|e| bad("performance", e))?;
+        Ok(Performance { settle_bound_deg: b, from_s: self.from_s, confidence: p, windows })
+    }
+}
+
+impl Scenario {
+    /// `[performance]` (its defaults when absent) at the scenario's control period.
+    pub fn performance(&self) -> Result<Performance> {
+        self.performance.resolve(1.0 / self.timing.control_rate_hz)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_values_are_refused_naming_the_key() {
+        let ok = PerformanceSpec::default();
+        let p = ok.resolve(0.1).unwrap();
+        assert_eq!((p.windows.window, p.windows.drift_separation, p.windows.stability), (100, 10, 10));
+        for (spec, key) in [
+            (PerformanceSpec { settle_bound_deg: 0.0, ..ok.clone() }, "performance.settle_bound_deg"),
+            (PerformanceSpec { from_s: f64::NAN, ..ok.clone() }, "performance.from_s"),
+            (PerformanceSpec { confidence: 1.5, ..ok.clone() }, "performance.confidence"),
+            (PerformanceSpec { window_s: -1.0, ..ok.clone() }, "window_s"),
+            (PerformanceSpec { stability_window_s: 1e9, ..ok.clone() }, "stability_window_s"),
+        ] {
+            let e = spec.resolve(0.1).unwrap_err().to_string();
+            assert!(e.contains(key), "{e}");
+        }
+        // A window shorter than a control step is one step.
+        let short = PerformanceSpec { stability_window_s: 0.01, ..ok };
+        assert_eq!(short.resolve(0.1).unwrap().windows.stability, 1);
+    }
+}
