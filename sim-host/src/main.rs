@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use sim_core::link::{self, LinkKind, LinkOptions};
 use sim_core::recorder::output;
+use sim_core::recorder::parquet::RunMetadata;
 use sim_core::recorder::summary::{Failure, Summary};
 use sim_core::runner;
 use sim_core::scenario::{Controller, Scenario};
@@ -140,7 +141,8 @@ enum TimingCmd {
 
 #[derive(Subcommand)]
 enum Cmd {
-    /// Run a scenario and write timeseries.csv, summary.json and PNG plots into --out.
+    /// Run a scenario and write timeseries.parquet (or .csv), summary.json and PNG plots
+    /// into --out.
     Run {
         scenario: PathBuf,
         #[arg(long, default_value = "out")]
@@ -157,6 +159,9 @@ enum Cmd {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Time-series file: parquet (timeseries.parquet) | csv (timeseries.csv).
+        #[arg(long, default_value = "parquet")]
+        format: output::Format,
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check { scenario: PathBuf },
@@ -217,6 +222,10 @@ enum Cmd {
         #[arg(long)]
         json: bool,
     },
+    /// Compare two runs' time series (`timeseries.parquet` / `.csv` files or run
+    /// directories) value by value, bit for bit (an empty CSV field matches any NaN or
+    /// infinity); exit status 1 at the first difference.
+    CompareSeries { a: PathBuf, b: PathBuf },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`):
     /// one client at a time (others get "busy"), each session from power-on state.
     Serve {
@@ -271,8 +280,8 @@ fn main() -> std::process::ExitCode {
 
 fn dispatch(cmd: Cmd) -> Result<()> {
     match cmd {
-        Cmd::Run { scenario, out, link, firmware, no_plots, quiet } => {
-            run(&scenario, &out, link, firmware, no_plots, quiet)
+        Cmd::Run { scenario, out, link, firmware, no_plots, quiet, format } => {
+            run(&scenario, &out, link, firmware, RunOptions { no_plots, quiet, format })
         }
         Cmd::Lqr { scenario } => lqr(&scenario),
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
@@ -288,6 +297,14 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             link::serve::serve_with(l, &link::serve::ServeOptions { idle_timeout, max_sessions: None })
         }
         Cmd::Check { scenario } => check(&scenario),
+        Cmd::CompareSeries { a, b } => {
+            let (x, y) = (output::read_run(&a)?.series, output::read_run(&b)?.series);
+            if let Some(d) = output::first_difference(&x, &y) {
+                anyhow::bail!("{} and {} differ: {d}", a.display(), b.display());
+            }
+            say!("identical: {} rows of {} columns", x.len(), x.names.len());
+            Ok(())
+        }
         Cmd::Cycles { scenario, firmware, plugin, wait_states, duration, per_step, json } => {
             cycles(&scenario, firmware, plugin, wait_states, duration, per_step, json)
         }
@@ -506,19 +523,27 @@ fn campaign(what: CampaignCmd) -> Result<()> {
     Ok(())
 }
 
-/// `sim-host run`: the run streamed into `out`, then the one-line summary.
-fn run(
-    scenario: &Path,
-    out: &Path,
-    link: Option<LinkKind>,
-    firmware: Option<PathBuf>,
+/// What `sim-host run` writes besides the run's result.
+struct RunOptions {
     no_plots: bool,
     quiet: bool,
-) -> Result<()> {
+    format: output::Format,
+}
+
+/// `sim-host run`: the run streamed into `out`, then the one-line summary.
+fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<PathBuf>, o: RunOptions) -> Result<()> {
+    let RunOptions { no_plots, quiet, format } = o;
     // A previous run's outputs go first: whatever happens next, the directory never shows
     // them beside (or instead of) this run's.
     output::clear_previous(out)?;
-    let sc = Scenario::load(scenario)?;
+    let text = sim_core::scenario::read_capped(scenario)?;
+    let sc = Scenario::from_toml(&text).with_context(|| format!("scenario {}", scenario.display()))?;
+    let metadata = RunMetadata {
+        scenario: sc.name.clone(),
+        scenario_path: scenario.display().to_string(),
+        seed: sc.sensors.seed,
+        scenario_toml: text,
+    };
     let open_loop = !sc.closed_loop();
     let kind = match (link, &sc.link.kind) {
         _ if open_loop => LinkKind::InProcess,
@@ -527,7 +552,10 @@ fn run(
         (None, None) => LinkKind::InProcess,
     };
     let mut l = link::open(&kind, &LinkOptions { firmware })?;
-    let mut rec = output::RunOutput::new(out, !no_plots).assume_free_bytes(assumed_free_bytes()?);
+    let mut rec = output::RunOutput::new(out, !no_plots)
+        .format(format)
+        .metadata(metadata)
+        .assume_free_bytes(assumed_free_bytes()?);
     let summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
     drop(l);
     let files = rec.finish(&summary)?;

@@ -2,7 +2,7 @@
 //! of absurd duration or one whose output would not fit on the disk; the error names the
 //! scenario key to change.
 
-use sim_core::recorder::output::estimated_csv_bytes;
+use sim_core::recorder::output::{Format, RUN_FILES, estimated_csv_bytes, read_run};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -20,9 +20,13 @@ fn scenario(dir: &Path, from: &str, to: &str) -> PathBuf {
 }
 
 fn run(sc: &Path, out: &Path, free: Option<&str>) -> Output {
+    run_as(sc, out, free, "parquet")
+}
+
+fn run_as(sc: &Path, out: &Path, free: Option<&str>, format: &str) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_sim-host"));
     c.args(["run", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots", "--quiet"]);
-    c.args(["--link", "in-process"]);
+    c.args(["--link", "in-process", "--format", format]);
     match free {
         Some(f) => c.env("SIM_HOST_ASSUME_FREE_BYTES", f),
         None => c.env_remove("SIM_HOST_ASSUME_FREE_BYTES"),
@@ -40,7 +44,9 @@ fn an_absurd_duration_is_refused_naming_the_key() {
         let err = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(1), "{d}: {err}");
         assert!(err.contains("duration_s"), "{d}: {err}");
-        assert!(!out.join("timeseries.csv").exists(), "{d}");
+        for f in RUN_FILES {
+            assert!(!out.join(f).exists(), "{d}: {f}");
+        }
     }
 }
 
@@ -52,13 +58,15 @@ fn a_run_that_would_not_fit_on_the_disk_is_refused_and_the_estimate_covers_the_r
     let out = tmp.path().join("out");
     let r = run(&sc, &out, None);
     assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
-    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
-    let (rows, cols) = (csv.lines().count() as u64 - 1, csv.lines().next().unwrap().split(',').count());
+    let pq = out.join("timeseries.parquet");
+    let series = read_run(&pq).unwrap().series;
+    let (rows, cols) = (series.len() as u64, series.names.len());
     assert_eq!(rows, 3001);
-    // The estimate is an upper bound of the real size, and not a wild one.
-    let est = estimated_csv_bytes(rows, cols);
-    let real = csv.len() as u64;
-    assert!(est >= real && est <= 3 * real, "estimate {est} B, real {real} B");
+    assert!(!out.join("timeseries.csv").exists());
+    // The estimate is an upper bound of the real size (the uncompressed worst case).
+    let est = Format::Parquet.estimated_bytes(rows, cols);
+    let real = std::fs::metadata(&pq).unwrap().len();
+    assert!(est >= real, "estimate {est} B, real {real} B");
 
     // 1 MB free: refused before anything is written.
     let out2 = tmp.path().join("out2");
@@ -66,12 +74,41 @@ fn a_run_that_would_not_fit_on_the_disk_is_refused_and_the_estimate_covers_the_r
     let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1), "{err}");
     assert!(err.contains("timing.output_every") && err.contains("duration_s"), "{err}");
-    assert!(!out2.join("timeseries.csv").exists());
+    assert!(!out2.join("timeseries.parquet").exists());
     // Plenty free: runs, same bytes.
     let out3 = tmp.path().join("out3");
     let r = run(&sc, &out3, Some("1000000000000"));
     assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
-    assert_eq!(std::fs::read_to_string(out3.join("timeseries.csv")).unwrap(), csv);
+    assert_eq!(std::fs::read(out3.join("timeseries.parquet")).unwrap(), std::fs::read(&pq).unwrap());
+}
+
+/// `--format csv`: the CSV estimate bounds the real size, a run that would not fit is
+/// refused, and the CSV holds the same values as the Parquet file of the same run.
+#[test]
+fn the_csv_format_is_refused_when_it_would_not_fit_and_holds_the_parquet_values() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sc = scenario(tmp.path(), "output_every = 5 ", "output_every = 1 ");
+    let out = tmp.path().join("out");
+    let r = run_as(&sc, &out, None, "csv");
+    assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    assert!(!out.join("timeseries.parquet").exists());
+    let (rows, cols) = (csv.lines().count() as u64 - 1, csv.lines().next().unwrap().split(',').count());
+    assert_eq!(rows, 3001);
+    // The estimate is an upper bound of the real size, and not a wild one.
+    let est = estimated_csv_bytes(rows, cols);
+    let real = csv.len() as u64;
+    assert!(est >= real && est <= 3 * real, "estimate {est} B, real {real} B");
+    let out2 = tmp.path().join("out2");
+    let r = run_as(&sc, &out2, Some("1000000"), "csv");
+    assert_eq!(r.status.code(), Some(1), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(!out2.join("timeseries.csv").exists());
+    // The same run as Parquet: the same values, bit for bit.
+    let out3 = tmp.path().join("out3");
+    let r = run(&sc, &out3, None);
+    assert_eq!(r.status.code(), Some(0), "{}", String::from_utf8_lossy(&r.stderr));
+    let (a, b) = (read_run(&out).unwrap().series, read_run(&out3).unwrap().series);
+    assert_eq!(sim_core::recorder::output::first_difference(&a, &b), None);
 }
 
 /// Bad sensor-model keys are refused before the first step with the key named (they used

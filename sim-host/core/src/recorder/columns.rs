@@ -1,6 +1,6 @@
-//! The columns of `timeseries.csv`: a fixed block ([`Col`]) then one optional group per
-//! actuator family and environment model present ([`Layout`]). The names and the order of
-//! the values in a row are defined here only.
+//! The columns of a run's time series: a fixed block ([`Col`]) then one optional group per
+//! actuator family and environment model present ([`Layout`]). The names, the order of
+//! the values in a row and the units ([`unit`]) are defined here only.
 
 /// The columns every run records, in order (index = position in the row).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,6 +111,59 @@ pub const ESTIMATION: [&str; 14] = [
     "est_fused_late",
     "est_refused",
 ];
+
+/// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
+/// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
+/// (`q_w` is not in watts, `singularity_m` not in metres).
+const DIMENSIONLESS: [&str; 17] = [
+    "q_x",
+    "q_y",
+    "q_z",
+    "q_w",
+    "status",
+    "mode",
+    "singularity_m",
+    "steering_alpha",
+    "thrusters_on",
+    "pulses_total",
+    "est_nees",
+    "est_rejected",
+    "est_resets",
+    "est_fused",
+    "est_fused_late",
+    "est_refused",
+    "momentum_events",
+];
+
+/// The unit of a column from its name's suffix (first match; longer suffixes first).
+const UNIT_SUFFIXES: [(&str, &str); 15] = [
+    ("_rad_s", "rad/s"),
+    ("_deg_h", "deg/h"),
+    ("_insns", "instructions"),
+    ("_nms", "N m s"),
+    ("_am2", "A m^2"),
+    ("_rpm", "rpm"),
+    ("_deg", "deg"),
+    ("_nm", "N m"),
+    ("_kg", "kg"),
+    ("_s", "s"),
+    ("_a", "A"),
+    ("_v", "V"),
+    ("_w", "W"),
+    ("_t", "T"),
+    ("_m", "m"),
+];
+
+/// The unit of a recorded column (`"1"`: dimensionless), `None` for a name this module
+/// does not define. The one place units are derived (the Parquet file's `units`).
+pub fn unit(name: &str) -> Option<&'static str> {
+    let gain_or_level =
+        name.starts_with("adaptive_gain_") || (name.starts_with("thruster") && name.ends_with("_level"));
+    if DIMENSIONLESS.contains(&name) || gain_or_level {
+        return Some("1");
+    }
+    UNIT_SUFFIXES.iter().find(|(suffix, _)| name.ends_with(suffix)).map(|(_, u)| *u)
+}
 
 /// Which optional groups a run records (in this order after the fixed block).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -231,5 +284,42 @@ mod tests {
         assert_eq!(names[Col::COUNT + 44], "est_error_deg");
         assert_eq!(names[Col::COUNT + 44 + 6], "est_resets");
         assert_eq!(names.last().unwrap(), "est_refused");
+    }
+
+    fn every_group() -> Layout {
+        Layout {
+            adaptive_gains: true,
+            mode: true,
+            flight_error: true,
+            cmg: true,
+            wheels: 6,
+            magnetorquers: true,
+            thrusters: 12,
+            field: true,
+            env_torques: true,
+            estimation: true,
+            momentum: true,
+        }
+    }
+
+    #[test]
+    fn every_column_has_a_unit() {
+        for name in every_group().names() {
+            assert!(unit(&name).is_some(), "{name} has no unit");
+        }
+        let units = |names: &[&str]| names.iter().map(|n| unit(n).unwrap()).collect::<Vec<_>>();
+        assert_eq!(
+            units(&["t_s", "q_w", "rate_x_rad_s", "wheel2_power_w", "singularity_m"]),
+            ["s", "1", "rad/s", "W", "1"]
+        );
+        assert_eq!(
+            units(&["h_norm_nms", "est_bias_error_deg_h", "b_body_z_t", "dipole_cmd_x_am2"]),
+            ["N m s", "deg/h", "T", "A m^2"]
+        );
+        assert_eq!(
+            units(&["thruster12_level", "adaptive_gain_z", "wheel1_current_a", "torque_srp_y_nm"]),
+            ["1", "1", "A", "N m"]
+        );
+        assert_eq!(unit("no_unit_here"), None);
     }
 }

@@ -1,12 +1,17 @@
-//! Run outputs: `timeseries.csv` (streamed to disk as the run goes), `summary.json` and
-//! the PNG figures (drawn from a bounded min/max decimation of the recorded rows).
+//! Run outputs: the time series (`timeseries.parquet` by default, or `timeseries.csv`;
+//! streamed to disk as the run goes), `summary.json` and the PNG figures (drawn from a
+//! bounded min/max decimation of the recorded rows); [`read_run`] reads a run's time
+//! series back from either format.
 
 use crate::recorder::columns::Col;
+use crate::recorder::csv::CsvRows;
 use crate::recorder::decimate::Envelope;
+use crate::recorder::parquet::{ParquetStream, RunMetadata};
 use crate::recorder::plots::{self, Figure, Panel, Series};
-use crate::recorder::series::{Recorder, write_csv_row};
+use crate::recorder::series::{Recorder, TimeSeries};
 use crate::recorder::summary::Summary;
 use anyhow::{Context, Result, bail};
+use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -225,11 +230,61 @@ fn environment_figure() -> Figure {
     )
 }
 
+/// The file format of a run's time series.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Format {
+    /// `timeseries.parquet` ([`crate::recorder::parquet`]).
+    #[default]
+    Parquet,
+    /// `timeseries.csv` ([`crate::recorder::csv`]).
+    Csv,
+}
+
+impl Format {
+    /// The name of the time-series file in the output directory.
+    pub const fn file_name(self) -> &'static str {
+        match self {
+            Format::Parquet => "timeseries.parquet",
+            Format::Csv => "timeseries.csv",
+        }
+    }
+
+    /// Estimated size of the time series of `rows` rows of `columns` columns, bytes (an
+    /// upper bound: see [`CSV_BYTES_PER_VALUE`], [`PARQUET_BYTES_PER_VALUE`]).
+    pub fn estimated_bytes(self, rows: u64, columns: usize) -> u64 {
+        match self {
+            Format::Csv => estimated_csv_bytes(rows, columns),
+            Format::Parquet => rows
+                .saturating_mul(columns as u64)
+                .saturating_mul(PARQUET_BYTES_PER_VALUE)
+                .saturating_add(PARQUET_FIXED_BYTES.saturating_add(columns as u64 * PARQUET_BYTES_PER_COLUMN)),
+        }
+    }
+}
+
+impl std::str::FromStr for Format {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "parquet" => Ok(Format::Parquet),
+            "csv" => Ok(Format::Csv),
+            _ => Err(format!("unknown format {s:?} (parquet | csv)")),
+        }
+    }
+}
+
 /// Estimated bytes of one CSV value: a full-precision value in Rust's shortest round-trip
 /// form is ~20 characters (more for small magnitudes, which never use an exponent), plus
 /// the separator.
 pub const CSV_BYTES_PER_VALUE: u64 = 24;
-/// Headroom kept free besides the CSV (summary, plots, the rest of the system).
+/// Bytes of one Parquet value, uncompressed worst case: the 8 bytes of the double plus
+/// one for the page headers and statistics (a page holds thousands of values).
+pub const PARQUET_BYTES_PER_VALUE: u64 = 9;
+/// Bytes of a Parquet file besides its values: magic, footer, metadata (the scenario text
+/// included, ≤ 1 MiB), and per column and row group its schema entry and chunk metadata.
+const PARQUET_FIXED_BYTES: u64 = 2 << 20;
+const PARQUET_BYTES_PER_COLUMN: u64 = 4 << 10;
+/// Headroom kept free besides the time series (summary, plots, the rest of the system).
 pub const DISK_RESERVE_BYTES: u64 = 64 << 20;
 
 /// Estimated size of `timeseries.csv`, bytes.
@@ -242,14 +297,16 @@ pub fn free_bytes(dir: &Path) -> Result<u64> {
     fs4::available_space(dir).with_context(|| format!("free space of {}", dir.display()))
 }
 
-/// Refuses a run whose CSV would not fit in `free` bytes (keeping [`DISK_RESERVE_BYTES`]).
-pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<()> {
-    let csv = estimated_csv_bytes(rows, columns);
-    if csv.saturating_add(DISK_RESERVE_BYTES) > free {
+/// Refuses a run whose time series would not fit in `free` bytes (keeping
+/// [`DISK_RESERVE_BYTES`]).
+pub fn check_space(dir: &Path, format: Format, rows: u64, columns: usize, free: u64) -> Result<()> {
+    let size = format.estimated_bytes(rows, columns);
+    if size.saturating_add(DISK_RESERVE_BYTES) > free {
         bail!(
-            "the run would record {rows} rows of {columns} columns (~{:.3} GB of timeseries.csv, plus {:.3} GB kept \
+            "the run would record {rows} rows of {columns} columns (~{:.3} GB of {}, plus {:.3} GB kept \
              free) but {} has {:.3} GB free: raise timing.output_every or shorten duration_s",
-            csv as f64 / 1e9,
+            size as f64 / 1e9,
+            format.file_name(),
             DISK_RESERVE_BYTES as f64 / 1e9,
             dir.display(),
             free as f64 / 1e9
@@ -258,8 +315,9 @@ pub fn check_space(dir: &Path, rows: u64, columns: usize, free: u64) -> Result<(
     Ok(())
 }
 
-/// The files a run writes into its output directory, besides the figures.
-pub const RUN_FILES: [&str; 2] = ["timeseries.csv", "summary.json"];
+/// The files a run writes into its output directory, besides the figures (the time series
+/// in either format).
+pub const RUN_FILES: [&str; 3] = ["timeseries.parquet", "timeseries.csv", "summary.json"];
 
 /// Removes the files a previous run wrote into `dir` ([`RUN_FILES`] and every figure of
 /// [`figures`]; nothing else, and nothing when `dir` does not exist).
@@ -272,29 +330,129 @@ pub fn clear_previous(dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The outputs of a run in `dir`: streams `timeseries.csv`, keeps the plot decimation, and
-/// on [`RunOutput::finish`] writes `summary.json` and the figures.
+/// A run's time series read back ([`read_run`]).
+#[derive(Clone, Debug, Default)]
+pub struct RunData {
+    pub series: TimeSeries,
+    /// The Parquet file's key-value metadata (empty for a CSV).
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// Reads a run's time series: a `timeseries.parquet` or `timeseries.csv` file, or a run's
+/// output directory (its `timeseries.parquet`, else its `timeseries.csv`).
+pub fn read_run(path: &Path) -> Result<RunData> {
+    let file = if path.is_dir() {
+        let parquet = path.join(Format::Parquet.file_name());
+        let csv = path.join(Format::Csv.file_name());
+        match (parquet.exists(), csv.exists()) {
+            (true, _) => parquet,
+            (false, true) => csv,
+            (false, false) => bail!("{} has neither timeseries.parquet nor timeseries.csv", path.display()),
+        }
+    } else {
+        path.to_path_buf()
+    };
+    match file.extension().and_then(|e| e.to_str()) {
+        Some("parquet") => {
+            let (series, metadata) = crate::recorder::parquet::read_parquet(&file)?;
+            Ok(RunData { series, metadata })
+        }
+        Some("csv") => Ok(RunData { series: crate::recorder::csv::read_csv(&file)?, metadata: BTreeMap::new() }),
+        _ => bail!("{}: not a .parquet or .csv file", file.display()),
+    }
+}
+
+/// Whether two recorded values are the same: the same bits, or one NaN (a CSV's empty
+/// field) and the other not finite (a CSV cannot tell NaN from the infinities).
+pub fn same_value(a: f64, b: f64) -> bool {
+    a.to_bits() == b.to_bits() || (a.is_nan() && !b.is_finite()) || (b.is_nan() && !a.is_finite())
+}
+
+/// The first difference between two time series (names, lengths, values by
+/// [`same_value`]), `None` when they are the same.
+pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
+    if a.names != b.names {
+        let i = a.names.iter().zip(&b.names).position(|(x, y)| x != y).unwrap_or(a.names.len().min(b.names.len()));
+        let name = |n: &[String]| n.get(i).map_or("(none)".to_string(), Clone::clone);
+        return Some(format!(
+            "{} and {} columns, column {i} is {} and {}",
+            a.names.len(),
+            b.names.len(),
+            name(&a.names),
+            name(&b.names)
+        ));
+    }
+    if a.len() != b.len() {
+        return Some(format!("{} and {} rows", a.len(), b.len()));
+    }
+    for (name, (x, y)) in a.names.iter().zip(a.cols.iter().zip(&b.cols)) {
+        if let Some(r) = x.iter().zip(y).position(|(p, q)| !same_value(*p, *q)) {
+            return Some(format!(
+                "{name} row {r}: {:e} ({:#x}) and {:e} ({:#x})",
+                x[r],
+                x[r].to_bits(),
+                y[r],
+                y[r].to_bits()
+            ));
+        }
+    }
+    None
+}
+
+/// The open time-series file of a run.
+enum Sink {
+    Csv { file: BufWriter<File>, rows: CsvRows },
+    Parquet(ParquetStream<File>),
+}
+
+/// The outputs of a run in `dir`: streams the time series ([`Format`]), keeps the plot
+/// decimation, and on [`RunOutput::finish`] writes `summary.json` and the figures.
 ///
 /// Before the first step ([`Recorder::start`]) the files a previous run left there
 /// ([`RUN_FILES`] and every figure of [`figures`]; nothing else) are removed, so that a run
-/// that then fails leaves no stale summary or figure beside its own output. The CSV is
-/// streamed into a hidden temporary file renamed to `timeseries.csv` by `finish` (removed
-/// if the run ends in an error); the summary and the figures are written through a
-/// temporary file and a rename. Every error names its file.
+/// that then fails leaves no stale summary or figure beside its own output. The time series
+/// is streamed into a hidden temporary file renamed to `timeseries.parquet` (or `.csv`) by
+/// `finish` (removed if the run ends in an error); the summary and the figures are written
+/// through a temporary file and a rename. Every error names its file.
 pub struct RunOutput {
     dir: PathBuf,
     with_plots: bool,
+    format: Format,
+    metadata: RunMetadata,
     /// Free space to assume instead of asking the filesystem (tests).
     free_bytes: Option<u64>,
-    csv: Option<BufWriter<File>>,
-    /// The temporary CSV while the run goes (`None` once renamed or before the start).
-    csv_tmp: Option<PathBuf>,
+    sink: Option<Sink>,
+    /// The temporary time-series file while the run goes (`None` once renamed or before
+    /// the start).
+    tmp: Option<PathBuf>,
     plot: Envelope,
 }
 
 impl RunOutput {
+    /// Outputs in `dir`, the time series as Parquet (see [`RunOutput::format`]).
     pub fn new(dir: &Path, with_plots: bool) -> Self {
-        Self { dir: dir.to_path_buf(), with_plots, free_bytes: None, csv: None, csv_tmp: None, plot: Envelope::new() }
+        Self {
+            dir: dir.to_path_buf(),
+            with_plots,
+            format: Format::default(),
+            metadata: RunMetadata::default(),
+            free_bytes: None,
+            sink: None,
+            tmp: None,
+            plot: Envelope::new(),
+        }
+    }
+
+    /// Write the time series in `format`.
+    pub fn format(mut self, format: Format) -> Self {
+        self.format = format;
+        self
+    }
+
+    /// The run's metadata (stored in the Parquet file).
+    pub fn metadata(mut self, metadata: RunMetadata) -> Self {
+        self.metadata = metadata;
+        self
     }
 
     /// Assume `bytes` free on the output filesystem (instead of `statvfs`).
@@ -303,8 +461,8 @@ impl RunOutput {
         self
     }
 
-    fn csv_path(&self) -> PathBuf {
-        self.dir.join("timeseries.csv")
+    fn series_path(&self) -> PathBuf {
+        self.dir.join(self.format.file_name())
     }
 
     /// Removes what a previous run wrote into the directory (see [`clear_previous`]).
@@ -312,30 +470,47 @@ impl RunOutput {
         clear_previous(&self.dir)
     }
 
-    /// Flushes the CSV, writes the summary and the figures; returns the files written.
+    /// Closes the time series, writes the summary and the figures; returns the files
+    /// written.
     pub fn finish(mut self, summary: &Summary) -> Result<Vec<PathBuf>> {
-        let csv = self.csv_path();
-        let mut w = self.csv.take().context("the run recorded nothing")?;
-        w.flush().with_context(|| format!("writing {}", csv.display()))?;
-        drop(w);
-        if let Some(tmp) = self.csv_tmp.take() {
-            crate::files::rename(&tmp, &csv)?;
+        let series = self.series_path();
+        let written = || format!("writing {}", series.display());
+        match self.sink.take().context("the run recorded nothing")? {
+            Sink::Csv { mut file, .. } => file.flush().with_context(written)?,
+            Sink::Parquet(stream) => drop(stream.finish().with_context(written)?),
+        }
+        if let Some(tmp) = self.tmp.take() {
+            crate::files::rename(&tmp, &series)?;
         }
         let json = self.dir.join("summary.json");
         crate::files::write_atomic(&json, (serde_json::to_string_pretty(summary)? + "\n").as_bytes())?;
-        let mut files = vec![csv, json];
+        let mut files = vec![series, json];
         if self.with_plots {
             files.extend(plots::render(&self.dir, &self.plot.series(), &figures()).context("rendering plots")?);
         }
         Ok(files)
     }
+
+    /// Creates the temporary time-series file and writes its header.
+    fn open_sink(&self, columns: &[String], tmp: &Path) -> Result<Sink> {
+        let file = File::create(tmp)
+            .with_context(|| format!("creating {} (for {})", tmp.display(), self.series_path().display()))?;
+        Ok(match self.format {
+            Format::Csv => {
+                let mut file = BufWriter::with_capacity(1 << 16, file);
+                writeln!(file, "{}", columns.join(","))?;
+                Sink::Csv { file, rows: CsvRows::default() }
+            }
+            Format::Parquet => Sink::Parquet(ParquetStream::new(file, columns, self.metadata.key_values(columns)?)?),
+        })
+    }
 }
 
 impl Drop for RunOutput {
-    /// A run that ended in an error leaves no partial CSV.
+    /// A run that ended in an error leaves no partial time series.
     fn drop(&mut self) {
-        if let Some(tmp) = self.csv_tmp.take() {
-            self.csv = None;
+        if let Some(tmp) = self.tmp.take() {
+            self.sink = None;
             let _ = std::fs::remove_file(tmp);
         }
     }
@@ -349,17 +524,13 @@ impl Recorder for RunOutput {
             Some(b) => b,
             None => free_bytes(dir)?,
         };
-        check_space(dir, rows, columns.len(), free)?;
+        check_space(dir, self.format, rows, columns.len(), free)?;
         self.clear_previous()?;
-        let csv = self.csv_path();
-        let tmp = crate::files::temp_path(&csv);
-        let mut w = BufWriter::with_capacity(
-            1 << 16,
-            File::create(&tmp).with_context(|| format!("creating {} (for {})", tmp.display(), csv.display()))?,
-        );
-        self.csv_tmp = Some(tmp);
-        writeln!(w, "{}", columns.join(",")).with_context(|| format!("writing {}", csv.display()))?;
-        self.csv = Some(w);
+        let tmp = crate::files::temp_path(&self.series_path());
+        self.tmp = Some(tmp.clone());
+        let sink =
+            self.open_sink(columns, &tmp).with_context(|| format!("writing {}", self.series_path().display()))?;
+        self.sink = Some(sink);
         if self.with_plots {
             self.plot.start(columns, rows)?;
         }
@@ -367,8 +538,11 @@ impl Recorder for RunOutput {
     }
 
     fn record(&mut self, row: &[f64]) -> Result<()> {
-        let w = self.csv.as_mut().context("record before start")?;
-        write_csv_row(w, row).with_context(|| format!("writing {}", self.dir.join("timeseries.csv").display()))?;
+        let written = match self.sink.as_mut().context("record before start")? {
+            Sink::Csv { file, rows } => rows.write_row(file, row).map_err(anyhow::Error::from),
+            Sink::Parquet(stream) => stream.push_row(row),
+        };
+        written.with_context(|| format!("writing {}", self.series_path().display()))?;
         if self.with_plots {
             self.plot.record(row)?;
         }

@@ -113,7 +113,7 @@ pub struct Timing {
     /// RK4 steps per control period (dynamics rate = control rate × this).
     #[serde(default = "one")]
     pub dynamics_substeps: u32,
-    /// Record every Nth control step in timeseries.csv and the plots.
+    /// Record every Nth control step in the time series and the plots.
     #[serde(default = "one")]
     pub output_every: u32,
 }
