@@ -98,6 +98,17 @@ pub fn empty_frame(py: Python<'_>, seq: u32, time_us: u64) -> PyResult<Bound<'_,
     guard(|| to_py(py, &SensorFrame::empty(seq, time_us)).map_err(|e| Kind::Frame.chain(&e)))
 }
 
+/// The postcard bytes of a frame (what `Fsw.step` also accepts; the payload of a wire
+/// frame before CRC and COBS).
+#[pyfunction]
+pub fn frame_to_bytes<'py>(py: Python<'py>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyBytes>> {
+    guard(|| {
+        let f = frame_of(frame).map_err(|e| Kind::Frame.chain(&e))?;
+        let b = postcard::to_stdvec(&f).map_err(|e| Kind::Frame.err(e))?;
+        Ok(PyBytes::new(py, &b))
+    })
+}
+
 /// One control step as the in-process link saw it.
 struct Recorded {
     /// Ground commands sent since the previous frame.

@@ -32,6 +32,7 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
     m.add_function(wrap_pyfunction!(fsw::record_frames, m)?)?;
     m.add_function(wrap_pyfunction!(fsw::empty_frame, m)?)?;
+    m.add_function(wrap_pyfunction!(fsw::frame_to_bytes, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_plan, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_run, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_merge, m)?)?;

@@ -29,6 +29,7 @@ from ._core import (
     Scenario,
     ScenarioError,
     empty_frame,
+    frame_to_bytes,
     record_frames,
 )
 from . import campaign
@@ -50,6 +51,7 @@ __all__ = [
     "ScenarioError",
     "campaign",
     "empty_frame",
+    "frame_to_bytes",
     "record_frames",
     "run",
 ]

@@ -1,0 +1,62 @@
+"""Shared fixtures: the repository, the sim-host command (built if missing), scenarios."""
+
+import json
+import math
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[3]
+TARGET = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
+SCENARIOS = sorted(REPO.glob("scenarios/*/*.toml"))
+# summary.json fields that time the host, not the simulation (scripts/golden.sh drops the same).
+WALL_CLOCK = ("wall_time_s", "real_time_factor", "mean_step_us", "max_step_us", "allocation_us_per_call", "max_step_ticks")
+
+
+@pytest.fixture(scope="session")
+def sim_host() -> Path:
+    exe = TARGET / "release" / "sim-host"
+    if not exe.exists():
+        subprocess.run(["cargo", "build", "--release", "-q", "-p", "sim-host"], cwd=REPO, check=True)
+    return exe
+
+
+def without_wall_clock(summary: dict) -> dict:
+    return {k: v for k, v in summary.items() if k not in WALL_CLOCK}
+
+
+def read_csv_columns(path: Path):
+    """timeseries.csv as (names, {name: float64 array}); an empty field is NaN."""
+    with open(path) as f:
+        names = f.readline().rstrip("\n").split(",")
+        rows = [[float(x) if x else math.nan for x in line.rstrip("\n").split(",")] for line in f]
+    data = np.array(rows, dtype=np.float64).reshape(len(rows), len(names))
+    return names, {n: data[:, i] for i, n in enumerate(names)}
+
+
+def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
+    """Equal bit for bit where finite; non-finite in the same places (the CSV writes every
+    non-finite value as an empty field, read back as NaN)."""
+    if a.shape != b.shape:
+        return False
+    fa, fb = np.isfinite(a), np.isfinite(b)
+    return bool(np.array_equal(fa, fb) and np.array_equal(a[fa].view(np.uint64), b[fb].view(np.uint64)))
+
+
+def cli_run_start(sim_host: Path, scenario: Path, out: Path, *extra: str) -> subprocess.Popen:
+    """Starts `sim-host run` in-process into `out` (the caller flies the Python run meanwhile)."""
+    cmd = [str(sim_host), "run", str(scenario), "--out", str(out), "--no-plots", "--quiet", "--link", "in-process"]
+    if "--format" in subprocess.run([str(sim_host), "run", "--help"], capture_output=True, text=True).stdout:
+        cmd += ["--format", "csv"]
+    return subprocess.Popen(cmd + list(extra), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+
+
+def cli_run_finish(p: subprocess.Popen, out: Path):
+    """(exit status, summary dict, CSV columns) of a run started by `cli_run_start`."""
+    _, err = p.communicate()
+    assert (out / "summary.json").exists(), err
+    summary = json.loads((out / "summary.json").read_text())
+    return p.returncode, summary, read_csv_columns(out / "timeseries.csv")

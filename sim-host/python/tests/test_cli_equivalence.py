@@ -1,0 +1,31 @@
+"""A run from Python equals `sim-host run` of the same file: the same summary (minus the
+wall-clock fields) and the same columns bit for bit, for every shipped scenario."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import acs
+from conftest import REPO, SCENARIOS, cli_run_finish, cli_run_start, same_bits, without_wall_clock
+
+
+def test_every_shipped_scenario_is_found():
+    assert len(SCENARIOS) >= 30
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=[str(p.relative_to(REPO / "scenarios")) for p in SCENARIOS])
+def test_python_run_equals_cli_run(path, sim_host, tmp_path):
+    # Both at once: the Python run releases the interpreter's lock, the CLI is a process.
+    cli = cli_run_start(sim_host, path, tmp_path / "out")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", acs.RunStatusWarning)
+        r = acs.run(acs.Scenario.load(path), link="in-process")
+    status, cli_summary, (cli_names, cli_cols) = cli_run_finish(cli, tmp_path / "out")
+    assert without_wall_clock(r.summary) == without_wall_clock(cli_summary)
+    assert r.ok == (status == 0)
+    assert r.column_names == cli_names
+    for name in cli_names:
+        col = r.columns[name]
+        assert col.dtype == np.float64 and col.flags["C_CONTIGUOUS"]
+        assert same_bits(col, cli_cols[name]), f"{path.name}: column {name} differs"
