@@ -1,8 +1,10 @@
 """Shared fixtures: the repository, the sim-host command (built if missing), scenarios."""
 
+import functools
 import json
 import math
 import os
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -22,6 +24,33 @@ def sim_host() -> Path:
     if not exe.exists():
         subprocess.run(["cargo", "build", "--release", "-q", "-p", "sim-host"], cwd=REPO, check=True)
     return exe
+
+
+FIRMWARE = REPO / "firmware/target/thumbv7em-none-eabihf/release/acs-firmware"
+
+
+def require_tool(tool: str, found: bool, install: str, test: str) -> None:
+    """The rule of sim-host/tests/support/require_tool.rs: a missing tool fails under CI
+    and otherwise skips loudly, with a line in target/skipped-tests.log."""
+    if found:
+        return
+    ci = os.environ.get("CI", "")
+    if ci and ci not in ("0", "false"):
+        pytest.fail(f"{tool} missing (CI): {install}")
+    (TARGET).mkdir(parents=True, exist_ok=True)
+    with open(TARGET / "skipped-tests.log", "a") as f:
+        f.write(f"[{tool}] {test}: missing; {install}\n")
+    pytest.skip(f"SKIPPED (tool missing): {tool}; {install}")
+
+
+def require_qemu_firmware(test: str) -> None:
+    require_tool("qemu-system-arm", shutil.which("qemu-system-arm") is not None, "scripts/setup.sh", test)
+    require_tool("QEMU firmware ELF", FIRMWARE.exists(), "scripts/firmware.sh build", test)
+
+
+@functools.lru_cache(maxsize=None)
+def has_format_option(sim_host: Path) -> bool:
+    return "--format" in subprocess.run([str(sim_host), "run", "--help"], capture_output=True, text=True).stdout
 
 
 def without_wall_clock(summary: dict) -> dict:
@@ -46,10 +75,10 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.array_equal(fa, fb) and np.array_equal(a[fa].view(np.uint64), b[fb].view(np.uint64)))
 
 
-def cli_run_start(sim_host: Path, scenario: Path, out: Path, *extra: str) -> subprocess.Popen:
-    """Starts `sim-host run` in-process into `out` (the caller flies the Python run meanwhile)."""
-    cmd = [str(sim_host), "run", str(scenario), "--out", str(out), "--no-plots", "--quiet", "--link", "in-process"]
-    if "--format" in subprocess.run([str(sim_host), "run", "--help"], capture_output=True, text=True).stdout:
+def cli_run_start(sim_host: Path, scenario: Path, out: Path, *extra: str, link: str = "in-process") -> subprocess.Popen:
+    """Starts `sim-host run` into `out` (the caller flies the Python run meanwhile)."""
+    cmd = [str(sim_host), "run", str(scenario), "--out", str(out), "--no-plots", "--quiet", "--link", link]
+    if has_format_option(sim_host):
         cmd += ["--format", "csv"]
     return subprocess.Popen(cmd + list(extra), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 

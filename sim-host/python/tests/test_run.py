@@ -45,6 +45,15 @@ def test_to_pandas_and_polars_equal_the_columns_bit_for_bit(result):
         assert np.array_equal(pl[n].to_numpy().view(np.uint64), a.view(np.uint64))
 
 
+def test_missing_dataframe_libraries_raise_a_clear_import_error(result, monkeypatch):
+    import sys
+
+    for name, method in (("pandas", result.to_pandas), ("polars", result.to_polars)):
+        monkeypatch.setitem(sys.modules, name, None)  # as if not installed
+        with pytest.raises(ImportError, match=f"pip install {name}"):
+            method()
+
+
 def test_output_every_and_progress():
     sc = acs.Scenario.load(TEST3)
     seen = []
