@@ -46,6 +46,13 @@ if command -v cc >/dev/null 2>&1; then
   "$(dirname "${BASH_SOURCE[0]}")/../tools/qemu-cycles/build.sh" >/dev/null || echo "setup: the QEMU cycle plugin did not build (tools/qemu-cycles/build.sh)" >&2
 fi
 
+# Python 3 with venv and pip for the Python package's tests (scripts/python-tests.sh): the
+# wheels it installs come from PyPI. Debian/Ubuntu ship `venv`'s ensurepip apart
+# (python3-venv).
+if ! command -v python3 >/dev/null 2>&1 || ! python3 -c "import ensurepip, venv" >/dev/null 2>&1; then
+  apt_install python3 python3-venv || echo "setup: no apt-get; install python3 with its venv module yourself" >&2
+fi
+
 # Single-node Slurm + munge for the local-cluster tests (sim-host/tests/support/slurm.rs). The Debian
 # packages enable system services; the tests never use those, they start their own daemons
 # under a temporary directory.

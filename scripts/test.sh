@@ -5,7 +5,7 @@
 # are long and one profile avoids building the world twice.
 #
 # Tests that need a tool outside Cargo (QEMU, the QEMU cycle plugin, the firmware ELF,
-# Slurm) fail when it is missing under CI (`CI` set: .ci/run sets it) and otherwise skip
+# Slurm, python3 with venv for the Python package's tests) fail when it is missing under CI (`CI` set: .ci/run sets it) and otherwise skip
 # loudly, each appending a line to target/skipped-tests.log
 # (sim-host/tests/support/require_tool.rs); this script empties that log first and ends
 # with one summary line when anything was skipped.
@@ -35,3 +35,5 @@ cargo build --release -p acs-flight --no-default-features --target thumbv7em-non
 cargo run --release --quiet -p elf-check -- qemu firmware/target/thumbv7em-none-eabihf/release/acs-firmware >/dev/null
 cargo run --release --quiet -p elf-check -- stm32 firmware/target/stm32f405/thumbv7em-none-eabihf/release/acs-firmware >/dev/null
 cargo test --release --workspace
+# The Python package (sim-host/python): venv, pip install, pytest (docs/python.md).
+scripts/python-tests.sh

@@ -21,6 +21,7 @@ const CRATES: &[(&str, &str)] = &[
     ("firmware/src", "acs-firmware"),
     ("sim-host/core/src", "sim-core"),
     ("sim-host/src", "sim-host"),
+    ("sim-host/python/src", "acs-python"),
     ("tests/support/src", "acs-test-support"),
     ("tests/src", "acs-tests"),
     ("tools/elf-check/src", "elf-check"),

@@ -1,7 +1,7 @@
 //! Simulator core (f64): the spacecraft, its environment and sensors, the links to the
 //! flight code, the scenario format, the run loop and its recorder. The command-line
 //! tools (report, campaigns, timing, cycles, analysis) and the tests are built on this
-//! library and nothing else; so will the Python package.
+//! library and nothing else, and so is the Python package (`sim-host/python`).
 //!
 //! The flight software is never re-implemented here: every run calls the `acs-flight`
 //! crate, either directly (in-process) or on the flight computer over the postcard link.

@@ -38,16 +38,36 @@ pub fn run_recorded(
     progress: bool,
     rec: &mut dyn Recorder,
 ) -> Result<Summary> {
+    let mut bar = Progress::new(progress, 0);
+    let start = Instant::now();
+    let summary = run_observed(sc, link, rec, &mut |done, total| {
+        bar.steps = total;
+        bar.update(done, start);
+        Ok(())
+    })?;
+    bar.finish();
+    Ok(summary)
+}
+
+/// [`run_recorded`] without the progress bar, calling `observe(steps done, steps in the
+/// run)` after every control step instead: a caller's own progress display, or a way to
+/// stop the run (an `Err` from `observe` ends it with that error; the Python package
+/// checks for Ctrl-C there). The observer sees the run, it does not change it: the rows
+/// and the summary are those of [`run_recorded`].
+pub fn run_observed(
+    sc: &Scenario,
+    link: &mut dyn FlightLink,
+    rec: &mut dyn Recorder,
+    observe: &mut dyn FnMut(u64, u64) -> Result<()>,
+) -> Result<Summary> {
     let mut sim = Simulation::new(Resolved::try_from(sc)?, link)?;
     rec.start(sim.columns(), sim.recorded_rows())?;
-    let mut bar = Progress::new(progress, sim.steps());
     let start = Instant::now();
     while !sim.finished() {
         sim.step(rec)?;
-        bar.update(sim.steps_done(), start);
+        observe(sim.steps_done(), sim.steps())?;
     }
     let wall = start.elapsed().as_secs_f64();
-    bar.finish();
     Ok(sim.summary(wall))
 }
 

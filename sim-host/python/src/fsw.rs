@@ -1,0 +1,195 @@
+//! `acs.Fsw`: the flight software of a scenario, stepped from Python. It is the in-process
+//! link's flight side (`sim_core::link::in_process::InProcess`: `acs_flight::session::
+//! Session` around `acs_flight::Fsw`), opened exactly as a run opens it (hello, the
+//! parameter set or mode table, the estimation parameters: `Simulation::new`), so a frame
+//! stepped here gives the command the simulator would get for it.
+//!
+//! [`record_frames`] flies a scenario in-process and keeps every frame, the reply and the
+//! ground commands sent before it, so a test can replay them into an `Fsw`.
+
+use crate::convert::to_py;
+use crate::errors::{Kind, guard};
+use crate::scenario::PyScenario;
+use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
+use acs_flight::params::{EstimationParams, FlightParams};
+use anyhow::{Context, Result, bail};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+use sim_core::link::in_process::InProcess;
+use sim_core::link::{FlightLink, LinkAnomalies, LinkInfo, ModeTable};
+use sim_core::recorder::series::Discard;
+use sim_core::scenario::{Resolved, Scenario, Upload};
+
+/// The flight software of one scenario, configured as a run configures it.
+#[pyclass(name = "Fsw", module = "acs")]
+pub struct PyFsw {
+    link: InProcess,
+}
+
+/// Hello, then the parameter set (or mode table) and the estimation parameters, as
+/// `Simulation::new` sends them.
+fn configure(link: &mut dyn FlightLink, sc: &Scenario) -> Result<()> {
+    let r = Resolved::try_from(sc)?;
+    let Some(upload) = &r.upload else {
+        bail!("{}: open loop (controller.type = \"none\"): there is no flight software to build", sc.name)
+    };
+    link.hello().context("hello")?;
+    match upload {
+        Upload::Modes(table) => link.upload_modes(table).context("mode table upload")?,
+        Upload::Params(p) => link.upload(p).context("parameter upload")?,
+    };
+    if let Some(e) = &r.estimation {
+        link.configure_estimation(e).context("estimation parameters")?;
+    }
+    Ok(())
+}
+
+/// A frame from a dict (the serde form of `SensorFrame`) or postcard bytes.
+fn frame_of(obj: &Bound<'_, PyAny>) -> Result<SensorFrame> {
+    if let Ok(b) = obj.cast::<PyBytes>() {
+        return postcard::from_bytes(b.as_bytes()).context("postcard SensorFrame");
+    }
+    crate::convert::from_py(obj).context("SensorFrame dict")
+}
+
+#[pymethods]
+impl PyFsw {
+    #[new]
+    fn new(scenario: PyRef<'_, PyScenario>) -> PyResult<Self> {
+        guard(|| {
+            let mut link = InProcess::new();
+            configure(&mut link, &scenario.parsed).map_err(|e| Kind::Scenario.chain(&e))?;
+            Ok(Self { link })
+        })
+    }
+
+    /// One flight step: the reply (`StepReport`: `cmd`, the command and telemetry, and the
+    /// link counters) as a dict. `frame`: a dict like `acs.empty_frame()` or the postcard
+    /// bytes of a `SensorFrame`. Frames must come in increasing `seq` (one frame, one step,
+    /// as on the wire); a refused frame raises `acs.FrameError`.
+    fn step<'py>(&mut self, py: Python<'py>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        guard(|| {
+            let f = frame_of(frame).map_err(|e| Kind::Frame.chain(&e))?;
+            // Through the session with no cost counter: the reply does not depend on the
+            // host's clock (step_cost_ticks = 0).
+            match self.link.request(&HostMsg::Sensor(f)).map_err(|e| Kind::Frame.chain(&e))? {
+                FswMsg::Step(r) => to_py(py, &r).map_err(|e| Kind::Frame.chain(&e)),
+                FswMsg::Error(e) => Err(Kind::Frame.err(format!("the flight code refused frame {}: {e:?}", f.seq))),
+                other => Err(Kind::Frame.err(format!("unexpected answer to frame {}: {other:?}", f.seq))),
+            }
+        })
+    }
+
+    /// Any other link message (`HostMsg` as a dict, e.g. `{"RequestMode": ...}`, a ground
+    /// command recorded by `acs.record_frames`): the flight side's reply as a dict.
+    fn request<'py>(&mut self, py: Python<'py>, msg: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        guard(|| {
+            let m: HostMsg = crate::convert::from_py(msg).map_err(|e| Kind::Frame.err(format!("HostMsg: {e:#}")))?;
+            let reply = self.link.request(&m).map_err(|e| Kind::Frame.chain(&e))?;
+            to_py(py, &reply).map_err(|e| Kind::Frame.chain(&e))
+        })
+    }
+}
+
+/// A frame with nothing valid in it (identity attitude, zeros), as a dict to fill in.
+#[pyfunction]
+#[pyo3(signature = (seq, time_us=0))]
+pub fn empty_frame(py: Python<'_>, seq: u32, time_us: u64) -> PyResult<Bound<'_, PyAny>> {
+    guard(|| to_py(py, &SensorFrame::empty(seq, time_us)).map_err(|e| Kind::Frame.chain(&e)))
+}
+
+/// The postcard bytes of a frame (what `Fsw.step` also accepts; the payload of a wire
+/// frame before CRC and COBS).
+#[pyfunction]
+pub fn frame_to_bytes<'py>(py: Python<'py>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyBytes>> {
+    guard(|| {
+        let f = frame_of(frame).map_err(|e| Kind::Frame.chain(&e))?;
+        let b = postcard::to_stdvec(&f).map_err(|e| Kind::Frame.err(e))?;
+        Ok(PyBytes::new(py, &b))
+    })
+}
+
+/// One control step as the in-process link saw it.
+struct Recorded {
+    /// Ground commands sent since the previous frame.
+    requests: Vec<HostMsg>,
+    frame: SensorFrame,
+    reply: StepReport,
+}
+
+/// The in-process link, keeping every frame, reply and ground command (the set-up
+/// messages — hello, uploads — are not kept: `acs.Fsw` sends those itself).
+struct Recording {
+    inner: InProcess,
+    pending: Vec<HostMsg>,
+    steps: Vec<Recorded>,
+}
+
+impl FlightLink for Recording {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn hello(&mut self) -> Result<LinkInfo> {
+        self.inner.hello()
+    }
+    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        self.pending.push(msg.clone());
+        self.inner.request(msg)
+    }
+    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
+        let reply = self.inner.step(frame)?;
+        self.steps.push(Recorded { requests: std::mem::take(&mut self.pending), frame: *frame, reply });
+        Ok(reply)
+    }
+    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
+        self.inner.upload(params)
+    }
+    fn upload_modes(&mut self, table: &ModeTable) -> Result<u32> {
+        self.inner.upload_modes(table)
+    }
+    fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32> {
+        self.inner.configure_estimation(p)
+    }
+    fn anomalies(&self) -> LinkAnomalies {
+        self.inner.anomalies()
+    }
+}
+
+/// Flies `scenario` in-process for `steps` control steps (all: `None`) and returns one dict
+/// per step: `frame` (the `SensorFrame` sent), `reply` (the `StepReport` received) and
+/// `requests` (ground commands sent just before that frame).
+#[pyfunction]
+#[pyo3(signature = (scenario, steps=None))]
+pub fn record_frames<'py>(
+    py: Python<'py>,
+    scenario: PyRef<'_, PyScenario>,
+    steps: Option<u64>,
+) -> PyResult<Bound<'py, PyList>> {
+    guard(|| {
+        let sc = scenario.parsed.clone();
+        if !sc.closed_loop() {
+            return Err(Kind::Scenario.err(format!("{}: open loop: no frames reach the flight code", sc.name)));
+        }
+        let recorded = py.detach(|| {
+            let mut link = Recording { inner: InProcess::new(), pending: Vec::new(), steps: Vec::new() };
+            let limit = steps.unwrap_or(u64::MAX);
+            let mut enough = |done: u64, _: u64| if done >= limit { bail!("enough") } else { Ok(()) };
+            let r = sim_core::runner::run_observed(&sc, &mut link, &mut Discard, &mut enough);
+            match r {
+                Err(e) if link.steps.len() as u64 != limit || e.to_string() != "enough" => Err(e),
+                _ => Ok(link.steps),
+            }
+        });
+        let recorded = recorded.map_err(|e| Kind::Run.chain(&e))?;
+        let out = PyList::empty(py);
+        for r in &recorded {
+            let d = PyDict::new(py);
+            let conv = |e: anyhow::Error| Kind::Run.chain(&e);
+            d.set_item("requests", to_py(py, &r.requests).map_err(conv)?)?;
+            d.set_item("frame", to_py(py, &r.frame).map_err(conv)?)?;
+            d.set_item("reply", to_py(py, &r.reply).map_err(conv)?)?;
+            out.append(d)?;
+        }
+        Ok(out)
+    })
+}

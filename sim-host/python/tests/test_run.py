@@ -1,0 +1,142 @@
+"""acs.run: result shape, pandas/polars/pyarrow views, progress, run status, Ctrl-C, GIL."""
+
+import _thread
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+import acs
+from conftest import REPO
+
+TEST3 = REPO / "scenarios/paper000/test3.toml"
+
+
+@pytest.fixture(scope="module")
+def result():
+    return acs.run(acs.Scenario.load(TEST3))
+
+
+def test_result(result):
+    assert result.ok and result.status == "ok" and result.raise_for_status() is result
+    assert result.column_names[0] == "t_s"
+    assert set(result.columns) == set(result.column_names)
+    n = len(result)
+    assert all(len(c) == n for c in result.columns.values())
+    assert result.summary["scenario"] == "paper000-test3"
+
+
+def test_columns_are_numpy_arrays_owned_by_the_native_vectors(result):
+    t = result.columns["t_s"]
+    assert t.dtype == np.float64 and t.flags["C_CONTIGUOUS"]
+    assert not t.flags["OWNDATA"]  # numpy views the Rust Vec<f64> it was handed (no copy)
+
+
+def test_to_pandas_and_polars_equal_the_columns_bit_for_bit(result):
+    df = result.to_pandas()
+    assert list(df.columns) == result.column_names
+    pl = result.to_polars()
+    assert pl.columns == result.column_names
+    for n in result.column_names:
+        a = result.columns[n]
+        assert np.array_equal(df[n].to_numpy().view(np.uint64), a.view(np.uint64))
+        assert np.array_equal(pl[n].to_numpy().view(np.uint64), a.view(np.uint64))
+
+
+def test_missing_dataframe_libraries_raise_a_clear_import_error(result, monkeypatch):
+    import sys
+
+    for name, method in (("pandas", result.to_pandas), ("polars", result.to_polars)):
+        monkeypatch.setitem(sys.modules, name, None)  # as if not installed
+        with pytest.raises(ImportError, match=f"pip install {name}"):
+            method()
+
+
+def test_output_every_and_progress():
+    sc = acs.Scenario.load(TEST3)
+    seen = []
+    r10 = acs.run(sc, output_every=10, progress=lambda done, total: seen.append((done, total)))
+    assert seen and seen[-1][0] == seen[-1][1] == sc.steps + 1
+    assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
+    r1 = acs.run(sc, output_every=1)
+    every10 = r1.columns["t_s"][::10]
+    if sc.steps % 10:
+        every10 = np.append(every10, r1.columns["t_s"][-1])  # the last step is always recorded
+    assert np.array_equal(r10.columns["t_s"], every10)
+    assert r10.summary == {**r10.summary, "final_error_deg": r1.summary["final_error_deg"]}
+    with pytest.raises(acs.ScenarioError, match="output_every"):
+        acs.run(sc, output_every=0)
+    acs.run(sc, progress=True)  # tqdm.auto when installed
+
+
+def test_a_failed_run_is_returned_with_ok_false_and_a_warning(monkeypatch):
+    """The Python layer's contract for a run that ends with run_status != "ok". Scenario
+    validation refuses every input that would make a shipped model diverge, and a failing
+    flight computer needs a corrupted link (sim-host/tests/honest_results.rs), so the
+    native run's summary is altered here the way such a run reports it; that the native
+    summary equals the CLI's is checked for every scenario in test_cli_equivalence.py."""
+    native = acs._core.run
+
+    def diverging(*args):
+        summary, names, columns = native(*args)
+        summary.update(run_status="diverged", failure={"Diverged": {"t_s": 1.5, "quantity": "body rate"}})
+        return summary, names, columns
+
+    monkeypatch.setattr(acs._core, "run", diverging)
+    with pytest.warns(acs.RunStatusWarning, match="diverged"):
+        r = acs.run(acs.Scenario.load(TEST3))
+    assert not r.ok and r.status == "diverged"
+    with pytest.raises(acs.RunFailed, match="body rate") as e:
+        r.raise_for_status()
+    assert e.value.result is r and isinstance(e.value, acs.AcsError)
+
+
+def test_bad_links_raise_run_error():
+    sc = acs.Scenario.load(TEST3)
+    with pytest.raises(acs.RunError, match="unknown link"):
+        acs.run(sc, link="pigeon")
+    with pytest.raises(acs.RunError):
+        acs.run(sc, link="tcp:127.0.0.1:1")  # nobody listens
+
+
+def long_scenario():
+    sc = acs.Scenario.load(TEST3)
+    sc["duration_s"] = 1e6  # ~1e8 steps: far longer than the test waits
+    return sc
+
+
+def test_ctrl_c_stops_a_run():
+    sc = long_scenario()
+    threading.Timer(0.3, _thread.interrupt_main).start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        acs.run(sc)
+    assert time.monotonic() - t0 < 10
+
+
+def test_an_exception_in_the_progress_callback_stops_the_run():
+    def boom(done, total):
+        raise RuntimeError("stop here")
+
+    with pytest.raises(RuntimeError, match="stop here"):
+        acs.run(long_scenario(), progress=boom)
+
+
+def test_the_interpreter_lock_is_released_while_a_run_flies():
+    sc = acs.Scenario.load(REPO / "scenarios/paper001/wheel-slew.toml")
+    ticks = []
+    done = threading.Event()
+
+    def fly():
+        acs.run(sc)
+        done.set()
+
+    th = threading.Thread(target=fly)
+    th.start()
+    while not done.is_set():
+        ticks.append(time.monotonic())
+        time.sleep(0.001)
+    th.join()
+    assert len(ticks) > 20  # the main thread kept running Python code meanwhile
