@@ -1,6 +1,5 @@
 """Shared fixtures: the repository, the sim-host command (built if missing), scenarios."""
 
-import functools
 import json
 import math
 import os
@@ -48,11 +47,6 @@ def require_qemu_firmware(test: str) -> None:
     require_tool("QEMU firmware ELF", FIRMWARE.exists(), "scripts/firmware.sh build", test)
 
 
-@functools.lru_cache(maxsize=None)
-def has_format_option(sim_host: Path) -> bool:
-    return "--format" in subprocess.run([str(sim_host), "run", "--help"], capture_output=True, text=True).stdout
-
-
 def without_wall_clock(summary: dict) -> dict:
     return {k: v for k, v in summary.items() if k not in WALL_CLOCK}
 
@@ -75,17 +69,29 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.array_equal(fa, fb) and np.array_equal(a[fa].view(np.uint64), b[fb].view(np.uint64)))
 
 
-def cli_run_start(sim_host: Path, scenario: Path, out: Path, *extra: str, link: str = "in-process") -> subprocess.Popen:
+def read_parquet_columns(path: Path):
+    """timeseries.parquet read by pyarrow, as (names, {name: float64 array})."""
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    return table.column_names, {n: table.column(n).to_numpy() for n in table.column_names}
+
+
+def cli_run_start(
+    sim_host: Path, scenario: Path, out: Path, *extra: str, link: str = "in-process", fmt: str = "parquet"
+) -> subprocess.Popen:
     """Starts `sim-host run` into `out` (the caller flies the Python run meanwhile)."""
     cmd = [str(sim_host), "run", str(scenario), "--out", str(out), "--no-plots", "--quiet", "--link", link]
-    if has_format_option(sim_host):
-        cmd += ["--format", "csv"]
+    cmd += ["--format", fmt]
     return subprocess.Popen(cmd + list(extra), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
 def cli_run_finish(p: subprocess.Popen, out: Path):
-    """(exit status, summary dict, CSV columns) of a run started by `cli_run_start`."""
+    """(exit status, summary dict, columns) of a run started by `cli_run_start`: its
+    timeseries.parquet read by pyarrow (its timeseries.csv when it wrote CSV)."""
     _, err = p.communicate()
     assert (out / "summary.json").exists(), err
     summary = json.loads((out / "summary.json").read_text())
+    if (out / "timeseries.parquet").exists():
+        return p.returncode, summary, read_parquet_columns(out / "timeseries.parquet")
     return p.returncode, summary, read_csv_columns(out / "timeseries.csv")
