@@ -54,12 +54,16 @@ def campaign_histogram(out: Path, runs: int) -> Path:
         s = json.loads(f.read_text()).get("summary") or {}
         if s.get("settle_time_s") is not None:
             settle.append(s["settle_time_s"])
-    fig, ax = plt.subplots(figsize=(7, 4))
-    ax.hist(settle, bins=30)
+    limit = next(r for r in merged["requirements"] if r["key"] == "settle_time_s")
+    fig, ax = plt.subplots(figsize=(7, 4.2), layout="constrained")
+    ax.hist(settle, bins=30, label=f"{len(settle)} of {merged['runs']} runs settled")
+    ax.axvline(limit["value"], color="C3", linestyle="--", label=f"requirement: {limit['name']}")
+    ax.set_xlim(0, limit["value"] * 1.1)
     ax.set_xlabel("settling time [s]")
     ax.set_ylabel("runs")
-    verdict = "passed" if merged["passed"] else "not passed (too few runs or a requirement missed: report.md)"
-    ax.set_title(f"{merged['campaign']}: {len(settle)} of {merged['runs']} runs settled; campaign {verdict}")
+    ax.legend(loc="center right", bbox_to_anchor=(0.92, 0.62))  # between the runs and the limit
+    verdict = "passed" if merged["passed"] else "not passed (report.md says why)"
+    ax.set_title(f"{merged['campaign']}\ncampaign {verdict}", fontsize=10)
     path = out / "paper000-test3-settle-histogram.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -69,7 +73,7 @@ def campaign_histogram(out: Path, runs: int) -> Path:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("out", nargs="?", default=str(REPO / "out/python-example"))
-    p.add_argument("--runs", type=int, default=200)
+    p.add_argument("--runs", type=int, default=300)  # 299 clean runs show 99 % at 95 % confidence
     a = p.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
