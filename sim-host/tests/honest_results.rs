@@ -6,7 +6,7 @@
 //! their file.
 
 use acs_flight::link::{StepReport, status};
-use sim_core::link::tap::Tap;
+use sim_core::link::tap::{Tap, Tapped};
 use sim_core::link::{self, LinkKind, LinkOptions};
 use sim_core::recorder::summary::{Failure, RunStatus as Status};
 use sim_core::runner;
@@ -160,7 +160,11 @@ fn a_run_whose_every_step_was_refused_fails_and_says_why() {
 /// answers NaN, or refuses everything, whatever the scenario's validation lets through.
 fn fly(sc: &Scenario, hook: fn(u32, &mut StepReport)) -> runner::RunResult {
     let inner = link::open(&LinkKind::InProcess, &LinkOptions::default()).unwrap();
-    let mut l = Tap::new(inner, |r: &mut StepReport| hook(r.cmd.seq, r));
+    let mut l = Tap::new(inner, |t: Tapped<'_>| {
+        if let Some(r) = t.reply() {
+            hook(r.cmd.seq, r)
+        }
+    });
     runner::run(sc, &mut l, false).unwrap()
 }
 

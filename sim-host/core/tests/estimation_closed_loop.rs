@@ -8,7 +8,7 @@
 
 use acs_flight::link::{StepReport, estimate_flags};
 use sim_core::link::in_process::InProcess;
-use sim_core::link::tap::Tap;
+use sim_core::link::tap::{Tap, Tapped};
 use sim_core::recorder::series::Discard;
 use sim_core::recorder::summary::Summary;
 use sim_core::scenario::{Resolved, Scenario};
@@ -25,7 +25,7 @@ struct Flight {
 fn fly(sc: &Scenario) -> Flight {
     // Keeps each step's report.
     let mut reports = Vec::new();
-    let mut link = Tap::new(InProcess::new(), |r: &mut StepReport| reports.push(*r));
+    let mut link = Tap::new(InProcess::new(), |t: Tapped<'_>| reports.extend(t.reply().map(|r| *r)));
     let r = Resolved::try_from(sc).unwrap();
     let dt = 1.0 / sc.timing.control_rate_hz;
     let (mut t_s, mut err_deg) = (Vec::new(), Vec::new());

@@ -11,12 +11,12 @@ use crate::convert::to_py;
 use crate::errors::{Kind, guard};
 use crate::scenario::PyScenario;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
-use acs_flight::params::{EstimationParams, FlightParams};
 use anyhow::{Context, Result, bail};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use sim_core::link::in_process::InProcess;
-use sim_core::link::{FlightLink, LinkAnomalies, LinkInfo, ModeTable};
+use sim_core::link::tap::{Tap, Tapped};
+use sim_core::link::FlightLink;
 use sim_core::recorder::series::Discard;
 use sim_core::scenario::{Resolved, Scenario, Upload};
 
@@ -117,44 +117,6 @@ struct Recorded {
     reply: StepReport,
 }
 
-/// The in-process link, keeping every frame, reply and ground command (the set-up
-/// messages — hello, uploads — are not kept: `acs.Fsw` sends those itself).
-struct Recording {
-    inner: InProcess,
-    pending: Vec<HostMsg>,
-    steps: Vec<Recorded>,
-}
-
-impl FlightLink for Recording {
-    fn name(&self) -> String {
-        self.inner.name()
-    }
-    fn hello(&mut self) -> Result<LinkInfo> {
-        self.inner.hello()
-    }
-    fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
-        self.pending.push(msg.clone());
-        self.inner.request(msg)
-    }
-    fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
-        let reply = self.inner.step(frame)?;
-        self.steps.push(Recorded { requests: std::mem::take(&mut self.pending), frame: *frame, reply });
-        Ok(reply)
-    }
-    fn upload(&mut self, params: &FlightParams) -> Result<u32> {
-        self.inner.upload(params)
-    }
-    fn upload_modes(&mut self, table: &ModeTable) -> Result<u32> {
-        self.inner.upload_modes(table)
-    }
-    fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32> {
-        self.inner.configure_estimation(p)
-    }
-    fn anomalies(&self) -> LinkAnomalies {
-        self.inner.anomalies()
-    }
-}
-
 /// Flies `scenario` in-process for `steps` control steps (all: `None`) and returns one dict
 /// per step: `frame` (the `SensorFrame` sent), `reply` (the `StepReport` received) and
 /// `requests` (ground commands sent just before that frame).
@@ -171,13 +133,23 @@ pub fn record_frames<'py>(
             return Err(Kind::Scenario.err(format!("{}: open loop: no frames reach the flight code", sc.name)));
         }
         let recorded = py.detach(|| {
-            let mut link = Recording { inner: InProcess::new(), pending: Vec::new(), steps: Vec::new() };
+            // Every frame, reply and ground command (the set-up messages — hello, uploads —
+            // are not requests: `acs.Fsw` sends those itself).
+            let (mut kept, mut pending) = (Vec::new(), Vec::new());
             let limit = steps.unwrap_or(u64::MAX);
-            let mut enough = |done: u64, _: u64| if done >= limit { bail!("enough") } else { Ok(()) };
-            let r = sim_core::runner::run_observed(&sc, &mut link, &mut Discard, &mut enough);
+            let r = {
+                let mut link = Tap::new(InProcess::new(), |t: Tapped<'_>| match t {
+                    Tapped::Request(m) => pending.push(m.clone()),
+                    Tapped::Step(frame, reply) => {
+                        kept.push(Recorded { requests: std::mem::take(&mut pending), frame: *frame, reply: *reply })
+                    }
+                });
+                let mut enough = |done: u64, _: u64| if done >= limit { bail!("enough") } else { Ok(()) };
+                sim_core::runner::run_observed(&sc, &mut link, &mut Discard, &mut enough)
+            };
             match r {
-                Err(e) if link.steps.len() as u64 != limit || e.to_string() != "enough" => Err(e),
-                _ => Ok(link.steps),
+                Err(e) if kept.len() as u64 != limit || e.to_string() != "enough" => Err(e),
+                _ => Ok(kept),
             }
         });
         let recorded = recorded.map_err(|e| Kind::Run.chain(&e))?;

@@ -1,6 +1,7 @@
-//! The telemetry tap: a [`FlightLink`] that wraps another and hands every step reply
-//! (`StepReport`: the command, with the `seq` of the frame it answers, step cost, link
-//! counters) to a hook before the simulation sees it. Tools and the Python package read every step's telemetry (commands, step
+//! The telemetry tap: a [`FlightLink`] that wraps another and hands every request and
+//! every step (the frame sent and the `StepReport` answered: the command, with the `seq`
+//! of the frame it answers, step cost, link counters) to a hook before the simulation sees
+//! the reply. Tools and the Python package read every step's telemetry (commands, step
 //! cost, link counters) through it; tests also use it to alter a reply (fault injection)
 //! and check what the host makes of it.
 
@@ -9,14 +10,32 @@ use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use acs_flight::params::{EstimationParams, FlightParams};
 use anyhow::Result;
 
-/// A link that calls `hook(&mut reply)` on every step reply of `inner`; every other
-/// message (hello, requests, uploads, link counters) passes through untouched.
+/// What the hook of a [`Tap`] sees.
+pub enum Tapped<'a> {
+    /// A request (ground command, mode command, ...) about to be sent after the set-up.
+    Request(&'a HostMsg),
+    /// A step: the frame sent and the reply, which the hook may alter.
+    Step(&'a SensorFrame, &'a mut StepReport),
+}
+
+impl<'a> Tapped<'a> {
+    /// The step reply, for hooks that only look at those.
+    pub fn reply(self) -> Option<&'a mut StepReport> {
+        match self {
+            Tapped::Step(_, r) => Some(r),
+            Tapped::Request(_) => None,
+        }
+    }
+}
+
+/// A link that calls `hook` on every request and every step of `inner` (see [`Tapped`]);
+/// hello, uploads and link counters pass through untouched.
 pub struct Tap<L, F> {
     inner: L,
     hook: F,
 }
 
-impl<L: FlightLink, F: FnMut(&mut StepReport)> Tap<L, F> {
+impl<L: FlightLink, F: FnMut(Tapped<'_>)> Tap<L, F> {
     pub fn new(inner: L, hook: F) -> Self {
         Self { inner, hook }
     }
@@ -27,7 +46,7 @@ impl<L: FlightLink, F: FnMut(&mut StepReport)> Tap<L, F> {
     }
 }
 
-impl<L: FlightLink, F: FnMut(&mut StepReport)> FlightLink for Tap<L, F> {
+impl<L: FlightLink, F: FnMut(Tapped<'_>)> FlightLink for Tap<L, F> {
     fn name(&self) -> String {
         self.inner.name()
     }
@@ -35,11 +54,12 @@ impl<L: FlightLink, F: FnMut(&mut StepReport)> FlightLink for Tap<L, F> {
         self.inner.hello()
     }
     fn request(&mut self, msg: &HostMsg) -> Result<FswMsg> {
+        (self.hook)(Tapped::Request(msg));
         self.inner.request(msg)
     }
     fn step(&mut self, frame: &SensorFrame) -> Result<StepReport> {
         let mut reply = self.inner.step(frame)?;
-        (self.hook)(&mut reply);
+        (self.hook)(Tapped::Step(frame, &mut reply));
         Ok(reply)
     }
     fn upload(&mut self, params: &FlightParams) -> Result<u32> {
@@ -93,10 +113,14 @@ mod tests {
     /// everything else passes through.
     #[test]
     fn the_hook_sees_and_may_alter_every_step_reply() {
-        let mut seen = Vec::new();
-        let mut tap = Tap::new(Echo { requests: 0 }, |reply: &mut StepReport| {
-            seen.push(reply.cmd.seq);
-            reply.deadline_misses = 10 * reply.cmd.seq;
+        let (mut seen, mut requests) = (Vec::new(), 0);
+        let mut tap = Tap::new(Echo { requests: 0 }, |t: Tapped<'_>| match t {
+            Tapped::Step(frame, reply) => {
+                assert_eq!(frame.seq, reply.cmd.seq);
+                seen.push(reply.cmd.seq);
+                reply.deadline_misses = 10 * reply.cmd.seq;
+            }
+            Tapped::Request(_) => requests += 1,
         });
         assert_eq!(tap.name(), "echo");
         assert_eq!(tap.frames_dropped_host(), 5);
@@ -107,6 +131,6 @@ mod tests {
             assert_eq!((reply.cmd.seq, reply.deadline_misses), (seq, 10 * seq));
         }
         assert_eq!(tap.into_inner().requests, 1);
-        assert_eq!(seen, [1, 2, 3]);
+        assert_eq!((seen, requests), (vec![1, 2, 3], 1));
     }
 }
