@@ -89,7 +89,7 @@ class RunResult:
 
     @property
     def status(self) -> str:
-        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"`` or ``"link_anomaly"``."""
+        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"`` or ``"samples_dropped"``."""
         return str(self.summary.get("run_status"))
 
     @property
