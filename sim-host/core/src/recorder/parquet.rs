@@ -13,8 +13,8 @@
 
 use crate::recorder::series::TimeSeries;
 use anyhow::{Context, Result, bail};
-pub use parquet::basic::{Compression, Encoding, ZstdLevel};
 use bytes::Bytes;
+pub use parquet::basic::{Compression, Encoding, ZstdLevel};
 use parquet::basic::{EncodingMask, Repetition, Type as PhysicalType};
 use parquet::column::page::{CompressedPage, Page, PageWriter};
 use parquet::column::writer::ColumnCloseResult;
@@ -202,7 +202,11 @@ impl<W: Write + Send> ParquetStream<W> {
         if self.buffered_rows() == 0 {
             return Ok(());
         }
-        if self.direct() { self.write_group_direct()? } else { self.write_group_column_writer()? }
+        if self.direct() {
+            self.write_group_direct()?
+        } else {
+            self.write_group_column_writer()?
+        }
         self.rows.clear();
         Ok(())
     }
