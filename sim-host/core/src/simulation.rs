@@ -14,7 +14,7 @@ use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
-use crate::plant::wheel::WheelOutput;
+use crate::plant::wheel::{WheelDeriv, WheelOutput};
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
@@ -232,7 +232,7 @@ impl Metrics {
         }
     }
 
-    fn wheels(&mut self, out: &[WheelOutput]) {
+    fn wheels<'o>(&mut self, out: impl Iterator<Item = &'o WheelOutput>) {
         for o in out {
             self.max_wheel_rpm = nan_max(self.max_wheel_rpm, o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
             self.max_wheel_w = nan_max(self.max_wheel_w, o.power_w.abs());
@@ -266,7 +266,10 @@ struct StepView<'a> {
     q_frame: Quat,
     input: &'a Input,
     dipole_cmd: [f64; 3],
-    wheel_out: &'a [WheelOutput],
+    /// The wheels evaluated at the step (their outputs are recorded, and they make the
+    /// applied torque).
+    wheels: &'a [(WheelDeriv, WheelOutput); MAX_WHEELS],
+    n_wheels: usize,
 }
 
 /// A run in progress.
@@ -489,9 +492,8 @@ impl<'a> Simulation<'a> {
         let q_cmd = q_frame * self.target.q_rel;
         let err_deg = error_angle(&self.state.q, &q_cmd).to_degrees();
         self.push_pointing(t, error_vector(&self.state.q, &q_cmd).map(f64::to_degrees));
-        let wheel_out = self.observe(t, &cmd, ticks, &input, err_deg);
+        let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
-        let n_wheels = self.craft.wheels.len();
 
         // Thruster valves over the first dynamics step decide what is recorded as applied.
         let thr_mask = u32::from(cmd.thruster_on);
@@ -508,7 +510,8 @@ impl<'a> Simulation<'a> {
                 q_frame,
                 input: &input,
                 dipole_cmd,
-                wheel_out: &wheel_out[..n_wheels],
+                wheels: &wheels,
+                n_wheels: self.craft.wheels.len(),
             };
             self.fill_row(&v);
             rec.record(&self.row)?;
@@ -557,7 +560,7 @@ impl<'a> Simulation<'a> {
         Ok((report.cmd, report.step_cost_ticks))
     }
 
-    /// Statistics of step at `t`; returns the wheel outputs (zero without wheels).
+    /// Statistics of step at `t`; returns the wheels evaluated (zero without wheels).
     fn observe(
         &mut self,
         t: f64,
@@ -565,7 +568,7 @@ impl<'a> Simulation<'a> {
         ticks: u32,
         input: &Input,
         err_deg: f64,
-    ) -> [WheelOutput; MAX_WHEELS] {
+    ) -> [(WheelDeriv, WheelOutput); MAX_WHEELS] {
         self.errors.push(t, err_deg);
         let m = &mut self.metrics;
         if let Some(c) = &self.craft.cmg {
@@ -574,11 +577,11 @@ impl<'a> Simulation<'a> {
                 cmd.gimbal_rate_cmd_rad_s.iter().fold(m.max_gimbal_rate, |a, r| nan_max(a, r.abs() as f64));
         }
         let n_wheels = self.craft.wheels.len();
-        let wheel_out = if n_wheels > 0 { self.craft.wheel_outputs(&self.state, input) } else { Default::default() };
-        m.wheels(&wheel_out[..n_wheels]);
+        let wheels = if n_wheels > 0 { self.craft.wheel_evaluations(&self.state, input) } else { Default::default() };
+        m.wheels(wheels[..n_wheels].iter().map(|(_, o)| o));
         m.status(cmd.status);
         m.ticks(ticks);
-        wheel_out
+        wheels
     }
 
     /// Stored-momentum figures of step at `t` (every step, with the momentum group).
@@ -652,7 +655,7 @@ impl<'a> Simulation<'a> {
     /// Builds the recorded row of one step (column order: [`Layout::names`]).
     fn fill_row(&mut self, v: &StepView) {
         let (state, cmd, l) = (&self.state, v.cmd, &self.layout);
-        let tq = self.craft.torques(v.t, state, v.input, self.snap.as_ref());
+        let tq = self.craft.torques_with(v.t, state, v.input, self.snap.as_ref(), v.wheels);
         let row = &mut self.row;
         row.clear();
         row.push(v.t);
@@ -682,7 +685,7 @@ impl<'a> Simulation<'a> {
             row.push(self.craft.cmg.as_ref().map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)));
             row.push(cmd.steering_alpha as f64);
         }
-        for o in v.wheel_out {
+        for (_, o) in &v.wheels[..v.n_wheels] {
             let rpm = o.speed_rad_s * 30.0 / std::f64::consts::PI;
             row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
         }

@@ -28,7 +28,7 @@ use crate::environment::torques::TorqueBreakdown;
 use cmg::CmgCluster;
 use nalgebra::Matrix3;
 use rig::Rig;
-use wheel::{WheelOutput, WheelParams, WheelState};
+use wheel::{WheelDeriv, WheelOutput, WheelParams, WheelState};
 
 /// Largest number of gimbals the fixed-size state holds.
 pub const MAX_GIMBALS: usize = 8;
@@ -161,12 +161,19 @@ impl Spacecraft {
 
     /// Wheel outputs (speed, current, power, …) at a state and input.
     pub fn wheel_outputs(&self, s: &State, u: &Input) -> [WheelOutput; MAX_WHEELS] {
-        let mut o = [WheelOutput::default(); MAX_WHEELS];
+        self.wheel_evaluations(s, u).map(|(_, o)| o)
+    }
+
+    /// Every wheel's derivatives and outputs at `s` under `u` (`wheel::evaluate`; default
+    /// past the last wheel): what [`Spacecraft::wheel_outputs`] and the actuator torque are
+    /// made of, computed once for both at a recorded step ([`Spacecraft::torques_with`]).
+    pub fn wheel_evaluations(&self, s: &State, u: &Input) -> [(WheelDeriv, WheelOutput); MAX_WHEELS] {
+        let mut e = [(WheelDeriv::default(), WheelOutput::default()); MAX_WHEELS];
         let w: [f64; 3] = s.w.into();
         for (i, p) in self.wheels.iter().enumerate() {
-            o[i] = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]).1;
+            e[i] = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
         }
-        o
+        e
     }
 
     fn external(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
@@ -185,21 +192,36 @@ impl Spacecraft {
 
     /// Every torque on the body at a state (telemetry).
     pub fn torques(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
+        self.torques_with(t, s, u, env, &self.wheel_evaluations(s, u))
+    }
+
+    /// [`Spacecraft::torques`] with the wheels already evaluated at `s` under `u`
+    /// ([`Spacecraft::wheel_evaluations`]).
+    pub fn torques_with(
+        &self,
+        t: f64,
+        s: &State,
+        u: &Input,
+        env: Option<&EnvSnapshot>,
+        wheels: &[(WheelDeriv, WheelOutput); MAX_WHEELS],
+    ) -> TorqueReport {
         let mut r = self.external(t, s, u, env);
-        r.actuators_nm = self.actuator_torque(s, u);
+        r.actuators_nm = self.actuator_torque_with(s, u, wheels);
         r
     }
 
     /// Torque the momentum-exchange actuators exert on the body: `-ḣ - ω × h` (eq 4).
     pub fn actuator_torque(&self, s: &State, u: &Input) -> Vec3 {
+        self.actuator_torque_with(s, u, &self.wheel_evaluations(s, u))
+    }
+
+    fn actuator_torque_with(&self, s: &State, u: &Input, wheels: &[(WheelDeriv, WheelOutput); MAX_WHEELS]) -> Vec3 {
         let rates = self.applied_gimbal_rates(s, u);
         let mut t = Vec3::zeros();
         if let Some(c) = &self.cmg {
             t += -c.momentum_rate(&s.gimbal_rad, &rates) - s.w.cross(&c.momentum(&s.gimbal_rad));
         }
-        let w: [f64; 3] = s.w.into();
-        for (i, p) in self.wheels.iter().enumerate() {
-            let (d, o) = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
+        for (i, (p, (d, o))) in self.wheels.iter().zip(wheels).enumerate() {
             let a = Vec3::from(p.spin_axis);
             t += -a * d.dh_abs_nm - s.w.cross(&(a * s.wheels[i].h_abs_nms)) + Vec3::from(o.imbalance_torque_nm);
         }

@@ -402,7 +402,7 @@ pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
 /// The open time-series file of a run.
 enum Sink {
     Csv { file: BufWriter<File>, rows: CsvRows },
-    Parquet(ParquetStream<File>),
+    Parquet(Box<ParquetStream<File>>),
 }
 
 /// The outputs of a run in `dir`: streams the time series ([`Format`]), keeps the plot
@@ -501,7 +501,9 @@ impl RunOutput {
                 writeln!(file, "{}", columns.join(","))?;
                 Sink::Csv { file, rows: CsvRows::default() }
             }
-            Format::Parquet => Sink::Parquet(ParquetStream::new(file, columns, self.metadata.key_values(columns)?)?),
+            Format::Parquet => {
+                Sink::Parquet(Box::new(ParquetStream::new(file, columns, self.metadata.key_values(columns)?)?))
+            }
         })
     }
 }
