@@ -109,7 +109,10 @@ pub(super) fn finite_numbers(v: &Value, key: &str) -> Result<()> {
 /// taking the keys of the table at the error one at a time out of the document, and the
 /// first whose removal changes the error is named.
 pub(super) fn parse_error(text: &str, e: toml::de::Error) -> anyhow::Error {
-    let whole = anyhow!("{e}");
+    let whole = match did_you_mean(e.message()) {
+        Some(hint) => anyhow!("{e}{hint}"),
+        None => anyhow!("{e}"),
+    };
     let Some(span) = e.span() else { return whole };
     let Some(header) = text.get(span).map(str::trim).filter(|h| h.starts_with('[')) else { return whole };
     let path: Vec<&str> = header.trim_matches(|c| c == '[' || c == ']').split('.').map(str::trim).collect();
@@ -136,6 +139,35 @@ pub(super) fn parse_error(text: &str, e: toml::de::Error) -> anyhow::Error {
         }
     }
     whole
+}
+
+/// For serde's "unknown field `x`, expected one of `a`, `b`, …": the closest expected
+/// name, as "did you mean `a`?" — when it is within a third of the name's length in edits
+/// (at least two), so that a typo is named and an unrelated key is not.
+fn did_you_mean(message: &str) -> Option<String> {
+    let rest = message.strip_prefix("unknown field `")?;
+    let (given, rest) = rest.split_once('`')?;
+    let expected = rest.split_once("expected")?.1;
+    let candidates = expected.split('`').skip(1).step_by(2);
+    let (best, d) = candidates.map(|c| (c, edit_distance(given, c))).min_by_key(|(_, d)| *d)?;
+    let limit = (given.chars().count() / 3).max(2);
+    (d <= limit).then(|| format!("\ndid you mean `{best}`?"))
+}
+
+/// Levenshtein distance between `a` and `b` in characters (insert, delete, substitute).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut diagonal = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let substitute = diagonal + usize::from(ca != *cb);
+            diagonal = row[j + 1];
+            row[j + 1] = substitute.min(row[j] + 1).min(diagonal + 1);
+        }
+    }
+    row[b.len()]
 }
 
 /// Each `|x|` within `limit` (and finite), else refused naming `key` and `why`.
@@ -376,4 +408,27 @@ pub(super) fn param_refusal(e: ParamError, key: &str) -> anyhow::Error {
         ParamReason::TooLarge => "too large",
     };
     bad(key, format!("the flight code refuses it: {why} ({:?})", e.field))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edit_distance_counts_single_character_edits() {
+        for (a, b, d) in [("", "", 0), ("abc", "", 3), ("kitten", "sitting", 3), ("output_evry", "output_every", 1)] {
+            assert_eq!((edit_distance(a, b), edit_distance(b, a)), (d, d), "{a} {b}");
+        }
+    }
+
+    /// A misspelt key is refused at its own line, naming the key it was probably meant
+    /// to be; a key that resembles none gets no guess.
+    #[test]
+    fn an_unknown_key_names_the_closest_known_one() {
+        let base = "name = \"x\"\nduration_s = 10.0\n[timing]\ncontrol_rate_hz = 10.0\n";
+        let e = Scenario::from_toml(&format!("{base}output_evry = 2\n")).unwrap_err().to_string();
+        assert!(e.contains("line 5") && e.ends_with("did you mean `output_every`?"), "{e}");
+        let e = Scenario::from_toml(&format!("{base}zzz = 2\n")).unwrap_err().to_string();
+        assert!(e.contains("unknown field `zzz`") && !e.contains("did you mean"), "{e}");
+    }
 }
