@@ -586,11 +586,10 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
         Some(Failure::Link { reason }) => {
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"link_anomaly\")", summary.scenario)).into())
         }
-        Some(Failure::Sensors { reason }) => Err(RunFailed(format!(
-            "{}: {reason} (summary.json: run_status \"samples_dropped\")",
-            summary.scenario
-        ))
-        .into()),
+        Some(Failure::Sensors { reason }) => {
+            Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
+                .into())
+        }
     }
 }
 

@@ -14,9 +14,9 @@ use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Context, Result, bail};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
+use sim_core::link::FlightLink;
 use sim_core::link::in_process::InProcess;
 use sim_core::link::tap::{Tap, Tapped};
-use sim_core::link::FlightLink;
 use sim_core::recorder::series::Discard;
 use sim_core::scenario::{Resolved, Scenario, Upload};
 

@@ -158,7 +158,8 @@ impl PyScenario {
             d.set_item("name", &sc.name)?;
             d.set_item("steps", sc.steps())?;
             d.set_item("closed_loop", sc.closed_loop())?;
-            let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| Kind::Scenario.err(format!("{e:?}")));
+            let sum =
+                |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| Kind::Scenario.err(format!("{e:?}")));
             if let Some(t) = sc.mode_table().map_err(|e| Kind::Scenario.chain(&e))? {
                 let modes = PyDict::new(py);
                 for (mode, p) in &t.slots {
