@@ -54,23 +54,29 @@ pub fn from_xyzw(q: [f64; 4]) -> Quat {
 
 /// Principal angle of the rotation from `q_cmd` to `q`, rad, in `[0, π]`.
 pub fn error_angle(q: &Quat, q_cmd: &Quat) -> f64 {
-    let e = q_cmd.conjugate() * q;
-    2.0 * e.imag().norm().atan2(e.w.abs())
+    error_angle_and_vector(q, q_cmd).0
 }
 
 /// Rotation vector of the error from `q_cmd` to `q` in body axes, rad: the axis of
 /// `e = q_cmd* ⊗ q` times its principal angle (shortest way round, so its norm is
 /// [`error_angle`]).
 pub fn error_vector(q: &Quat, q_cmd: &Quat) -> [f64; 3] {
+    error_angle_and_vector(q, q_cmd).1
+}
+
+/// [`error_angle`] and [`error_vector`] from one product `e = q_cmd* ⊗ q` (the run loop
+/// needs both every step).
+pub fn error_angle_and_vector(q: &Quat, q_cmd: &Quat) -> (f64, [f64; 3]) {
     let e = q_cmd.conjugate() * q;
-    let e = if e.w < 0.0 { -e } else { e };
-    let v = e.imag();
+    // The short way round: `-e` is the same rotation.
+    let v = if e.w < 0.0 { -e.imag() } else { e.imag() };
     let s = v.norm();
+    let angle = 2.0 * s.atan2(e.w.abs());
     if s == 0.0 {
-        return [0.0; 3];
+        return (angle, [0.0; 3]);
     }
-    let k = 2.0 * s.atan2(e.w) / s;
-    [v.x * k, v.y * k, v.z * k]
+    let k = angle / s;
+    (angle, [v.x * k, v.y * k, v.z * k])
 }
 
 /// Express a reference-frame vector in body axes: `v_B = q* ⊗ v_I ⊗ q`.

@@ -8,7 +8,7 @@
 //! holds over `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
-use crate::attitude::{Quat, Vec3, error_angle, error_vector, euler_from_quat, rotate_ref_to_body};
+use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotate_ref_to_body};
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
@@ -490,8 +490,9 @@ impl<'a> Simulation<'a> {
         let (mut input, dipole_cmd) = self.act.input(&cmd);
         let q_frame = self.target.frame(self.snap.as_ref());
         let q_cmd = q_frame * self.target.q_rel;
-        let err_deg = error_angle(&self.state.q, &q_cmd).to_degrees();
-        self.push_pointing(t, error_vector(&self.state.q, &q_cmd).map(f64::to_degrees));
+        let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);
+        let err_deg = err_rad.to_degrees();
+        self.push_pointing(t, err_vec_rad.map(f64::to_degrees));
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
 
