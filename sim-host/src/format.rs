@@ -21,6 +21,13 @@ pub fn sig(x: f64, digits: usize) -> String {
     plain_or_scientific(x, decimals, digits)
 }
 
+/// [`sig`] without trailing zeros in plain notation (`40`, `1.5`, `5.407e-5`): the console's
+/// form, where a figure's digits should not suggest a precision it was not given with.
+pub fn sig_short(x: f64, digits: usize) -> String {
+    let s = sig(x, digits);
+    if s.contains('.') && !s.contains('e') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+}
+
 /// The campaign summary's form: six significant digits, plain for `|x|` in [1e-3, 1e6)
 /// (the bound tested on `|x|`, not on its decade) and for zero (`0.00000000`), else
 /// scientific; NaN and ±∞ as Rust prints them (`NaN`, `inf`).
@@ -42,6 +49,16 @@ fn plain_or_scientific(x: f64, decimals: Option<usize>, digits: usize) -> String
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn sig_short_trims_only_plain_decimals() {
+        assert_eq!(sig_short(40.0, 6), "40");
+        assert_eq!(sig_short(1.0, 3), "1");
+        assert_eq!(sig_short(11.34, 4), "11.34");
+        assert_eq!(sig_short(1500.0, 4), "1500");
+        assert_eq!(sig_short(5.407e-5, 4), "5.407e-5");
+        assert_eq!(sig_short(0.0, 4), "0");
+    }
 
     #[test]
     fn sig_formats() {

@@ -449,12 +449,12 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let c = Campaign::load(&campaign)?;
             let m = sim_host::campaign::plan(&c, &out, runs)?;
             say!(
-                "{}: planned {} runs of {} ({} dispersions, {} requirements) in {}",
+                "{}: planned {} of {} ({}, {}) in {}",
                 m.campaign.name,
-                m.runs.len(),
+                counted(m.runs.len(), "run"),
                 m.base_scenario,
-                m.campaign.dispersions.len(),
-                m.campaign.requirements.len(),
+                counted(m.campaign.dispersions.len(), "dispersion"),
+                counted(m.campaign.requirements.len(), "requirement"),
                 out.display()
             );
         }
@@ -593,26 +593,46 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     }
 }
 
+/// The one-line result of a run: figures to 4 significant digits, counts as integers, and
+/// only the quantities the run has.
 fn summary_line(s: &Summary) -> String {
+    use sim_host::format::sig_short as sig;
     let mut line = format!(
-        "{}: {} steps over {:.1} s on {}; final error {:.4} deg, settle {}, RTF {:.0}x",
+        "{}: {} steps over {} s on {}; final error {} deg, settle (< {} deg) {}, RTF {}x",
         s.scenario,
         s.steps,
-        s.sim_time_s,
+        sig(s.sim_time_s, 6),
         s.link,
-        s.final_error_deg,
-        s.settle_time_s.map_or("never".into(), |t| format!("{t:.2} s")),
-        s.real_time_factor
+        sig(s.final_error_deg, 4),
+        sig(s.settle_bound_deg, 3),
+        s.settle_time_s.map_or("never".into(), |t| format!("{} s", sig(t, 4))),
+        sig(s.real_time_factor, 3)
     );
-    let opt = |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {x:.4}{unit}")).unwrap_or_default();
+    let p = &s.pointing;
+    if let Some(ape) = p.ape_deg.total {
+        line += &format!("; APE at {} % {} deg", percent(p.confidence), sig(ape, 4));
+    }
+    let opt =
+        |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {}{unit}", sig(x, 4))).unwrap_or_default();
     line += &opt("min m", s.min_singularity_measure, "");
     line += &opt("max gimbal rate", s.max_gimbal_rate_rad_s, " rad/s");
     line += &opt("max wheel speed", s.max_wheel_speed_rpm, " rpm");
     line += &opt("max wheel power", s.max_wheel_power_w, " W");
     line += &opt("propellant", s.propellant_kg, " kg");
-    line += &opt("max pulses", s.max_pulses.map(f64::from), "");
-    line += &opt("max instructions/step", s.max_step_instructions.map(|x| x as f64), "");
+    let count = |name: &str, v: Option<u64>| v.map(|x| format!("; {name} {x}")).unwrap_or_default();
+    line += &count("max pulses", s.max_pulses.map(u64::from));
+    line += &count("max instructions/step", s.max_step_instructions);
     line
+}
+
+/// `0.95` → `"95"`: a confidence level as the percentage in an index's name.
+fn percent(confidence: f64) -> String {
+    sim_host::format::sig_short(confidence * 100.0, 4)
+}
+
+/// `"1 requirement"`, `"2 requirements"`.
+fn counted(n: usize, noun: &str) -> String {
+    if n == 1 { format!("1 {noun}") } else { format!("{n} {noun}s") }
 }
 
 /// `sim-host lqr`: the scenario's controller, or every LQR/LQG mode of its mode table.

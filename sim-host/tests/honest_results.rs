@@ -76,7 +76,13 @@ fn assert_diverged(s: &serde_json::Value, what: &str, duration_s: f64) {
     assert!(t > 0.0 && t <= duration_s, "{what}: t_s {t}");
     assert!(!s["failure"]["quantity"].as_str().unwrap().is_empty(), "{what}");
     assert_eq!(s["sim_time_s"].as_f64(), Some(t), "{what}: the run stops at the failure");
-    for k in ["settle_time_s", "max_error_after_settle_deg", "final_error_deg", "mean_error_deg", "rms_error_deg"] {
+    for k in [
+        "settle_time_s",
+        "max_error_after_settle_deg",
+        "final_error_deg",
+        "mean_error_whole_run_deg",
+        "rms_error_after_settle_deg",
+    ] {
         assert!(s[k].is_null(), "{what}: {k} = {}", s[k]);
     }
     let mut xs = Vec::new();
@@ -193,7 +199,7 @@ fn a_non_finite_flight_command_stops_the_run_at_that_step() {
     assert_eq!(s.failure, Some(Failure::Diverged { t_s: 0.5, quantity: "command.gimbal_rate_cmd_rad_s".into() }));
     assert_eq!(s.sim_time_s, 0.5);
     assert_eq!(s.settle_time_s, None);
-    assert!(s.final_error_deg.is_nan() && s.mean_error_deg.is_nan());
+    assert!(s.final_error_deg.is_nan() && s.mean_error_whole_run_deg.is_nan());
     // Rows every 5th step: t = 0, 0.05, ..., 0.45 — ten rows, each equal to the clean run's.
     let n = bad.series.len();
     assert_eq!(n, 10);

@@ -201,3 +201,18 @@ fn disturbance_and_orbit_keys_have_ranges() {
     }
     accepted(P0, "[spacecraft]\n", "[spacecraft]\nexternal_torque_nm = [1e-3, 0, 0]\n");
 }
+
+/// Issue 22: an ideal wheel has no default size (a small spacecraft must not silently get
+/// paper 001's 0.75 N m wheel); the accurate model keeps the wheel its data belong to.
+#[test]
+fn ideal_wheels_must_be_sized() {
+    const HOLD: &str = "estimation/mekf-hold.toml";
+    for key in ["max_torque_nm = 2.3e-4", "max_speed_rpm = 10000.0", "inertia_kgm2 = 1.6e-6"] {
+        let name = key.split(' ').next().unwrap();
+        refused(HOLD, key, "", &format!("actuators.wheels.{name}"), "required for model = \"ideal\"");
+    }
+    accepted(HOLD, "max_torque_nm = 2.3e-4", "max_torque_nm = 2.3e-4");
+    // paper 001's accurate wheel needs none of the three.
+    let (code, err) = check_edit("paper001/wheel-slew.toml", "model = \"accurate\"", "model = \"accurate\"");
+    assert_eq!(code, Some(0), "{err}");
+}

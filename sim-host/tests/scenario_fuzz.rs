@@ -196,8 +196,14 @@ enum Verdict {
 }
 
 /// Non-optional figures of the summary that a finite run always has.
-const FIGURES: [&str; 6] =
-    ["final_error_deg", "mean_error_deg", "rms_error_deg", "final_euler_deg", "final_rate_rad_s", "sim_time_s"];
+const FIGURES: [&str; 6] = [
+    "final_error_deg",
+    "mean_error_whole_run_deg",
+    "rms_error_after_settle_deg",
+    "final_euler_deg",
+    "final_rate_rad_s",
+    "sim_time_s",
+];
 
 fn finite_json(v: &Json) -> bool {
     match v {

@@ -26,7 +26,7 @@ fn paper004_both_methods_converge_and_bodson_spends_more_propellant() {
             "{}: final {:.3} deg, mean {:.3} deg, propellant {:.4} kg, max pulses {:?}, {:.2} µs/step",
             s.scenario,
             s.final_error_deg,
-            s.mean_error_deg,
+            s.mean_error_whole_run_deg,
             s.propellant_kg.unwrap(),
             s.max_pulses,
             s.allocation_us_per_call.unwrap()

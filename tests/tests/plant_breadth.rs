@@ -240,3 +240,19 @@ type = "none"
     // (0, 1, 0) × (5, 0, 0) = (0, 0, -5); (0, -1, 0) × (-5, 0, 0) = (0, 0, -5): a pure couple.
     assert_eq!(b, vec![[0.0, 0.0, -5.0], [0.0, 0.0, -5.0]]);
 }
+
+/// Ideal wheels have no motor: the summary reports no current (not 0 A), and their power
+/// is the mechanical shaft power, bounded by max torque × max speed.
+#[test]
+fn ideal_wheels_report_no_motor_current() {
+    let mut sc = scenario("paper001/wheel-slew.toml");
+    sc.duration_s = 100.0;
+    let w = sc.actuators.wheels.as_mut().unwrap();
+    w.model = "ideal".into();
+    let (t_max, rpm_max) = (0.75, 6000.0);
+    (w.max_torque_nm, w.max_speed_rpm, w.inertia_kgm2) = (Some(t_max), Some(rpm_max), Some(0.086));
+    let s = run_in_process(&sc).summary;
+    assert_eq!(s.max_wheel_current_a, None);
+    let p = s.max_wheel_power_w.unwrap();
+    assert!(p > 0.0 && p <= t_max * rpm_max * std::f64::consts::PI / 30.0, "{p}");
+}

@@ -348,7 +348,7 @@ fn runs_section(runs: &[&Flown]) -> Section {
             "final error (°)",
             "settle < 1° (s)",
             "RMS after settle (°)",
-            "mean error (°)",
+            "mean error, whole run (°)",
             "actuators",
         ]
         .map(String::from)
@@ -361,8 +361,8 @@ fn runs_section(runs: &[&Flown]) -> Section {
                     format!("`scenarios/{}.toml`", f.scn.rel),
                     sig(s.final_error_deg, 3),
                     opt(s.settle_time_s, 4),
-                    sig(s.rms_error_deg, 3),
-                    sig(s.mean_error_deg, 3),
+                    opt(s.rms_error_after_settle_deg, 3),
+                    sig(s.mean_error_whole_run_deg, 3),
                     actuator_cell(s),
                 ]
             })

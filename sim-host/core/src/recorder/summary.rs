@@ -80,9 +80,10 @@ pub struct Summary {
     pub settle_bound_deg: f64,
     pub max_error_after_settle_deg: Option<f64>,
     /// Mean error over the whole run, deg.
-    pub mean_error_deg: f64,
-    /// RMS error after the settle time (whole run if it never settles), deg.
-    pub rms_error_deg: f64,
+    pub mean_error_whole_run_deg: f64,
+    /// RMS error from the settle time to the end, deg; null if the run never settles
+    /// (the whole-run figures are in `pointing`).
+    pub rms_error_after_settle_deg: Option<f64>,
     /// Euler angles relative to the target's frame (inertial, lab or LVLH), deg.
     pub final_euler_deg: [f64; 3],
     pub target_euler_deg: [f64; 3],
@@ -92,7 +93,11 @@ pub struct Summary {
     /// Smallest `det(J₁ J₁ᵀ)` of the true gimbal angles (unit rotor momentum).
     pub min_singularity_measure: Option<f64>,
     pub max_wheel_speed_rpm: Option<f64>,
+    /// Largest |power| of any wheel, W: electrical (paper 001 eq 30) for accurate wheels,
+    /// mechanical shaft power `ω_w ḣ_a` for ideal ones.
     pub max_wheel_power_w: Option<f64>,
+    /// Largest motor current of any wheel, A: accurate wheels only (null for ideal ones,
+    /// which have no motor model).
     pub max_wheel_current_a: Option<f64>,
     pub propellant_kg: Option<f64>,
     /// Most valve openings of any single thruster.
@@ -102,7 +107,8 @@ pub struct Summary {
     pub mean_step_instructions: Option<f64>,
     /// Largest `Fsw::step` cost in raw counter ticks (any board that measures).
     pub max_step_ticks: Option<u32>,
-    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs.
+    /// Mean and largest wall (host) or counter (board) time of `Fsw::step`, µs; null
+    /// under QEMU, whose virtual clock is not the MCU's (`sim-host cycles` bounds them).
     pub mean_step_us: Option<f64>,
     pub max_step_us: Option<f64>,
     /// With thrusters: mean time per control step of the flight code (control law,
@@ -204,7 +210,6 @@ pub struct ErrorStats {
     last: f64,
     n: u64,
     sum: f64,
-    sum_sq: f64,
     n_after: u64,
     sum_sq_after: f64,
     max_after: f64,
@@ -227,8 +232,8 @@ pub struct ErrorFigures {
     pub final_error_deg: f64,
     pub settle_time_s: Option<f64>,
     pub max_error_after_settle_deg: Option<f64>,
-    pub mean_error_deg: f64,
-    pub rms_error_deg: f64,
+    pub mean_error_whole_run_deg: f64,
+    pub rms_error_after_settle_deg: Option<f64>,
 }
 
 impl ErrorStats {
@@ -241,7 +246,6 @@ impl ErrorStats {
             last: f64::NAN,
             n: 0,
             sum: 0.0,
-            sum_sq: 0.0,
             n_after: 0,
             sum_sq_after: 0.0,
             max_after: 0.0,
@@ -253,7 +257,6 @@ impl ErrorStats {
         self.last = err;
         self.n += 1;
         self.sum += err;
-        self.sum_sq += err * err;
         // `!(err < bound)`: NaN is an exceedance (`err >= bound` is false for NaN).
         if !(err < self.bound) {
             self.last_above = t;
@@ -269,16 +272,12 @@ impl ErrorStats {
     /// The figures of a run that ended at `sim_time` (the time of the last sample).
     pub fn figures(&self, sim_time: f64) -> ErrorFigures {
         let settle_time_s = (self.last_above < sim_time).then_some(self.settle_from);
-        let (n, sum_sq) = match settle_time_s {
-            Some(_) => (self.n_after, self.sum_sq_after),
-            None => (self.n, self.sum_sq),
-        };
         ErrorFigures {
             final_error_deg: if self.n == 0 { f64::NAN } else { self.last },
             settle_time_s,
             max_error_after_settle_deg: settle_time_s.map(|_| self.max_after),
-            mean_error_deg: self.sum / self.n.max(1) as f64,
-            rms_error_deg: (sum_sq / n.max(1) as f64).sqrt(),
+            mean_error_whole_run_deg: self.sum / self.n.max(1) as f64,
+            rms_error_after_settle_deg: settle_time_s.map(|_| (self.sum_sq_after / self.n_after.max(1) as f64).sqrt()),
         }
     }
 }
@@ -297,8 +296,9 @@ mod tests {
             final_error_deg: errors.last().map_or(f64::NAN, |e| e.1),
             settle_time_s: settle,
             max_error_after_settle_deg: settle.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
-            mean_error_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
-            rms_error_deg: (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt(),
+            mean_error_whole_run_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
+            rms_error_after_settle_deg: settle
+                .map(|_| (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt()),
         }
     }
 
@@ -328,8 +328,8 @@ mod tests {
             assert_eq!(a.settle_time_s, b.settle_time_s, "case {case}");
             for (x, y) in [
                 (a.final_error_deg, b.final_error_deg),
-                (a.mean_error_deg, b.mean_error_deg),
-                (a.rms_error_deg, b.rms_error_deg),
+                (a.mean_error_whole_run_deg, b.mean_error_whole_run_deg),
+                (a.rms_error_after_settle_deg.unwrap_or(-1.0), b.rms_error_after_settle_deg.unwrap_or(-1.0)),
                 (a.max_error_after_settle_deg.unwrap_or(-1.0), b.max_error_after_settle_deg.unwrap_or(-1.0)),
             ] {
                 assert_eq!(x.to_bits(), y.to_bits(), "case {case}: {x} vs {y}");
@@ -354,21 +354,24 @@ mod tests {
         let f = stats_of(&[3.0, 2.0, 0.5, 0.25, f64::NAN], dt);
         assert_eq!(f.settle_time_s, None);
         assert_eq!(f.max_error_after_settle_deg, None);
-        assert!(f.final_error_deg.is_nan() && f.mean_error_deg.is_nan() && f.rms_error_deg.is_nan(), "{f:?}");
+        assert!(
+            f.final_error_deg.is_nan() && f.mean_error_whole_run_deg.is_nan() && f.rms_error_after_settle_deg.is_none(),
+            "{f:?}"
+        );
         // NaN as the very first sample and everything below the bound after it: the NaN
         // counts as an exceedance at t = 0, so the settle time is one period later (not 0
         // or "before the first sample"), and the mean stays NaN.
         let f = stats_of(&[f64::NAN, 0.5, 0.25, 0.125], dt);
         assert_eq!(f.settle_time_s, Some(dt));
         assert_eq!(f.max_error_after_settle_deg, Some(0.5));
-        assert!(f.mean_error_deg.is_nan());
+        assert!(f.mean_error_whole_run_deg.is_nan());
         assert_eq!(f.final_error_deg, 0.125);
         // NaN in the middle: the settle time restarts after it (the last exceedance is the
         // NaN at t = 1.0), and the post-settle RMS covers the two samples after it only.
         let f = stats_of(&[0.5, 0.5, f64::NAN, 0.6, 0.8], dt);
         assert_eq!(f.settle_time_s, Some(1.5));
         assert_eq!(f.max_error_after_settle_deg, Some(0.8));
-        assert_eq!(f.rms_error_deg, ((0.36f64 + 0.64) / 2.0).sqrt());
+        assert_eq!(f.rms_error_after_settle_deg, Some(((0.36f64 + 0.64) / 2.0).sqrt()));
         // An infinite error is an exceedance like any other.
         assert_eq!(stats_of(&[0.5, f64::INFINITY], dt).settle_time_s, None);
     }

@@ -375,6 +375,7 @@ impl Scenario {
             .map(|axis| {
                 let mut p = match w.model.as_str() {
                     "accurate" => base.clone(),
+                    // Validation requires all three for ideal wheels (`validate_wheel_ranges`).
                     _ => WheelParams::ideal(
                         w.max_torque_nm.unwrap_or(base.max_torque_nm),
                         w.max_speed_rpm.map_or(base.max_speed_rad_s, |x| x * rpm),
@@ -550,6 +551,12 @@ impl Scenario {
                 && !(v >= min && v <= max)
             {
                 return Err(bad(k, format!("{v} is outside the range [{min:e}, {max:.6e}]")));
+            }
+            // No silent sizing: the only wheel with data of its own is the accurate model's
+            // (paper 001's 0.75 N m, 6000 rpm, 0.086 kg m² wheel); an ideal wheel is sized
+            // by the user.
+            if v.is_none() && w.model != "accurate" {
+                return Err(bad(k, "required for model = \"ideal\" (the wheel's size has no default)".to_string()));
             }
         }
         let n = self.wheel_axes(w).len();

@@ -300,6 +300,12 @@ fn fly(ctx: &Context) -> Result<Flights> {
         sc.timing.output_every = 1;
         if let Some(w) = sc.actuators.wheels.as_mut() {
             w.model = model.into();
+            // The ideal wheel of the comparison is the same wheel without its electrics:
+            // paper 001's torque, speed and inertia (an ideal wheel has no default size).
+            let p = sim_core::plant::wheel::WheelParams::paper001();
+            w.max_torque_nm.get_or_insert(p.max_torque_nm);
+            w.max_speed_rpm.get_or_insert(p.max_speed_rad_s * 30.0 / std::f64::consts::PI);
+            w.inertia_kgm2.get_or_insert(p.inertia_kgm2);
         }
         scs.push(sc);
     }

@@ -142,7 +142,7 @@ pub fn fly_outcome(sc: &Scenario) -> Result<Outcome> {
     Ok(Outcome {
         propellant_kg: r.summary.propellant_kg.unwrap_or(f64::NAN),
         max_pulses: r.summary.max_pulses.map_or(f64::NAN, f64::from),
-        mean_error_deg: r.summary.mean_error_deg,
+        mean_error_deg: r.summary.mean_error_whole_run_deg,
         settled_principal_deg: sum_p / nf,
         settled_axis_deg: sum_a / nf,
         initial_error_deg: err.first().copied().unwrap_or(f64::NAN),
