@@ -25,7 +25,12 @@ pub fn sig(x: f64, digits: usize) -> String {
 /// form, where a figure's digits should not suggest a precision it was not given with.
 pub fn sig_short(x: f64, digits: usize) -> String {
     let s = sig(x, digits);
-    if s.contains('.') && !s.contains('e') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+    let trim =
+        |m: &str| if m.contains('.') { m.trim_end_matches('0').trim_end_matches('.').to_string() } else { m.into() };
+    match s.split_once('e') {
+        Some((mantissa, exp)) => format!("{}e{exp}", trim(mantissa)),
+        None => trim(&s),
+    }
 }
 
 /// The campaign summary's form: six significant digits, plain for `|x|` in [1e-3, 1e6)
@@ -46,9 +51,74 @@ fn plain_or_scientific(x: f64, decimals: Option<usize>, digits: usize) -> String
     }
 }
 
+/// A nested value (flight parameters as serde writes them) as aligned `key  value` lines:
+/// objects flattened into dotted paths (an enum's variant becomes a path element), arrays
+/// of numbers kept on one line, numbers to 7 significant digits (what an f32 holds).
+pub fn key_value_lines(v: &serde_json::Value) -> String {
+    let mut rows = Vec::new();
+    flatten("", v, &mut rows);
+    let width = rows.iter().map(|(k, _)| k.chars().count()).max().unwrap_or(0);
+    rows.iter().map(|(k, v)| format!("  {k:<width$}  {v}\n")).collect()
+}
+
+fn flatten(path: &str, v: &serde_json::Value, rows: &mut Vec<(String, String)>) {
+    use serde_json::Value;
+    let join = |k: &str| if path.is_empty() { k.to_string() } else { format!("{path}.{k}") };
+    match v {
+        Value::Object(m) if !m.is_empty() => m.iter().for_each(|(k, x)| flatten(&join(k), x, rows)),
+        Value::Array(a) if !a.iter().all(is_inline) => {
+            a.iter().enumerate().for_each(|(i, x)| flatten(&format!("{path}[{i}]"), x, rows))
+        }
+        _ => rows.push((path.to_string(), inline(v))),
+    }
+}
+
+/// Numbers, strings, booleans, null and arrays of those (nested) print on one line.
+fn is_inline(v: &serde_json::Value) -> bool {
+    match v {
+        serde_json::Value::Object(m) => m.is_empty(),
+        serde_json::Value::Array(a) => a.iter().all(is_inline),
+        _ => true,
+    }
+}
+
+fn inline(v: &serde_json::Value) -> String {
+    use serde_json::Value;
+    match v {
+        Value::Number(n) => {
+            n.as_f64().map_or_else(|| n.to_string(), |x| if n.is_f64() { sig_short(x, 7) } else { n.to_string() })
+        }
+        Value::String(s) => s.clone(),
+        Value::Array(a) => format!("[{}]", a.iter().map(inline).collect::<Vec<_>>().join(", ")),
+        Value::Object(_) => "{}".into(),
+        other => other.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn key_value_lines_flatten_objects_and_keep_number_arrays_inline() {
+        let v = serde_json::json!({
+            "rate_hz": 100.0,
+            "gains": {"Pd": {"k": [0.1f32, 2.0, 3.0], "n": 4}},
+            "m": [[1.0, 0.0], [0.0, 1.0]],
+            "wheels": [{"axis": [1.0, 0.0, 0.0]}, {"axis": [0.0, 1.0, 0.0]}],
+            "name": "x",
+        });
+        let text = key_value_lines(&v);
+        let lines: Vec<&str> = text.lines().map(str::trim).collect();
+        // Values start in one column: after the longest key and two spaces.
+        assert!(text.lines().all(|l| l.get(18..19).is_some_and(|c| c != " ")), "{text}");
+        assert!(lines.iter().any(|l| l.starts_with("gains.Pd.k ") && l.ends_with(" [0.1, 2, 3]")), "{text}");
+        assert!(lines.iter().any(|l| l.starts_with("gains.Pd.n") && l.ends_with(" 4")), "{text}");
+        assert!(lines.iter().any(|l| l.starts_with("m ") && l.ends_with("[[1, 0], [0, 1]]")), "{text}");
+        assert!(lines.iter().any(|l| l.starts_with("wheels[1].axis") && l.ends_with("[0, 1, 0]")), "{text}");
+        assert!(lines.iter().any(|l| l.starts_with("rate_hz") && l.ends_with(" 100")), "{text}");
+        assert_eq!(lines.len(), 7, "{text}");
+    }
 
     #[test]
     fn sig_short_trims_only_plain_decimals() {
@@ -57,6 +127,8 @@ mod tests {
         assert_eq!(sig_short(11.34, 4), "11.34");
         assert_eq!(sig_short(1500.0, 4), "1500");
         assert_eq!(sig_short(5.407e-5, 4), "5.407e-5");
+        assert_eq!(sig_short(1e-6, 7), "1e-6");
+        assert_eq!(sig_short(2.5e7, 4), "2.5e7");
         assert_eq!(sig_short(0.0, 4), "0");
     }
 

@@ -9,6 +9,7 @@ use sim_core::recorder::summary::{Failure, Summary};
 use sim_core::runner;
 use sim_core::scenario::{Controller, Scenario};
 use sim_host::campaign::{Campaign, Shard};
+use sim_host::format;
 use sim_host::timing;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -37,6 +38,7 @@ enum Analyze {
     /// and maximum authority, and every 1-, 2- and 3-thruster failure that loses
     /// three-axis authority.
     Thrusters {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
         scenario: PathBuf,
         /// Print the table as JSON.
         #[arg(long)]
@@ -51,6 +53,7 @@ enum Analyze {
 enum CampaignCmd {
     /// Draw every run of a campaign file into DIR: manifest.json and runs/NNNNNN/scenario.toml.
     Plan {
+        /// Campaign file (TOML, docs/campaigns.md), e.g. campaigns/paper000-test3-dispersed.toml.
         campaign: PathBuf,
         #[arg(long)]
         out: PathBuf,
@@ -60,6 +63,7 @@ enum CampaignCmd {
     },
     /// Fly the pending runs of a planned campaign (resumable), in-process on --jobs threads.
     Run {
+        /// Campaign directory written by `campaign plan`.
         dir: PathBuf,
         /// Shard K of S (0-based, K < S): the runs i with i % S == K.
         #[arg(long, default_value = "0/1")]
@@ -74,12 +78,14 @@ enum CampaignCmd {
     /// Statistics and requirement verdicts: campaign.json, report.md, plots/. Exit status 1
     /// when a requirement is not met or runs are missing.
     Merge {
+        /// Campaign directory written by `campaign plan`.
         dir: PathBuf,
         #[arg(long)]
         no_plots: bool,
     },
     /// Write a Slurm job array (one task per shard) and a dependent merge job into DIR/slurm.
     Slurm {
+        /// Campaign directory written by `campaign plan`.
         dir: PathBuf,
         #[arg(long)]
         shards: u32,
@@ -100,6 +106,7 @@ enum TimingCmd {
     /// firmware (lockstep); print worst and mean, optionally write the corpus (--out) and
     /// check the budget file. Exit status 1 when the worst exceeds its budget.
     Search {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
         scenario: PathBuf,
         /// Wall-time budget of the search, s.
         #[arg(long, default_value_t = 20.0)]
@@ -130,6 +137,7 @@ enum TimingCmd {
     /// the budget file. Exit status 1 when one exceeds its budget.
     Replay {
         #[arg(required = true)]
+        /// Corpus files to replay (timing/corpus/*.json, written by `timing search`).
         corpus: Vec<PathBuf>,
         /// Budget file (default: timing/budget.toml).
         #[arg(long)]
@@ -144,6 +152,7 @@ enum Cmd {
     /// Run a scenario and write timeseries.parquet (or .csv), summary.json and PNG plots
     /// into --out.
     Run {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
         scenario: PathBuf,
         #[arg(long, default_value = "out")]
         out: PathBuf,
@@ -164,9 +173,15 @@ enum Cmd {
         format: output::Format,
     },
     /// Check a scenario file and print the flight parameters it uploads.
-    Check { scenario: PathBuf },
+    Check {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
+        scenario: PathBuf,
+    },
     /// Print the LQR gain of a `controller.type = "lqr"` scenario (computed as at load).
-    Lqr { scenario: PathBuf },
+    Lqr {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
+        scenario: PathBuf,
+    },
     /// Design analyses of a scenario's actuators.
     Analyze {
         #[command(subcommand)]
@@ -202,6 +217,7 @@ enum Cmd {
     /// with the cycle plugin (tools/qemu-cycles) and print instructions, the cycle range and
     /// the instruction mix (docs/timing.md, "Cycles").
     Cycles {
+        /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
         scenario: PathBuf,
         /// Firmware ELF (default: firmware/target/.../release/acs-firmware).
         #[arg(long)]
@@ -225,7 +241,12 @@ enum Cmd {
     /// Compare two runs' time series (`timeseries.parquet` / `.csv` files or run
     /// directories) value by value, bit for bit (an empty CSV field matches any NaN or
     /// infinity); exit status 1 at the first difference.
-    CompareSeries { a: PathBuf, b: PathBuf },
+    CompareSeries {
+        /// First run: its output directory, or a timeseries.parquet / .csv file.
+        a: PathBuf,
+        /// Second run, the same way.
+        b: PathBuf,
+    },
     /// Serve the flight code over TCP (a virtual flight computer for `--link tcp:ADDR`):
     /// one client at a time (others get "busy"), each session from power-on state.
     Serve {
@@ -425,6 +446,7 @@ fn cycles(
 ) -> Result<()> {
     use sim_host::cycles::{CyclesOptions, CyclesReport, per_step_table, run_scenario};
     let mut sc = Scenario::load(scenario)?;
+    warn_deprecated(&sc);
     if let Some(d) = duration {
         sc.duration_s = d;
     }
@@ -706,20 +728,42 @@ fn report(out: PathBuf, papers: Vec<String>, jobs: Option<usize>, repo: PathBuf)
 
 fn check(scenario: &Path) -> Result<()> {
     let sc = Scenario::load(scenario)?;
+    warn_deprecated(&sc);
     let sum = |p: &acs_flight::params::FlightParams| p.checksum().map_err(|e| anyhow::anyhow!("{e}"));
+    let head = format!(
+        "{}: ok, {} steps ({} s at {} Hz control, {} dynamics substeps)",
+        sc.name,
+        sc.steps(),
+        format::sig_short(sc.duration_s, 6),
+        format::sig_short(sc.timing.control_rate_hz, 6),
+        sc.timing.dynamics_substeps
+    );
     if let Some(t) = sc.mode_table()? {
-        say!("{}: ok ({} steps); mode table of {} modes", sc.name, sc.steps(), t.slots.len());
+        say!("{head}; mode table of {} modes", t.slots.len());
         for (mode, p) in &t.slots {
-            say!("mode {}: parameter checksum {:#010x}", mode.name(), sum(p)?);
-            say!("{p:#?}");
+            say!("\nmode {}: flight parameters to upload (checksum {:#010x}):", mode.name(), sum(p)?);
+            say!("{}", table(p)?.trim_end());
         }
-        say!("{:#?}", t.manager);
+        say!("\nmode manager:");
+        say!("{}", table(&t.manager)?.trim_end());
     } else if sc.closed_loop() {
         let p = sc.flight_params()?;
-        say!("{}: ok ({} steps); parameter checksum {:#010x}", sc.name, sc.steps(), sum(&p)?);
-        say!("{p:#?}");
+        say!("{head}\nflight parameters to upload (checksum {:#010x}):", sum(&p)?);
+        say!("{}", table(&p)?.trim_end());
     } else {
-        say!("{}: ok ({} steps); open loop, no flight parameters", sc.name, sc.steps());
+        say!("{head}; open loop, no flight parameters");
     }
     Ok(())
+}
+
+/// What `check` prints of a parameter set: one aligned `key  value` line per field.
+fn table<T: serde::Serialize>(p: &T) -> Result<String> {
+    Ok(format::key_value_lines(&serde_json::to_value(p)?))
+}
+
+/// Prints the scenario's deprecated spellings as warnings (stderr).
+fn warn_deprecated(sc: &Scenario) {
+    for w in &sc.deprecations {
+        eprintln!("warning: {}: {w}", sc.name);
+    }
 }

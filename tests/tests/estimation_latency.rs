@@ -29,7 +29,7 @@ fn slew(tracker_hz: f64, latency_s: f64, control_hz: f64, seed: u64, arw: f64) -
     sc.sensors.seed = seed;
     let g = sc.sensors.gyro.as_mut().unwrap();
     g.bias_instability_rad_s = 0.0;
-    g.arw_rad_s_rthz = arw;
+    g.arw_rad_sqrt_s = arw;
     let t = sc.sensors.star_tracker.as_mut().unwrap();
     t.rate_hz = Some(tracker_hz);
     t.latency_s = latency_s;

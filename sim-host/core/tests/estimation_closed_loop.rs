@@ -92,7 +92,7 @@ fn tracker_outage_through_eclipse_grows_as_the_gyro_predicts_and_recovers() {
     let sc = load("scenarios/estimation/tracker-outage-eclipse.toml");
     let [[t0, t1]] = sc.sensors.star_tracker.as_ref().unwrap().outages_s[..] else { panic!("one outage") };
     let gyro = sc.sensors.gyro.as_ref().unwrap();
-    let (sv, su) = (gyro.arw_rad_s_rthz, gyro.rrw_rad_s2_rthz);
+    let (sv, su) = (gyro.arw_rad_sqrt_s, gyro.rrw_rad_s_sqrt_s);
     let f = fly(&sc);
     let at = |t: f64| f.t_s.iter().position(|x| *x >= t).unwrap();
     let (k0, k1) = (at(t0), at(t1));

@@ -227,7 +227,7 @@ fn the_gyro_increment_angle_random_walk_has_variance_arw_squared_times_the_inter
     // within 5 σ/√n of zero. The rate samples keep the white noise they had before the
     // increments existed (their own stream): checked against a suite built without them.
     let n_arw = 1e-3;
-    let spec = gyro(GyroSensorSpec { arw_rad_s_rthz: n_arw, ..Default::default() });
+    let spec = gyro(GyroSensorSpec { arw_rad_sqrt_s: n_arw, ..Default::default() });
     let w = Vec3::new(0.01, 0.0, -0.02);
     let mut s = SensorSuite::new(&spec, 10.0);
     let (mut sum, mut sum2, mut n) = (0.0, 0.0, 0usize);
@@ -276,8 +276,8 @@ fn same_seed_same_bits_with_jitter_latency_and_noise() {
             rate_hz: Some(40.0),
             jitter_s: 0.004,
             phase_s: 0.01,
-            arw_rad_s_rthz: 1e-3,
-            rrw_rad_s2_rthz: 1e-5,
+            arw_rad_sqrt_s: 1e-3,
+            rrw_rad_s_sqrt_s: 1e-5,
             ..Default::default()
         }),
         star_tracker: Some(StarTrackerSpec {

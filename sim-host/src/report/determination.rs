@@ -67,7 +67,7 @@ fn outage_against_the_gyro_bound(repo: &Path) -> Result<Vec<String>> {
         .and_then(|t| t.outages_s.first().copied())
         .ok_or_else(|| anyhow!("tracker-outage-eclipse has no tracker outage"))?;
     let gyro = sc.sensors.gyro.as_ref().ok_or_else(|| anyhow!("tracker-outage-eclipse has no gyro model"))?;
-    let (sv, su) = (gyro.arw_rad_s_rthz, gyro.rrw_rad_s2_rthz);
+    let (sv, su) = (gyro.arw_rad_sqrt_s, gyro.rrw_rad_s_sqrt_s);
     let r = fly_recorded(&sc)?;
     let col = |n: &str| r.series.col(n).ok_or_else(|| anyhow!("column {n}"));
     let (t, err, bsig) = (col("t_s")?, col("est_error_deg")?, col("est_bias_sigma_deg_h")?);

@@ -104,6 +104,40 @@ pub(super) fn finite_numbers(v: &Value, key: &str) -> Result<()> {
     }
 }
 
+/// Old spellings still read (serde aliases), with the key that replaced them: one spelling
+/// per quantity across tables (issue 22), without breaking files written before.
+pub const DEPRECATED_KEYS: [(&str, &str); 2] = [
+    ("sensors.gyro.arw_rad_s_rthz", "sensors.gyro.arw_rad_sqrt_s"),
+    ("sensors.gyro.rrw_rad_s2_rthz", "sensors.gyro.rrw_rad_s_sqrt_s"),
+];
+
+/// The deprecated spellings `given` (the file as written) uses, as warnings; an error if a
+/// file gives both spellings of one key (which one would win is not the user's choice).
+pub(super) fn deprecated_spellings(given: &toml::Table) -> Result<Vec<String>> {
+    let has = |path: &str| {
+        let mut t = given;
+        let mut parts = path.split('.').peekable();
+        while let Some(p) = parts.next() {
+            match (t.get(p), parts.peek()) {
+                (Some(Value::Table(next)), Some(_)) => t = next,
+                (Some(_), None) => return true,
+                _ => return false,
+            }
+        }
+        false
+    };
+    let mut warnings = Vec::new();
+    for (old, new) in DEPRECATED_KEYS {
+        if has(old) && has(new) {
+            return Err(bad(old, format!("give `{new}` only (`{old}` is its deprecated spelling)")));
+        }
+        if has(old) {
+            warnings.push(format!("`{old}` is deprecated: write `{new}` (same quantity and unit)"));
+        }
+    }
+    Ok(warnings)
+}
+
 /// A TOML error the reader could not pin on a key (a value inside a table read as a
 /// whole, such as `[controller]` with its `type` tag or `[initial]`): the key is found by
 /// taking the keys of the table at the error one at a time out of the document, and the
@@ -248,10 +282,10 @@ impl Scenario {
             // Per-sample 1σ of the white noise: ARW × √(sample rate).
             let fs = g.rate_hz.unwrap_or(self.timing.control_rate_hz);
             let arw_limit = w * NOISE_FRACTION_OF_LIMIT / fs.sqrt();
-            noise("sensors.gyro.arw_rad_s_rthz", g.arw_rad_s_rthz, arw_limit, "per-sample 1σ = ARW × √rate_hz")?;
+            noise("sensors.gyro.arw_rad_sqrt_s", g.arw_rad_sqrt_s, arw_limit, "per-sample 1σ = ARW × √rate_hz")?;
             // The random-walk bias after the whole run: RRW × √duration.
             let rrw_limit = w * NOISE_FRACTION_OF_LIMIT / self.duration_s.sqrt();
-            noise("sensors.gyro.rrw_rad_s2_rthz", g.rrw_rad_s2_rthz, rrw_limit, "bias 1σ = RRW × √duration_s")?;
+            noise("sensors.gyro.rrw_rad_s_sqrt_s", g.rrw_rad_s_sqrt_s, rrw_limit, "bias 1σ = RRW × √duration_s")?;
             noise("sensors.gyro.bias_instability_rad_s", g.bias_instability_rad_s, w * NOISE_FRACTION_OF_LIMIT, noisy)?;
             if !(g.scale_factor_ppm.is_finite() && g.scale_factor_ppm.abs() < MAX_SCALE_FACTOR_PPM) {
                 return Err(bad(

@@ -104,6 +104,10 @@ pub struct Scenario {
     /// confidence (defaults when absent).
     #[serde(default)]
     pub performance: PerformanceSpec,
+    /// Deprecated spellings the file used, each with its replacement (filled by
+    /// [`Scenario::from_toml`]; the CLI prints them as warnings). Not part of the format.
+    #[serde(skip)]
+    pub deprecations: Vec<String>,
 }
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -319,6 +323,8 @@ impl Scenario {
         limits::exact_lengths(&given, &kept)?;
         limits::finite_numbers(&toml::Value::Table(kept), "")?;
         s.validate()?;
+        let mut s = s;
+        s.deprecations = limits::deprecated_spellings(&given)?;
         Ok(s)
     }
 

@@ -67,10 +67,13 @@ pub struct GyroSensorSpec {
     /// The gyro's own latency on top of the suite's `latency_s`, s, exact (default 0).
     #[serde(default)]
     pub latency_s: f64,
-    #[serde(default)]
-    pub arw_rad_s_rthz: f64,
-    #[serde(default)]
-    pub rrw_rad_s2_rthz: f64,
+    /// Angle random walk, rad/√s (= rad/s/√Hz; the spelling of `[estimation]`'s
+    /// `gyro_arw_rad_sqrt_s`). Deprecated spelling `arw_rad_s_rthz` still read.
+    #[serde(default, alias = "arw_rad_s_rthz")]
+    pub arw_rad_sqrt_s: f64,
+    /// Rate random walk (bias drift), rad/s/√s. Deprecated spelling `rrw_rad_s2_rthz`.
+    #[serde(default, alias = "rrw_rad_s2_rthz")]
+    pub rrw_rad_s_sqrt_s: f64,
     #[serde(default)]
     pub bias_rad_s: [f64; 3],
     #[serde(default)]
@@ -105,8 +108,8 @@ impl Sensors {
             // White noise of σ per sample at the control rate: ARW = σ / √rate.
             None => GyroSpec {
                 rate_hz: control_rate_hz,
-                arw_rad_s_rthz: [self.rate_noise_rad_s / control_rate_hz.sqrt(); 3],
-                rrw_rad_s2_rthz: [0.0; 3],
+                arw_rad_sqrt_s: [self.rate_noise_rad_s / control_rate_hz.sqrt(); 3],
+                rrw_rad_s_sqrt_s: [0.0; 3],
                 bias_rad_s: self.rate_bias_rad_s,
                 scale_factor: [0.0; 3],
                 misalignment_rad: [0.0; 3],
@@ -125,8 +128,8 @@ impl GyroSensorSpec {
     pub fn model(&self, control_rate_hz: f64) -> GyroSpec {
         GyroSpec {
             rate_hz: self.rate_hz.unwrap_or(control_rate_hz),
-            arw_rad_s_rthz: [self.arw_rad_s_rthz; 3],
-            rrw_rad_s2_rthz: [self.rrw_rad_s2_rthz; 3],
+            arw_rad_sqrt_s: [self.arw_rad_sqrt_s; 3],
+            rrw_rad_s_sqrt_s: [self.rrw_rad_s_sqrt_s; 3],
             bias_rad_s: self.bias_rad_s,
             scale_factor: [self.scale_factor_ppm * 1e-6; 3],
             misalignment_rad: self.misalignment_deg.map(f64::to_radians),

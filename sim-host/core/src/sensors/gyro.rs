@@ -28,10 +28,10 @@ pub struct GyroSpec {
     pub rate_hz: f64,
     /// Angle random walk N per axis, rad/s/√Hz (= rad/√s). Per-sample white noise σ =
     /// N √rate_hz; Allan deviation N / √τ.
-    pub arw_rad_s_rthz: [f64; 3],
+    pub arw_rad_sqrt_s: [f64; 3],
     /// Rate random walk K per axis, rad/s²/√Hz (= rad/s/√s): bias variance grows as K² t;
     /// Allan deviation K √(τ/3).
-    pub rrw_rad_s2_rthz: [f64; 3],
+    pub rrw_rad_s_sqrt_s: [f64; 3],
     /// Constant bias, rad/s.
     pub bias_rad_s: [f64; 3],
     /// Scale-factor error per axis (dimensionless, 1e-3 = 1000 ppm).
@@ -131,14 +131,14 @@ impl Gyro {
     pub fn update(&mut self, t_s: f64, w_true_rad_s: &[f64; 3]) -> GyroReading {
         if let Some(dt) = self.clock.due(t_s) {
             // A noiseless gyro draws nothing (its stream is its own: no other sensor shifts).
-            let noiseless = self.spec.arw_rad_s_rthz == [0.0; 3] && self.spec.rrw_rad_s2_rthz == [0.0; 3];
+            let noiseless = self.spec.arw_rad_sqrt_s == [0.0; 3] && self.spec.rrw_rad_s_sqrt_s == [0.0; 3];
             let white = if noiseless {
                 Vec3::zeros()
             } else {
                 let sd = self.spec.rate_hz.sqrt();
-                let white = gauss3(&mut self.rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
+                let white = gauss3(&mut self.rng, &self.spec.arw_rad_sqrt_s.map(|n| n * sd));
                 let sq = dt.sqrt();
-                self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s2_rthz.map(|k| k * sq));
+                self.bias_rw += gauss3(&mut self.rng, &self.spec.rrw_rad_s_sqrt_s.map(|k| k * sq));
                 white
             };
             self.step_bias_instability(dt);
@@ -184,9 +184,9 @@ impl Gyro {
         }
         let mut m =
             a + a.component_mul(&Vec3::from(self.spec.scale_factor)) + Vec3::from(self.bias_rad_s()) * interval_s;
-        if self.spec.arw_rad_s_rthz != [0.0; 3] {
+        if self.spec.arw_rad_sqrt_s != [0.0; 3] {
             let sd = interval_s.max(0.0).sqrt();
-            m += gauss3(&mut self.increment_rng, &self.spec.arw_rad_s_rthz.map(|n| n * sd));
+            m += gauss3(&mut self.increment_rng, &self.spec.arw_rad_sqrt_s.map(|n| n * sd));
         }
         m.into()
     }
@@ -248,8 +248,8 @@ mod tests {
     fn gyro_spec() -> GyroSpec {
         GyroSpec {
             rate_hz: 10.0,
-            arw_rad_s_rthz: [1e-3, 2e-3, 5e-4],
-            rrw_rad_s2_rthz: [1e-4, 5e-5, 2e-4],
+            arw_rad_sqrt_s: [1e-3, 2e-3, 5e-4],
+            rrw_rad_s_sqrt_s: [1e-4, 5e-5, 2e-4],
             bias_rad_s: [0.0; 3],
             scale_factor: [0.0; 3],
             misalignment_rad: [0.0; 3],
@@ -285,7 +285,7 @@ mod tests {
             }
         }
         for a in 0..3 {
-            let (nn, kk) = (spec.arw_rad_s_rthz[a], spec.rrw_rad_s2_rthz[a]);
+            let (nn, kk) = (spec.arw_rad_sqrt_s[a], spec.rrw_rad_s_sqrt_s[a]);
             let pts: Vec<(f64, f64)> =
                 short_m.iter().chain(&long_m).zip(avar[a]).map(|(&m, v)| (m as f64 / f, v.sqrt())).collect();
             let (short, long) = pts.split_at(short_m.len());
@@ -310,7 +310,7 @@ mod tests {
     #[test]
     fn bias_random_walk_variance_grows_linearly() {
         let mut spec = gyro_spec();
-        spec.arw_rad_s_rthz = [0.0; 3];
+        spec.arw_rad_sqrt_s = [0.0; 3];
         spec.bias_rad_s = [1.0, 2.0, 3.0];
         let (runs, checks) = (4000, [10usize, 100, 1000]); // sample counts at 10 Hz
         let mut sum2 = [[0.0; 3]; 3];
@@ -331,7 +331,7 @@ mod tests {
         for (ci, &k) in checks.iter().enumerate() {
             let t = k as f64 / spec.rate_hz;
             for a in 0..3 {
-                let ratio = sum2[ci][a] / runs as f64 / (spec.rrw_rad_s2_rthz[a].powi(2) * t);
+                let ratio = sum2[ci][a] / runs as f64 / (spec.rrw_rad_s_sqrt_s[a].powi(2) * t);
                 println!("t = {t:6.1} s axis {a}: var / (K² t) = {ratio:.3}");
                 // 4000 runs: 1σ of a variance estimate is √(2/4000) = 2.2 %.
                 assert!((ratio - 1.0).abs() < 0.08, "{ratio}");
@@ -343,8 +343,8 @@ mod tests {
     fn gyro_scale_factor_bias_and_hold() {
         let spec = GyroSpec {
             rate_hz: 4.0,
-            arw_rad_s_rthz: [0.0; 3],
-            rrw_rad_s2_rthz: [0.0; 3],
+            arw_rad_sqrt_s: [0.0; 3],
+            rrw_rad_s_sqrt_s: [0.0; 3],
             bias_rad_s: [1e-3, 0.0, -1e-3],
             scale_factor: [0.01, -0.02, 0.0],
             misalignment_rad: [0.0; 3],
@@ -369,7 +369,7 @@ mod tests {
     }
 
     fn noiseless_gyro() -> GyroSpec {
-        GyroSpec { arw_rad_s_rthz: [0.0; 3], rrw_rad_s2_rthz: [0.0; 3], ..gyro_spec() }
+        GyroSpec { arw_rad_sqrt_s: [0.0; 3], rrw_rad_s_sqrt_s: [0.0; 3], ..gyro_spec() }
     }
 
     #[test]
