@@ -59,6 +59,9 @@ fn check_common(sc: &Scenario, plans: &[FigurePlan], pngs: &[String]) {
                 assert!(hi - lo >= panel.floor, "{g}: y span {} below the floor {}", hi - lo, panel.floor);
             }
             assert!(plots::text_width(&panel.title, panel.title_size) <= p.plot_area.x1 as u32, "{g}: title clipped");
+            for t in &panel.y_ticks {
+                assert!(plots::text_width(t, 15) <= plots::Y_TICK_W, "{g}: tick label {t:?} wider than its column");
+            }
             let legend_w = (p.legend_area.x1 - p.legend_area.x0 - 48) as u32;
             for l in &panel.lines {
                 assert!(plots::text_width(&l.label, 11) <= legend_w, "{g}: legend label {:?} does not fit", l.label);

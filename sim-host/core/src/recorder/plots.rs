@@ -158,6 +158,8 @@ pub struct PanelPlan {
     pub y_range: (f64, f64),
     /// The smallest span the y axis may have ([`resolution_floor`] of `y_label`).
     pub floor: f64,
+    /// The y tick labels of a linear or category axis (empty for a log axis).
+    pub y_ticks: Vec<String>,
     pub lines: Vec<LinePlan>,
     pub thresholds: Vec<(f64, String)>,
 }
@@ -343,7 +345,16 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
     } else {
         linear_range(values, floor)
     };
+    let y_ticks = match () {
+        _ if categorical => p.categories.iter().map(|c| c.1.clone()).collect(),
+        _ if p.log_y => Vec::new(),
+        _ => {
+            let fmt = tick_formatter(y_range.0, y_range.1, Y_TICKS);
+            RangedCoordf64::from(y_range.0..y_range.1).key_points(BoldPoints(Y_TICKS)).iter().map(fmt).collect()
+        }
+    };
     Some(PanelPlan {
+        y_ticks,
         title: p.title.clone(),
         title_size: fit_font(&p.title, 19, WIDTH - LEGEND_W - 40),
         y_label: p.y_label.clone(),
@@ -562,6 +573,9 @@ fn draw(p: &FigurePlan) -> io::Result<Vec<u8>> {
     }
     Ok(buf)
 }
+
+/// Width of the y tick labels' column: [`Y_AREA`] less the rotated axis description.
+pub const Y_TICK_W: u32 = Y_AREA - 36;
 
 /// Draws one panel's chart; returns the plot area's pixel x range (absolute) and the
 /// absolute pixel rows of its thresholds.
