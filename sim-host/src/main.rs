@@ -577,6 +577,7 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     let mut rec = output::RunOutput::new(out, !no_plots)
         .format(format)
         .metadata(metadata)
+        .mode_thresholds(sc.modes.as_ref().map(|m| m.plot_thresholds()).unwrap_or_default())
         .assume_free_bytes(assumed_free_bytes()?);
     let summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
     drop(l);

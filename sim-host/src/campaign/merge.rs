@@ -5,7 +5,7 @@
 
 use super::exec::{RunRecord, RunStatus};
 use super::plan::{Manifest, PlannedRun};
-use super::spec::{Campaign, Distribution, Requirement};
+use super::spec::{Campaign, Distribution, Op, Requirement};
 use super::stats::{self, Moments};
 use super::{flatten, run_dir_name, write_atomic};
 use crate::format::sig_campaign;
@@ -401,15 +401,16 @@ fn file_stem_of(key: &str) -> String {
 
 /// A histogram and the empirical CDF of each requirement's key (and the final error).
 fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Completed]) -> Result<Vec<PathBuf>> {
-    let mut plotted: Vec<(String, String)> =
-        result.requirements.iter().map(|r| (r.requirement.key.clone(), r.requirement.name.clone())).collect();
+    let mut plotted: Vec<(String, Option<&RequirementResult>)> =
+        result.requirements.iter().map(|r| (r.requirement.key.clone(), Some(r))).collect();
     if !plotted.iter().any(|k| k.0 == "final_error_deg") {
-        plotted.push(("final_error_deg".into(), String::new()));
+        plotted.push(("final_error_deg".into(), None));
     }
     let mut seen = std::collections::BTreeSet::new();
     plotted.retain(|k| seen.insert(k.0.clone()));
     let out = dir.join("plots");
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let ctx = plots::FigureContext::new(&format!("campaign {}", result.campaign));
     let mut files = Vec::new();
     for (key, req) in plotted {
         let mut xs: Vec<f64> =
@@ -418,50 +419,110 @@ fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Comp
             continue;
         }
         xs.sort_by(f64::total_cmp);
-        let (lo, hi) = (xs[0], xs[xs.len() - 1]);
-        let bins = 30usize;
-        let width = if hi > lo { (hi - lo) / bins as f64 } else { 1.0 };
-        let mut counts = vec![0.0; bins];
-        for x in &xs {
-            let b = (((x - lo) / width) as usize).min(bins - 1);
-            counts[b] += 1.0;
-        }
-        let n = xs.len() as f64;
-        let mut ts = TimeSeries::with_columns(vec!["x".into(), "runs".into(), "cdf".into()], 2 * bins);
-        for (b, c) in counts.iter().enumerate() {
-            for e in [lo + b as f64 * width, lo + (b + 1) as f64 * width] {
-                let below = xs.partition_point(|x| *x <= e) as f64;
-                ts.push_row(&[e, *c, below / n]);
-            }
-        }
-        let title = if req.is_empty() {
-            format!("{key}: {} runs", xs.len())
-        } else {
-            format!("{key}: {} runs (requirement {req})", xs.len())
-        };
-        let fig = Figure {
-            file_name: format!("{}.png", file_stem_of(&key)),
-            title,
-            x: "x".into(),
-            x_label: key.clone(),
-            panels: vec![
-                Panel {
-                    title: "empirical CDF".into(),
-                    y_label: "fraction of runs <= x".into(),
-                    series: vec![Series { column: "cdf".into(), label: "CDF".into(), dashed: false }],
-                    log_y: false,
-                },
-                Panel {
-                    title: "histogram".into(),
-                    y_label: "runs per bin".into(),
-                    series: vec![Series { column: "runs".into(), label: format!("{bins} bins"), dashed: false }],
-                    log_y: false,
-                },
-            ],
-        };
-        files.extend(plots::render(&out, &ts, &[fig])?);
+        let (ts, fig) = distribution_figure(&key, &xs, req.map(|r| &r.requirement));
+        files.extend(plots::render(&out, &ts, &[fig], &ctx)?);
     }
     Ok(files)
+}
+
+/// The columns of [`distribution_figure`] (`xs` sorted, not empty): `x`, `cdf` and its
+/// Clopper–Pearson lower bound `cdf_lower`, `tail` = 1 − CDF and `tail_upper`, `runs` (the
+/// histogram of `bins` bins, on rows of its own at the bins' left edges, drawn as steps).
+/// The CDF goes on at 1 to `end` when that is right of the data.
+fn distribution_series(xs: &[f64], end: Option<f64>, confidence: f64, bins: usize) -> TimeSeries {
+    let n = xs.len();
+    let (lo, hi) = (xs[0], xs[n - 1]);
+    let width = if hi > lo { (hi - lo) / bins as f64 } else { 1.0 };
+    let mut counts = vec![0.0; bins];
+    for x in xs {
+        counts[(((x - lo) / width) as usize).min(bins - 1)] += 1.0;
+    }
+    let names = ["x", "cdf", "cdf_lower", "tail", "tail_upper", "runs"].map(String::from).to_vec();
+    let mut ts = TimeSeries::with_columns(names, n + bins + 3);
+    let mut push = |x: f64, f: f64, lower: f64, runs: f64| ts.push_row(&[x, f, lower, 1.0 - f, 1.0 - lower, runs]);
+    push(lo, 0.0, 0.0, f64::NAN);
+    // The CDF steps up at each distinct value (to the count of runs at or below it).
+    for (k, x) in xs.iter().enumerate() {
+        if k + 1 < n && xs[k + 1] == *x {
+            continue;
+        }
+        let cp = stats::clopper_pearson_lower(k as u64 + 1, n as u64, confidence);
+        push(*x, (k + 1) as f64 / n as f64, cp, f64::NAN);
+    }
+    if let Some(end) = end.filter(|v| *v > hi) {
+        push(end, 1.0, stats::clopper_pearson_lower(n as u64, n as u64, confidence), f64::NAN);
+    }
+    for (b, c) in counts.iter().enumerate() {
+        push(lo + b as f64 * width, f64::NAN, f64::NAN, *c);
+    }
+    push(lo + bins as f64 * width, f64::NAN, f64::NAN, counts[bins - 1]);
+    ts
+}
+
+/// The figure of one key's distribution over the runs (`xs` sorted): the empirical CDF as
+/// a step function with its one-sided Clopper–Pearson lower bound at the requirement's
+/// confidence (95 % without one), the requirement's threshold (vertical) and probability
+/// (horizontal, on the side of the CDF the requirement is on), the tail `1 − CDF` on a
+/// log axis with the matching upper bound, and a 30-bin histogram.
+fn distribution_figure(key: &str, xs: &[f64], req: Option<&Requirement>) -> (TimeSeries, Figure) {
+    let n = xs.len();
+    let confidence = req.map_or(0.95, |r| r.confidence);
+    let bins = 30usize;
+    let ts = distribution_series(xs, req.map(|r| r.value), confidence, bins);
+    let conf = format!("{:.0} %", 100.0 * confidence);
+    let mut cdf = Panel {
+        title: "empirical CDF (steps) and its one-sided Clopper–Pearson lower bound".into(),
+        y_label: "fraction of runs ≤ x".into(),
+        series: vec![
+            Series { column: "cdf".into(), label: "CDF".into(), dashed: false },
+            Series { column: "cdf_lower".into(), label: format!("lower bound, {conf}"), dashed: true },
+        ],
+        step: true,
+        ..Default::default()
+    };
+    let mut tail = Panel {
+        title: "tail: fraction of runs above x, and its Clopper–Pearson upper bound (log)".into(),
+        y_label: "fraction of runs > x".into(),
+        series: vec![
+            Series { column: "tail".into(), label: "1 − CDF".into(), dashed: false },
+            Series { column: "tail_upper".into(), label: format!("upper bound, {conf}"), dashed: true },
+        ],
+        step: true,
+        log_y: true,
+        ..Default::default()
+    };
+    let mut x_lines = Vec::new();
+    let mut title = format!("{key}: {n} runs");
+    if let Some(r) = req {
+        let needed = match r.op {
+            Op::Lt | Op::Le => r.probability,
+            Op::Gt | Op::Ge => 1.0 - r.probability,
+        };
+        cdf.thresholds.push((needed, format!("required ({})", r.name)));
+        tail.thresholds.push((1.0 - needed, format!("allowed ({})", r.name)));
+        x_lines.push((r.value, format!("threshold ({})", r.name)));
+        title = format!("{key}: {n} runs, requirement {} ({} % at {conf})", r.name, 100.0 * r.probability);
+    }
+    let fig = Figure {
+        file_name: format!("{}.png", file_stem_of(key)),
+        title,
+        x: "x".into(),
+        x_label: format!("{key} (dashed vertical: the requirement's threshold)"),
+        panels: vec![
+            cdf,
+            tail,
+            Panel {
+                title: "histogram".into(),
+                y_label: "runs per bin".into(),
+                series: vec![Series { column: "runs".into(), label: format!("{bins} bins"), dashed: false }],
+                step: true,
+                ..Default::default()
+            },
+        ],
+        x_lines,
+        ..Default::default()
+    };
+    (ts, fig)
 }
 
 /// The report's head: base scenario, run counts, failed and missing runs, the verdict.
@@ -607,4 +668,35 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
         1e3 * run_wall_s / r.completed.max(1) as f64
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cdf_figure_has_steps_the_threshold_and_the_bound() {
+        let xs: Vec<f64> = (0..200).map(|i| 4.0 + 0.03 * i as f64).collect();
+        let req = Requirement {
+            name: "settle < 15 s".into(),
+            key: "settle_time_s".into(),
+            op: Op::Lt,
+            value: 15.0,
+            probability: 0.99,
+            confidence: 0.95,
+        };
+        let (ts, fig) = distribution_figure("settle_time_s", &xs, Some(&req));
+        let plan = plots::plan(&ts, &fig, &plots::FigureContext::new("campaign c")).unwrap();
+        // The x axis reaches the threshold (the data stop at 9.97).
+        assert!(plan.x_range.0 <= 4.0 && plan.x_range.1 >= 15.0, "{:?}", plan.x_range);
+        assert_eq!(plan.x_lines.len(), 1);
+        let cdf = &plan.panels[0];
+        assert!(cdf.step, "the empirical CDF is a step function");
+        assert!(cdf.thresholds.iter().any(|t| t.0 == 0.99), "the required probability is drawn");
+        // The Clopper–Pearson bound lies under the CDF, and the CDF reaches 1.
+        let (f, lower) = (ts.col("cdf").unwrap(), ts.col("cdf_lower").unwrap());
+        assert!(f.iter().zip(lower).filter(|(a, _)| a.is_finite()).all(|(a, b)| b <= a));
+        assert_eq!(f.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max), 1.0);
+        assert!(plan.title.contains("settle < 15 s"));
+    }
 }

@@ -80,10 +80,17 @@ impl Context {
         load_scenario(&self.repo, rel)
     }
 
+    /// What the experiment's figures name: the experiment (its figure directory).
+    fn figure_context(&self) -> plots::FigureContext {
+        let name = self.fig_dir.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned());
+        plots::FigureContext::new(&format!("reproduction report, experiment {name}"))
+    }
+
     /// Renders `fig` from `ts` into [`Self::fig_dir`]; returns the figure block.
     pub fn figure(&self, ts: &TimeSeries, fig: Figure, caption: &str) -> Result<Block> {
         let file = fig.file_name.clone();
-        plots::render(&self.fig_dir, ts, std::slice::from_ref(&fig)).with_context(|| format!("rendering {file}"))?;
+        plots::render(&self.fig_dir, ts, std::slice::from_ref(&fig), &self.figure_context())
+            .with_context(|| format!("rendering {file}"))?;
         Ok(Block::Figure { file, caption: caption.to_owned() })
     }
 }

@@ -19,6 +19,7 @@ use anyhow::{Context as _, Result, bail};
 use experiment::{Block, Context, Experiment, Explains, par_map, sig};
 use outcomes::{Row, Values, Verdict};
 use render::Section;
+use sim_core::recorder::output;
 use sim_core::recorder::plots::{self, Figure};
 use sim_core::runner::Summary;
 use std::collections::BTreeMap;
@@ -120,10 +121,13 @@ fn fly_one(s: &Scn, fig_root: &Path) -> Result<Flown> {
     let dir = fig_root.join(&dir_name);
     std::fs::create_dir_all(&dir)?;
     let wanted = figure_set(&s.paper);
+    let thresholds = sc.modes.as_ref().map(|m| m.plot_thresholds()).unwrap_or_default();
     let figs: Vec<Figure> =
-        sim_core::recorder::output::figures().into_iter().filter(|f| wanted.contains(&f.file_name.as_str())).collect();
+        output::figures_with(&thresholds).into_iter().filter(|f| wanted.contains(&f.file_name.as_str())).collect();
     let titles: BTreeMap<String, String> = figs.iter().map(|f| (f.file_name.clone(), f.title.clone())).collect();
-    let written = plots::render(&dir, &r.series, &figs).with_context(|| format!("plotting {}", s.rel))?;
+    let written =
+        plots::render(&dir, &output::with_plot_columns(&r.series), &figs, &plots::FigureContext::new(&sc.name))
+            .with_context(|| format!("plotting {}", s.rel))?;
     let mut figures = Vec::new();
     for w in wanted {
         if written.iter().any(|p| p.file_name().is_some_and(|n| n == *w)) {

@@ -7,7 +7,7 @@ use crate::recorder::columns::Col;
 use crate::recorder::csv::CsvRows;
 use crate::recorder::decimate::Envelope;
 use crate::recorder::parquet::{ParquetStream, RunMetadata};
-use crate::recorder::plots::{self, Figure, Panel, Series};
+use crate::recorder::plots::{self, Figure, FigureContext, Panel, Presence, Series};
 use crate::recorder::series::{Recorder, TimeSeries};
 use crate::recorder::summary::Summary;
 use anyhow::{Context, Result, bail};
@@ -19,6 +19,11 @@ use std::path::{Path, PathBuf};
 /// One series per wheel / thruster (missing columns are skipped by the renderer).
 fn per_unit(prefix: &str, quantity: &str, label: &str, n: usize) -> Vec<Series> {
     (1..=n).map(|i| line(&format!("{prefix}{i}_{quantity}"), &format!("{label}{i}"), false)).collect()
+}
+
+/// The column names of one quantity of every wheel.
+fn wheel_columns(quantity: &str) -> Vec<String> {
+    (1..=6).map(|i| format!("wheel{i}_{quantity}")).collect()
 }
 
 fn xyz(prefix: &str, suffix: &str) -> Vec<Series> {
@@ -34,11 +39,21 @@ fn line(column: &str, label: &str, dashed: bool) -> Series {
 }
 
 fn panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
-    Panel { title: title.into(), y_label: y_label.into(), series, log_y: false }
+    Panel { title: title.into(), y_label: y_label.into(), series, ..Panel::default() }
 }
 
 fn log_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
     Panel { log_y: true, ..panel(title, y_label, series) }
+}
+
+/// A panel of a model that may be off: left out when every series is identically zero.
+fn model_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { presence: Presence::NonZero, ..panel(title, y_label, series) }
+}
+
+/// A panel of step signals (counters).
+fn step_panel(title: &str, y_label: &str, series: Vec<Series>) -> Panel {
+    Panel { step: true, ..panel(title, y_label, series) }
 }
 
 fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
@@ -48,13 +63,50 @@ fn figure(file_name: &str, title: &str, panels: Vec<Panel>) -> Figure {
         x: Col::T.name().into(),
         x_label: "time [s]".into(),
         panels,
+        ..Figure::default()
     }
+}
+
+/// Thresholds of the mode manager, for `modes.png` (deg and deg/s, as in `[modes]`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ModeThresholds {
+    /// (value in deg, label) compared with the attitude error.
+    pub error_deg: Vec<(f64, String)>,
+    /// (value in deg/s, label) compared with the body rate.
+    pub rate_deg_s: Vec<(f64, String)>,
+}
+
+/// The body-rate norm in deg/s, a column the plots derive ([`RunOutput`] computes it per
+/// recorded row before decimation; it is not written to the time series).
+pub const RATE_NORM_DEG_S: &str = "rate_norm_deg_s";
+
+/// The body-rate norm of a recorded row, deg/s ([`RATE_NORM_DEG_S`]).
+pub fn rate_norm_deg_s(row: &[f64]) -> f64 {
+    let rate = Col::RATE.map(|c| row.get(c.index()).copied().unwrap_or(f64::NAN));
+    rate.iter().map(|w| w * w).sum::<f64>().sqrt().to_degrees()
+}
+
+/// `ts` with the columns the figures derive ([`RATE_NORM_DEG_S`]) appended (for a full,
+/// undecimated series; [`RunOutput`] derives them row by row before its decimation).
+pub fn with_plot_columns(ts: &TimeSeries) -> TimeSeries {
+    let mut out = ts.clone();
+    if let Some(fixed) = Col::RATE.iter().map(|c| ts.fixed(*c)).collect::<Option<Vec<_>>>() {
+        let norm = (0..ts.len()).map(|i| fixed.iter().map(|c| c[i] * c[i]).sum::<f64>().sqrt().to_degrees());
+        out.names.push(RATE_NORM_DEG_S.into());
+        out.cols.push(norm.collect());
+    }
+    out
 }
 
 /// The figures of a run: the paper-style attitude, CMG, torque and singularity plots,
 /// and one figure per actuator family or environment present (figures whose columns are
 /// absent are skipped).
 pub fn figures() -> Vec<Figure> {
+    figures_with(&ModeThresholds::default())
+}
+
+/// [`figures`], with the mode manager's thresholds drawn on `modes.png`.
+pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     let s = line;
     let rates = || Col::RATE.iter().zip(["ωx", "ωy", "ωz"]).map(|(c, l)| s(c.name(), l, false)).collect();
     let error = || log_panel("attitude error", "deg", vec![s(Col::Error.name(), "error", false)]);
@@ -63,8 +115,9 @@ pub fn figures() -> Vec<Figure> {
     };
     let torque = |i: usize, a: &str| {
         let applied = s(Col::APPLIED[i].name(), "applied", false);
-        panel(a, "N m", vec![applied, s(Col::DEMAND[i].name(), "demand", true)])
+        panel(&format!("{a} axis"), "N m", vec![applied, s(Col::DEMAND[i].name(), "demand", true)])
     };
+    let gimbal_rates = (1..=4).map(|i| line(&format!("gimbal_rate{i}_rad_s"), &format!("dδ{i}/dt"), false)).collect();
     vec![
         figure(
             "attitude.png",
@@ -75,8 +128,9 @@ pub fn figures() -> Vec<Figure> {
             "gimbals.png",
             "CMG gimbal angles and rates",
             vec![
-                panel("gimbal angles", "deg", per_unit("gimbal", "deg", "δ", 4)),
-                panel("commanded gimbal rates", "rad/s", per_unit("gimbal_rate", "rad_s", "δ", 4)),
+                panel("gimbal angles δ", "deg", per_unit("gimbal", "deg", "δ", 4)),
+                // dδ/dt, not δ̇: the embedded font's renderer does not compose the combining dot.
+                panel("commanded gimbal rates dδ/dt", "rad/s", gimbal_rates),
             ],
         ),
         figure(
@@ -88,29 +142,41 @@ pub fn figures() -> Vec<Figure> {
             "singularity.png",
             "Singularity measure m = det(J Jᵀ) and SR weight",
             vec![
-                panel("singularity measure", "m", vec![s("singularity_m", "m", false)]),
-                panel("SR weight α", "α", vec![s("steering_alpha", "α", false)]),
+                panel("singularity measure m", "(dimensionless)", vec![s("singularity_m", "m", false)]),
+                panel("SR weight α", "(dimensionless)", vec![s("steering_alpha", "α", false)]),
             ],
         ),
         figure("rates.png", "Body rates", vec![panel("body rate", "rad/s", rates())]),
-        figure(
-            "modes.png",
-            "Mode manager: mode, attitude error to the mission target, body rates",
-            vec![
-                panel(
-                    "mode: 1 detumble, 2 stabilise, 3 manoeuvre, 4 hold, 5 sun-safe",
-                    "mode",
-                    vec![s("mode", "mode", false)],
-                ),
-                error(),
-                panel("body rate", "rad/s", rates()),
-            ],
-        ),
+        modes_figure(thresholds),
     ]
     .into_iter()
     .chain(actuator_figures())
     .chain([estimation_figure(), environment_figure()])
     .collect()
+}
+
+/// `modes.png` (runs with a mode manager only): the mode as named levels, the errors and
+/// the rate norm with the thresholds the mode manager compares them with.
+fn modes_figure(t: &ModeThresholds) -> Figure {
+    let s = line;
+    let categories = plots::MODE_NAMES.iter().map(|(v, n)| (*v, n.to_string())).collect();
+    let mode = Panel { categories, ..panel("flight mode", "mode", vec![s("mode", "mode", false)]) };
+    let error = Panel {
+        thresholds: t.error_deg.clone(),
+        ..log_panel(
+            "attitude error (flight's own estimate, and truth)",
+            "deg",
+            vec![s("flight_error_deg", "flight", false), s(Col::Error.name(), "truth", true)],
+        )
+    };
+    let rate = Panel {
+        thresholds: t.rate_deg_s.clone(),
+        ..log_panel("body rate |ω| (truth)", "deg/s", vec![s(RATE_NORM_DEG_S, "|ω|", false)])
+    };
+    Figure {
+        requires: Some("mode".into()),
+        ..figure("modes.png", "Mode manager: mode, attitude error, body rate", vec![mode, error, rate])
+    }
 }
 
 /// The figures of the DMCS law and the actuator families.
@@ -122,25 +188,36 @@ fn actuator_figures() -> Vec<Figure> {
         label: format!("{} cmd", x.label),
         ..x
     }));
+    let current = wheel_columns("current_a");
     vec![
         figure(
             "adaptive.png",
             "DMCS adaptive feed-forward gains Δk_u",
-            vec![panel("adaptive gain", "-", xyz_plain("adaptive_gain"))],
+            vec![panel("adaptive gain", "(dimensionless)", xyz_plain("adaptive_gain"))],
         ),
         figure(
             "wheels.png",
             "Reaction wheels",
             vec![
                 panel("speed", "rpm", per_unit("wheel", "speed_rpm", "w", 6)),
-                panel("motor current", "A", per_unit("wheel", "current_a", "w", 6)),
-                panel("electrical power", "W", per_unit("wheel", "power_w", "w", 6)),
+                Panel {
+                    presence: Presence::NonZeroIn(current.clone()),
+                    ..panel("motor current", "A", per_unit("wheel", "current_a", "w", 6))
+                },
+                Panel {
+                    presence: Presence::NonZeroIn(current.clone()),
+                    ..panel("electrical power (eq 30; < 0 regenerating)", "W", per_unit("wheel", "power_w", "w", 6))
+                },
+                Panel {
+                    presence: Presence::ZeroIn(current),
+                    ..panel("mechanical power ω_w ḣ (ideal wheels)", "W", per_unit("wheel", "power_w", "w", 6))
+                },
                 panel("torque on the body", "N m", per_unit("wheel", "torque_nm", "w", 6)),
             ],
         ),
         figure(
             "momentum.png",
-            "Momentum management: stored momentum (truth) and the torquers' unloading torque",
+            "Momentum management: stored momentum (truth) and unloading torque",
             vec![
                 panel("stored momentum, body axes", "N m s", xyz("h_body", "nms")),
                 panel("stored momentum, inertial axes", "N m s", xyz("h_inertial", "nms")),
@@ -161,9 +238,9 @@ fn actuator_figures() -> Vec<Figure> {
             "thrusters.png",
             "Thrusters",
             vec![
-                panel("allocated level (PWPF input)", "-", per_unit("thruster", "level", "T", 12)),
+                panel("allocated level (PWPF input)", "(dimensionless)", per_unit("thruster", "level", "T", 12)),
                 panel("propellant used", "kg", vec![s("propellant_kg", "propellant", false)]),
-                panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
+                step_panel("valve openings (all thrusters)", "pulses", vec![s("pulses_total", "pulses", false)]),
             ],
         ),
     ]
@@ -174,7 +251,7 @@ fn estimation_figure() -> Figure {
     let s = line;
     figure(
         "estimation.png",
-        "On-board attitude determination (MEKF) against the truth: error and the filter's own sigma (dashed)",
+        "On-board attitude determination (MEKF) against the truth; σ: the filter's own (dashed)",
         vec![
             log_panel(
                 "attitude error |δθ| and √tr Pθθ",
@@ -186,9 +263,12 @@ fn estimation_figure() -> Figure {
                 "deg/h",
                 vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
             ),
-            log_panel("NEES (χ²₆: mean 6)", "-", vec![s("est_nees", "NEES", false)]),
-            panel(
-                "innovations rejected, filter restarts; samples refused (too old, from the future, out of order)",
+            Panel {
+                thresholds: vec![(6.0, "mean of χ²₆".into())],
+                ..log_panel("NEES (χ²₆: mean 6)", "(dimensionless)", vec![s("est_nees", "NEES", false)])
+            },
+            step_panel(
+                "innovations rejected, filter restarts; samples refused (too old, future, out of order)",
                 "count",
                 vec![
                     s("est_rejected", "rejected", false),
@@ -196,7 +276,7 @@ fn estimation_figure() -> Figure {
                     s("est_refused", "refused", true),
                 ],
             ),
-            panel(
+            model_panel(
                 "age of each sensor's newest sample at the step",
                 "s",
                 vec![
@@ -206,7 +286,7 @@ fn estimation_figure() -> Figure {
                     s("est_age_mag_s", "magnetometer", false),
                 ],
             ),
-            panel(
+            step_panel(
                 "samples fused at their own time (late: carried forward through the history)",
                 "count",
                 vec![s("est_fused", "fused", false), s("est_fused_late", "fused late", true)],
@@ -215,17 +295,18 @@ fn estimation_figure() -> Figure {
     )
 }
 
-/// The environment torques.
+/// The environment torques (a panel per model that is on in the run).
 fn environment_figure() -> Figure {
     figure(
         "environment.png",
         "Environment torques, body axes",
         vec![
-            panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
-            panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
-            panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
-            panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
-            panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
+            model_panel("gravity gradient", "N m", xyz("torque_gravity_gradient", "nm")),
+            model_panel("aerodynamic drag", "N m", xyz("torque_drag", "nm")),
+            model_panel("solar radiation pressure", "N m", xyz("torque_srp", "nm")),
+            model_panel("magnetic (m × B)", "N m", xyz("torque_magnetic", "nm")),
+            model_panel("rig pendulum and stops", "N m", xyz("torque_rig", "nm")),
+            model_panel("external (scenario)", "N m", xyz("torque_external", "nm")),
         ],
     )
 }
@@ -426,6 +507,10 @@ pub struct RunOutput {
     /// the start).
     tmp: Option<PathBuf>,
     plot: Envelope,
+    /// A recorded row with the derived plot columns appended ([`RATE_NORM_DEG_S`]).
+    plot_row: Vec<f64>,
+    /// The mode manager's thresholds for `modes.png`.
+    thresholds: ModeThresholds,
 }
 
 impl RunOutput {
@@ -440,7 +525,15 @@ impl RunOutput {
             sink: None,
             tmp: None,
             plot: Envelope::new(),
+            plot_row: Vec::new(),
+            thresholds: ModeThresholds::default(),
         }
+    }
+
+    /// Draw the mode manager's `thresholds` on `modes.png`.
+    pub fn mode_thresholds(mut self, thresholds: ModeThresholds) -> Self {
+        self.thresholds = thresholds;
+        self
     }
 
     /// Write the time series in `format`.
@@ -470,6 +563,21 @@ impl RunOutput {
         clear_previous(&self.dir)
     }
 
+    /// The context every figure of this run names (the scenario).
+    fn figure_context(&self) -> FigureContext {
+        FigureContext::new(&self.metadata.scenario)
+    }
+
+    /// The figures [`RunOutput::finish`] would draw from the rows recorded so far, as
+    /// plans (tests inspect them; empty without plots).
+    pub fn figure_plans(&self) -> Vec<plots::FigurePlan> {
+        if !self.with_plots {
+            return Vec::new();
+        }
+        let (ts, ctx) = (self.plot.series(), self.figure_context());
+        figures_with(&self.thresholds).iter().filter_map(|f| plots::plan(&ts, f, &ctx)).collect()
+    }
+
     /// Closes the time series, writes the summary and the figures; returns the files
     /// written.
     pub fn finish(mut self, summary: &Summary) -> Result<Vec<PathBuf>> {
@@ -486,7 +594,9 @@ impl RunOutput {
         crate::files::write_atomic(&json, (serde_json::to_string_pretty(summary)? + "\n").as_bytes())?;
         let mut files = vec![series, json];
         if self.with_plots {
-            files.extend(plots::render(&self.dir, &self.plot.series(), &figures()).context("rendering plots")?);
+            let ctx = self.figure_context();
+            let figs = figures_with(&self.thresholds);
+            files.extend(plots::render(&self.dir, &self.plot.series(), &figs, &ctx).context("rendering plots")?);
         }
         Ok(files)
     }
@@ -534,7 +644,9 @@ impl Recorder for RunOutput {
             self.open_sink(columns, &tmp).with_context(|| format!("writing {}", self.series_path().display()))?;
         self.sink = Some(sink);
         if self.with_plots {
-            self.plot.start(columns, rows)?;
+            let mut plot_columns = columns.to_vec();
+            plot_columns.push(RATE_NORM_DEG_S.into());
+            self.plot.start(&plot_columns, rows)?;
         }
         Ok(())
     }
@@ -546,7 +658,10 @@ impl Recorder for RunOutput {
         };
         written.with_context(|| format!("writing {}", self.series_path().display()))?;
         if self.with_plots {
-            self.plot.record(row)?;
+            self.plot_row.clear();
+            self.plot_row.extend_from_slice(row);
+            self.plot_row.push(rate_norm_deg_s(row));
+            self.plot.record(&self.plot_row)?;
         }
         Ok(())
     }

@@ -1,15 +1,41 @@
-//! PNG figures of recorded time series, in the style of a GNC paper.
+//! PNG figures of recorded time series, in the style of a GNC paper, drawn so that they
+//! never mislead (the style rules are in `docs/outputs.md`, "Figures").
 //!
 //! A [`Figure`] is a stack of [`Panel`]s sharing one x axis (normally column `"t_s"`). Each panel
 //! draws one or more [`Series`] (a column of the [`TimeSeries`] plus a legend label; `dashed` for
 //! targets / commands) and can use a logarithmic y axis (`log_y`, e.g. for attitude error).
-//! [`render`] writes one PNG per figure (1200 px wide, ~300 px per panel) and returns the paths.
+//! [`render`] writes one PNG per figure and returns the paths.
+//!
+//! Drawing goes in two steps: [`plan`] resolves a figure against the data into a
+//! [`FigurePlan`] (which panels are drawn, each panel's y range, each line's colour and dash
+//! pattern and legend label, the legend's place, the mode-transition markers, the title and
+//! its font size), then the plan is drawn. Tests inspect the plan, not pixels. The rules the
+//! plan follows:
+//! - a y axis never spans less than its quantity's resolution floor ([`resolution_floor`],
+//!   by the panel's unit); a series that is identically zero is labelled "≡ 0", one whose
+//!   span is below the floor "≈ value (< floor)", so rounding noise is never drawn as signal;
+//! - a panel of a model that is absent ([`Presence`]: all its series identically zero, or a
+//!   column that tells the model is off) is left out; a figure whose `requires` column is
+//!   missing is left out;
+//! - within a panel no two lines share a (colour, dash) pair: the Okabe–Ito colours
+//!   ([`PALETTE`]) in order, then the same colours dotted, then long-dashed ([`Dash`]);
+//! - the legend sits right of the plot area, never on the data;
+//! - every figure names its scenario and time window in a subtitle ([`FigureContext`]);
+//! - with a `mode` column, every time plot gets a mode ribbon (mode names over time) and
+//!   vertical lines at the transitions; with an `eclipse` column (1 in shadow), grey shading;
+//! - step signals (modes, counters; [`Panel::step`]) are drawn as steps between recorded
+//!   values, category panels ([`Panel::categories`]) with the category names on the y axis;
+//! - `thresholds` are horizontal reference lines in the panel's unit, `Figure::x_lines`
+//!   vertical ones (the x range is widened to include them).
+//!
+//! Lines are drawn 2 px wide as two 1-px lines one pixel apart, not as plotters' polygonised
+//! wide paths: a min/max envelope of a long run zigzags at sub-pixel spacing and the
+//! polygon's mitre at such acute turns shoots far past the data (that was the "dip below
+//! hold" of the mission's mode plot near 7,000 s, at a 4 → 3 transition).
 //!
 //! Robustness rules: a series whose column is missing is skipped, a panel left without series is
 //! skipped, a figure left without panels (or whose x column is missing) is skipped; none of that
-//! is an error. Non-finite samples (and, on log axes, samples <= 0) break the line. y ranges come
-//! from the data with a 5 % margin (a constant series gets +-10 % of its value, or +-1 if zero);
-//! log axes start at half the smallest positive value. The x axis spans the data exactly.
+//! is an error. Non-finite samples (and, on log axes, samples <= 0) break the line.
 //!
 //! Pure Rust, no system fonts or C libraries: `plotters` (bitmap backend + `ab_glyph` text) draws
 //! into an RGB buffer and the `png` crate encodes it. The text font is DejaVu Sans 2.37, embedded
@@ -17,12 +43,13 @@
 //! free to use, embed and redistribute; see `sim-host/core/assets/DejaVuSans-LICENSE.txt`; copied from the
 //! `dejavu` 2.37.0 crate on crates.io).
 
+use plotters::coord::Shift;
 use plotters::coord::ranged1d::{BoldPoints, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
-use plotters::element::{DashedPathElement, IntoDynElement};
+use plotters::element::{DashedPathElement, Rectangle};
 use plotters::prelude::{
-    BitMapBackend, Cartesian2d, ChartBuilder, ChartContext, Color, DrawingBackend, FontStyle, IntoDrawingArea,
-    IntoFont, IntoLogRange, PathElement, RGBColor, Ranged, SeriesLabelPosition, TextStyle, WHITE,
+    BitMapBackend, Cartesian2d, ChartBuilder, ChartContext, Color, DrawingArea, DrawingBackend, FontStyle,
+    IntoDrawingArea, IntoFont, IntoLogRange, PathElement, RGBColor, Ranged, ShapeStyle, TextStyle,
 };
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::io;
@@ -31,39 +58,167 @@ use std::path::{Path, PathBuf};
 pub use crate::recorder::series::TimeSeries;
 
 /// One line on a panel: column name and legend label; `dashed` for targets/commands.
+#[derive(Clone, Debug, Default)]
 pub struct Series {
     pub column: String,
     pub label: String,
     pub dashed: bool,
 }
-/// One panel (sub-plot) with a y-axis label; `log_y` for quantities like attitude error.
+
+/// When a panel is drawn: a panel of a model that is off in the run is left out.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Presence {
+    /// Whenever one of its columns exists.
+    #[default]
+    Always,
+    /// Unless every series is identically zero (or NaN): the model is off.
+    NonZero,
+    /// When one of these columns exists and is not identically zero.
+    NonZeroIn(Vec<String>),
+    /// When these columns exist and are all identically zero (e.g. the mechanical power of
+    /// ideal wheels, whose motor current is recorded as 0).
+    ZeroIn(Vec<String>),
+}
+
+/// One panel (sub-plot) with a y-axis label (the unit: it selects the resolution floor,
+/// [`resolution_floor`]); `log_y` for quantities like attitude error.
+#[derive(Clone, Debug, Default)]
 pub struct Panel {
     pub title: String,
     pub y_label: String,
     pub series: Vec<Series>,
     pub log_y: bool,
+    /// A step signal (mode, counter): drawn as steps between the recorded values.
+    pub step: bool,
+    /// A category axis: (recorded value, name), bottom to top (drawn as steps).
+    pub categories: Vec<(f64, String)>,
+    /// Horizontal reference lines: (value in the panel's unit, label).
+    pub thresholds: Vec<(f64, String)>,
+    pub presence: Presence,
 }
+
 /// A figure: panels stacked vertically sharing the x axis (column `x`, usually "t_s", label "time [s]").
+#[derive(Clone, Debug, Default)]
 pub struct Figure {
     pub file_name: String,
     pub title: String,
     pub x: String,
     pub x_label: String,
     pub panels: Vec<Panel>,
+    /// The figure is drawn only when this column exists (e.g. `mode` for `modes.png`).
+    pub requires: Option<String>,
+    /// Vertical reference lines on every panel (e.g. a requirement's threshold): (x, label).
+    pub x_lines: Vec<(f64, String)>,
+}
+
+/// What every figure of one render names: the scenario (or campaign, or experiment).
+#[derive(Clone, Debug, Default)]
+pub struct FigureContext {
+    pub scenario: String,
+}
+
+impl FigureContext {
+    pub fn new(scenario: &str) -> Self {
+        Self { scenario: scenario.into() }
+    }
+}
+
+/// Dash pattern of a line ([`PALETTE`] colours repeat only with another pattern).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Dash {
+    Solid,
+    Dashed,
+    Dotted,
+    LongDash,
+}
+
+/// A line as it will be drawn.
+#[derive(Clone, Debug)]
+pub struct LinePlan {
+    pub column: String,
+    /// Legend label, annotated "≡ 0", "≡ c" or "≈ c (span < floor)" when flat.
+    pub label: String,
+    pub colour: RGBColor,
+    pub dash: Dash,
+    /// The y values (category indices on a category axis).
+    pub y: Vec<f64>,
+}
+
+/// A panel as it will be drawn.
+#[derive(Clone, Debug)]
+pub struct PanelPlan {
+    pub title: String,
+    pub title_size: u32,
+    pub y_label: String,
+    pub log_y: bool,
+    pub step: bool,
+    /// Category names, bottom to top (empty: a numeric axis).
+    pub categories: Vec<String>,
+    /// The y axis range.
+    pub y_range: (f64, f64),
+    /// The smallest span the y axis may have ([`resolution_floor`] of `y_label`).
+    pub floor: f64,
+    /// The y tick labels of a linear or category axis (empty for a log axis).
+    pub y_ticks: Vec<String>,
+    pub lines: Vec<LinePlan>,
+    pub thresholds: Vec<(f64, String)>,
+}
+
+/// A pixel rectangle, `x0..x1` × `y0..y1` (relative to the panel's cell).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Rect {
+    pub x0: i32,
+    pub y0: i32,
+    pub x1: i32,
+    pub y1: i32,
+}
+
+/// A figure as it will be drawn.
+#[derive(Clone, Debug)]
+pub struct FigurePlan {
+    pub file_name: String,
+    pub title: String,
+    pub title_size: u32,
+    /// Scenario name and time window.
+    pub subtitle: String,
+    pub x_label: String,
+    pub x: Vec<f64>,
+    pub x_range: (f64, f64),
+    pub panels: Vec<PanelPlan>,
+    /// Mode spans (from, to, mode name) for the ribbon and the transition lines.
+    pub modes: Vec<(f64, f64, String)>,
+    /// Eclipse spans (from, to).
+    pub eclipses: Vec<(f64, f64)>,
+    pub x_lines: Vec<(f64, String)>,
+    pub width: u32,
+    pub height: u32,
+    /// Where the data are drawn in each panel's cell, and where its legend goes.
+    pub plot_area: Rect,
+    pub legend_area: Rect,
 }
 
 const WIDTH: u32 = 1200;
-const TITLE_H: u32 = 50;
+/// Width of the legend column right of every panel.
+const LEGEND_W: u32 = 230;
+const TITLE_H: u32 = 62;
+/// Height of the mode ribbon under the title (runs with a `mode` column).
+const RIBBON_H: u32 = 26;
 const PANEL_H: u32 = 300;
 /// Extra height of the bottom panel for the x-axis label.
 const XLABEL_H: u32 = 30;
+const MARGIN: u32 = 8;
+const MARGIN_RIGHT: u32 = 14;
+const Y_AREA: u32 = 110;
+const X_AREA: u32 = 32;
+const CAPTION_H: i32 = 30;
 /// Maximum number of tick labels on the x / y axes.
 const X_TICKS: usize = 12;
 const Y_TICKS: usize = 8;
 const FONT: &str = "sans-serif";
 /// Okabe–Ito colour-blind-safe palette (yellow dropped: invisible on white), indexed by the
-/// series' position in its panel.
-const PALETTE: [RGBColor; 7] = [
+/// series' position in its panel; past 7 lines the colours repeat with another dash pattern
+/// ([`line_style`]).
+pub const PALETTE: [RGBColor; 7] = [
     RGBColor(0, 114, 178),   // blue
     RGBColor(213, 94, 0),    // vermillion
     RGBColor(0, 158, 115),   // bluish green
@@ -72,9 +227,282 @@ const PALETTE: [RGBColor; 7] = [
     RGBColor(86, 180, 233),  // sky blue
     RGBColor(0, 0, 0),       // black
 ];
+const GREY: RGBColor = RGBColor(110, 110, 110);
+/// Mode names by telemetry code (1 … 5, `acs_flight::params::Mode::ALL`), and the order
+/// they are drawn in, bottom to top (the nominal sequence, sun-safe between detumble and
+/// the pointing modes).
+pub const MODE_NAMES: [(f64, &str); 5] =
+    [(1.0, "detumble"), (5.0, "sun-safe"), (2.0, "stabilise"), (3.0, "manoeuvre"), (4.0, "hold")];
 
-/// A series resolved against the store: (palette index, series, y column).
-type Line<'a> = (usize, &'a Series, &'a [f64]);
+/// The smallest y span drawn for a panel whose axis label is `unit`: below it, differences
+/// are rounding noise, not signal (docs/outputs.md has the table). Unknown units: 1e-12.
+pub fn resolution_floor(unit: &str) -> f64 {
+    match unit {
+        "deg" | "deg/s" => 1e-6,
+        "rad" | "rad/s" => 1e-8,
+        "deg/h" => 1e-4,
+        "N m" | "N m s" => 1e-12,
+        "A" | "V" | "W" | "s" | "m" | "A m²" => 1e-6,
+        "rpm" => 1e-3,
+        "T" => 1e-10,
+        "kg" => 1e-9,
+        "count" | "pulses" => 1.0,
+        "(dimensionless)" => 1e-9,
+        _ => 1e-12,
+    }
+}
+
+/// (colour, dash) of the `i`-th line of a panel: unique within the panel for up to 14
+/// solid and 14 dashed lines (the palette's 7 colours, then dotted / long-dashed).
+pub fn line_style(i: usize, dashed: bool) -> (RGBColor, Dash) {
+    let dash = match (i / PALETTE.len(), dashed) {
+        (0, false) => Dash::Solid,
+        (0, true) => Dash::Dashed,
+        (_, false) => Dash::Dotted,
+        (_, true) => Dash::LongDash,
+    };
+    (PALETTE[i % PALETTE.len()], dash)
+}
+
+/// Resolves `fig` against the data: `None` when it is not drawn (missing x or `requires`
+/// column, no panel left).
+pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<FigurePlan> {
+    if let Some(r) = &fig.requires {
+        ts.col(r)?;
+    }
+    let x = ts.col(&fig.x)?;
+    let panels: Vec<PanelPlan> = fig.panels.iter().filter_map(|p| plan_panel(ts, p)).collect();
+    if panels.is_empty() {
+        return None;
+    }
+    let data_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
+    let lines = fig.x_lines.iter().map(|l| l.0);
+    let mut x_range = finite_range(x.iter().copied().chain(lines)).unwrap_or((0.0, 1.0));
+    if x_range.1 <= x_range.0 {
+        x_range = pad(x_range, 0.0);
+    } else if !fig.x_lines.is_empty() {
+        x_range = pad(x_range, 0.03);
+    }
+    let time = fig.x == "t_s";
+    let modes = if time { mode_spans(ts, x, x_range) } else { Vec::new() };
+    let eclipses = if time { eclipse_spans(ts, x) } else { Vec::new() };
+    let subtitle = if time {
+        format!("{} · t = {} … {} s", ctx.scenario, short(data_range.0), short(data_range.1))
+    } else {
+        ctx.scenario.clone()
+    };
+    let n = panels.len() as u32;
+    let ribbon = if modes.is_empty() { 0 } else { RIBBON_H };
+    let cell_w = (WIDTH - LEGEND_W) as i32;
+    Some(FigurePlan {
+        file_name: fig.file_name.clone(),
+        title: fig.title.clone(),
+        title_size: fit_font(&fig.title, 26, WIDTH - 40),
+        subtitle,
+        x_label: fig.x_label.clone(),
+        x: x.to_vec(),
+        x_range,
+        panels,
+        modes,
+        eclipses,
+        x_lines: fig.x_lines.clone(),
+        width: WIDTH,
+        height: TITLE_H + ribbon + n * PANEL_H + XLABEL_H,
+        plot_area: Rect {
+            x0: (MARGIN + Y_AREA) as i32,
+            y0: MARGIN as i32 + CAPTION_H,
+            x1: cell_w - MARGIN_RIGHT as i32,
+            y1: (PANEL_H - MARGIN - X_AREA) as i32,
+        },
+        legend_area: Rect { x0: cell_w, y0: 0, x1: WIDTH as i32, y1: PANEL_H as i32 },
+    })
+}
+
+/// A panel resolved against the data (`None`: no column, or its model is off).
+fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
+    let cols: Vec<(&Series, &[f64])> = p.series.iter().filter_map(|s| Some((s, ts.col(&s.column)?))).collect();
+    if cols.is_empty() || !present(ts, p, &cols) {
+        return None;
+    }
+    let floor = resolution_floor(&p.y_label);
+    let categorical = !p.categories.is_empty();
+    let lines: Vec<LinePlan> = cols
+        .iter()
+        .enumerate()
+        .map(|(i, (s, y))| {
+            let (colour, dash) = line_style(i, s.dashed);
+            let y: Vec<f64> =
+                if categorical { y.iter().map(|v| category_index(&p.categories, *v)).collect() } else { y.to_vec() };
+            let label = if categorical { s.label.clone() } else { annotate(&s.label, &y, floor, &p.y_label) };
+            LinePlan { column: s.column.clone(), label, colour, dash, y }
+        })
+        .collect();
+    let values = lines.iter().flat_map(|l| l.y.iter().copied()).chain(p.thresholds.iter().map(|t| t.0));
+    let y_range = if categorical {
+        (-0.5, p.categories.len() as f64 - 0.5)
+    } else if p.log_y {
+        log_range(values)
+    } else {
+        linear_range(values, floor)
+    };
+    let y_ticks = match () {
+        _ if categorical => p.categories.iter().map(|c| c.1.clone()).collect(),
+        _ if p.log_y => Vec::new(),
+        _ => {
+            let fmt = tick_formatter(y_range.0, y_range.1, Y_TICKS);
+            RangedCoordf64::from(y_range.0..y_range.1).key_points(BoldPoints(Y_TICKS)).iter().map(fmt).collect()
+        }
+    };
+    Some(PanelPlan {
+        y_ticks,
+        title: p.title.clone(),
+        title_size: fit_font(&p.title, 19, WIDTH - LEGEND_W - 40),
+        y_label: p.y_label.clone(),
+        log_y: p.log_y && !categorical,
+        step: p.step || categorical,
+        categories: p.categories.iter().map(|c| c.1.clone()).collect(),
+        y_range,
+        floor,
+        lines,
+        thresholds: p.thresholds.clone(),
+    })
+}
+
+fn identically_zero(y: &[f64]) -> bool {
+    y.iter().all(|v| *v == 0.0 || v.is_nan())
+}
+
+/// Whether the panel's model is on in this run ([`Presence`]).
+fn present(ts: &TimeSeries, p: &Panel, cols: &[(&Series, &[f64])]) -> bool {
+    match &p.presence {
+        Presence::Always => true,
+        Presence::NonZero => !cols.iter().all(|(_, y)| identically_zero(y)),
+        Presence::NonZeroIn(names) => names.iter().filter_map(|n| ts.col(n)).any(|y| !identically_zero(y)),
+        Presence::ZeroIn(names) => {
+            let c: Vec<&[f64]> = names.iter().filter_map(|n| ts.col(n)).collect();
+            !c.is_empty() && c.iter().all(|y| identically_zero(y))
+        }
+    }
+}
+
+/// Index of `v` in the category list (NaN when not a category).
+fn category_index(categories: &[(f64, String)], v: f64) -> f64 {
+    categories.iter().position(|c| c.0 == v).map_or(f64::NAN, |i| i as f64)
+}
+
+/// The legend label of a flat series: "≡ 0", "≡ c", or "≈ c (span < floor)".
+fn annotate(label: &str, y: &[f64], floor: f64, unit: &str) -> String {
+    let Some((lo, hi)) = finite_range(y.iter().copied()) else {
+        return format!("{label} (no data)");
+    };
+    if lo == 0.0 && hi == 0.0 {
+        format!("{label} ≡ 0")
+    } else if lo == hi {
+        format!("{label} ≡ {}", short(lo))
+    } else if hi - lo < floor.max(1e-9 * lo.abs().max(hi.abs())) {
+        format!("{label} ≈ {} (span < {} {unit})", short(0.5 * (lo + hi)), short(floor))
+    } else {
+        label.to_string()
+    }
+}
+
+/// A linear y range: the data with a 5 % margin, never narrower than `floor` (nor than
+/// 1e-9 of the values' magnitude); a flat panel spans ± max(floor / 2, 10 % of its value).
+fn linear_range(values: impl Iterator<Item = f64>, floor: f64) -> (f64, f64) {
+    let (lo, hi) = finite_range(values).unwrap_or((0.0, 0.0));
+    let floor = floor.max(1e-9 * lo.abs().max(hi.abs()));
+    if hi - lo < floor {
+        let c = 0.5 * (lo + hi);
+        let half = (0.5 * floor).max(0.1 * c.abs());
+        (c - half, c + half)
+    } else {
+        pad((lo, hi), 0.05)
+    }
+}
+
+/// A log y range over the positive values: from half the smallest to a little above the
+/// largest, at least one decade.
+fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = finite_range(values.filter(|v| *v > 0.0)).unwrap_or((0.1, 10.0));
+    let lo = lo / 2.0;
+    let hi = hi * (hi / lo).powf(0.05).max(1.2);
+    if hi / lo < 10.0 { (lo.min(hi / 10.0), hi) } else { (lo, hi) }
+}
+
+/// The mode spans of the run (from the `mode` column), spans shorter than 1/2000 of the
+/// x range (a sub-pixel zigzag of the decimation envelope at a transition) merged into
+/// the span before.
+fn mode_spans(ts: &TimeSeries, x: &[f64], (x0, x1): (f64, f64)) -> Vec<(f64, f64, String)> {
+    let Some(mode) = ts.col("mode") else { return Vec::new() };
+    let name = |v: f64| MODE_NAMES.iter().find(|m| m.0 == v).map_or(format!("mode {v}"), |m| m.1.to_string());
+    let mut spans: Vec<(f64, f64, f64)> = Vec::new();
+    for (&t, &m) in x.iter().zip(mode).filter(|(t, m)| t.is_finite() && m.is_finite()) {
+        match spans.last_mut() {
+            Some(s) if s.2 == m => s.1 = t,
+            Some(s) => {
+                s.1 = t;
+                spans.push((t, t, m));
+            }
+            None => spans.push((t, t, m)),
+        }
+    }
+    let min_len = (x1 - x0) / 2000.0;
+    let mut merged: Vec<(f64, f64, f64)> = Vec::new();
+    for s in spans {
+        match merged.last_mut() {
+            Some(last) if s.1 - s.0 < min_len || last.2 == s.2 => last.1 = s.1,
+            _ => merged.push(s),
+        }
+    }
+    merged.into_iter().map(|(a, b, m)| (a, b, name(m))).collect()
+}
+
+/// Spans where the `eclipse` column is 1.
+fn eclipse_spans(ts: &TimeSeries, x: &[f64]) -> Vec<(f64, f64)> {
+    let Some(e) = ts.col("eclipse") else { return Vec::new() };
+    let mut spans: Vec<(f64, f64)> = Vec::new();
+    let mut inside = false;
+    for (&t, &v) in x.iter().zip(e) {
+        match (inside, v > 0.5) {
+            (false, true) => spans.push((t, t)),
+            (true, true) => {
+                if let Some(s) = spans.last_mut() {
+                    s.1 = t;
+                }
+            }
+            _ => {}
+        }
+        inside = v > 0.5;
+    }
+    spans
+}
+
+/// The largest font size from `size` down to 11 at which `text` fits in `width` pixels.
+fn fit_font(text: &str, size: u32, width: u32) -> u32 {
+    if ensure_font().is_err() {
+        return size;
+    }
+    (11..=size).rev().find(|s| text_width(text, *s) <= width).unwrap_or(11)
+}
+
+/// Width of `text` in pixels at font size `size`.
+pub fn text_width(text: &str, size: u32) -> u32 {
+    (FONT, size as f64).into_font().box_size(text).map_or(0, |b| b.0)
+}
+
+/// A short form of a value for labels: 4 significant digits, scientific outside 1e-3 … 1e5.
+fn short(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 {
+        "0".into()
+    } else if !(1e-3..1e5).contains(&a) {
+        format!("{v:.2e}")
+    } else {
+        let d = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{v:.d$}");
+        if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+    }
+}
 
 /// Registers the embedded font with plotters once per process.
 fn ensure_font() -> io::Result<()> {
@@ -92,144 +520,283 @@ fn err<E: std::fmt::Display>(e: E) -> io::Error {
     io::Error::other(format!("plots: {e}"))
 }
 
-/// Render each figure to `dir/file_name` (PNG, ~1200 px wide, ~300 px per panel). Series whose
-/// column is missing are skipped (not an error); a panel with no series left is skipped; a
-/// figure with no panels is skipped. Non-finite values are skipped (line broken). Returns the
-/// paths written.
-pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure]) -> io::Result<Vec<PathBuf>> {
+/// Renders each figure ([`plan`], then drawn) to `dir/file_name`; figures that are not
+/// drawn are skipped. Returns the paths written.
+pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure], ctx: &FigureContext) -> io::Result<Vec<PathBuf>> {
     ensure_font()?;
     let mut written = Vec::new();
     for fig in figures {
-        let Some(x) = ts.col(&fig.x) else { continue };
-        // Resolve columns up front: (colour index, series, data).
-        let panels: Vec<(&Panel, Vec<Line>)> = fig
-            .panels
-            .iter()
-            .map(|p| {
-                let s = p.series.iter().enumerate();
-                (p, s.filter_map(|(i, s)| Some((i, s, ts.col(&s.column)?))).collect::<Vec<_>>())
-            })
-            .filter(|(_, s)| !s.is_empty())
-            .collect();
-        if panels.is_empty() {
-            continue;
-        }
-        let n = panels.len() as u32;
-        let (w, h) = (WIDTH, TITLE_H + n * PANEL_H + XLABEL_H);
-        let mut buf = vec![255u8; (w * h * 3) as usize];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            let (top, mut area) = root.split_vertically(TITLE_H);
-            let centre = Pos::new(HPos::Center, VPos::Center);
-            let title_style = TextStyle::from((FONT, 28).into_font()).pos(centre);
-            top.draw_text(&fig.title, &title_style, ((w / 2) as i32, (TITLE_H / 2) as i32)).map_err(err)?;
-            let x_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
-            let x_range = if x_range.1 > x_range.0 { x_range } else { pad(x_range, 0.0) };
-            for (k, (panel, series)) in panels.iter().enumerate() {
-                let last = k + 1 == panels.len();
-                let (cell, rest) = area.split_vertically(PANEL_H + if last { XLABEL_H } else { 0 });
-                area = rest;
-                let mut cb = ChartBuilder::on(&cell);
-                cb.margin(8)
-                    .margin_right(30)
-                    .caption(&panel.title, (FONT, 20))
-                    .x_label_area_size(if last { 62 } else { 32 })
-                    .y_label_area_size(95);
-                let x_rng = x_range.0..x_range.1;
-                let x_desc = last.then_some(fig.x_label.as_str());
-                let ys = series.iter().flat_map(|(_, _, c)| c.iter().copied());
-                if panel.log_y {
-                    let (lo, hi) = finite_range(ys.filter(|v| *v > 0.0)).unwrap_or((0.1, 10.0));
-                    let lo = lo / 2.0;
-                    let hi = hi * (hi / lo).powf(0.05).max(1.2);
-                    let chart = cb.build_cartesian_2d(x_rng, (lo..hi).log_scale()).map_err(err)?;
-                    draw_panel(chart, x_desc, x_range, panel, x, series, &log_tick)?;
-                } else {
-                    let (lo, hi) = pad(finite_range(ys).unwrap_or((-1.0, 1.0)), 0.05);
-                    let chart = cb.build_cartesian_2d(x_rng, lo..hi).map_err(err)?;
-                    let y_fmt = tick_formatter(lo, hi, Y_TICKS);
-                    draw_panel(chart, x_desc, x_range, panel, x, series, &y_fmt)?;
-                }
-            }
-            root.present().map_err(err)?;
-        }
-        let path = dir.join(&fig.file_name);
-        write_png(&path, w, h, &buf)?;
+        let Some(p) = plan(ts, fig, ctx) else { continue };
+        let buf = draw(&p)?;
+        let path = dir.join(&p.file_name);
+        write_png(&path, p.width, p.height, &buf)?;
         written.push(path);
     }
     Ok(written)
 }
 
-/// Draws mesh, lines and legend of one panel (generic over linear / log y coordinates).
-fn draw_panel<'a, DB, Y>(
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+
+/// Draws a plan into an RGB buffer.
+fn draw(p: &FigurePlan) -> io::Result<Vec<u8>> {
+    let (w, h) = (p.width, p.height);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let (top, mut area) = root.split_vertically(TITLE_H);
+        let centre = Pos::new(HPos::Center, VPos::Center);
+        let title = TextStyle::from((FONT, p.title_size as f64).into_font()).pos(centre);
+        top.draw_text(&p.title, &title, ((w / 2) as i32, 20)).map_err(err)?;
+        let sub = TextStyle::from((FONT, 16).into_font()).color(&GREY).pos(centre);
+        top.draw_text(&p.subtitle, &sub, ((w / 2) as i32, 48)).map_err(err)?;
+        let ribbon = if p.modes.is_empty() {
+            None
+        } else {
+            let (r, rest) = area.split_vertically(RIBBON_H);
+            area = rest;
+            Some(r)
+        };
+        let mut plot_px = None;
+        for (k, panel) in p.panels.iter().enumerate() {
+            let last = k + 1 == p.panels.len();
+            let (cell, rest) = area.split_vertically(PANEL_H + if last { XLABEL_H } else { 0 });
+            area = rest;
+            let (chart_cell, legend_cell) = cell.split_horizontally(WIDTH - LEGEND_W);
+            let (px, ys) = draw_panel(&chart_cell, p, panel, last)?;
+            draw_legend(&legend_cell, p, panel, &ys)?;
+            plot_px = Some(px);
+        }
+        if let (Some(r), Some(px)) = (ribbon, plot_px) {
+            draw_ribbon(&r, p, px)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(buf)
+}
+
+/// Width of the y tick labels' column: [`Y_AREA`] less the rotated axis description.
+pub const Y_TICK_W: u32 = Y_AREA - 36;
+
+/// Draws one panel's chart; returns the plot area's pixel x range (absolute) and the
+/// absolute pixel rows of its thresholds.
+fn draw_panel(cell: &Area, p: &FigurePlan, panel: &PanelPlan, last: bool) -> io::Result<((i32, i32), Vec<i32>)> {
+    let mut cb = ChartBuilder::on(cell);
+    cb.margin(MARGIN)
+        .margin_right(MARGIN_RIGHT)
+        .caption(&panel.title, (FONT, panel.title_size as f64))
+        .x_label_area_size(if last { X_AREA + XLABEL_H } else { X_AREA })
+        .y_label_area_size(Y_AREA);
+    let x_rng = p.x_range.0..p.x_range.1;
+    let (lo, hi) = panel.y_range;
+    if panel.log_y {
+        let chart = cb.build_cartesian_2d(x_rng, (lo..hi).log_scale()).map_err(err)?;
+        fill_panel(chart, p, panel, last, &log_tick)
+    } else if !panel.categories.is_empty() {
+        let chart = cb.build_cartesian_2d(x_rng, lo..hi).map_err(err)?;
+        let names = panel.categories.clone();
+        let fmt = move |v: &f64| {
+            let i = v.round();
+            if (v - i).abs() < 1e-6 && i >= 0.0 {
+                names.get(i as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        fill_panel(chart, p, panel, last, &fmt)
+    } else {
+        let chart = cb.build_cartesian_2d(x_rng, lo..hi).map_err(err)?;
+        fill_panel(chart, p, panel, last, &tick_formatter(lo, hi, Y_TICKS))
+    }
+}
+
+/// Mesh, shading, reference lines and data lines of one panel (generic over linear / log y).
+fn fill_panel<'a, DB, Y>(
     mut chart: ChartContext<'a, DB, Cartesian2d<RangedCoordf64, Y>>,
-    x_desc: Option<&str>,
-    (x_lo, x_hi): (f64, f64),
-    panel: &Panel,
-    x: &[f64],
-    series: &[Line],
+    p: &FigurePlan,
+    panel: &PanelPlan,
+    last: bool,
     y_fmt: &dyn Fn(&f64) -> String,
-) -> io::Result<()>
+) -> io::Result<((i32, i32), Vec<i32>)>
 where
     DB: DrawingBackend + 'a,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    let x_fmt = tick_formatter(x_lo, x_hi, X_TICKS);
+    let x_fmt = tick_formatter(p.x_range.0, p.x_range.1, X_TICKS);
     let mut mesh = chart.configure_mesh();
+    let y_ticks = if panel.categories.is_empty() { Y_TICKS } else { 2 * panel.categories.len() + 1 };
     mesh.y_desc(&panel.y_label)
         .x_labels(X_TICKS)
-        .y_labels(Y_TICKS)
+        .y_labels(y_ticks)
         .x_label_formatter(&x_fmt)
         .y_label_formatter(y_fmt)
         .x_max_light_lines(1)
         .y_max_light_lines(1)
-        .label_style((FONT, 16))
-        .axis_desc_style((FONT, 19))
+        .label_style((FONT, 15))
+        .axis_desc_style((FONT, 18))
         .bold_line_style(RGBColor(200, 200, 200))
         .light_line_style(RGBColor(238, 238, 238));
-    if let Some(d) = x_desc {
-        mesh.x_desc(d);
+    if last {
+        mesh.x_desc(&p.x_label);
     }
     mesh.draw().map_err(err)?;
-    for &(i, s, y) in series {
-        let c = PALETTE[i % PALETTE.len()];
-        let style = c.stroke_width(2);
-        // Split into runs of valid points so NaN/Inf (or <= 0 on a log axis) break the line.
-        let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-        for (&xv, &yv) in x.iter().zip(y) {
-            if xv.is_finite() && yv.is_finite() && (!panel.log_y || yv > 0.0) {
-                runs.last_mut().unwrap().push((xv, yv));
-            } else if !runs.last().unwrap().is_empty() {
-                runs.push(Vec::new());
-            }
-        }
-        runs.retain(|r| !r.is_empty());
-        let anno = if s.dashed {
-            let el = runs.into_iter().map(|r| DashedPathElement::new(r, 8, 5, style));
-            chart.draw_series(el).map_err(err)?
-        } else {
-            chart.draw_series(runs.into_iter().map(|r| PathElement::new(r, style))).map_err(err)?
-        };
-        let dashed = s.dashed;
-        anno.label(&s.label).legend(move |(lx, ly)| {
-            let pts = vec![(lx, ly), (lx + 24, ly)];
-            if dashed {
-                DashedPathElement::new(pts, 7, 4, style).into_dyn()
-            } else {
-                PathElement::new(pts, style).into_dyn()
-            }
-        });
+    let (lo, hi) = panel.y_range;
+    for &(a, b) in &p.eclipses {
+        let shade = RGBColor(215, 215, 215).mix(0.5).filled();
+        chart.draw_series([Rectangle::new([(a, lo), (b, hi)], shade)]).map_err(err)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .margin(8)
-        .legend_area_size(30)
-        .label_font((FONT, 16))
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(120, 120, 120))
-        .draw()
-        .map_err(err)
+    let area = chart.plotting_area().use_screen_coord();
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let px = |x: f64, y: f64| chart.backend_coord(&(x, y));
+    let vertical = |x: f64| vec![(px(x, lo).0, ys.start), (px(x, lo).0, ys.end - 1)];
+    for m in p.modes.iter().skip(1) {
+        stroke(&area, vertical(m.0), GREY, Dash::Dashed)?;
+    }
+    for l in &p.x_lines {
+        stroke(&area, vertical(l.0), RGBColor(0, 0, 0), Dash::Dashed)?;
+    }
+    let mut rows = Vec::new();
+    for t in &panel.thresholds {
+        let y = px(p.x_range.0, t.0).1;
+        stroke(&area, vec![(xs.start, y), (xs.end - 1, y)], GREY, Dash::Dotted)?;
+        rows.push(y);
+    }
+    for line in &panel.lines {
+        for run in runs(&p.x, &line.y, panel.log_y, panel.step) {
+            let pts: Vec<(i32, i32)> = run.iter().map(|&(x, y)| px(x, y)).collect();
+            stroke(&area, dedup(pts), line.colour, line.dash)?;
+        }
+    }
+    Ok(((xs.start, xs.end), rows))
+}
+
+/// Runs of drawable points (finite; positive on a log axis), as steps when `step`.
+fn runs(x: &[f64], y: &[f64], log_y: bool, step: bool) -> Vec<Vec<(f64, f64)>> {
+    let mut runs: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for (&xv, &yv) in x.iter().zip(y) {
+        let ok = xv.is_finite() && yv.is_finite() && (!log_y || yv > 0.0);
+        match runs.last_mut() {
+            Some(r) if ok => {
+                if let (true, Some(&(_, prev))) = (step, r.last()) {
+                    r.push((xv, prev));
+                }
+                r.push((xv, yv));
+            }
+            Some(r) if !r.is_empty() => runs.push(Vec::new()),
+            _ => {}
+        }
+    }
+    runs.retain(|r| !r.is_empty());
+    runs
+}
+
+fn dedup(mut pts: Vec<(i32, i32)>) -> Vec<(i32, i32)> {
+    pts.dedup();
+    pts
+}
+
+/// A 2-px line through pixel points: two 1-px lines one pixel apart (no polygon mitres).
+fn stroke<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    pts: Vec<(i32, i32)>,
+    colour: RGBColor,
+    dash: Dash,
+) -> io::Result<()> {
+    let style = ShapeStyle::from(&colour).stroke_width(1);
+    for dy in [0, 1] {
+        let p: Vec<(i32, i32)> = pts.iter().map(|&(x, y)| (x, y + dy)).collect();
+        let drawn = match dash {
+            Dash::Solid => area.draw(&PathElement::new(p, style)),
+            Dash::Dashed => area.draw(&DashedPathElement::new(p, 8, 5, style)),
+            Dash::Dotted => area.draw(&DashedPathElement::new(p, 2, 3, style)),
+            Dash::LongDash => area.draw(&DashedPathElement::new(p, 16, 5, style)),
+        };
+        drawn.map_err(err)?;
+    }
+    Ok(())
+}
+
+/// The legend right of the plot: one entry per line from the top, then the vertical
+/// reference lines, then the thresholds' labels beside their lines (in the order of the
+/// lines, moved down when they would overlap).
+fn draw_legend(cell: &Area, p: &FigurePlan, panel: &PanelPlan, threshold_rows: &[i32]) -> io::Result<()> {
+    let base = cell.get_base_pixel();
+    let left = Pos::new(HPos::Left, VPos::Center);
+    let entries: Vec<(String, RGBColor, Dash)> = panel
+        .lines
+        .iter()
+        .map(|l| (l.label.clone(), l.colour, l.dash))
+        .chain(p.x_lines.iter().map(|l| (l.1.clone(), RGBColor(0, 0, 0), Dash::Dashed)))
+        .collect();
+    let size = entries.iter().map(|e| fit_font(&e.0, 15, LEGEND_W - 48)).min().unwrap_or(15);
+    let mut y = MARGIN as i32 + CAPTION_H + 8;
+    for (label, colour, dash) in entries {
+        stroke(cell, vec![(6, y), (34, y)], colour, dash)?;
+        let style = TextStyle::from((FONT, size as f64).into_font()).pos(left);
+        cell.draw_text(&label, &style, (40, y)).map_err(err)?;
+        y += 19;
+    }
+    let mut order: Vec<(i32, &(f64, String))> = threshold_rows.iter().copied().zip(&panel.thresholds).collect();
+    order.sort_by_key(|o| o.0);
+    let mut next = y;
+    for (row, t) in order {
+        let ty = (row - base.1).max(next);
+        let label = format!("{} {}", short(t.0), t.1);
+        let style =
+            TextStyle::from((FONT, fit_font(&label, 13, LEGEND_W - 30) as f64).into_font()).color(&GREY).pos(left);
+        stroke(cell, vec![(6, ty), (20, ty)], GREY, Dash::Dotted)?;
+        cell.draw_text(&label, &style, (24, ty)).map_err(err)?;
+        next = ty + 16;
+    }
+    Ok(())
+}
+
+/// Short names of the modes, for ribbon spans too narrow for the full name.
+fn mode_abbreviation(name: &str) -> &str {
+    match name {
+        "detumble" => "det",
+        "sun-safe" => "safe",
+        "stabilise" => "stab",
+        "manoeuvre" => "man",
+        _ => name,
+    }
+}
+
+/// The mode ribbon: one tinted box per mode span with the mode's name (abbreviated when
+/// narrow, none when narrower still), over the plot's x range; in the legend column a key
+/// of the tints.
+fn draw_ribbon(r: &Area, p: &FigurePlan, (px0, px1): (i32, i32)) -> io::Result<()> {
+    let base = r.get_base_pixel().0;
+    let (x0, x1) = p.x_range;
+    let to_px = |x: f64| (px0 - base) as f64 + (x - x0) / (x1 - x0) * (px1 - px0) as f64;
+    let centre = Pos::new(HPos::Center, VPos::Center);
+    let tint = |name: &str| {
+        let k = MODE_NAMES.iter().position(|m| m.1 == name).unwrap_or(PALETTE.len() - 1);
+        PALETTE[k % PALETTE.len()].mix(0.25).filled()
+    };
+    let text = TextStyle::from((FONT, 12).into_font()).pos(centre);
+    let h = RIBBON_H as i32;
+    for (a, b, name) in &p.modes {
+        let (a, b) = (to_px(*a) as i32, to_px(*b) as i32);
+        r.draw(&Rectangle::new([(a, 2), (b.max(a + 1), h - 2)], tint(name))).map_err(err)?;
+        let label =
+            [name.as_str(), mode_abbreviation(name)].into_iter().find(|l| text_width(l, 12) + 4 < (b - a) as u32);
+        if let Some(l) = label {
+            r.draw_text(l, &text, ((a + b) / 2, h / 2)).map_err(err)?;
+        }
+    }
+    // The key, in the legend column: the tints of the modes present.
+    let mut x = (WIDTH - LEGEND_W) as i32 + 6;
+    for (_, name) in MODE_NAMES {
+        if !p.modes.iter().any(|m| m.2 == name) {
+            continue;
+        }
+        let l = mode_abbreviation(name);
+        let w = text_width(l, 12) as i32 + 8;
+        r.draw(&Rectangle::new([(x, 2), (x + w, h - 2)], tint(name))).map_err(err)?;
+        r.draw_text(l, &text, (x + w / 2, h / 2)).map_err(err)?;
+        x += w + 3;
+    }
+    Ok(())
 }
 
 /// Tick labels for a linear axis over `lo..hi` with at most `n` ticks: one format for the whole
@@ -321,5 +888,43 @@ mod tests {
         assert_eq!((f(&5e5), f(&1.5e6)), ("5.0e5".into(), "1.5e6".into()));
         let f = tick_formatter(0.0, 299.9, X_TICKS);
         assert_eq!(f(&250.0), "250");
+    }
+
+    #[test]
+    fn floors_and_flat_series() {
+        // Rounding noise around zero: the axis spans the floor, not 1e-17.
+        let (lo, hi) = linear_range([1e-17, -2e-17].into_iter(), resolution_floor("deg"));
+        assert!((hi - lo - 1e-6).abs() < 1e-12, "{lo} {hi}");
+        // A constant 50 deg: ±10 % of it.
+        assert_eq!(linear_range([50.0, 50.0].into_iter(), 1e-6), (45.0, 55.0));
+        // A real signal: the data with 5 % margins.
+        assert_eq!(linear_range([0.0, 10.0].into_iter(), 1e-6), (-0.5, 10.5));
+        assert_eq!(annotate("z", &[0.0, 0.0, f64::NAN], 1e-12, "N m"), "z ≡ 0");
+        assert_eq!(annotate("target", &[50.0; 3], 1e-6, "deg"), "target ≡ 50");
+        assert_eq!(annotate("roll", &[1e-17, -1e-17], 1e-6, "deg"), "roll ≈ 0 (span < 1.00e-6 deg)");
+        assert_eq!(annotate("roll", &[1.0, -1.0], 1e-6, "deg"), "roll");
+        let (lo, hi) = log_range([1.0, 2.0].into_iter());
+        assert!(hi / lo >= 10.0);
+    }
+
+    #[test]
+    fn styles_do_not_repeat_within_a_panel() {
+        let styles: std::collections::HashSet<_> =
+            (0..14).flat_map(|i| [line_style(i, false), line_style(i, true)]).collect();
+        assert_eq!(styles.len(), 28);
+    }
+
+    #[test]
+    fn steps_hold_the_recorded_values() {
+        // The decimation envelope's zigzag at a 4 → 3 transition, drawn as steps: only the
+        // recorded values appear, nothing below 3.
+        let x = [0.0, 2.0, 4.0, 6.0, 8.0];
+        let y = [4.0, 4.0, 3.0, 4.0, 3.0];
+        let r = runs(&x, &y, false, true);
+        assert_eq!(r.len(), 1);
+        assert!(r[0].iter().all(|p| p.1 == 3.0 || p.1 == 4.0));
+        assert_eq!(r[0][..4], [(0.0, 4.0), (2.0, 4.0), (2.0, 4.0), (4.0, 4.0)]);
+        // NaN breaks the line.
+        assert_eq!(runs(&x, &[1.0, f64::NAN, 1.0, 1.0, 1.0], false, false).len(), 2);
     }
 }

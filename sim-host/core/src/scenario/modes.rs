@@ -78,6 +78,30 @@ pub struct ModesSpec {
     pub sun_safe: Option<ModeSpec>,
 }
 
+impl ModesSpec {
+    /// The thresholds `modes.png` draws, in the units of `[modes]` (deg, deg/s); zero ones
+    /// (unused) are left out. The hold-entry rate is compared on board with the rate
+    /// relative to the target, drawn against the body rate norm.
+    pub fn plot_thresholds(&self) -> crate::recorder::output::ModeThresholds {
+        let keep = |v: &[(f64, &str)]| -> Vec<(f64, String)> {
+            v.iter().filter(|t| t.0 > 0.0).map(|(x, l)| (*x, l.to_string())).collect()
+        };
+        crate::recorder::output::ModeThresholds {
+            error_deg: keep(&[
+                (self.stabilise_exit_error_deg, "stabilise exit"),
+                (self.hold_enter_error_deg, "hold enter"),
+                (self.hold_exit_error_deg, "hold exit"),
+            ]),
+            rate_deg_s: keep(&[
+                (self.detumble_enter_rate_deg_s, "detumble enter"),
+                (self.detumble_exit_rate_deg_s, "detumble exit"),
+                (self.stabilise_exit_rate_deg_s, "stabilise exit"),
+                (self.hold_enter_rate_deg_s, "hold enter (rel.)"),
+            ]),
+        }
+    }
+}
+
 fn default_initial() -> String {
     "detumble".into()
 }

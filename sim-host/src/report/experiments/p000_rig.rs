@@ -494,14 +494,17 @@ fn figure_sweeps(ctx: &Context, fl: &Flights) -> Result<Block> {
                     y_label: "s".into(),
                     series: series("settle3"),
                     log_y: false,
+                    ..Default::default()
                 },
                 Panel {
                     title: "test 1: steady error (true, last 5 s)".into(),
                     y_label: "deg".into(),
                     series: series("steady1"),
                     log_y: false,
+                    ..Default::default()
                 },
             ],
+            ..Default::default()
         },
         "Test-3 settle time (top) and test-1 steady error (bottom) against each effect's level; a \
          missing point: the yaw never stops moving by 1°.",
@@ -605,20 +608,24 @@ fn figure_combos(ctx: &Context, combos: &[Combo]) -> Result<Block> {
                         sd("settle_paper", "paper: ~10 s", true),
                     ],
                     log_y: false,
+                    ..Default::default()
                 },
                 Panel {
                     title: "ratio test 3 / test 1".into(),
                     y_label: "-".into(),
                     series: vec![sd("ratio_mean", "mean over seeds", false), sd("ratio_paper", "paper: ~1/3", true)],
                     log_y: false,
+                    ..Default::default()
                 },
                 Panel {
                     title: "test 1 steady error (true), max over seeds".into(),
                     y_label: "deg".into(),
                     series: vec![sd("steady1_max", "max", false), sd("steady_bound", "paper: < 2° (AHRS)", true)],
                     log_y: false,
+                    ..Default::default()
                 },
             ],
+            ..Default::default()
         },
         "With every other effect present, the gimbal friction alone moves test 3 from its ideal timing to \
          the paper's ~10 s and the ratio to ~1/3; dashed: the paper's figures.",
@@ -651,14 +658,17 @@ fn figure_yaw(ctx: &Context, fl: &Flights) -> Result<Block> {
                     y_label: "yaw [deg]".into(),
                     series: vec![s("yaw3_ideal", "ideal"), s("yaw3_all", "all effects")],
                     log_y: false,
+                    ..Default::default()
                 },
                 Panel {
                     title: "test 1 (ζ 0.47, ωn 0.7)".into(),
                     y_label: "yaw [deg]".into(),
                     series: vec![s("yaw1_ideal", "ideal"), s("yaw1_all", "all effects")],
                     log_y: false,
+                    ..Default::default()
                 },
             ],
+            ..Default::default()
         },
         "True yaw of tests 3 and 1, ideal rig vs all effects (seed 1).",
     )

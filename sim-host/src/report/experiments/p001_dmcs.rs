@@ -273,7 +273,7 @@ fn line(column: &str, label: &str, dashed: bool) -> Series {
     Series { column: column.into(), label: label.into(), dashed }
 }
 fn panel(title: &str, y: &str, series: Vec<Series>, log_y: bool) -> Panel {
-    Panel { title: title.into(), y_label: y.into(), series, log_y }
+    Panel { title: title.into(), y_label: y.into(), series, log_y, ..Default::default() }
 }
 
 /// The four flights: manoeuvres 1 and 2 with the accurate wheels, then with ideal wheels.
@@ -469,6 +469,7 @@ fn figure_follow(ctx: &Context, fl: &Flights) -> Result<Block> {
                     true,
                 ),
             ],
+            ..Default::default()
         },
         "Plant and reference-model Euler angles (model re-run on the host from the plant's initial error with the flight discretisation) and the model-following error, both manoeuvres, accurate wheel model.",
     )
@@ -505,6 +506,7 @@ fn figure_gains(ctx: &Context, fl: &Flights) -> Result<Block> {
                 panel("manoeuvre 1: wheel speeds", "rpm", speeds("m1"), false),
                 panel("manoeuvre 2: wheel speeds", "rpm", speeds("m2"), false),
             ],
+            ..Default::default()
         },
         "Adaptive feed-forward gains Δk_u (the one gain per axis the flight code reports) and wheel speeds; accurate wheel model.",
     )
@@ -543,6 +545,7 @@ fn figure_wheel_torque(ctx: &Context, fl: &Flights) -> Result<Block> {
                 panel("manoeuvre 1: wheel torque on the body", "N m", torques("m1"), false),
                 panel("manoeuvre 2: wheel torque on the body", "N m", torques("m2"), false),
             ],
+            ..Default::default()
         },
         "Delivered wheel torques (motor torque less friction and ripple) in the first 60 s; the motor current sits at its 38.85 A limit (0.75 N m motor torque) whenever the law's demand needs more than 0.75 N m of a wheel.",
     )

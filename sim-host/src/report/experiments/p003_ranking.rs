@@ -625,6 +625,7 @@ fn figure_factors(ctx: &Context, fs: &[Factor], fd: &Findings) -> Result<Block> 
                 y_label: "RMS error [deg]".into(),
                 series,
                 log_y: false,
+                ..Default::default()
             }
         })
         .collect();
@@ -636,6 +637,7 @@ fn figure_factors(ctx: &Context, fs: &[Factor], fd: &Findings) -> Result<Block> 
             x: "level".into(),
             x_label: "factor level [× reference]".into(),
             panels,
+            ..Default::default()
         },
         "Steady RMS attitude error (t ≥ 600 s) of the PD and the LQR on the paper-003 rig, each \
          factor alone at 0 … 4 × a plausible reference level (panel titles); signed factors at \
@@ -689,7 +691,9 @@ fn figure_combo(ctx: &Context, fd: &Findings) -> Result<Block> {
                     Series { column: "pd_closed".into(), label: "PD offset, closed form".into(), dashed: true },
                 ],
                 log_y: false,
+                ..Default::default()
             }],
+            ..Default::default()
         },
         "With the paper's sensor noise, a constant platform dipole across the lab field (a yaw \
          torque m_y B_h) drives the PD's error up linearly (closed form: the yaw at which the \
@@ -717,7 +721,9 @@ fn figure_cm_direction(ctx: &Context, fd: &Findings) -> Result<Block> {
                     Series { column: "lqr".into(), label: "LQR".into(), dashed: false },
                 ],
                 log_y: false,
+                ..Default::default()
             }],
+            ..Default::default()
         },
         "The LQR's steady error is set by the rig's balance: its roll/pitch gains saturate the \
          torquers against the pendulum, and the direction of the residual tilt decides the yaw \

@@ -203,6 +203,7 @@ fn figure_sections(ctx: &Context, g: &Geometry) -> Result<Block> {
                 })
                 .collect(),
             log_y: false,
+            ..Default::default()
         })
         .collect();
     ctx.figure(
@@ -214,6 +215,7 @@ fn figure_sections(ctx: &Context, g: &Geometry) -> Result<Block> {
             x: "in_plane_first_nm".into(),
             x_label: "first in-plane axis [N m] (x, y, x)".into(),
             panels,
+            ..Default::default()
         },
         "Cross-sections of the attainable moment set through the origin by three coordinate planes: intact, \
          thrusters {1,4} failed (survives) and the losing pairs {1,3} and {1,7} (dashed). For a losing pair the \
@@ -248,7 +250,9 @@ fn figure_closed_loop(ctx: &Context, runs: &[RunResult]) -> Result<Block> {
                     .map(|f| Series { column: format!("err_{}", key(f)), label: set_name(f), dashed: f.len() == 3 })
                     .collect(),
                 log_y: true,
+                ..Default::default()
             }],
+            ..Default::default()
         },
         "Attitude error of the paper's manoeuvre with the direction-preserving LP allocator and PWPF, intact and \
          with thrusters {1,4}, {1,3} and {1,3,7} failed (known to the flight code).",

@@ -630,6 +630,7 @@ fn sweep_figure(
             })
             .collect(),
         log_y,
+        ..Default::default()
     };
     let fig = Figure {
         file_name: file.into(),
@@ -641,6 +642,7 @@ fn sweep_figure(
             panel("max pulses of one thruster", "pulses", "pulses", false),
             panel("mean 3-axis error, 30-60 s", "deg", "err", true),
         ],
+        ..Default::default()
     };
     ctx.figure(&ts, fig, title)
 }
