@@ -464,6 +464,12 @@ impl<'a> Simulation<'a> {
         &self.estimation
     }
 
+    /// The true plant state at the next control step (read-only; for tests that check a
+    /// recorded row against the states behind it, e.g. a wheel's friction state and rotor angle).
+    pub fn plant_state(&self) -> &State {
+        &self.state
+    }
+
     pub fn sim_time_s(&self) -> f64 {
         self.clock.steps as f64 * self.clock.dt
     }

@@ -418,3 +418,117 @@ fn dahl_worst_case_stable_at_max_step() {
     }
     assert!((t - p.coulomb_nm).abs() < 1e-3 * p.coulomb_nm);
 }
+
+/// Keeps every recorded row (the run's time series in memory; `columns` from the simulation).
+struct Rows {
+    columns: Vec<String>,
+    rows: Vec<Vec<f64>>,
+}
+
+impl sim_core::recorder::series::Recorder for Rows {
+    fn start(&mut self, _: &[String], _: u64) -> anyhow::Result<()> {
+        Ok(())
+    }
+    fn record(&mut self, row: &[f64]) -> anyhow::Result<()> {
+        self.rows.push(row.to_vec());
+        Ok(())
+    }
+}
+
+/// The standing current of `scenarios/paper001/wheel-slew.toml`: after the slew wheel 3 sits
+/// at ~0 rpm holding ~4 A and ~1.3 W (module doc of `plant/wheel.rs`, "Standing current at
+/// zero speed"). Closed form at rest (`ω ≈ 0`, `ḣ_a ≈ 0`): eq 24 gives
+/// `K_f I = T_f + λω + C_s sin(φ+φ0) + B sin(3Pφ)` (the Dahl state and the rotor-angle
+/// dependent bearing/ripple torques at the rest angle hold the motor torque), the speed loop
+/// (eq 25) gives `I = T_cmd/K_f + K_c (ω_ref - ω)` with `T_cmd ≈ 0` (the loop's reference runs
+/// ahead of the stuck rotor), and eq 30 gives `P = R I² + K_f ω I ≈ R I²` (`p_q = a_i = 0`).
+/// Checked against the plant's own states behind every recorded row after t = 250 s at which
+/// the rotor is stuck (`|ḣ_a| < 1e-4 N m`): eq 24 within 2e-3 relative (`ḣ_a/K_f` ≤ 5.2e-3 A),
+/// the loop form within 1e-2 relative (the wheel's share `T_cmd` of the hold command), the
+/// power within 1e-9 relative. The rest are stick-slip events: the rotor slips to the next
+/// angle that holds the current (at most ten of them, each under 2 rpm).
+#[test]
+fn standing_current_at_zero_speed_is_the_held_speed_loop_error() {
+    use sim_core::link::in_process::InProcess;
+    use sim_core::scenario::{Resolved, Scenario};
+    use sim_core::simulation::Simulation;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/paper001/wheel-slew.toml");
+    let sc = Scenario::load(&path).unwrap();
+    let p = sc.wheel_params().unwrap()[2].clone();
+    let mut link = InProcess::new();
+    let mut rec = Rows { columns: Vec::new(), rows: Vec::new() };
+    let mut held = Vec::new(); // (wheel-3 state behind the row, row)
+    {
+        let mut sim = Simulation::new(Resolved::try_from(&sc).unwrap(), &mut link).unwrap();
+        rec.columns = sim.columns().to_vec();
+        while !sim.finished() {
+            let before = sim.plant_state().wheels[2];
+            let n = rec.rows.len();
+            sim.step(&mut rec).unwrap();
+            if rec.rows.len() > n {
+                held.push((before, rec.rows[n].clone()));
+            }
+        }
+    }
+    let col = |name: &str| rec.columns.iter().position(|c| c == name).unwrap();
+    let (t_c, w_c, i_c, p_c, f_c, d_c) = (
+        col("t_s"),
+        col("wheel3_speed_rpm"),
+        col("wheel3_current_a"),
+        col("wheel3_power_w"),
+        col("wheel3_friction_nm"),
+        col("wheel3_torque_nm"),
+    );
+    let (k, r) = (p.torque_constant_nm_per_a, p.resistance_ohm);
+    let (mut worst_eq24, mut worst_loop, mut worst_p, mut max_stuck_rpm, mut max_slip_rpm) =
+        (0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64, 0.0_f64);
+    let (mut stuck, mut slipping, mut slips, mut last) = (0, 0, Vec::new(), None);
+    for (s, row) in held.iter().filter(|(_, row)| row[t_c] >= 250.0) {
+        let w = row[w_c] * std::f64::consts::PI / 30.0;
+        let (i, pw) = (row[i_c], row[p_c]);
+        assert!((row[f_c] - s.dahl_friction_nm - p.viscous_nms * w).abs() < 1e-12);
+        worst_p = worst_p.max((r * i * i + k * w * i - pw).abs() / pw);
+        if row[d_c].abs() >= 1e-4 {
+            if slipping == 0 {
+                slips.push(row[t_c]);
+            }
+            slipping += 1;
+            max_slip_rpm = max_slip_rpm.max(row[w_c].abs());
+            continue;
+        }
+        slipping = 0;
+        stuck += 1;
+        let phi = s.rotor_angle_rad;
+        let cogging = p.bearing_nm * (phi + p.phase_rad).sin() + p.ripple_nm * (3.0 * p.motor_poles * phi).sin();
+        let hold = s.dahl_friction_nm + p.viscous_nms * w + cogging;
+        worst_eq24 = worst_eq24.max((hold / k - i).abs() / i);
+        worst_loop = worst_loop.max((p.speed_loop_gain * (s.speed_ref_rad_s - w) - i).abs() / i);
+        max_stuck_rpm = max_stuck_rpm.max(row[w_c].abs());
+        last = Some((row.clone(), s.dahl_friction_nm, cogging, s.speed_ref_rad_s - w));
+    }
+    let (row, tf, cogging, lead) = last.unwrap();
+    println!(
+        "t = {} s: wheel 3 at {:.2e} rpm, I = {:.4} A (closed form (T_f {tf:.5} + cogging {cogging:.5}) / K_f = {:.4} A; \
+         K_c Δω = {:.4} A, Δω = ω_ref - ω = {lead:.4} rad/s = {:.2} rpm), P = {:.4} W (R I² = {:.4} W)",
+        row[t_c],
+        row[w_c],
+        row[i_c],
+        (tf + cogging) / k,
+        p.speed_loop_gain * lead,
+        lead * 30.0 / std::f64::consts::PI,
+        row[p_c],
+        r * row[i_c] * row[i_c],
+    );
+    println!(
+        "t ≥ 250 s: {stuck} rows stuck (max |ω| {max_stuck_rpm:.2e} rpm), slips from t = {slips:?} s (max {max_slip_rpm:.2} rpm); \
+         worst rel. error when stuck: eq 24 {worst_eq24:.1e}, loop {worst_loop:.1e}; power {worst_p:.1e}"
+    );
+    assert!(max_stuck_rpm < 0.1 && stuck > 900 && (1..=10).contains(&slips.len()) && max_slip_rpm < 2.0);
+    assert!(worst_eq24 < 2e-3 && worst_loop < 1e-2 && worst_p < 1e-9);
+    // The figures of the issue: ~4 A, ~1.3 W, friction ~0.041 N m, all copper loss.
+    assert!((3.5..4.5).contains(&row[i_c]) && (1.0..1.6).contains(&row[p_c]));
+    assert!((row[p_c] - r * row[i_c] * row[i_c]).abs() < 1e-3 * row[p_c]);
+    assert!((row[f_c] - 0.041).abs() < 1e-3);
+    // The hold is shared: the friction state near T_f0, the rest from the rotor angle.
+    assert!(cogging > 0.0 && cogging <= p.bearing_nm + p.ripple_nm);
+}

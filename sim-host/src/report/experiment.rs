@@ -43,7 +43,7 @@ pub enum Explains {
 pub struct Experiment {
     /// Stable identifier, e.g. `p000-rig-effects` (the outcome table refers to it).
     pub id: &'static str,
-    /// Paper number as in SEEDS.md: "000" … "004".
+    /// Paper number as in `docs/papers.md`: "000" … "004".
     pub paper: &'static str,
     pub title: String,
     /// The gap, in one or two sentences: the paper's figure, ours, the question.

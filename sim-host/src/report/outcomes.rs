@@ -99,7 +99,7 @@ pub struct Outcome {
     /// "000" … "004".
     pub paper: String,
     pub id: String,
-    /// The paper's claim, in SEEDS.md's words.
+    /// The paper's claim (each paper in our words: `docs/papers.md`).
     pub claim: String,
     /// The paper's figure as printed ("~10 s", "0.6412 kg").
     pub paper_value: String,

@@ -82,8 +82,8 @@ impl Rig {
     }
 
     /// Paper 000's rig (table 2): roll and pitch travel ±45°, yaw free (the table's ±180°
-    /// belongs to yaw: its yaw manoeuvres exceed 45°; see SEEDS.md). The paper gives no
-    /// centre-of-mass offset, so no pendulum term.
+    /// belongs to yaw: its yaw manoeuvres exceed 45°; see `docs/papers.md`, paper 000). The
+    /// paper gives no centre-of-mass offset, so no pendulum term.
     pub fn paper000() -> Self {
         Rig {
             mgr_nm: Vec3::zeros(),

@@ -71,6 +71,27 @@
 //! rate (1.2 kHz at 6000 rpm); they do not affect stability, but resolving them needs
 //! [`WheelParams::harmonic_step_s`]. Coarser steps alias them (bounded effect `≤ (C_s+B) dt`
 //! on `h_a` per step).
+//!
+//! # Standing current at zero speed
+//! A wheel whose speed reaches ~0 can stick and still draw current (wheel 3 of
+//! `scenarios/paper001/wheel-slew.toml` after 250 s: ~0 rpm, 4.06 A, 1.32 W). Nothing in the
+//! model is wrong there; three of its features combine. At rest the Dahl state keeps its value
+//! (`Ṫ_f ∝ ω_w`, presliding memory; the slow creep inside the tanh band `|ω_w| ≪ ω_s` even lets
+//! it pass `T_f0` by a few per cent: the state is then a linear spring `β T_f0²` in rotor angle),
+//! and eqs 21-22 make the bearing and ripple torques functions of the rotor angle, so at rest they
+//! are a static torque of up to `C_s + B`. Together they can hold up to ≈ `T_f0 + C_s + B` =
+//! 0.08 N m. The speed loop of eq 25 is proportional only: while sliding it lags its reference by
+//! `T_e/(K_f K_c)` (0.19 rad/s under `T_f0`), and when the rotor sticks the reference keeps that
+//! lead plus every share of the command the stuck wheel does not deliver. At rest (`ω_w ≈ 0`,
+//! `ḣ_a ≈ 0`) eqs 24, 25 and 30 give
+//! `I = K_c (ω_ref - ω_w) + T_cmd/K_f = (T_f + λω_w + C_s sin(φ+φ0) + B sin(3Pφ))/K_f`,
+//! `P = p_q + R I² + a_i V_max_m |I| + K_f ω_w I ≈ R I²`: in the slew at 1200 s
+//! `(0.04075 + 0.03772)/0.019305 = 4.065 A` (lead 0.365 rad/s = 3.5 rpm, `K_c` = 11.14 A s/rad),
+//! `0.08 × 4.065² = 1.32 W` of copper loss, recorded 4.0649 A and 1.3219 W. When the lead needs
+//! more than the angle can hold, the rotor slips (under 1.5 rpm) to the next holding angle and
+//! sticks again; the lead, hence the current, survives the slip (no position memory in the loop).
+//! `sim-host/core/tests/wheel_model.rs#standing_current_at_zero_speed_is_the_held_speed_loop_error`
+//! checks this on every recorded row.
 use crate::vec3::{cross, dot, norm};
 use serde::{Deserialize, Serialize};
 

@@ -20,7 +20,7 @@ use sim_core::recorder::plots::{Figure, Panel, Series};
 use sim_core::scenario::{RigSpec, Scenario, StarTrackerSpec};
 use std::collections::BTreeMap;
 
-/// Paper 000's figures for test 3 and the ratio to test 1 (SEEDS.md, table "Tests").
+/// Paper 000's figures for test 3 and the ratio to test 1 (`docs/papers.md`, paper 000).
 pub const PAPER_SETTLE_S: f64 = 10.0;
 pub const PAPER_RATIO: f64 = 1.0 / 3.0;
 /// The paper's bound on the steady error: below the AHRS's dynamic accuracy, deg.

@@ -1,4 +1,4 @@
-//! Paper 001: DMCS adaptive control with the accurate wheel model (SEEDS.md section 001).
+//! Paper 001: DMCS adaptive control with the accurate wheel model (`docs/papers.md`, paper 001).
 //!
 //! The paper reports, for both manoeuvres with the inertia raised at t = 100 s: the
 //! satellite follows the reference model (figs 6-8), the adaptive gains converge to

@@ -1,4 +1,4 @@
-//! Paper 004: which thruster failures the table 2 layout survives (SEEDS.md section 004).
+//! Paper 004: which thruster failures the table 2 layout survives (`docs/papers.md`, paper 004).
 //!
 //! The paper claims the eight-thruster layout keeps three-axis control with any two
 //! thrusters failed and loses it with thrusters 1, 3 and 7 out. The attainable moment set
