@@ -743,6 +743,13 @@ impl<'a> Simulation<'a> {
             row.extend(Vec3::from(act.rod_dipole).cross(&b).iter());
             row.push(f64::from(v.cmd.momentum_events));
         }
+        if l.eclipse {
+            let shadow = match (self.snap.and_then(|s| s.orbit.map(|(r, _)| (s.t_s, r))), self.craft.env.as_ref()) {
+                (Some((t_s, r)), Some(env)) => f64::from(u8::from(env.in_eclipse(t_s, &r))),
+                _ => f64::NAN,
+            };
+            row.push(shadow);
+        }
     }
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the

@@ -155,4 +155,20 @@ fn mode_manager_figures() {
     assert!(error.thresholds.iter().any(|t| t.0 == m.hold_exit_error_deg));
     // Every time plot carries the mode spans.
     assert!(plans.iter().all(|p| p.modes == modes.modes));
+    // And the eclipses, shaded and named in the subtitle. A whole eclipse of this circular
+    // 617 km orbit lasts at most the β = 0 cylindrical-shadow arc, T acos(√(h² + 2 R h) / r) / π
+    // (closed form, with its period T = 2π √(r³/μ)); the one that starts and ends inside
+    // the run must be no longer, and (β is small at this dawn-dusk-free epoch) not much shorter.
+    let (re, h, mu) = (6_378_137.0f64, 617_000.0f64, 3.986_004_418e14f64);
+    let r = re + h;
+    let period = std::f64::consts::TAU * (r.powi(3) / mu).sqrt();
+    let longest = period * ((h * h + 2.0 * re * h).sqrt() / r).acos() / std::f64::consts::PI;
+    let ecl = &modes.eclipses;
+    assert!(!ecl.is_empty() && plans.iter().all(|p| p.eclipses == *ecl), "{ecl:?}");
+    assert!(plans.iter().all(|p| p.subtitle.contains("grey: eclipse")));
+    // Tolerance: the spans' ends are those of the plot envelope's buckets (≤ 4096 points
+    // over 10,000 s: two buckets ≈ 5 s) and of the 0.5 s control step.
+    for (a, b) in ecl.iter().filter(|(a, b)| *a > 0.0 && *b < 10_000.0) {
+        assert!(b - a <= longest + 5.0 && b - a > 0.8 * longest, "eclipse {a}..{b} s vs at most {longest:.0} s");
+    }
 }

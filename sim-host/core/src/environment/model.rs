@@ -40,6 +40,26 @@ pub struct Environment {
     pub disturbances: Disturbances,
 }
 
+impl Environment {
+    /// Julian date (UT1) at simulation time `t_s`, for the Sun ephemeris (J2000.0 at
+    /// t = 0 without an epoch).
+    pub fn julian_date(&self, t_s: f64) -> f64 {
+        (match self.earth {
+            EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
+            EarthRotation::Simple { .. } => 2_451_545.0,
+        }) + t_s / 86_400.0
+    }
+
+    /// Whether the spacecraft at ECI position `r_m` is in the Earth's (cylindrical) shadow
+    /// at `t_s`.
+    pub fn in_eclipse(&self, t_s: f64, r_m: &Vec3) -> bool {
+        crate::environment::torques::in_shadow_cylindrical(
+            r_m,
+            &crate::environment::torques::sun_position_eci(self.julian_date(t_s)),
+        )
+    }
+}
+
 /// The environment at one time.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct EnvSnapshot {

@@ -115,7 +115,8 @@ pub const ESTIMATION: [&str; 14] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 17] = [
+const DIMENSIONLESS: [&str; 18] = [
+    "eclipse",
     "q_x",
     "q_y",
     "q_z",
@@ -196,6 +197,9 @@ pub struct Layout {
     /// torquers' torque `m_rods × B`, the flight code's momentum FDIR event count (11;
     /// with `[momentum]` or the momentum FDIR on).
     pub momentum: bool,
+    /// 1 while the spacecraft is in the Earth's shadow, else 0 (1; with an orbit and an
+    /// environment model: the figures shade those spans).
+    pub eclipse: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -247,6 +251,9 @@ impl Layout {
             v.push("h_norm_nms".into());
             v.extend(xyz(|a| format!("torque_unload_{a}_nm")));
             v.push("momentum_events".into());
+        }
+        if self.eclipse {
+            v.push("eclipse".into());
         }
         v
     }

@@ -287,7 +287,8 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
     let modes = if time { mode_spans(ts, x, x_range) } else { Vec::new() };
     let eclipses = if time { eclipse_spans(ts, x) } else { Vec::new() };
     let subtitle = if time {
-        format!("{} · t = {} … {} s", ctx.scenario, short(data_range.0), short(data_range.1))
+        let shade = if eclipses.is_empty() { "" } else { " · grey: eclipse" };
+        format!("{} · t = {} … {} s{shade}", ctx.scenario, short(data_range.0), short(data_range.1))
     } else {
         ctx.scenario.clone()
     };
@@ -474,7 +475,17 @@ fn eclipse_spans(ts: &TimeSeries, x: &[f64]) -> Vec<(f64, f64)> {
         }
         inside = v > 0.5;
     }
-    spans
+    // Plotted from a min/max envelope, a bucket across an edge holds both 0 and 1: spans
+    // a couple of samples apart are one eclipse, not several.
+    let gap = 4.0 * (x.last().copied().unwrap_or(0.0) - x.first().copied().unwrap_or(0.0)) / x.len().max(1) as f64;
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    for s in spans {
+        match merged.last_mut() {
+            Some(m) if s.0 - m.1 <= gap => m.1 = m.1.max(s.1),
+            _ => merged.push(s),
+        }
+    }
+    merged
 }
 
 /// The largest font size from `size` down to 11 at which `text` fits in `width` pixels.

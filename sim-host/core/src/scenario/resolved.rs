@@ -163,6 +163,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
                 .modes
                 .as_ref()
                 .is_some_and(|m| m.momentum_trip_speed_fraction > 0.0 || m.slow_fdir_persistence_s > 0.0),
+        eclipse: sc.orbit.is_some(),
     }
 }
 

@@ -29,7 +29,6 @@ use super::noise::sensor_sub_rng;
 use super::star_tracker::{AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry};
 use super::sun_sensor::{SunSensor, SunSensorSpec};
 use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
-use crate::environment::frames::EarthRotation;
 use crate::environment::model::{EnvSnapshot, Environment};
 use crate::environment::orbit::R_E;
 use crate::environment::torques::{in_shadow_cylindrical, sun_position_eci};
@@ -46,14 +45,6 @@ const CSS_STREAM: u32 = 5;
 const GNSS_STREAM: u32 = 6;
 /// Sub-stream of each sensor's stream for its sample-time jitter.
 const JITTER_SUB_STREAM: u32 = 2;
-
-/// Julian date (UT1) at simulation time `t_s` for the Sun ephemeris.
-fn julian_date(env_model: &Environment, t_s: f64) -> f64 {
-    (match env_model.earth {
-        EarthRotation::Gmst { jd_ut1_epoch } => jd_ut1_epoch,
-        EarthRotation::Simple { .. } => 2_451_545.0,
-    }) + t_s / 86_400.0
-}
 
 /// Whole days and seconds of the day since J2000.0 (JD 2451545.0) for a Julian date.
 pub fn j2000_days_seconds(jd: f64) -> (i32, f32) {
@@ -355,7 +346,7 @@ impl SensorSuite {
         let (Some((r, _)), Some(m)) = (env.and_then(|e| e.orbit), craft.env.as_ref()) else {
             return None;
         };
-        let rs = sun_position_eci(julian_date(m, t_s));
+        let rs = sun_position_eci(m.julian_date(t_s));
         Some(ExclusionGeometry {
             sun_ref: (rs - r).normalize(),
             nadir_ref: -r.normalize(),
@@ -367,7 +358,7 @@ impl SensorSuite {
     /// when fitted and due).
     fn sample_orbit_sensors(&mut self, t_s: f64, q: &Quat, (r, v): (Vec3, Vec3), env_model: &Environment) {
         let tag = micros(t_s);
-        let rs = sun_position_eci(julian_date(env_model, t_s));
+        let rs = sun_position_eci(env_model.julian_date(t_s));
         let eclipse = in_shadow_cylindrical(&r, &rs);
         if let Some(sun) = self.sun.as_mut().filter(|x| x.clock.is_due(t_s)) {
             let rd = sun.update(t_s, q, &(rs - r).normalize().into(), eclipse);
@@ -381,7 +372,7 @@ impl SensorSuite {
         if let Some(g) = self.gnss.as_mut().filter(|x| x.clock.is_due(t_s))
             && let Some(fix) = g.update(t_s, &r.into(), &v.into())
         {
-            let j2000 = j2000_days_seconds(julian_date(env_model, t_s));
+            let j2000 = j2000_days_seconds(env_model.julian_date(t_s));
             self.gnss_channel.push(tag, FixSample { pos_m: fix.pos_m, vel_m_s: fix.vel_m_s, j2000 });
         }
     }
@@ -468,7 +459,7 @@ impl SensorSuite {
             None => match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
                 (Some((r, v)), Some(m)) => Some((
                     now,
-                    FixSample { pos_m: r.into(), vel_m_s: v.into(), j2000: j2000_days_seconds(julian_date(m, t_s)) },
+                    FixSample { pos_m: r.into(), vel_m_s: v.into(), j2000: j2000_days_seconds(m.julian_date(t_s)) },
                 )),
                 _ => None,
             },
@@ -510,6 +501,7 @@ impl SensorSuite {
 mod tests {
     use super::*;
     use crate::attitude::Quat;
+    use crate::environment::frames::EarthRotation;
     use crate::plant::MAX_GIMBALS;
     use crate::sensors::config;
 
