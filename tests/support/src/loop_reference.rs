@@ -259,10 +259,7 @@ impl AxisLoop {
             }
         }
         for b in 0..m {
-            let row = input(b);
-            for k in 0..dim {
-                a[3 + b][k] = row[k];
-            }
+            a[3 + b] = input(b);
         }
         spectral_radius(&a)
     }
