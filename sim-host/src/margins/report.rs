@@ -158,7 +158,7 @@ pub fn build(
         MarginError::Unstable { reason: "I + L is singular at a measured frequency (closed-loop pole on the unit circle)".into() }
     })?;
     let axes: Vec<AxisReport> =
-        ["x", "y", "z"].iter().enumerate().map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i), dt)).collect();
+        ["x", "y", "z"].iter().enumerate().map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt)).collect();
     let (ml, ml_unscaled) = analysis::multiloop_disk_margin(&w, &s);
     let peaks = r.columns.iter().flatten().map(|c| c.peak_attitude_rad);
     let fold = |it: &mut dyn Iterator<Item = f64>, f: fn(f64, f64) -> f64, z: f64| it.fold(z, f);
