@@ -298,9 +298,6 @@ pub fn run(
             let b = Block { u: acc.u.map(|z| z / n), e: acc.e.map(|z| z / n) };
             acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
             blocks.push(norm3(&b.u));
-            if std::env::var_os("MARGINS_DEBUG").is_some() {
-                eprintln!("f {:?} axis {} amp {:e} block {} |u| {:e} |e| {:e}", x.freq, x.axis, x.amplitude, blocks.len(), norm3(&b.u), norm3(&b.e));
-            }
             grows(&blocks, x.amplitude, t)?;
             let settled = last.as_ref().is_some_and(|p| {
                 let diff: [C64; 3] = std::array::from_fn(|i| b.u[i] - p.u[i]);
