@@ -14,7 +14,7 @@ use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
-use crate::plant::wheel::{WheelDeriv, WheelOutput};
+use crate::plant::wheel::{TorqueDelayLine, WheelDeriv, WheelOutput};
 use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueReport};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
@@ -159,18 +159,47 @@ struct Actuation {
     rod_dipole: [f64; 3],
     /// `[actuators.magnetorquers] delay_s` as whole control periods.
     mtq_delay: CommandDelay,
+    /// `[actuators.wheels] torque_delay_s` as whole dynamics steps.
+    wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+    /// The wheel torque commands of this control period (before `wheel_delay`).
+    wheel_cmd: [f64; MAX_WHEELS],
 }
 
 impl Actuation {
-    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`]).
-    fn input(&mut self, cmd: &ActuatorCommand) -> (Input, [f64; 3]) {
+    fn new(
+        mtq: MagnetorquerSet,
+        thrusters: Option<ThrusterSet>,
+        n_thr: usize,
+        wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+    ) -> Self {
+        Self {
+            mtq_delay: CommandDelay::new(mtq.delay_steps),
+            mtq,
+            thrusters,
+            thr_state: ThrusterState::new(n_thr),
+            n_thr,
+            rod_dipole: [0.0; 3],
+            wheel_delay,
+            wheel_cmd: [0.0; MAX_WHEELS],
+        }
+    }
+
+    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
+    /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
+    /// A loop injection is added to the commands as the plant receives them (before the
+    /// wheels' torque delay, which stays inside the loop).
+    fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
         let mut input = Input::default();
         for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
             *d = s as f64;
         }
-        for (d, s) in input.wheel_torque_cmd_nm.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
+        for (d, s) in self.wheel_cmd.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
             *d = s as f64;
         }
+        if let Some(inj) = injection {
+            inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
+        }
+        input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
         if !self.mtq.rods.is_empty() {
             let acting = self.mtq_delay.push(dipole_cmd);
@@ -179,6 +208,11 @@ impl Actuation {
         input.dipole_am2 = self.rod_dipole.into();
         input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
         (input, dipole_cmd)
+    }
+
+    /// The wheel torque commands acting over the next dynamics step (after the delay).
+    fn wheel_torques(&mut self) -> [f64; MAX_WHEELS] {
+        self.wheel_delay.push(self.wheel_cmd)
     }
 
     /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
@@ -275,11 +309,11 @@ pub struct LoopInjection {
 }
 
 impl LoopInjection {
-    fn add_to_input(&self, input: &mut Input) {
-        for (u, d) in input.wheel_torque_cmd_nm.iter_mut().zip(self.wheel_torque_nm) {
+    fn add_to_commands(&self, wheel_torque_nm: &mut [f64; MAX_WHEELS], gimbal_rate_rad_s: &mut [f64; MAX_GIMBALS]) {
+        for (u, d) in wheel_torque_nm.iter_mut().zip(self.wheel_torque_nm) {
             *u += d;
         }
-        for (u, d) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
+        for (u, d) in gimbal_rate_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
             *u += d;
         }
     }
@@ -404,14 +438,8 @@ impl<'a> Simulation<'a> {
             }
             None => None,
         };
-        let act = Actuation {
-            mtq_delay: CommandDelay::new(magnetorquers.delay_steps),
-            mtq: magnetorquers,
-            thrusters,
-            thr_state: ThrusterState::new(n_thr),
-            n_thr,
-            rod_dipole: [0.0; 3],
-        };
+        let wheel_delay = TorqueDelayLine::new(craft.wheels.first().map_or(0.0, |w| w.torque_delay_s), clock.h());
+        let act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay);
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
@@ -610,10 +638,7 @@ impl<'a> Simulation<'a> {
             return Ok(());
         }
         self.t_end = t;
-        let (mut input, dipole_cmd) = self.act.input(&cmd);
-        if let Some(inj) = &self.injection {
-            inj.add_to_input(&mut input);
-        }
+        let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
         let q_frame = self.target.frame(self.snap.as_ref());
         let q_cmd = q_frame * self.target.q_rel;
         let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);
@@ -752,6 +777,7 @@ impl<'a> Simulation<'a> {
             let tj = t + j as f64 * h;
             if j > 0 {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
+                input.wheel_torque_cmd_nm = self.act.wheel_torques();
             }
             // The plant integrator (the only call): RK4 over [tj, tj + h) with the
             // environment evaluated at every stage's own time (issue 9).
