@@ -812,7 +812,9 @@ fn margins(
         }
     }
     if !report.stable {
-        return Err(RunFailed("a measured margin is negative: the loop is not stable at the operating point".into()).into());
+        return Err(
+            RunFailed("a measured margin is negative: the loop is not stable at the operating point".into()).into()
+        );
     }
     Ok(())
 }

@@ -73,10 +73,10 @@ fn a_diagonal_inertia_on_decoupled_wheels_gives_a_diagonal_response() {
     let sc = Scenario::from_toml(DECOUPLED).unwrap();
     let r = measure(&sc, &small(0.6)).unwrap();
     for l in &r.response {
-        for i in 0..3 {
-            let diag = l[i][i][0].hypot(l[i][i][1]);
-            for j in (0..3).filter(|j| *j != i) {
-                let off = l[i][j][0].hypot(l[i][j][1]);
+        for (i, row) in l.iter().enumerate() {
+            let diag = row[i][0].hypot(row[i][1]);
+            for (j, z) in row.iter().enumerate().filter(|(j, _)| *j != i) {
+                let off = z[0].hypot(z[1]);
                 assert!(off <= 1e-9 * diag, "L[{i}][{j}] = {off:e} beside |L[{i}][{i}]| = {diag:e}");
             }
         }

@@ -225,9 +225,10 @@ impl DiskMargin {
 
 /// The peak of `y` over the samples: (value, frequency); NaN samples ignored.
 fn peak(w: &[f64], y: impl Iterator<Item = f64>) -> (f64, f64) {
-    w.iter().zip(y).filter(|(_, v)| v.is_finite()).fold((f64::NAN, f64::NAN), |(bv, bw), (w, v)| {
-        if bv.is_nan() || v > bv { (v, *w) } else { (bv, bw) }
-    })
+    w.iter()
+        .zip(y)
+        .filter(|(_, v)| v.is_finite())
+        .fold((f64::NAN, f64::NAN), |(bv, bw), (w, v)| if bv.is_nan() || v > bv { (v, *w) } else { (bv, bw) })
 }
 
 /// Every figure of one axis (loop at a time).
@@ -290,7 +291,9 @@ pub fn axis_margins(w: &[f64], s: &[Cmat], i: usize, nyquist_rad_s: f64) -> Axis
 /// `S − I/2`, the matrix whose structured singular value gives the balanced multiloop disk
 /// margin.
 pub fn disk_matrix(s: &Cmat) -> Cmat {
-    std::array::from_fn(|i| std::array::from_fn(|j| s[i][j] - if i == j { C64::new(0.5, 0.0) } else { C64::new(0.0, 0.0) }))
+    std::array::from_fn(|i| {
+        std::array::from_fn(|j| s[i][j] - if i == j { C64::new(0.5, 0.0) } else { C64::new(0.0, 0.0) })
+    })
 }
 
 /// The multiloop disk margin: `α = 1 / max_ω μ(S − I/2)` with μ's D-scaled upper bound
@@ -370,21 +373,21 @@ mod tests {
 
     #[test]
     fn loop_at_a_time_of_a_diagonal_loop_is_its_diagonal_and_l_from_columns_inverts() {
-        let l: Cmat = [[c(2.0, -1.0), c(0.0, 0.0), c(0.0, 0.0)], [c(0.0, 0.0), c(-0.5, 0.3), c(0.0, 0.0)], [
-            c(0.0, 0.0),
-            c(0.0, 0.0),
-            c(0.1, 4.0),
-        ]];
+        let l: Cmat = [
+            [c(2.0, -1.0), c(0.0, 0.0), c(0.0, 0.0)],
+            [c(0.0, 0.0), c(-0.5, 0.3), c(0.0, 0.0)],
+            [c(0.0, 0.0), c(0.0, 0.0), c(0.1, 4.0)],
+        ];
         let s = sensitivity(&l).unwrap();
         for i in 0..3 {
             assert!((loop_at_a_time(&s, i) - l[i][i]).norm() < 1e-12);
         }
         // U = -L E for any invertible E.
-        let e: Cmat = [[c(1.0, 0.2), c(0.1, 0.0), c(0.0, -0.3)], [c(0.0, 0.1), c(0.9, 0.0), c(0.2, 0.0)], [
-            c(0.3, 0.0),
-            c(0.0, 0.0),
-            c(1.1, 0.5),
-        ]];
+        let e: Cmat = [
+            [c(1.0, 0.2), c(0.1, 0.0), c(0.0, -0.3)],
+            [c(0.0, 0.1), c(0.9, 0.0), c(0.2, 0.0)],
+            [c(0.3, 0.0), c(0.0, 0.0), c(1.1, 0.5)],
+        ];
         let u = from_na(&(-(to_na(&l) * to_na(&e))));
         let back = loop_from_columns(&u, &e).unwrap();
         for i in 0..3 {

@@ -66,12 +66,14 @@ impl Effectiveness {
         };
         let b = nalgebra::DMatrix::from_fn(3, columns.len(), |i, j| columns[j][i]);
         let bbt = nalgebra::Matrix3::from_fn(|i, j| (0..columns.len()).map(|k| b[(i, k)] * b[(j, k)]).sum::<f64>());
-        let inv = bbt.try_inverse().filter(|_| bbt.determinant().abs() > 1e-12 * bbt.norm().powi(3)).ok_or_else(|| {
-            MarginError::NotSteady {
-                t_s: f64::NAN,
-                reason: "the actuators cannot make torque about every axis at the operating point (rank < 3)".into(),
-            }
-        })?;
+        let inv =
+            bbt.try_inverse().filter(|_| bbt.determinant().abs() > 1e-12 * bbt.norm().powi(3)).ok_or_else(|| {
+                MarginError::NotSteady {
+                    t_s: f64::NAN,
+                    reason: "the actuators cannot make torque about every axis at the operating point (rank < 3)"
+                        .into(),
+                }
+            })?;
         let pinv_rows = (0..columns.len())
             .map(|k| std::array::from_fn(|j| (0..3).map(|i| b[(i, k)] * inv[(i, j)]).sum::<f64>()))
             .collect();
@@ -177,7 +179,9 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
         sim.step(&mut Discard).map_err(MarginError::flight)?;
         let t = (sim.steps_done() - 1) as f64 * dt;
         if let Some(f) = sim.failure() {
-            return Err(MarginError::Unstable { reason: format!("the flight diverged before the operating point: {f:?}") });
+            return Err(MarginError::Unstable {
+                reason: format!("the flight diverged before the operating point: {f:?}"),
+            });
         }
         if sim.steps_done() > check_from
             && let Some(reason) = sim.last_step().and_then(|(c, _)| nonlinear_status(c))
@@ -189,7 +193,8 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
     if let Some((_, err)) = sim.last_step()
         && !(*err <= settle_bound_deg)
     {
-        let reason = format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
+        let reason =
+            format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
         return Err(MarginError::NotSteady { t_s: t, reason });
     }
     wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
@@ -283,7 +288,9 @@ pub fn run(
             _ => y,
         };
         if !du.iter().all(|v| v.is_finite() && v.abs() < 1e6 * x.amplitude) {
-            return Err(MarginError::Unstable { reason: format!("the response to the excitation diverges at t = {t:.3} s") });
+            return Err(MarginError::Unstable {
+                reason: format!("the response to the excitation diverges at t = {t:.3} s"),
+            });
         }
         if k < x.wait_steps {
             continue;
@@ -331,7 +338,9 @@ fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
         && *c > 2.0 * b
         && *c > 100.0 * amplitude
     {
-        return Err(MarginError::Unstable { reason: format!("the response to the excitation grows without bound (t = {t:.3} s)") });
+        return Err(MarginError::Unstable {
+            reason: format!("the response to the excitation grows without bound (t = {t:.3} s)"),
+        });
     }
     Ok(())
 }
@@ -339,16 +348,17 @@ fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
 /// Both runs still finite; the twin free of saturation (else the operating point is not a
 /// steady hold), the excited run too (else the excitation is too large to stay linear).
 fn check_step(exc: &Simulation, twin: &Simulation, t: f64) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {
-    for f in [exc.failure(), twin.failure()] {
-        if let Some(f) = f {
-            return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
-        }
+    if let Some(f) = [exc.failure(), twin.failure()].into_iter().flatten().next() {
+        return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
     }
     let (Some((ce, _)), Some((ct, _))) = (exc.last_step(), twin.last_step()) else {
         return Err(MarginError::Unstable { reason: format!("no flight command at t = {t:.3} s") });
     };
     if let Some(r) = nonlinear_status(ct) {
-        return Err(MarginError::NotSteady { t_s: t, reason: format!("the operating point does not stay a steady hold: {r}") });
+        return Err(MarginError::NotSteady {
+            t_s: t,
+            reason: format!("the operating point does not stay a steady hold: {r}"),
+        });
     }
     if let Some(r) = nonlinear_status(ce) {
         return Err(MarginError::NotSteady {

@@ -46,7 +46,9 @@ fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
     names.extend(["zero_db".into(), "minus_180".into()]);
     let mut ts = TimeSeries::with_columns(names, r.frequencies_rad_s.len());
     let l: Vec<Vec<C64>> = (0..3)
-        .map(|i| s.iter().map(|m| m.map_or(C64::new(f64::NAN, f64::NAN), |m| analysis::loop_at_a_time(&m, i))).collect())
+        .map(|i| {
+            s.iter().map(|m| m.map_or(C64::new(f64::NAN, f64::NAN), |m| analysis::loop_at_a_time(&m, i))).collect()
+        })
         .collect();
     let ph: Vec<Vec<f64>> = l.iter().map(|li| unwrap_deg(li)).collect();
     for (k, w) in r.frequencies_rad_s.iter().enumerate() {
@@ -85,7 +87,8 @@ fn loop_name(r: &MarginReport) -> &'static str {
 /// The Nyquist plot, clipped to `|l| ≤ 4` around the critical point: rows of each axis's
 /// curve in turn (NaN in the other columns), then the unit circle.
 fn nyquist(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
-    let names: Vec<String> = ["re".into()].into_iter().chain(AXES.iter().map(|a| format!("im_{a}"))).chain(["circle".into()]).collect();
+    let names: Vec<String> =
+        ["re".into()].into_iter().chain(AXES.iter().map(|a| format!("im_{a}"))).chain(["circle".into()]).collect();
     let mut ts = TimeSeries::with_columns(names, 4 * r.frequencies_rad_s.len() + 200);
     let nan = f64::NAN;
     for i in 0..3 {
@@ -145,7 +148,12 @@ fn disk(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         ),
         x: "log10_w".into(),
         x_label: "log10 frequency [rad/s]".into(),
-        panels: vec![Panel { title: "balanced (sigma = 0)".into(), y_label: "1 / alpha(w)".into(), series: lines, log_y: true }],
+        panels: vec![Panel {
+            title: "balanced (sigma = 0)".into(),
+            y_label: "1 / alpha(w)".into(),
+            series: lines,
+            log_y: true,
+        }],
     };
     (ts, fig)
 }

@@ -154,17 +154,23 @@ pub fn build(
 ) -> Result<MarginReport, MarginError> {
     let r = &m.response;
     let w = r.rad_s(dt);
-    let s: Vec<Cmat> = super::sensitivities(r).into_iter().collect::<Option<Vec<_>>>().ok_or_else(|| {
-        MarginError::Unstable { reason: "I + L is singular at a measured frequency (closed-loop pole on the unit circle)".into() }
-    })?;
-    let axes: Vec<AxisReport> =
-        ["x", "y", "z"].iter().enumerate().map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt)).collect();
+    let s: Vec<Cmat> =
+        super::sensitivities(r).into_iter().collect::<Option<Vec<_>>>().ok_or_else(|| MarginError::Unstable {
+            reason: "I + L is singular at a measured frequency (closed-loop pole on the unit circle)".into(),
+        })?;
+    let axes: Vec<AxisReport> = ["x", "y", "z"]
+        .iter()
+        .enumerate()
+        .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt))
+        .collect();
     let (ml, ml_unscaled) = analysis::multiloop_disk_margin(&w, &s);
     let peaks = r.columns.iter().flatten().map(|c| c.peak_attitude_rad);
     let fold = |it: &mut dyn Iterator<Item = f64>, f: fn(f64, f64) -> f64, z: f64| it.fold(z, f);
     let unconverged = r.columns.iter().flatten().filter(|c| !c.converged).count();
     let rule = match opts.point {
-        LoopPoint::Input => "input torque a(w) = min(theta * J_jj * max(w, wc)^2, 5 % of the tightest actuator channel limit)",
+        LoopPoint::Input => {
+            "input torque a(w) = min(theta * J_jj * max(w, wc)^2, 5 % of the tightest actuator channel limit)"
+        }
         LoopPoint::Output => "attitude rotation a = theta on the attitude sample",
     };
     let stable = margins_stable(&axes) && ml.alpha > 0.0;

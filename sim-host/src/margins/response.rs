@@ -98,7 +98,9 @@ impl Pool {
             out[i] = Some(r);
         }
         self.experiments += xs.len() as u64;
-        out.into_iter().map(|r| r.unwrap_or_else(|| Err(MarginError::Flight("an experiment was lost".into())))).collect()
+        out.into_iter()
+            .map(|r| r.unwrap_or_else(|| Err(MarginError::Flight("an experiment was lost".into()))))
+            .collect()
     }
 }
 
