@@ -357,7 +357,8 @@ mod tests {
             .collect();
         let a = axis_margins(&w, &s, 0, f64::INFINITY);
         assert!((a.disk.alpha - 2.0).abs() < 1e-9, "{a:?}");
-        assert!(a.disk.gain_margin_db.is_none());
+        // α = 2 to round-off: the gain margin is infinite, or nearly.
+        assert!(a.disk.gain_margin_db.is_none_or(|g| g > 150.0), "{a:?}");
         assert!((a.disk.phase_margin_deg - 90.0).abs() < 1e-6);
         let (ml, unscaled) = multiloop_disk_margin(&w, &s);
         assert!((ml.alpha - 2.0).abs() < 1e-6 && (unscaled.alpha - 2.0).abs() < 1e-6, "{ml:?} {unscaled:?}");
