@@ -186,8 +186,8 @@ impl Actuation {
 
     /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
     /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
-    /// `injection`'s wheel torques are added to the command before the delay line: the
-    /// loop is broken at the command, so the delay and the lag belong to the plant.
+    /// A loop injection is added to the commands as the plant receives them (before the
+    /// wheels' torque delay, which stays inside the loop).
     fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
         let mut input = Input::default();
         for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
@@ -197,9 +197,7 @@ impl Actuation {
             *d = s as f64;
         }
         if let Some(inj) = injection {
-            for (u, d) in self.wheel_cmd.iter_mut().zip(inj.wheel_torque_nm) {
-                *u += d;
-            }
+            inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
         input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
@@ -311,9 +309,11 @@ pub struct LoopInjection {
 }
 
 impl LoopInjection {
-    /// The gimbal rates (the wheel torques: in `Actuation::input`, before the wheels' delay).
-    fn add_to_input(&self, input: &mut Input) {
-        for (u, d) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
+    fn add_to_commands(&self, wheel_torque_nm: &mut [f64; MAX_WHEELS], gimbal_rate_rad_s: &mut [f64; MAX_GIMBALS]) {
+        for (u, d) in wheel_torque_nm.iter_mut().zip(self.wheel_torque_nm) {
+            *u += d;
+        }
+        for (u, d) in gimbal_rate_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
             *u += d;
         }
     }
@@ -639,9 +639,6 @@ impl<'a> Simulation<'a> {
         }
         self.t_end = t;
         let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
-        if let Some(inj) = &self.injection {
-            inj.add_to_input(&mut input);
-        }
         let q_frame = self.target.frame(self.snap.as_ref());
         let q_cmd = q_frame * self.target.q_rel;
         let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);

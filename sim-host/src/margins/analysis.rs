@@ -178,17 +178,29 @@ pub fn crossovers(w: &[f64], l: &[C64]) -> Vec<Crossover> {
         .collect()
 }
 
-/// Phase crossings of a sampled SISO loop: `Im l` changes sign where `Re l < 0`.
-pub fn phase_crossings(w: &[f64], l: &[C64]) -> Vec<PhaseCrossing> {
+/// Phase crossings of a sampled SISO loop: `Im l` changes sign where `Re l < 0`. A
+/// discrete-time loop is real at the Nyquist frequency `nyquist_rad_s`: when the last
+/// sample is there with `Re l < 0`, that is a phase crossing too (the Nyquist curve and its
+/// mirror image meet on the negative real axis).
+pub fn phase_crossings(w: &[f64], l: &[C64], nyquist_rad_s: f64) -> Vec<PhaseCrossing> {
     // Sign of the phase's sine, normalised so that a large |l| does not dominate.
     let g: Vec<f64> = l.iter().map(|z| z.im / z.norm()).collect();
-    zero_crossings(&g)
+    let crossing = |wp: f64, lp: C64| PhaseCrossing { frequency_rad_s: wp, gain_margin_db: -20.0 * lp.norm().log10() };
+    let mut out: Vec<PhaseCrossing> = zero_crossings(&g)
         .into_iter()
         .filter_map(|(k, f)| {
             let (wp, lp) = interpolate(w, l, k, f);
-            (lp.re < 0.0).then(|| PhaseCrossing { frequency_rad_s: wp, gain_margin_db: -20.0 * lp.norm().log10() })
+            (lp.re < 0.0).then(|| crossing(wp, lp))
         })
-        .collect()
+        .collect();
+    if let (Some(&wn), Some(&ln)) = (w.last(), l.last())
+        && (wn / nyquist_rad_s - 1.0).abs() < 1e-9
+        && ln.re < 0.0
+        && out.last().is_none_or(|p| (p.frequency_rad_s / wn - 1.0).abs() > 1e-3)
+    {
+        out.push(crossing(wn, C64::new(ln.re, 0.0)));
+    }
+    out
 }
 
 /// A disk margin (balanced, σ = 0): `α`, the gain and phase variations it covers, and where
@@ -259,7 +271,7 @@ impl AxisMargins {
 }
 
 /// Margins of axis i from the sampled sensitivities `s[k] = S(ω_k)`.
-pub fn axis_margins(w: &[f64], s: &[Cmat], i: usize) -> AxisMargins {
+pub fn axis_margins(w: &[f64], s: &[Cmat], i: usize, nyquist_rad_s: f64) -> AxisMargins {
     let one = C64::new(1.0, 0.0);
     let si: Vec<C64> = s.iter().map(|m| m[i][i]).collect();
     let l: Vec<C64> = s.iter().map(|m| loop_at_a_time(m, i)).collect();
@@ -269,7 +281,7 @@ pub fn axis_margins(w: &[f64], s: &[Cmat], i: usize) -> AxisMargins {
     let (dp, dw) = peak(w, si.iter().map(|z| (z - 0.5).norm()));
     AxisMargins {
         crossovers: crossovers(w, &l),
-        phase_crossings: phase_crossings(w, &l),
+        phase_crossings: phase_crossings(w, &l, nyquist_rad_s),
         sensitivity_peak: (db(sp), sw),
         complementary_peak: (db(tp), tw),
         disk: DiskMargin::from_alpha(1.0 / dp, dw),
@@ -320,7 +332,7 @@ mod tests {
         assert!((xo[0].frequency_rad_s / k - 1.0).abs() < 1e-6, "{xo:?}");
         let pm = 90.0 - (k * tau).to_degrees();
         assert!((xo[0].phase_margin_deg - pm).abs() < 1e-3, "{xo:?} vs {pm}");
-        let pc = phase_crossings(&w, &l);
+        let pc = phase_crossings(&w, &l, f64::INFINITY);
         let wp = std::f64::consts::FRAC_PI_2 / tau;
         let gm = 20.0 * (wp / k).log10();
         assert!((pc[0].frequency_rad_s / wp - 1.0).abs() < 1e-4, "{pc:?}");
@@ -343,9 +355,10 @@ mod tests {
                 m
             })
             .collect();
-        let a = axis_margins(&w, &s, 0);
+        let a = axis_margins(&w, &s, 0, f64::INFINITY);
         assert!((a.disk.alpha - 2.0).abs() < 1e-9, "{a:?}");
-        assert!(a.disk.gain_margin_db.is_none());
+        // α = 2 to round-off: the gain margin is infinite, or nearly.
+        assert!(a.disk.gain_margin_db.is_none_or(|g| g > 150.0), "{a:?}");
         assert!((a.disk.phase_margin_deg - 90.0).abs() < 1e-6);
         let (ml, unscaled) = multiloop_disk_margin(&w, &s);
         assert!((ml.alpha - 2.0).abs() < 1e-6 && (unscaled.alpha - 2.0).abs() < 1e-6, "{ml:?} {unscaled:?}");
@@ -405,7 +418,7 @@ mod tests {
         let l = integrator_with_delay(20.0, 0.1, &w);
         let xo = crossovers(&w, &l);
         assert!(xo[0].phase_margin_deg < 0.0, "{xo:?}");
-        let pc = phase_crossings(&w, &l);
+        let pc = phase_crossings(&w, &l, f64::INFINITY);
         assert!(pc[0].gain_margin_db < 0.0, "{pc:?}");
     }
 }

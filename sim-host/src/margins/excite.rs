@@ -10,6 +10,7 @@ use super::analysis::C64;
 use super::grid::Freq;
 use acs_flight::link::{ActuatorCommand, status};
 use sim_core::attitude::{Quat, Vec3};
+use sim_core::plant::wheel::Fidelity;
 use sim_core::recorder::series::Discard;
 use sim_core::simulation::{LoopInjection, Simulation};
 
@@ -145,13 +146,26 @@ pub fn nonlinear_status(cmd: &ActuatorCommand) -> Option<String> {
     (!set.is_empty()).then(|| set.join(", "))
 }
 
-/// A wheel within 5 % of its speed limit, if any.
-fn wheel_at_limit(sim: &Simulation) -> Option<String> {
+/// A wheel that makes the loop nonlinear at the operating point, if any: within 5 % of its
+/// speed limit, or inside its Coulomb-friction band (relative speed below three times the
+/// friction model's sign-smoothing speed: stiction, where the friction torque flips with
+/// the sign of the speed).
+fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
     let (craft, s) = (sim.craft(), sim.state());
     craft.wheels.iter().zip(s.wheels.iter()).enumerate().find_map(|(i, (p, ws))| {
         let w = ws.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&s.w);
-        (w.abs() > 0.95 * p.max_speed_rad_s)
-            .then(|| format!("wheel {} at {:.0} % of its speed limit", i + 1, 100.0 * w.abs() / p.max_speed_rad_s))
+        if w.abs() > 0.95 * p.max_speed_rad_s {
+            return Some(format!("wheel {} at {:.0} % of its speed limit", i + 1, 100.0 * w.abs() / p.max_speed_rad_s));
+        }
+        (p.fidelity == Fidelity::Accurate && p.coulomb_nm > 0.0 && w.abs() < 3.0 * p.sign_smoothing_rad_s).then(|| {
+            format!(
+                "wheel {} at {w:.2e} rad/s, inside its Coulomb-friction band (±{:.2e} rad/s): the friction torque \
+                 ({} N m) is not linear there (stiction); choose an --at where the wheels spin",
+                i + 1,
+                3.0 * p.sign_smoothing_rad_s,
+                p.coulomb_nm
+            )
+        })
     })
 }
 
@@ -183,7 +197,7 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
             format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
         return Err(MarginError::NotSteady { t_s: t, reason });
     }
-    wheel_at_limit(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
+    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
 }
 
 /// One sine step: frequency, excited axis, amplitude (N m at the input, rad at the
@@ -210,6 +224,14 @@ pub struct Column {
     pub converged: bool,
     /// Largest true attitude difference between the excited run and its twin, rad.
     pub peak_attitude_rad: f64,
+}
+
+/// The excitation's envelope: a raised-cosine ramp from 0 to 1 over the first `ramp`
+/// steps, then 1. With the cosine wave (no mean rate impulse into a double integrator),
+/// it keeps the onset transient small, so the wait before measuring is mostly spent on
+/// what little there is.
+fn onset(k: u64, ramp: u64) -> f64 {
+    if k >= ramp { 1.0 } else { 0.5 * (1.0 - (std::f64::consts::PI * k as f64 / ramp as f64).cos()) }
 }
 
 /// The rotation vector (body axes, rad) from `a` to `b`: `2 vec(a* ⊗ b)`, shortest way.
@@ -247,7 +269,7 @@ pub fn run(
     let total = x.wait_steps + u64::from(x.max_blocks) * x.block_steps;
     for k in 0..total {
         let phase = x.freq.phase(k);
-        let wave = if x.freq.is_nyquist() { phase.cos() } else { phase.sin() };
+        let wave = onset(k, x.wait_steps / 2) * phase.cos();
         let mut d = [0.0; 3];
         d[x.axis] = x.amplitude * wave;
         let y = rotation_between(&twin.state().q, &exc.state().q);
@@ -283,10 +305,10 @@ pub fn run(
             let b = Block { u: acc.u.map(|z| z / n), e: acc.e.map(|z| z / n) };
             acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
             blocks.push(norm3(&b.u));
-            grows(&blocks, t)?;
+            grows(&blocks, x.amplitude, t)?;
             let settled = last.as_ref().is_some_and(|p| {
                 let diff: [C64; 3] = std::array::from_fn(|i| b.u[i] - p.u[i]);
-                norm3(&diff) <= 1e-3 * norm3(&b.u) + 1e-6 * x.amplitude
+                norm3(&diff) <= SETTLED_RELATIVE * norm3(&b.u) + SETTLED_FLOOR * x.amplitude
             });
             last = Some(b);
             if settled {
@@ -300,11 +322,21 @@ pub fn run(
     Ok(Column { u: b.u, e: b.e, blocks: blocks.len() as u32, converged, peak_attitude_rad: peak })
 }
 
+/// Two consecutive blocks agree when their loop-output DFTs differ by less than this part
+/// of the last one, plus this part of the excitation amplitude (the floor keeps f32
+/// round-off in a loop output far below the excitation, `|L| ≪ 1`, from holding an
+/// experiment open).
+const SETTLED_RELATIVE: f64 = 2e-3;
+const SETTLED_FLOOR: f64 = 1e-5;
+
 /// The response grows block after block (three in a row, each over twice the last).
-fn grows(blocks: &[f64], t: f64) -> Result<(), MarginError> {
+fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
+    // A stable loop answers with |U| = |T D| of the order of the excitation: growth far
+    // beyond it, block after block, is divergence (below that: a slow transient).
     if let [.., a, b, c] = blocks
         && *b > 2.0 * a
         && *c > 2.0 * b
+        && *c > 100.0 * amplitude
     {
         return Err(MarginError::Unstable {
             reason: format!("the response to the excitation grows without bound (t = {t:.3} s)"),
@@ -316,10 +348,8 @@ fn grows(blocks: &[f64], t: f64) -> Result<(), MarginError> {
 /// Both runs still finite; the twin free of saturation (else the operating point is not a
 /// steady hold), the excited run too (else the excitation is too large to stay linear).
 fn check_step(exc: &Simulation, twin: &Simulation, t: f64) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {
-    for f in [exc.failure(), twin.failure()] {
-        if let Some(f) = f {
-            return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
-        }
+    if let Some(f) = [exc.failure(), twin.failure()].into_iter().flatten().next() {
+        return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
     }
     let (Some((ce, _)), Some((ct, _))) = (exc.last_step(), twin.last_step()) else {
         return Err(MarginError::Unstable { reason: format!("no flight command at t = {t:.3} s") });

@@ -176,6 +176,9 @@ pub struct Measured {
     pub pilot_frequencies: usize,
     pub refined_frequencies: usize,
     pub amplitudes: Vec<f64>,
+    /// Experiments run, and those that never became periodic.
+    pub experiments: usize,
+    pub unsettled: usize,
 }
 
 /// Measures the margins of `scenario` (docs/margins.md).
@@ -201,8 +204,15 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         effectiveness: None,
         fork: false,
     };
-    // The operating point once here: is it a steady hold, what do the actuators make there.
+    // The operating point once here: is it a steady hold, what do the actuators make there
+    // (an actuator family out of scope is said before flying).
     let mut link = sim_core::link::open(&opts.link, &opts.link_options).map_err(MarginError::flight)?;
+    let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
+    if let Err(e @ MarginError::Unsupported(_)) =
+        Effectiveness::at(&sim_core::simulation::Simulation::new(resolved, link.as_mut()).map_err(MarginError::flight)?)
+    {
+        return Err(e);
+    }
     let sim = setup.fly(link.as_mut())?;
     let eff = Effectiveness::at(&sim)?;
     let j = sim.craft().inertia;
@@ -235,6 +245,7 @@ fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured,
     let wc = m.crossover_estimate_rad_s;
     let grid = grid::log_grid(wc / GRID_BELOW_CROSSOVER, opts.grid_points.max(2), plan.dt);
     measure_frequencies(pool, plan, &grid, wc, &mut m)?;
+    unsettled(&m)?;
     if opts.refine {
         for _ in 0..REFINE_ROUNDS {
             let new: Vec<Freq> = refinement_points(&m.response, plan.dt);
@@ -248,6 +259,24 @@ fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured,
     Ok(m)
 }
 
+/// More than a tenth of the experiments so far (the pilot's excepted: it waits on a guess)
+/// never became
+/// periodic: the loop is not linear and time-invariant at this operating point.
+fn unsettled(m: &Measured) -> Result<(), MarginError> {
+    let (n, total) = (m.unsettled, m.experiments);
+    if n * 10 > total {
+        return Err(MarginError::NotSteady {
+            t_s: f64::NAN,
+            reason: format!(
+                "the response to the excitation did not become periodic in {n} of {total} experiments \
+                 ({MAX_BLOCKS} blocks): the loop is not linear and time-invariant at this operating point \
+                 (friction, a limit cycle, an orbit-periodic plant) or has a mode much slower than its crossover"
+            ),
+        });
+    }
+    Ok(())
+}
+
 fn measure_frequencies(
     pool: &mut Pool,
     plan: &Plan,
@@ -257,6 +286,8 @@ fn measure_frequencies(
 ) -> Result<(), MarginError> {
     let xs: Vec<Experiment> = fs.iter().flat_map(|f| plan.three(*f, wc)).collect();
     let cols = pool.run(&xs)?;
+    m.experiments += cols.len();
+    m.unsettled += cols.iter().filter(|c| !c.converged).count();
     m.amplitudes.extend(xs.iter().map(|x| x.amplitude));
     for (f, c) in fs.iter().zip(cols.chunks_exact(3)) {
         m.response.insert(*f, [c[0], c[1], c[2]], plan.dt)?;

@@ -161,7 +161,7 @@ pub fn build(
     let axes: Vec<AxisReport> = ["x", "y", "z"]
         .iter()
         .enumerate()
-        .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i), dt))
+        .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt))
         .collect();
     let (ml, ml_unscaled) = analysis::multiloop_disk_margin(&w, &s);
     let peaks = r.columns.iter().flatten().map(|c| c.peak_attitude_rad);
