@@ -13,6 +13,9 @@ pub mod board {
     pub const STM32F405: u8 = 2;
 }
 
+/// `Clone`: a copy of the whole flight computer's state (the simulator forks an in-process
+/// run at an operating point, `sim-host margins`).
+#[derive(Clone)]
 pub struct Session {
     pub fsw: Fsw,
     board: u8,

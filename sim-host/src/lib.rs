@@ -7,6 +7,7 @@
 //! - [`timing`]: the search for the slowest flight step and its corpus;
 //! - [`cycles`]: cycle bounds of the firmware under QEMU (TCG plugin);
 //! - [`analysis`]: post-run analyses (thruster allocation envelopes);
+//! - [`margins`]: stability margins measured through the flight step;
 //! - [`format`]: number formatting of the text outputs.
 
 // Index loops over parallel fixed-size arrays read better than zips.
@@ -16,5 +17,6 @@ pub mod analysis;
 pub mod campaign;
 pub mod cycles;
 pub mod format;
+pub mod margins;
 pub mod report;
 pub mod timing;

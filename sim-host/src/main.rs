@@ -172,6 +172,51 @@ enum Cmd {
         #[arg(long, default_value = "parquet")]
         format: output::Format,
     },
+    /// Stability margins of the flight loop at an operating point, measured through the
+    /// flight step (docs/margins.md): margins.json, bode.png, nyquist.png, disk.png in --out
+    /// and a table. Exit status 2: loop not supported; 3: not a steady hold, or unstable.
+    Margins {
+        scenario: PathBuf,
+        /// Operating point, s (default: the end of the scenario's duration).
+        #[arg(long)]
+        at: Option<f64>,
+        /// Where the loop is broken: input (actuator command) | output (attitude measurement).
+        #[arg(long = "loop", default_value = "input")]
+        loop_point: String,
+        /// Print margins.json to stdout instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Output directory (default: runs/<scenario>-margins).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// in-process | qemu (QEMU re-flies every experiment from t = 0).
+        #[arg(long, default_value = "in-process")]
+        link: LinkKind,
+        /// Firmware ELF for --link qemu.
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+        /// Frequencies of the log-spaced grid, before refinement.
+        #[arg(long, default_value_t = 40)]
+        grid_points: usize,
+        /// Worker threads.
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Attitude excitation aimed at, rad.
+        #[arg(long, default_value_t = 1e-4)]
+        amplitude_rad: f64,
+        /// Crossover estimate, rad/s (skips the pilot sweep).
+        #[arg(long)]
+        crossover_hint: Option<f64>,
+        /// No refinement of crossings and peaks.
+        #[arg(long)]
+        no_refine: bool,
+        /// Re-fly every experiment from t = 0 even in-process (as under QEMU).
+        #[arg(long)]
+        refly: bool,
+        /// Skip the PNG figures.
+        #[arg(long)]
+        no_plots: bool,
+    },
     /// Check a scenario file and print the flight parameters it uploads.
     Check {
         /// Scenario file (TOML, docs/scenario.md), e.g. scenarios/paper000/test1.toml.
@@ -290,7 +335,9 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
-            if e.downcast_ref::<RunFailed>().is_some() {
+            if let Some(m) = e.downcast_ref::<sim_host::margins::MarginError>() {
+                std::process::ExitCode::from(m.exit_code() as u8)
+            } else if e.downcast_ref::<RunFailed>().is_some() {
                 std::process::ExitCode::from(EXIT_RUN_FAILED)
             } else {
                 std::process::ExitCode::FAILURE
@@ -318,6 +365,41 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             link::serve::serve_with(l, &link::serve::ServeOptions { idle_timeout, max_sessions: None })
         }
         Cmd::Check { scenario } => check(&scenario),
+        Cmd::Margins {
+            scenario,
+            at,
+            loop_point,
+            json,
+            out,
+            link,
+            firmware,
+            grid_points,
+            threads,
+            amplitude_rad,
+            crossover_hint,
+            no_refine,
+            refly,
+            no_plots,
+        } => {
+            let point = match loop_point.as_str() {
+                "input" => sim_host::margins::LoopPoint::Input,
+                "output" => sim_host::margins::LoopPoint::Output,
+                other => anyhow::bail!("--loop {other}: expected input or output"),
+            };
+            let opts = sim_host::margins::MarginOptions {
+                at_s: at,
+                point,
+                link,
+                link_options: LinkOptions { firmware },
+                grid_points,
+                threads,
+                amplitude_rad,
+                crossover_hint_rad_s: crossover_hint,
+                refine: !no_refine,
+                refly,
+            };
+            margins(&scenario, &opts, json, out, no_plots)
+        }
         Cmd::CompareSeries { a, b } => {
             let (x, y) = (output::read_run(&a)?.series, output::read_run(&b)?.series);
             if let Some(d) = output::first_difference(&x, &y) {
@@ -767,4 +849,37 @@ fn warn_deprecated(sc: &Scenario) {
     for w in &sc.deprecations {
         eprintln!("warning: {}: {w}", sc.name);
     }
+}
+
+/// `sim-host margins`: measure, write margins.json and the figures, print the table (or
+/// the JSON). A loop measured with a negative margin exits with status 3 after writing.
+fn margins(
+    path: &Path,
+    opts: &sim_host::margins::MarginOptions,
+    json: bool,
+    out: Option<PathBuf>,
+    no_plots: bool,
+) -> Result<()> {
+    let sc = Scenario::load(path)?;
+    let report = sim_host::margins::measure(&sc, opts)?;
+    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-margins", sc.name)));
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let text = serde_json::to_string_pretty(&report)?;
+    std::fs::write(out.join("margins.json"), &text).with_context(|| format!("writing {}", out.display()))?;
+    let figures = if no_plots { Vec::new() } else { sim_host::margins::plots::write(&out, &report)? };
+    if json {
+        say!("{text}");
+    } else {
+        say!("{}", sim_host::margins::report::table(&report));
+        say!("  wrote {}", out.join("margins.json").display());
+        for f in figures {
+            say!("  wrote {}", f.display());
+        }
+    }
+    if !report.stable {
+        return Err(
+            RunFailed("a measured margin is negative: the loop is not stable at the operating point".into()).into()
+        );
+    }
+    Ok(())
 }

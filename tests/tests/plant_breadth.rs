@@ -256,3 +256,92 @@ fn ideal_wheels_report_no_motor_current() {
     let p = s.max_wheel_power_w.unwrap();
     assert!(p > 0.0 && p <= t_max * rpm_max * std::f64::consts::PI / 30.0, "{p}");
 }
+
+/// The step as the flight link carries it (f32).
+const CMD: f64 = 0.1f32 as f64;
+
+/// One wheel along x, open loop, a torque step of 0.1 N m on the rotor at t = 0; rigid body
+/// Jx = 4 kg m² with the wheel (3.95 without its rotor: the plant's `J`, the rotor's absolute
+/// momentum is `h_a = ∫ T`): the body rate is `ω_x(t) = -(0.1/3.95) g(t)` with `g` the integral of the applied
+/// step (t without lag or delay).
+const WHEEL_STEP: &str = r#"
+name = "wheel-step"
+duration_s = 0.3
+[timing]
+control_rate_hz = 100.0
+dynamics_substeps = 10
+[spacecraft]
+inertia_kgm2 = [[4.0, 0, 0], [0, 5.0, 0], [0, 0, 6.0]]
+[initial]
+euler_deg = [0, 0, 0]
+[target]
+euler_deg = [0, 0, 0]
+[actuators.wheels]
+layout = "axes"
+axes = [[1.0, 0.0, 0.0]]
+max_torque_nm = 0.2
+inertia_kgm2 = 0.05
+EXTRA
+[controller]
+type = "none"
+[open_loop]
+commands = [{ t_s = 0.0, wheel_torque_nm = [0.1] }]
+"#;
+
+fn wheel_step(extra: &str) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let sc = Scenario::from_toml(&WHEEL_STEP.replace("EXTRA", extra)).unwrap();
+    let ts = run_in_process(&sc).series;
+    let col = |c| ts.fixed(c).unwrap().to_vec();
+    (col(Col::T), col(Col::RateX), ts.col("wheel1_torque_nm").unwrap().to_vec())
+}
+
+#[test]
+fn wheel_torque_delay_shifts_the_step_by_the_stated_time() {
+    // 13 ms = 13 dynamics steps of 1 ms (exact); 13.4 ms rounds to the same 13 steps.
+    for extra in ["torque_delay_s = 0.013", "torque_delay_s = 0.0134"] {
+        let (t, wx, torque) = wheel_step(extra);
+        for k in 0..t.len() {
+            let shifted = (t[k] - 0.013).max(0.0);
+            let want = -CMD / 3.95 * shifted;
+            assert!((wx[k] - want).abs() < 1e-12, "{extra} t {} wx {} want {want}", t[k], wx[k]);
+            // The recorded torque is the one acting over the step's first dynamics step.
+            let acting = if t[k] >= 0.013 - 1e-9 { -CMD } else { 0.0 };
+            assert_eq!(torque[k], acting, "{extra} t {}", t[k]);
+        }
+    }
+    // No delay: the ramp from t = 0, and the same bits as the key set to 0.
+    let (t, wx, _) = wheel_step("");
+    assert!(t.iter().zip(&wx).all(|(t, w)| (w + CMD / 3.95 * t).abs() < 1e-12));
+    assert_eq!(wheel_step("torque_delay_s = 0.0").1, wx);
+}
+
+#[test]
+fn wheel_torque_lag_follows_one_minus_exp_through_the_simulator() {
+    let tau = 0.04;
+    let (t, wx, torque) = wheel_step("torque_lag_s = 0.04");
+    for k in 0..t.len() {
+        let e = (-t[k] / tau).exp();
+        let applied = CMD * (1.0 - e);
+        let angle = CMD * (t[k] - tau * (1.0 - e)); // ∫ applied dt
+        assert!((torque[k] + applied).abs() < 1e-9, "t {} torque {} want {}", t[k], torque[k], -applied);
+        assert!((wx[k] + angle / 3.95).abs() < 1e-10, "t {} wx {} want {}", t[k], wx[k], -angle / 3.95);
+    }
+    assert_eq!(wheel_step("torque_lag_s = 0.0").1, wheel_step("").1);
+}
+
+#[test]
+fn wheel_lag_and_delay_keys_are_checked() {
+    for (extra, key) in [
+        ("torque_lag_s = -0.1", "actuators.wheels.torque_lag_s"),
+        ("torque_lag_s = 1e4", "actuators.wheels.torque_lag_s"),
+        ("torque_delay_s = -1e-3", "actuators.wheels.torque_delay_s"),
+        ("torque_delay_s = 61.0", "actuators.wheels.torque_delay_s"),
+        ("torque_delay_s = inf", "actuators.wheels.torque_delay_s"),
+        // RK4 stability: 1 ms dynamics step > 2.5 × 0.1 ms.
+        ("torque_lag_s = 1e-4", "timing.dynamics_substeps"),
+    ] {
+        let e = Scenario::from_toml(&WHEEL_STEP.replace("EXTRA", extra));
+        let msg = format!("{:#}", e.expect_err(extra));
+        assert!(msg.contains(key), "{extra}: {msg}");
+    }
+}

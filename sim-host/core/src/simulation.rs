@@ -14,8 +14,8 @@ use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
-use crate::plant::wheel::{WheelDeriv, WheelOutput};
-use crate::plant::{Input, MAX_WHEELS, Spacecraft, State, TorqueReport};
+use crate::plant::wheel::{TorqueDelayLine, WheelDeriv, WheelOutput};
+use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueReport};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
@@ -27,7 +27,7 @@ use crate::scenario::{
     Clock, GroundCommand, InertiaChange, OpenLoopRow, Performance, Resolved, Scenario, TargetConfig, Upload, layout,
 };
 use crate::sensors::SensorSuite;
-use acs_flight::link::{ActuatorCommand, FswMsg, status};
+use acs_flight::link::{ActuatorCommand, FswMsg, SensorFrame, status, valid};
 use acs_flight::math::EulerSeq;
 use acs_flight::modes::Reason;
 use acs_flight::params::Mode;
@@ -126,6 +126,7 @@ fn command_non_finite(c: &ActuatorCommand) -> Option<&'static str> {
 }
 
 /// The attitude target: relative to its frame (inertial, or LVLH when the scenario says so).
+#[derive(Clone)]
 struct Target {
     q_rel: Quat,
     euler_deg: [f64; 3],
@@ -149,6 +150,7 @@ impl Target {
 }
 
 /// Magnetorquers and thrusters: command → what the plant receives.
+#[derive(Clone)]
 struct Actuation {
     mtq: MagnetorquerSet,
     thrusters: Option<ThrusterSet>,
@@ -157,18 +159,47 @@ struct Actuation {
     rod_dipole: [f64; 3],
     /// `[actuators.magnetorquers] delay_s` as whole control periods.
     mtq_delay: CommandDelay,
+    /// `[actuators.wheels] torque_delay_s` as whole dynamics steps.
+    wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+    /// The wheel torque commands of this control period (before `wheel_delay`).
+    wheel_cmd: [f64; MAX_WHEELS],
 }
 
 impl Actuation {
-    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`]).
-    fn input(&mut self, cmd: &ActuatorCommand) -> (Input, [f64; 3]) {
+    fn new(
+        mtq: MagnetorquerSet,
+        thrusters: Option<ThrusterSet>,
+        n_thr: usize,
+        wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+    ) -> Self {
+        Self {
+            mtq_delay: CommandDelay::new(mtq.delay_steps),
+            mtq,
+            thrusters,
+            thr_state: ThrusterState::new(n_thr),
+            n_thr,
+            rod_dipole: [0.0; 3],
+            wheel_delay,
+            wheel_cmd: [0.0; MAX_WHEELS],
+        }
+    }
+
+    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
+    /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
+    /// A loop injection is added to the commands as the plant receives them (before the
+    /// wheels' torque delay, which stays inside the loop).
+    fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
         let mut input = Input::default();
         for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
             *d = s as f64;
         }
-        for (d, s) in input.wheel_torque_cmd_nm.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
+        for (d, s) in self.wheel_cmd.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
             *d = s as f64;
         }
+        if let Some(inj) = injection {
+            inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
+        }
+        input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
         if !self.mtq.rods.is_empty() {
             let acting = self.mtq_delay.push(dipole_cmd);
@@ -177,6 +208,11 @@ impl Actuation {
         input.dipole_am2 = self.rod_dipole.into();
         input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
         (input, dipole_cmd)
+    }
+
+    /// The wheel torque commands acting over the next dynamics step (after the delay).
+    fn wheel_torques(&mut self) -> [f64; MAX_WHEELS] {
+        self.wheel_delay.push(self.wheel_cmd)
     }
 
     /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
@@ -189,7 +225,7 @@ impl Actuation {
 }
 
 /// Extremes and counters over the run.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Metrics {
     counts: StatusCounts,
     max_gimbal_rate: f64,
@@ -257,6 +293,42 @@ impl Metrics {
     }
 }
 
+/// Signals added to the loop at every control step while set
+/// ([`Simulation::set_injection`]): the loop broken for a frequency-response measurement
+/// (`sim-host margins`, docs/margins.md). A run without one is untouched: nothing is added,
+/// not even zeros.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LoopInjection {
+    /// Added to each wheel's motor-torque command the plant receives (on the rotor), N m.
+    pub wheel_torque_nm: [f64; MAX_WHEELS],
+    /// Added to each gimbal-rate command the plant receives, rad/s.
+    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
+    /// A small rotation (rotation vector, body axes, rad) applied to the attitude sample
+    /// of the frame, `q_meas ⊗ exp(θ/2)`, when the frame carries one.
+    pub attitude_rad: [f64; 3],
+}
+
+impl LoopInjection {
+    fn add_to_commands(&self, wheel_torque_nm: &mut [f64; MAX_WHEELS], gimbal_rate_rad_s: &mut [f64; MAX_GIMBALS]) {
+        for (u, d) in wheel_torque_nm.iter_mut().zip(self.wheel_torque_nm) {
+            *u += d;
+        }
+        for (u, d) in gimbal_rate_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
+            *u += d;
+        }
+    }
+
+    fn add_to_frame(&self, frame: &mut SensorFrame) {
+        if frame.valid & valid::ATTITUDE == 0 {
+            return;
+        }
+        let [x, y, z, w] = frame.q_ib_xyzw.map(f64::from);
+        let q = Quat::new(w, x, y, z) * Quat::from_imag(Vec3::from(self.attitude_rad) * 0.5).exp();
+        let q = q.normalize();
+        frame.q_ib_xyzw = [q.i, q.j, q.k, q.w].map(|c| c as f32);
+    }
+}
+
 /// What one control step saw, for the recorded row.
 struct StepView<'a> {
     t: f64,
@@ -318,6 +390,11 @@ pub struct Simulation<'a> {
     failure: Option<Failure>,
     /// Time of the last control step that ran (the divergence time after a failure), s.
     t_end: f64,
+    /// Added to the loop while set (`None` in every ordinary run).
+    injection: Option<LoopInjection>,
+    /// The last control step's command and true attitude error (deg), for tools that
+    /// observe a run step by step.
+    last_step: Option<(ActuatorCommand, f64)>,
 }
 
 impl<'a> Simulation<'a> {
@@ -361,14 +438,8 @@ impl<'a> Simulation<'a> {
             }
             None => None,
         };
-        let act = Actuation {
-            mtq_delay: CommandDelay::new(magnetorquers.delay_steps),
-            mtq: magnetorquers,
-            thrusters,
-            thr_state: ThrusterState::new(n_thr),
-            n_thr,
-            rod_dipole: [0.0; 3],
-        };
+        let wheel_delay = TorqueDelayLine::new(craft.wheels.first().map_or(0.0, |w| w.torque_delay_s), clock.h());
+        let act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay);
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
@@ -403,7 +474,87 @@ impl<'a> Simulation<'a> {
             clock,
             failure: None,
             t_end: 0.0,
+            injection: None,
+            last_step: None,
         })
+    }
+
+    /// A copy of this run in its current state, flying against `link` (which must hold a
+    /// copy of this run's flight side: [`Simulation::fork_link`]). Stepping the copy does
+    /// not touch this run: `sim-host margins` flies to an operating point once and forks
+    /// an experiment and its unexcited twin from there.
+    pub fn fork<'b>(&self, link: &'b mut dyn FlightLink) -> Simulation<'b> {
+        Simulation {
+            name: self.name.clone(),
+            control_rate_hz: self.control_rate_hz,
+            dynamics_rate_hz: self.dynamics_rate_hz,
+            commands: self.commands.clone(),
+            link,
+            info: self.info.clone(),
+            craft: self.craft.clone(),
+            state: self.state,
+            snap: self.snap,
+            snap_ready: self.snap_ready,
+            sensors: self.sensors.clone(),
+            inertia_change: self.inertia_change.clone(),
+            open_loop: self.open_loop.clone(),
+            act: self.act.clone(),
+            target: self.target.clone(),
+            next_command: self.next_command,
+            metrics: self.metrics.clone(),
+            errors: self.errors.clone(),
+            pointing: self.pointing.clone(),
+            performance: self.performance,
+            estimation: self.estimation.clone(),
+            layout: self.layout.clone(),
+            momentum: self.momentum.clone(),
+            slow_fdir: self.slow_fdir,
+            columns: self.columns.clone(),
+            row: self.row.clone(),
+            k: self.k,
+            clock: self.clock,
+            failure: self.failure.clone(),
+            t_end: self.t_end,
+            injection: self.injection,
+            last_step: self.last_step,
+        }
+    }
+
+    /// A copy of the link with the flight side in its current state ([`FlightLink::fork`]);
+    /// `None` when the link cannot be copied (QEMU, TCP, serial).
+    pub fn fork_link(&self) -> Option<Box<dyn FlightLink>> {
+        self.link.fork()
+    }
+
+    /// Fly on past the scenario's duration, to `steps` control steps in all (the plant,
+    /// the flight code and the ground commands as they are; nothing else changes).
+    pub fn extend_to(&mut self, steps: u64) {
+        self.clock.steps = self.clock.steps.max(steps);
+    }
+
+    /// Adds `injection` to the loop at every following control step (`None`: stop).
+    pub fn set_injection(&mut self, injection: Option<LoopInjection>) {
+        self.injection = injection;
+    }
+
+    /// The last control step's flight command and its true attitude error (deg).
+    pub fn last_step(&self) -> Option<&(ActuatorCommand, f64)> {
+        self.last_step.as_ref()
+    }
+
+    /// The plant's state now (at the next control step's time).
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// The spacecraft model (inertia, actuators).
+    pub fn craft(&self) -> &Spacecraft {
+        &self.craft
+    }
+
+    /// The control period, s.
+    pub fn control_period_s(&self) -> f64 {
+        self.clock.dt
     }
 
     pub fn columns(&self) -> &[String] {
@@ -493,11 +644,12 @@ impl<'a> Simulation<'a> {
             return Ok(());
         }
         self.t_end = t;
-        let (mut input, dipole_cmd) = self.act.input(&cmd);
+        let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
         let q_frame = self.target.frame(self.snap.as_ref());
         let q_cmd = q_frame * self.target.q_rel;
         let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);
         let err_deg = err_rad.to_degrees();
+        self.last_step = Some((cmd, err_deg));
         self.push_pointing(t, err_vec_rad.map(f64::to_degrees));
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
@@ -554,7 +706,10 @@ impl<'a> Simulation<'a> {
             // The sensors' first offer of the truth (the later ones: after each substep).
             self.sensors.sample_due(t, &self.state, &self.craft, self.snap.as_ref(), &self.act.rod_dipole);
         }
-        let frame = self.sensors.frame(k as u32, t, &self.state, &self.craft, self.snap.as_ref());
+        let mut frame = self.sensors.frame(k as u32, t, &self.state, &self.craft, self.snap.as_ref());
+        if let Some(inj) = &self.injection {
+            inj.add_to_frame(&mut frame);
+        }
         if self.info.is_none() {
             return Ok((open_loop_command(open_loop_at(&self.open_loop, t), k as u32), 0));
         }
@@ -628,6 +783,7 @@ impl<'a> Simulation<'a> {
             let tj = t + j as f64 * h;
             if j > 0 {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
+                input.wheel_torque_cmd_nm = self.act.wheel_torques();
             }
             // The plant integrator (the only call): RK4 over [tj, tj + h) with the
             // environment evaluated at every stage's own time (issue 9).

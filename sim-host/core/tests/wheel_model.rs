@@ -532,3 +532,52 @@ fn standing_current_at_zero_speed_is_the_held_speed_loop_error() {
     // The hold is shared: the friction state near T_f0, the rest from the rotor angle.
     assert!(cogging > 0.0 && cogging <= p.bearing_nm + p.ripple_nm);
 }
+
+/// `torque_lag_s`: the torque the wheel applies to its rotor follows a command step as
+/// `T (1 - e^{-t/τ})` (first-order lag, RK4 as a state: relative error ≈ (h/τ)⁵/120 per step,
+/// tolerance 1e-9 of the step at h = τ/50); without a lag it is the command at once.
+#[test]
+fn torque_lag_step_response_is_one_minus_exp() {
+    let tau = 0.05;
+    let p = WheelParams { torque_lag_s: tau, ..WheelParams::ideal(0.2, 600.0, 0.01) };
+    p.validate().unwrap();
+    assert!((p.fastest_rate_per_s() - (1.0 / tau).max(0.2 / (0.01 * 6.0))).abs() < 1e-12);
+    let (cmd, h) = (0.1, tau / 50.0);
+    let mut s = WheelState::default();
+    let mut worst: f64 = 0.0;
+    for k in 0..=500 {
+        let t = k as f64 * h;
+        let applied = evaluate(&p, &s, cmd, &Z, &Z).0.dh_abs_nm;
+        worst = worst.max((applied - cmd * (1.0 - (-t / tau).exp())).abs() / cmd);
+        s = rk4(&p, &s, cmd, h);
+    }
+    eprintln!("lag step response: worst error {worst:.2e} of the step");
+    assert!(worst < 1e-9, "{worst}");
+    // No lag: the command at once, the lag state never moves.
+    let p0 = WheelParams::ideal(0.2, 600.0, 0.01);
+    let (d, _) = evaluate(&p0, &WheelState::default(), cmd, &Z, &Z);
+    assert_eq!((d.dh_abs_nm, d.dapplied_torque), (cmd, 0.0));
+    for (f, bad) in [
+        ("torque_lag_s", WheelParams { torque_lag_s: -1.0, ..p0.clone() }),
+        ("torque_delay_s", WheelParams { torque_delay_s: f64::NAN, ..p0.clone() }),
+    ] {
+        let e = bad.validate().unwrap_err();
+        assert!(e.contains(f), "{e}");
+    }
+}
+
+/// `torque_delay_s`: the delay line returns the command of `round(Δ/h)` dynamics steps
+/// earlier (zeros before), Δ rounded to whole steps.
+#[test]
+fn torque_delay_line_shifts_by_whole_dynamics_steps() {
+    let h = 0.001;
+    for (delay, steps) in [(0.0, 0), (0.003, 3), (0.0034, 3), (0.0036, 4), (0.0004, 0)] {
+        let mut d = TorqueDelayLine::<2>::new(delay, h);
+        assert_eq!(d.steps(), steps, "{delay}");
+        for k in 0..20usize {
+            let y = d.push([k as f64 + 1.0, -(k as f64) - 1.0]);
+            let want = if k >= steps { (k - steps) as f64 + 1.0 } else { 0.0 };
+            assert_eq!(y, [want, -want], "delay {delay} k {k}");
+        }
+    }
+}

@@ -6,9 +6,13 @@
 //!   draw the same numbers;
 //! - [`vec3`]: `[f64; 3]` vector helpers (`dot`, `cross`, `norm`, …) for tests whose
 //!   data are plain arrays;
+//! - [`loop_reference`]: the analytic discrete open-loop response of a rigid-body axis under
+//!   quaternion-feedback PD (ZOH, delays, actuator lag) and margins computed from any
+//!   response, the reference of `sim-host margins` (issue 25);
 //! - `mekf_ref` (feature `mekf-ref`): the f64 multiplicative EKF of Crassidis & Junkins,
 //!   the oracle of the flight MEKF (sim-host/core/tests/mekf_reference.rs).
 
+pub mod loop_reference;
 #[cfg(feature = "mekf-ref")]
 pub mod mekf_ref;
 pub mod rng;

@@ -8,6 +8,7 @@ use anyhow::{Result, bail};
 
 /// The flight code called directly, in this process, through the same `Session` as the
 /// firmware (no serialisation).
+#[derive(Clone)]
 pub struct InProcess {
     session: Session,
 }
@@ -59,5 +60,8 @@ impl FlightLink for InProcess {
             Some(FswMsg::Error(e)) => bail!("in-process: the flight code refused frame {}: {e:?}", frame.seq),
             other => bail!("in-process: unexpected answer to frame {}: {other:?}", frame.seq),
         }
+    }
+    fn fork(&self) -> Option<Box<dyn FlightLink>> {
+        Some(Box::new(self.clone()))
     }
 }

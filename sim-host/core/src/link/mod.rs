@@ -134,6 +134,13 @@ pub trait FlightLink {
     fn anomalies(&self) -> LinkAnomalies {
         LinkAnomalies::default()
     }
+    /// A copy of this link whose flight side is in the same state, when the link can make
+    /// one: only in-process (a flight computer on the far side of a wire cannot be copied).
+    /// It lets a run be forked at an operating point ([`crate::simulation::Simulation::fork`],
+    /// `sim-host margins`); `None` (the default) means "re-fly from t = 0 instead".
+    fn fork(&self) -> Option<Box<dyn FlightLink>> {
+        None
+    }
 }
 
 /// A boxed link (what [`open`] returns) is a link: every call goes to the box's content,
@@ -165,6 +172,9 @@ impl<T: FlightLink + ?Sized> FlightLink for Box<T> {
     }
     fn anomalies(&self) -> LinkAnomalies {
         (**self).anomalies()
+    }
+    fn fork(&self) -> Option<Box<dyn FlightLink>> {
+        (**self).fork()
     }
 }
 

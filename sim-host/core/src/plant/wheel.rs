@@ -62,6 +62,21 @@
 //!
 //! Spin axis, position and `φ0` are per-wheel and must be set by the simulator (defaults: +z, origin).
 //!
+//! # Actuator lag and delay (both models, both off by default; issue 25)
+//! * `torque_lag_s` = τ_a > 0: the torque command reaching the model (the `T_cmd` above, before
+//!   every limit) is the state `applied_torque_nm` of the first-order lag
+//!   `τ_a Ṫ_a = T_cmd - T_a` (initially 0), integrated as a state inside the simulator's single
+//!   RK4 (not in closed form): per step the lag's factor is RK4's 4th-order polynomial of
+//!   `e^{-h/τ_a}`, relative error ≈ (h/τ_a)⁵/120 (2e-8 at h = τ_a/10). `1/τ_a` joins
+//!   [`WheelParams::fastest_rate_per_s`], so the RK4 stability check covers it.
+//!   τ_a = 0 leaves the state at exactly 0 and the command untouched (same bits as before).
+//! * `torque_delay_s` = Δ ≥ 0: a pure delay of the command, applied by the simulator (not in
+//!   this module, [`TorqueDelayLine`]) per dynamics step: the command that reaches the wheel over
+//!   `[t_j, t_j + h)` is the one that was applied `n = round(Δ/h)` dynamics steps earlier (zero
+//!   before the first). Δ is thus quantised to the nearest whole dynamics step h (control
+//!   period / `dynamics_substeps`; error ≤ h/2): exact when Δ is a multiple of h (e.g. half a
+//!   control period with an even number of substeps).
+//!
 //! # Step size
 //! Rates (1/s) of the accurate model: speed loop `K_f K_c/I_w` = 2.5; speed limiter
 //! `K_f²/(k_b I_w)` = 0.87; winding `K_f²/(R I_w)` = 0.054; viscous `λ/I_w` = 0.0035; Dahl
@@ -155,6 +170,11 @@ pub struct WheelParams {
     pub dyn_imbalance_kgm2: f64,
     /// `D_s = m r` (eq 19), kg m.
     pub static_imbalance_kgm: f64,
+    /// `τ_a`, first-order lag of the torque command (0 = none, see the module doc), s.
+    pub torque_lag_s: f64,
+    /// `Δ`, pure delay of the torque command, applied by the simulator per dynamics step
+    /// (0 = none, see the module doc), s.
+    pub torque_delay_s: f64,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -168,6 +188,8 @@ pub struct WheelState {
     /// `ω_out` of eq 25: reference speed of the speed loop (relative). Initialise it to the
     /// relative wheel speed (see [`WheelState::spinning`]) or the loop slews to the mismatch.
     pub speed_ref_rad_s: f64,
+    /// `T_a`, the lagged torque command (only with `torque_lag_s > 0`; else stays 0).
+    pub applied_torque_nm: f64,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
@@ -176,6 +198,7 @@ pub struct WheelDeriv {
     pub drotor_angle: f64,
     pub ddahl: f64,
     pub dspeed_ref: f64,
+    pub dapplied_torque: f64,
 }
 
 /// Per-wheel outputs. In `Ideal` fidelity current, voltage, friction, disturbance and imbalance
@@ -246,6 +269,8 @@ impl WheelParams {
             phase_rad: 0.0,
             dyn_imbalance_kgm2: 3e-6,
             static_imbalance_kgm: 7.2e-6,
+            torque_lag_s: 0.0,
+            torque_delay_s: 0.0,
         }
     }
 
@@ -281,6 +306,8 @@ impl WheelParams {
         }
         pos("max_torque_nm", self.max_torque_nm)?;
         pos("max_speed_rad_s", self.max_speed_rad_s)?;
+        nonneg("torque_lag_s", self.torque_lag_s)?;
+        nonneg("torque_delay_s", self.torque_delay_s)?;
         if self.fidelity == Fidelity::Ideal {
             return pos("ideal_speed_band_rad_s", self.ideal_speed_band_rad_s);
         }
@@ -340,6 +367,8 @@ impl WheelParams {
                 .fold(0.0, f64::max)
             }
         };
+        // The command lag's pole (only when there is one: same bits without it).
+        let r = if self.torque_lag_s > 0.0 { r.max(1.0 / self.torque_lag_s) } else { r };
         r.max(1e-12)
     }
 
@@ -390,6 +419,7 @@ impl WheelState {
             rotor_angle_rad: 0.0,
             dahl_friction_nm: tf,
             speed_ref_rad_s: speed_rad_s,
+            applied_torque_nm: 0.0,
         }
     }
 
@@ -400,8 +430,31 @@ impl WheelState {
             rotor_angle_rad: self.rotor_angle_rad + dt * d.drotor_angle,
             dahl_friction_nm: self.dahl_friction_nm + dt * d.ddahl,
             speed_ref_rad_s: self.speed_ref_rad_s + dt * d.dspeed_ref,
+            applied_torque_nm: self.applied_torque_nm + dt * d.dapplied_torque,
         }
     }
+}
+
+/// The command the model sees and the lag state's derivative: with `torque_lag_s > 0` the lag
+/// state `T_a` and `(T_cmd - T_a)/τ_a` (module doc), else the command itself and 0.
+fn lagged_command(p: &WheelParams, s: &WheelState, torque_cmd_nm: f64) -> (f64, f64) {
+    if p.torque_lag_s > 0.0 {
+        (s.applied_torque_nm, (torque_cmd_nm - s.applied_torque_nm) / p.torque_lag_s)
+    } else {
+        (torque_cmd_nm, 0.0)
+    }
+}
+
+/// Ideal model: the command clipped to ±`max_torque_nm`, faded near the speed limit.
+fn ideal_torque(p: &WheelParams, torque_cmd_nm: f64, w: f64, sgn: f64) -> f64 {
+    let tmax = p.max_torque_nm;
+    let mut t = torque_cmd_nm.clamp(-tmax, tmax);
+    // no torque pushing past ω_max: accelerating torque fades to 0 at ω_max (brakes above)
+    let lim = (tmax * (p.max_speed_rad_s - w.abs()) / p.ideal_speed_band_rad_s).max(-tmax);
+    if sgn * t > lim {
+        t = sgn * lim;
+    }
+    t
 }
 
 /// Everything at one instant. `torque_cmd_nm`: commanded axial torque from the flight code (the
@@ -418,17 +471,12 @@ pub fn evaluate(
     let iw = p.inertia_kgm2;
     let w = s.h_abs_nms / iw - dot(&p.spin_axis, body_rate_rad_s); // eq 4 solved for ω_w
     let mut o = WheelOutput { speed_rad_s: w, ..Default::default() };
-    let mut d = WheelDeriv { drotor_angle: w, ..Default::default() };
+    let (torque_cmd_nm, dapplied_torque) = lagged_command(p, s, torque_cmd_nm);
+    let mut d = WheelDeriv { drotor_angle: w, dapplied_torque, ..Default::default() };
     let sgn = if w >= 0.0 { 1.0 } else { -1.0 };
     match p.fidelity {
         Fidelity::Ideal => {
-            let tmax = p.max_torque_nm;
-            let mut t = torque_cmd_nm.clamp(-tmax, tmax);
-            // no torque pushing past ω_max: accelerating torque fades to 0 at ω_max (brakes above)
-            let lim = (tmax * (p.max_speed_rad_s - w.abs()) / p.ideal_speed_band_rad_s).max(-tmax);
-            if sgn * t > lim {
-                t = sgn * lim;
-            }
+            let t = ideal_torque(p, torque_cmd_nm, w, sgn);
             d.dh_abs_nm = t;
             d.dspeed_ref = t / iw;
             o.motor_torque_nm = t;
@@ -487,4 +535,35 @@ pub fn evaluate(
     o.delivered_torque_nm = -d.dh_abs_nm;
     o.speed_accel_rad_s2 = d.dh_abs_nm / iw - dot(&p.spin_axis, body_accel_rad_s2); // eq 23
     (d, o)
+}
+
+/// Pure delay of the wheels' torque commands by whole dynamics steps (module doc,
+/// `torque_delay_s`): fed once per dynamics step with the command held over it, returns the
+/// command of `steps` dynamics steps earlier (zeros before the first).
+#[derive(Clone, Debug, Default)]
+pub struct TorqueDelayLine<const N: usize> {
+    steps: usize,
+    queue: std::collections::VecDeque<[f64; N]>,
+}
+
+impl<const N: usize> TorqueDelayLine<N> {
+    /// A delay of `delay_s` rounded to whole dynamics steps of `step_s`.
+    pub fn new(delay_s: f64, step_s: f64) -> Self {
+        let steps = if delay_s > 0.0 && step_s > 0.0 { (delay_s / step_s).round() as usize } else { 0 };
+        Self { steps, queue: std::collections::VecDeque::with_capacity(steps.saturating_add(1)) }
+    }
+
+    /// The delay in dynamics steps.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// Feeds the command of this dynamics step, returns the one that acts over it.
+    pub fn push(&mut self, cmd: [f64; N]) -> [f64; N] {
+        if self.steps == 0 {
+            return cmd;
+        }
+        self.queue.push_back(cmd);
+        if self.queue.len() > self.steps { self.queue.pop_front().unwrap_or([0.0; N]) } else { [0.0; N] }
+    }
 }

@@ -61,7 +61,16 @@ pub struct WheelsSpec {
     /// 1-based wheel numbers the flight code treats as failed (the plant still has them).
     #[serde(default)]
     pub failed: Vec<usize>,
+    /// First-order lag of the torque command, s (0: none; `plant::wheel` module doc).
+    #[serde(default)]
+    pub torque_lag_s: f64,
+    /// Pure delay of the torque command, s, rounded to whole dynamics steps (0: none).
+    #[serde(default)]
+    pub torque_delay_s: f64,
 }
+
+/// Longest wheel torque delay line, dynamics steps (`[actuators.wheels] torque_delay_s`).
+pub const MAX_WHEEL_DELAY_STEPS: usize = 100_000;
 
 fn default_alpha() -> f64 {
     45.0
@@ -392,6 +401,8 @@ impl Scenario {
                     p.inertia_kgm2 = i;
                 }
                 p.spin_axis = axis;
+                p.torque_lag_s = w.torque_lag_s;
+                p.torque_delay_s = w.torque_delay_s;
                 p
             })
             .collect())
@@ -575,6 +586,28 @@ impl Scenario {
         if !(w.null_gain_per_s.is_finite() && w.null_gain_per_s >= 0.0) {
             return Err(bad("actuators.wheels.null_gain_per_s", "must be >= 0"));
         }
+        self.validate_wheel_lag_delay(w)
+    }
+
+    /// `torque_lag_s` in [0, 1e3] s; `torque_delay_s` in [0, 60] s and at most
+    /// `MAX_WHEEL_DELAY_STEPS` dynamics steps (the delay line's memory).
+    fn validate_wheel_lag_delay(&self, w: &WheelsSpec) -> Result<()> {
+        for (k, v, max) in [
+            ("actuators.wheels.torque_lag_s", w.torque_lag_s, 1.0e3),
+            ("actuators.wheels.torque_delay_s", w.torque_delay_s, 60.0),
+        ] {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return Err(bad(k, format!("must be finite and in [0, {max}] s (got {v})")));
+            }
+        }
+        let rate_hz = self.timing.control_rate_hz * f64::from(self.timing.dynamics_substeps.max(1));
+        let steps = (w.torque_delay_s * rate_hz).round();
+        if steps > MAX_WHEEL_DELAY_STEPS as f64 {
+            return Err(bad(
+                "actuators.wheels.torque_delay_s",
+                format!("is {steps} dynamics steps, more than the delay line's {MAX_WHEEL_DELAY_STEPS}"),
+            ));
+        }
         Ok(())
     }
 
@@ -595,7 +628,7 @@ impl Scenario {
                     "timing.dynamics_substeps",
                     format!(
                         "the dynamics step {h_s:.4} s is longer than the wheels' RK4 stability limit {h_max:.4} s \
-                         (2.5 x their fastest time constant {:.4} s, the speed-limit torque fade); use \
+                         (2.5 x their fastest time constant {:.4} s, the speed-limit torque fade or torque_lag_s); use \
                          dynamics_substeps >= {need}, or a smaller actuators.wheels.max_torque_nm / a larger \
                          inertia_kgm2",
                         p.fastest_time_constant_s()

@@ -12,6 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 /// The encoders of the gimbals and the tachometers of the wheels, sharing one stream.
+#[derive(Clone)]
 pub struct Encoders {
     /// Stream 0 of the scenario seed.
     rng: ChaCha8Rng,

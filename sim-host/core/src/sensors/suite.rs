@@ -159,6 +159,7 @@ impl RateIntegral {
     }
 }
 
+#[derive(Clone)]
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
     encoders: Encoders,

@@ -1,0 +1,370 @@
+//! Where the loop is broken and one experiment through it (docs/margins.md, "Where the
+//! loop is broken", "Excitation"): the operating point and its steadiness, the actuator
+//! family's effectiveness there, and one sine step — an excited run and its unexcited twin
+//! flown in lockstep from the same operating point, whose differences are the loop's
+//! response to the excitation alone (sensor noise, disturbances and the operating point's
+//! own slow motion cancel), summed into block DFTs until two consecutive blocks agree.
+
+use super::MarginError;
+use super::analysis::C64;
+use super::grid::Freq;
+use acs_flight::link::{ActuatorCommand, status};
+use sim_core::attitude::{Quat, Vec3};
+use sim_core::plant::wheel::Fidelity;
+use sim_core::recorder::series::Discard;
+use sim_core::simulation::{LoopInjection, Simulation};
+
+/// Where the loop is broken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LoopPoint {
+    /// At the actuator command: body torque added to the flight's command through the
+    /// actuators' effectiveness.
+    Input,
+    /// At the attitude measurement: a small rotation added to the attitude sample.
+    Output,
+}
+
+/// The actuator family whose commands carry the excitation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    Wheels,
+    Cmg,
+}
+
+/// The momentum-exchange actuators' effectiveness at the operating point: body torque per
+/// unit command of each channel (wheels: `−a_i` per N m of motor torque, the reaction on
+/// the body; CMGs: `−∂h/∂δ_i` per rad/s of gimbal rate, the steering Jacobian at the
+/// operating point's gimbal angles), and its pseudo-inverse `B⁺ = Bᵀ (B Bᵀ)⁻¹`.
+#[derive(Clone, Debug)]
+pub struct Effectiveness {
+    pub family: Family,
+    /// Column i of B.
+    pub columns: Vec<[f64; 3]>,
+    /// Row i of B⁺.
+    pub pinv_rows: Vec<[f64; 3]>,
+    /// Each channel's limit (N m of motor torque, rad/s of gimbal rate).
+    pub limits: Vec<f64>,
+}
+
+impl Effectiveness {
+    /// At the simulation's current state. Magnetorquer and thruster loops are out of scope.
+    pub fn at(sim: &Simulation) -> Result<Self, MarginError> {
+        let (craft, state) = (sim.craft(), sim.state());
+        let (family, columns, limits): (Family, Vec<[f64; 3]>, Vec<f64>) = if let Some(c) = &craft.cmg {
+            let cols = (0..c.units.len()).map(|i| (-c.jacobian_column(i, state.gimbal_rad[i])).into()).collect();
+            (Family::Cmg, cols, vec![c.max_rate_rad_s; c.units.len()])
+        } else if !craft.wheels.is_empty() {
+            let cols = craft.wheels.iter().map(|w| w.spin_axis.map(|a| -a)).collect();
+            (Family::Wheels, cols, craft.wheels.iter().map(|w| w.max_torque_nm).collect())
+        } else {
+            return Err(MarginError::Unsupported(
+                "margins break the loop at the command of momentum-exchange actuators (reaction wheels, CMGs); \
+                 this scenario has neither (magnetorquer and thruster loops are out of scope: docs/margins.md)"
+                    .into(),
+            ));
+        };
+        let b = nalgebra::DMatrix::from_fn(3, columns.len(), |i, j| columns[j][i]);
+        let bbt = nalgebra::Matrix3::from_fn(|i, j| (0..columns.len()).map(|k| b[(i, k)] * b[(j, k)]).sum::<f64>());
+        let inv =
+            bbt.try_inverse().filter(|_| bbt.determinant().abs() > 1e-12 * bbt.norm().powi(3)).ok_or_else(|| {
+                MarginError::NotSteady {
+                    t_s: f64::NAN,
+                    reason: "the actuators cannot make torque about every axis at the operating point (rank < 3)"
+                        .into(),
+                }
+            })?;
+        let pinv_rows = (0..columns.len())
+            .map(|k| std::array::from_fn(|j| (0..3).map(|i| b[(i, k)] * inv[(i, j)]).sum::<f64>()))
+            .collect();
+        Ok(Self { family, columns, pinv_rows, limits })
+    }
+
+    /// The command of each channel, as the plant receives it (f64 of the flight's f32).
+    fn channels(&self, cmd: &ActuatorCommand) -> Vec<f64> {
+        match self.family {
+            Family::Wheels => cmd.wheel_torque_cmd_nm.iter().take(self.columns.len()).map(|x| f64::from(*x)).collect(),
+            Family::Cmg => cmd.gimbal_rate_cmd_rad_s.iter().take(self.columns.len()).map(|x| f64::from(*x)).collect(),
+        }
+    }
+
+    /// `B (c_a − c_b)`: the body torque of the difference of two commands.
+    pub fn torque_difference(&self, a: &ActuatorCommand, b: &ActuatorCommand) -> [f64; 3] {
+        let (ca, cb) = (self.channels(a), self.channels(b));
+        let mut t = [0.0; 3];
+        for (k, col) in self.columns.iter().enumerate() {
+            let dc = ca[k] - cb[k];
+            for i in 0..3 {
+                t[i] += col[i] * dc;
+            }
+        }
+        t
+    }
+
+    /// `B⁺ d` on the channels: the injection that adds the body torque `d`.
+    pub fn injection(&self, d: [f64; 3]) -> LoopInjection {
+        let mut inj = LoopInjection::default();
+        for (k, row) in self.pinv_rows.iter().enumerate() {
+            let c = row[0] * d[0] + row[1] * d[1] + row[2] * d[2];
+            match self.family {
+                Family::Wheels => inj.wheel_torque_nm[k] = c,
+                Family::Cmg => inj.gimbal_rate_rad_s[k] = c,
+            }
+        }
+        inj
+    }
+
+    /// The largest torque about `axis` whose injection keeps every channel within 5 % of
+    /// its limit.
+    pub fn amplitude_cap(&self, axis: usize) -> f64 {
+        self.pinv_rows
+            .iter()
+            .zip(&self.limits)
+            .filter(|(r, _)| r[axis] != 0.0)
+            .map(|(r, lim)| 0.05 * lim / r[axis].abs())
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Status bits that say the loop is not linear at this step.
+const NONLINEAR: [(u16, &str); 10] = [
+    (status::TORQUE_LIMITED, "torque limited"),
+    (status::RATE_SCALED, "gimbal rates scaled"),
+    (status::ANGLE_LIMITED, "gimbal angle limited"),
+    (status::SINGULAR, "CMG near a singularity"),
+    (status::BAD_INPUT, "input refused"),
+    (status::TORQUE_SHORTFALL, "torque shortfall (saturated allocation)"),
+    (status::ALLOC_FALLBACK, "allocation fallback"),
+    (status::UNREALISED, "torque not realised"),
+    (status::LAW_FAULT, "law fault"),
+    (status::NO_ESTIMATE, "no attitude estimate"),
+];
+
+/// The names of the nonlinear status bits a command carries, if any.
+pub fn nonlinear_status(cmd: &ActuatorCommand) -> Option<String> {
+    let set: Vec<&str> = NONLINEAR.iter().filter(|(b, _)| cmd.status & b != 0).map(|(_, n)| *n).collect();
+    (!set.is_empty()).then(|| set.join(", "))
+}
+
+/// A wheel that makes the loop nonlinear at the operating point, if any: within 5 % of its
+/// speed limit, or inside its Coulomb-friction band (relative speed below three times the
+/// friction model's sign-smoothing speed: stiction, where the friction torque flips with
+/// the sign of the speed).
+fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
+    let (craft, s) = (sim.craft(), sim.state());
+    craft.wheels.iter().zip(s.wheels.iter()).enumerate().find_map(|(i, (p, ws))| {
+        let w = ws.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&s.w);
+        if w.abs() > 0.95 * p.max_speed_rad_s {
+            return Some(format!("wheel {} at {:.0} % of its speed limit", i + 1, 100.0 * w.abs() / p.max_speed_rad_s));
+        }
+        (p.fidelity == Fidelity::Accurate && p.coulomb_nm > 0.0 && w.abs() < 3.0 * p.sign_smoothing_rad_s).then(|| {
+            format!(
+                "wheel {} at {w:.2e} rad/s, inside its Coulomb-friction band (±{:.2e} rad/s): the friction torque \
+                 ({} N m) is not linear there (stiction); choose an --at where the wheels spin",
+                i + 1,
+                3.0 * p.sign_smoothing_rad_s,
+                p.coulomb_nm
+            )
+        })
+    })
+}
+
+/// Flies `sim` from where it is to control step `k_op` (the operating point): every step
+/// from `check_from` on must be free of saturation flags, and at the end the attitude error
+/// must be within `settle_bound_deg` and no wheel near its speed limit.
+pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg: f64) -> Result<(), MarginError> {
+    sim.extend_to(u64::MAX / 4);
+    let dt = sim.control_period_s();
+    while sim.steps_done() < k_op {
+        sim.step(&mut Discard).map_err(MarginError::flight)?;
+        let t = (sim.steps_done() - 1) as f64 * dt;
+        if let Some(f) = sim.failure() {
+            return Err(MarginError::Unstable {
+                reason: format!("the flight diverged before the operating point: {f:?}"),
+            });
+        }
+        if sim.steps_done() > check_from
+            && let Some(reason) = sim.last_step().and_then(|(c, _)| nonlinear_status(c))
+        {
+            return Err(MarginError::NotSteady { t_s: t, reason });
+        }
+    }
+    let t = k_op as f64 * dt;
+    if let Some((_, err)) = sim.last_step()
+        && !(*err <= settle_bound_deg)
+    {
+        let reason =
+            format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
+        return Err(MarginError::NotSteady { t_s: t, reason });
+    }
+    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
+}
+
+/// One sine step: frequency, excited axis, amplitude (N m at the input, rad at the
+/// output), the steps to wait before measuring, the block length (a multiple of the
+/// frequency's `n`) and the most blocks to measure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Experiment {
+    pub freq: Freq,
+    pub axis: usize,
+    pub amplitude: f64,
+    pub wait_steps: u64,
+    pub block_steps: u64,
+    pub max_blocks: u32,
+}
+
+/// What one experiment measured: the DFT at its frequency of the loop's output `U` (the
+/// commanded body torque, or the true attitude) and of the total input `E = U + D`, each a
+/// 3-vector (a column of the 3×3 response), over the last block.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Column {
+    pub u: [C64; 3],
+    pub e: [C64; 3],
+    pub blocks: u32,
+    pub converged: bool,
+    /// Largest true attitude difference between the excited run and its twin, rad.
+    pub peak_attitude_rad: f64,
+}
+
+/// The excitation's envelope: a raised-cosine ramp from 0 to 1 over the first `ramp`
+/// steps, then 1. With the cosine wave (no mean rate impulse into a double integrator),
+/// it keeps the onset transient small, so the wait before measuring is mostly spent on
+/// what little there is.
+fn onset(k: u64, ramp: u64) -> f64 {
+    if k >= ramp { 1.0 } else { 0.5 * (1.0 - (std::f64::consts::PI * k as f64 / ramp as f64).cos()) }
+}
+
+/// The rotation vector (body axes, rad) from `a` to `b`: `2 vec(a* ⊗ b)`, shortest way.
+fn rotation_between(a: &Quat, b: &Quat) -> [f64; 3] {
+    let d = a.conjugate() * b;
+    let s = if d.w < 0.0 { -2.0 } else { 2.0 };
+    [s * d.i, s * d.j, s * d.k]
+}
+
+/// A block's DFTs of the loop output and the total input.
+struct Block {
+    u: [C64; 3],
+    e: [C64; 3],
+}
+
+fn norm3(v: &[C64; 3]) -> f64 {
+    v.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt()
+}
+
+/// Runs experiment `x` on `exc` and its twin `twin` (both at the same operating point).
+pub fn run(
+    exc: &mut Simulation,
+    twin: &mut Simulation,
+    point: LoopPoint,
+    eff: Option<&Effectiveness>,
+    x: &Experiment,
+) -> Result<Column, MarginError> {
+    let dt = exc.control_period_s();
+    let t0 = exc.steps_done() as f64 * dt;
+    let mut acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
+    let mut blocks: Vec<f64> = Vec::new();
+    let mut last: Option<Block> = None;
+    let mut peak: f64 = 0.0;
+    let mut converged = x.max_blocks == 1;
+    let total = x.wait_steps + u64::from(x.max_blocks) * x.block_steps;
+    for k in 0..total {
+        let phase = x.freq.phase(k);
+        let wave = onset(k, x.wait_steps / 2) * phase.cos();
+        let mut d = [0.0; 3];
+        d[x.axis] = x.amplitude * wave;
+        let y = rotation_between(&twin.state().q, &exc.state().q);
+        peak = peak.max(Vec3::from(y).norm());
+        let inj = match (point, eff) {
+            (LoopPoint::Input, Some(eff)) => eff.injection(d),
+            _ => LoopInjection { attitude_rad: d, ..LoopInjection::default() },
+        };
+        exc.set_injection(Some(inj));
+        exc.step(&mut Discard).map_err(MarginError::flight)?;
+        twin.step(&mut Discard).map_err(MarginError::flight)?;
+        let t = t0 + k as f64 * dt;
+        let (ce, ct) = check_step(exc, twin, t)?;
+        let du = match (point, eff) {
+            (LoopPoint::Input, Some(eff)) => eff.torque_difference(&ce, &ct),
+            _ => y,
+        };
+        if !du.iter().all(|v| v.is_finite() && v.abs() < 1e6 * x.amplitude) {
+            return Err(MarginError::Unstable {
+                reason: format!("the response to the excitation diverges at t = {t:.3} s"),
+            });
+        }
+        if k < x.wait_steps {
+            continue;
+        }
+        let w = C64::from_polar(1.0, -phase);
+        for i in 0..3 {
+            acc.u[i] += w * du[i];
+            acc.e[i] += w * (du[i] + d[i]);
+        }
+        if (k + 1 - x.wait_steps).is_multiple_of(x.block_steps) {
+            let n = x.block_steps as f64;
+            let b = Block { u: acc.u.map(|z| z / n), e: acc.e.map(|z| z / n) };
+            acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
+            blocks.push(norm3(&b.u));
+            grows(&blocks, x.amplitude, t)?;
+            let settled = last.as_ref().is_some_and(|p| {
+                let diff: [C64; 3] = std::array::from_fn(|i| b.u[i] - p.u[i]);
+                norm3(&diff) <= SETTLED_RELATIVE * norm3(&b.u) + SETTLED_FLOOR * x.amplitude
+            });
+            last = Some(b);
+            if settled {
+                converged = true;
+                break;
+            }
+        }
+    }
+    exc.set_injection(None);
+    let b = last.ok_or_else(|| MarginError::Unstable { reason: "no block measured".into() })?;
+    Ok(Column { u: b.u, e: b.e, blocks: blocks.len() as u32, converged, peak_attitude_rad: peak })
+}
+
+/// Two consecutive blocks agree when their loop-output DFTs differ by less than this part
+/// of the last one, plus this part of the excitation amplitude (the floor keeps f32
+/// round-off in a loop output far below the excitation, `|L| ≪ 1`, from holding an
+/// experiment open).
+const SETTLED_RELATIVE: f64 = 2e-3;
+const SETTLED_FLOOR: f64 = 1e-5;
+
+/// The response grows block after block (three in a row, each over twice the last).
+fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
+    // A stable loop answers with |U| = |T D| of the order of the excitation: growth far
+    // beyond it, block after block, is divergence (below that: a slow transient).
+    if let [.., a, b, c] = blocks
+        && *b > 2.0 * a
+        && *c > 2.0 * b
+        && *c > 100.0 * amplitude
+    {
+        return Err(MarginError::Unstable {
+            reason: format!("the response to the excitation grows without bound (t = {t:.3} s)"),
+        });
+    }
+    Ok(())
+}
+
+/// Both runs still finite; the twin free of saturation (else the operating point is not a
+/// steady hold), the excited run too (else the excitation is too large to stay linear).
+fn check_step(exc: &Simulation, twin: &Simulation, t: f64) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {
+    if let Some(f) = [exc.failure(), twin.failure()].into_iter().flatten().next() {
+        return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
+    }
+    let (Some((ce, _)), Some((ct, _))) = (exc.last_step(), twin.last_step()) else {
+        return Err(MarginError::Unstable { reason: format!("no flight command at t = {t:.3} s") });
+    };
+    if let Some(r) = nonlinear_status(ct) {
+        return Err(MarginError::NotSteady {
+            t_s: t,
+            reason: format!("the operating point does not stay a steady hold: {r}"),
+        });
+    }
+    if let Some(r) = nonlinear_status(ce) {
+        return Err(MarginError::NotSteady {
+            t_s: t,
+            reason: format!("the excitation drives the loop out of its linear range ({r}): lower --amplitude-rad"),
+        });
+    }
+    Ok((*ce, *ct))
+}

@@ -1,0 +1,364 @@
+//! `sim-host margins`: stability margins of the real flight loop, measured through the
+//! flight step (docs/margins.md). The scenario is flown to an operating point, the loop
+//! is broken at the actuator command (or the attitude measurement), sine steps measure
+//! the 3×3 open-loop response up to the control Nyquist frequency, and the margins are
+//! computed from it:
+//! - [`excite`]: where the loop is broken, the operating point, one experiment;
+//! - [`grid`]: the leakage-free frequencies, the grid and its refinement;
+//! - [`response`]: the experiments on worker threads, the response `L = −U E⁻¹`;
+//! - [`analysis`]: margins from a response (pure functions);
+//! - [`report`]: `margins.json` and the console table;
+//! - [`plots`]: `bode.png`, `nyquist.png`, `disk.png`.
+
+pub mod analysis;
+pub mod excite;
+pub mod grid;
+pub mod plots;
+pub mod report;
+pub mod response;
+
+pub use excite::LoopPoint;
+pub use report::MarginReport;
+
+use analysis::{C64, Cmat};
+use excite::{Effectiveness, Experiment};
+use grid::Freq;
+use response::{Pool, Response, Setup};
+use sim_core::link::{LinkKind, LinkOptions};
+use sim_core::scenario::{Resolved, Scenario};
+use std::time::Instant;
+
+/// Why no margin could be measured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MarginError {
+    /// The scenario could not be resolved or flown (the message says why).
+    Flight(String),
+    /// The scenario's loop is of a kind this measurement does not cover.
+    Unsupported(String),
+    /// The operating point is not a steady hold (saturation, a limit, an unsettled error).
+    NotSteady { t_s: f64, reason: String },
+    /// The loop is unstable at the operating point (divergent response).
+    Unstable { reason: String },
+}
+
+impl MarginError {
+    pub(crate) fn flight(e: anyhow::Error) -> Self {
+        MarginError::Flight(format!("{e:#}"))
+    }
+
+    /// The command's exit status for this error: 1 flight/scenario error, 2 unsupported,
+    /// 3 not a steady hold or unstable.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            MarginError::Flight(_) => 1,
+            MarginError::Unsupported(_) => 2,
+            MarginError::NotSteady { .. } | MarginError::Unstable { .. } => 3,
+        }
+    }
+}
+
+impl std::fmt::Display for MarginError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MarginError::Flight(m) => write!(f, "{m}"),
+            MarginError::Unsupported(m) => write!(f, "not supported: {m}"),
+            MarginError::NotSteady { t_s, reason } if t_s.is_finite() => {
+                write!(f, "the operating point is not a steady hold (t = {t_s:.3} s): {reason}; no margin measured")
+            }
+            MarginError::NotSteady { reason, .. } => {
+                write!(f, "the operating point is not a steady hold: {reason}; no margin measured")
+            }
+            MarginError::Unstable { reason } => write!(f, "unstable at operating point: {reason}"),
+        }
+    }
+}
+
+impl std::error::Error for MarginError {}
+
+/// How to measure.
+#[derive(Clone, Debug)]
+pub struct MarginOptions {
+    /// Time of the operating point, s (default: the scenario's duration).
+    pub at_s: Option<f64>,
+    pub point: LoopPoint,
+    pub link: LinkKind,
+    pub link_options: LinkOptions,
+    /// Frequencies of the log-spaced grid (before refinement).
+    pub grid_points: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// Attitude excitation aimed at, rad (the amplitude rule, docs/margins.md).
+    pub amplitude_rad: f64,
+    /// Crossover estimate, rad/s: skips the pilot sweep.
+    pub crossover_hint_rad_s: Option<f64>,
+    /// Refine crossings and peaks with extra frequencies.
+    pub refine: bool,
+    /// Re-fly every experiment from t = 0 even when the link can be forked (what a QEMU
+    /// measurement does; the same bits).
+    pub refly: bool,
+}
+
+impl Default for MarginOptions {
+    fn default() -> Self {
+        Self {
+            at_s: None,
+            point: LoopPoint::Input,
+            link: LinkKind::InProcess,
+            link_options: LinkOptions::default(),
+            grid_points: 40,
+            threads: 2,
+            amplitude_rad: 1e-4,
+            crossover_hint_rad_s: None,
+            refine: true,
+            refly: false,
+        }
+    }
+}
+
+/// Closed-loop time constants waited before measuring (docs/margins.md, "Transient").
+const WAIT_CROSSOVER_PERIODS: f64 = 10.0;
+/// Least block length, in closed-loop time constants `1/ωc`.
+const BLOCK_CROSSOVER_PERIODS: f64 = 2.0;
+/// Most blocks per experiment.
+const MAX_BLOCKS: u32 = 8;
+/// Grid lower end: the crossover estimate divided by this.
+const GRID_BELOW_CROSSOVER: f64 = 30.0;
+/// Refinement stops when a bracket is narrower than this (relative).
+const REFINE_WIDTH: f64 = 1e-3;
+const REFINE_ROUNDS: usize = 8;
+
+/// What the experiments share: the control period, the inertia diagonal, the amplitude
+/// caps and the rules.
+struct Plan {
+    dt: f64,
+    point: LoopPoint,
+    inertia_diag: [f64; 3],
+    cap: [f64; 3],
+    amplitude_rad: f64,
+}
+
+impl Plan {
+    /// Sine-step amplitude about `axis` at `w`, with the crossover estimate `wc`: at the
+    /// input, the torque that moves the attitude by about `amplitude_rad` (`J ω²` above the
+    /// crossover, the loop's stiffness `≈ J ωc²` below it), capped so that no actuator
+    /// channel exceeds 5 % of its limit; at the output, `amplitude_rad` itself.
+    fn amplitude(&self, axis: usize, w: f64, wc: f64) -> f64 {
+        match self.point {
+            LoopPoint::Input => (self.amplitude_rad * self.inertia_diag[axis] * w.max(wc).powi(2)).min(self.cap[axis]),
+            LoopPoint::Output => self.amplitude_rad,
+        }
+    }
+
+    /// The experiment of frequency `f` on `axis` with crossover estimate `wc`.
+    fn experiment(&self, f: Freq, axis: usize, wc: f64) -> Experiment {
+        let steps = |periods: f64| (periods / (wc * self.dt)).ceil().max(1.0) as u64;
+        let block_min = steps(BLOCK_CROSSOVER_PERIODS);
+        Experiment {
+            freq: f,
+            axis,
+            amplitude: self.amplitude(axis, f.rad_s(self.dt), wc),
+            wait_steps: steps(WAIT_CROSSOVER_PERIODS),
+            block_steps: f.n * block_min.div_ceil(f.n),
+            max_blocks: MAX_BLOCKS,
+        }
+    }
+
+    fn three(&self, f: Freq, wc: f64) -> [Experiment; 3] {
+        std::array::from_fn(|j| self.experiment(f, j, wc))
+    }
+}
+
+/// What the measurement went through, for the report.
+#[derive(Clone, Debug, Default)]
+pub struct Measured {
+    pub response: Response,
+    pub crossover_estimate_rad_s: f64,
+    pub pilot_frequencies: usize,
+    pub refined_frequencies: usize,
+    pub amplitudes: Vec<f64>,
+    /// Experiments run, and those that never became periodic.
+    pub experiments: usize,
+    pub unsettled: usize,
+}
+
+/// Measures the margins of `scenario` (docs/margins.md).
+pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport, MarginError> {
+    let start = Instant::now();
+    let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
+    let dt = resolved.clock.dt;
+    let settle = resolved.performance.settle_bound_deg;
+    drop(resolved);
+    let at_s = opts.at_s.unwrap_or(scenario.duration_s);
+    if !(at_s.is_finite() && at_s >= 0.0) {
+        return Err(MarginError::Flight(format!("--at {at_s}: must be a time >= 0 s")));
+    }
+    let k_op = (at_s / dt).round() as u64;
+    let mut setup = Setup {
+        scenario,
+        link: opts.link.clone(),
+        link_options: opts.link_options.clone(),
+        k_op,
+        check_from: k_op.saturating_sub((k_op / 10).max(1)),
+        settle_bound_deg: settle,
+        point: opts.point,
+        effectiveness: None,
+        fork: false,
+    };
+    // The operating point once here: is it a steady hold, what do the actuators make there
+    // (an actuator family out of scope is said before flying).
+    let mut link = sim_core::link::open(&opts.link, &opts.link_options).map_err(MarginError::flight)?;
+    let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
+    if let Err(e @ MarginError::Unsupported(_)) =
+        Effectiveness::at(&sim_core::simulation::Simulation::new(resolved, link.as_mut()).map_err(MarginError::flight)?)
+    {
+        return Err(e);
+    }
+    let sim = setup.fly(link.as_mut())?;
+    let eff = Effectiveness::at(&sim)?;
+    let j = sim.craft().inertia;
+    setup.fork = sim.fork_link().is_some() && !opts.refly;
+    drop(sim);
+    drop(link);
+    let plan = Plan {
+        dt,
+        point: opts.point,
+        inertia_diag: [j[(0, 0)], j[(1, 1)], j[(2, 2)]],
+        cap: std::array::from_fn(|a| eff.amplitude_cap(a)),
+        amplitude_rad: opts.amplitude_rad,
+    };
+    setup.effectiveness = Some(eff);
+    let (measured, experiments) = Pool::with(&setup, opts.threads, |pool| {
+        let m = sweep(pool, &plan, opts);
+        (m, pool.experiments)
+    });
+    let measured = measured?;
+    report::build(scenario, opts, at_s, dt, &measured, experiments, start.elapsed().as_secs_f64())
+}
+
+/// Pilot (unless hinted), grid, refinement.
+fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured, MarginError> {
+    let mut m = Measured::default();
+    m.crossover_estimate_rad_s = match opts.crossover_hint_rad_s {
+        Some(w) => w,
+        None => pilot(pool, plan, &mut m)?,
+    };
+    let wc = m.crossover_estimate_rad_s;
+    let grid = grid::log_grid(wc / GRID_BELOW_CROSSOVER, opts.grid_points.max(2), plan.dt);
+    measure_frequencies(pool, plan, &grid, wc, &mut m)?;
+    unsettled(&m)?;
+    if opts.refine {
+        for _ in 0..REFINE_ROUNDS {
+            let new: Vec<Freq> = refinement_points(&m.response, plan.dt);
+            if new.is_empty() {
+                break;
+            }
+            m.refined_frequencies += new.len();
+            measure_frequencies(pool, plan, &new, wc, &mut m)?;
+        }
+    }
+    Ok(m)
+}
+
+/// More than a tenth of the experiments so far (the pilot's excepted: it waits on a guess)
+/// never became
+/// periodic: the loop is not linear and time-invariant at this operating point.
+fn unsettled(m: &Measured) -> Result<(), MarginError> {
+    let (n, total) = (m.unsettled, m.experiments);
+    if n * 10 > total {
+        return Err(MarginError::NotSteady {
+            t_s: f64::NAN,
+            reason: format!(
+                "the response to the excitation did not become periodic in {n} of {total} experiments \
+                 ({MAX_BLOCKS} blocks): the loop is not linear and time-invariant at this operating point \
+                 (friction, a limit cycle, an orbit-periodic plant) or has a mode much slower than its crossover"
+            ),
+        });
+    }
+    Ok(())
+}
+
+fn measure_frequencies(
+    pool: &mut Pool,
+    plan: &Plan,
+    fs: &[Freq],
+    wc: f64,
+    m: &mut Measured,
+) -> Result<(), MarginError> {
+    let xs: Vec<Experiment> = fs.iter().flat_map(|f| plan.three(*f, wc)).collect();
+    let cols = pool.run(&xs)?;
+    m.experiments += cols.len();
+    m.unsettled += cols.iter().filter(|c| !c.converged).count();
+    m.amplitudes.extend(xs.iter().map(|x| x.amplitude));
+    for (f, c) in fs.iter().zip(cols.chunks_exact(3)) {
+        m.response.insert(*f, [c[0], c[1], c[2]], plan.dt)?;
+    }
+    Ok(())
+}
+
+/// The crossover estimate: sine steps descending from the Nyquist frequency by factors of
+/// 3 until every axis's `|L_jj|` exceeds 2, each with the crossover assumed at its own
+/// frequency; the estimate is the lowest axis's crossing of `|L_jj| = 1` (log-interpolated).
+fn pilot(pool: &mut Pool, plan: &Plan, m: &mut Measured) -> Result<f64, MarginError> {
+    let nyquist = std::f64::consts::PI / plan.dt;
+    let mut prev: Option<(f64, [f64; 3])> = None;
+    let mut crossing: [Option<f64>; 3] = [None; 3];
+    for level in 1..=14 {
+        let w = nyquist / 3f64.powi(level);
+        let f = Freq::near(w, plan.dt);
+        let w = f.rad_s(plan.dt);
+        let cols = pool.run(&plan.three(f, w))?;
+        m.pilot_frequencies += 1;
+        let gains: [f64; 3] = std::array::from_fn(|j| response::diagonal_estimate(&cols[j], j).norm());
+        if let Some((wp, gp)) = prev {
+            for j in 0..3 {
+                if crossing[j].is_none() && gp[j] < 1.0 && gains[j] >= 1.0 {
+                    let t = gp[j].ln() / (gp[j].ln() - gains[j].ln());
+                    crossing[j] = Some((wp.ln() + t * (w.ln() - wp.ln())).exp());
+                }
+            }
+        }
+        if gains.iter().all(|g| *g > 2.0) {
+            break;
+        }
+        prev = Some((w, gains));
+    }
+    crossing.iter().flatten().copied().reduce(f64::min).ok_or_else(|| MarginError::Unstable {
+        reason: "no gain crossover found between the Nyquist frequency and 3^-14 of it".into(),
+    })
+}
+
+/// Sensitivities `S = (I + L)⁻¹` of a response (`None` entries: singular).
+pub fn sensitivities(r: &Response) -> Vec<Option<Cmat>> {
+    r.l.iter().map(analysis::sensitivity).collect()
+}
+
+/// The next frequencies to measure: secant points of every crossover and phase-crossing
+/// bracket of each axis's loop-at-a-time `l_i`, and parabola vertices of the peaks of
+/// `|s_i|`, `|t_i|`, `|s_i − 1/2|` and the multiloop μ bound, that are not measured yet.
+fn refinement_points(r: &Response, dt: f64) -> Vec<Freq> {
+    let w = r.rad_s(dt);
+    let s: Vec<Cmat> = match sensitivities(r).into_iter().collect::<Option<Vec<_>>>() {
+        Some(s) => s,
+        None => return Vec::new(),
+    };
+    let mut want: Vec<f64> = Vec::new();
+    for i in 0..3 {
+        let l: Vec<C64> = s.iter().map(|m| analysis::loop_at_a_time(m, i)).collect();
+        want.extend(grid::refine_zeros(&w, &grid::log_gain(&l), REFINE_WIDTH));
+        want.extend(grid::refine_zeros(&w, &grid::phase_sine(&l), REFINE_WIDTH));
+        let one = C64::new(1.0, 0.0);
+        for y in [
+            s.iter().map(|m| m[i][i].norm()).collect::<Vec<f64>>(),
+            s.iter().map(|m| (one - m[i][i]).norm()).collect(),
+            s.iter().map(|m| (m[i][i] - 0.5).norm()).collect(),
+        ] {
+            want.extend(grid::refine_peak(&w, &y, REFINE_WIDTH));
+        }
+    }
+    let mu: Vec<f64> = s.iter().map(|m| analysis::mu_upper_bound(&analysis::disk_matrix(m)).0).collect();
+    want.extend(grid::refine_peak(&w, &mu, REFINE_WIDTH));
+    let mut fs: Vec<Freq> = want.into_iter().map(|w| Freq::near(w, dt)).filter(|f| !r.contains(f)).collect();
+    fs.sort_by(|a, b| a.rad_s(dt).total_cmp(&b.rad_s(dt)));
+    fs.dedup();
+    fs
+}
