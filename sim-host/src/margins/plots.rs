@@ -6,7 +6,7 @@
 
 use super::analysis::{self, C64, Cmat};
 use super::report::MarginReport;
-use sim_core::recorder::plots::{Figure, Panel, Series, TimeSeries, render};
+use sim_core::recorder::plots::{Figure, FigureContext, Panel, Series, TimeSeries, render};
 use std::path::{Path, PathBuf};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -70,9 +70,10 @@ fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         x: "log10_w".into(),
         x_label: "log10 frequency [rad/s]".into(),
         panels: vec![
-            Panel { title: "magnitude".into(), y_label: "|l| [dB]".into(), series: mag, log_y: false },
-            Panel { title: "phase".into(), y_label: "phase [deg]".into(), series: phase, log_y: false },
+            Panel { title: "magnitude".into(), y_label: "|l| [dB]".into(), series: mag, log_y: false, ..Default::default() },
+            Panel { title: "phase".into(), y_label: "phase [deg]".into(), series: phase, log_y: false, ..Default::default() },
         ],
+        ..Default::default()
     };
     (ts, fig)
 }
@@ -112,7 +113,8 @@ fn nyquist(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         title: format!("{}: Nyquist plot of l_i (|l| <= 4), critical point -1", r.scenario),
         x: "re".into(),
         x_label: "Re l".into(),
-        panels: vec![Panel { title: "loop-at-a-time".into(), y_label: "Im l".into(), series: lines, log_y: false }],
+        panels: vec![Panel { title: "loop-at-a-time".into(), y_label: "Im l".into(), series: lines, log_y: false, ..Default::default() }],
+        ..Default::default()
     };
     (ts, fig)
 }
@@ -153,7 +155,9 @@ fn disk(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
             y_label: "1 / alpha(w)".into(),
             series: lines,
             log_y: true,
+            ..Default::default()
         }],
+        ..Default::default()
     };
     (ts, fig)
 }
@@ -163,7 +167,7 @@ pub fn write(dir: &Path, r: &MarginReport) -> std::io::Result<Vec<PathBuf>> {
     let s = loops(r);
     let mut out = Vec::new();
     for (ts, fig) in [bode(r, &s), nyquist(r, &s), disk(r, &s)] {
-        out.extend(render(dir, &ts, &[fig])?);
+        out.extend(render(dir, &ts, &[fig], &FigureContext { scenario: r.scenario.clone() })?);
     }
     Ok(out)
 }

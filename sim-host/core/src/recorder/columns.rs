@@ -306,6 +306,7 @@ mod tests {
             env_torques: true,
             estimation: true,
             momentum: true,
+            eclipse: true,
         }
     }
 
