@@ -219,7 +219,7 @@ fn sections(doc: &str) -> Vec<(Vec<String>, String)> {
 /// top-level table of the same name as its last part (`modes.hold.target` is a
 /// `[target]`), then those of its prefixes.
 fn sections_of<'a>(table: &[&str], sections: &'a [(Vec<String>, String)]) -> Vec<&'a (Vec<String>, String)> {
-    let by_heading = |p: String| sections.iter().filter(move |(names, _)| names.iter().any(|n| *n == p));
+    let by_heading = |p: String| sections.iter().filter(move |(names, _)| names.contains(&p));
     let by_mention = |p: String| sections.iter().filter(move |(_, body)| body.contains(&format!("`[{p}]`")));
     let full = table.join(".");
     let mut out: Vec<_> = by_heading(full.clone()).chain(by_mention(full)).collect();

@@ -70,8 +70,20 @@ fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         x: "log10_w".into(),
         x_label: "log10 frequency [rad/s]".into(),
         panels: vec![
-            Panel { title: "magnitude".into(), y_label: "|l| [dB]".into(), series: mag, log_y: false, ..Default::default() },
-            Panel { title: "phase".into(), y_label: "phase [deg]".into(), series: phase, log_y: false, ..Default::default() },
+            Panel {
+                title: "magnitude".into(),
+                y_label: "|l| [dB]".into(),
+                series: mag,
+                log_y: false,
+                ..Default::default()
+            },
+            Panel {
+                title: "phase".into(),
+                y_label: "phase [deg]".into(),
+                series: phase,
+                log_y: false,
+                ..Default::default()
+            },
         ],
         ..Default::default()
     };
@@ -113,7 +125,13 @@ fn nyquist(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         title: format!("{}: Nyquist plot of l_i (|l| <= 4), critical point -1", r.scenario),
         x: "re".into(),
         x_label: "Re l".into(),
-        panels: vec![Panel { title: "loop-at-a-time".into(), y_label: "Im l".into(), series: lines, log_y: false, ..Default::default() }],
+        panels: vec![Panel {
+            title: "loop-at-a-time".into(),
+            y_label: "Im l".into(),
+            series: lines,
+            log_y: false,
+            ..Default::default()
+        }],
         ..Default::default()
     };
     (ts, fig)
