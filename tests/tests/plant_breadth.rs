@@ -280,6 +280,7 @@ euler_deg = [0, 0, 0]
 layout = "axes"
 axes = [[1.0, 0.0, 0.0]]
 max_torque_nm = 0.2
+max_speed_rpm = 6000.0
 inertia_kgm2 = 0.05
 EXTRA
 [controller]
