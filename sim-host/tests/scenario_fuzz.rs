@@ -196,14 +196,8 @@ enum Verdict {
 }
 
 /// Non-optional figures of the summary that a finite run always has.
-const FIGURES: [&str; 6] = [
-    "final_error_deg",
-    "mean_error_whole_run_deg",
-    "rms_error_after_settle_deg",
-    "final_euler_deg",
-    "final_rate_rad_s",
-    "sim_time_s",
-];
+const FIGURES: [&str; 5] =
+    ["final_error_deg", "mean_error_whole_run_deg", "final_euler_deg", "final_rate_rad_s", "sim_time_s"];
 
 fn finite_json(v: &Json) -> bool {
     match v {
@@ -228,6 +222,12 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
     }
     if let Some(f) = FIGURES.iter().find(|f| s.get(**f).is_none_or(|v| v.is_null() || !finite_json(v))) {
         return Verdict::Bad(format!("exit 0 with {f} = {}", s.get(*f).unwrap_or(&Json::Null)));
+    }
+    // The post-settle figures exist exactly when the run settled.
+    for f in ["rms_error_after_settle_deg", "max_error_after_settle_deg"] {
+        if s.get(f).is_none_or(Json::is_null) != s.get("settle_time_s").is_none_or(Json::is_null) {
+            return Verdict::Bad(format!("exit 0 with {f} = {} and settle_time_s = {}", s[f], s["settle_time_s"]));
+        }
     }
     if !finite_json(&s) {
         return Verdict::Bad("exit 0 with a non-finite number in summary.json".into());
