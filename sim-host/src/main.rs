@@ -324,6 +324,19 @@ impl std::fmt::Display for RunFailed {
 
 impl std::error::Error for RunFailed {}
 
+/// An error that ends the process with its own exit status (`sim-host run` with
+/// `[margins]` not measured or not stable: `sim-host margins`'s status).
+#[derive(Debug)]
+struct ExitWith(u8, String);
+
+impl std::fmt::Display for ExitWith {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.1)
+    }
+}
+
+impl std::error::Error for ExitWith {}
+
 /// Exit status of a run that completed but failed (diverged, every step refused).
 const EXIT_RUN_FAILED: u8 = 3;
 
@@ -337,6 +350,8 @@ fn main() -> std::process::ExitCode {
             let _ = writeln!(std::io::stderr().lock(), "error: {e:#}");
             if let Some(m) = e.downcast_ref::<sim_host::margins::MarginError>() {
                 std::process::ExitCode::from(m.exit_code() as u8)
+            } else if let Some(ExitWith(code, _)) = e.downcast_ref::<ExitWith>() {
+                std::process::ExitCode::from(*code)
             } else if e.downcast_ref::<RunFailed>().is_some() {
                 std::process::ExitCode::from(EXIT_RUN_FAILED)
             } else {
@@ -655,20 +670,30 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
         (None, Some(s)) => s.parse().context("scenario link.kind")?,
         (None, None) => LinkKind::InProcess,
     };
+    let margin_base = sim_host::margins::MarginOptions {
+        link: kind.clone(),
+        link_options: LinkOptions { firmware: firmware.clone() },
+        threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
+        ..Default::default()
+    };
     let mut l = link::open(&kind, &LinkOptions { firmware })?;
     let mut rec = output::RunOutput::new(out, !no_plots)
         .format(format)
         .metadata(metadata)
         .mode_thresholds(sc.modes.as_ref().map(|m| m.plot_thresholds()).unwrap_or_default())
         .assume_free_bytes(assumed_free_bytes()?);
-    let summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
+    let mut summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
     drop(l);
+    let margin_files = run_margins(&sc, &margin_base, &mut summary, out, no_plots)?;
     let files = rec.finish(&summary)?;
     say!("{}", summary_line(&summary));
+    if let Some(m) = &summary.margins {
+        say!("  {}", sim_host::margins::summary::line(m));
+    }
     for m in &summary.mode_transitions {
         say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
     }
-    for f in files {
+    for f in files.iter().chain(&margin_files) {
         say!("  wrote {}", f.display());
     }
     let a = &summary.link_anomalies;
@@ -676,7 +701,6 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
         eprintln!("warning: link anomalies: {}", serde_json::to_string(a)?);
     }
     match &summary.failure {
-        None => Ok(()),
         Some(Failure::Diverged { t_s, quantity }) => Err(RunFailed(format!(
             "{}: the run diverged: {quantity} is not finite at t = {t_s} s; the run was stopped there \
              (summary.json: run_status \"diverged\")",
@@ -695,7 +719,41 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
                 .into())
         }
+        None => match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {
+            None | Some(0) => Ok(()),
+            Some(code) => Err(ExitWith(
+                code as u8,
+                format!(
+                    "{}: [margins] not met: {}",
+                    summary.scenario,
+                    summary.margins.as_ref().map_or(String::new(), sim_host::margins::summary::line)
+                ),
+            )
+            .into()),
+        },
     }
+}
+
+/// With `[margins]`: measures the margins after the run into `summary.margins`, and writes
+/// margins.json (and its figures) beside the run's outputs. Returns the files written.
+fn run_margins(
+    sc: &Scenario,
+    base: &sim_host::margins::MarginOptions,
+    summary: &mut Summary,
+    out: &Path,
+    no_plots: bool,
+) -> Result<Vec<PathBuf>> {
+    let Some((m, report)) = sim_host::margins::summary::for_scenario(sc, base)? else { return Ok(Vec::new()) };
+    summary.margins = Some(m);
+    let Some(report) = report else { return Ok(Vec::new()) };
+    let path = out.join("margins.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&report)?)
+        .with_context(|| format!("writing {}", path.display()))?;
+    let mut files = vec![path];
+    if !no_plots {
+        files.extend(sim_host::margins::plots::write(out, &report)?);
+    }
+    Ok(files)
 }
 
 /// The one-line result of a run: figures to 4 significant digits, counts as integers, and

@@ -4,7 +4,9 @@
 
 use crate::link::FlightLink;
 use crate::recorder::series::{Recorder, TimeSeries};
-pub use crate::recorder::summary::{ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary};
+pub use crate::recorder::summary::{
+    MarginStatus, MarginSummary, ModeTransition, SETTLE_BOUND_DEG, StatusCounts, Summary,
+};
 use crate::scenario::{Resolved, Scenario};
 pub use crate::simulation::{Simulation, column_names, recorded_rows};
 use anyhow::Result;

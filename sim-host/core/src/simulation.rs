@@ -12,9 +12,10 @@ use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotat
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
-use crate::plant::magnetorquers::{CommandDelay, MagnetorquerSet};
+use crate::plant::delay::DelayLine;
+use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
-use crate::plant::wheel::{TorqueDelayLine, WheelDeriv, WheelOutput};
+use crate::plant::wheel::{WheelDeriv, WheelOutput};
 use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueReport};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
@@ -158,9 +159,11 @@ struct Actuation {
     n_thr: usize,
     rod_dipole: [f64; 3],
     /// `[actuators.magnetorquers] delay_s` as whole control periods.
-    mtq_delay: CommandDelay,
+    mtq_delay: DelayLine<3>,
     /// `[actuators.wheels] torque_delay_s` as whole dynamics steps.
-    wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+    wheel_delay: DelayLine<MAX_WHEELS>,
+    /// `[actuators.cmg] rate_delay_s` as whole control periods.
+    gimbal_delay: DelayLine<MAX_GIMBALS>,
     /// The wheel torque commands of this control period (before `wheel_delay`).
     wheel_cmd: [f64; MAX_WHEELS],
 }
@@ -170,16 +173,18 @@ impl Actuation {
         mtq: MagnetorquerSet,
         thrusters: Option<ThrusterSet>,
         n_thr: usize,
-        wheel_delay: TorqueDelayLine<MAX_WHEELS>,
+        wheel_delay: DelayLine<MAX_WHEELS>,
+        gimbal_delay: DelayLine<MAX_GIMBALS>,
     ) -> Self {
         Self {
-            mtq_delay: CommandDelay::new(mtq.delay_steps),
+            mtq_delay: DelayLine::new(mtq.delay_steps),
             mtq,
             thrusters,
             thr_state: ThrusterState::new(n_thr),
             n_thr,
             rod_dipole: [0.0; 3],
             wheel_delay,
+            gimbal_delay,
             wheel_cmd: [0.0; MAX_WHEELS],
         }
     }
@@ -187,7 +192,7 @@ impl Actuation {
     /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
     /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
     /// A loop injection is added to the commands as the plant receives them (before the
-    /// wheels' torque delay, which stays inside the loop).
+    /// wheels' torque delay and the gimbal-rate delay, which stay inside the loop).
     fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
         let mut input = Input::default();
         for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
@@ -199,6 +204,7 @@ impl Actuation {
         if let Some(inj) = injection {
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
+        input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
         input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
         if !self.mtq.rods.is_empty() {
@@ -438,8 +444,9 @@ impl<'a> Simulation<'a> {
             }
             None => None,
         };
-        let wheel_delay = TorqueDelayLine::new(craft.wheels.first().map_or(0.0, |w| w.torque_delay_s), clock.h());
-        let act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay);
+        let wheel_delay = DelayLine::from_seconds(craft.wheels.first().map_or(0.0, |w| w.torque_delay_s), clock.h());
+        let gimbal_delay = DelayLine::from_seconds(craft.cmg.as_ref().map_or(0.0, |c| c.rate_delay_s), clock.dt);
+        let act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay, gimbal_delay);
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
@@ -771,9 +778,9 @@ impl<'a> Simulation<'a> {
 
     /// The plant over `[t, t + dt)`: the inertia step change, then the RK4 substeps.
     fn advance(&mut self, t: f64, input: &mut Input, thr_mask: u32) -> Result<()> {
-        if let Some(c) = &self.inertia_change
-            && t < c.at_s
-            && t + self.clock.dt >= c.at_s
+        // Once, in the first step that reaches `at_s` (at the first step for `at_s <= 0`).
+        if self.inertia_change.as_ref().is_some_and(|c| t + self.clock.dt >= c.at_s)
+            && let Some(c) = self.inertia_change.take()
         {
             let j = self.craft.inertia * c.factor;
             self.craft.set_inertia(j);
@@ -1005,6 +1012,7 @@ impl<'a> Simulation<'a> {
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),
             pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
+            margins: None,
         }
     }
 }

@@ -572,7 +572,7 @@ fn torque_lag_step_response_is_one_minus_exp() {
 fn torque_delay_line_shifts_by_whole_dynamics_steps() {
     let h = 0.001;
     for (delay, steps) in [(0.0, 0), (0.003, 3), (0.0034, 3), (0.0036, 4), (0.0004, 0)] {
-        let mut d = TorqueDelayLine::<2>::new(delay, h);
+        let mut d = DelayLine::<2>::from_seconds(delay, h);
         assert_eq!(d.steps(), steps, "{delay}");
         for k in 0..20usize {
             let y = d.push([k as f64 + 1.0, -(k as f64) - 1.0]);

@@ -105,11 +105,21 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
+/// Flies one run and, with `[margins]`, measures its margins into `summary.margins` (one
+/// worker thread: the campaign runs its runs in parallel). A refused measurement is a
+/// summary with its status and reason: the requirements on its figures then fail.
+fn fly_with_margins(sc: &Scenario) -> anyhow::Result<runner::Summary> {
+    let mut summary = runner::fly(sc)?;
+    let base = crate::margins::MarginOptions { threads: 1, ..Default::default() };
+    summary.margins = crate::margins::summary::for_scenario(sc, &base)?.map(|(m, _)| m);
+    Ok(summary)
+}
+
 /// One run, start to verdict; never fails (errors and panics become the record's status).
 pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> RunRecord {
     let start = Instant::now();
     let path = dir.join(&run.scenario);
-    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| runner::fly(&sc)))
+    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly_with_margins(&sc)))
         .unwrap_or_else(|p| Err(anyhow!("panic: {}", panic_message(p.as_ref()))));
     let wall_time_s = start.elapsed().as_secs_f64();
     let summary = match flown.and_then(|s| Ok(serde_json::to_value(&s)?)) {

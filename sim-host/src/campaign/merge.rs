@@ -75,7 +75,7 @@ pub struct KeyStats {
     pub moments: Moments,
     /// Runs that flew but have no value (e.g. `settle_time_s` of a run that never settled).
     pub nulls: usize,
-    /// Largest values.
+    /// Largest values (smallest for a key a requirement wants large: `>`, `>=`).
     pub worst: Vec<RunValue>,
 }
 
@@ -270,8 +270,9 @@ fn load_records<'a>(dir: &Path, manifest: &'a Manifest, keys: &Keys) -> (Vec<Com
     (records, missing)
 }
 
-/// Moments, nulls and worst runs of every summary key over the runs that flew.
-fn key_statistics(keys: &Keys, records: &[Completed]) -> BTreeMap<String, KeyStats> {
+/// Moments, nulls and worst runs of every summary key over the runs that flew (worst:
+/// largest, or smallest for the keys in `smaller_is_worse`).
+fn key_statistics(keys: &Keys, records: &[Completed], smaller_is_worse: &[&str]) -> BTreeMap<String, KeyStats> {
     let mut statistics = BTreeMap::new();
     for key in &keys.names {
         let mut xs = Vec::new();
@@ -290,7 +291,8 @@ fn key_statistics(keys: &Keys, records: &[Completed]) -> BTreeMap<String, KeySta
         let vals: Vec<f64> = xs.iter().map(|x| x.1).collect();
         if let Some(moments) = stats::moments(&vals) {
             let mut w = xs.clone();
-            w.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+            let sign = if smaller_is_worse.contains(&key.as_str()) { -1.0 } else { 1.0 };
+            w.sort_by(|a, b| (sign * b.1).total_cmp(&(sign * a.1)).then(a.0.cmp(&b.0)));
             let worst =
                 w.iter().take(WORST).map(|(r, v)| RunValue { run: *r, value: *v, rerun: rerun_command(*r) }).collect();
             statistics.insert(key.clone(), KeyStats { moments, nulls, worst });
@@ -349,7 +351,10 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
     let run_wall_s = records.iter().map(|c| c.rec.wall_time_s).sum();
     let requirements: Vec<RequirementResult> =
         campaign.requirements.iter().map(|r| requirement_result(r, &keys, &records)).collect();
-    let statistics = key_statistics(&keys, &records);
+    // A key required to be large (`>`, `>=`: a margin) is worst at its smallest values.
+    let smaller_is_worse: Vec<&str> =
+        campaign.requirements.iter().filter(|r| !r.op.larger_is_worse()).map(|r| r.key.as_str()).collect();
+    let statistics = key_statistics(&keys, &records, &smaller_is_worse);
     let groups = groups(&campaign, &records, &requirements);
     let errors = records
         .iter()

@@ -64,7 +64,10 @@ impl KeyPath {
     }
 
     /// The addressed value. With `create`, a missing last table key is created as
-    /// `Value::Boolean(false)` placeholder for the caller to overwrite (only `set` does).
+    /// `Value::Boolean(false)` placeholder for the caller to overwrite (only `set` does),
+    /// and a missing table on the way as an empty table (an optional section the base
+    /// leaves out, e.g. `margins.at_s`, `spacecraft.inertia_change.factor`; the planner's
+    /// parse check judges the result).
     pub fn get_mut<'a>(&self, root: &'a mut toml::Value, create: bool) -> Result<&'a mut toml::Value> {
         let mut v = root;
         let last = self.segments.len().saturating_sub(1);
@@ -72,8 +75,13 @@ impl KeyPath {
             v = match seg {
                 Segment::Key(k) => {
                     let t = v.as_table_mut().ok_or_else(|| self.err(n, "is not a table"))?;
-                    if create && n == last && !t.contains_key(k) {
-                        t.insert(k.clone(), toml::Value::Boolean(false));
+                    if create && !t.contains_key(k) {
+                        let table_next = matches!(self.segments.get(n + 1), Some(Segment::Key(_)));
+                        if n == last {
+                            t.insert(k.clone(), toml::Value::Boolean(false));
+                        } else if table_next {
+                            t.insert(k.clone(), toml::Value::Table(toml::map::Map::new()));
+                        }
                     }
                     t.get_mut(k).ok_or_else(|| self.err(n, "does not exist in the base scenario"))?
                 }

@@ -7,7 +7,7 @@ use super::spec::{Campaign, CampaignFile, MAX_RUNS};
 use super::{flatten, run_dir_name, write_atomic};
 use anyhow::{Context, Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
-use sim_core::scenario::Scenario;
+use sim_core::scenario::{MarginsSpec, Scenario};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -55,11 +55,22 @@ impl Manifest {
     }
 }
 
-/// The summary keys of the base scenario: flown for one control step in-process.
-fn probe_summary_keys(base: &Scenario) -> Result<Vec<String>> {
+/// The summary keys of the base scenario: flown for one control step in-process. With
+/// `[margins]` in the base or drawn by a dispersion (`margins.…`), the `margins` keys too.
+fn probe_summary_keys(base: &Scenario, campaign: &Campaign) -> Result<Vec<String>> {
     let mut sc = base.clone();
     sc.duration_s = 1.0 / sc.timing.control_rate_hz;
-    let summary = sim_core::runner::fly(&sc).context("a one-step run of the base scenario")?;
+    let mut summary = sim_core::runner::fly(&sc).context("a one-step run of the base scenario")?;
+    // `[margins]` adds its keys (not measured here: the probe only names them).
+    let drawn = campaign.dispersions.iter().any(|d| d.key.to_string().starts_with("margins."));
+    let request = match base.margin_request()? {
+        None if drawn => Some(Scenario { margins: Some(MarginsSpec::default()), ..base.clone() }.margin_request()?),
+        r => Some(r),
+    };
+    if let Some(req) = request.flatten() {
+        let probe = Err(crate::margins::MarginError::Flight("key probe".into()));
+        summary.margins = Some(crate::margins::summary::summarize(&req, &probe));
+    }
     Ok(flatten(&serde_json::to_value(&summary)?).into_keys().collect())
 }
 
@@ -90,7 +101,7 @@ pub fn plan(campaign: &Campaign, out: &Path, runs: Option<u32>) -> Result<Manife
         file.runs = n;
     }
     let base = Scenario::load(&campaign.base_path).context("base scenario")?;
-    let summary_keys = probe_summary_keys(&base)?;
+    let summary_keys = probe_summary_keys(&base, campaign)?;
     for r in &campaign.requirements {
         if !summary_keys.contains(&r.key) {
             bail!("requirement `{}`: `{}` is not a numeric key of the run summary ({})", r.name, r.key, {

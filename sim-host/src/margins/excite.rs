@@ -14,16 +14,7 @@ use sim_core::plant::wheel::Fidelity;
 use sim_core::recorder::series::Discard;
 use sim_core::simulation::{LoopInjection, Simulation};
 
-/// Where the loop is broken.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum LoopPoint {
-    /// At the actuator command: body torque added to the flight's command through the
-    /// actuators' effectiveness.
-    Input,
-    /// At the attitude measurement: a small rotation added to the attitude sample.
-    Output,
-}
+pub use sim_core::scenario::LoopPoint;
 
 /// The actuator family whose commands carry the excitation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

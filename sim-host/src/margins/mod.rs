@@ -8,7 +8,8 @@
 //! - [`response`]: the experiments on worker threads, the response `L = −U E⁻¹`;
 //! - [`analysis`]: margins from a response (pure functions);
 //! - [`report`]: `margins.json` and the console table;
-//! - [`plots`]: `bode.png`, `nyquist.png`, `disk.png`.
+//! - [`plots`]: `bode.png`, `nyquist.png`, `disk.png`;
+//! - [`summary`]: `[margins]` in runs and campaigns, `summary.json` `margins`.
 
 pub mod analysis;
 pub mod excite;
@@ -16,6 +17,7 @@ pub mod grid;
 pub mod plots;
 pub mod report;
 pub mod response;
+pub mod summary;
 
 pub use excite::LoopPoint;
 pub use report::MarginReport;

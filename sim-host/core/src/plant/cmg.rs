@@ -38,6 +38,9 @@ pub struct CmgCluster {
     pub angle_limits_rad: Option<(f64, f64)>,
     /// Gimbal rate loop dynamics and friction; `None` = ideal rate servo.
     pub servo: Option<GimbalServo>,
+    /// Pure delay of the gimbal-rate commands, s (`[actuators.cmg] rate_delay_s`; applied
+    /// by the simulator in whole control periods, [`crate::plant::delay::DelayLine`]).
+    pub rate_delay_s: f64,
 }
 
 /// First-order gimbal rate servo with Coulomb friction on the gimbal axis.
@@ -76,6 +79,7 @@ impl CmgCluster {
             max_rate_rad_s,
             angle_limits_rad,
             servo: None,
+            rate_delay_s: 0.0,
         }
     }
 

@@ -13,7 +13,6 @@
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
-use std::collections::VecDeque;
 
 type Vec3 = Vector3<f64>;
 
@@ -50,29 +49,6 @@ pub struct MagnetorquerSet {
     /// current rise lumped as a pure delay; 0 = the command acts in its own period).
     #[serde(default)]
     pub delay_steps: usize,
-}
-
-/// A pure delay of `steps` control periods on the per-rod dipole commands: the output of
-/// step k is the input of step k − steps, zero (rods off) before the first command arrives.
-#[derive(Clone, Debug, Default)]
-pub struct CommandDelay {
-    steps: usize,
-    queue: VecDeque<[f64; 3]>,
-}
-
-impl CommandDelay {
-    pub fn new(steps: usize) -> Self {
-        Self { steps, queue: VecDeque::with_capacity(steps.saturating_add(1)) }
-    }
-
-    /// Feeds this period's command, returns the one that acts now.
-    pub fn push(&mut self, cmd: [f64; 3]) -> [f64; 3] {
-        if self.steps == 0 {
-            return cmd;
-        }
-        self.queue.push_back(cmd);
-        if self.queue.len() > self.steps { self.queue.pop_front().unwrap_or([0.0; 3]) } else { [0.0; 3] }
-    }
 }
 
 impl MagnetorquerSet {
@@ -180,19 +156,5 @@ mod tests {
         assert_eq!(m, [0.0, 0.0, 0.001]);
         // (0, 0, mz) × B = (-mz By, mz Bx, 0)
         assert_eq!(t, [0.001 * 10e-6, 0.001 * 30e-6, 0.0]);
-    }
-
-    #[test]
-    fn delay_shifts_by_whole_periods() {
-        // y[k] = x[k − n] for k ≥ n, 0 before: a ramp comes out n steps late.
-        for n in [0usize, 1, 3] {
-            let mut d = CommandDelay::new(n);
-            for k in 0..10usize {
-                let x = [k as f64, -(k as f64), 2.0 * k as f64];
-                let y = d.push(x);
-                let want = if k >= n { ((k - n) as f64) * 1.0 } else { 0.0 };
-                assert_eq!(y, [want, -want, 2.0 * want], "n {n} k {k}");
-            }
-        }
     }
 }

@@ -17,6 +17,7 @@
 //! torques are integrated at fourth order like the rest.
 
 pub mod cmg;
+pub mod delay;
 pub mod magnetorquers;
 pub mod rig;
 pub mod thrusters;

@@ -536,34 +536,3 @@ pub fn evaluate(
     o.speed_accel_rad_s2 = d.dh_abs_nm / iw - dot(&p.spin_axis, body_accel_rad_s2); // eq 23
     (d, o)
 }
-
-/// Pure delay of the wheels' torque commands by whole dynamics steps (module doc,
-/// `torque_delay_s`): fed once per dynamics step with the command held over it, returns the
-/// command of `steps` dynamics steps earlier (zeros before the first).
-#[derive(Clone, Debug, Default)]
-pub struct TorqueDelayLine<const N: usize> {
-    steps: usize,
-    queue: std::collections::VecDeque<[f64; N]>,
-}
-
-impl<const N: usize> TorqueDelayLine<N> {
-    /// A delay of `delay_s` rounded to whole dynamics steps of `step_s`.
-    pub fn new(delay_s: f64, step_s: f64) -> Self {
-        let steps = if delay_s > 0.0 && step_s > 0.0 { (delay_s / step_s).round() as usize } else { 0 };
-        Self { steps, queue: std::collections::VecDeque::with_capacity(steps.saturating_add(1)) }
-    }
-
-    /// The delay in dynamics steps.
-    pub fn steps(&self) -> usize {
-        self.steps
-    }
-
-    /// Feeds the command of this dynamics step, returns the one that acts over it.
-    pub fn push(&mut self, cmd: [f64; N]) -> [f64; N] {
-        if self.steps == 0 {
-            return cmd;
-        }
-        self.queue.push_back(cmd);
-        if self.queue.len() > self.steps { self.queue.pop_front().unwrap_or([0.0; N]) } else { [0.0; N] }
-    }
-}

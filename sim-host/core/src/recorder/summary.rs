@@ -158,6 +158,60 @@ pub struct Summary {
     /// attitude error over `[performance] from_s` to the end, at its confidence level
     /// (docs/pointing.md).
     pub pointing: crate::recorder::pointing::PointingSummary,
+    /// With `[margins]`: the stability margins measured through the flight step at the
+    /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub margins: Option<MarginSummary>,
+}
+
+/// Whether the margins of `[margins]` were measured, or why not (`sim-host margins`'s exit
+/// status: 0 `measured` and stable, 1 `error`, 2 `unsupported`, 3 `not_steady`, `unstable`
+/// or measured with a negative margin).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MarginStatus {
+    Measured,
+    /// The operating point is not a steady hold (saturation, stiction, unsettled error,
+    /// a response that never becomes periodic).
+    NotSteady,
+    /// The loop diverged while being measured.
+    Unstable,
+    /// A loop this measurement does not cover (magnetorquers, thrusters).
+    Unsupported,
+    Error,
+}
+
+/// `summary.json` `margins`: the scalars a campaign disperses over and requires, each the
+/// worst over the three axes (loop-at-a-time), plus the multiloop disk margin. A figure is
+/// `null` when not measured (`status` ≠ `measured`, `reason` says why) or infinite (gain
+/// margins with no phase crossing, below the control Nyquist frequency).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MarginSummary {
+    pub status: MarginStatus,
+    pub reason: Option<String>,
+    /// Operating point, s, and where the loop was broken.
+    pub at_s: f64,
+    #[serde(rename = "loop")]
+    pub loop_point: crate::scenario::LoopPoint,
+    /// Every axis has positive phase margins at its crossovers and the multiloop disk
+    /// margin is positive; null when not measured.
+    pub stable: Option<bool>,
+    /// Smallest phase margin of any axis, deg.
+    pub phase_margin_deg: Option<f64>,
+    /// Gain reduction tolerated (dB, < 0): the one closest to 0 dB over the axes.
+    pub gain_margin_low_db: Option<f64>,
+    /// Gain increase tolerated (dB, > 0): the smallest over the axes.
+    pub gain_margin_high_db: Option<f64>,
+    /// Smallest delay margin, s.
+    pub delay_margin_s: Option<f64>,
+    /// Highest gain-crossover frequency of any axis, rad/s.
+    pub crossover_rad_s: Option<f64>,
+    /// Largest sensitivity peak |S| of any axis, dB.
+    pub sensitivity_peak_db: Option<f64>,
+    /// Smallest loop-at-a-time disk margin α (balanced, skew 0).
+    pub disk_alpha: Option<f64>,
+    /// Multiloop disk margin α (D-scaled μ bound): all axes perturbed at once.
+    pub multiloop_disk_alpha: Option<f64>,
 }
 
 /// What the flight estimator did with the sensor samples over a run (`summary.json`

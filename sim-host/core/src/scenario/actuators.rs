@@ -200,6 +200,10 @@ pub struct CmgSpec {
     /// keeps the nominal geometry. Default zeros.
     #[serde(default)]
     pub gimbal_misalignment_deg: [[f64; 3]; 4],
+    /// Plant only: pure delay of the gimbal-rate commands, s, in [0, 60] s, rounded to
+    /// whole control periods (the flight code does not know it). Default 0.
+    #[serde(default)]
+    pub rate_delay_s: f64,
 }
 
 /// Largest accepted gimbal misalignment angle, deg: a misalignment, not another layout.
@@ -809,6 +813,9 @@ fn cmg_params(cmg: &CmgSpec) -> Result<CmgParams> {
         return Err(bad("actuators.cmg.failed", "CMG numbers are 1..=4"));
     }
     cmg.gimbal_misalignment_rad()?;
+    if !(cmg.rate_delay_s.is_finite() && (0.0..=60.0).contains(&cmg.rate_delay_s)) {
+        return Err(bad("actuators.cmg.rate_delay_s", format!("must be in [0, 60] s (got {})", cmg.rate_delay_s)));
+    }
     let lim = cmg.gimbal_limit_deg.map_or(1000.0, |l| l.to_radians());
     Ok(CmgParams {
         skew_rad: cmg.skew_deg.to_radians() as f32,

@@ -22,7 +22,9 @@ mod controller;
 mod environment;
 pub mod estimation;
 mod limits;
+mod margins;
 mod modes;
+pub use margins::{GRID_POINTS, LoopPoint, MarginRequest, MarginsSpec};
 mod momentum;
 pub use momentum::MomentumSpec;
 mod performance;
@@ -104,6 +106,10 @@ pub struct Scenario {
     /// confidence (defaults when absent).
     #[serde(default)]
     pub performance: PerformanceSpec,
+    /// Measure the stability margins after the run (`summary.json` `margins`;
+    /// docs/margins.md).
+    #[serde(default)]
+    pub margins: Option<MarginsSpec>,
     /// Deprecated spellings the file used, each with its replacement (filled by
     /// [`Scenario::from_toml`]; the CLI prints them as warnings). Not part of the format.
     #[serde(skip)]
@@ -382,6 +388,7 @@ impl Scenario {
         self.validate_control_source()?;
         self.validate_estimation()?;
         self.performance()?;
+        self.margin_request()?;
         Ok(())
     }
 
@@ -569,6 +576,7 @@ impl Scenario {
                 gimbal_inertia_kgm2: c.gimbal_inertia_kgm2.unwrap_or(1.0),
                 friction_nm: c.gimbal_friction_nm,
             });
+            cl.rate_delay_s = c.rate_delay_s;
             // Plant only: the flight parameters keep the nominal pyramid.
             Ok(cl.misaligned(&c.gimbal_misalignment_rad()?))
         });
