@@ -1,0 +1,108 @@
+//! The report's stability-margin table: `sim-host margins` (`crate::margins::measure`,
+//! default options, in-process) on every paper scenario, one row each — the worst axis's
+//! crossover, phase, gain and delay margins and the multiloop disk margin, or why the
+//! scenario's loop was not measured (docs/margins.md).
+
+use super::experiment::Block;
+use super::experiment::par_map;
+use crate::format::sig;
+use crate::margins::summary::summarize;
+use crate::margins::{MarginError, MarginOptions, measure};
+use sim_core::runner::{MarginStatus, MarginSummary};
+use sim_core::scenario::{MarginRequest, Scenario};
+use std::path::PathBuf;
+
+/// A paper scenario to measure: its path relative to `scenarios/`, and the file.
+pub struct Target {
+    pub rel: String,
+    pub path: PathBuf,
+}
+
+/// The scenario's loop in words: its law and actuator family.
+fn loop_kind(sc: &Scenario) -> String {
+    let law = sc
+        .controller
+        .as_ref()
+        .and_then(|c| serde_json::to_value(c).ok())
+        .and_then(|v| v.get("type").and_then(|t| t.as_str()).map(str::to_owned))
+        .unwrap_or_else(|| "—".into());
+    let a = &sc.actuators;
+    let family = if a.cmg.is_some() {
+        "CMGs"
+    } else if a.wheels.is_some() {
+        "wheels"
+    } else if a.thrusters.is_some() {
+        "thrusters"
+    } else if a.magnetorquers.is_some() {
+        "magnetorquers"
+    } else {
+        "none"
+    };
+    format!("{law}, {family}")
+}
+
+/// Why a loop was not measured, in a few words (the first clause of the refusal).
+fn refusal(m: &MarginSummary, sc: &Scenario) -> String {
+    let reason = m.reason.as_deref().unwrap_or("");
+    match m.status {
+        MarginStatus::Unsupported => {
+            let what = if sc.actuators.thrusters.is_some() { "thruster (PWPF, on/off valves)" } else { "magnetorquer" };
+            format!("not covered: a {what} loop (docs/margins.md)")
+        }
+        MarginStatus::NotSteady => {
+            let detail = reason.split_once("): ").map_or(reason, |(_, r)| r);
+            format!("not a steady hold: {}", detail.split(':').next().unwrap_or(detail).trim())
+        }
+        _ => format!("{:?}: {}", m.status, reason.split(':').next().unwrap_or(reason)),
+    }
+}
+
+fn opt(x: Option<f64>, digits: usize, inf: &str) -> String {
+    x.map_or(inf.into(), |v| sig(v, digits))
+}
+
+/// One row: measured at the end of the scenario (the settled hold), one worker thread.
+fn row(t: &Target) -> Vec<String> {
+    let sc = match Scenario::load(&t.path) {
+        Ok(sc) => sc,
+        Err(e) => return vec![format!("`scenarios/{}.toml`", t.rel), format!("scenario error: {e:#}")],
+    };
+    let req = MarginRequest { at_s: sc.duration_s, point: Default::default(), grid_points: 40 };
+    let measured: Result<_, MarginError> = measure(&sc, &MarginOptions { threads: 1, ..Default::default() });
+    let m = summarize(&req, &measured);
+    let name = format!("`scenarios/{}.toml`", t.rel);
+    if m.status != MarginStatus::Measured {
+        let dash = || "—".to_string();
+        return vec![name, loop_kind(&sc), dash(), dash(), dash(), dash(), dash(), refusal(&m, &sc)];
+    }
+    let gm = format!("{} / {}", opt(m.gain_margin_low_db, 3, "−∞"), opt(m.gain_margin_high_db, 3, "∞"));
+    vec![
+        name,
+        loop_kind(&sc),
+        opt(m.crossover_rad_s, 4, "—"),
+        opt(m.phase_margin_deg, 3, "—"),
+        gm,
+        opt(m.delay_margin_s, 3, "∞"),
+        opt(m.multiloop_disk_alpha, 3, "—"),
+        if m.stable == Some(true) { "stable".into() } else { "NOT STABLE".into() },
+    ]
+}
+
+/// The table, rows in the order given, measured on `jobs` threads.
+pub fn table(targets: &[Target], jobs: usize) -> Block {
+    Block::Table {
+        header: [
+            "scenario",
+            "law, actuators",
+            "crossover (rad/s)",
+            "phase margin (°)",
+            "gain margins low / high (dB)",
+            "delay margin (s)",
+            "multiloop disk α",
+            "verdict",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: par_map(jobs, targets, row),
+    }
+}
