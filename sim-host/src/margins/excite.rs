@@ -3,7 +3,9 @@
 //! family's effectiveness there, and one sine step — an excited run and its unexcited twin
 //! flown in lockstep from the same operating point, whose differences are the loop's
 //! response to the excitation alone (sensor noise, disturbances and the operating point's
-//! own slow motion cancel), summed into block DFTs until two consecutive blocks agree.
+//! own slow motion cancel), summed into block DFTs until two consecutive blocks agree. The
+//! loop closed, or broken open at the input ([`Method`]: the plant gets the excitation
+//! alone, the blocks are fitted by [`super::fit`]).
 
 use super::MarginError;
 use super::analysis::C64;
@@ -228,8 +230,9 @@ pub struct Experiment {
 }
 
 /// What one experiment measured: the DFT at its frequency of the loop's output `U` (the
-/// commanded body torque, or the true attitude) and of the total input `E = U + D`, each a
-/// 3-vector (a column of the 3×3 response), over the last block.
+/// commanded body torque, or the true attitude) and of the total input `E = U + D` (open
+/// loop: `E = D`, both from the sine-on-a-ramp fit), each a 3-vector (a column of the 3×3
+/// response), over the last block.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Column {
     pub u: [C64; 3],

@@ -129,11 +129,15 @@ mod tests {
         for (m, n) in [(1u64, 20u64), (3, 40), (1, 2)] {
             let ramp_of = |first: f64| {
                 let (mut theta, mut rate) = (0.0f64, 0.0f64);
+                // Fitted over four periods after the first (the sample at t = 0 is before
+                // the excitation: the measurement waits, too).
                 let mut f = SineRampFit::<1>::new(4 * n);
-                for k in 0..4 * n {
+                for k in 0..5 * n {
                     let phase = 2.0 * PI * (k * m % n) as f64 / n as f64;
-                    f.push(phase, &[theta]);
-                    let d = if k == 0 { first } else { 1.0 } * phase.cos();
+                    if k >= n {
+                        f.push(phase, &[theta]);
+                    }
+                    let d = (if k == 0 { first } else { 1.0 }) * phase.cos();
                     theta += rate * t + 0.5 * d * t * t;
                     rate += d * t;
                 }
