@@ -290,7 +290,7 @@ fn excitation(x: &Experiment, k: u64, method: Method) -> [f64; 3] {
 /// the block (closed loop: blind to a constant), or the sine-on-a-ramp fit (open loop).
 enum Estimator {
     Dft { acc: Block, len: u64, pushed: u64 },
-    Fit(SineRampFit<6>),
+    Fit(Box<SineRampFit<6>>),
 }
 
 impl Estimator {
@@ -299,7 +299,7 @@ impl Estimator {
             Method::Closed => {
                 Estimator::Dft { acc: Block { u: [C64::default(); 3], e: [C64::default(); 3] }, len, pushed: 0 }
             }
-            Method::Open => Estimator::Fit(SineRampFit::new(len)),
+            Method::Open => Estimator::Fit(Box::new(SineRampFit::new(len))),
         }
     }
 
