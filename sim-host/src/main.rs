@@ -216,6 +216,10 @@ enum Cmd {
         /// Skip the PNG figures.
         #[arg(long)]
         no_plots: bool,
+        /// closed | open (the loop broken at the actuator input, measures unstable loops)
+        /// | auto (closed; open if the closed-loop experiment diverges or saturates).
+        #[arg(long, default_value = "auto")]
+        method: String,
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check {
@@ -395,11 +399,18 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             no_refine,
             refly,
             no_plots,
+            method,
         } => {
             let point = match loop_point.as_str() {
                 "input" => sim_host::margins::LoopPoint::Input,
                 "output" => sim_host::margins::LoopPoint::Output,
                 other => anyhow::bail!("--loop {other}: expected input or output"),
+            };
+            let method = match method.as_str() {
+                "auto" => None,
+                "closed" => Some(sim_host::margins::Method::Closed),
+                "open" => Some(sim_host::margins::Method::Open),
+                other => anyhow::bail!("--method {other}: expected closed, open or auto"),
             };
             let opts = sim_host::margins::MarginOptions {
                 at_s: at,
@@ -412,6 +423,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 crossover_hint_rad_s: crossover_hint,
                 refine: !no_refine,
                 refly,
+                method,
             };
             margins(&scenario, &opts, json, out, no_plots)
         }
@@ -920,6 +932,9 @@ fn margins(
 ) -> Result<()> {
     let sc = Scenario::load(path)?;
     let report = sim_host::margins::measure(&sc, opts)?;
+    if let Some(note) = report.method_note.as_ref().filter(|_| json) {
+        eprintln!("note: {note}");
+    }
     let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-margins", sc.name)));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let text = serde_json::to_string_pretty(&report)?;

@@ -202,6 +202,10 @@ impl Actuation {
             *d = s as f64;
         }
         if let Some(inj) = injection {
+            if inj.replace_commands {
+                self.wheel_cmd = [0.0; MAX_WHEELS];
+                input.gimbal_rate_cmd_rad_s = [0.0; MAX_GIMBALS];
+            }
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
         input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
@@ -312,6 +316,11 @@ pub struct LoopInjection {
     /// A small rotation (rotation vector, body axes, rad) applied to the attitude sample
     /// of the frame, `q_meas ⊗ exp(θ/2)`, when the frame carries one.
     pub attitude_rad: [f64; 3],
+    /// The loop broken open at the actuator input: the plant's wheel-torque and
+    /// gimbal-rate commands are the injection alone; the flight's command is computed and
+    /// reported ([`Simulation::last_step`]) but not applied (docs/margins.md, "Open-loop
+    /// measurement").
+    pub replace_commands: bool,
 }
 
 impl LoopInjection {

@@ -3,10 +3,13 @@
 //! family's effectiveness there, and one sine step — an excited run and its unexcited twin
 //! flown in lockstep from the same operating point, whose differences are the loop's
 //! response to the excitation alone (sensor noise, disturbances and the operating point's
-//! own slow motion cancel), summed into block DFTs until two consecutive blocks agree.
+//! own slow motion cancel), summed into block DFTs until two consecutive blocks agree. The
+//! loop closed, or broken open at the input ([`Method`]: the plant gets the excitation
+//! alone, the blocks are fitted by [`super::fit`]).
 
 use super::MarginError;
 use super::analysis::C64;
+use super::fit::SineRampFit;
 use super::grid::Freq;
 use acs_flight::link::{ActuatorCommand, status};
 use sim_core::attitude::{Quat, Vec3};
@@ -15,6 +18,19 @@ use sim_core::recorder::series::Discard;
 use sim_core::simulation::{LoopInjection, Simulation};
 
 pub use sim_core::scenario::LoopPoint;
+
+/// How the loop is measured (docs/margins.md).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// The loop stays closed: the excitation is added to the flight's command, `E = U + D`.
+    #[default]
+    Closed,
+    /// The loop broken open at the actuator input: the plant receives the excitation alone
+    /// (the flight's command is computed, recorded and not applied), `E = D`; the twin's
+    /// plant receives nothing. Measures an unstable closed loop too ("Open-loop measurement").
+    Open,
+}
 
 /// The actuator family whose commands carry the excitation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -205,8 +221,9 @@ pub struct Experiment {
 }
 
 /// What one experiment measured: the DFT at its frequency of the loop's output `U` (the
-/// commanded body torque, or the true attitude) and of the total input `E = U + D`, each a
-/// 3-vector (a column of the 3×3 response), over the last block.
+/// commanded body torque, or the true attitude) and of the total input `E = U + D` (open
+/// loop: `E = D`, both from the sine-on-a-ramp fit), each a 3-vector (a column of the 3×3
+/// response), over the last block.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Column {
     pub u: [C64; 3],
@@ -242,34 +259,114 @@ fn norm3(v: &[C64; 3]) -> f64 {
     v.iter().map(|z| z.norm_sqr()).sum::<f64>().sqrt()
 }
 
-/// Runs experiment `x` on `exc` and its twin `twin` (both at the same operating point).
+/// The excitation about the experiment's axis at step `k` (N m at the input, rad at the
+/// output). Closed loop: `a cos(ω t_k)` under the raised-cosine onset. Open loop: the same
+/// wave at once, its first sample halved, because held over `[t_k, t_k + T)` it then
+/// integrates to a zero-mean rate: `Σ_{k<N} cos(kωT) − ½ = sin((N − ½)ωT) / (2 sin(ωT/2))`,
+/// so the free double integrator gets no ramp from the onset, only a constant attitude
+/// offset (docs/margins.md, "Open-loop measurement"; the same as starting the
+/// half-sample-shifted wave `cos(ω(k + ½)T)`, which would vanish at the Nyquist frequency).
+fn excitation(x: &Experiment, k: u64, method: Method) -> [f64; 3] {
+    let envelope = match method {
+        Method::Closed => onset(k, x.wait_steps / 2),
+        Method::Open if k == 0 => 0.5,
+        Method::Open => 1.0,
+    };
+    let mut d = [0.0; 3];
+    d[x.axis] = x.amplitude * envelope * x.freq.phase(k).cos();
+    d
+}
+
+/// A block's estimate of the loop output's and the total input's sinusoids: the DFT over
+/// the block (closed loop: blind to a constant), or the sine-on-a-ramp fit (open loop).
+enum Estimator {
+    Dft { acc: Block, len: u64, pushed: u64 },
+    Fit(Box<SineRampFit<6>>),
+}
+
+impl Estimator {
+    fn new(method: Method, len: u64) -> Self {
+        match method {
+            Method::Closed => {
+                Estimator::Dft { acc: Block { u: [C64::default(); 3], e: [C64::default(); 3] }, len, pushed: 0 }
+            }
+            Method::Open => Estimator::Fit(Box::new(SineRampFit::new(len))),
+        }
+    }
+
+    /// Adds step k: phase `ω t_k`, loop output `u`, excitation `d`.
+    fn push(&mut self, phase: f64, u: &[f64; 3], d: &[f64; 3]) {
+        match self {
+            Estimator::Dft { acc, pushed, .. } => {
+                let w = C64::from_polar(1.0, -phase);
+                for i in 0..3 {
+                    acc.u[i] += w * u[i];
+                    acc.e[i] += w * (u[i] + d[i]);
+                }
+                *pushed += 1;
+            }
+            Estimator::Fit(f) => f.push(phase, &[u[0], u[1], u[2], d[0], d[1], d[2]]),
+        }
+    }
+
+    /// The block, once complete (the estimator restarts for the next one).
+    fn take(&mut self) -> Option<Result<Block, MarginError>> {
+        let done = match self {
+            Estimator::Dft { acc, len, pushed } if *pushed >= *len => {
+                let n = *len as f64;
+                Ok(Block { u: acc.u.map(|z| z / n), e: acc.e.map(|z| z / n) })
+            }
+            Estimator::Fit(f) if f.is_full() => {
+                f.solve().map(|z| Block { u: [z[0], z[1], z[2]], e: [z[3], z[4], z[5]] }).ok_or_else(|| {
+                    MarginError::Unstable { reason: "the open-loop fit is singular (block too short)".into() }
+                })
+            }
+            _ => return None,
+        };
+        *self = match self {
+            Estimator::Dft { len, .. } => Estimator::new(Method::Closed, *len),
+            Estimator::Fit(f) => Estimator::new(Method::Open, f.block_len()),
+        };
+        Some(done)
+    }
+}
+
+/// The injection of the excitation `d` at `point` (open loop: replacing the command).
+fn injection(point: LoopPoint, eff: Option<&Effectiveness>, d: [f64; 3], method: Method) -> LoopInjection {
+    let mut inj = match (point, eff) {
+        (LoopPoint::Input, Some(eff)) => eff.injection(d),
+        _ => LoopInjection { attitude_rad: d, ..LoopInjection::default() },
+    };
+    inj.replace_commands = method == Method::Open;
+    inj
+}
+
+/// Runs experiment `x` on `exc` and its twin `twin` (both at the same operating point),
+/// the loop closed or broken open (`method`, input loop only).
 pub fn run(
     exc: &mut Simulation,
     twin: &mut Simulation,
     point: LoopPoint,
     eff: Option<&Effectiveness>,
+    method: Method,
     x: &Experiment,
 ) -> Result<Column, MarginError> {
     let dt = exc.control_period_s();
     let t0 = exc.steps_done() as f64 * dt;
-    let mut acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
+    if method == Method::Open {
+        twin.set_injection(Some(injection(point, eff, [0.0; 3], method)));
+    }
+    let mut est = Estimator::new(method, x.block_steps);
     let mut blocks: Vec<f64> = Vec::new();
     let mut last: Option<Block> = None;
     let mut peak: f64 = 0.0;
     let mut converged = x.max_blocks == 1;
     let total = x.wait_steps + u64::from(x.max_blocks) * x.block_steps;
     for k in 0..total {
-        let phase = x.freq.phase(k);
-        let wave = onset(k, x.wait_steps / 2) * phase.cos();
-        let mut d = [0.0; 3];
-        d[x.axis] = x.amplitude * wave;
+        let d = excitation(x, k, method);
         let y = rotation_between(&twin.state().q, &exc.state().q);
         peak = peak.max(Vec3::from(y).norm());
-        let inj = match (point, eff) {
-            (LoopPoint::Input, Some(eff)) => eff.injection(d),
-            _ => LoopInjection { attitude_rad: d, ..LoopInjection::default() },
-        };
-        exc.set_injection(Some(inj));
+        exc.set_injection(Some(injection(point, eff, d, method)));
         exc.step(&mut Discard).map_err(MarginError::flight)?;
         twin.step(&mut Discard).map_err(MarginError::flight)?;
         let t = t0 + k as f64 * dt;
@@ -286,29 +383,22 @@ pub fn run(
         if k < x.wait_steps {
             continue;
         }
-        let w = C64::from_polar(1.0, -phase);
-        for i in 0..3 {
-            acc.u[i] += w * du[i];
-            acc.e[i] += w * (du[i] + d[i]);
-        }
-        if (k + 1 - x.wait_steps).is_multiple_of(x.block_steps) {
-            let n = x.block_steps as f64;
-            let b = Block { u: acc.u.map(|z| z / n), e: acc.e.map(|z| z / n) };
-            acc = Block { u: [C64::default(); 3], e: [C64::default(); 3] };
-            blocks.push(norm3(&b.u));
-            grows(&blocks, x.amplitude, t)?;
-            let settled = last.as_ref().is_some_and(|p| {
-                let diff: [C64; 3] = std::array::from_fn(|i| b.u[i] - p.u[i]);
-                norm3(&diff) <= SETTLED_RELATIVE * norm3(&b.u) + SETTLED_FLOOR * x.amplitude
-            });
-            last = Some(b);
-            if settled {
-                converged = true;
-                break;
-            }
+        est.push(x.freq.phase(k), &du, &d);
+        let Some(b) = est.take().transpose()? else { continue };
+        blocks.push(norm3(&b.u));
+        grows(&blocks, x.amplitude, t)?;
+        let settled = last.as_ref().is_some_and(|p| {
+            let diff: [C64; 3] = std::array::from_fn(|i| b.u[i] - p.u[i]);
+            norm3(&diff) <= SETTLED_RELATIVE * norm3(&b.u) + SETTLED_FLOOR * x.amplitude
+        });
+        last = Some(b);
+        if settled {
+            converged = true;
+            break;
         }
     }
     exc.set_injection(None);
+    twin.set_injection(None);
     let b = last.ok_or_else(|| MarginError::Unstable { reason: "no block measured".into() })?;
     Ok(Column { u: b.u, e: b.e, blocks: blocks.len() as u32, converged, peak_attitude_rad: peak })
 }
@@ -354,8 +444,22 @@ fn check_step(exc: &Simulation, twin: &Simulation, t: f64) -> Result<(ActuatorCo
     if let Some(r) = nonlinear_status(ce) {
         return Err(MarginError::NotSteady {
             t_s: t,
-            reason: format!("the excitation drives the loop out of its linear range ({r}): lower --amplitude-rad"),
+            reason: format!("{EXCITATION_NONLINEAR} ({r}): lower --amplitude-rad"),
         });
     }
     Ok((*ce, *ct))
+}
+
+/// The start of the reason of an excited run that leaves the linear range while its twin
+/// holds (a closed loop that amplifies the excitation, or too large an excitation).
+const EXCITATION_NONLINEAR: &str = "the excitation drives the loop out of its linear range";
+
+/// The closed-loop experiment failed in a way the open-loop one can measure through: the
+/// excited run diverged, grew or saturated while the operating point held.
+pub fn closed_loop_diverged(e: &MarginError) -> bool {
+    match e {
+        MarginError::Unstable { .. } => true,
+        MarginError::NotSteady { reason, .. } => reason.starts_with(EXCITATION_NONLINEAR),
+        _ => false,
+    }
 }

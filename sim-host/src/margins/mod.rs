@@ -4,6 +4,7 @@
 //! the 3×3 open-loop response up to the control Nyquist frequency, and the margins are
 //! computed from it:
 //! - [`excite`]: where the loop is broken, the operating point, one experiment;
+//! - [`fit`]: the open-loop method's sine-on-a-ramp fit;
 //! - [`grid`]: the leakage-free frequencies, the grid and its refinement;
 //! - [`response`]: the experiments on worker threads, the response `L = −U E⁻¹`;
 //! - [`analysis`]: margins from a response (pure functions);
@@ -13,13 +14,14 @@
 
 pub mod analysis;
 pub mod excite;
+pub mod fit;
 pub mod grid;
 pub mod plots;
 pub mod report;
 pub mod response;
 pub mod summary;
 
-pub use excite::LoopPoint;
+pub use excite::{LoopPoint, Method};
 pub use report::MarginReport;
 
 use analysis::{C64, Cmat};
@@ -98,6 +100,9 @@ pub struct MarginOptions {
     /// Re-fly every experiment from t = 0 even when the link can be forked (what a QEMU
     /// measurement does; the same bits).
     pub refly: bool,
+    /// Closed or open loop; `None` (auto): closed, open if the closed-loop experiment
+    /// diverges or saturates at a steady operating point (docs/margins.md).
+    pub method: Option<Method>,
 }
 
 impl Default for MarginOptions {
@@ -113,6 +118,7 @@ impl Default for MarginOptions {
             crossover_hint_rad_s: None,
             refine: true,
             refly: false,
+            method: None,
         }
     }
 }
@@ -134,6 +140,7 @@ const REFINE_ROUNDS: usize = 8;
 struct Plan {
     dt: f64,
     point: LoopPoint,
+    method: Method,
     inertia_diag: [f64; 3],
     cap: [f64; 3],
     amplitude_rad: f64,
@@ -142,11 +149,16 @@ struct Plan {
 impl Plan {
     /// Sine-step amplitude about `axis` at `w`, with the crossover estimate `wc`: at the
     /// input, the torque that moves the attitude by about `amplitude_rad` (`J ω²` above the
-    /// crossover, the loop's stiffness `≈ J ωc²` below it), capped so that no actuator
-    /// channel exceeds 5 % of its limit; at the output, `amplitude_rad` itself.
+    /// crossover, the loop's stiffness `≈ J ωc²` below it; open loop: the free inertia's
+    /// `J ω²` at every frequency), capped so that no actuator channel exceeds 5 % of its
+    /// limit; at the output, `amplitude_rad` itself.
     fn amplitude(&self, axis: usize, w: f64, wc: f64) -> f64 {
+        let stiffness = match self.method {
+            Method::Closed => w.max(wc).powi(2),
+            Method::Open => w * w,
+        };
         match self.point {
-            LoopPoint::Input => (self.amplitude_rad * self.inertia_diag[axis] * w.max(wc).powi(2)).min(self.cap[axis]),
+            LoopPoint::Input => (self.amplitude_rad * self.inertia_diag[axis] * stiffness).min(self.cap[axis]),
             LoopPoint::Output => self.amplitude_rad,
         }
     }
@@ -181,6 +193,9 @@ pub struct Measured {
     /// Experiments run, and those that never became periodic.
     pub experiments: usize,
     pub unsettled: usize,
+    /// The method of the response, and why it is not the one asked for (auto's fallback).
+    pub method: Method,
+    pub method_note: Option<String>,
 }
 
 /// Measures the margins of `scenario` (docs/margins.md).
@@ -204,6 +219,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         settle_bound_deg: settle,
         point: opts.point,
         effectiveness: None,
+        method: Method::Closed,
         fork: false,
     };
     // The operating point once here: is it a steady hold, what do the actuators make there
@@ -224,22 +240,72 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     let plan = Plan {
         dt,
         point: opts.point,
+        method: Method::Closed,
         inertia_diag: [j[(0, 0)], j[(1, 1)], j[(2, 2)]],
         cap: std::array::from_fn(|a| eff.amplitude_cap(a)),
         amplitude_rad: opts.amplitude_rad,
     };
     setup.effectiveness = Some(eff);
-    let (measured, experiments) = Pool::with(&setup, opts.threads, |pool| {
-        let m = sweep(pool, &plan, opts);
-        (m, pool.experiments)
-    });
-    let measured = measured?;
+    let (measured, experiments) = measure_with_fallback(&mut setup, plan, opts)?;
     report::build(scenario, opts, at_s, dt, &measured, experiments, start.elapsed().as_secs_f64())
+}
+
+/// The sweep with the method asked for; auto: closed loop, and open loop if the closed-loop
+/// experiments diverge or saturate (the operating point was a steady hold: the closed loop
+/// amplifies the excitation), saying so in the report.
+fn measure_with_fallback(
+    setup: &mut Setup,
+    mut plan: Plan,
+    opts: &MarginOptions,
+) -> Result<(Measured, u64), MarginError> {
+    let method = opts.method.unwrap_or(Method::Closed);
+    if method == Method::Open && opts.point == LoopPoint::Output {
+        return Err(MarginError::Unsupported(
+            "the open-loop method breaks the loop at the actuator input only (--loop input)".into(),
+        ));
+    }
+    let run = |setup: &Setup, plan: &Plan| {
+        Pool::with(setup, opts.threads, |pool| {
+            let m = sweep(pool, plan, opts);
+            (m, pool.experiments)
+        })
+    };
+    (setup.method, plan.method) = (method, method);
+    let (measured, experiments) = run(setup, &plan);
+    let closed_failure = match measured {
+        Err(e) if opts.method.is_none() && opts.point == LoopPoint::Input && excite::closed_loop_diverged(&e) => e,
+        m => return Ok((m?, experiments)),
+    };
+    (setup.method, plan.method) = (Method::Open, Method::Open);
+    let (measured, more) = run(setup, &plan);
+    let mut m = measured.map_err(|e| with_context(e, &closed_failure))?;
+    let why = match &closed_failure {
+        MarginError::NotSteady { reason, .. } | MarginError::Unstable { reason } => {
+            reason.trim_end_matches(": lower --amplitude-rad")
+        }
+        _ => "",
+    };
+    m.method_note = Some(format!(
+        "measured with the loop broken open: with the loop closed, the excitation of a steady hold diverged or \
+         saturated ({why})"
+    ));
+    Ok((m, experiments + more))
+}
+
+/// The open-loop fallback's error, with the closed-loop failure that led to it.
+fn with_context(e: MarginError, closed: &MarginError) -> MarginError {
+    let add = |r: String| format!("{r} (open loop, after the closed-loop experiment failed: {closed})");
+    match e {
+        MarginError::NotSteady { t_s, reason } => MarginError::NotSteady { t_s, reason: add(reason) },
+        MarginError::Unstable { reason } => MarginError::Unstable { reason: add(reason) },
+        MarginError::Flight(r) => MarginError::Flight(add(r)),
+        MarginError::Unsupported(r) => MarginError::Unsupported(add(r)),
+    }
 }
 
 /// Pilot (unless hinted), grid, refinement.
 fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured, MarginError> {
-    let mut m = Measured::default();
+    let mut m = Measured { method: plan.method, ..Measured::default() };
     m.crossover_estimate_rad_s = match opts.crossover_hint_rad_s {
         Some(w) => w,
         None => pilot(pool, plan, &mut m)?,

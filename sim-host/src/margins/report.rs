@@ -2,7 +2,7 @@
 //! console table: the measured response and every margin computed from it.
 
 use super::analysis::{self, AxisMargins, C64, Cmat, DiskMargin};
-use super::{LoopPoint, MarginError, MarginOptions, Measured};
+use super::{LoopPoint, MarginError, MarginOptions, Measured, Method};
 use serde::Serialize;
 use sim_core::link::LinkKind;
 use sim_core::scenario::Scenario;
@@ -78,6 +78,10 @@ pub struct MarginReport {
     #[serde(rename = "loop")]
     pub loop_point: LoopPoint,
     pub link: String,
+    /// `closed` or `open` (docs/margins.md, "Open-loop measurement").
+    pub method: Method,
+    /// Why the method is not the one asked for (auto's fallback to the open loop).
+    pub method_note: Option<String>,
     pub control_period_s: f64,
     pub nyquist_rad_s: f64,
     pub amplitude: Amplitude,
@@ -128,7 +132,8 @@ fn axis_report(name: &'static str, a: &AxisMargins, dt: f64) -> AxisReport {
 }
 
 /// Margins are on the stable side: every crossover of every axis has a positive phase
-/// margin (the time-domain check has already found no divergence).
+/// margin (closed loop: the time-domain check has already found no divergence; open loop:
+/// the verdict rests on the measured `L` alone, with the multiloop disk margin).
 fn margins_stable(axes: &[AxisReport]) -> bool {
     axes.iter().all(|a| a.crossovers.iter().all(|c| c[1] > 0.0))
 }
@@ -158,7 +163,7 @@ pub fn build(
         super::sensitivities(r).into_iter().collect::<Option<Vec<_>>>().ok_or_else(|| MarginError::Unstable {
             reason: "I + L is singular at a measured frequency (closed-loop pole on the unit circle)".into(),
         })?;
-    let axes: Vec<AxisReport> = ["x", "y", "z"]
+    let mut axes: Vec<AxisReport> = ["x", "y", "z"]
         .iter()
         .enumerate()
         .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt))
@@ -167,19 +172,33 @@ pub fn build(
     let peaks = r.columns.iter().flatten().map(|c| c.peak_attitude_rad);
     let fold = |it: &mut dyn Iterator<Item = f64>, f: fn(f64, f64) -> f64, z: f64| it.fold(z, f);
     let unconverged = r.columns.iter().flatten().filter(|c| !c.converged).count();
-    let rule = match opts.point {
-        LoopPoint::Input => {
+    let rule = match (opts.point, m.method) {
+        (LoopPoint::Input, Method::Closed) => {
             "input torque a(w) = min(theta * J_jj * max(w, wc)^2, 5 % of the tightest actuator channel limit)"
         }
-        LoopPoint::Output => "attitude rotation a = theta on the attitude sample",
+        (LoopPoint::Input, Method::Open) => {
+            "input torque a(w) = min(theta * J_jj * w^2, 5 % of the tightest actuator channel limit), loop open"
+        }
+        (LoopPoint::Output, _) => "attitude rotation a = theta on the attitude sample",
     };
     let stable = margins_stable(&axes) && ml.alpha > 0.0;
+    if !stable {
+        for a in &mut axes {
+            a.notes.push(
+                "the loop is not stable: the disk margins and the |S|, |T| peaks are those of the measured \
+                 (I + L)^-1 on the unit circle, not guarantees"
+                    .into(),
+            );
+        }
+    }
     Ok(MarginReport {
         format_version: 1,
         scenario: sc.name.clone(),
         at_s,
         loop_point: opts.point,
         link: link_name(&opts.link),
+        method: m.method,
+        method_note: m.method_note.clone(),
         control_period_s: dt,
         nyquist_rad_s: std::f64::consts::PI / dt,
         amplitude: Amplitude {
@@ -217,12 +236,16 @@ pub fn table(r: &MarginReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{}: margins at t = {} s, loop broken at the {} ({}), T = {} s, {} frequencies, {} experiments, {:.1} s",
+        "{}: margins at t = {} s, loop broken at the {} ({}, {}), T = {} s, {} frequencies, {} experiments, {:.1} s",
         r.scenario,
         r.at_s,
         match r.loop_point {
             LoopPoint::Input => "actuator input",
             LoopPoint::Output => "attitude measurement",
+        },
+        match r.method {
+            Method::Closed => "measured closed loop",
+            Method::Open => "measured open loop",
         },
         r.link,
         r.control_period_s,
@@ -230,6 +253,9 @@ pub fn table(r: &MarginReport) -> String {
         r.cost.experiments,
         r.cost.wall_time_s
     );
+    if let Some(n) = &r.method_note {
+        let _ = writeln!(s, "note: {n}");
+    }
     let _ = writeln!(
         s,
         "axis  wc[rad/s]  PM[deg]  GMlow[dB]  GMhigh[dB]  DM[s]     |S|pk[dB]  |T|pk[dB]  disk a   diskGM[dB]  diskPM[deg]"

@@ -6,7 +6,7 @@
 
 use super::MarginError;
 use super::analysis::{C64, Cmat, loop_from_columns};
-use super::excite::{self, Column, Effectiveness, Experiment, LoopPoint};
+use super::excite::{self, Column, Effectiveness, Experiment, LoopPoint, Method};
 use super::grid::Freq;
 use sim_core::link::{self, FlightLink, LinkKind, LinkOptions};
 use sim_core::scenario::{Resolved, Scenario};
@@ -24,6 +24,8 @@ pub struct Setup<'a> {
     pub settle_bound_deg: f64,
     pub point: LoopPoint,
     pub effectiveness: Option<Effectiveness>,
+    /// The loop closed, or broken open at the input.
+    pub method: Method,
     /// Fork experiments from one flight to the operating point (in-process), or re-fly
     /// every experiment and its twin from t = 0.
     pub fork: bool,
@@ -46,14 +48,14 @@ impl Setup<'_> {
         let fork = || base.fork_link().ok_or_else(|| MarginError::Flight("the link cannot be forked".into()));
         let (mut le, mut lt) = (fork()?, fork()?);
         let (mut exc, mut twin) = (base.fork(le.as_mut()), base.fork(lt.as_mut()));
-        excite::run(&mut exc, &mut twin, self.point, self.effectiveness.as_ref(), x)
+        excite::run(&mut exc, &mut twin, self.point, self.effectiveness.as_ref(), self.method, x)
     }
 
     fn run_reflown(&self, x: &Experiment) -> Result<Column, MarginError> {
         let (mut le, mut lt) = (self.open()?, self.open()?);
         let mut exc = self.fly(le.as_mut())?;
         let mut twin = self.fly(lt.as_mut())?;
-        excite::run(&mut exc, &mut twin, self.point, self.effectiveness.as_ref(), x)
+        excite::run(&mut exc, &mut twin, self.point, self.effectiveness.as_ref(), self.method, x)
     }
 }
 
