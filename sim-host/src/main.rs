@@ -220,6 +220,10 @@ enum Cmd {
         /// | auto (closed; open if the closed-loop experiment diverges or saturates).
         #[arg(long, default_value = "auto")]
         method: String,
+        /// Refuse (exit 2) a sweep that would cost more plant (RK4) steps than this,
+        /// counted before it runs (the report uses 1e7); default: no limit.
+        #[arg(long)]
+        max_plant_steps: Option<u64>,
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check {
@@ -400,6 +404,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             refly,
             no_plots,
             method,
+            max_plant_steps,
         } => {
             let point = match loop_point.as_str() {
                 "input" => sim_host::margins::LoopPoint::Input,
@@ -424,6 +429,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 refine: !no_refine,
                 refly,
                 method,
+                max_plant_steps,
             };
             margins(&scenario, &opts, json, out, no_plots)
         }

@@ -104,3 +104,44 @@ fn dispersed_margins_match_the_closed_form_and_the_worst_run_reruns_alone_with_t
     assert_eq!(alone["margins"]["phase_margin_deg"].as_f64().map(f64::to_bits), Some(worst_pm.to_bits()));
     assert!(tmp.path().join("alone/margins.json").exists());
 }
+
+/// `sim-host run` with `[margins]`: the scenario's text plus the table, flown in `dir`;
+/// (exit code, summary.json).
+fn run_with_margins(dir: &Path, scenario: &str, edits: &[(&str, &str)]) -> (Option<i32>, Value) {
+    let mut text = std::fs::read_to_string(repo().join(scenario)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{from}");
+        text = text.replace(from, to);
+    }
+    std::fs::write(dir.join("s.toml"), format!("{text}\n[margins]\n")).unwrap();
+    let o = sim_host(dir, &["run", "s.toml", "--out", "out", "--no-plots", "--quiet"]);
+    (o.status.code(), json(&dir.join("out/summary.json")))
+}
+
+/// No failure of the margins ends with exit 0: a loop measured unstable (gains × 10 with
+/// 0.2 s of delay on the rigid-body fixture: the closed form's phase margin is negative)
+/// and an operating point that is not a steady hold (paper 001's wheels stopped in their
+/// friction band) both exit 3, with the reason in `summary.json` `margins` and no figure.
+#[test]
+fn a_run_whose_margins_are_negative_or_not_measured_exits_3_with_the_reason() {
+    let tmp = tempfile::tempdir().unwrap();
+    let unstable = [
+        ("k_diag_nm = [5.0, 6.0, 7.5]", "k_diag_nm = [50.0, 60.0, 75.0]"),
+        ("d_diag_nms = [7.0, 8.4, 10.5]", "d_diag_nms = [70.0, 84.0, 105.0]"),
+        ("torque_limit_nm = [50.0, 50.0, 50.0]", "torque_limit_nm = [500.0, 500.0, 500.0]"),
+        ("inertia_kgm2 = 0.01", "inertia_kgm2 = 0.01\ntorque_delay_s = 0.2"),
+    ];
+    let (code, s) = run_with_margins(tmp.path(), "tests/scenarios/margins/rigid-pd.toml", &unstable);
+    let m = &s["margins"];
+    assert_eq!(code, Some(3), "{m}");
+    assert_eq!((m["status"].as_str(), m["stable"].as_bool()), (Some("measured"), Some(false)), "{m}");
+    assert!(m["phase_margin_deg"].as_f64().is_some_and(|p| p < 0.0), "{m}");
+
+    let tmp = tempfile::tempdir().unwrap();
+    let (code, s) = run_with_margins(tmp.path(), "scenarios/paper001/wheel-slew.toml", &[]);
+    let m = &s["margins"];
+    assert_eq!(code, Some(3), "{m}");
+    assert_eq!(m["status"], "not_steady", "{m}");
+    assert!(m["reason"].as_str().is_some_and(|r| r.contains("friction")), "{m}");
+    assert!(m["phase_margin_deg"].is_null() && m["stable"].is_null(), "{m}");
+}

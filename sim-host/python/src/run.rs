@@ -4,7 +4,8 @@
 //! Ctrl-C (`KeyboardInterrupt` ends the run) and to call the progress callback. The
 //! columns are handed to numpy as they are (`PyArray1::from_vec` takes the `Vec<f64>`
 //! over: no copy, no per-row conversion), the summary as `json.load` of `summary.json`
-//! would read it.
+//! would read it. With `[margins]` the margins are measured after the run into
+//! `summary["margins"]` (`sim_host::margins::summary`), as by `sim-host run`.
 
 use crate::convert::json_to_py;
 use crate::errors::{Kind, guard};
@@ -43,6 +44,7 @@ fn fly(
     firmware: Option<PathBuf>,
     callback: Option<&Py<PyAny>>,
 ) -> Result<(Summary, TimeSeries), (anyhow::Error, Option<PyErr>)> {
+    let firmware_again = firmware.clone();
     let mut l = link::open(kind, &LinkOptions { firmware }).map_err(|e| (e, None))?;
     let mut series = TimeSeries::default();
     let mut stop: Option<Interrupted> = None;
@@ -65,7 +67,17 @@ fn fly(
     let r = runner::run_observed(sc, l.as_mut(), &mut series, &mut observe);
     drop(l);
     match r {
-        Ok(summary) => Ok((summary, series)),
+        Ok(mut summary) => {
+            // `[margins]`: measured after the run on the same link, as `sim-host run` does.
+            let base = sim_host::margins::MarginOptions {
+                link: kind.clone(),
+                link_options: LinkOptions { firmware: firmware_again },
+                threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
+                ..Default::default()
+            };
+            summary.margins = sim_host::margins::summary::for_scenario(sc, &base).map_err(|e| (e, None))?.map(|m| m.0);
+            Ok((summary, series))
+        }
         Err(e) => Err((e, stop.map(|s| s.0))),
     }
 }

@@ -43,6 +43,9 @@ pub enum MarginError {
     NotSteady { t_s: f64, reason: String },
     /// The loop is unstable at the operating point (divergent response).
     Unstable { reason: String },
+    /// The sweep would cost more plant steps than `MarginOptions::max_plant_steps` allows
+    /// (the message gives the estimate and the lowest frequency that dominates it).
+    OverBudget(String),
 }
 
 impl MarginError {
@@ -55,7 +58,7 @@ impl MarginError {
     pub fn exit_code(&self) -> i32 {
         match self {
             MarginError::Flight(_) => 1,
-            MarginError::Unsupported(_) => 2,
+            MarginError::Unsupported(_) | MarginError::OverBudget(_) => 2,
             MarginError::NotSteady { .. } | MarginError::Unstable { .. } => 3,
         }
     }
@@ -73,6 +76,7 @@ impl std::fmt::Display for MarginError {
                 write!(f, "the operating point is not a steady hold: {reason}; no margin measured")
             }
             MarginError::Unstable { reason } => write!(f, "unstable at operating point: {reason}"),
+            MarginError::OverBudget(m) => write!(f, "not measured: {m}"),
         }
     }
 }
@@ -103,6 +107,11 @@ pub struct MarginOptions {
     /// Closed or open loop; `None` (auto): closed, open if the closed-loop experiment
     /// diverges or saturates at a steady operating point (docs/margins.md).
     pub method: Option<Method>,
+    /// Most plant (RK4) steps the frequency sweep may cost, counted before it runs from the
+    /// crossover estimate (each experiment's wait and two blocks, three axes); `None`: no
+    /// limit. The report sets one so that it stays minutes long (a cost, not wall time:
+    /// the same verdict on every machine).
+    pub max_plant_steps: Option<u64>,
 }
 
 impl Default for MarginOptions {
@@ -119,6 +128,7 @@ impl Default for MarginOptions {
             refine: true,
             refly: false,
             method: None,
+            max_plant_steps: None,
         }
     }
 }
@@ -139,6 +149,11 @@ const REFINE_ROUNDS: usize = 8;
 /// caps and the rules.
 struct Plan {
     dt: f64,
+    /// RK4 steps per control period.
+    substeps: u64,
+    /// `MarginOptions::max_plant_steps`, and the plant steps charged so far.
+    budget: Option<u64>,
+    spent: std::cell::Cell<u64>,
     point: LoopPoint,
     method: Method,
     inertia_diag: [f64; 3],
@@ -180,6 +195,31 @@ impl Plan {
     fn three(&self, f: Freq, wc: f64) -> [Experiment; 3] {
         std::array::from_fn(|j| self.experiment(f, j, wc))
     }
+
+    /// Charges `xs` to the budget before they run: each experiment's wait and two blocks
+    /// (the fewest it can take) in plant steps. Over the budget: `OverBudget`, before any
+    /// of them flies, so the verdict does not depend on the machine.
+    fn charge(&self, xs: &[Experiment]) -> Result<(), MarginError> {
+        let Some(budget) = self.budget else { return Ok(()) };
+        let cost = xs
+            .iter()
+            .map(|e| e.wait_steps.saturating_add(e.block_steps.saturating_mul(2)))
+            .fold(0u64, u64::saturating_add)
+            .saturating_mul(self.substeps);
+        let spent = self.spent.get().saturating_add(cost);
+        self.spent.set(spent);
+        if spent <= budget {
+            return Ok(());
+        }
+        let lowest = xs.iter().map(|e| e.freq.rad_s(self.dt)).fold(f64::INFINITY, f64::min);
+        Err(MarginError::OverBudget(format!(
+            "the sweep would cost at least {spent:.3e} plant steps, over the budget of {budget:.3e} (next \
+             frequency {lowest:.3e} rad/s: a {:.0} s period, {} RK4 substeps per control step); `sim-host \
+             margins` has no budget unless given --max-plant-steps",
+            std::f64::consts::TAU / lowest,
+            self.substeps
+        )))
+    }
 }
 
 /// What the measurement went through, for the report.
@@ -204,6 +244,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
     let dt = resolved.clock.dt;
     let settle = resolved.performance.settle_bound_deg;
+    let substeps = u64::from(resolved.clock.substeps.max(1));
     drop(resolved);
     let at_s = opts.at_s.unwrap_or(scenario.duration_s);
     if !(at_s.is_finite() && at_s >= 0.0) {
@@ -239,6 +280,9 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     drop(link);
     let plan = Plan {
         dt,
+        substeps,
+        budget: opts.max_plant_steps,
+        spent: std::cell::Cell::new(0),
         point: opts.point,
         method: Method::Closed,
         inertia_diag: [j[(0, 0)], j[(1, 1)], j[(2, 2)]],
@@ -300,6 +344,7 @@ fn with_context(e: MarginError, closed: &MarginError) -> MarginError {
         MarginError::Unstable { reason } => MarginError::Unstable { reason: add(reason) },
         MarginError::Flight(r) => MarginError::Flight(add(r)),
         MarginError::Unsupported(r) => MarginError::Unsupported(add(r)),
+        MarginError::OverBudget(r) => MarginError::OverBudget(add(r)),
     }
 }
 
@@ -353,6 +398,7 @@ fn measure_frequencies(
     m: &mut Measured,
 ) -> Result<(), MarginError> {
     let xs: Vec<Experiment> = fs.iter().flat_map(|f| plan.three(*f, wc)).collect();
+    plan.charge(&xs)?;
     let cols = pool.run(&xs)?;
     m.experiments += cols.len();
     m.unsettled += cols.iter().filter(|c| !c.converged).count();
@@ -374,7 +420,9 @@ fn pilot(pool: &mut Pool, plan: &Plan, m: &mut Measured) -> Result<f64, MarginEr
         let w = nyquist / 3f64.powi(level);
         let f = Freq::near(w, plan.dt);
         let w = f.rad_s(plan.dt);
-        let cols = pool.run(&plan.three(f, w))?;
+        let xs = plan.three(f, w);
+        plan.charge(&xs)?;
+        let cols = pool.run(&xs)?;
         m.pilot_frequencies += 1;
         let gains: [f64; 3] = std::array::from_fn(|j| response::diagonal_estimate(&cols[j], j).norm());
         if let Some((wp, gp)) = prev {

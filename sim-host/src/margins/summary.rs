@@ -27,6 +27,7 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
         reason: Some(reason),
         at_s: req.at_s,
         loop_point: req.point,
+        method: None,
         stable: None,
         phase_margin_deg: None,
         gain_margin_low_db: None,
@@ -43,6 +44,7 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
             let status = match e {
                 MarginError::Flight(_) => MarginStatus::Error,
                 MarginError::Unsupported(_) => MarginStatus::Unsupported,
+                MarginError::OverBudget(_) => MarginStatus::OverBudget,
                 MarginError::NotSteady { .. } => MarginStatus::NotSteady,
                 MarginError::Unstable { .. } => MarginStatus::Unstable,
             };
@@ -55,6 +57,7 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
         reason: None,
         at_s: r.at_s,
         loop_point: r.loop_point,
+        method: serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(str::to_owned)),
         stable: Some(r.stable),
         phase_margin_deg: worst(axes.iter().map(|a| a.phase_margin_deg), f64::min),
         gain_margin_low_db: worst(axes.iter().map(|a| a.gain_margin_low_db), f64::max),
@@ -85,7 +88,7 @@ pub fn exit_code(m: &MarginSummary) -> i32 {
     match m.status {
         MarginStatus::Measured if m.stable == Some(true) => 0,
         MarginStatus::Measured | MarginStatus::NotSteady | MarginStatus::Unstable => 3,
-        MarginStatus::Unsupported => 2,
+        MarginStatus::Unsupported | MarginStatus::OverBudget => 2,
         MarginStatus::Error => 1,
     }
 }
@@ -96,10 +99,11 @@ pub fn line(m: &MarginSummary) -> String {
     let f = |v: Option<f64>, unit: &str| v.map_or("inf".into(), |x| format!("{}{unit}", sig(x, 4)));
     match m.status {
         MarginStatus::Measured => format!(
-            "margins at t = {} s ({} loop), worst axis: PM {}, GM {} / {}, delay margin {}, crossover {}, \
+            "margins at t = {} s ({} loop, {}), worst axis: PM {}, GM {} / {}, delay margin {}, crossover {}, \
              multiloop disk alpha {}; {}",
             sig(m.at_s, 6),
             serde_json::to_value(m.loop_point).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default(),
+            m.method.as_deref().unwrap_or("?"),
             f(m.phase_margin_deg, " deg"),
             f(m.gain_margin_low_db, " dB"),
             f(m.gain_margin_high_db, " dB"),

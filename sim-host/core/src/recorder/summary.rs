@@ -165,7 +165,7 @@ pub struct Summary {
 }
 
 /// Whether the margins of `[margins]` were measured, or why not (`sim-host margins`'s exit
-/// status: 0 `measured` and stable, 1 `error`, 2 `unsupported`, 3 `not_steady`, `unstable`
+/// status: 0 `measured` and stable, 1 `error`, 2 `unsupported` or `over_budget`, 3 `not_steady`, `unstable`
 /// or measured with a negative margin).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -178,6 +178,8 @@ pub enum MarginStatus {
     Unstable,
     /// A loop this measurement does not cover (magnetorquers, thrusters).
     Unsupported,
+    /// The sweep would cost more plant steps than the caller's budget (the report's).
+    OverBudget,
     Error,
 }
 
@@ -193,6 +195,9 @@ pub struct MarginSummary {
     pub at_s: f64,
     #[serde(rename = "loop")]
     pub loop_point: crate::scenario::LoopPoint,
+    /// `closed` (the excitation added to the flight's command) or `open` (the loop broken
+    /// open: an unstable closed loop is measured that way); null when not measured.
+    pub method: Option<String>,
     /// Every axis has positive phase margins at its crossovers and the multiloop disk
     /// margin is positive; null when not measured.
     pub stable: Option<bool>,
