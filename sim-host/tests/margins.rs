@@ -20,6 +20,13 @@ fn small(hint: f64) -> MarginOptions {
     MarginOptions { grid_points: 4, crossover_hint_rad_s: Some(hint), refine: false, ..MarginOptions::default() }
 }
 
+/// The text of the reference loop's fixture, `tests/scenarios/margins/rigid-pd.toml`
+/// (variants edit it).
+fn rigid_pd_text() -> String {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenarios/margins/rigid-pd.toml");
+    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
 fn bits(r: &MarginReport) -> Vec<u64> {
     r.response.iter().flatten().flatten().flatten().map(|x| x.to_bits()).collect()
 }
@@ -106,4 +113,44 @@ fn wheels_in_stiction_and_loops_without_momentum_exchange_actuators_are_refused(
     let e = measure(&scenario("paper004/dcm-pd.toml"), &small(0.1)).unwrap_err();
     assert!(matches!(e, MarginError::Unsupported(_)), "{e}");
     assert_eq!(e.exit_code(), 2);
+}
+
+/// The Nyquist plot's plan (`margins::plots::plans`, what is drawn): one unit is as many
+/// pixels on x as on y (within 2 %: the unit circle is drawn round), the critical point
+/// −1 lies inside the drawn range and is marked, and the three identical axes of the
+/// reference loop are said to coincide.
+#[test]
+fn the_nyquist_plot_has_one_scale_on_both_axes_and_shows_the_critical_point() {
+    let sc = Scenario::from_toml(&rigid_pd_text()).unwrap();
+    let r = measure(&sc, &small(0.8)).unwrap();
+    let plans = sim_host::margins::plots::plans(&r);
+    let names: Vec<&str> = plans.iter().map(|p| p.file_name.as_str()).collect();
+    assert_eq!(names, ["bode.png", "nyquist.png", "disk.png"]);
+    let p = &plans[1];
+    let (kx, ky) = sim_host::margins::plots::pixels_per_unit(p, 0);
+    assert!((kx / ky - 1.0).abs() <= 0.02, "{kx:.2} px per unit on x, {ky:.2} on y");
+    let (x, y) = (p.x_range, p.panels[0].y_range);
+    assert!(x.0 < -1.0 && -1.0 < x.1 && y.0 < 0.0 && 0.0 < y.1, "-1 outside the drawn range {x:?} × {y:?}");
+    assert!(p.panels[0].points.iter().any(|q| (q.0, q.1) == (-1.0, 0.0)), "the critical point is not marked");
+    assert!(p.panels[0].title.contains("coincide within a pixel"), "{:?}", p.panels[0].title);
+    for p in &plans {
+        assert!(p.legend_area.x0 >= p.plot_area.x1, "{}: legend on the plot area", p.file_name);
+        for panel in &p.panels {
+            let styles: std::collections::HashSet<_> = panel.lines.iter().map(|l| (l.colour, l.dash)).collect();
+            assert_eq!(
+                styles.len(),
+                panel.lines.len(),
+                "{} {}: a (colour, dash) pair repeats",
+                p.file_name,
+                panel.title
+            );
+        }
+    }
+    // The Bode plot marks the crossover.
+    let wc = r.axes[0].crossover_rad_s.unwrap().log10();
+    assert!(
+        plans[0].x_lines.iter().any(|l| (l.0 - wc).abs() < 1e-12 && l.1.starts_with("ω_c")),
+        "{:?}",
+        plans[0].x_lines
+    );
 }
