@@ -20,6 +20,24 @@ fn small(hint: f64) -> MarginOptions {
     MarginOptions { grid_points: 4, crossover_hint_rad_s: Some(hint), refine: false, ..MarginOptions::default() }
 }
 
+/// The text of the reference loop's fixture, `tests/scenarios/margins/rigid-pd.toml`:
+/// ideal wheels on the body axes, a diagonal inertia, and an operating point that is the
+/// target itself at rest (nothing couples the axes but second-order terms). Variants edit
+/// it ([`edited`]).
+fn rigid_pd_text() -> String {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/scenarios/margins/rigid-pd.toml");
+    std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// `text` with each `(from, to)` replaced; every `from` must be there.
+fn edited(mut text: String, edits: &[(&str, &str)]) -> String {
+    for (from, to) in edits {
+        assert!(text.contains(from), "{from:?} not in the fixture");
+        text = text.replace(from, to);
+    }
+    text
+}
+
 fn bits(r: &MarginReport) -> Vec<u64> {
     r.response.iter().flatten().flatten().flatten().map(|x| x.to_bits()).collect()
 }
@@ -36,42 +54,10 @@ fn the_same_operating_point_gives_the_same_bits_twice_and_forked_equals_reflown(
     assert!(a.stable && a.cost.unconverged_experiments == 0, "{a:?}");
 }
 
-/// Ideal wheels on the body axes, a diagonal inertia, and an operating point that is the
-/// target itself at rest: nothing couples the axes but second-order terms.
-const DECOUPLED: &str = r#"
-name = "decoupled-hold"
-duration_s = 20.0
-[timing]
-control_rate_hz = 10.0
-dynamics_substeps = 2
-[spacecraft]
-inertia_kgm2 = [[10.0, 0.0, 0.0], [0.0, 14.0, 0.0], [0.0, 0.0, 8.0]]
-[initial]
-euler_deg = [0.0, 0.0, 0.0]
-rate_rad_s = [0.0, 0.0, 0.0]
-[target]
-euler_deg = [0.0, 0.0, 0.0]
-[actuators.wheels]
-layout = "axes"
-axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
-model = "ideal"
-max_torque_nm = 0.5
-max_speed_rpm = 6000.0
-inertia_kgm2 = 0.01
-initial_speed_rpm = [0.0, 0.0, 0.0]
-[controller]
-type = "quaternion_feedback"
-zeta = 0.7
-wn_rad_s = 0.5
-torque_limit_nm = [0.5, 0.5, 0.5]
-[sensors]
-seed = 1
-"#;
-
 #[test]
 fn a_diagonal_inertia_on_decoupled_wheels_gives_a_diagonal_response() {
-    let sc = Scenario::from_toml(DECOUPLED).unwrap();
-    let r = measure(&sc, &small(0.6)).unwrap();
+    let sc = Scenario::from_toml(&rigid_pd_text()).unwrap();
+    let r = measure(&sc, &small(0.8)).unwrap();
     for l in &r.response {
         for (i, row) in l.iter().enumerate() {
             let diag = row[i][0].hypot(row[i][1]);
@@ -86,13 +72,16 @@ fn a_diagonal_inertia_on_decoupled_wheels_gives_a_diagonal_response() {
 
 #[test]
 fn a_loop_made_unstable_on_purpose_is_reported_unstable_not_measured() {
-    // Gains x 10 (wn x sqrt 10, zeta x sqrt 10: both K = 2 wn^2 J and D = 2 zeta wn J) with
-    // 0.3 s of sensor latency.
-    let text = DECOUPLED
-        .replace("zeta = 0.7", &format!("zeta = {}", 0.7 * 10f64.sqrt()))
-        .replace("wn_rad_s = 0.5", &format!("wn_rad_s = {}", 0.5 * 10f64.sqrt()))
-        .replace("seed = 1", "seed = 1\nlatency_s = 0.3")
-        .replace("euler_deg = [0.0, 0.0, 0.0]\nrate", "euler_deg = [1.0, -1.0, 0.5]\nrate");
+    // Gains x 10 (K and D) with 0.3 s of sensor latency, from a small initial error.
+    let text = edited(
+        rigid_pd_text(),
+        &[
+            ("k_diag_nm = [5.0, 6.0, 7.5]", "k_diag_nm = [50.0, 60.0, 75.0]"),
+            ("d_diag_nms = [7.0, 8.4, 10.5]", "d_diag_nms = [70.0, 84.0, 105.0]"),
+            ("seed = 1", "seed = 1\nlatency_s = 0.3"),
+            ("euler_deg = [0.0, 0.0, 0.0]\nrate", "euler_deg = [1.0, -1.0, 0.5]\nrate"),
+        ],
+    );
     let sc = Scenario::from_toml(&text).unwrap();
     let e = measure(&sc, &small(1.0)).expect_err("an unstable loop has no margins to measure");
     assert!(matches!(e, MarginError::Unstable { .. } | MarginError::NotSteady { .. }), "{e}");
@@ -106,4 +95,44 @@ fn wheels_in_stiction_and_loops_without_momentum_exchange_actuators_are_refused(
     let e = measure(&scenario("paper004/dcm-pd.toml"), &small(0.1)).unwrap_err();
     assert!(matches!(e, MarginError::Unsupported(_)), "{e}");
     assert_eq!(e.exit_code(), 2);
+}
+
+/// The Nyquist plot's plan (`margins::plots::plans`, what is drawn): one unit is as many
+/// pixels on x as on y (within 2 %: the unit circle is drawn round), the critical point
+/// −1 lies inside the drawn range and is marked, and the three identical axes of the
+/// reference loop are said to coincide.
+#[test]
+fn the_nyquist_plot_has_one_scale_on_both_axes_and_shows_the_critical_point() {
+    let sc = Scenario::from_toml(&rigid_pd_text()).unwrap();
+    let r = measure(&sc, &small(0.8)).unwrap();
+    let plans = sim_host::margins::plots::plans(&r);
+    let names: Vec<&str> = plans.iter().map(|p| p.file_name.as_str()).collect();
+    assert_eq!(names, ["bode.png", "nyquist.png", "disk.png"]);
+    let p = &plans[1];
+    let (kx, ky) = sim_host::margins::plots::pixels_per_unit(p, 0);
+    assert!((kx / ky - 1.0).abs() <= 0.02, "{kx:.2} px per unit on x, {ky:.2} on y");
+    let (x, y) = (p.x_range, p.panels[0].y_range);
+    assert!(x.0 < -1.0 && -1.0 < x.1 && y.0 < 0.0 && 0.0 < y.1, "-1 outside the drawn range {x:?} × {y:?}");
+    assert!(p.panels[0].points.iter().any(|q| (q.0, q.1) == (-1.0, 0.0)), "the critical point is not marked");
+    assert!(p.panels[0].title.contains("coincide within a pixel"), "{:?}", p.panels[0].title);
+    for p in &plans {
+        assert!(p.legend_area.x0 >= p.plot_area.x1, "{}: legend on the plot area", p.file_name);
+        for panel in &p.panels {
+            let styles: std::collections::HashSet<_> = panel.lines.iter().map(|l| (l.colour, l.dash)).collect();
+            assert_eq!(
+                styles.len(),
+                panel.lines.len(),
+                "{} {}: a (colour, dash) pair repeats",
+                p.file_name,
+                panel.title
+            );
+        }
+    }
+    // The Bode plot marks the crossover.
+    let wc = r.axes[0].crossover_rad_s.unwrap().log10();
+    assert!(
+        plans[0].x_lines.iter().any(|l| (l.0 - wc).abs() < 1e-12 && l.1.starts_with("ω_c")),
+        "{:?}",
+        plans[0].x_lines
+    );
 }

@@ -4,40 +4,10 @@
 //! forked from one flight to the operating point). A small grid keeps it short. Where
 //! qemu-system-arm is not installed: fails under CI, skips loudly otherwise.
 
-use acs_tests::{build_qemu_firmware, qemu_available};
+use acs_tests::{build_qemu_firmware, qemu_available, repo};
 use sim_core::link::LinkKind;
 use sim_core::scenario::Scenario;
 use sim_host::margins::{MarginOptions, measure};
-
-const HOLD: &str = r#"
-name = "qemu-margins-hold"
-duration_s = 20.0
-[timing]
-control_rate_hz = 10.0
-dynamics_substeps = 2
-[spacecraft]
-inertia_kgm2 = [[10.0, 0.0, 0.0], [0.0, 14.0, 0.0], [0.0, 0.0, 8.0]]
-[initial]
-euler_deg = [0.0, 0.0, 0.0]
-rate_rad_s = [0.0, 0.0, 0.0]
-[target]
-euler_deg = [0.0, 0.0, 0.0]
-[actuators.wheels]
-layout = "axes"
-axes = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
-model = "ideal"
-max_torque_nm = 0.5
-max_speed_rpm = 6000.0
-inertia_kgm2 = 0.01
-initial_speed_rpm = [0.0, 0.0, 0.0]
-[controller]
-type = "quaternion_feedback"
-zeta = 0.7
-wn_rad_s = 0.5
-torque_limit_nm = [0.5, 0.5, 0.5]
-[sensors]
-seed = 1
-"#;
 
 #[test]
 fn margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
@@ -45,9 +15,10 @@ fn margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
         return;
     }
     build_qemu_firmware();
-    // 10 Hz, ideal wheels, at rest on its target from t = 0: the flight to the operating
-    // point (1 s) and the experiments stay short under QEMU (~50 lockstep steps/s here).
-    let sc = Scenario::from_toml(HOLD).unwrap();
+    // The reference loop (tests/scenarios/margins/rigid-pd.toml): 10 Hz, ideal wheels, at
+    // rest on its target from t = 0: the flight to the operating point (1 s) and the
+    // experiments stay short under QEMU (~50 lockstep steps/s here).
+    let sc = Scenario::load(&repo().join("tests/scenarios/margins/rigid-pd.toml")).unwrap();
     let opts = MarginOptions {
         at_s: Some(1.0),
         grid_points: 3,

@@ -581,3 +581,19 @@ fn torque_delay_line_shifts_by_whole_dynamics_steps() {
         }
     }
 }
+
+/// An ideal wheel has no size of its own (issue 22): a scenario edited in code past the
+/// validation, without one of the three sizes, gets an error naming the key from
+/// `wheel_params`, not paper 001's wheel.
+#[test]
+fn an_ideal_wheel_without_its_size_is_an_error_not_paper_001s_wheel() {
+    use sim_core::scenario::Scenario;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/scenarios/margins/rigid-pd.toml");
+    let sc = Scenario::load(&path).unwrap();
+    let p = sc.wheel_params().unwrap();
+    assert_eq!((p.len(), p[0].max_torque_nm, p[0].inertia_kgm2), (3, 5.0, 0.01));
+    let mut unsized_wheel = sc.clone();
+    unsized_wheel.actuators.wheels.as_mut().unwrap().inertia_kgm2 = None;
+    let e = unsized_wheel.wheel_params().unwrap_err().to_string();
+    assert!(e.contains("actuators.wheels.inertia_kgm2") && e.contains("no default"), "{e}");
+}

@@ -26,7 +26,13 @@
 //! - step signals (modes, counters; [`Panel::step`]) are drawn as steps between recorded
 //!   values, category panels ([`Panel::categories`]) with the category names on the y axis;
 //! - `thresholds` are horizontal reference lines in the panel's unit, `Figure::x_lines`
-//!   vertical ones (the x range is widened to include them).
+//!   vertical ones (the x range is widened to include them); `Panel::points` are marked
+//!   points (a ringed cross with a legend entry, e.g. a Nyquist plot's critical point);
+//! - a figure with `equal_scale` (a Nyquist plot) has square plot areas and the same span
+//!   on x and y, so one unit is as many pixels both ways and a circle is drawn round;
+//! - a panel whose lines lie on one another (`Panel::cycle_dashes`, e.g. three identical
+//!   axes) draws the first solid and the others dashed, dotted, long-dashed in turn, so
+//!   every colour shows.
 //!
 //! Lines are drawn 2 px wide as two 1-px lines one pixel apart, not as plotters' polygonised
 //! wide paths: a min/max envelope of a long run zigzags at sub-pixel spacing and the
@@ -95,6 +101,11 @@ pub struct Panel {
     /// Horizontal reference lines: (value in the panel's unit, label).
     pub thresholds: Vec<(f64, String)>,
     pub presence: Presence,
+    /// Marked points: (x, y, legend label), drawn as a ringed cross; inside the ranges.
+    pub points: Vec<(f64, f64, String)>,
+    /// The lines lie on one another: the first is drawn solid, the others dashed, dotted,
+    /// long-dashed in turn (whatever their `dashed`), so that every colour shows.
+    pub cycle_dashes: bool,
 }
 
 /// A figure: panels stacked vertically sharing the x axis (column `x`, usually "t_s", label "time [s]").
@@ -109,6 +120,9 @@ pub struct Figure {
     pub requires: Option<String>,
     /// Vertical reference lines on every panel (e.g. a requirement's threshold): (x, label).
     pub x_lines: Vec<(f64, String)>,
+    /// One unit is as many pixels on x as on y (a Nyquist plot): square plot areas and the
+    /// same span on both axes, each centred on its data.
+    pub equal_scale: bool,
 }
 
 /// What every figure of one render names: the scenario (or campaign, or experiment).
@@ -162,6 +176,7 @@ pub struct PanelPlan {
     pub y_ticks: Vec<String>,
     pub lines: Vec<LinePlan>,
     pub thresholds: Vec<(f64, String)>,
+    pub points: Vec<(f64, f64, String)>,
 }
 
 /// A pixel rectangle, `x0..x1` × `y0..y1` (relative to the panel's cell).
@@ -192,6 +207,8 @@ pub struct FigurePlan {
     pub x_lines: Vec<(f64, String)>,
     pub width: u32,
     pub height: u32,
+    /// Height of each panel's cell (the last one has the x-axis label under it too).
+    pub panel_height: u32,
     /// Where the data are drawn in each panel's cell, and where its legend goes.
     pub plot_area: Rect,
     pub legend_area: Rect,
@@ -271,18 +288,30 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         ts.col(r)?;
     }
     let x = ts.col(&fig.x)?;
-    let panels: Vec<PanelPlan> = fig.panels.iter().filter_map(|p| plan_panel(ts, p)).collect();
+    let mut panels: Vec<PanelPlan> = fig.panels.iter().filter_map(|p| plan_panel(ts, p)).collect();
     if panels.is_empty() {
         return None;
     }
     let data_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
     let lines = fig.x_lines.iter().map(|l| l.0);
-    let mut x_range = finite_range(x.iter().copied().chain(lines)).unwrap_or((0.0, 1.0));
+    let points = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0)).collect::<Vec<_>>();
+    let mut x_range = finite_range(x.iter().copied().chain(lines).chain(points)).unwrap_or((0.0, 1.0));
     if x_range.1 <= x_range.0 {
         x_range = pad(x_range, 0.0);
-    } else if !fig.x_lines.is_empty() {
+    } else if !fig.x_lines.is_empty() || fig.equal_scale {
         x_range = pad(x_range, 0.03);
     }
+    let cell_w = (WIDTH - LEGEND_W) as i32;
+    let plot_w = cell_w - (MARGIN + MARGIN_RIGHT + Y_AREA) as i32;
+    // The caption's height as plotters lays it out (the first panel's; estimated 30 px
+    // when the font is not there).
+    let caption_h = panels.first().map_or(CAPTION_H, |p| caption_height(&p.title, p.title_size));
+    let panel_h = if fig.equal_scale {
+        x_range = equal_spans(x_range, &mut panels);
+        plot_w as u32 + 2 * MARGIN + caption_h as u32 + X_AREA
+    } else {
+        PANEL_H
+    };
     let time = fig.x == "t_s";
     let modes = if time { mode_spans(ts, x, x_range) } else { Vec::new() };
     let eclipses = if time { eclipse_spans(ts, x) } else { Vec::new() };
@@ -294,7 +323,6 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
     };
     let n = panels.len() as u32;
     let ribbon = if modes.is_empty() { 0 } else { RIBBON_H };
-    let cell_w = (WIDTH - LEGEND_W) as i32;
     Some(FigurePlan {
         file_name: fig.file_name.clone(),
         title: fig.title.clone(),
@@ -308,15 +336,35 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         eclipses,
         x_lines: fig.x_lines.clone(),
         width: WIDTH,
-        height: TITLE_H + ribbon + n * PANEL_H + XLABEL_H,
+        height: TITLE_H + ribbon + n * panel_h + XLABEL_H,
+        panel_height: panel_h,
         plot_area: Rect {
             x0: (MARGIN + Y_AREA) as i32,
-            y0: MARGIN as i32 + CAPTION_H,
+            y0: MARGIN as i32 + caption_h,
             x1: cell_w - MARGIN_RIGHT as i32,
-            y1: (PANEL_H - MARGIN - X_AREA) as i32,
+            y1: (panel_h - MARGIN - X_AREA) as i32,
         },
-        legend_area: Rect { x0: cell_w, y0: 0, x1: WIDTH as i32, y1: PANEL_H as i32 },
+        legend_area: Rect { x0: cell_w, y0: 0, x1: WIDTH as i32, y1: panel_h as i32 },
     })
+}
+
+/// Gives `x_range` and every panel's y range one span (the largest, so every range still
+/// holds its data), each centred where it was; returns the new x range. Drawn in square
+/// plot areas, one unit is then as many pixels on both axes.
+fn equal_spans(x_range: (f64, f64), panels: &mut [PanelPlan]) -> (f64, f64) {
+    let span = panels.iter().map(|p| p.y_range.1 - p.y_range.0).fold(x_range.1 - x_range.0, f64::max);
+    let centred = |(lo, hi): (f64, f64)| (0.5 * (lo + hi) - 0.5 * span, 0.5 * (lo + hi) + 0.5 * span);
+    for p in panels.iter_mut().filter(|p| !p.log_y && p.categories.is_empty()) {
+        p.y_range = centred(p.y_range);
+        p.y_ticks = linear_ticks(p.y_range);
+    }
+    centred(x_range)
+}
+
+/// The tick labels plotters will place on a linear axis over `range`.
+fn linear_ticks(range: (f64, f64)) -> Vec<String> {
+    let fmt = tick_formatter(range.0, range.1, Y_TICKS);
+    RangedCoordf64::from(range.0..range.1).key_points(BoldPoints(Y_TICKS)).iter().map(fmt).collect()
 }
 
 /// A panel resolved against the data (`None`: no column, or its model is off).
@@ -331,14 +379,22 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
         .iter()
         .enumerate()
         .map(|(i, (s, y))| {
-            let (colour, dash) = line_style(i, s.dashed);
+            let (colour, mut dash) = line_style(i, s.dashed);
+            if p.cycle_dashes && i > 0 {
+                // Never solid again: a later solid line would hide all those under it.
+                dash = [Dash::Dashed, Dash::Dotted, Dash::LongDash][(i - 1) % 3];
+            }
             let y: Vec<f64> =
                 if categorical { y.iter().map(|v| category_index(&p.categories, *v)).collect() } else { y.to_vec() };
             let label = if categorical { s.label.clone() } else { annotate(&s.label, &y, floor, &p.y_label) };
             LinePlan { column: s.column.clone(), label, colour, dash, y }
         })
         .collect();
-    let values = lines.iter().flat_map(|l| l.y.iter().copied()).chain(p.thresholds.iter().map(|t| t.0));
+    let values = lines
+        .iter()
+        .flat_map(|l| l.y.iter().copied())
+        .chain(p.thresholds.iter().map(|t| t.0))
+        .chain(p.points.iter().map(|q| q.1));
     let y_range = if categorical {
         (-0.5, p.categories.len() as f64 - 0.5)
     } else if p.log_y {
@@ -349,10 +405,7 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
     let y_ticks = match () {
         _ if categorical => p.categories.iter().map(|c| c.1.clone()).collect(),
         _ if p.log_y => Vec::new(),
-        _ => {
-            let fmt = tick_formatter(y_range.0, y_range.1, Y_TICKS);
-            RangedCoordf64::from(y_range.0..y_range.1).key_points(BoldPoints(Y_TICKS)).iter().map(fmt).collect()
-        }
+        _ => linear_ticks(y_range),
     };
     Some(PanelPlan {
         y_ticks,
@@ -366,6 +419,7 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
         floor,
         lines,
         thresholds: p.thresholds.clone(),
+        points: p.points.clone(),
     })
 }
 
@@ -496,6 +550,16 @@ fn fit_font(text: &str, size: u32, width: u32) -> u32 {
     (11..=size).rev().find(|s| text_width(text, *s) <= width).unwrap_or(11)
 }
 
+/// Height of a chart caption `title` at font size `size`, as plotters lays it out (the
+/// text's box and up to 5 px above and below); [`CAPTION_H`] without the font.
+fn caption_height(title: &str, size: u32) -> i32 {
+    if ensure_font().is_err() {
+        return CAPTION_H;
+    }
+    let h = (FONT, size as f64).into_font().box_size(title).map_or(0, |b| b.1) as i32;
+    h + 2 * (h / 2).min(5)
+}
+
 /// Width of `text` in pixels at font size `size`.
 pub fn text_width(text: &str, size: u32) -> u32 {
     (FONT, size as f64).into_font().box_size(text).map_or(0, |b| b.0)
@@ -538,7 +602,7 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure], ctx: &FigureConte
     let mut written = Vec::new();
     for fig in figures {
         let Some(p) = plan(ts, fig, ctx) else { continue };
-        let buf = draw(&p)?;
+        let (buf, _) = draw(&p)?;
         let path = dir.join(&p.file_name);
         write_png(&path, p.width, p.height, &buf)?;
         written.push(path);
@@ -548,10 +612,12 @@ pub fn render(dir: &Path, ts: &TimeSeries, figures: &[Figure], ctx: &FigureConte
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 
-/// Draws a plan into an RGB buffer.
-fn draw(p: &FigurePlan) -> io::Result<Vec<u8>> {
+/// Draws a plan into an RGB buffer; also returns each panel's plot area as drawn
+/// (relative to its cell: the plan's `plot_area`, which a test checks).
+fn draw(p: &FigurePlan) -> io::Result<(Vec<u8>, Vec<Rect>)> {
     let (w, h) = (p.width, p.height);
     let mut buf = vec![255u8; (w * h * 3) as usize];
+    let mut areas = Vec::new();
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         let (top, mut area) = root.split_vertically(TITLE_H);
@@ -570,27 +636,34 @@ fn draw(p: &FigurePlan) -> io::Result<Vec<u8>> {
         let mut plot_px = None;
         for (k, panel) in p.panels.iter().enumerate() {
             let last = k + 1 == p.panels.len();
-            let (cell, rest) = area.split_vertically(PANEL_H + if last { XLABEL_H } else { 0 });
+            let (cell, rest) = area.split_vertically(p.panel_height + if last { XLABEL_H } else { 0 });
             area = rest;
             let (chart_cell, legend_cell) = cell.split_horizontally(WIDTH - LEGEND_W);
-            let (px, ys) = draw_panel(&chart_cell, p, panel, last)?;
+            let (drawn, ys) = draw_panel(&chart_cell, p, panel, last)?;
             draw_legend(&legend_cell, p, panel, &ys)?;
-            plot_px = Some(px);
+            plot_px = Some((drawn.x0, drawn.x1));
+            let base = chart_cell.get_base_pixel();
+            areas.push(Rect {
+                x0: drawn.x0 - base.0,
+                y0: drawn.y0 - base.1,
+                x1: drawn.x1 - base.0,
+                y1: drawn.y1 - base.1,
+            });
         }
         if let (Some(r), Some(px)) = (ribbon, plot_px) {
             draw_ribbon(&r, p, px)?;
         }
         root.present().map_err(err)?;
     }
-    Ok(buf)
+    Ok((buf, areas))
 }
 
 /// Width of the y tick labels' column: [`Y_AREA`] less the rotated axis description.
 pub const Y_TICK_W: u32 = Y_AREA - 36;
 
-/// Draws one panel's chart; returns the plot area's pixel x range (absolute) and the
-/// absolute pixel rows of its thresholds.
-fn draw_panel(cell: &Area, p: &FigurePlan, panel: &PanelPlan, last: bool) -> io::Result<((i32, i32), Vec<i32>)> {
+/// Draws one panel's chart; returns the plot area in absolute pixels and the absolute
+/// pixel rows of its thresholds.
+fn draw_panel(cell: &Area, p: &FigurePlan, panel: &PanelPlan, last: bool) -> io::Result<(Rect, Vec<i32>)> {
     let mut cb = ChartBuilder::on(cell);
     cb.margin(MARGIN)
         .margin_right(MARGIN_RIGHT)
@@ -627,7 +700,7 @@ fn fill_panel<'a, DB, Y>(
     panel: &PanelPlan,
     last: bool,
     y_fmt: &dyn Fn(&f64) -> String,
-) -> io::Result<((i32, i32), Vec<i32>)>
+) -> io::Result<(Rect, Vec<i32>)>
 where
     DB: DrawingBackend + 'a,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
@@ -677,7 +750,18 @@ where
             stroke(&area, dedup(pts), line.colour, line.dash)?;
         }
     }
-    Ok(((xs.start, xs.end), rows))
+    for &(x, y, _) in &panel.points {
+        point_marker(&area, px(x, y))?;
+    }
+    Ok((Rect { x0: xs.start, y0: ys.start, x1: xs.end, y1: ys.end }, rows))
+}
+
+/// A marked point: a black cross in a ring, 6 px from its centre.
+fn point_marker<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, (x, y): (i32, i32)) -> io::Result<()> {
+    let black = RGBColor(0, 0, 0);
+    stroke(area, vec![(x - 6, y), (x + 6, y)], black, Dash::Solid)?;
+    stroke(area, vec![(x, y - 6), (x, y + 6)], black, Dash::Solid)?;
+    area.draw(&plotters::element::Circle::new((x, y), 6, ShapeStyle::from(&black).stroke_width(2))).map_err(err)
 }
 
 /// Runs of drawable points (finite; positive on a log axis), as steps when `step`.
@@ -738,12 +822,19 @@ fn draw_legend(cell: &Area, p: &FigurePlan, panel: &PanelPlan, threshold_rows: &
         .map(|l| (l.label.clone(), l.colour, l.dash))
         .chain(p.x_lines.iter().map(|l| (l.1.clone(), RGBColor(0, 0, 0), Dash::Dashed)))
         .collect();
-    let size = entries.iter().map(|e| fit_font(&e.0, 15, LEGEND_W - 48)).min().unwrap_or(15);
+    let point_labels = panel.points.iter().map(|q| &q.2);
+    let size = entries.iter().map(|e| &e.0).chain(point_labels).map(|l| fit_font(l, 15, LEGEND_W - 48)).min();
+    let size = size.unwrap_or(15);
+    let style = TextStyle::from((FONT, size as f64).into_font()).pos(left);
     let mut y = MARGIN as i32 + CAPTION_H + 8;
     for (label, colour, dash) in entries {
         stroke(cell, vec![(6, y), (34, y)], colour, dash)?;
-        let style = TextStyle::from((FONT, size as f64).into_font()).pos(left);
         cell.draw_text(&label, &style, (40, y)).map_err(err)?;
+        y += 19;
+    }
+    for (_, _, label) in &panel.points {
+        point_marker(cell, (20, y))?;
+        cell.draw_text(label, &style, (40, y)).map_err(err)?;
         y += 19;
     }
     let mut order: Vec<(i32, &(f64, String))> = threshold_rows.iter().copied().zip(&panel.thresholds).collect();
@@ -923,6 +1014,39 @@ mod tests {
         let styles: std::collections::HashSet<_> =
             (0..14).flat_map(|i| [line_style(i, false), line_style(i, true)]).collect();
         assert_eq!(styles.len(), 28);
+    }
+
+    #[test]
+    fn equal_scale_gives_one_pixel_scale_on_both_axes_where_drawn() {
+        let mut ts = TimeSeries::with_columns(vec!["re".into(), "im".into()], 3);
+        for row in [[-3.0, -1.6], [-0.5, -0.2], [0.0, 0.0]] {
+            ts.push_row(&row);
+        }
+        let panel = Panel {
+            title: "loop-at-a-time".into(),
+            y_label: "Im".into(),
+            series: vec![Series { column: "im".into(), label: "l".into(), dashed: false }],
+            points: vec![(-1.0, 0.0, "critical point -1".into())],
+            ..Default::default()
+        };
+        let fig = Figure {
+            file_name: "n.png".into(),
+            x: "re".into(),
+            panels: vec![panel],
+            equal_scale: true,
+            ..Default::default()
+        };
+        let p = plan(&ts, &fig, &FigureContext::new("s")).unwrap();
+        let a = p.plot_area;
+        let (x, y) = (p.x_range, p.panels[0].y_range);
+        let (kx, ky) = ((a.x1 - a.x0) as f64 / (x.1 - x.0), (a.y1 - a.y0) as f64 / (y.1 - y.0));
+        assert!((kx / ky - 1.0).abs() < 1e-9, "{kx} px/unit on x, {ky} on y");
+        assert!(x.0 < -3.0 && x.1 > 0.0 && y.0 < -1.6 && y.1 > 0.0, "{x:?} {y:?}");
+        // The plot area drawn is the one planned (to a pixel).
+        ensure_font().unwrap();
+        let (_, drawn) = draw(&p).unwrap();
+        let d = drawn[0];
+        assert!([d.x0 - a.x0, d.y0 - a.y0, d.x1 - a.x1, d.y1 - a.y1].iter().all(|e| e.abs() <= 1), "{d:?} vs {a:?}");
     }
 
     #[test]

@@ -375,41 +375,38 @@ impl Scenario {
         }
     }
 
-    /// Plant models of the wheels.
+    /// Plant models of the wheels. An ideal wheel has no size of its own: a scenario that
+    /// does not give all three (`validate_wheel_ranges` refuses it; a scenario built or
+    /// edited in code may skip validation) is an error naming the key, not a silent paper
+    /// 001 wheel.
     pub fn wheel_params(&self) -> Result<Vec<WheelParams>> {
         let Some(w) = &self.actuators.wheels else {
             return Ok(Vec::new());
         };
-        let base = WheelParams::paper001();
         let rpm = std::f64::consts::PI / 30.0;
-        Ok(self
-            .wheel_axes(w)
-            .into_iter()
-            .map(|axis| {
-                let mut p = match w.model.as_str() {
-                    "accurate" => base.clone(),
-                    // Validation requires all three for ideal wheels (`validate_wheel_ranges`).
-                    _ => WheelParams::ideal(
-                        w.max_torque_nm.unwrap_or(base.max_torque_nm),
-                        w.max_speed_rpm.map_or(base.max_speed_rad_s, |x| x * rpm),
-                        w.inertia_kgm2.unwrap_or(base.inertia_kgm2),
-                    ),
-                };
-                if let Some(t) = w.max_torque_nm {
-                    p.max_torque_nm = t;
-                }
-                if let Some(s) = w.max_speed_rpm {
-                    p.max_speed_rad_s = s * rpm;
-                }
-                if let Some(i) = w.inertia_kgm2 {
-                    p.inertia_kgm2 = i;
-                }
-                p.spin_axis = axis;
-                p.torque_lag_s = w.torque_lag_s;
-                p.torque_delay_s = w.torque_delay_s;
-                p
-            })
-            .collect())
+        let sized = |key: &str, v: Option<f64>| {
+            v.ok_or_else(|| bad(key, "required for model = \"ideal\" (the wheel's size has no default)"))
+        };
+        let mut base = match w.model.as_str() {
+            "accurate" => WheelParams::paper001(),
+            _ => WheelParams::ideal(
+                sized("actuators.wheels.max_torque_nm", w.max_torque_nm)?,
+                sized("actuators.wheels.max_speed_rpm", w.max_speed_rpm)? * rpm,
+                sized("actuators.wheels.inertia_kgm2", w.inertia_kgm2)?,
+            ),
+        };
+        if let Some(t) = w.max_torque_nm {
+            base.max_torque_nm = t;
+        }
+        if let Some(s) = w.max_speed_rpm {
+            base.max_speed_rad_s = s * rpm;
+        }
+        if let Some(i) = w.inertia_kgm2 {
+            base.inertia_kgm2 = i;
+        }
+        base.torque_lag_s = w.torque_lag_s;
+        base.torque_delay_s = w.torque_delay_s;
+        Ok(self.wheel_axes(w).into_iter().map(|axis| WheelParams { spin_axis: axis, ..base.clone() }).collect())
     }
 
     /// Plant model of the magnetorquers (rods + residual dipole).
