@@ -19,7 +19,8 @@
 //! - [`recorder`]: columns, series, decimation, summary, output files and figures;
 //! - [`estimation`]: estimation-error statistics of a run; [`attitude`]: f64 quaternion
 //!   helpers of the truth side; [`vec3`]: `[f64; 3]` dot, cross and norm (nalgebra's
-//!   arithmetic); [`files`]: atomic file writes.
+//!   arithmetic); [`files`]: atomic file writes; [`loop_break`]: where a stability-margin
+//!   measurement breaks the loop.
 
 // Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
 #![allow(clippy::needless_range_loop)]
@@ -30,6 +31,7 @@ pub mod environment;
 pub mod estimation;
 pub mod files;
 pub mod link;
+pub mod loop_break;
 pub mod plant;
 pub mod recorder;
 pub mod runner;

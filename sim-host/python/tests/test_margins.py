@@ -180,3 +180,17 @@ def test_python_control_agrees_with_the_measurement(measured, name):
         assert a["delay_margin_s"] == pytest.approx(math.radians(ref["pm"]) / ref["wc"], rel=0.01)
         if a["gain_margin_high_db"] is not None and ref["gm_db"] is not None:
             assert a["gain_margin_high_db"] == pytest.approx(ref["gm_db"], rel=0.01)
+
+
+def test_acs_run_measures_margins_with_the_margins_table():
+    """`[margins]` in the scenario: `acs.run` measures the margins after the run into
+    `summary["margins"]` (the same `sim_host::margins` as the CLI), and they agree with
+    python-control's margins of the same loop (worst axis, 1 %)."""
+    import acs
+
+    sc = acs.Scenario.from_toml(BASE.read_text() + "\n[margins]\n")
+    m = acs.run(sc).summary["margins"]
+    assert m["status"] == "measured" and m["stable"] is True and m["method"] == "closed", m
+    refs = [margins(open_loop(axis)) for axis in range(3)]
+    assert m["phase_margin_deg"] == pytest.approx(min(r["pm"] for r in refs), rel=0.01)
+    assert m["crossover_rad_s"] == pytest.approx(max(r["wc"] for r in refs), rel=0.01)

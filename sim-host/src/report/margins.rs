@@ -50,6 +50,7 @@ fn loop_kind(sc: &Scenario) -> String {
 fn refusal(m: &MarginSummary, sc: &Scenario) -> String {
     let reason = m.reason.as_deref().unwrap_or("");
     match m.status {
+        _ if !sc.closed_loop() => "open loop: no control loop to measure".into(),
         MarginStatus::Unsupported => {
             let what = if sc.actuators.thrusters.is_some() { "thruster (PWPF, on/off valves)" } else { "magnetorquer" };
             format!("not covered: a {what} loop (docs/margins.md)")
@@ -59,8 +60,9 @@ fn refusal(m: &MarginSummary, sc: &Scenario) -> String {
             format!("not a steady hold: {}", detail.split(':').next().unwrap_or(detail).trim())
         }
         MarginStatus::OverBudget => format!(
-            "not measured here: {} (`sim-host margins scenarios/…` measures it)",
-            reason.split(" (crossover").next().unwrap_or(reason).trim_start_matches("not measured: ")
+            "over the report's cost budget of {MAX_PLANT_STEPS:.0e} plant steps (`sim-host margins` has none): \
+             {}",
+            reason.split(" (").nth(1).and_then(|r| r.split(')').next()).unwrap_or("")
         ),
         _ => format!("{:?}: {}", m.status, reason.split(':').next().unwrap_or(reason)),
     }

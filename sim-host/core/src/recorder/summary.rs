@@ -194,7 +194,7 @@ pub struct MarginSummary {
     /// Operating point, s, and where the loop was broken.
     pub at_s: f64,
     #[serde(rename = "loop")]
-    pub loop_point: crate::scenario::LoopPoint,
+    pub loop_point: crate::loop_break::LoopPoint,
     /// `closed` (the excitation added to the flight's command) or `open` (the loop broken
     /// open: an unstable closed loop is measured that way); null when not measured.
     pub method: Option<String>,

@@ -14,17 +14,7 @@ use super::{Scenario, bad};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
-/// Where the loop is broken.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum LoopPoint {
-    /// At the actuator command: body torque added to the flight's command through the
-    /// actuators' effectiveness.
-    #[default]
-    Input,
-    /// At the attitude measurement: a small rotation added to the attitude sample.
-    Output,
-}
+pub use crate::loop_break::LoopPoint;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
