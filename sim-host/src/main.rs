@@ -718,6 +718,11 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     if *a != link::LinkAnomalies::default() {
         eprintln!("warning: link anomalies: {}", serde_json::to_string(a)?);
     }
+    run_verdict(&summary)
+}
+
+/// The exit of a run that flew: its failure, else its `[margins]` verdict.
+fn run_verdict(summary: &Summary) -> Result<()> {
     match &summary.failure {
         Some(Failure::Diverged { t_s, quantity }) => Err(RunFailed(format!(
             "{}: the run diverged: {quantity} is not finite at t = {t_s} s; the run was stopped there \
