@@ -1,5 +1,6 @@
 //! Each test compares the model with an independent closed form, with a stated tolerance.
 //! Integration: a local RK4 over the wheel state (body fixed unless stated).
+use sim_core::plant::delay::DelayLine;
 use sim_core::plant::wheel::*;
 use std::f64::consts::PI;
 
