@@ -43,9 +43,34 @@ pub enum MarginError {
     NotSteady { t_s: f64, reason: String },
     /// The loop is unstable at the operating point (divergent response).
     Unstable { reason: String },
-    /// The sweep would cost more plant steps than `MarginOptions::max_plant_steps` allows
-    /// (the message gives the estimate and the lowest frequency that dominates it).
-    OverBudget(String),
+    /// The sweep would cost more plant steps than `MarginOptions::max_plant_steps` allows.
+    OverBudget(OverBudget),
+}
+
+/// A measurement refused over its plant-step budget: what it had charged, and the batch
+/// that crossed the budget.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OverBudget {
+    pub spent_steps: u64,
+    pub budget_steps: u64,
+    /// The lowest frequency of the batch that crossed the budget, rad/s (it dominates the
+    /// cost: the longest period).
+    pub next_frequency_rad_s: f64,
+    pub substeps: u64,
+    /// Said after the message (the open-loop fallback's cause).
+    pub context: String,
+}
+
+impl OverBudget {
+    /// What makes the batch costly: its lowest frequency, period and the RK4 substeps.
+    pub fn cost(&self) -> String {
+        format!(
+            "next frequency {:.3e} rad/s: a {:.0} s period, {} RK4 substeps per control step",
+            self.next_frequency_rad_s,
+            std::f64::consts::TAU / self.next_frequency_rad_s,
+            self.substeps
+        )
+    }
 }
 
 impl MarginError {
@@ -76,7 +101,15 @@ impl std::fmt::Display for MarginError {
                 write!(f, "the operating point is not a steady hold: {reason}; no margin measured")
             }
             MarginError::Unstable { reason } => write!(f, "unstable at operating point: {reason}"),
-            MarginError::OverBudget(m) => write!(f, "not measured: {m}"),
+            MarginError::OverBudget(o) => write!(
+                f,
+                "not measured: the sweep would cost at least {:.3e} plant steps, over the budget of {:.3e} ({}); \
+                 `sim-host margins` has no budget unless given --max-plant-steps{}",
+                o.spent_steps,
+                o.budget_steps,
+                o.cost(),
+                o.context
+            ),
         }
     }
 }
@@ -212,13 +245,13 @@ impl Plan {
             return Ok(());
         }
         let lowest = xs.iter().map(|e| e.freq.rad_s(self.dt)).fold(f64::INFINITY, f64::min);
-        Err(MarginError::OverBudget(format!(
-            "the sweep would cost at least {spent:.3e} plant steps, over the budget of {budget:.3e} (next \
-             frequency {lowest:.3e} rad/s: a {:.0} s period, {} RK4 substeps per control step); `sim-host \
-             margins` has no budget unless given --max-plant-steps",
-            std::f64::consts::TAU / lowest,
-            self.substeps
-        )))
+        Err(MarginError::OverBudget(OverBudget {
+            spent_steps: spent,
+            budget_steps: budget,
+            next_frequency_rad_s: lowest,
+            substeps: self.substeps,
+            context: String::new(),
+        }))
     }
 }
 
@@ -344,7 +377,7 @@ fn with_context(e: MarginError, closed: &MarginError) -> MarginError {
         MarginError::Unstable { reason } => MarginError::Unstable { reason: add(reason) },
         MarginError::Flight(r) => MarginError::Flight(add(r)),
         MarginError::Unsupported(r) => MarginError::Unsupported(add(r)),
-        MarginError::OverBudget(r) => MarginError::OverBudget(add(r)),
+        MarginError::OverBudget(o) => MarginError::OverBudget(OverBudget { context: add(o.context), ..o }),
     }
 }
 

@@ -8,7 +8,6 @@ use super::experiment::par_map;
 use crate::format::sig;
 use crate::margins::summary::summarize;
 use crate::margins::{MarginError, MarginOptions, measure};
-use sim_core::runner::{MarginStatus, MarginSummary};
 use sim_core::scenario::{MarginRequest, Scenario};
 use std::path::PathBuf;
 
@@ -47,24 +46,21 @@ fn loop_kind(sc: &Scenario) -> String {
 }
 
 /// Why a loop was not measured, in a few words (the first clause of the refusal).
-fn refusal(m: &MarginSummary, sc: &Scenario) -> String {
-    let reason = m.reason.as_deref().unwrap_or("");
-    match m.status {
+fn refusal(e: &MarginError, sc: &Scenario) -> String {
+    let first = |r: &str| r.split(':').next().unwrap_or(r).trim().to_owned();
+    match e {
         _ if !sc.closed_loop() => "open loop: no control loop to measure".into(),
-        MarginStatus::Unsupported => {
+        MarginError::Unsupported(_) => {
             let what = if sc.actuators.thrusters.is_some() { "thruster (PWPF, on/off valves)" } else { "magnetorquer" };
             format!("not covered: a {what} loop (docs/margins.md)")
         }
-        MarginStatus::NotSteady => {
-            let detail = reason.split_once("): ").map_or(reason, |(_, r)| r);
-            format!("not a steady hold: {}", detail.split(':').next().unwrap_or(detail).trim())
-        }
-        MarginStatus::OverBudget => format!(
-            "over the report's cost budget of {MAX_PLANT_STEPS:.0e} plant steps (`sim-host margins` has none): \
-             {}",
-            reason.split(" (").nth(1).and_then(|r| r.split(')').next()).unwrap_or("")
+        MarginError::NotSteady { reason, .. } => format!("not a steady hold: {}", first(reason)),
+        MarginError::OverBudget(o) => format!(
+            "over the report's cost budget of {MAX_PLANT_STEPS:.0e} plant steps (`sim-host margins` has none): {}",
+            o.cost()
         ),
-        _ => format!("{:?}: {}", m.status, reason.split(':').next().unwrap_or(reason)),
+        MarginError::Unstable { reason } => format!("Unstable: {}", first(reason)),
+        MarginError::Flight(m) => format!("Error: {}", first(m)),
     }
 }
 
@@ -78,15 +74,15 @@ fn row(t: &Target) -> Vec<String> {
         Ok(sc) => sc,
         Err(e) => return vec![format!("`scenarios/{}.toml`", t.rel), format!("scenario error: {e:#}")],
     };
-    let req = MarginRequest { at_s: sc.duration_s, point: Default::default(), grid_points: 40 };
     let opts = MarginOptions { threads: 1, max_plant_steps: Some(MAX_PLANT_STEPS), ..Default::default() };
-    let measured: Result<_, MarginError> = measure(&sc, &opts);
-    let m = summarize(&req, &measured);
+    let req = MarginRequest { at_s: sc.duration_s, point: opts.point, grid_points: opts.grid_points };
+    let measured = measure(&sc, &opts);
     let name = format!("`scenarios/{}.toml`", t.rel);
-    if m.status != MarginStatus::Measured {
+    if let Err(e) = &measured {
         let dash = || "—".to_string();
-        return vec![name, loop_kind(&sc), dash(), dash(), dash(), dash(), dash(), refusal(&m, &sc)];
+        return vec![name, loop_kind(&sc), dash(), dash(), dash(), dash(), dash(), refusal(e, &sc)];
     }
+    let m = summarize(&req, &measured);
     let gm = format!("{} / {}", opt(m.gain_margin_low_db, 3, "−∞"), opt(m.gain_margin_high_db, 3, "∞"));
     vec![
         name,
