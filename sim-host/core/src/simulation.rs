@@ -9,7 +9,7 @@
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
 use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotate_ref_to_body};
-use crate::environment::model::EnvSnapshot;
+use crate::environment::model::{EnvSnapshot, FrozenField};
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::delay::DelayLine;
@@ -212,7 +212,11 @@ impl Actuation {
         input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
         if !self.mtq.rods.is_empty() {
-            let acting = self.mtq_delay.push(dipole_cmd);
+            let applied = match injection {
+                Some(inj) => inj.add_to_dipole(if inj.replace_commands { [0.0; 3] } else { dipole_cmd }),
+                None => dipole_cmd,
+            };
+            let acting = self.mtq_delay.push(applied);
             self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
         }
         input.dipole_am2 = self.rod_dipole.into();
@@ -313,13 +317,16 @@ pub struct LoopInjection {
     pub wheel_torque_nm: [f64; MAX_WHEELS],
     /// Added to each gimbal-rate command the plant receives, rad/s.
     pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
+    /// Added to each magnetorquer's dipole command (before the rods' delay, limits and dead
+    /// band), A m².
+    pub dipole_am2: [f64; 3],
     /// A small rotation (rotation vector, body axes, rad) applied to the attitude sample
     /// of the frame, `q_meas ⊗ exp(θ/2)`, when the frame carries one.
     pub attitude_rad: [f64; 3],
     /// The loop broken open at the actuator input: the plant's wheel-torque and
     /// gimbal-rate commands are the injection alone; the flight's command is computed and
     /// reported ([`Simulation::last_step`]) but not applied (docs/margins.md, "Open-loop
-    /// measurement").
+    /// measurement"); the same for the dipole commands.
     pub replace_commands: bool,
 }
 
@@ -331,6 +338,10 @@ impl LoopInjection {
         for (u, d) in gimbal_rate_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
             *u += d;
         }
+    }
+
+    fn add_to_dipole(&self, dipole_am2: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|i| dipole_am2[i] + self.dipole_am2[i])
     }
 
     fn add_to_frame(&self, frame: &mut SensorFrame) {
@@ -548,6 +559,23 @@ impl<'a> Simulation<'a> {
         self.clock.steps = self.clock.steps.max(steps);
     }
 
+    /// Freezes the magnetic field from now on at its value now, constant in the frame the
+    /// target is given in (LVLH or inertial): the loop of a magnetic law at an orbit
+    /// instant (docs/margins.md, "Magnetorquer loops"). Between control steps only:
+    /// the field of the coming step is the one the sensors have already sampled.
+    /// `None` (nothing changed) without a field.
+    pub fn freeze_field(&mut self) -> Option<FrozenField> {
+        let snap = self.snap?;
+        let frozen = self.craft.env.as_mut()?.freeze_field(&snap, self.target.lvlh)?;
+        self.craft.clear_env_cache();
+        Some(frozen)
+    }
+
+    /// The field in body axes now (at the next control step's time), T.
+    pub fn field_body_t(&self) -> Option<Vec3> {
+        self.snap.and_then(|s| s.b_ref_t).map(|b| rotate_ref_to_body(&self.state.q, &b))
+    }
+
     /// Adds `injection` to the loop at every following control step (`None`: stop).
     pub fn set_injection(&mut self, injection: Option<LoopInjection>) {
         self.injection = injection;
@@ -566,6 +594,11 @@ impl<'a> Simulation<'a> {
     /// The spacecraft model (inertia, actuators).
     pub fn craft(&self) -> &Spacecraft {
         &self.craft
+    }
+
+    /// The magnetorquer rods and their limits (empty: none).
+    pub fn magnetorquers(&self) -> &crate::plant::magnetorquers::MagnetorquerSet {
+        &self.act.mtq
     }
 
     /// The control period, s.

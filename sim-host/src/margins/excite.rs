@@ -37,12 +37,104 @@ pub enum Method {
 pub enum Family {
     Wheels,
     Cmg,
+    /// Torque `m × B`: only perpendicular to the field, measured with the field frozen at
+    /// the operating point (docs/margins.md, "Magnetorquer loops").
+    Magnetorquers,
 }
 
-/// The momentum-exchange actuators' effectiveness at the operating point: body torque per
-/// unit command of each channel (wheels: `−a_i` per N m of motor torque, the reaction on
-/// the body; CMGs: `−∂h/∂δ_i` per rad/s of gimbal rate, the steering Jacobian at the
-/// operating point's gimbal angles), and its pseudo-inverse `B⁺ = Bᵀ (B Bᵀ)⁻¹`.
+impl Family {
+    /// The family whose commands a scenario's loop goes through (CMGs before wheels before
+    /// magnetorquers, as the flight allocates); `None`: thrusters only, or no actuator.
+    pub fn of(sim: &Simulation) -> Option<Family> {
+        let craft = sim.craft();
+        if craft.cmg.is_some() {
+            Some(Family::Cmg)
+        } else if !craft.wheels.is_empty() {
+            Some(Family::Wheels)
+        } else if !sim.magnetorquers().rods.is_empty() {
+            Some(Family::Magnetorquers)
+        } else {
+            None
+        }
+    }
+}
+
+/// The axes the loop is measured on: the body axes, or (magnetorquers) two axes
+/// perpendicular to the field at the operating point and the field's direction, about which
+/// no torque can be made (its row and column of `L` are zero, and it has no margins).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopAxes {
+    /// Rows: the loop axes in body axes; `None`: the body axes themselves.
+    pub body: Option<[[f64; 3]; 3]>,
+    /// The leading axes that carry torque (3, or 2 for magnetorquers).
+    pub actuated: usize,
+}
+
+impl Default for LoopAxes {
+    fn default() -> Self {
+        Self { body: None, actuated: 3 }
+    }
+}
+
+impl LoopAxes {
+    /// Perpendicular to the field `b` (body axes, non-zero): `e1` the body axis most
+    /// perpendicular to `b`, projected off it; `e2 = b̂ × e1`; `e3 = b̂`.
+    pub fn perpendicular_to(b: &Vec3) -> Self {
+        let bh = b.normalize();
+        let k = (0..3).min_by(|i, j| bh[*i].abs().total_cmp(&bh[*j].abs())).unwrap_or(0);
+        let e1 = (Vec3::ith(k, 1.0) - bh * bh[k]).normalize();
+        let e2 = bh.cross(&e1);
+        Self { body: Some([e1.into(), e2.into(), bh.into()]), actuated: 2 }
+    }
+
+    /// The names of the actuated axes in reports.
+    pub fn names(&self) -> &'static [&'static str] {
+        if self.body.is_none() { &["x", "y", "z"] } else { &["perp1", "perp2"] }
+    }
+
+    /// Loop axis `j` in body axes.
+    pub fn direction(&self, j: usize) -> [f64; 3] {
+        match &self.body {
+            Some(a) => a[j],
+            None => std::array::from_fn(|i| if i == j { 1.0 } else { 0.0 }),
+        }
+    }
+
+    /// A vector in loop axes, in body axes.
+    pub fn to_body(&self, v: [f64; 3]) -> [f64; 3] {
+        match &self.body {
+            Some(a) => std::array::from_fn(|i| (0..3).map(|j| a[j][i] * v[j]).sum()),
+            None => v,
+        }
+    }
+
+    /// A body vector in loop axes.
+    pub fn to_loop(&self, v: [f64; 3]) -> [f64; 3] {
+        match &self.body {
+            Some(a) => a.map(|e| e[0] * v[0] + e[1] * v[1] + e[2] * v[2]),
+            None => v,
+        }
+    }
+
+    /// `eᵀ J e` for each loop axis (the diagonal itself for the body axes).
+    pub fn inertia_along(&self, j: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+        match &self.body {
+            Some(a) => a.map(|e| {
+                let e = Vec3::from(e);
+                e.dot(&(j * e))
+            }),
+            None => [j[(0, 0)], j[(1, 1)], j[(2, 2)]],
+        }
+    }
+}
+
+/// The actuators' effectiveness at the operating point: body torque per unit command of
+/// each channel (wheels: `−a_i` per N m of motor torque, the reaction on the body; CMGs:
+/// `−∂h/∂δ_i` per rad/s of gimbal rate, the steering Jacobian at the operating point's
+/// gimbal angles; magnetorquers: `a_i × B` per A m² of rod dipole, the field at the
+/// operating point), and the commands that make a body torque `d` (`B⁺ d`, with
+/// `B⁺ = Bᵀ (B Bᵀ)⁻¹`; magnetorquers: the rods' pseudo-inverse of the dipole
+/// `B × d / |B|²`, which makes `d` exactly when `d ⊥ B`).
 #[derive(Clone, Debug)]
 pub struct Effectiveness {
     pub family: Family,
@@ -50,49 +142,66 @@ pub struct Effectiveness {
     pub columns: Vec<[f64; 3]>,
     /// Row i of B⁺.
     pub pinv_rows: Vec<[f64; 3]>,
-    /// Each channel's limit (N m of motor torque, rad/s of gimbal rate).
+    /// Each channel's limit (N m of motor torque, rad/s of gimbal rate, A m² of dipole).
     pub limits: Vec<f64>,
+    pub axes: LoopAxes,
 }
 
+/// The unsupported-family refusal.
+const NO_FAMILY: &str = "margins break the loop at the command of reaction wheels, CMGs or magnetorquers; this \
+                         scenario has none (thruster loops are out of scope: docs/margins.md)";
+
 impl Effectiveness {
-    /// At the simulation's current state. Magnetorquer and thruster loops are out of scope.
+    /// At the simulation's current state. Thruster loops are out of scope.
     pub fn at(sim: &Simulation) -> Result<Self, MarginError> {
         let (craft, state) = (sim.craft(), sim.state());
-        let (family, columns, limits): (Family, Vec<[f64; 3]>, Vec<f64>) = if let Some(c) = &craft.cmg {
-            let cols = (0..c.units.len()).map(|i| (-c.jacobian_column(i, state.gimbal_rad[i])).into()).collect();
-            (Family::Cmg, cols, vec![c.max_rate_rad_s; c.units.len()])
-        } else if !craft.wheels.is_empty() {
-            let cols = craft.wheels.iter().map(|w| w.spin_axis.map(|a| -a)).collect();
-            (Family::Wheels, cols, craft.wheels.iter().map(|w| w.max_torque_nm).collect())
-        } else {
-            return Err(MarginError::Unsupported(
-                "margins break the loop at the command of momentum-exchange actuators (reaction wheels, CMGs); \
-                 this scenario has neither (magnetorquer and thruster loops are out of scope: docs/margins.md)"
-                    .into(),
-            ));
+        let family = Family::of(sim).ok_or_else(|| MarginError::Unsupported(NO_FAMILY.into()))?;
+        let (columns, limits): (Vec<[f64; 3]>, Vec<f64>) = match family {
+            Family::Cmg => {
+                let c = craft.cmg.as_ref().ok_or_else(|| MarginError::Unsupported(NO_FAMILY.into()))?;
+                let cols = (0..c.units.len()).map(|i| (-c.jacobian_column(i, state.gimbal_rad[i])).into()).collect();
+                (cols, vec![c.max_rate_rad_s; c.units.len()])
+            }
+            Family::Wheels => (
+                craft.wheels.iter().map(|w| w.spin_axis.map(|a| -a)).collect(),
+                craft.wheels.iter().map(|w| w.max_torque_nm).collect(),
+            ),
+            Family::Magnetorquers => return Self::magnetorquers(sim),
         };
         let b = nalgebra::DMatrix::from_fn(3, columns.len(), |i, j| columns[j][i]);
-        let bbt = nalgebra::Matrix3::from_fn(|i, j| (0..columns.len()).map(|k| b[(i, k)] * b[(j, k)]).sum::<f64>());
-        let inv =
-            bbt.try_inverse().filter(|_| bbt.determinant().abs() > 1e-12 * bbt.norm().powi(3)).ok_or_else(|| {
-                MarginError::NotSteady {
-                    t_s: f64::NAN,
-                    reason: "the actuators cannot make torque about every axis at the operating point (rank < 3)"
-                        .into(),
-                }
-            })?;
-        let pinv_rows = (0..columns.len())
-            .map(|k| std::array::from_fn(|j| (0..3).map(|i| b[(i, k)] * inv[(i, j)]).sum::<f64>()))
-            .collect();
-        Ok(Self { family, columns, pinv_rows, limits })
+        let pinv_rows = pseudo_inverse_rows(&b).ok_or_else(|| MarginError::NotSteady {
+            t_s: f64::NAN,
+            reason: "the actuators cannot make torque about every axis at the operating point (rank < 3)".into(),
+        })?;
+        Ok(Self { family, columns, pinv_rows, limits, axes: LoopAxes::default() })
+    }
+
+    /// Magnetorquers in the field at the operating point: rank 2, the loop measured on the
+    /// two axes perpendicular to the field.
+    fn magnetorquers(sim: &Simulation) -> Result<Self, MarginError> {
+        let not_steady = |reason: &str| MarginError::NotSteady { t_s: f64::NAN, reason: reason.into() };
+        let b = sim.field_body_t().filter(|b| b.iter().all(|x| x.is_finite()) && b.norm() > 0.0);
+        let b = b.ok_or_else(|| not_steady("no magnetic field at the operating point"))?;
+        let rods = &sim.magnetorquers().rods;
+        let columns: Vec<[f64; 3]> = rods.iter().map(|r| Vec3::from(r.axis).cross(&b).into()).collect();
+        let a = nalgebra::DMatrix::from_fn(3, rods.len(), |i, j| rods[j].axis[i]);
+        let rods_pinv = pseudo_inverse_rows(&a).ok_or_else(|| not_steady("the rods do not span three axes"))?;
+        // Dipole B × d / |B|² = [B×] d / |B|², then the rods' share of it.
+        let bx = b.cross_matrix() / b.norm_squared();
+        let pinv_rows = rods_pinv.iter().map(|r| (nalgebra::RowVector3::from(*r) * bx).transpose().into()).collect();
+        let limits = rods.iter().map(|r| r.max_pos_am2.min(r.max_neg_am2)).collect();
+        Ok(Self { family: Family::Magnetorquers, columns, pinv_rows, limits, axes: LoopAxes::perpendicular_to(&b) })
     }
 
     /// The command of each channel, as the plant receives it (f64 of the flight's f32).
     fn channels(&self, cmd: &ActuatorCommand) -> Vec<f64> {
-        match self.family {
-            Family::Wheels => cmd.wheel_torque_cmd_nm.iter().take(self.columns.len()).map(|x| f64::from(*x)).collect(),
-            Family::Cmg => cmd.gimbal_rate_cmd_rad_s.iter().take(self.columns.len()).map(|x| f64::from(*x)).collect(),
-        }
+        let n = self.columns.len();
+        let c: &[f32] = match self.family {
+            Family::Wheels => &cmd.wheel_torque_cmd_nm,
+            Family::Cmg => &cmd.gimbal_rate_cmd_rad_s,
+            Family::Magnetorquers => &cmd.dipole_cmd_am2,
+        };
+        c.iter().take(n).map(|x| f64::from(*x)).collect()
     }
 
     /// `B (c_a − c_b)`: the body torque of the difference of two commands.
@@ -116,21 +225,32 @@ impl Effectiveness {
             match self.family {
                 Family::Wheels => inj.wheel_torque_nm[k] = c,
                 Family::Cmg => inj.gimbal_rate_rad_s[k] = c,
+                Family::Magnetorquers => inj.dipole_am2[k] = c,
             }
         }
         inj
     }
 
-    /// The largest torque about `axis` whose injection keeps every channel within 5 % of
-    /// its limit.
+    /// The largest torque about loop axis `axis` whose injection keeps every channel within
+    /// 5 % of its limit.
     pub fn amplitude_cap(&self, axis: usize) -> f64 {
+        let e = self.axes.direction(axis);
         self.pinv_rows
             .iter()
             .zip(&self.limits)
-            .filter(|(r, _)| r[axis] != 0.0)
-            .map(|(r, lim)| 0.05 * lim / r[axis].abs())
+            .map(|(r, lim)| (r[0] * e[0] + r[1] * e[1] + r[2] * e[2], lim))
+            .filter(|(c, _)| *c != 0.0)
+            .map(|(c, lim)| 0.05 * lim / c.abs())
             .fold(f64::INFINITY, f64::min)
     }
+}
+
+/// Rows of `Bᵀ (B Bᵀ)⁻¹` of a 3×n `b` (`None`: rank < 3).
+fn pseudo_inverse_rows(b: &nalgebra::DMatrix<f64>) -> Option<Vec<[f64; 3]>> {
+    let n = b.ncols();
+    let bbt = nalgebra::Matrix3::from_fn(|i, j| (0..n).map(|k| b[(i, k)] * b[(j, k)]).sum::<f64>());
+    let inv = bbt.try_inverse().filter(|_| bbt.determinant().abs() > 1e-12 * bbt.norm().powi(3))?;
+    Some((0..n).map(|k| std::array::from_fn(|j| (0..3).map(|i| b[(i, k)] * inv[(i, j)]).sum::<f64>())).collect())
 }
 
 /// Status bits that say the loop is not linear at this step.
@@ -147,9 +267,20 @@ const NONLINEAR: [(u16, &str); 10] = [
     (status::NO_ESTIMATE, "no attitude estimate"),
 ];
 
-/// The names of the nonlinear status bits a command carries, if any.
-pub fn nonlinear_status(cmd: &ActuatorCommand) -> Option<String> {
-    let set: Vec<&str> = NONLINEAR.iter().filter(|(b, _)| cmd.status & b != 0).map(|(_, n)| *n).collect();
+/// The names of the nonlinear status bits a command of `family`'s loop carries, if any.
+/// Magnetorquers: the torque along the field is never made (the allocation reports it as a
+/// shortfall and a scaled command at every step: the loop's rank, not a saturation), so a
+/// rod at its dipole limit (`saturated`) is what says the loop left its linear range.
+pub fn nonlinear_status(cmd: &ActuatorCommand, family: Option<Family>) -> Option<String> {
+    let expected = match family {
+        Some(Family::Magnetorquers) => status::TORQUE_SHORTFALL | status::RATE_SCALED,
+        _ => 0,
+    };
+    let mut set: Vec<&str> =
+        NONLINEAR.iter().filter(|(b, _)| cmd.status & b & !expected != 0).map(|(_, n)| *n).collect();
+    if family == Some(Family::Magnetorquers) && cmd.saturated != 0 {
+        set.push("magnetorquer at its dipole limit");
+    }
     (!set.is_empty()).then(|| set.join(", "))
 }
 
@@ -181,6 +312,7 @@ fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
 /// must be within `settle_bound_deg` and no wheel near its speed limit.
 pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg: f64) -> Result<(), MarginError> {
     sim.extend_to(u64::MAX / 4);
+    let family = Family::of(sim);
     let dt = sim.control_period_s();
     while sim.steps_done() < k_op {
         sim.step(&mut Discard).map_err(MarginError::flight)?;
@@ -191,7 +323,7 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
             });
         }
         if sim.steps_done() > check_from
-            && let Some(reason) = sim.last_step().and_then(|(c, _)| nonlinear_status(c))
+            && let Some(reason) = sim.last_step().and_then(|(c, _)| nonlinear_status(c, family))
         {
             return Err(MarginError::NotSteady { t_s: t, reason });
         }
@@ -204,7 +336,13 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
             format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
         return Err(MarginError::NotSteady { t_s: t, reason });
     }
-    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
+    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))?;
+    // A magnetic law at an orbit instant: the field frozen from here on (docs/margins.md,
+    // "Magnetorquer loops"), so the loop is time-invariant over the experiments.
+    if family == Some(Family::Magnetorquers) && sim.freeze_field().is_none() {
+        return Err(MarginError::NotSteady { t_s: t, reason: "no magnetic field to freeze".into() });
+    }
+    Ok(())
 }
 
 /// One sine step: frequency, excited axis, amplitude (N m at the input, rad at the
@@ -353,6 +491,8 @@ pub fn run(
 ) -> Result<Column, MarginError> {
     let dt = exc.control_period_s();
     let t0 = exc.steps_done() as f64 * dt;
+    // Excitation and response in the loop's axes (the body axes but for magnetorquers).
+    let axes = eff.map(|e| e.axes).unwrap_or_default();
     if method == Method::Open {
         twin.set_injection(Some(injection(point, eff, [0.0; 3], method)));
     }
@@ -366,13 +506,13 @@ pub fn run(
         let d = excitation(x, k, method);
         let y = rotation_between(&twin.state().q, &exc.state().q);
         peak = peak.max(Vec3::from(y).norm());
-        exc.set_injection(Some(injection(point, eff, d, method)));
+        exc.set_injection(Some(injection(point, eff, axes.to_body(d), method)));
         exc.step(&mut Discard).map_err(MarginError::flight)?;
         twin.step(&mut Discard).map_err(MarginError::flight)?;
         let t = t0 + k as f64 * dt;
-        let (ce, ct) = check_step(exc, twin, t)?;
+        let (ce, ct) = check_step(exc, twin, t, eff.map(|e| e.family))?;
         let du = match (point, eff) {
-            (LoopPoint::Input, Some(eff)) => eff.torque_difference(&ce, &ct),
+            (LoopPoint::Input, Some(eff)) => axes.to_loop(eff.torque_difference(&ce, &ct)),
             _ => y,
         };
         if !du.iter().all(|v| v.is_finite() && v.abs() < 1e6 * x.amplitude) {
@@ -428,20 +568,25 @@ fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
 
 /// Both runs still finite; the twin free of saturation (else the operating point is not a
 /// steady hold), the excited run too (else the excitation is too large to stay linear).
-fn check_step(exc: &Simulation, twin: &Simulation, t: f64) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {
+fn check_step(
+    exc: &Simulation,
+    twin: &Simulation,
+    t: f64,
+    family: Option<Family>,
+) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {
     if let Some(f) = [exc.failure(), twin.failure()].into_iter().flatten().next() {
         return Err(MarginError::Unstable { reason: format!("the flight diverged during an experiment: {f:?}") });
     }
     let (Some((ce, _)), Some((ct, _))) = (exc.last_step(), twin.last_step()) else {
         return Err(MarginError::Unstable { reason: format!("no flight command at t = {t:.3} s") });
     };
-    if let Some(r) = nonlinear_status(ct) {
+    if let Some(r) = nonlinear_status(ct, family) {
         return Err(MarginError::NotSteady {
             t_s: t,
             reason: format!("the operating point does not stay a steady hold: {r}"),
         });
     }
-    if let Some(r) = nonlinear_status(ce) {
+    if let Some(r) = nonlinear_status(ce, family) {
         return Err(MarginError::NotSteady {
             t_s: t,
             reason: format!("{EXCITATION_NONLINEAR} ({r}): lower --amplitude-rad"),

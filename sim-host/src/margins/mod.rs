@@ -25,7 +25,7 @@ pub use excite::{LoopPoint, Method};
 pub use report::MarginReport;
 
 use analysis::{C64, Cmat};
-use excite::{Effectiveness, Experiment};
+use excite::{Effectiveness, Experiment, Family, LoopAxes};
 use grid::Freq;
 use response::{Pool, Response, Setup};
 use sim_core::link::{LinkKind, LinkOptions};
@@ -189,7 +189,9 @@ struct Plan {
     spent: std::cell::Cell<u64>,
     point: LoopPoint,
     method: Method,
+    /// `eᵀ J e` about each loop axis, and the loop axes.
     inertia_diag: [f64; 3],
+    axes: LoopAxes,
     cap: [f64; 3],
     amplitude_rad: f64,
 }
@@ -225,8 +227,22 @@ impl Plan {
         }
     }
 
-    fn three(&self, f: Freq, wc: f64) -> [Experiment; 3] {
-        std::array::from_fn(|j| self.experiment(f, j, wc))
+    /// One experiment per actuated loop axis.
+    fn per_axis(&self, f: Freq, wc: f64) -> Vec<Experiment> {
+        (0..self.axes.actuated).map(|j| self.experiment(f, j, wc)).collect()
+    }
+
+    /// The three columns of one frequency from its experiments (one per actuated axis): an
+    /// axis no actuator can torque (magnetorquers: along the field) gets `U = 0`, `E = e_j`,
+    /// so `L` has a zero row and column there.
+    fn columns(&self, measured: &[excite::Column]) -> [excite::Column; 3] {
+        std::array::from_fn(|j| {
+            measured.get(j).copied().unwrap_or_else(|| {
+                let mut e = [C64::default(); 3];
+                e[j] = C64::new(1.0, 0.0);
+                excite::Column { u: [C64::default(); 3], e, blocks: 0, converged: true, peak_attitude_rad: 0.0 }
+            })
+        })
     }
 
     /// Charges `xs` to the budget before they run: each experiment's wait and two blocks
@@ -269,6 +285,10 @@ pub struct Measured {
     /// The method of the response, and why it is not the one asked for (auto's fallback).
     pub method: Method,
     pub method_note: Option<String>,
+    /// The axes the response is in.
+    pub axes: LoopAxes,
+    /// Magnetorquers: the field frozen at the operating point, in words.
+    pub field_note: Option<String>,
 }
 
 /// Measures the margins of `scenario` (docs/margins.md).
@@ -300,14 +320,19 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     // (an actuator family out of scope is said before flying).
     let mut link = sim_core::link::open(&opts.link, &opts.link_options).map_err(MarginError::flight)?;
     let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
-    if let Err(e @ MarginError::Unsupported(_)) =
-        Effectiveness::at(&sim_core::simulation::Simulation::new(resolved, link.as_mut()).map_err(MarginError::flight)?)
-    {
+    let start_sim = sim_core::simulation::Simulation::new(resolved, link.as_mut()).map_err(MarginError::flight)?;
+    if let Err(e @ MarginError::Unsupported(_)) = Effectiveness::at(&start_sim) {
         return Err(e);
     }
+    if Family::of(&start_sim) == Some(Family::Magnetorquers) {
+        magnetorquers_supported(scenario, opts)?;
+    }
+    drop(start_sim);
     let sim = setup.fly(link.as_mut())?;
     let eff = Effectiveness::at(&sim)?;
     let j = sim.craft().inertia;
+    let axes = eff.axes;
+    let field_note = (eff.family == Family::Magnetorquers).then(|| frozen_field_note(scenario, &sim));
     setup.fork = sim.fork_link().is_some() && !opts.refly;
     drop(sim);
     drop(link);
@@ -318,13 +343,53 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         spent: std::cell::Cell::new(0),
         point: opts.point,
         method: Method::Closed,
-        inertia_diag: [j[(0, 0)], j[(1, 1)], j[(2, 2)]],
+        inertia_diag: axes.inertia_along(&j),
+        axes,
         cap: std::array::from_fn(|a| eff.amplitude_cap(a)),
         amplitude_rad: opts.amplitude_rad,
     };
     setup.effectiveness = Some(eff);
-    let (measured, experiments) = measure_with_fallback(&mut setup, plan, opts)?;
+    let (mut measured, experiments) = measure_with_fallback(&mut setup, plan, opts)?;
+    measured.field_note = field_note;
     report::build(scenario, opts, at_s, dt, &measured, experiments, start.elapsed().as_secs_f64())
+}
+
+/// What the frozen field is (the magnetorquer loop's operating point).
+fn frozen_field_note(scenario: &Scenario, sim: &sim_core::simulation::Simulation) -> String {
+    let b = sim.field_body_t().unwrap_or_default();
+    let frame = match scenario.target.frame {
+        sim_core::scenario::RefFrame::Lvlh => "LVLH (the orbit, gravity gradient and LVLH rate go on)",
+        _ => "the reference frame",
+    };
+    format!(
+        "magnetic field frozen at the operating point, constant in {frame}: |B| = {:.4e} T along body [{:.4}, {:.4}, \
+         {:.4}]; no torque about it (its row and column of L are zero), the loop is the 2x2 one perpendicular to it",
+        b.norm(),
+        b.x / b.norm(),
+        b.y / b.norm(),
+        b.z / b.norm()
+    )
+}
+
+/// A magnetorquer loop is measured at the actuator input with the field frozen: the
+/// attitude estimate must not rest on the magnetometer (its on-board field model would
+/// disagree with the frozen field).
+fn magnetorquers_supported(scenario: &Scenario, opts: &MarginOptions) -> Result<(), MarginError> {
+    if opts.point == LoopPoint::Output {
+        return Err(MarginError::Unsupported(
+            "a magnetorquer loop is measured at the actuator input only (--loop input): no torque can be made \
+             along the field, so an attitude excitation about it is not a loop"
+                .into(),
+        ));
+    }
+    if scenario.estimation.as_ref().and_then(|e| e.magnetometer_sigma_deg).is_some_and(|s| s > 0.0) {
+        return Err(MarginError::Unsupported(
+            "the estimator fuses the magnetometer: with the field frozen for the measurement its on-board field \
+             model would disagree with the sensor (docs/margins.md, \"Magnetorquer loops\")"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// The sweep with the method asked for; auto: closed loop, and open loop if the closed-loop
@@ -383,7 +448,7 @@ fn with_context(e: MarginError, closed: &MarginError) -> MarginError {
 
 /// Pilot (unless hinted), grid, refinement.
 fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured, MarginError> {
-    let mut m = Measured { method: plan.method, ..Measured::default() };
+    let mut m = Measured { method: plan.method, axes: plan.axes, ..Measured::default() };
     m.crossover_estimate_rad_s = match opts.crossover_hint_rad_s {
         Some(w) => w,
         None => pilot(pool, plan, &mut m)?,
@@ -410,13 +475,22 @@ fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured,
 /// periodic: the loop is not linear and time-invariant at this operating point.
 fn unsettled(m: &Measured) -> Result<(), MarginError> {
     let (n, total) = (m.unsettled, m.experiments);
+    // Magnetorquers: nothing holds the attitude about the frozen field; in orbit, gravity
+    // gradient and the orbit-rate coupling leave a mode there unstable, undamped or slow.
+    let along_field = if m.axes.body.is_some() {
+        "; with the field frozen no torque acts about it, and in orbit the attitude about the field has only \
+         gravity-gradient and orbit-rate dynamics (unstable, undamped or far slower than the crossover: docs/margins.md, \"Magnetorquer loops\")"
+    } else {
+        ""
+    };
     if n * 10 > total {
         return Err(MarginError::NotSteady {
             t_s: f64::NAN,
             reason: format!(
                 "the response to the excitation did not become periodic in {n} of {total} experiments \
                  ({MAX_BLOCKS} blocks): the loop is not linear and time-invariant at this operating point \
-                 (friction, a limit cycle, an orbit-periodic plant) or has a mode much slower than its crossover"
+                 (friction, a limit cycle, an orbit-periodic plant) or has a mode much slower than its \
+                 crossover{along_field}"
             ),
         });
     }
@@ -430,14 +504,14 @@ fn measure_frequencies(
     wc: f64,
     m: &mut Measured,
 ) -> Result<(), MarginError> {
-    let xs: Vec<Experiment> = fs.iter().flat_map(|f| plan.three(*f, wc)).collect();
+    let xs: Vec<Experiment> = fs.iter().flat_map(|f| plan.per_axis(*f, wc)).collect();
     plan.charge(&xs)?;
     let cols = pool.run(&xs)?;
     m.experiments += cols.len();
     m.unsettled += cols.iter().filter(|c| !c.converged).count();
     m.amplitudes.extend(xs.iter().map(|x| x.amplitude));
-    for (f, c) in fs.iter().zip(cols.chunks_exact(3)) {
-        m.response.insert(*f, [c[0], c[1], c[2]], plan.dt)?;
+    for (f, c) in fs.iter().zip(cols.chunks_exact(plan.axes.actuated)) {
+        m.response.insert(*f, plan.columns(c), plan.dt)?;
     }
     Ok(())
 }
@@ -453,13 +527,17 @@ fn pilot(pool: &mut Pool, plan: &Plan, m: &mut Measured) -> Result<f64, MarginEr
         let w = nyquist / 3f64.powi(level);
         let f = Freq::near(w, plan.dt);
         let w = f.rad_s(plan.dt);
-        let xs = plan.three(f, w);
+        let xs = plan.per_axis(f, w);
         plan.charge(&xs)?;
         let cols = pool.run(&xs)?;
         m.pilot_frequencies += 1;
-        let gains: [f64; 3] = std::array::from_fn(|j| response::diagonal_estimate(&cols[j], j).norm());
+        let n = plan.axes.actuated;
+        let gains: [f64; 3] =
+            std::array::from_fn(
+                |j| if j < n { response::diagonal_estimate(&cols[j], j).norm() } else { f64::INFINITY },
+            );
         if let Some((wp, gp)) = prev {
-            for j in 0..3 {
+            for j in 0..n {
                 if crossing[j].is_none() && gp[j] < 1.0 && gains[j] >= 1.0 {
                     let t = gp[j].ln() / (gp[j].ln() - gains[j].ln());
                     crossing[j] = Some((wp.ln() + t * (w.ln() - wp.ln())).exp());

@@ -13,7 +13,10 @@ use super::report::{AxisReport, MarginReport};
 use sim_core::recorder::plots::{self, Figure, FigureContext, FigurePlan, Panel, Series, TimeSeries, render};
 use std::path::{Path, PathBuf};
 
-const AXES: [&str; 3] = ["x", "y", "z"];
+/// The measured axes' names (x, y, z; magnetorquers: the two perpendicular to the field).
+fn axis_names(r: &MarginReport) -> Vec<&'static str> {
+    r.axes.iter().map(|a| a.axis).collect()
+}
 
 fn series(column: &str, label: &str, dashed: bool) -> Series {
     Series { column: column.into(), label: label.into(), dashed }
@@ -43,22 +46,23 @@ fn unwrap_deg(z: &[C64]) -> Vec<f64> {
 }
 
 fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
+    let axes = axis_names(r);
     let mut names = vec!["log10_w".to_string()];
-    for a in AXES {
+    for a in &axes {
         names.extend([format!("mag_{a}"), format!("phase_{a}")]);
     }
     let mut ts = TimeSeries::with_columns(names, r.frequencies_rad_s.len());
-    let l: Vec<Vec<C64>> = (0..3).map(|i| axis_loop(s, i)).collect();
+    let l: Vec<Vec<C64>> = (0..axes.len()).map(|i| axis_loop(s, i)).collect();
     let ph: Vec<Vec<f64>> = l.iter().map(|li| unwrap_deg(li)).collect();
     for (k, w) in r.frequencies_rad_s.iter().enumerate() {
         let mut row = vec![w.log10()];
-        for i in 0..3 {
+        for i in 0..axes.len() {
             row.extend([20.0 * l[i][k].norm().log10(), ph[i][k]]);
         }
         ts.push_row(&row);
     }
-    let mag: Vec<Series> = AXES.iter().map(|a| series(&format!("mag_{a}"), &format!("|l_{a}|"), false)).collect();
-    let phase: Vec<Series> = AXES.iter().map(|a| series(&format!("phase_{a}"), &format!("arg l_{a}"), false)).collect();
+    let mag: Vec<Series> = axes.iter().map(|a| series(&format!("mag_{a}"), &format!("|l_{a}|"), false)).collect();
+    let phase: Vec<Series> = axes.iter().map(|a| series(&format!("phase_{a}"), &format!("arg l_{a}"), false)).collect();
     // The crossovers and phase crossings that set the margins, marked on both panels; axes
     // with the same figures share one line.
     let crossover = |a: &AxisReport| a.crossover_rad_s.zip(a.phase_margin_deg);
@@ -76,7 +80,13 @@ fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
     let or_none = |v: Vec<String>, none: &str| if v.is_empty() { none.to_string() } else { v.join("; ") };
     let fig = Figure {
         file_name: "bode.png".into(),
-        title: format!("{}: loop-at-a-time loops at the {}, t = {} s", r.scenario, loop_name(r), r.at_s),
+        title: format!(
+            "{}: loop-at-a-time loops at the {}, t = {} s{}",
+            r.scenario,
+            loop_name(r),
+            r.at_s,
+            if r.loop_axes_body.is_some() { " (perp1, perp2: ⊥ the frozen field)" } else { "" }
+        ),
         x: "log10_w".into(),
         x_label: "log10 frequency [rad/s]".into(),
         panels: vec![
@@ -119,7 +129,7 @@ fn by_value(axes: &[AxisReport], f: impl Fn(&AxisReport) -> Option<(f64, f64)>) 
             None => out.push((v, vec![a.axis])),
         }
     }
-    let all = |ax: &[&str]| ax.len() == 3 && axes.len() == 3;
+    let all = |ax: &[&str]| ax.len() == axes.len() && axes.len() > 1;
     out.into_iter().map(|(v, ax)| (v, if all(&ax) { "all axes".into() } else { ax.join(", ") })).collect()
 }
 
@@ -139,23 +149,27 @@ fn loop_name(r: &MarginReport) -> &'static str {
 /// curve in turn (NaN in the other columns), then the unit circle. Drawn to one scale on
 /// both axes (`equal_scale`), with the critical point −1 marked.
 fn nyquist(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
+    let axes = axis_names(r);
+    let n = axes.len();
     let names: Vec<String> =
-        ["re".into()].into_iter().chain(AXES.iter().map(|a| format!("im_{a}"))).chain(["circle".into()]).collect();
-    let mut ts = TimeSeries::with_columns(names, 4 * r.frequencies_rad_s.len() + 200);
+        ["re".into()].into_iter().chain(axes.iter().map(|a| format!("im_{a}"))).chain(["circle".into()]).collect();
+    let mut ts = TimeSeries::with_columns(names, (n + 1) * r.frequencies_rad_s.len() + 200);
     let nan = f64::NAN;
-    for i in 0..3 {
+    for i in 0..n {
         for z in nyquist_points(s, i) {
-            let mut row = vec![z.re, nan, nan, nan, nan];
-            row[1 + i] = z.im;
+            let mut row = vec![nan; n + 2];
+            (row[0], row[1 + i]) = (z.re, z.im);
             ts.push_row(&row);
         }
-        ts.push_row(&[nan; 5]);
+        ts.push_row(&vec![nan; n + 2]);
     }
     for k in 0..=180 {
         let a = k as f64 * std::f64::consts::TAU / 180.0;
-        ts.push_row(&[a.cos(), nan, nan, nan, a.sin()]);
+        let mut row = vec![nan; n + 2];
+        (row[0], row[n + 1]) = (a.cos(), a.sin());
+        ts.push_row(&row);
     }
-    let mut lines: Vec<Series> = AXES.iter().map(|a| series(&format!("im_{a}"), &format!("l_{a}"), false)).collect();
+    let mut lines: Vec<Series> = axes.iter().map(|a| series(&format!("im_{a}"), &format!("l_{a}"), false)).collect();
     lines.push(series("circle", "unit circle", true));
     let fig = Figure {
         file_name: "nyquist.png".into(),
@@ -182,9 +196,10 @@ fn nyquist_points(s: &[Option<Cmat>], i: usize) -> Vec<C64> {
 }
 
 fn disk(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
+    let axes = axis_names(r);
     let names: Vec<String> = ["log10_w".into()]
         .into_iter()
-        .chain(AXES.iter().map(|a| format!("disk_{a}")))
+        .chain(axes.iter().map(|a| format!("disk_{a}")))
         .chain(["mu".into(), "unscaled".into()])
         .collect();
     let mut ts = TimeSeries::with_columns(names, r.frequencies_rad_s.len());
@@ -192,16 +207,16 @@ fn disk(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         let mut row = vec![w.log10()];
         match m {
             Some(m) => {
-                row.extend((0..3).map(|i| (m[i][i] - 0.5).norm()));
+                row.extend((0..axes.len()).map(|i| (m[i][i] - 0.5).norm()));
                 let d = analysis::disk_matrix(m);
                 row.extend([analysis::mu_upper_bound(&d).0, analysis::max_singular_value(&d)]);
             }
-            None => row.extend([f64::NAN; 5]),
+            None => row.extend(vec![f64::NAN; axes.len() + 2]),
         }
         ts.push_row(&row);
     }
     let mut lines: Vec<Series> =
-        AXES.iter().map(|a| series(&format!("disk_{a}"), &format!("|s_{a} − 1/2| (axis {a})"), false)).collect();
+        axes.iter().map(|a| series(&format!("disk_{a}"), &format!("|s_{a} − 1/2| (axis {a})"), false)).collect();
     lines.push(series("mu", "μ bound of S − I/2", false));
     lines.push(series("unscaled", "σ_max(S − I/2)", true));
     let m = &r.multiloop_disk_margin;
@@ -280,16 +295,24 @@ fn mark_coincident(fig: &mut Figure, ts: &TimeSeries, ctx: &FigureContext, names
 
 /// Marks the Nyquist curves that lie on one another within a pixel (as
 /// [`mark_coincident`], from the complex values).
-fn mark_coincident_nyquist(fig: &mut Figure, ts: &TimeSeries, ctx: &FigureContext, s: &[Option<Cmat>]) {
+fn mark_coincident_nyquist(
+    fig: &mut Figure,
+    ts: &TimeSeries,
+    ctx: &FigureContext,
+    r: &MarginReport,
+    s: &[Option<Cmat>],
+) {
     let Some(p) = plots::plan(ts, fig, ctx) else { return };
     let (per_unit, _) = pixels_per_unit(&p, 0);
-    let z: Vec<Vec<C64>> = (0..3).map(|i| nyquist_points(s, i)).collect();
+    let names: Vec<String> = axis_names(r).iter().map(|a| format!("l_{a}")).collect();
+    let z: Vec<Vec<C64>> = (0..names.len()).map(|i| nyquist_points(s, i)).collect();
     let distance = |i: usize, j: usize| {
         let d = z[i].iter().zip(&z[j]).filter(|(u, v)| u.is_finite() && v.is_finite()).map(|(u, v)| (u - v).norm());
         d.fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e)))).map_or(f64::INFINITY, |d| d * per_unit)
     };
-    let on = coincident(3, distance);
-    if let (Some(note), Some(panel)) = (coincidence_note(&on, &["l_x", "l_y", "l_z"]), fig.panels.first_mut()) {
+    let on = coincident(names.len(), distance);
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    if let (Some(note), Some(panel)) = (coincidence_note(&on, &names), fig.panels.first_mut()) {
         panel.title = format!("{} {note}", panel.title);
         panel.cycle_dashes = true;
     }
@@ -300,11 +323,13 @@ pub fn figures(r: &MarginReport) -> Vec<(TimeSeries, Figure)> {
     let s = loops(r);
     let ctx = context(r);
     let (bts, mut bfig) = bode(r, &s);
-    mark_coincident(&mut bfig, &bts, &ctx, &AXES);
+    let axes = axis_names(r);
+    mark_coincident(&mut bfig, &bts, &ctx, &axes);
     let (nts, mut nfig) = nyquist(r, &s);
-    mark_coincident_nyquist(&mut nfig, &nts, &ctx, &s);
+    mark_coincident_nyquist(&mut nfig, &nts, &ctx, r, &s);
     let (dts, mut dfig) = disk(r, &s);
-    mark_coincident(&mut dfig, &dts, &ctx, &["x", "y", "z", "μ bound", "σ_max"]);
+    let disk_names: Vec<&str> = axes.iter().copied().chain(["μ bound", "σ_max"]).collect();
+    mark_coincident(&mut dfig, &dts, &ctx, &disk_names);
     vec![(bts, bfig), (nts, nfig), (dts, dfig)]
 }
 

@@ -87,6 +87,14 @@ pub struct MarginReport {
     pub amplitude: Amplitude,
     pub operating_point: OperatingPoint,
     pub frequencies_rad_s: Vec<f64>,
+    /// The loop axes (rows, body axes) when they are not the body axes: magnetorquers,
+    /// two axes perpendicular to the frozen field and the field's direction, about which
+    /// no torque can be made (`axes` lists the first two; the third's row and column of
+    /// `response` are zero). `null`: the body axes x, y, z.
+    pub loop_axes_body: Option<[[f64; 3]; 3]>,
+    /// Magnetorquers: the field frozen at the operating point (docs/margins.md,
+    /// "Magnetorquer loops").
+    pub field_note: Option<String>,
     /// `response[k][i][j] = [re, im]` of `L(ω_k)`, output axis i, input axis j.
     pub response: Vec<[[[f64; 2]; 3]; 3]>,
     pub axes: Vec<AxisReport>,
@@ -163,7 +171,9 @@ pub fn build(
         super::sensitivities(r).into_iter().collect::<Option<Vec<_>>>().ok_or_else(|| MarginError::Unstable {
             reason: "I + L is singular at a measured frequency (closed-loop pole on the unit circle)".into(),
         })?;
-    let mut axes: Vec<AxisReport> = ["x", "y", "z"]
+    let mut axes: Vec<AxisReport> = m
+        .axes
+        .names()
         .iter()
         .enumerate()
         .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt))
@@ -211,6 +221,8 @@ pub fn build(
         },
         operating_point: OperatingPoint { steady: true, reason: None },
         frequencies_rad_s: w,
+        loop_axes_body: m.axes.body,
+        field_note: m.field_note.clone(),
         response: r.l.iter().map(|l| l.map(|row| row.map(|z: C64| [z.re, z.im]))).collect(),
         axes,
         multiloop_disk_margin: ml,
@@ -253,7 +265,7 @@ pub fn table(r: &MarginReport) -> String {
         r.cost.experiments,
         r.cost.wall_time_s
     );
-    if let Some(n) = &r.method_note {
+    for n in r.method_note.iter().chain(&r.field_note) {
         let _ = writeln!(s, "note: {n}");
     }
     let _ = writeln!(

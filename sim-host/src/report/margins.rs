@@ -50,10 +50,10 @@ fn refusal(e: &MarginError, sc: &Scenario) -> String {
     let first = |r: &str| r.split(':').next().unwrap_or(r).trim().to_owned();
     match e {
         _ if !sc.closed_loop() => "open loop: no control loop to measure".into(),
-        MarginError::Unsupported(_) => {
-            let what = if sc.actuators.thrusters.is_some() { "thruster (PWPF, on/off valves)" } else { "magnetorquer" };
-            format!("not covered: a {what} loop (docs/margins.md)")
+        MarginError::Unsupported(_) if sc.actuators.thrusters.is_some() => {
+            "not covered: a thruster (PWPF, on/off valves) loop (docs/margins.md)".into()
         }
+        MarginError::Unsupported(m) => format!("not covered: {}", first(m)),
         MarginError::NotSteady { reason, .. } => format!("not a steady hold: {}", first(reason)),
         MarginError::OverBudget(o) => format!(
             "over the report's cost budget of {MAX_PLANT_STEPS:.0e} plant steps (`sim-host margins` has none): {}",

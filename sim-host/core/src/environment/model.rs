@@ -12,7 +12,7 @@
 //! before. Stage times get only what the dynamics use ([`Parts`]): the orbit state, and
 //! the field only with a dipole on board; the LVLH frame is added at control steps.
 
-use super::frames::{EarthRotation, q_lvlh_to_eci};
+use super::frames::{EarthRotation, q_lvlh_to_eci, rot_lvlh_to_eci};
 use super::magnetic::MagneticField;
 use super::orbit::OrbitPropagator;
 use super::torques::{Disturbances, TorqueBreakdown};
@@ -28,6 +28,19 @@ pub enum FieldSource {
     Fixed(Vec3),
     /// Earth model along the orbit (ECI).
     Model(MagneticField),
+    /// The field frozen at one instant (stability margins at an orbit instant,
+    /// docs/margins.md "Magnetorquer loops"): constant in the frame the spacecraft holds.
+    Frozen(FrozenField),
+}
+
+/// A field frozen at an instant, T: constant in the reference frame (ECI or the lab: an
+/// inertial hold), or in LVLH (an LVLH hold: the field keeps the direction it had relative
+/// to the orbiting frame, so the body sees a constant field at the hold while the orbit,
+/// gravity gradient and LVLH rate go on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FrozenField {
+    Reference(Vec3),
+    Lvlh(Vec3),
 }
 
 #[derive(Clone, Debug)]
@@ -122,6 +135,8 @@ impl Environment {
                 (FieldSource::Model(m), Some((r, _))) => {
                     Some(m.b_eci_t(&r, t_s).map_err(|e| anyhow!("magnetic field at t = {t_s} s: {e:?}"))?)
                 }
+                (FieldSource::Frozen(FrozenField::Reference(b)), _) => Some(*b),
+                (FieldSource::Frozen(FrozenField::Lvlh(b)), Some((r, v))) => Some(rot_lvlh_to_eci(&r, &v) * b),
                 _ => None,
             };
         }
@@ -144,6 +159,21 @@ impl Environment {
         let s = self.snapshot_parts(t_s, parts)?;
         cache.insert(s, parts);
         Ok(s)
+    }
+
+    /// Freezes the field at its value in `snap` (the environment at the instant to freeze):
+    /// in LVLH (`in_lvlh`, needs an orbit) or in the reference frame. `None` (and nothing
+    /// changed) without a field or, in LVLH, without an orbit.
+    pub fn freeze_field(&mut self, snap: &EnvSnapshot, in_lvlh: bool) -> Option<FrozenField> {
+        let b = snap.b_ref_t?;
+        let frozen = if in_lvlh {
+            let (r, v) = snap.orbit?;
+            FrozenField::Lvlh(rot_lvlh_to_eci(&r, &v).transpose() * b)
+        } else {
+            FrozenField::Reference(b)
+        };
+        self.field = FieldSource::Frozen(frozen);
+        Some(frozen)
     }
 
     /// Environmental torques on the body at time `t_s` and attitude `q`, with `snap` the

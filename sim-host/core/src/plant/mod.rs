@@ -268,6 +268,11 @@ impl Spacecraft {
         State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
     }
 
+    /// Forget the cached snapshots (after the environment changed).
+    pub fn clear_env_cache(&mut self) {
+        self.env_cache.clear();
+    }
+
     /// The environment at time `t` (None without one), through the stage-time cache: the
     /// snapshot the sensors see at a control step is the one the last RK4 stage used.
     pub fn env_at(&mut self, t: f64) -> anyhow::Result<Option<EnvSnapshot>> {
