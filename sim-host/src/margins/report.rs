@@ -155,6 +155,19 @@ fn link_name(k: &LinkKind) -> String {
     }
 }
 
+/// The amplitude rule in words.
+fn amplitude_rule(point: LoopPoint, method: Method) -> &'static str {
+    match (point, method) {
+        (LoopPoint::Input, Method::Closed) => {
+            "input torque a(w) = min(theta * J_jj * max(w, wc)^2, 5 % of the tightest actuator channel limit)"
+        }
+        (LoopPoint::Input, Method::Open) => {
+            "input torque a(w) = min(theta * J_jj * w^2, 5 % of the tightest actuator channel limit), loop open"
+        }
+        (LoopPoint::Output, _) => "attitude rotation a = theta on the attitude sample",
+    }
+}
+
 /// The report of a finished measurement.
 pub fn build(
     sc: &Scenario,
@@ -179,18 +192,11 @@ pub fn build(
         .map(|(i, n)| axis_report(n, &analysis::axis_margins(&w, &s, i, std::f64::consts::PI / dt), dt))
         .collect();
     let (ml, ml_unscaled) = analysis::multiloop_disk_margin(&w, &s);
-    let peaks = r.columns.iter().flatten().map(|c| c.peak_attitude_rad);
+    // Columns with no block are the unactuated axis's (magnetorquers: along the field).
+    let peaks = r.columns.iter().flatten().filter(|c| c.blocks > 0).map(|c| c.peak_attitude_rad);
     let fold = |it: &mut dyn Iterator<Item = f64>, f: fn(f64, f64) -> f64, z: f64| it.fold(z, f);
     let unconverged = r.columns.iter().flatten().filter(|c| !c.converged).count();
-    let rule = match (opts.point, m.method) {
-        (LoopPoint::Input, Method::Closed) => {
-            "input torque a(w) = min(theta * J_jj * max(w, wc)^2, 5 % of the tightest actuator channel limit)"
-        }
-        (LoopPoint::Input, Method::Open) => {
-            "input torque a(w) = min(theta * J_jj * w^2, 5 % of the tightest actuator channel limit), loop open"
-        }
-        (LoopPoint::Output, _) => "attitude rotation a = theta on the attitude sample",
-    };
+    let rule = amplitude_rule(opts.point, m.method);
     let stable = margins_stable(&axes) && ml.alpha > 0.0;
     if !stable {
         for a in &mut axes {

@@ -176,7 +176,8 @@ pub enum MarginStatus {
     NotSteady,
     /// The loop diverged while being measured.
     Unstable,
-    /// A loop this measurement does not cover (magnetorquers, thrusters).
+    /// A loop this measurement does not cover (thrusters; a magnetorquer loop at the output or
+    /// with the magnetometer in the estimator).
     Unsupported,
     /// The sweep would cost more plant steps than the caller's budget (the report's).
     OverBudget,
