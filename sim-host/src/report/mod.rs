@@ -448,8 +448,11 @@ fn margins_section(table: Block) -> Section {
          Nyquist frequency. Each figure is the worst of the three axes (loop at a time); the multiloop disk \
          margin perturbs all axes at once (balanced, skew 0; α = 0.5 is ±4.4 dB and ±28°). A gain margin \
          shown ∞ has no phase crossing below Nyquist. Where a loop is not measured, the reason is given: an \
-         operating point that is not a steady hold gets no number. Dispersed over inertia and delay: \
-         `campaigns/paper000-test3-margins.toml`."
+         operating point that is not a steady hold gets no number. Magnetorquer loops are measured at the \
+         orbit instant with the field frozen, on the two axes perpendicular to it; paper 003's rods sit in \
+         their dead band or its holds are not settled, and in orbit its frozen-instant loop has a slow or \
+         unstable mode about the field (docs/margins.md, \"Magnetorquer loops\"). Dispersed over inertia \
+         and delay: `campaigns/paper000-test3-margins.toml`."
             .into(),
     );
     Section { level: 2, title: "Stability margins of the paper scenarios".into(), blocks: vec![intro, table] }
