@@ -2,7 +2,7 @@
 //! the firmware's link task and the host's virtual flight computer (`sim-host serve`) both
 //! feed it decoded [`HostMsg`]s and send back what it returns.
 
-use crate::fsw::{Fsw, FreezeError};
+use crate::fsw::{FreezeError, Fsw};
 use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, SensorFrame, StepReport, schema_hash};
 use crate::params::PARAMS_VERSION;
 

@@ -95,7 +95,12 @@ fn closed_form(phi: &M6, gamma: &G6, g: &SMatrix<f64, 3, 6>, w: f64) -> SMatrix<
 
 /// The 3×3 `L` at `w` measured open loop from the frozen operating point `base`, and the
 /// gains the excited run reported at its last step.
-fn measure_at(base: &sim_core::simulation::Simulation, eff: &Effectiveness, j: &nalgebra::Matrix3<f64>, w: f64) -> (f64, Cmat, bool, [[f32; 2]; 3]) {
+fn measure_at(
+    base: &sim_core::simulation::Simulation,
+    eff: &Effectiveness,
+    j: &nalgebra::Matrix3<f64>,
+    w: f64,
+) -> (f64, Cmat, bool, [[f32; 2]; 3]) {
     let f = Freq::near(w, T);
     let wc = 0.07;
     let block_min = (2.0 / (wc * T)).ceil() as u64;
@@ -156,7 +161,10 @@ fn frozen_dmcs_hold_matches_the_closed_form_of_its_frozen_gains() {
         kp: base.last_step().unwrap().0.adaptive_proportional_gain,
     };
     assert_eq!(frozen.proportional_gain, p.kp);
-    eprintln!("frozen Δk_p {:?}, Δk_u {:?}; J {:?}; h {:?} N m s", p.kp, frozen.feedforward_gain, p.inertia, p.momentum);
+    eprintln!(
+        "frozen Δk_p {:?}, Δk_u {:?}; J {:?}; h {:?} N m s",
+        p.kp, frozen.feedforward_gain, p.inertia, p.momentum
+    );
     let eff = Effectiveness::at(&base).unwrap();
     let (phi, gamma) = discrete_plant(&p);
     let g = gain(&p);
