@@ -556,11 +556,11 @@ impl<'a> Simulation<'a> {
     /// Freezes (`true`) or resumes the flight law's adaptation through the link
     /// (`FreezeAdaptation`: the law keeps its state, unlike a parameter upload); the same
     /// message in-process and over QEMU. `Ok(true)`: the law in force adapts (DMCS) and
-    /// obeyed; `Ok(false)`: it does not adapt (the flight side refused with
-    /// `NotAdaptive`, nothing changed); `Err` for any other reply or an open-loop run.
+    /// obeyed; `Ok(false)`: nothing adapts (the flight side refused with `NotAdaptive`, or
+    /// an open-loop run: no flight law), nothing changed; `Err` for any other reply.
     pub fn freeze_adaptation(&mut self, frozen: bool) -> Result<bool> {
         if self.info.is_none() {
-            bail!("an open-loop run has no flight law to freeze");
+            return Ok(false);
         }
         match self.link.request(&acs_flight::link::HostMsg::FreezeAdaptation { frozen })? {
             FswMsg::Ack => Ok(true),
