@@ -2,7 +2,7 @@
 //! the firmware's link task and the host's virtual flight computer (`sim-host serve`) both
 //! feed it decoded [`HostMsg`]s and send back what it returns.
 
-use crate::fsw::Fsw;
+use crate::fsw::{FreezeError, Fsw};
 use crate::link::{FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, ResetCause, SensorFrame, StepReport, schema_hash};
 use crate::params::PARAMS_VERSION;
 
@@ -142,6 +142,11 @@ impl Session {
                     Some(FswMsg::Error(LinkError::NotConfigured))
                 }
             }
+            HostMsg::FreezeAdaptation { frozen } => Some(match self.fsw.freeze_adaptation(*frozen) {
+                Ok(()) => FswMsg::Ack,
+                Err(FreezeError::NotConfigured) => FswMsg::Error(LinkError::NotConfigured),
+                Err(FreezeError::NotAdaptive) => FswMsg::Error(LinkError::NotAdaptive),
+            }),
             // The hang itself is the firmware's (feature `debug-hang`); shared code never hangs.
             HostMsg::DebugHang => Some(FswMsg::Error(LinkError::DebugDisabled)),
         }
@@ -300,6 +305,48 @@ mod tests {
 
     fn step(s: &mut Session, seq: u32) -> Option<FswMsg> {
         s.handle(&HostMsg::Sensor(frame(seq)), 0, &mut || 0u32)
+    }
+
+    /// `FreezeAdaptation`: refused with a typed reason without a law or with one that does
+    /// not adapt; with DMCS, acknowledged without resetting the law (the gains stay, the
+    /// sequence goes on), Δk_p constant in telemetry while frozen and adapting again after.
+    #[test]
+    fn freeze_adaptation_keeps_the_dmcs_state() {
+        use crate::params::{ControllerParams, DmcsParams};
+        let mut s = Session::new(board::HOST, 0);
+        let freeze = |s: &mut Session, frozen| s.handle(&HostMsg::FreezeAdaptation { frozen }, 0, &mut || 0);
+        assert_eq!(freeze(&mut s, true), Some(FswMsg::Error(LinkError::NotConfigured)));
+        let up = |s: &mut Session, p| s.handle(&HostMsg::UploadParams(p), 0, &mut || 0);
+        assert!(matches!(up(&mut s, FlightParams::default()), Some(FswMsg::ParamsAccepted { .. })));
+        assert_eq!(freeze(&mut s, true), Some(FswMsg::Error(LinkError::NotAdaptive)));
+        let dmcs = DmcsParams {
+            wn_rad_s: 0.05,
+            zeta: 0.95,
+            model_inertia_kgm2: [400.0; 3],
+            alpha: 55.0,
+            beta: 220.0,
+            q_weights: [0.1, 1.0],
+            gain_limit: 1e7,
+            torque_limit_nm: [1e3; 3],
+        };
+        let p = FlightParams { controller: ControllerParams::Dmcs(dmcs), ..FlightParams::default() };
+        assert!(matches!(up(&mut s, p), Some(FswMsg::ParamsAccepted { .. })));
+        let gains = |r: Option<FswMsg>| match r {
+            Some(FswMsg::Step(r)) => r.cmd.adaptive_proportional_gain,
+            other => panic!("{other:?}"),
+        };
+        let mut last = [[0.0; 2]; 3];
+        for seq in 1..10 {
+            last = gains(step(&mut s, seq));
+        }
+        assert!(last.iter().flatten().any(|k| *k != 0.0), "adapted: {last:?}");
+        assert_eq!(freeze(&mut s, true), Some(FswMsg::Ack));
+        let frozen = gains(step(&mut s, 10));
+        for seq in 11..20 {
+            assert_eq!(gains(step(&mut s, seq)), frozen, "frozen at step {seq}");
+        }
+        assert_eq!(freeze(&mut s, false), Some(FswMsg::Ack));
+        assert_ne!(gains(step(&mut s, 20)), frozen, "adapting again");
     }
 
     /// One frame, one step: repeats and older frames are refused with their `seq` and the

@@ -224,6 +224,10 @@ enum Cmd {
         /// counted before it runs (the report uses 1e7); default: no limit.
         #[arg(long)]
         max_plant_steps: Option<u64>,
+        /// Measure an adaptive law (DMCS) as flown, adapting in every run, instead of at
+        /// its frozen adaptation state (the default; docs/margins.md).
+        #[arg(long)]
+        adapting: bool,
     },
     /// Check a scenario file and print the flight parameters it uploads.
     Check {
@@ -405,6 +409,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             no_plots,
             method,
             max_plant_steps,
+            adapting,
         } => {
             let point = match loop_point.as_str() {
                 "input" => sim_host::margins::LoopPoint::Input,
@@ -430,6 +435,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 refly,
                 method,
                 max_plant_steps,
+                freeze_adaptation: !adapting,
             };
             margins(&scenario, &opts, json, out, no_plots)
         }
@@ -945,6 +951,9 @@ fn margins(
     let report = sim_host::margins::measure(&sc, opts)?;
     if let Some(note) = report.method_note.as_ref().filter(|_| json) {
         eprintln!("note: {note}");
+    }
+    if let Some(a) = report.adaptation.as_ref().filter(|_| json) {
+        eprintln!("note: {}", a.note);
     }
     let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-margins", sc.name)));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;

@@ -1,6 +1,6 @@
 //! The flight side of the link under random message sequences: real parameter sets (the
-//! mode mission's four modes, a CMG set, a thruster LP set), mode commands, targets and
-//! sensor frames, each with a chance of random byte corruption that still decodes (so
+//! mode mission's four modes, a CMG set, a thruster LP set, a DMCS set), mode commands,
+//! targets, adaptation freezes (protocol 14) and sensor frames, each with a chance of random byte corruption that still decodes (so
 //! NaN, huge, negative or nonsensical fields reach validation and the step). Asserts: no
 //! panic, one reply per message, every step answers its frame with finite commands, the
 //! mode code is one of the five, and a safe command is all-idle. One frame, one step: a
@@ -28,6 +28,7 @@ fn finite(c: &ActuatorCommand) -> bool {
         .chain(&c.torque_demand_nm)
         .chain(&c.torque_realised_nm)
         .chain(&c.law_telemetry)
+        .chain(c.adaptive_proportional_gain.iter().flatten())
         .chain(&[c.attitude_error_rad, c.singularity_measure, c.steering_alpha])
         .all(|x| x.is_finite())
 }
@@ -94,6 +95,7 @@ fn fuzz(seed: u64) {
     let mission = scenario("modes/cubesat-mission.toml").mode_table().unwrap().unwrap();
     let cmg = scenario("paper002/lqg.toml").flight_params().unwrap();
     let thr = scenario("paper004/dp-nominal.toml").flight_params().unwrap();
+    let dmcs = scenario("paper001/dmcs-m1.toml").flight_params().unwrap();
     let mut rng = ChaCha8Rng::seed_from_u64(0xF100 + seed);
     let mut s = Session::new(board::HOST, 1);
     let mut counter = || 0u32;
@@ -108,7 +110,8 @@ fn fuzz(seed: u64) {
                 HostMsg::UploadModeParams { mode, params }
             }
             11..=16 => HostMsg::ArmModes(mission.manager),
-            17 => HostMsg::UploadParams(if rng.random_bool(0.5) { cmg } else { thr }),
+            17 => HostMsg::UploadParams([cmg, thr, dmcs][rng.random_range(0..3)]),
+            26 => HostMsg::FreezeAdaptation { frozen: rng.random_bool(0.5) },
             18..=21 => {
                 let m = Mode::ALL[rng.random_range(0..Mode::ALL.len())];
                 HostMsg::CommandMode(match rng.random_range(0..3) {

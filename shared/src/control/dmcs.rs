@@ -12,6 +12,11 @@
 //!
 //! MCS starts from zero gains: all the control comes from adaptation. Every gain is
 //! clamped to `± gain_limit` so that a long run cannot overflow f32.
+//!
+//! Frozen ([`Dmcs::set_frozen`], the host's `FreezeAdaptation`): the increments of eqs
+//! 50-51 are skipped and the gains kept, so the law is the fixed-gain loop
+//! `u_p = Δk_p x_p + Δk_u u_m` (what `sim-host margins` measures, docs/margins.md); the
+//! previous sample stays current, so unfreezing resumes eq 50-51 from the last step.
 
 use super::scale_to_box;
 use crate::math::{Quat, Vec3, attitude_error, rotation_angle};
@@ -55,6 +60,8 @@ pub struct Dmcs {
     pub dku: [f32; 3],
     /// Previous sample per axis: `(y_n, x_p, u_m)`.
     prev: [Option<AxisSample>; 3],
+    /// Adaptation frozen: eqs 50-51 skipped, gains kept (`prev` still updated).
+    frozen: bool,
 }
 
 type AxisSample = (f32, [f32; 2], f32);
@@ -67,7 +74,18 @@ impl Dmcs {
             dkp: [[0.0; 2]; 3],
             dku: [0.0; 3],
             prev: [None; 3],
+            frozen: false,
         }
+    }
+
+    /// Freeze (`true`) or resume (`false`) the adaptation; the gains and the reference
+    /// model are kept either way.
+    pub fn set_frozen(&mut self, frozen: bool) {
+        self.frozen = frozen;
+    }
+
+    pub fn frozen(&self) -> bool {
+        self.frozen
     }
 
     pub fn update(&mut self, g: &DmcsGains, q: &Quat, q_cmd: &Quat, rate_rad_s: &Vec3, dt_s: f32) -> TorqueDemand {
@@ -85,6 +103,7 @@ impl Dmcs {
         let xms = [[qmv.x, self.w_m.x], [qmv.y, self.w_m.y], [qmv.z, self.w_m.z]];
         let ums = [u_m.x, u_m.y, u_m.z];
         let prevs = self.prev;
+        let adapt = !self.frozen;
         let mut y = [0.0f32; 3];
         let mut uo = [0.0f32; 3];
         let clamp = |v: f32| if v.is_finite() { crate::math::clamp_abs(v, lim) } else { 0.0 };
@@ -101,7 +120,7 @@ impl Dmcs {
             let [xp0, xp1] = *x_p;
             let [xm0, xm1] = *x_m;
             let yn = g.p21 * (xm0 - xp0) + g.p22 * (xm1 - xp1);
-            if let Some((yp, xpp, ump)) = pv {
+            if let Some((yp, xpp, ump)) = pv.filter(|_| adapt) {
                 for ((k, xj), xpj) in dkp.iter_mut().zip(x_p.iter()).zip(xpp.iter()) {
                     *k = clamp(*k + g.beta * yn * xj - sigma * yp * xpj);
                 }
@@ -130,6 +149,7 @@ impl Dmcs {
         (self.q_m, self.w_m)
     }
 
+    /// Fresh state: zero gains, a new reference model, adaptation running.
     pub fn reset(&mut self) {
         *self = Self::new();
     }
@@ -180,5 +200,42 @@ mod tests {
         }
         assert!(ang.abs() < 0.01, "final angle {ang}");
         assert!(c.dku[2] > 0.0, "the feed-forward gain adapted: {}", c.dku[2]);
+    }
+
+    /// Frozen, the gains stay bit-identical over steps with a nonzero error; unfrozen
+    /// again, they adapt at once (the previous sample was kept current).
+    #[test]
+    fn frozen_adaptation_keeps_the_gains() {
+        let (p21, p22) = DmcsGains::lyapunov_p(0.05, 0.95, 0.1, 1.0).unwrap();
+        let g = DmcsGains {
+            wn: 0.05,
+            zeta: 0.95,
+            model_inertia: Vec3::repeat(400.0),
+            alpha: 55.0,
+            beta: 220.0,
+            p21,
+            p22,
+            gain_limit: 1e7,
+            torque_limit_nm: Vec3::repeat(1e3),
+        };
+        let mut c = Dmcs::new();
+        let rate = Vec3::new(0.01, -0.02, 0.005);
+        let q_at = |a: f32| quat_from_euler([0.1 * a, -0.2 * a, 0.3 * a], EulerSeq::Zyx321);
+        for k in 0..20 {
+            c.update(&g, &q_at(1.0 - 0.01 * k as f32), &Quat::identity(), &rate, 0.1);
+        }
+        let (dkp, dku) = (c.dkp, c.dku);
+        assert!(dkp.iter().flatten().any(|k| *k != 0.0), "adapted before the freeze: {dkp:?}");
+        c.set_frozen(true);
+        for k in 0..50 {
+            let d = c.update(&g, &q_at(0.8 - 0.01 * k as f32), &Quat::identity(), &rate, 0.1);
+            assert!(d.torque_nm.norm() > 0.0);
+            assert_eq!((c.dkp, c.dku), (dkp, dku), "step {k}: frozen gains changed");
+        }
+        c.set_frozen(false);
+        c.update(&g, &q_at(0.2), &Quat::identity(), &rate, 0.1);
+        assert!(c.dkp != dkp && c.dku != dku, "unfrozen: the gains adapt again");
+        c.reset();
+        assert!(!c.frozen(), "a reset law adapts");
     }
 }

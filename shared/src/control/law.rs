@@ -143,6 +143,27 @@ impl Law {
         })
     }
 
+    /// Freeze (`true`) or resume (`false`) the adaptation of an adaptive law (DMCS, eqs
+    /// 50-51); `false` when the law does not adapt (nothing changed).
+    pub fn freeze_adaptation(&mut self, frozen: bool) -> bool {
+        match self {
+            Self::Dmcs(_, s) => {
+                s.set_frozen(frozen);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// The adaptive proportional gains of DMCS, `Δk_p` per axis `[on q_e, on ω]` (eq 44);
+    /// zeros for the other laws.
+    pub fn adaptive_proportional_gain(&self) -> [[f32; 2]; 3] {
+        match self {
+            Self::Dmcs(_, s) => s.dkp,
+            _ => [[0.0; 2]; 3],
+        }
+    }
+
     /// Detumbling and sun-safe need no attitude (star trackers lose lock while tumbling;
     /// sun-safe is what runs when the attitude is lost).
     pub fn needs_attitude(&self) -> bool {

@@ -22,6 +22,15 @@ pub enum ModeError {
     NoSuchMode,
 }
 
+/// Why [`Fsw::freeze_adaptation`] changed nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FreezeError {
+    /// No parameter set (or armed mode table) in force.
+    NotConfigured,
+    /// The law in force does not adapt.
+    NotAdaptive,
+}
+
 impl Configured {
     /// Validate `p` and build its runtime form; returns it with the checksum of `p`.
     fn build(p: &FlightParams) -> Result<(Self, u32), ParamError> {
@@ -143,6 +152,20 @@ impl Fsw {
     /// The armed mode manager, if any (mode, reason, transition count).
     pub fn mode_manager(&self) -> Option<&ModeManager> {
         self.manager.as_ref()
+    }
+
+    /// Freeze (`true`) or resume (`false`) the adaptation of the law in force, keeping
+    /// its state (unlike a configuration, which restarts it). A mode switch or a new
+    /// configuration starts the next law adapting. `Err`: no law in force, or one that
+    /// does not adapt (nothing changed).
+    pub fn freeze_adaptation(&mut self, frozen: bool) -> Result<(), FreezeError> {
+        if !self.is_configured() {
+            return Err(FreezeError::NotConfigured);
+        }
+        let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
+            return Err(FreezeError::NotConfigured);
+        };
+        if cfg.law.freeze_adaptation(frozen) { Ok(()) } else { Err(FreezeError::NotAdaptive) }
     }
 
     /// Fresh state for the law that takes over (integrators, filters, estimator).

@@ -37,7 +37,7 @@ use crate::types::{Demand, Status, Valid};
 use crate::validation::sensor_samples;
 
 use check::Missing;
-pub use config::ModeError;
+pub use config::{FreezeError, ModeError};
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]
@@ -214,6 +214,7 @@ impl Fsw {
         };
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
+        cmd.adaptive_proportional_gain = cfg.law.adaptive_proportional_gain();
         if let Some(d) = dump {
             cmd.thruster_on = d.on;
             cmd.thruster_level = d.level;

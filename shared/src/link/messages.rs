@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 13;
+pub const PROTOCOL_VERSION: u16 = 14;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1024;
@@ -193,6 +193,9 @@ pub struct ActuatorCommand {
     /// Internal state of the control law worth plotting (DMCS: the adaptive feed-forward
     /// gains Δk_u per axis; other laws: 0).
     pub law_telemetry: [f32; 3],
+    /// DMCS: the adaptive proportional gains Δk_p per axis, `[on q_e, on ω]` (paper 001
+    /// eq 44, `u_p = Δk_p x_p + Δk_u u_m`); other laws: 0 (protocol 14).
+    pub adaptive_proportional_gain: [[f32; 2]; 3],
     /// Bit i: actuator i at a limit (either side).
     pub saturated: u32,
     /// [`status`] bits.
@@ -340,6 +343,9 @@ pub enum LinkError {
     /// connects while another one is being served; the connection is then closed.
     /// Protocol 12.
     Busy,
+    /// `FreezeAdaptation` while the law in force does not adapt (only DMCS does): nothing
+    /// changed. Protocol 14.
+    NotAdaptive,
 }
 
 /// Why the flight computer last started (`HelloAck::reset_cause`).
@@ -388,6 +394,15 @@ pub enum HostMsg {
     CommandMode(ModeRequest),
     /// Real-time mode only: start pacing steps with the flight computer's own clock.
     StartRealTime,
+    /// Freeze (`frozen: true`) or resume the adaptation of the law in force, keeping its
+    /// state: unlike `UploadParams`, the law is not reset (DMCS keeps its gains Δk_p,
+    /// Δk_u and reference model and skips the increments of eqs 50-51 while frozen). A
+    /// mode switch or a new configuration starts the next law adapting. Reply: `Ack`;
+    /// `Error(NotAdaptive)` when the law in force does not adapt, `Error(NotConfigured)`
+    /// without one (nothing changed either way). Protocol 14.
+    FreezeAdaptation {
+        frozen: bool,
+    },
     /// Test hook: the flight side stops answering and stops its control loop (a hang) so
     /// that the watchdog must reset it. Only firmware built with the `debug-hang` feature
     /// (the QEMU test image, never a flight image) obeys; everything else answers
@@ -425,7 +440,7 @@ pub enum FswMsg {
     ModeAccepted {
         mode: Mode,
     },
-    /// Success of a message that has no other reply (`SetTarget`).
+    /// Success of a message that has no other reply (`SetTarget`, `FreezeAdaptation`).
     Ack,
     Step(StepReport),
     Error(LinkError),

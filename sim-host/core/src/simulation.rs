@@ -581,6 +581,22 @@ impl<'a> Simulation<'a> {
         self.injection = injection;
     }
 
+    /// Freezes (`true`) or resumes the flight law's adaptation through the link
+    /// (`FreezeAdaptation`: the law keeps its state, unlike a parameter upload); the same
+    /// message in-process and over QEMU. `Ok(true)`: the law in force adapts (DMCS) and
+    /// obeyed; `Ok(false)`: nothing adapts (the flight side refused with `NotAdaptive`, or
+    /// an open-loop run: no flight law), nothing changed; `Err` for any other reply.
+    pub fn freeze_adaptation(&mut self, frozen: bool) -> Result<bool> {
+        if self.info.is_none() {
+            return Ok(false);
+        }
+        match self.link.request(&acs_flight::link::HostMsg::FreezeAdaptation { frozen })? {
+            FswMsg::Ack => Ok(true),
+            FswMsg::Error(acs_flight::link::LinkError::NotAdaptive) => Ok(false),
+            other => bail!("FreezeAdaptation {{ frozen: {frozen} }} refused: {other:?}"),
+        }
+    }
+
     /// The last control step's flight command and its true attitude error (deg).
     pub fn last_step(&self) -> Option<&(ActuatorCommand, f64)> {
         self.last_step.as_ref()

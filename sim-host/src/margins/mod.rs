@@ -7,6 +7,7 @@
 //! - [`fit`]: the open-loop method's sine-on-a-ramp fit;
 //! - [`grid`]: the leakage-free frequencies, the grid and its refinement;
 //! - [`response`]: the experiments on worker threads, the response `L = −U E⁻¹`;
+//! - [`freeze`]: adaptive laws (DMCS) measured at a frozen adaptation state;
 //! - [`analysis`]: margins from a response (pure functions);
 //! - [`report`]: `margins.json` and the console table;
 //! - [`plots`]: `bode.png`, `nyquist.png`, `disk.png`;
@@ -15,6 +16,7 @@
 pub mod analysis;
 pub mod excite;
 pub mod fit;
+pub mod freeze;
 pub mod grid;
 pub mod plots;
 pub mod report;
@@ -145,6 +147,9 @@ pub struct MarginOptions {
     /// limit. The report sets one so that it stays minutes long (a cost, not wall time:
     /// the same verdict on every machine).
     pub max_plant_steps: Option<u64>,
+    /// Measure an adaptive law (DMCS) at its frozen adaptation state ([`freeze`], the
+    /// default); `false`: as flown, adapting in each run.
+    pub freeze_adaptation: bool,
 }
 
 impl Default for MarginOptions {
@@ -162,6 +167,7 @@ impl Default for MarginOptions {
             refly: false,
             method: None,
             max_plant_steps: None,
+            freeze_adaptation: true,
         }
     }
 }
@@ -315,6 +321,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         effectiveness: None,
         method: Method::Closed,
         fork: false,
+        freeze_adaptation: false,
     };
     // The operating point once here: is it a steady hold, what do the actuators make there
     // (an actuator family out of scope is said before flying).
@@ -328,7 +335,9 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         magnetorquers_supported(scenario, opts)?;
     }
     drop(start_sim);
-    let sim = setup.fly(link.as_mut())?;
+    let mut sim = setup.fly(link.as_mut())?;
+    let frozen = if opts.freeze_adaptation { freeze::freeze(&mut sim)? } else { None };
+    setup.freeze_adaptation = frozen.is_some();
     let eff = Effectiveness::at(&sim)?;
     let j = sim.craft().inertia;
     let axes = eff.axes;
@@ -349,9 +358,12 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
         amplitude_rad: opts.amplitude_rad,
     };
     setup.effectiveness = Some(eff);
-    let (mut measured, experiments) = measure_with_fallback(&mut setup, plan, opts)?;
+    let (mut measured, experiments) =
+        measure_with_fallback(&mut setup, plan, opts).map_err(|e| freeze::said_frozen(e, frozen.as_ref()))?;
     measured.field_note = field_note;
-    report::build(scenario, opts, at_s, dt, &measured, experiments, start.elapsed().as_secs_f64())
+    let mut report = report::build(scenario, opts, at_s, dt, &measured, experiments, start.elapsed().as_secs_f64())?;
+    report.adaptation = frozen;
+    Ok(report)
 }
 
 /// What the frozen field is (the magnetorquer loop's operating point).

@@ -82,6 +82,9 @@ pub struct MarginReport {
     pub method: Method,
     /// Why the method is not the one asked for (auto's fallback to the open loop).
     pub method_note: Option<String>,
+    /// An adaptive law measured at its frozen adaptation state: the note and the frozen
+    /// gains (`null` for a law that does not adapt).
+    pub adaptation: Option<super::freeze::FrozenAdaptation>,
     pub control_period_s: f64,
     pub nyquist_rad_s: f64,
     pub amplitude: Amplitude,
@@ -215,6 +218,7 @@ pub fn build(
         link: link_name(&opts.link),
         method: m.method,
         method_note: m.method_note.clone(),
+        adaptation: None,
         control_period_s: dt,
         nyquist_rad_s: std::f64::consts::PI / dt,
         amplitude: Amplitude {
@@ -273,6 +277,9 @@ pub fn table(r: &MarginReport) -> String {
     );
     for n in r.method_note.iter().chain(&r.field_note) {
         let _ = writeln!(s, "note: {n}");
+    }
+    if let Some(a) = &r.adaptation {
+        let _ = writeln!(s, "note: {}", a.note);
     }
     let _ = writeln!(
         s,

@@ -29,6 +29,9 @@ pub struct Setup<'a> {
     /// Fork experiments from one flight to the operating point (in-process), or re-fly
     /// every experiment and its twin from t = 0.
     pub fork: bool,
+    /// Freeze the flight law's adaptation at the operating point ([`super::freeze`]),
+    /// before the forks or in every re-flown run.
+    pub freeze_adaptation: bool,
 }
 
 impl Setup<'_> {
@@ -37,6 +40,9 @@ impl Setup<'_> {
         let resolved = Resolved::try_from(self.scenario).map_err(MarginError::flight)?;
         let mut sim = Simulation::new(resolved, link).map_err(MarginError::flight)?;
         excite::fly_to(&mut sim, self.k_op, self.check_from, self.settle_bound_deg)?;
+        if self.freeze_adaptation {
+            super::freeze::freeze(&mut sim)?;
+        }
         Ok(sim)
     }
 
