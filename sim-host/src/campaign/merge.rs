@@ -418,21 +418,24 @@ fn write_plots(dir: &Path, result: &CampaignResult, keys: &Keys, records: &[Comp
     let ctx = plots::FigureContext::new(&format!("campaign {}", result.campaign));
     let mut files = Vec::new();
     for (key, req) in plotted {
+        let flown = records.iter().filter(|c| c.rec.status.flew()).count();
         let mut xs: Vec<f64> =
             records.iter().filter(|c| c.rec.status.flew()).filter_map(|c| keys.get(&c.values, &key)).collect();
         if xs.is_empty() {
             continue;
         }
         xs.sort_by(f64::total_cmp);
-        let (ts, fig) = distribution_figure(&key, &xs, req.map(|r| &r.requirement));
+        let (ts, fig) = distribution_figure(&key, &xs, flown, req.map(|r| &r.requirement));
         files.extend(plots::render(&out, &ts, &[fig], &ctx)?);
     }
     Ok(files)
 }
 
 /// The columns of [`distribution_figure`] (`xs` sorted, not empty): `x`, `cdf` and its
-/// Clopper–Pearson lower bound `cdf_lower`, `tail` = 1 − CDF and `tail_upper`, `runs` (the
-/// histogram of `bins` bins, on rows of its own at the bins' left edges, drawn as steps).
+/// Clopper–Pearson lower bound `cdf_lower`, `tail` = 1 − CDF and `tail_upper`, `cdf_upper`
+/// (the CDF's one-sided upper bound: the lower tail's, for a key required to be large),
+/// `runs` (the histogram of `bins` bins, on rows of its own at the bins' left edges, drawn
+/// as steps).
 /// The CDF goes on at 1 to `end` when that is right of the data.
 fn distribution_series(xs: &[f64], end: Option<f64>, confidence: f64, bins: usize) -> TimeSeries {
     let n = xs.len();
@@ -442,34 +445,41 @@ fn distribution_series(xs: &[f64], end: Option<f64>, confidence: f64, bins: usiz
     for x in xs {
         counts[(((x - lo) / width) as usize).min(bins - 1)] += 1.0;
     }
-    let names = ["x", "cdf", "cdf_lower", "tail", "tail_upper", "runs"].map(String::from).to_vec();
+    let names = ["x", "cdf", "cdf_lower", "tail", "tail_upper", "cdf_upper", "runs"].map(String::from).to_vec();
     let mut ts = TimeSeries::with_columns(names, n + bins + 3);
-    let mut push = |x: f64, f: f64, lower: f64, runs: f64| ts.push_row(&[x, f, lower, 1.0 - f, 1.0 - lower, runs]);
-    push(lo, 0.0, 0.0, f64::NAN);
+    let mut push = |x: f64, f: f64, lower: f64, upper: f64, runs: f64| {
+        ts.push_row(&[x, f, lower, 1.0 - f, 1.0 - lower, upper, runs])
+    };
+    // Upper bound of the fraction k/n: one minus the lower bound of the complement's.
+    let upper = |k: usize| 1.0 - stats::clopper_pearson_lower((n - k) as u64, n as u64, confidence);
+    push(lo, 0.0, 0.0, upper(0), f64::NAN);
     // The CDF steps up at each distinct value (to the count of runs at or below it).
     for (k, x) in xs.iter().enumerate() {
         if k + 1 < n && xs[k + 1] == *x {
             continue;
         }
         let cp = stats::clopper_pearson_lower(k as u64 + 1, n as u64, confidence);
-        push(*x, (k + 1) as f64 / n as f64, cp, f64::NAN);
+        push(*x, (k + 1) as f64 / n as f64, cp, upper(k + 1), f64::NAN);
     }
     if let Some(end) = end.filter(|v| *v > hi) {
-        push(end, 1.0, stats::clopper_pearson_lower(n as u64, n as u64, confidence), f64::NAN);
+        push(end, 1.0, stats::clopper_pearson_lower(n as u64, n as u64, confidence), 1.0, f64::NAN);
     }
+    let nan = f64::NAN;
     for (b, c) in counts.iter().enumerate() {
-        push(lo + b as f64 * width, f64::NAN, f64::NAN, *c);
+        push(lo + b as f64 * width, nan, nan, nan, *c);
     }
-    push(lo + bins as f64 * width, f64::NAN, f64::NAN, counts[bins - 1]);
+    push(lo + bins as f64 * width, nan, nan, nan, counts[bins - 1]);
     ts
 }
 
-/// The figure of one key's distribution over the runs (`xs` sorted): the empirical CDF as
-/// a step function with its one-sided Clopper–Pearson lower bound at the requirement's
-/// confidence (95 % without one), the requirement's threshold (vertical) and probability
-/// (horizontal, on the side of the CDF the requirement is on), the tail `1 − CDF` on a
-/// log axis with the matching upper bound, and a 30-bin histogram.
-fn distribution_figure(key: &str, xs: &[f64], req: Option<&Requirement>) -> (TimeSeries, Figure) {
+/// The figure of one key's distribution over the runs (`xs` sorted, the values of the
+/// `flown` runs that have one): the empirical CDF as a step function with its one-sided
+/// Clopper–Pearson lower bound at the requirement's confidence (95 % without one), the
+/// requirement's threshold (vertical) and probability (horizontal, on the side of the CDF
+/// the requirement is on), the failing side's tail on a log axis with its upper bound (the
+/// fraction above x, or below x for a key required to be large: a margin), and a 30-bin
+/// histogram. The title says how many runs have no value (they fail any requirement on it).
+fn distribution_figure(key: &str, xs: &[f64], flown: usize, req: Option<&Requirement>) -> (TimeSeries, Figure) {
     let n = xs.len();
     let confidence = req.map_or(0.95, |r| r.confidence);
     let bins = 30usize;
@@ -485,28 +495,37 @@ fn distribution_figure(key: &str, xs: &[f64], req: Option<&Requirement>) -> (Tim
         step: true,
         ..Default::default()
     };
+    let large = req.is_some_and(|r| matches!(r.op, Op::Gt | Op::Ge));
+    let (side, column, bound, label) =
+        if large { ("at or below", "cdf", "cdf_upper", "CDF") } else { ("above", "tail", "tail_upper", "1 − CDF") };
     let mut tail = Panel {
-        title: "tail: fraction of runs above x, and its Clopper–Pearson upper bound (log)".into(),
-        y_label: "fraction of runs > x".into(),
+        title: format!("failing side: fraction of runs {side} x, and its Clopper–Pearson upper bound (log)"),
+        y_label: format!("fraction of runs {}", if large { "≤ x" } else { "> x" }),
         series: vec![
-            Series { column: "tail".into(), label: "1 − CDF".into(), dashed: false },
-            Series { column: "tail_upper".into(), label: format!("upper bound, {conf}"), dashed: true },
+            Series { column: column.into(), label: label.into(), dashed: false },
+            Series { column: bound.into(), label: format!("upper bound, {conf}"), dashed: true },
         ],
         step: true,
         log_y: true,
         ..Default::default()
     };
     let mut x_lines = Vec::new();
-    let mut title = format!("{key}: {n} runs");
+    let runs = if n < flown {
+        format!("{n} of {flown} runs have a value ({} without: failures of any requirement on it)", flown - n)
+    } else {
+        format!("{n} runs")
+    };
+    let mut title = format!("{key}: {runs}");
     if let Some(r) = req {
         let needed = match r.op {
             Op::Lt | Op::Le => r.probability,
             Op::Gt | Op::Ge => 1.0 - r.probability,
         };
         cdf.thresholds.push((needed, format!("required ({})", r.name)));
-        tail.thresholds.push((1.0 - needed, format!("allowed ({})", r.name)));
+        let allowed = if large { needed } else { 1.0 - needed };
+        tail.thresholds.push((allowed, format!("allowed ({})", r.name)));
         x_lines.push((r.value, format!("threshold ({})", r.name)));
-        title = format!("{key}: {n} runs, requirement {} ({} % at {conf})", r.name, 100.0 * r.probability);
+        title = format!("{key}: {runs}, requirement {} ({} % at {conf})", r.name, 100.0 * r.probability);
     }
     let fig = Figure {
         file_name: format!("{}.png", file_stem_of(key)),
@@ -690,7 +709,7 @@ mod tests {
             probability: 0.99,
             confidence: 0.95,
         };
-        let (ts, fig) = distribution_figure("settle_time_s", &xs, Some(&req));
+        let (ts, fig) = distribution_figure("settle_time_s", &xs, xs.len(), Some(&req));
         let plan = plots::plan(&ts, &fig, &plots::FigureContext::new("campaign c")).unwrap();
         // The x axis reaches the threshold (the data stop at 9.97).
         assert!(plan.x_range.0 <= 4.0 && plan.x_range.1 >= 15.0, "{:?}", plan.x_range);
@@ -703,5 +722,35 @@ mod tests {
         assert!(f.iter().zip(lower).filter(|(a, _)| a.is_finite()).all(|(a, b)| b <= a));
         assert_eq!(f.iter().copied().filter(|v| v.is_finite()).fold(0.0, f64::max), 1.0);
         assert!(plan.title.contains("settle < 15 s"));
+        assert!(fig.panels[1].series[0].column == "tail", "a key required small fails above x");
+    }
+
+    /// A key required to be large (a margin): the tail panel is the lower tail (the failing
+    /// side), with its upper bound above it and the allowed fraction `1 − p`; runs without a
+    /// value are counted in the title.
+    #[test]
+    fn a_key_required_large_shows_its_lower_tail_and_the_runs_without_a_value() {
+        let xs: Vec<f64> = (0..297).map(|i| 60.0 + 0.05 * i as f64).collect();
+        let req = Requirement {
+            name: "PM >= 30".into(),
+            key: "margins.phase_margin_deg".into(),
+            op: Op::Ge,
+            value: 30.0,
+            probability: 0.99,
+            confidence: 0.95,
+        };
+        let (ts, fig) = distribution_figure("margins.phase_margin_deg", &xs, 300, Some(&req));
+        let tail = &fig.panels[1];
+        assert_eq!(tail.series[0].column, "cdf");
+        assert_eq!(tail.series[1].column, "cdf_upper");
+        assert!(tail.title.contains("at or below"), "{}", tail.title);
+        assert!(tail.thresholds.iter().any(|t| (t.0 - 0.01).abs() < 1e-12), "{:?}", tail.thresholds);
+        assert!(fig.title.contains("297 of 300 runs have a value"), "{}", fig.title);
+        let (f, upper) = (ts.col("cdf").unwrap(), ts.col("cdf_upper").unwrap());
+        assert!(f.iter().zip(upper).filter(|(a, _)| a.is_finite()).all(|(a, b)| b >= a));
+        // At the lowest value one run of 297 is at or below it: its upper bound is the
+        // Clopper–Pearson bound of 1 in 297 (1 − lower bound of 296 in 297).
+        let want = 1.0 - stats::clopper_pearson_lower(296, 297, 0.95);
+        assert!((upper[1] - want).abs() < 1e-12, "{} vs {want}", upper[1]);
     }
 }
