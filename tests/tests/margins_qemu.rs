@@ -1,7 +1,8 @@
 //! SIL = PIL for the margin measurement: `sim-host margins` against the firmware under QEMU
 //! (every experiment and its twin re-flown from t = 0, the firmware's flight state cannot
 //! be copied) must measure the same response, bit for bit, as in-process (experiments
-//! forked from one flight to the operating point). A small grid keeps it short. And the
+//! forked from one flight to the operating point), for a wheel loop and a magnetorquer loop.
+//! A small grid keeps it short. And the
 //! `FreezeAdaptation` message `sim-host margins` sends to an adaptive law (DMCS) works over
 //! QEMU as in-process: the same Δk_p, bit for bit, constant once frozen. Where
 //! qemu-system-arm is not installed: fails under CI, skips loudly otherwise.
@@ -13,16 +14,10 @@ use sim_core::scenario::{Resolved, Scenario};
 use sim_core::simulation::Simulation;
 use sim_host::margins::{MarginOptions, measure};
 
-#[test]
-fn margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
-    if !qemu_available("margins SIL = PIL") {
-        return;
-    }
-    build_qemu_firmware();
-    // The reference loop (tests/scenarios/margins/rigid-pd.toml): 10 Hz, ideal wheels, at
-    // rest on its target from t = 0: the flight to the operating point (1 s) and the
-    // experiments stay short under QEMU (~50 lockstep steps/s here).
-    let sc = Scenario::load(&repo().join("tests/scenarios/margins/rigid-pd.toml")).unwrap();
+/// `sim-host margins` of `rel` at t = 1 s on a 3-frequency grid, in-process and over QEMU:
+/// the same response and phase margin, bit for bit.
+fn sil_equals_pil(rel: &str) {
+    let sc = Scenario::load(&repo().join(rel)).unwrap();
     let opts = MarginOptions {
         at_s: Some(1.0),
         grid_points: 3,
@@ -36,18 +31,44 @@ fn margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
     let bits = |r: &sim_host::margins::MarginReport| -> Vec<u64> {
         r.response.iter().flatten().flatten().flatten().map(|x| x.to_bits()).collect()
     };
-    assert_eq!(bits(&sil), bits(&pil), "the response measured over QEMU differs from the in-process one");
+    assert_eq!(bits(&sil), bits(&pil), "{rel}: the response measured over QEMU differs from the in-process one");
     assert_eq!(pil.link, "qemu");
     let (a, b) = (&sil.axes[0], &pil.axes[0]);
     eprintln!(
-        "margins SIL = PIL: {} frequencies, x axis PM {:?} deg at {:?} rad/s, {} experiments under QEMU in {:.1} s",
+        "{rel}: margins SIL = PIL: {} frequencies, axis {} PM {:?} deg at {:?} rad/s, {} experiments under QEMU in \
+         {:.1} s",
         pil.frequencies_rad_s.len(),
+        b.axis,
         b.phase_margin_deg,
         b.crossover_rad_s,
         pil.cost.experiments,
         pil.cost.wall_time_s
     );
     assert_eq!(a.phase_margin_deg.map(f64::to_bits), b.phase_margin_deg.map(f64::to_bits));
+}
+
+#[test]
+fn margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
+    if !qemu_available("margins SIL = PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    // The reference loop (tests/scenarios/margins/rigid-pd.toml): 10 Hz, ideal wheels, at
+    // rest on its target from t = 0: the flight to the operating point (1 s) and the
+    // experiments stay short under QEMU (~50 lockstep steps/s here).
+    sil_equals_pil("tests/scenarios/margins/rigid-pd.toml");
+}
+
+/// The magnetorquer loop (field frozen at the operating point, 2×2 perpendicular to it):
+/// the freeze and the dipole injection are on the plant side, the cross-product law on the
+/// firmware: the same bits.
+#[test]
+fn magnetorquer_margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
+    if !qemu_available("magnetorquer margins SIL = PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    sil_equals_pil("tests/scenarios/margins/rigid-mtq.toml");
 }
 
 /// Δk_p and Δk_u reported at every step of a DMCS run frozen at step `freeze_at`.
