@@ -18,6 +18,23 @@ pub fn repo() -> PathBuf {
 pub mod require_tool;
 pub use require_tool::{Tool, require_tool};
 
+/// The release `sim-host` binary, built once per test binary (incremental: about a second
+/// when it is current), for tests that run the CLI.
+pub fn sim_host_bin() -> PathBuf {
+    static BUILT: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+    BUILT
+        .get_or_init(|| {
+            let st = std::process::Command::new(env!("CARGO"))
+                .args(["build", "--release", "-p", "sim-host", "--bin", "sim-host"])
+                .current_dir(repo())
+                .status()
+                .expect("cargo build");
+            assert!(st.success(), "building sim-host");
+            repo().join("target/release/sim-host")
+        })
+        .clone()
+}
+
 /// Whether `qemu-system-arm` is installed; when it is not, fails under CI and otherwise says
 /// loudly (and in the skip log) what `what` (the calling test) leaves untested
 /// ([`require_tool`]; scripts/setup.sh installs QEMU).

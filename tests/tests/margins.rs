@@ -19,9 +19,7 @@
 use acs_test_support::loop_reference::{AxisLoop, C, Margins, margins};
 use acs_tests::repo;
 use serde_json::Value;
-use std::path::PathBuf;
 use std::process::Command;
-use std::sync::OnceLock;
 
 const BASE: &str = "tests/scenarios/margins/rigid-pd.toml";
 /// Scenario inertia (wheels included) and the wheels' axial inertia.
@@ -30,21 +28,6 @@ const J_WHEEL: f64 = 0.01;
 const K: [f64; 3] = [5.0, 6.0, 7.5];
 const D: [f64; 3] = [7.0, 8.4, 10.5];
 const T: f64 = 0.1;
-
-fn sim_host() -> PathBuf {
-    static BUILT: OnceLock<PathBuf> = OnceLock::new();
-    BUILT
-        .get_or_init(|| {
-            let st = Command::new(env!("CARGO"))
-                .args(["build", "--release", "-p", "sim-host", "--bin", "sim-host"])
-                .current_dir(repo())
-                .status()
-                .expect("cargo build");
-            assert!(st.success(), "building sim-host");
-            repo().join("target/release/sim-host")
-        })
-        .clone()
-}
 
 /// A variant of the base scenario: `edits` = (line prefix to replace, new line) or
 /// (`[actuators.wheels]`, lines to add to that table).
@@ -72,7 +55,7 @@ fn measure_with(name: &str, text: &str, args: &[&str]) -> (Option<i32>, Option<V
     let path = dir.path().join(format!("{name}.toml"));
     std::fs::write(&path, text).unwrap();
     let out = dir.path().join("out");
-    let o = Command::new(sim_host())
+    let o = Command::new(acs_tests::sim_host_bin())
         .args(["margins", path.to_str().unwrap(), "--json", "--out", out.to_str().unwrap()])
         .args(args)
         .output()

@@ -42,7 +42,6 @@ use sim_host::margins::analysis::{Cmat, loop_from_columns};
 use sim_host::margins::excite::{self, Effectiveness, Experiment, Method};
 use sim_host::margins::grid::Freq;
 use sim_host::margins::response::Setup;
-use std::path::PathBuf;
 use std::process::Command;
 
 const SCENARIO: &str = "tests/scenarios/margins/dmcs-m1-ideal-wheels.toml";
@@ -219,7 +218,7 @@ fn frozen_dmcs_hold_matches_the_closed_form_of_its_frozen_gains() {
     }
     assert!(radius > 1.0, "the frozen hold is stable after all: {radius}");
     let out = tempfile::tempdir().unwrap();
-    let o = Command::new(sim_host())
+    let o = Command::new(acs_tests::sim_host_bin())
         .args(["margins", repo().join(SCENARIO).to_str().unwrap(), "--no-plots"])
         .args(["--grid-points", "8", "--crossover-hint", "0.5", "--no-refine"])
         .args(["--out", out.path().to_str().unwrap()])
@@ -229,14 +228,4 @@ fn frozen_dmcs_hold_matches_the_closed_form_of_its_frozen_gains() {
     eprintln!("sim-host margins: exit {:?}: {stderr}", o.status.code());
     assert_eq!(o.status.code(), Some(3), "{stderr}");
     assert!(stderr.contains("adaptation frozen at the operating point"), "{stderr}");
-}
-
-fn sim_host() -> PathBuf {
-    let st = Command::new(env!("CARGO"))
-        .args(["build", "--release", "-p", "sim-host", "--bin", "sim-host"])
-        .current_dir(repo())
-        .status()
-        .expect("cargo build");
-    assert!(st.success(), "building sim-host");
-    repo().join("target/release/sim-host")
 }

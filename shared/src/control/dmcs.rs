@@ -174,11 +174,10 @@ mod tests {
         assert!(p11 > 0.0 && p11 * p22 - p12 * p12 > 0.0, "P is positive definite");
     }
 
-    #[test]
-    fn adaptive_loop_tracks_the_model_on_a_double_integrator() {
-        // One axis: plant inertia 500 (model 400), the model brings 0.2 rad to 0.
+    /// The gains of the one-axis tests: model inertia 400, ωn 0.05, ζ 0.95.
+    fn one_axis_gains() -> DmcsGains {
         let (p21, p22) = DmcsGains::lyapunov_p(0.05, 0.95, 0.1, 1.0).unwrap();
-        let g = DmcsGains {
+        DmcsGains {
             wn: 0.05,
             zeta: 0.95,
             model_inertia: Vec3::repeat(400.0),
@@ -188,7 +187,13 @@ mod tests {
             p22,
             gain_limit: 1e7,
             torque_limit_nm: Vec3::repeat(1e3),
-        };
+        }
+    }
+
+    #[test]
+    fn adaptive_loop_tracks_the_model_on_a_double_integrator() {
+        // One axis: plant inertia 500 (model 400), the model brings 0.2 rad to 0.
+        let g = one_axis_gains();
         let mut c = Dmcs::new();
         let inertia = 500.0f32;
         let (mut ang, mut w, dt) = (0.2f32, 0.0f32, 0.1f32);
@@ -206,18 +211,7 @@ mod tests {
     /// again, they adapt at once (the previous sample was kept current).
     #[test]
     fn frozen_adaptation_keeps_the_gains() {
-        let (p21, p22) = DmcsGains::lyapunov_p(0.05, 0.95, 0.1, 1.0).unwrap();
-        let g = DmcsGains {
-            wn: 0.05,
-            zeta: 0.95,
-            model_inertia: Vec3::repeat(400.0),
-            alpha: 55.0,
-            beta: 220.0,
-            p21,
-            p22,
-            gain_limit: 1e7,
-            torque_limit_nm: Vec3::repeat(1e3),
-        };
+        let g = one_axis_gains();
         let mut c = Dmcs::new();
         let rate = Vec3::new(0.01, -0.02, 0.005);
         let q_at = |a: f32| quat_from_euler([0.1 * a, -0.2 * a, 0.3 * a], EulerSeq::Zyx321);
