@@ -411,17 +411,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             max_plant_steps,
             adapting,
         } => {
-            let point = match loop_point.as_str() {
-                "input" => sim_host::margins::LoopPoint::Input,
-                "output" => sim_host::margins::LoopPoint::Output,
-                other => anyhow::bail!("--loop {other}: expected input or output"),
-            };
-            let method = match method.as_str() {
-                "auto" => None,
-                "closed" => Some(sim_host::margins::Method::Closed),
-                "open" => Some(sim_host::margins::Method::Open),
-                other => anyhow::bail!("--method {other}: expected closed, open or auto"),
-            };
+            let (point, method) = margin_loop_and_method(&loop_point, &method)?;
             let opts = sim_host::margins::MarginOptions {
                 at_s: at,
                 point,
@@ -940,6 +930,25 @@ fn warn_deprecated(sc: &Scenario) {
 
 /// `sim-host margins`: measure, write margins.json and the figures, print the table (or
 /// the JSON). A loop measured with a negative margin exits with status 3 after writing.
+/// `--loop` and `--method` of `sim-host margins`, parsed.
+fn margin_loop_and_method(
+    loop_point: &str,
+    method: &str,
+) -> Result<(sim_host::margins::LoopPoint, Option<sim_host::margins::Method>)> {
+    let point = match loop_point {
+        "input" => sim_host::margins::LoopPoint::Input,
+        "output" => sim_host::margins::LoopPoint::Output,
+        other => anyhow::bail!("--loop {other}: expected input or output"),
+    };
+    let method = match method {
+        "auto" => None,
+        "closed" => Some(sim_host::margins::Method::Closed),
+        "open" => Some(sim_host::margins::Method::Open),
+        other => anyhow::bail!("--method {other}: expected closed, open or auto"),
+    };
+    Ok((point, method))
+}
+
 fn margins(
     path: &Path,
     opts: &sim_host::margins::MarginOptions,
