@@ -571,6 +571,14 @@ impl<'a> Simulation<'a> {
         Some(frozen)
     }
 
+    /// The field frozen by [`Self::freeze_field`], if it was.
+    pub fn frozen_field(&self) -> Option<FrozenField> {
+        match self.craft.env.as_ref().map(|e| &e.field) {
+            Some(crate::environment::model::FieldSource::Frozen(f)) => Some(*f),
+            _ => None,
+        }
+    }
+
     /// The field in body axes now (at the next control step's time), T.
     pub fn field_body_t(&self) -> Option<Vec3> {
         self.snap.and_then(|s| s.b_ref_t).map(|b| rotate_ref_to_body(&self.state.q, &b))

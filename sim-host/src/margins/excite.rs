@@ -336,11 +336,15 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
             format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
         return Err(MarginError::NotSteady { t_s: t, reason });
     }
-    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))?;
-    // A magnetic law at an orbit instant: the field frozen from here on (docs/margins.md,
-    // "Magnetorquer loops"), so the loop is time-invariant over the experiments.
-    if family == Some(Family::Magnetorquers) && sim.freeze_field().is_none() {
-        return Err(MarginError::NotSteady { t_s: t, reason: "no magnetic field to freeze".into() });
+    wheel_nonlinear(sim).map_or(Ok(()), |reason| Err(MarginError::NotSteady { t_s: t, reason }))
+}
+
+/// A magnetic law at an orbit instant: the field frozen from the operating point on
+/// (docs/margins.md, "Magnetorquer loops"), so the loop is time-invariant over the
+/// experiments; nothing for the other families.
+pub fn freeze_field(sim: &mut Simulation) -> Result<(), MarginError> {
+    if Family::of(sim) == Some(Family::Magnetorquers) && sim.freeze_field().is_none() {
+        return Err(MarginError::NotSteady { t_s: sim.sim_time_s(), reason: "no magnetic field to freeze".into() });
     }
     Ok(())
 }

@@ -30,6 +30,7 @@ use analysis::{C64, Cmat};
 use excite::{Effectiveness, Experiment, Family, LoopAxes};
 use grid::Freq;
 use response::{Pool, Response, Setup};
+use sim_core::environment::model::FrozenField;
 use sim_core::link::{LinkKind, LinkOptions};
 use sim_core::scenario::{Resolved, Scenario};
 use std::time::Instant;
@@ -341,7 +342,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     let eff = Effectiveness::at(&sim)?;
     let j = sim.craft().inertia;
     let axes = eff.axes;
-    let field_note = (eff.family == Family::Magnetorquers).then(|| frozen_field_note(scenario, &sim));
+    let field_note = (eff.family == Family::Magnetorquers).then(|| frozen_field_note(&sim));
     setup.fork = sim.fork_link().is_some() && !opts.refly;
     drop(sim);
     drop(link);
@@ -367,10 +368,10 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
 }
 
 /// What the frozen field is (the magnetorquer loop's operating point).
-fn frozen_field_note(scenario: &Scenario, sim: &sim_core::simulation::Simulation) -> String {
+fn frozen_field_note(sim: &sim_core::simulation::Simulation) -> String {
     let b = sim.field_body_t().unwrap_or_default();
-    let frame = match scenario.target.frame {
-        sim_core::scenario::RefFrame::Lvlh => "LVLH (the orbit, gravity gradient and LVLH rate go on)",
+    let frame = match sim.frozen_field() {
+        Some(FrozenField::Lvlh(_)) => "LVLH (the orbit, gravity gradient and LVLH rate go on)",
         _ => "the reference frame",
     };
     format!(

@@ -40,6 +40,8 @@ impl Setup<'_> {
         let resolved = Resolved::try_from(self.scenario).map_err(MarginError::flight)?;
         let mut sim = Simulation::new(resolved, link).map_err(MarginError::flight)?;
         excite::fly_to(&mut sim, self.k_op, self.check_from, self.settle_bound_deg)?;
+        // What is frozen at the operating point for the experiments and their twins alike.
+        excite::freeze_field(&mut sim)?;
         if self.freeze_adaptation {
             super::freeze::freeze(&mut sim)?;
         }
