@@ -27,6 +27,10 @@ skip_summary() {
 trap skip_summary EXIT
 
 scripts/setup.sh
+# The flight rules, enforced (docs/architecture.md, "Rules"): formatting, then clippy with
+# every warning an error on the host workspace, on the flight crate for the Cortex-M4F and
+# on both firmware boards.
+scripts/lint.sh
 scripts/firmware.sh build          # QEMU mps2-an386 image used by the PIL tests
 scripts/firmware.sh build-stm32    # the flight board image must keep building
 cargo build --release -p acs-flight --no-default-features --target thumbv7em-none-eabihf
