@@ -23,8 +23,8 @@ fn plugin() -> Option<PathBuf> {
         Tool::CyclePlugin,
         cycles::build_plugin().map_err(|e| format!("the cycle plugin does not build here: {e:#}")),
     )?;
-    // The plugin speaks plugin API version 1 (QEMU 4.2 … 8.x); a QEMU that dropped it
-    // refuses to load it.
+    // The plugin speaks plugin API version 2 (QEMU 10.x accepts 2 … 4; 7.2 only 1); a QEMU
+    // that does not accept it refuses to load it.
     let dir = tempfile::tempdir().unwrap();
     let o = qemu_synthetic(&p, 0, dir.path()).output().unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
