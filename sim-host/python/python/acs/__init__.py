@@ -28,6 +28,8 @@ from ._core import (
     RunError,
     Scenario,
     ScenarioError,
+    ScenarioKeyError,
+    ScenarioTypeError,
     empty_frame,
     frame_to_bytes,
     record_frames,
@@ -49,6 +51,8 @@ __all__ = [
     "RunFailed",
     "Scenario",
     "ScenarioError",
+    "ScenarioKeyError",
+    "ScenarioTypeError",
     "campaign",
     "empty_frame",
     "frame_to_bytes",
@@ -173,7 +177,10 @@ def run(
     ``"serial:DEV[@BAUD]"`` — as ``sim-host run --link``. ``progress``: ``True`` shows a bar
     (``tqdm.auto`` when installed: a widget in notebooks), a callable gets
     ``(steps_done, steps_total)``. ``output_every``: record every Nth control step
-    (overrides ``timing.output_every``). Ctrl-C stops the run (``KeyboardInterrupt``).
+    (overrides ``timing.output_every``). Ctrl-C stops the run (``KeyboardInterrupt``)
+    within a fraction of a second, in the run and in its ``[margins]`` measurement.
+    The run flies a copy of ``scenario`` taken when it starts: changing the scenario
+    meanwhile (from another thread) is allowed and does not change this run.
 
     A run that completes with ``run_status != "ok"`` is returned with ``ok == False`` and a
     ``RunStatusWarning``; errors before or during the run raise ``acs.RunError`` (or
