@@ -107,7 +107,7 @@ impl PyFsw {
         })
     }
 
-    /// Any other link message (`HostMsg` as a dict, e.g. `{"RequestMode": ...}`, a ground
+    /// Any other link message (`HostMsg` as a dict, e.g. `{"CommandMode": {"Enter": "Hold"}}`, a ground
     /// command recorded by `acs.record_frames`): the flight side's reply as a dict. Read as
     /// strictly as a frame ([`crate::strict`]).
     fn request<'py>(slf: &Bound<'py, Self>, msg: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {

@@ -93,6 +93,17 @@ def test_a_failed_run_is_returned_with_ok_false_and_a_warning(monkeypatch):
     assert e.value.result is r and isinstance(e.value, acs.AcsError)
 
 
+def test_bad_arguments_raise_acs_errors():
+    sc = acs.Scenario.load(TEST3)
+    with pytest.raises(acs.ScenarioTypeError, match="acs.Scenario"):
+        acs.run(str(TEST3))
+    for bad in (True, -1, 0, 1.5, "10", 2**32):
+        with pytest.raises(acs.ScenarioError, match="output_every"):
+            acs.run(sc, output_every=bad)
+    with pytest.raises(acs.RunError, match="link"):
+        acs.run(sc, link=5)
+
+
 def test_bad_links_raise_run_error():
     sc = acs.Scenario.load(TEST3)
     with pytest.raises(acs.RunError, match="unknown link"):

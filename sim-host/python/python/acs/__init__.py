@@ -13,6 +13,7 @@ native module `acs._core`. Guide: docs/python.md.
 
 from __future__ import annotations
 
+import operator
 import warnings
 from typing import Any, Callable, Dict, List, Optional, Union
 
@@ -186,6 +187,18 @@ def run(
     ``RunStatusWarning``; errors before or during the run raise ``acs.RunError`` (or
     ``acs.ScenarioError`` for an invalid ``output_every``).
     """
+    if not isinstance(scenario, Scenario):
+        raise ScenarioTypeError(f"acs.run needs an acs.Scenario, not {type(scenario).__name__}")
+    if output_every is not None:
+        try:
+            n = None if isinstance(output_every, bool) else operator.index(output_every)
+        except TypeError:
+            n = None
+        if n is None or not 1 <= n < 2**32:
+            raise ScenarioError(f"output_every: must be an integer in [1, 2**32) (got {output_every!r})")
+        output_every = n
+    if link is not None and not isinstance(link, str):
+        raise RunError(f"link: a string such as \"in-process\" or \"tcp:HOST:PORT\" (got {type(link).__name__})")
     callback, close = _progress_callback(progress)
     try:
         summary, names, columns = _core.run(scenario, link, callback, output_every, firmware)
