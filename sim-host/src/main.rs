@@ -416,7 +416,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 at_s: at,
                 point,
                 link,
-                link_options: LinkOptions { firmware },
+                link_options: LinkOptions { firmware, ..Default::default() },
                 grid_points,
                 threads,
                 amplitude_rad,
@@ -686,11 +686,11 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     };
     let margin_base = sim_host::margins::MarginOptions {
         link: kind.clone(),
-        link_options: LinkOptions { firmware: firmware.clone() },
+        link_options: LinkOptions { firmware: firmware.clone(), ..Default::default() },
         threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
         ..Default::default()
     };
-    let mut l = link::open(&kind, &LinkOptions { firmware })?;
+    let mut l = link::open(&kind, &LinkOptions { firmware, ..Default::default() })?;
     let mut rec = output::RunOutput::new(out, !no_plots)
         .format(format)
         .metadata(metadata)

@@ -93,6 +93,17 @@ def test_a_failed_run_is_returned_with_ok_false_and_a_warning(monkeypatch):
     assert e.value.result is r and isinstance(e.value, acs.AcsError)
 
 
+def test_bad_arguments_raise_acs_errors():
+    sc = acs.Scenario.load(TEST3)
+    with pytest.raises(acs.ScenarioTypeError, match="acs.Scenario"):
+        acs.run(str(TEST3))
+    for bad in (True, -1, 0, 1.5, "10", 2**32):
+        with pytest.raises(acs.ScenarioError, match="output_every"):
+            acs.run(sc, output_every=bad)
+    with pytest.raises(acs.RunError, match="link"):
+        acs.run(sc, link=5)
+
+
 def test_bad_links_raise_run_error():
     sc = acs.Scenario.load(TEST3)
     with pytest.raises(acs.RunError, match="unknown link"):
@@ -140,3 +151,33 @@ def test_the_interpreter_lock_is_released_while_a_run_flies():
         time.sleep(0.001)
     th.join()
     assert len(ticks) > 20  # the main thread kept running Python code meanwhile
+
+
+def test_a_scenario_changed_while_it_flies_from_another_thread():
+    """Issue 37: setting a key while acs.run flies the scenario raised a bare
+    RuntimeError("Already borrowed"). The run flies a copy taken when it starts: the key
+    is set at once, and the run's summary is that of the unchanged scenario (compared with
+    a run of a copy; the changed scenario flies differently, so the check can fail)."""
+    sc = acs.Scenario.load(TEST3)
+    sc["duration_s"] = 400.0
+    unchanged = acs.run(sc.copy()).summary
+    flying, result = threading.Event(), {}
+    changed_while_flying = []
+
+    def progress(done, total):
+        flying.set()
+        time.sleep(0.002)  # keep the run going while the main thread changes the scenario
+
+    th = threading.Thread(target=lambda: result.setdefault("r", acs.run(sc, progress=progress)))
+    th.start()
+    assert flying.wait(60)
+    sc["controller.wn_rad_s"] = 2.0
+    sc.update({"controller.zeta": 0.5, "initial.euler_deg[2]": 10.0})
+    changed_while_flying.append(th.is_alive())
+    assert sc["controller.wn_rad_s"] == 2.0 and sc["controller.zeta"] == 0.5
+    th.join()
+    assert changed_while_flying == [True]
+    from conftest import without_wall_clock
+
+    assert without_wall_clock(result["r"].summary) == without_wall_clock(unchanged)
+    assert acs.run(sc).summary["final_error_deg"] != unchanged["final_error_deg"]

@@ -7,6 +7,9 @@ use super::spec::Requirement;
 use super::{flatten, write_atomic};
 use anyhow::{Result, anyhow, bail};
 use serde::{Deserialize, Serialize};
+use sim_core::link::cancel::Cancel;
+use sim_core::link::{self, LinkKind, LinkOptions};
+use sim_core::recorder::series::Discard;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
 use std::path::{Path, PathBuf};
@@ -107,19 +110,25 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 
 /// Flies one run and, with `[margins]`, measures its margins into `summary.margins` (one
 /// worker thread: the campaign runs its runs in parallel). A refused measurement is a
-/// summary with its status and reason: the requirements on its figures then fail.
-fn fly_with_margins(sc: &Scenario) -> anyhow::Result<runner::Summary> {
-    let mut summary = runner::fly(sc)?;
-    let base = crate::margins::MarginOptions { threads: 1, ..Default::default() };
+/// summary with its status and reason: the requirements on its figures then fail. Once
+/// `cancel` is cancelled the run and its measurement stop at their next control step.
+fn fly_with_margins(sc: &Scenario, cancel: &Cancel) -> anyhow::Result<runner::Summary> {
+    let link_options = LinkOptions { cancel: Some(cancel.clone()), ..Default::default() };
+    let mut l = link::open(&LinkKind::InProcess, &link_options)?;
+    // `runner::fly`, with the token checked at every step (open-loop runs use no link).
+    let mut summary = runner::run_observed(sc, l.as_mut(), &mut Discard, &mut |_, _| cancel.check())?;
+    drop(l);
+    let base = crate::margins::MarginOptions { threads: 1, link_options, ..Default::default() };
     summary.margins = crate::margins::summary::for_scenario(sc, &base)?.map(|(m, _)| m);
     Ok(summary)
 }
 
 /// One run, start to verdict; never fails (errors and panics become the record's status).
-pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> RunRecord {
+/// A run cut short by `cancel` gives a record that must not be kept (see [`run_shard_until`]).
+pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement], cancel: &Cancel) -> RunRecord {
     let start = Instant::now();
     let path = dir.join(&run.scenario);
-    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly_with_margins(&sc)))
+    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly_with_margins(&sc, cancel)))
         .unwrap_or_else(|p| Err(anyhow!("panic: {}", panic_message(p.as_ref()))));
     let wall_time_s = start.elapsed().as_secs_f64();
     let summary = match flown.and_then(|s| Ok(serde_json::to_value(&s)?)) {
@@ -180,6 +189,14 @@ pub const MAX_JOBS: usize = 256;
 
 /// Runs the pending runs of `shard` on `jobs` threads (at most [`MAX_JOBS`]).
 pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Result<ShardReport> {
+    run_shard_until(dir, shard, jobs, progress, &Cancel::new())
+}
+
+/// [`run_shard`] that stops once `cancel` is cancelled (Ctrl-C in the Python package):
+/// no run starts after that, the runs in flight stop at their next control step and their
+/// results are not written, so the shard resumes with them. The report counts the runs
+/// whose results were written.
+pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, cancel: &Cancel) -> Result<ShardReport> {
     let manifest = Manifest::load(dir)?;
     let requirements = manifest.campaign()?.requirements;
     // Held until the shard returns: a second runner of these runs refuses.
@@ -200,7 +217,10 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(run) = pending.get(i) else { break };
-                    let rec = run_one(dir, run, &requirements);
+                    let rec = run_one(dir, run, &requirements, cancel);
+                    if cancel.is_cancelled() {
+                        break; // cut short, or not to be judged: run again on resume
+                    }
                     let written = serde_json::to_vec_pretty(&rec)
                         .map_err(anyhow::Error::from)
                         .and_then(|b| write_atomic(&RunRecord::path(dir, run), &b));
