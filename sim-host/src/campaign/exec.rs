@@ -2,10 +2,11 @@
 //! result written atomically (`runs/NNNNNN/result.json`) so that an interrupted shard
 //! resumes where it stopped.
 
+use super::lock::{Shard, ShardLock};
 use super::plan::{Manifest, PlannedRun};
 use super::spec::Requirement;
 use super::{flatten, write_atomic};
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use serde::{Deserialize, Serialize};
 use sim_core::link::cancel::Cancel;
 use sim_core::link::{self, LinkKind, LinkOptions};
@@ -13,39 +14,9 @@ use sim_core::recorder::series::Discard;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// Shard `index` of `count` (0-based, as a job array's task index): runs `i` with
-/// `i % count == index`, so that every shard gets runs from the whole campaign.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Shard {
-    pub index: u32,
-    pub count: u32,
-}
-
-impl Shard {
-    pub const ALL: Shard = Shard { index: 0, count: 1 };
-
-    pub fn owns(&self, run: u32) -> bool {
-        run % self.count == self.index
-    }
-}
-
-impl FromStr for Shard {
-    type Err = anyhow::Error;
-    fn from_str(s: &str) -> Result<Self> {
-        let (k, n) = s.split_once('/').ok_or_else(|| anyhow!("--shard K/S (e.g. 0/4), got {s:?}"))?;
-        let index: u32 = k.trim().parse().map_err(|_| anyhow!("--shard: {k:?} is not a shard index"))?;
-        let count: u32 = n.trim().parse().map_err(|_| anyhow!("--shard: {n:?} is not a shard count"))?;
-        if count == 0 || index >= count {
-            bail!("--shard K/S needs 0 <= K < S (got {index}/{count})");
-        }
-        Ok(Shard { index, count })
-    }
-}
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, PartialOrd, Ord)]
 #[serde(rename_all = "snake_case")]
@@ -200,7 +171,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
     let manifest = Manifest::load(dir)?;
     let requirements = manifest.campaign()?.requirements;
     // Held until the shard returns: a second runner of these runs refuses.
-    let _lock = super::lock::ShardLock::acquire(dir, shard)?;
+    let _lock = ShardLock::acquire(dir, shard)?;
     let mine: Vec<&PlannedRun> = manifest.runs.iter().filter(|r| shard.owns(r.index)).collect();
     let pending: Vec<&PlannedRun> = mine.iter().copied().filter(|r| RunRecord::load(dir, r).is_none()).collect();
     let report =
