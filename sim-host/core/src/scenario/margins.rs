@@ -109,10 +109,11 @@ pub struct OptionRefused {
     pub why: String,
 }
 
-/// A number as a refusal quotes it: positional when short, else in exponent form (`1e300`).
+/// A number as a refusal quotes it: the shorter of its positional and exponent forms
+/// (`20.000001`, `1e-9`, `1e300`).
 fn quoted(x: f64) -> String {
-    let plain = x.to_string();
-    if plain.len() <= 12 { plain } else { format!("{x:e}") }
+    let (plain, exp) = (x.to_string(), format!("{x:e}"));
+    if exp.len() < plain.len() { exp } else { plain }
 }
 
 impl OptionRefused {
