@@ -195,8 +195,8 @@ enum Cmd {
         /// Firmware ELF for --link qemu.
         #[arg(long)]
         firmware: Option<PathBuf>,
-        /// Frequencies of the log-spaced grid, before refinement, in [5, 400] (at least 20
-        /// with --no-refine).
+        /// Frequencies of the log-spaced grid, before refinement, in [5, 400] (with
+        /// --no-refine, enough that adjacent ones are within 1.5x).
         #[arg(long, allow_negative_numbers = true, default_value_t = 40, value_parser = parse_grid_points)]
         grid_points: usize,
         /// Worker threads, in [1, 64].
@@ -209,7 +209,8 @@ enum Cmd {
         /// sweep; the grid then starts at hint / 30 and must start below the crossover).
         #[arg(long, allow_negative_numbers = true, value_parser = parse_crossover_hint)]
         crossover_hint: Option<f64>,
-        /// No refinement of crossings and peaks (needs --grid-points 20 or more).
+        /// No refinement of crossings and peaks (needs a grid whose adjacent frequencies are
+        /// within 1.5x: about 20 points over three decades).
         #[arg(long)]
         no_refine: bool,
         /// Re-fly every experiment from t = 0 even in-process (as under QEMU).
@@ -335,7 +336,7 @@ fn parse_at(s: &str) -> std::result::Result<f64, String> {
 }
 
 fn parse_grid_points(s: &str) -> std::result::Result<usize, String> {
-    sim_core::scenario::margin_check::grid_points(parse_number(s)?, true).map_err(|e| e.why)
+    sim_core::scenario::margin_check::grid_points(parse_number(s)?).map_err(|e| e.why)
 }
 
 fn parse_threads(s: &str) -> std::result::Result<usize, String> {

@@ -164,7 +164,7 @@ impl MarginOptions {
     /// [`sim_core::scenario::margin_check`]); the refusal names the flag.
     pub fn check(&self, duration_s: f64, dt_s: f64) -> Result<(), OptionRefused> {
         check::at_s(self.at_s.unwrap_or(duration_s), duration_s)?;
-        check::grid_points(self.grid_points, self.refine)?;
+        check::grid_points(self.grid_points)?;
         check::threads(self.threads)?;
         check::amplitude_rad(self.amplitude_rad)?;
         if let Some(w) = self.crossover_hint_rad_s {

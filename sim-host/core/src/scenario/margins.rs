@@ -45,13 +45,11 @@ impl Default for MarginsSpec {
 /// Fewest and most grid frequencies: below, no crossing can be bracketed; above, the
 /// measurement costs minutes without a better margin (refinement adds points at crossings).
 pub const GRID_POINTS: (usize, usize) = (5, 400);
-/// Fewest grid frequencies without refinement (`--no-refine`): the margins are then
-/// interpolated between grid frequencies, and on the reference loop (docs/margins.md) 20
-/// points give the refined phase margin to 0.13°, 10 points miss it by 2.8° and 5 by 19.5°.
-pub const UNREFINED_GRID_POINTS: usize = 20;
-/// Without refinement, adjacent grid frequencies at most this ratio apart (the grid spans
-/// `ωc/30` to Nyquist: checked once the crossover estimate is known): 1.45 on the reference
-/// loop's 20-point grid; 2.2 (its 10-point grid) missed the phase margin by 2.8°.
+/// Without refinement (`--no-refine`) the margins are interpolated between grid
+/// frequencies, so adjacent ones must be at most this ratio apart (the grid spans `ωc/30`
+/// to Nyquist: checked once the crossover estimate is known). On the reference loop
+/// (docs/margins.md) 20 points, 1.45× apart, give the refined phase margin to 0.13°; 10
+/// points, 2.2× apart, miss it by 2.8°, and 5 points by 19.5°.
 pub const UNREFINED_MAX_RATIO: f64 = 1.5;
 /// Fewest and most worker threads: each flies its own copy of the operating point, and a
 /// batch has at most three experiments per frequency.
@@ -159,25 +157,15 @@ pub mod check {
         }
     }
 
-    /// Grid frequencies in [`GRID_POINTS`], and at least [`UNREFINED_GRID_POINTS`] without
-    /// refinement.
-    pub fn grid_points(n: usize, refine: bool) -> Result<usize, OptionRefused> {
+    /// Grid frequencies in [`GRID_POINTS`] (without refinement, also
+    /// [`unrefined_spacing`] once the grid's span is known).
+    pub fn grid_points(n: usize) -> Result<usize, OptionRefused> {
         let (lo, hi) = GRID_POINTS;
-        if !(lo..=hi).contains(&n) {
-            return Err(OptionRefused::new(O::GridPoints, n, format!("must be in [{lo}, {hi}]")));
+        if (lo..=hi).contains(&n) {
+            Ok(n)
+        } else {
+            Err(OptionRefused::new(O::GridPoints, n, format!("must be in [{lo}, {hi}]")))
         }
-        if !refine && n < UNREFINED_GRID_POINTS {
-            return Err(OptionRefused::new(
-                O::GridPoints,
-                n,
-                format!(
-                    "with --no-refine at least {UNREFINED_GRID_POINTS}: the margins are interpolated between grid \
-                     frequencies, and a coarser grid misplaces them by degrees (drop --no-refine to refine a coarse \
-                     grid)"
-                ),
-            ));
-        }
-        Ok(n)
     }
 
     /// Worker threads in [`THREADS`].
@@ -263,7 +251,7 @@ impl Scenario {
     pub fn margin_request(&self) -> Result<Option<MarginRequest>> {
         let Some(m) = &self.margins else { return Ok(None) };
         let at_s = check::at_s(m.at_s.unwrap_or(self.duration_s), self.duration_s).map_err(|e| e.as_key())?;
-        let grid_points = check::grid_points(m.grid_points, true).map_err(|e| e.as_key())?;
+        let grid_points = check::grid_points(m.grid_points).map_err(|e| e.as_key())?;
         Ok(Some(MarginRequest { at_s, point: m.loop_point, grid_points }))
     }
 }
@@ -309,12 +297,9 @@ mod tests {
         for t in [-1e-9, 10.000001, 1e300, f64::NAN, f64::INFINITY] {
             assert!(check::at_s(t, 10.0).unwrap_err().to_string().starts_with("--at "), "{t}");
         }
-        assert!(check::grid_points(5, true).is_ok() && check::grid_points(400, true).is_ok());
-        assert!(check::grid_points(20, false).is_ok());
-        for (n, refine) in
-            [(0, true), (1, true), (4, true), (401, true), (1_000_000_000, true), (3, false), (19, false)]
-        {
-            let e = check::grid_points(n, refine).unwrap_err().to_string();
+        assert!(check::grid_points(5).is_ok() && check::grid_points(400).is_ok());
+        for n in [0, 1, 3, 4, 401, 1_000_000_000] {
+            let e = check::grid_points(n).unwrap_err().to_string();
             assert!(e.starts_with(&format!("--grid-points {n}: ")), "{e}");
         }
         assert!(check::threads(1).is_ok() && check::threads(64).is_ok());

@@ -26,7 +26,7 @@ mod margins;
 mod modes;
 pub use margins::{
     AMPLITUDE_RAD, GRID_POINTS, LoopPoint, MarginOption, MarginRequest, MarginsSpec, OptionRefused, PILOT_LEVELS,
-    THREADS, UNREFINED_GRID_POINTS, UNREFINED_MAX_RATIO, check as margin_check,
+    THREADS, UNREFINED_MAX_RATIO, check as margin_check,
 };
 mod momentum;
 pub use momentum::MomentumSpec;
