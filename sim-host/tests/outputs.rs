@@ -124,9 +124,16 @@ fn a_rerun_leaves_no_previous_margins_outputs() {
     let present = |dir: &str| MARGIN_OUTPUTS.iter().filter(|f| d.join(dir).join(f).exists()).count();
     assert_eq!(sim_host_in(d, &["margins", n, "--out", "m"]).0, Some(0));
     assert_eq!(present("m"), 4);
+    // A killed measurement's temporaries go with the outputs; a user's file stays.
+    let stale = [".margins.json.tmp-4242-ThreadId(2)", ".bode.png.tmp-4242-ThreadId(3)"];
+    for f in stale.iter().chain(&["notes.txt"]) {
+        std::fs::write(d.join("m").join(f), b"x").unwrap();
+    }
     let (code, stderr) = sim_host_in(d, &["margins", t, "--out", "m"]);
     assert_eq!(code, Some(3), "{stderr}");
     assert_eq!(present("m"), 0, "{stderr}");
+    assert!(stale.iter().all(|f| !d.join("m").join(f).exists()), "stale temporaries left");
+    assert!(d.join("m/notes.txt").exists(), "a file no run wrote was removed");
 
     assert_eq!(sim_host_in(d, &["run", n, "--out", "r", "--quiet"]).0, Some(0));
     assert_eq!(present("r"), 4);
@@ -148,6 +155,36 @@ fn a_rerun_leaves_no_previous_margins_outputs() {
     let (code, stderr) = sim_host_in(d, &["margins", n, "--out", "m"]);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("m/margins.json"), "{stderr}");
+}
+
+/// Issue 37, finding 6: `margins.json` is written whole or not at all. A write that fails
+/// part way — here at the file-size limit (`ulimit -f 8`, 4 KiB, with SIGXFSZ ignored so
+/// that the write returns EFBIG where a full disk returns ENOSPC) — leaves no
+/// `margins.json` (written in place, the first 4 KiB of it stayed under its final name)
+/// and no temporary, and exits 1 with an error naming the file. The limit is under the
+/// file's size, which the unlimited run before it measures.
+#[test]
+fn a_margins_json_that_cannot_be_written_whole_is_not_left_half_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (nominal, _) = margins_fixtures(d);
+    let args = ["margins", nominal.to_str().unwrap(), "--out", "m", "--no-plots", "--grid-points", "20", "--no-refine"];
+    assert_eq!(sim_host_in(d, &args).0, Some(0));
+    let size = std::fs::metadata(d.join("m/margins.json")).unwrap().len();
+    assert!(size > 8 * 1024, "margins.json is {size} bytes: the 4 KiB limit must cut it");
+    let o = Command::new("/bin/sh")
+        .args(["-c", "trap '' XFSZ; ulimit -f 8 && exec \"$0\" \"$@\"", env!("CARGO_BIN_EXE_sim-host")])
+        .args(args)
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    eprintln!("margins.json: {size} bytes; under a 4 KiB limit: exit {:?}, {}", o.status.code(), stderr.trim());
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("writing m/margins.json"), "the error must name the file: {stderr}");
+    let left: Vec<String> =
+        std::fs::read_dir(d.join("m")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    assert!(left.is_empty(), "a failed write left {left:?}");
 }
 
 /// A run killed by SIGKILL (as by SIGINT: no destructor runs) leaves its hidden
