@@ -166,6 +166,11 @@ struct Actuation {
     gimbal_delay: DelayLine<MAX_GIMBALS>,
     /// The wheel torque commands of this control period (before `wheel_delay`).
     wheel_cmd: [f64; MAX_WHEELS],
+    /// The gimbal-rate and dipole commands of this control period as the plant receives
+    /// them (a loop injection added; before the delays and limits): what
+    /// [`Simulation::plant_commands`] reports.
+    gimbal_cmd: [f64; MAX_GIMBALS],
+    dipole_cmd: [f64; 3],
 }
 
 impl Actuation {
@@ -186,6 +191,8 @@ impl Actuation {
             wheel_delay,
             gimbal_delay,
             wheel_cmd: [0.0; MAX_WHEELS],
+            gimbal_cmd: [0.0; MAX_GIMBALS],
+            dipole_cmd: [0.0; 3],
         }
     }
 
@@ -208,6 +215,7 @@ impl Actuation {
             }
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
+        self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
         input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
         input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
@@ -216,6 +224,7 @@ impl Actuation {
                 Some(inj) => inj.add_to_dipole(if inj.replace_commands { [0.0; 3] } else { dipole_cmd }),
                 None => dipole_cmd,
             };
+            self.dipole_cmd = applied;
             let acting = self.mtq_delay.push(applied);
             self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
         }
@@ -353,6 +362,20 @@ impl LoopInjection {
         let q = q.normalize();
         frame.q_ib_xyzw = [q.i, q.j, q.k, q.w].map(|c| c as f32);
     }
+}
+
+/// The actuator commands of the last control step as the plant receives them: the flight's
+/// command with a loop injection added (or the injection alone, open loop), before the
+/// actuators' delays and limits ([`Simulation::plant_commands`]; `sim-host margins` checks
+/// them against the limits during its experiments).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlantCommands {
+    /// Per wheel, motor torque, N m.
+    pub wheel_torque_nm: [f64; MAX_WHEELS],
+    /// Per gimbal, rate, rad/s.
+    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
+    /// Per rod, dipole, A m² (zero without magnetorquers).
+    pub dipole_am2: [f64; 3],
 }
 
 /// What one control step saw, for the recorded row.
@@ -579,6 +602,14 @@ impl<'a> Simulation<'a> {
         }
     }
 
+    /// The true attitude error of the state now against the target in the frame of the last
+    /// environment snapshot, deg: before the first step, exactly what step 0 records (an
+    /// operating point at t = 0 has no step to read it from).
+    pub fn attitude_error_now_deg(&self) -> f64 {
+        let q_cmd = self.target.frame(self.snap.as_ref()) * self.target.q_rel;
+        error_angle_and_vector(&self.state.q, &q_cmd).0.to_degrees()
+    }
+
     /// The field in body axes now (at the next control step's time), T.
     pub fn field_body_t(&self) -> Option<Vec3> {
         self.snap.and_then(|s| s.b_ref_t).map(|b| rotate_ref_to_body(&self.state.q, &b))
@@ -606,6 +637,15 @@ impl<'a> Simulation<'a> {
     }
 
     /// The last control step's flight command and its true attitude error (deg).
+    /// The commands of the last control step as the plant received them ([`PlantCommands`]).
+    pub fn plant_commands(&self) -> PlantCommands {
+        PlantCommands {
+            wheel_torque_nm: self.act.wheel_cmd,
+            gimbal_rate_rad_s: self.act.gimbal_cmd,
+            dipole_am2: self.act.dipole_cmd,
+        }
+    }
+
     pub fn last_step(&self) -> Option<&(ActuatorCommand, f64)> {
         self.last_step.as_ref()
     }

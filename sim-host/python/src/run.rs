@@ -142,7 +142,10 @@ fn fly(
     };
     let measured =
         interruptible(&cancel, || sim_host::margins::summary::for_scenario(sc, &base)).map_err(Failed::Python)?;
-    summary.margins = measured?.map(|m| m.0);
+    // As `sim-host run` and campaigns: a loop that is not stable and steady fails the run.
+    if let Some((m, _)) = measured? {
+        summary.record_margins(m);
+    }
     Ok((summary, series))
 }
 

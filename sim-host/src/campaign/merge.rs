@@ -111,7 +111,8 @@ pub struct GroupRow {
     pub value: serde_json::Value,
     pub runs: usize,
     pub errors: usize,
-    /// Runs of this value that diverged or whose every step was refused.
+    /// Runs of this value that diverged, whose every step was refused, or whose margins
+    /// failed.
     pub failed_runs: usize,
     /// Runs of this value that missed each requirement (by name).
     pub failed: BTreeMap<String, usize>,
@@ -148,6 +149,10 @@ pub struct CampaignResult {
     /// each misses every requirement and fails the campaign.
     pub diverged: Vec<u32>,
     pub all_refused: Vec<u32>,
+    /// Runs whose `[margins]` measurement is not a stable loop at a steady hold (summary
+    /// `run_status` `margins_failed`: `sim-host run` exits non-zero for them): each misses
+    /// every requirement and fails the campaign.
+    pub margins_failed: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -155,13 +160,14 @@ pub struct CampaignResult {
 }
 
 impl CampaignResult {
-    /// Whether the campaign passes: every run present, none in error, diverged or refused,
-    /// every requirement met.
+    /// Whether the campaign passes: every run present, none in error, diverged, refused or
+    /// with failed margins, every requirement met.
     pub fn passed(&self) -> bool {
         self.missing.is_empty()
             && self.errors.is_empty()
             && self.diverged.is_empty()
             && self.all_refused.is_empty()
+            && self.margins_failed.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -325,7 +331,7 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
             if rec.status == RunStatus::Error {
                 row.errors += 1;
             }
-            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused) {
+            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed) {
                 row.failed_runs += 1;
             }
             for r in requirements {
@@ -380,6 +386,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         errors,
         diverged: runs_of(RunStatus::Diverged),
         all_refused: runs_of(RunStatus::AllRefused),
+        margins_failed: runs_of(RunStatus::MarginsFailed),
         requirements,
         groups,
         statistics,
@@ -559,7 +566,7 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         s,
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
-         {} ended in error.\n",
+         {} had margins that are not a stable loop at a steady hold, {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -568,9 +575,14 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         r.requirement_failed,
         r.diverged.len(),
         r.all_refused.len(),
+        r.margins_failed.len(),
         r.errors.len()
     );
-    for (what, runs) in [("Diverged runs", &r.diverged), ("Runs with every step refused", &r.all_refused)] {
+    for (what, runs) in [
+        ("Diverged runs", &r.diverged),
+        ("Runs with every step refused", &r.all_refused),
+        ("Runs whose margins are not a stable loop at a steady hold (`margins.status`)", &r.margins_failed),
+    ] {
         if !runs.is_empty() {
             let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_command(*i))).collect();
             let _ = writeln!(s, "**{what} ({}, each fails every requirement):** {}\n", runs.len(), shown.join(", "));
@@ -615,7 +627,7 @@ fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
     for g in &r.groups {
         let _ = writeln!(s, "## By `{}`\n", g.key);
         let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
-        let _ = write!(s, "| value | runs | errors | diverged or refused |");
+        let _ = write!(s, "| value | runs | errors | diverged, refused or margins failed |");
         for n in &names {
             let _ = write!(s, " missed `{n}` |");
         }

@@ -209,8 +209,8 @@ pub fn generate(o: &Options) -> Result<Report> {
         doc.insert(1, margins_section(t));
     }
     let markdown = render::markdown(&doc);
-    std::fs::write(o.out.join("report.md"), &markdown)?;
-    std::fs::write(o.out.join("index.html"), render::html(&doc, "Reproduction report"))?;
+    sim_core::files::write_atomic(&o.out.join("report.md"), markdown.as_bytes())?;
+    sim_core::files::write_atomic(&o.out.join("index.html"), render::html(&doc, "Reproduction report").as_bytes())?;
     Ok(Report { rows, experiments, markdown })
 }
 

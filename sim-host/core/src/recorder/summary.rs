@@ -43,6 +43,11 @@ pub enum RunStatus {
     /// (`sensor_samples_dropped` > 0): the flight code did not see the sensor the scenario
     /// describes. Zero by construction of the queues' cap; this says so if it ever is not.
     SamplesDropped,
+    /// The flight was ok, but the stability margins `[margins]` asks for were not measured
+    /// as a stable loop at a steady hold (`margins.status` is not `measured`): the run
+    /// exits as `sim-host margins` would (3 not steady or unstable, 2 unsupported or over
+    /// budget, 1 error) and a campaign counts it as a failed run (docs/margins.md).
+    MarginsFailed,
 }
 
 /// Why a run failed (`summary.json` `failure`; null for a run that is ok).
@@ -57,12 +62,16 @@ pub enum Failure {
     Link { reason: String },
     /// Which sensors' samples the simulator lost.
     Sensors { reason: String },
+    /// Why the margins `[margins]` asks for are not those of a stable loop at a steady hold
+    /// (`margins.status` and `margins.reason`).
+    Margins { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {
     pub scenario: String,
-    /// `ok`, `diverged`, `all_refused` or `link_anomaly` (see [`RunStatus`]).
+    /// `ok`, `diverged`, `all_refused`, `link_anomaly`, `samples_dropped` or
+    /// `margins_failed` (see [`RunStatus`]).
     pub run_status: RunStatus,
     /// Null when `run_status` is `ok`.
     pub failure: Option<Failure>,
@@ -164,17 +173,43 @@ pub struct Summary {
     pub margins: Option<MarginSummary>,
 }
 
-/// Whether the margins of `[margins]` were measured, or why not (`sim-host margins`'s exit
-/// status: 0 `measured` and stable, 1 `error`, 2 `unsupported` or `over_budget`, 3 `not_steady`, `unstable`
-/// or measured with a negative margin).
+impl Summary {
+    /// Records the `[margins]` measurement of this run: `margins`, and, when it is not a
+    /// stable loop measured at a steady hold (`status` other than `measured`), a flight that
+    /// was ok becomes `run_status` `margins_failed` with the margins' reason as its `failure`
+    /// (an earlier failure of the flight itself stays the run's status).
+    pub fn record_margins(&mut self, m: MarginSummary) {
+        if m.status != MarginStatus::Measured && self.run_status == RunStatus::Ok {
+            let status = serde_json::to_value(m.status).ok().and_then(|v| v.as_str().map(str::to_owned));
+            let reason = format!(
+                "margins {}: {}",
+                status.unwrap_or_default(),
+                m.reason.as_deref().unwrap_or("not a stable loop at a steady hold")
+            );
+            self.run_status = RunStatus::MarginsFailed;
+            self.failure = Some(Failure::Margins { reason });
+        }
+        self.margins = Some(m);
+    }
+}
+
+/// Whether the margins of `[margins]` were measured as a stable loop at a steady hold, or
+/// why not. Anything but `Measured` is a failed run (`run_status` `margins_failed`; exit
+/// status as `sim-host margins`'s: 1 `error`, 2 `unsupported` or `over_budget`, 3
+/// `not_steady` or `unstable`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MarginStatus {
+    /// Measured at a steady hold, and stable: every crossover's phase margin positive and
+    /// the multiloop disk margin positive.
     Measured,
     /// The operating point is not a steady hold (saturation, stiction, unsettled error,
-    /// a response that never becomes periodic).
+    /// a response that never becomes periodic), at the operating point or during an
+    /// experiment (an actuator at its limit): no figure.
     NotSteady,
-    /// The loop diverged while being measured.
+    /// The loop is unstable: it diverged while being measured (no figure), or it was
+    /// measured (open loop, or closed) with a negative phase margin — the figures are then
+    /// those of the unstable loop, beside `stable: false`, and say how far it is from stable.
     Unstable,
     /// A loop this measurement does not cover (thrusters; a magnetorquer loop at the output or
     /// with the magnetometer in the estimator).
@@ -186,8 +221,10 @@ pub enum MarginStatus {
 
 /// `summary.json` `margins`: the scalars a campaign disperses over and requires, each the
 /// worst over the three axes (loop-at-a-time), plus the multiloop disk margin. A figure is
-/// `null` when not measured (`status` ≠ `measured`, `reason` says why) or infinite (gain
-/// margins with no phase crossing, below the control Nyquist frequency).
+/// a number only beside `status` `measured` (a stable loop), or `unstable` with `stable:
+/// false` (a loop measured unstable: its figures say how far); `null` when not measured
+/// (`reason` says why) or infinite (gain margins with no phase crossing, below the control
+/// Nyquist frequency).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MarginSummary {
     pub status: MarginStatus,

@@ -24,7 +24,10 @@ pub mod estimation;
 mod limits;
 mod margins;
 mod modes;
-pub use margins::{GRID_POINTS, LoopPoint, MarginRequest, MarginsSpec};
+pub use margins::{
+    AMPLITUDE_RAD, GRID_POINTS, LoopPoint, MarginOption, MarginRequest, MarginsSpec, OptionRefused, PILOT_LEVELS,
+    THREADS, UNREFINED_MAX_RATIO, check as margin_check,
+};
 mod momentum;
 pub use momentum::MomentumSpec;
 mod performance;

@@ -94,7 +94,7 @@ class RunResult:
 
     @property
     def status(self) -> str:
-        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"`` or ``"samples_dropped"``."""
+        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"``, ``"samples_dropped"`` or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
