@@ -738,6 +738,11 @@ fn run_verdict(summary: &Summary) -> Result<()> {
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
                 .into())
         }
+        Some(Failure::Control { reason }) => Err(RunFailed(format!(
+            "{}: the flight code could not control: {reason} (summary.json: run_status \"no_control\")",
+            summary.scenario
+        ))
+        .into()),
         None => match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {
             None | Some(0) => Ok(()),
             Some(code) => Err(ExitWith(

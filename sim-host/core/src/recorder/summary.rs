@@ -43,7 +43,23 @@ pub enum RunStatus {
     /// (`sensor_samples_dropped` > 0): the flight code did not see the sensor the scenario
     /// describes. Zero by construction of the queues' cap; this says so if it ever is not.
     SamplesDropped,
+    /// The flight code could not control for a material part of the run: after the
+    /// start-up allowance ([`CONTROL_STARTUP_FRACTION`] of the steps, at most
+    /// [`CONTROL_STARTUP_MAX_S`]), more than [`MAX_UNCONTROLLED_FRACTION`] of the steps
+    /// held the safe command because the active mode lacked an input it needs
+    /// (`status_counts.bad_input`: a sensor missing, lost or out of range; or
+    /// `no_estimate`: the fine attitude estimate or the navigation solution).
+    NoControl,
 }
+
+/// Start-up allowance of the no-control check: the first tenth of the run's steps…
+pub const CONTROL_STARTUP_FRACTION: f64 = 0.1;
+/// …but at most this much flight time, s (a filter converges, a tracker locks, a field
+/// model fills within it).
+pub const CONTROL_STARTUP_MAX_S: f64 = 60.0;
+/// After the allowance, a run with more than this fraction of its steps uncontrolled
+/// (`bad_input` or `no_estimate`) fails with `no_control`.
+pub const MAX_UNCONTROLLED_FRACTION: f64 = 0.1;
 
 /// Why a run failed (`summary.json` `failure`; null for a run that is ok).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -57,12 +73,15 @@ pub enum Failure {
     Link { reason: String },
     /// Which sensors' samples the simulator lost.
     Sensors { reason: String },
+    /// How many steps after the start-up allowance were uncontrolled, and why.
+    Control { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {
     pub scenario: String,
-    /// `ok`, `diverged`, `all_refused` or `link_anomaly` (see [`RunStatus`]).
+    /// `ok`, `diverged`, `all_refused`, `link_anomaly`, `samples_dropped` or `no_control`
+    /// (see [`RunStatus`]).
     pub run_status: RunStatus,
     /// Null when `run_status` is `ok`.
     pub failure: Option<Failure>,
@@ -129,7 +148,8 @@ pub struct Summary {
     /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
     /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
     /// filter); innovations the chi-square gates rejected; filter restarts. Absent
-    /// otherwise.
+    /// otherwise. The error and NEES figures are over the steps where the filter ran
+    /// (`estimation_steps`, of `steps` + 1 flight steps).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimation_error_rms_deg: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -138,6 +158,9 @@ pub struct Summary {
     pub bias_error_final_deg_h: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nees_mean: Option<f64>,
+    /// Flight steps where the filter ran: what the figures above are over.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_steps: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub innovations_rejected: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -221,13 +244,19 @@ pub struct MarginSummary {
 }
 
 /// What the flight estimator did with the sensor samples over a run (`summary.json`
-/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at their own time (of them, late: taken
-/// before the filter's newest time and carried forward through its history), refused by
-/// reason, and the largest sample age per sensor, s (−1: never sampled).
+/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at
+/// their own time (of them, late: taken before the filter's newest time and carried
+/// forward through its history; after a wait: taken after it, fused when the gyro caught
+/// up), refused by reason, still waiting for the gyro at the end, and the largest sample
+/// age per sensor, s (−1: never sampled).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SampleFusion {
     pub fused: u32,
     pub fused_late: u32,
+    pub fused_after_wait: u32,
+    pub waiting_at_end: u16,
+    /// Dropped while waiting for the gyro (its wait queue full, or the filter stopped).
+    pub refused_dropped_waiting: u32,
     pub refused_too_old: u32,
     pub refused_from_the_future: u32,
     pub refused_out_of_order: u32,

@@ -89,7 +89,8 @@ class RunResult:
 
     @property
     def status(self) -> str:
-        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"`` or ``"samples_dropped"``."""
+        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"``,
+        ``"samples_dropped"`` or ``"no_control"``."""
         return str(self.summary.get("run_status"))
 
     @property
