@@ -638,7 +638,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
-                 {} diverged, {} refused by the flight code, {} margins failed, {} errors",
+                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -650,6 +650,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.diverged,
                 r.all_refused,
                 r.margins_failed,
+                r.no_control,
                 r.errors
             );
         }
@@ -658,7 +659,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = &m.result;
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
-                 {} margins failed, {} errors)",
+                 {} margins failed, {} not controlled, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -667,6 +668,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.diverged.len(),
                 r.all_refused.len(),
                 r.margins_failed.len(),
+                r.no_control.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
@@ -677,6 +679,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 ("diverged", &r.diverged),
                 ("all steps refused", &r.all_refused),
                 ("margins failed", &r.margins_failed),
+                ("not controlled", &r.no_control),
             ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();
@@ -784,6 +787,11 @@ fn run_verdict(summary: &Summary) -> Result<()> {
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
                 .into())
         }
+        Some(Failure::Control { reason }) => Err(RunFailed(format!(
+            "{}: the flight code could not control: {reason} (summary.json: run_status \"no_control\")",
+            summary.scenario
+        ))
+        .into()),
         // `[margins]` not a stable loop at a steady hold: `sim-host margins`'s exit status.
         Some(Failure::Margins { .. }) | None => {
             match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {

@@ -19,7 +19,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 14;
+pub const PROTOCOL_VERSION: u16 = 15;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1024;
@@ -284,7 +284,8 @@ pub struct FusionCounters {
     pub fused_late: u32,
     /// Refused: older than the filter history.
     pub too_old: u32,
-    /// Refused: newer than the frame or the gyro (from the future).
+    /// Refused: newer than the frame (from the future). A sample newer than the gyro but
+    /// not than the frame waits instead (`waiting`; protocol 15).
     pub from_the_future: u32,
     /// Refused: not newer than the sensor's last fused sample (out of order).
     pub out_of_order: u32,
@@ -292,6 +293,15 @@ pub struct FusionCounters {
     pub bad_input: u32,
     /// Most history nodes re-run to carry one late sample to now.
     pub max_replayed_nodes: u16,
+    /// Samples taken after the filter's time (the gyro lagging them) that waited for the
+    /// gyro and were then fused at their own time (counted in `fused_now` too). Protocol 15.
+    pub fused_after_wait: u32,
+    /// Refused: dropped while waiting for the gyro (the sensor's wait queue full, or the
+    /// filter stopped). Protocol 15.
+    pub dropped_waiting: u32,
+    /// Samples waiting for the gyro after this step (at most
+    /// `estimation::waiting::MAX_WAITING`). Protocol 15.
+    pub waiting: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.

@@ -22,7 +22,8 @@ use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
-    ErrorStats, Failure, ModeTransition, RunStatus, StatusCounts, Summary, nan_max, nan_min,
+    CONTROL_STARTUP_FRACTION, CONTROL_STARTUP_MAX_S, ErrorStats, Failure, MAX_UNCONTROLLED_FRACTION, ModeTransition,
+    RunStatus, StatusCounts, Summary, nan_max, nan_min,
 };
 use crate::scenario::{
     Clock, GroundCommand, InertiaChange, OpenLoopRow, Performance, Resolved, Scenario, TargetConfig, Upload, layout,
@@ -260,6 +261,10 @@ struct Metrics {
     sum_ticks: f64,
     n_ticks: u64,
     frames_dropped_flight: u32,
+    /// Flight steps after the start-up allowance, and those of them uncontrolled
+    /// (`bad_input` or `no_estimate`): the no-control check.
+    steps_after_startup: u64,
+    uncontrolled_after_startup: u64,
     mode_now: Option<u8>,
     mode_transitions: Vec<ModeTransition>,
 }
@@ -845,6 +850,7 @@ impl<'a> Simulation<'a> {
         err_deg: f64,
     ) -> [(WheelDeriv, WheelOutput); MAX_WHEELS] {
         self.errors.push(t, err_deg);
+        let after_startup = self.k >= self.startup_steps();
         let m = &mut self.metrics;
         if let Some(c) = &self.craft.cmg {
             m.min_singularity = nan_min(m.min_singularity, c.singularity_measure(&self.state.gimbal_rad));
@@ -856,7 +862,38 @@ impl<'a> Simulation<'a> {
         m.wheels(wheels[..n_wheels].iter().map(|(_, o)| o));
         m.status(cmd.status);
         m.ticks(ticks);
+        if after_startup {
+            m.steps_after_startup += 1;
+            m.uncontrolled_after_startup += u64::from(cmd.status & (status::BAD_INPUT | status::NO_ESTIMATE) != 0);
+        }
         wheels
+    }
+
+    /// Flight steps of the start-up allowance of the no-control check: the first
+    /// `CONTROL_STARTUP_FRACTION` of the run's steps, at most `CONTROL_STARTUP_MAX_S`.
+    fn startup_steps(&self) -> u64 {
+        let total = (self.clock.steps + 1) as f64;
+        let by_time = (CONTROL_STARTUP_MAX_S / self.clock.dt).ceil();
+        (CONTROL_STARTUP_FRACTION * total).ceil().min(by_time) as u64
+    }
+
+    /// Why the run counts as uncontrolled (`no_control`), if it does.
+    fn no_control_reason(&self) -> Option<String> {
+        let m = &self.metrics;
+        let (n, bad) = (m.steps_after_startup, m.uncontrolled_after_startup);
+        if self.info.is_none() || n == 0 || (bad as f64) <= MAX_UNCONTROLLED_FRACTION * n as f64 {
+            return None;
+        }
+        let allowance_s = self.startup_steps() as f64 * self.clock.dt;
+        Some(format!(
+            "the flight code held the safe command on {bad} of the {n} control steps after the first {allowance_s} s \
+             ({:.1} %, more than {:.0} %): the active mode lacked an input it needs (status_counts: bad_input {}, \
+             no_estimate {} over the run)",
+            100.0 * bad as f64 / n as f64,
+            100.0 * MAX_UNCONTROLLED_FRACTION,
+            m.counts.bad_input,
+            m.counts.no_estimate
+        ))
     }
 
     /// Stored-momentum figures of step at `t` (every step, with the momentum group).
@@ -1022,7 +1059,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
-    /// control steps the flight code answered), or ok.
+    /// control steps the flight code answered), a link anomaly, sensor samples dropped,
+    /// not controlled for a material part of the run, or ok.
     fn outcome(&self) -> (RunStatus, Option<Failure>) {
         if let Some(f) = &self.failure {
             return (RunStatus::Diverged, Some(f.clone()));
@@ -1044,6 +1082,9 @@ impl<'a> Simulation<'a> {
             let lost: Vec<String> = dropped.iter().filter(|(_, n)| *n > 0).map(|(s, n)| format!("{s} {n}")).collect();
             let reason = format!("sensor samples dropped by the latency queues: {}", lost.join(", "));
             return (RunStatus::SamplesDropped, Some(Failure::Sensors { reason }));
+        }
+        if let Some(reason) = self.no_control_reason() {
+            return (RunStatus::NoControl, Some(Failure::Control { reason }));
         }
         (RunStatus::Ok, None)
     }
@@ -1111,6 +1152,7 @@ impl<'a> Simulation<'a> {
             estimation_error_max_deg: est.map(|e| e.error_max_deg),
             bias_error_final_deg_h: est.and_then(|e| e.bias_error_final_deg_h),
             nees_mean: est.and_then(|e| e.nees_mean),
+            estimation_steps: est.map(|e| e.steps),
             innovations_rejected: est.map(|e| e.innovations_rejected),
             estimator_resets: est.map(|e| e.resets),
             sample_fusion: est.map(|e| e.sample_fusion),

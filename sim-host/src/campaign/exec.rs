@@ -37,6 +37,10 @@ pub enum RunStatus {
     /// steady hold (summary `run_status` `margins_failed`, `margins.status` not
     /// `measured`: what `sim-host run` exits non-zero for): misses every requirement.
     MarginsFailed,
+    /// Flew, but the flight code could not control for a material part of the run (summary
+    /// `run_status` `no_control`: no estimate or a refused input after the start-up
+    /// allowance): misses every requirement.
+    NoControl,
 }
 
 impl RunStatus {
@@ -106,6 +110,7 @@ fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
         Some("diverged") => Some(RunStatus::Diverged),
         Some("all_refused") => Some(RunStatus::AllRefused),
         Some("margins_failed") => Some(RunStatus::MarginsFailed),
+        Some("no_control") => Some(RunStatus::NoControl),
         Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
             Some(RunStatus::MarginsFailed)
         }
@@ -171,6 +176,7 @@ pub struct ShardReport {
     pub all_refused: usize,
     /// Runs whose `[margins]` measurement is not a stable loop at a steady hold.
     pub margins_failed: usize,
+    pub no_control: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -228,6 +234,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::Diverged => r.diverged += 1,
                         RunStatus::AllRefused => r.all_refused += 1,
                         RunStatus::MarginsFailed => r.margins_failed += 1,
+                        RunStatus::NoControl => r.no_control += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

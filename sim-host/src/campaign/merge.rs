@@ -153,6 +153,9 @@ pub struct CampaignResult {
     /// `run_status` `margins_failed`: `sim-host run` exits non-zero for them): each misses
     /// every requirement and fails the campaign.
     pub margins_failed: Vec<u32>,
+    /// Runs the flight code could not control for a material part of (summary
+    /// `run_status` `no_control`): each misses every requirement and fails the campaign.
+    pub no_control: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -168,6 +171,7 @@ impl CampaignResult {
             && self.diverged.is_empty()
             && self.all_refused.is_empty()
             && self.margins_failed.is_empty()
+            && self.no_control.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -331,7 +335,7 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
             if rec.status == RunStatus::Error {
                 row.errors += 1;
             }
-            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed) {
+            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed | RunStatus::NoControl) {
                 row.failed_runs += 1;
             }
             for r in requirements {
@@ -387,6 +391,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         diverged: runs_of(RunStatus::Diverged),
         all_refused: runs_of(RunStatus::AllRefused),
         margins_failed: runs_of(RunStatus::MarginsFailed),
+        no_control: runs_of(RunStatus::NoControl),
         requirements,
         groups,
         statistics,
@@ -566,7 +571,8 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         s,
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
-         {} had margins that are not a stable loop at a steady hold, {} ended in error.\n",
+         {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
+         part of the run, {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -576,12 +582,14 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         r.diverged.len(),
         r.all_refused.len(),
         r.margins_failed.len(),
+        r.no_control.len(),
         r.errors.len()
     );
     for (what, runs) in [
         ("Diverged runs", &r.diverged),
         ("Runs with every step refused", &r.all_refused),
         ("Runs whose margins are not a stable loop at a steady hold (`margins.status`)", &r.margins_failed),
+        ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
     ] {
         if !runs.is_empty() {
             let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_command(*i))).collect();

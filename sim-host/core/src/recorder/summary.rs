@@ -48,7 +48,23 @@ pub enum RunStatus {
     /// exits as `sim-host margins` would (3 not steady or unstable, 2 unsupported or over
     /// budget, 1 error) and a campaign counts it as a failed run (docs/margins.md).
     MarginsFailed,
+    /// The flight code could not control for a material part of the run: after the
+    /// start-up allowance ([`CONTROL_STARTUP_FRACTION`] of the steps, at most
+    /// [`CONTROL_STARTUP_MAX_S`]), more than [`MAX_UNCONTROLLED_FRACTION`] of the steps
+    /// held the safe command because the active mode lacked an input it needs
+    /// (`status_counts.bad_input`: a sensor missing, lost or out of range; or
+    /// `no_estimate`: the fine attitude estimate or the navigation solution).
+    NoControl,
 }
+
+/// Start-up allowance of the no-control check: the first tenth of the run's steps…
+pub const CONTROL_STARTUP_FRACTION: f64 = 0.1;
+/// …but at most this much flight time, s (a filter converges, a tracker locks, a field
+/// model fills within it).
+pub const CONTROL_STARTUP_MAX_S: f64 = 60.0;
+/// After the allowance, a run with more than this fraction of its steps uncontrolled
+/// (`bad_input` or `no_estimate`) fails with `no_control`.
+pub const MAX_UNCONTROLLED_FRACTION: f64 = 0.1;
 
 /// Why a run failed (`summary.json` `failure`; null for a run that is ok).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -65,12 +81,14 @@ pub enum Failure {
     /// Why the margins `[margins]` asks for are not those of a stable loop at a steady hold
     /// (`margins.status` and `margins.reason`).
     Margins { reason: String },
+    /// How many steps after the start-up allowance were uncontrolled, and why.
+    Control { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {
     pub scenario: String,
-    /// `ok`, `diverged`, `all_refused`, `link_anomaly`, `samples_dropped` or
+    /// `ok`, `diverged`, `all_refused`, `link_anomaly`, `samples_dropped`, `no_control` or
     /// `margins_failed` (see [`RunStatus`]).
     pub run_status: RunStatus,
     /// Null when `run_status` is `ok`.
@@ -138,7 +156,8 @@ pub struct Summary {
     /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
     /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
     /// filter); innovations the chi-square gates rejected; filter restarts. Absent
-    /// otherwise.
+    /// otherwise. The error and NEES figures are over the steps where the filter ran
+    /// (`estimation_steps`, of `steps` + 1 flight steps).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimation_error_rms_deg: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -147,6 +166,9 @@ pub struct Summary {
     pub bias_error_final_deg_h: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nees_mean: Option<f64>,
+    /// Flight steps where the filter ran: what the figures above are over.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_steps: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub innovations_rejected: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -258,13 +280,19 @@ pub struct MarginSummary {
 }
 
 /// What the flight estimator did with the sensor samples over a run (`summary.json`
-/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at their own time (of them, late: taken
-/// before the filter's newest time and carried forward through its history), refused by
-/// reason, and the largest sample age per sensor, s (−1: never sampled).
+/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at
+/// their own time (of them, late: taken before the filter's newest time and carried
+/// forward through its history; after a wait: taken after it, fused when the gyro caught
+/// up), refused by reason, still waiting for the gyro at the end, and the largest sample
+/// age per sensor, s (−1: never sampled).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SampleFusion {
     pub fused: u32,
     pub fused_late: u32,
+    pub fused_after_wait: u32,
+    pub waiting_at_end: u16,
+    /// Dropped while waiting for the gyro (its wait queue full, or the filter stopped).
+    pub refused_dropped_waiting: u32,
     pub refused_too_old: u32,
     pub refused_from_the_future: u32,
     pub refused_out_of_order: u32,

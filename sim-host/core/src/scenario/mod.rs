@@ -390,6 +390,7 @@ impl Scenario {
         self.validate_momentum()?;
         self.validate_control_source()?;
         self.validate_estimation()?;
+        self.validate_estimator_timing()?;
         self.performance()?;
         self.margin_request()?;
         Ok(())
