@@ -335,7 +335,10 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
             if rec.status == RunStatus::Error {
                 row.errors += 1;
             }
-            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed | RunStatus::NoControl) {
+            if matches!(
+                rec.status,
+                RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed | RunStatus::NoControl
+            ) {
                 row.failed_runs += 1;
             }
             for r in requirements {
