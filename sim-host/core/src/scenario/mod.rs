@@ -9,7 +9,7 @@ use crate::plant::cmg::GimbalServo;
 use crate::plant::wheel::WheelState;
 use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
-use acs_flight::params::{FlightParams, PARAMS_VERSION, TargetFrame};
+use acs_flight::params::{FlightParams, GuidanceParams, PARAMS_VERSION, TargetFrame};
 use anyhow::{Context, Result, anyhow};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
@@ -644,11 +644,13 @@ impl Scenario {
             inertia_kgm2: f(&inertia),
             controller,
             actuator: self.actuator_params(family)?,
-            target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
-            target_frame: match target.frame {
-                RefFrame::Inertial => TargetFrame::Inertial,
-                RefFrame::Lvlh => TargetFrame::Reference,
-            },
+            guidance: GuidanceParams::fixed(
+                [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
+                match target.frame {
+                    RefFrame::Inertial => TargetFrame::Inertial,
+                    RefFrame::Lvlh => TargetFrame::Reference,
+                },
+            ),
             hold_after_missed_frames: 10,
             momentum: acs_flight::params::MomentumParams::OFF,
         })
