@@ -109,6 +109,9 @@ pub struct Guidance {
     branch: Branch,
     last: Option<Guided>,
     blend: Option<Blend>,
+    /// A change handed over outside a step (ground command, mode switch): its blend starts
+    /// at the next step's clock (the handover has no time of its own).
+    blend_pending: bool,
     report: GuidanceReport,
 }
 
@@ -127,6 +130,7 @@ impl Guidance {
             branch: Branch::Main,
             last: None,
             blend: None,
+            blend_pending: false,
             report: GuidanceReport::default(),
         }
     }
@@ -164,7 +168,7 @@ impl Guidance {
         *self = Self::new(params);
         self.last = last;
         self.report = report;
-        self.start_blend(0);
+        self.start_blend_next_step();
     }
 
     /// Forget the state (a new configuration or mode): the next step commands its
@@ -172,6 +176,7 @@ impl Guidance {
     pub fn reset(&mut self) {
         self.last = None;
         self.blend = None;
+        self.blend_pending = false;
         self.branch = Branch::Main;
     }
 
@@ -179,19 +184,31 @@ impl Guidance {
     /// previous mode's): the change is blended.
     pub fn continue_from(&mut self, previous: Option<Guided>) {
         self.last = previous;
-        self.start_blend(0);
+        self.start_blend_next_step();
     }
 
     pub fn last(&self) -> Option<Guided> {
         self.last
     }
 
+    /// Count the switch now; the blend starts at the next step's clock.
+    fn start_blend_next_step(&mut self) {
+        self.blend = None;
+        self.blend_pending = true;
+        self.report.switches = self.report.switches.saturating_add(1);
+    }
+
     fn start_blend(&mut self, time_us: u64) {
-        self.blend = match (self.last, self.params.transition_s > 0.0) {
+        self.blend_pending = false;
+        self.blend = self.blend_from_last(time_us);
+        self.report.switches = self.report.switches.saturating_add(1);
+    }
+
+    fn blend_from_last(&self, time_us: u64) -> Option<Blend> {
+        match (self.last, self.params.transition_s > 0.0) {
             (Some(from), true) => Some(Blend::new(from, time_us, self.params.transition_s)),
             _ => None,
-        };
-        self.report.switches = self.report.switches.saturating_add(1);
+        }
     }
 
     /// The set point of one step; `steering`: the CMG steering law, if any (its dither).
@@ -242,6 +259,10 @@ impl Guidance {
             time: n.time,
             ut1_minus_clock_s: self.params.ut1_minus_clock_s,
         });
+        if self.blend_pending {
+            self.blend_pending = false;
+            self.blend = self.blend_from_last(time_us);
+        }
         let mut flags = self.update_branch(epoch.as_ref(), time_us);
         let frame = match self.branch {
             Branch::Main => &mut self.main,
@@ -329,5 +350,58 @@ pub fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
             time_us.checked_rem(period_us.max(1)).unwrap_or(0) as f32 * 1.0e-6
         }
         _ => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{EulerSeq, quat_from_euler, rotation_angle};
+
+    fn measurements() -> Measurements {
+        Measurements {
+            q: Quat::identity(),
+            rate_rad_s: Vec3::zeros(),
+            gimbal_angle_rad: [0.0; 4],
+            wheel_speed_rad_s: [0.0; crate::types::MAX_WHEELS],
+            mag_field_t: Vec3::zeros(),
+            q_ref: Quat::identity(),
+            ref_rate_rad_s: Vec3::zeros(),
+            sun_body: None,
+            eclipse: false,
+        }
+    }
+
+    fn inertial(euler_rad: [f32; 3], transition_s: f32) -> GuidanceParams {
+        let q = quat_from_euler(euler_rad, EulerSeq::Zyx321);
+        GuidanceParams { transition_s, ..GuidanceParams::fixed(quat_to_xyzw(&q), TargetFrame::Inertial) }
+    }
+
+    /// A ground command long after start (1000 s ≫ transition_s) is blended from the
+    /// command in force: the first step after it commands the old attitude (within one
+    /// step's progress of the smoothstep), the blend flag is up, and `transition_s` later
+    /// the new attitude exactly. (Regression: the blend used to start at clock 0, so a
+    /// command after `transition_s` stepped.)
+    #[test]
+    fn a_late_set_pointing_is_blended_from_the_command_in_force() {
+        let m = measurements();
+        let old = inertial([0.0, 0.0, 0.0], 20.0);
+        let new = inertial([0.0, 0.0, 1.0], 20.0);
+        let mut g = Guidance::new(&old);
+        let t0 = 1_000_000_000u64;
+        let q_old = g.guide(&m, None, t0).q;
+        g.set_params(&new);
+        let first = g.guide(&m, None, t0 + 250_000);
+        // The blend starts at this step: s(0) = 0, the old command.
+        assert!(rotation_angle(&(first.q * q_old.conjugate())) < 1e-6, "{first:?}");
+        assert!(g.report().flags & flags::BLENDING != 0);
+        let mid = g.guide(&m, None, t0 + 250_000 + 10_000_000);
+        // Halfway, s = 1/2: half the 1 rad turn.
+        assert!((rotation_angle(&(mid.q * q_old.conjugate())) - 0.5).abs() < 1e-4, "{mid:?}");
+        let end = g.guide(&m, None, t0 + 250_000 + 20_000_000);
+        let q_new = quat_from_euler([0.0, 0.0, 1.0], EulerSeq::Zyx321);
+        assert!(rotation_angle(&(end.q * q_new.conjugate())) < 1e-6);
+        assert!(g.report().flags & flags::BLENDING == 0);
+        assert_eq!(g.report().switches, 1);
     }
 }
