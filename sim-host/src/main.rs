@@ -756,6 +756,9 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     for m in &summary.mode_transitions {
         say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
     }
+    for l in segment_lines(&summary) {
+        say!("  {l}");
+    }
     for f in files.iter().chain(&margin_files) {
         say!("  wrote {}", f.display());
     }
@@ -858,7 +861,14 @@ fn summary_line(s: &Summary) -> String {
     );
     let p = &s.pointing;
     if let Some(ape) = p.ape_deg.total {
-        line += &format!("; APE at {} % {} deg", percent(p.confidence), sig(ape, 4));
+        let window = if p.from_s > 0.0 { "from" } else { "whole run" };
+        line += &format!(
+            "; APE at {} % ({window} {}–{} s) {} deg",
+            percent(p.confidence),
+            sig(p.from_s, 6),
+            sig(s.sim_time_s, 6),
+            sig(ape, 4)
+        );
     }
     let opt =
         |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {}{unit}", sig(x, 4))).unwrap_or_default();
@@ -871,6 +881,52 @@ fn summary_line(s: &Summary) -> String {
     line += &count("max pulses", s.max_pulses.map(u64::from));
     line += &count("max instructions/step", s.max_step_instructions);
     line
+}
+
+/// Most pointing segments the console lists (all are in `summary.json`).
+const CONSOLE_SEGMENTS: usize = 12;
+
+/// One line per pointing segment (the longest [`CONSOLE_SEGMENTS`], in time order): its
+/// mode, pointing and branch, its window, and its APE and RPE at the run's confidence (the
+/// primary axis apart).
+fn segment_lines(s: &Summary) -> Vec<String> {
+    use sim_host::format::sig_short as sig;
+    let Some(segs) = &s.pointing_segments else { return Vec::new() };
+    let pc = percent(s.pointing.confidence);
+    let mut longest: Vec<usize> = (0..segs.len()).collect();
+    longest.sort_by(|a, b| (segs[*b].end_s - segs[*b].start_s).total_cmp(&(segs[*a].end_s - segs[*a].start_s)));
+    longest.truncate(CONSOLE_SEGMENTS);
+    longest.sort_unstable();
+    let fig = |v: Option<f64>| v.map_or("-".to_string(), |x| sig(x, 3));
+    let mut out: Vec<String> = longest
+        .iter()
+        .map(|&i| {
+            let g = &segs[i];
+            let mode = g.mode.as_deref().map(|m| format!("{m} · ")).unwrap_or_default();
+            let branch = if g.branch == "otherwise" { " (otherwise)" } else { "" };
+            let from = if g.from_s > g.start_s { format!(" (from {} s)", sig(g.from_s, 6)) } else { String::new() };
+            let mut l = format!(
+                "segment {i} {mode}{}{branch}, {}–{} s{from}: APE {} / RPE {} deg",
+                g.pointing,
+                sig(g.start_s, 6),
+                sig(g.end_s, 6),
+                fig(g.ape_deg.total),
+                fig(g.rpe_deg.total)
+            );
+            if let (Some(a), Some(r)) = (&g.primary_ape_deg, &g.primary_rpe_deg) {
+                l += &format!("; boresight APE {} / RPE {} deg", fig(a.total), fig(r.total));
+            }
+            l
+        })
+        .collect();
+    if let Some(first) = out.first_mut() {
+        *first = format!("pointing per segment at {pc} %: {first}");
+    }
+    let hidden = segs.len() - longest.len() + s.pointing_segments_unlisted.unwrap_or(0) as usize;
+    if hidden > 0 {
+        out.push(format!("… {hidden} more segments (summary.json pointing_segments)"));
+    }
+    out
 }
 
 /// `0.95` → `"95"`: a confidence level as the percentage in an index's name.

@@ -85,9 +85,15 @@ fn mode_table_and_ground_commands_work_on_the_firmware_as_in_process() {
     let mut sc = scenario("modes/cubesat-mission.toml");
     sc.duration_s = 40.0;
     use sim_core::scenario::{AttitudeSpec, CommandSpec};
-    let cmd = |at_s, mode: Option<&str>, lock| CommandSpec { at_s, target: None, mode: mode.map(Into::into), lock };
+    let cmd = |at_s, mode: Option<&str>, lock| CommandSpec {
+        at_s,
+        target: None,
+        guidance: None,
+        mode: mode.map(Into::into),
+        lock,
+    };
     let mut retarget = cmd(15.0, None, false);
-    retarget.target = Some(AttitudeSpec { euler_deg: Some([10.0, 0.0, 0.0]), ..sc.target.clone() });
+    retarget.target = Some(AttitudeSpec { euler_deg: Some([10.0, 0.0, 0.0]), ..sc.target.clone().unwrap() });
     sc.commands = vec![cmd(5.0, Some("manoeuvre"), true), retarget, cmd(20.0, Some("auto"), false)];
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();

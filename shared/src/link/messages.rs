@@ -12,17 +12,19 @@
 //! typed [`Valid`] and [`Status`] (`from_bits_retain` / `bits`, same bits) at this boundary.
 
 use crate::checksum::CRC32;
-use crate::params::{EstimationParams, FlightParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError};
+use crate::params::{
+    EstimationParams, FlightParams, GuidanceParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError,
+};
 #[allow(unused_imports)] // doc links
 use crate::types::{MAX_CSS_HEADS, MAX_WHEELS, Status, Valid};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 15;
+pub const PROTOCOL_VERSION: u16 = 16;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 1024;
+pub const MAX_PAYLOAD: usize = 1280;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 
@@ -219,6 +221,26 @@ pub struct ActuatorCommand {
     /// CMG gimbal-saturation events since the table was armed (saturating; flag only;
     /// protocol 12).
     pub gimbal_events: u16,
+    /// What guidance commanded this step (protocol 16; zero on a safe command).
+    pub guidance: GuidanceTelemetry,
+}
+
+/// Guidance telemetry of one step ([`crate::guidance`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GuidanceTelemetry {
+    /// [`crate::guidance::flags`] bits.
+    pub flags: u8,
+    /// Commanded attitude, body → inertial, scalar-last.
+    pub q_cmd_xyzw: [f32; 4],
+    /// Angular rate and acceleration of the commanded frame, inertial axes.
+    pub rate_cmd_rad_s: [f32; 3],
+    pub accel_cmd_rad_s2: [f32; 3],
+    /// Primary target direction, inertial unit vector (zero for a fixed attitude).
+    pub primary_eci: [f32; 3],
+    /// Entries into the near-parallel fallback and pointing switches (saturating).
+    pub parallel_events: u16,
+    pub switches: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.
@@ -418,6 +440,10 @@ pub enum HostMsg {
     /// (the QEMU test image, never a flight image) obeys; everything else answers
     /// `Error(DebugDisabled)`.
     DebugHang,
+    /// New pointing for the mission modes (manoeuvre and hold with a mode table; the set in
+    /// force otherwise), blended in over its `transition_s` (protocol 16). Reply: `Ack`, or
+    /// `ParamsRejected` naming the field (nothing changed).
+    SetPointing(GuidanceParams),
 }
 
 /// Flight computer → host.

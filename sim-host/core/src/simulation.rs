@@ -9,6 +9,7 @@
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
 use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotate_ref_to_body};
+use crate::environment::guidance::{PointingErrors, Sky, TruthGuidance, TruthSet, TruthStep};
 use crate::environment::model::{EnvSnapshot, FrozenField};
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
@@ -20,6 +21,7 @@ use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueRepo
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
+use crate::recorder::segments::{SegmentKey, Segments};
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
     CONTROL_STARTUP_FRACTION, CONTROL_STARTUP_MAX_S, ErrorStats, Failure, MAX_UNCONTROLLED_FRACTION, ModeTransition,
@@ -390,12 +392,25 @@ struct StepView<'a> {
     ticks: u32,
     err_deg: f64,
     q_frame: Quat,
+    /// The target's Euler angles relative to `q_frame`, deg.
+    target_euler_deg: [f64; 3],
     input: &'a Input,
     dipole_cmd: [f64; 3],
     /// The wheels evaluated at the step (their outputs are recorded, and they make the
     /// applied torque).
     wheels: &'a [(WheelDeriv, WheelOutput); MAX_WHEELS],
     n_wheels: usize,
+}
+
+/// The truth of the pointing at one control step (with `[guidance]` or `[modes]`).
+#[derive(Clone, Copy, Debug)]
+struct TruthRow {
+    step: TruthStep,
+    errors: Option<PointingErrors>,
+    sky: Option<Sky>,
+    /// The ideal attitude (held from the last step when this one's cannot be defined).
+    q_cmd: Quat,
+    earth_angle_rad: f64,
 }
 
 /// A run in progress.
@@ -449,6 +464,14 @@ pub struct Simulation<'a> {
     /// The last control step's command and true attitude error (deg), for tools that
     /// observe a run step by step.
     last_step: Option<(ActuatorCommand, f64)>,
+    /// The truth of the pointing (with `[guidance]` or `[modes]`).
+    truth: Option<TruthGuidance>,
+    /// The truth of the step being recorded.
+    truth_row: Option<TruthRow>,
+    /// Pointing performance per segment (with `[guidance]` or `[modes]`).
+    segments: Option<Segments>,
+    /// Changes whenever a ground command replaces the mission's pointing.
+    pointing_id: u32,
 }
 
 impl<'a> Simulation<'a> {
@@ -470,6 +493,7 @@ impl<'a> Simulation<'a> {
             magnetorquers,
             sensors,
             target: TargetConfig { q_rel, seq, lvlh },
+            truth,
             inertia_change,
             open_loop,
             commands,
@@ -518,6 +542,13 @@ impl<'a> Simulation<'a> {
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
             errors: ErrorStats::new(clock.dt, performance.settle_bound_deg),
             pointing: PointingStats::new(performance.windows),
+            segments: truth.as_ref().map(|_| {
+                let p = &performance;
+                Segments::new(p.windows, p.confidence, p.segment_settle_s, p.from_s)
+            }),
+            truth,
+            truth_row: None,
+            pointing_id: 0,
             performance,
             estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
@@ -572,6 +603,10 @@ impl<'a> Simulation<'a> {
             t_end: self.t_end,
             injection: self.injection,
             last_step: self.last_step,
+            truth: self.truth.clone(),
+            truth_row: self.truth_row,
+            segments: self.segments.clone(),
+            pointing_id: self.pointing_id,
         }
     }
 
@@ -764,11 +799,19 @@ impl<'a> Simulation<'a> {
         self.t_end = t;
         let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
         let q_frame = self.target.frame(self.snap.as_ref());
-        let q_cmd = q_frame * self.target.q_rel;
+        self.truth_row = self.truth_step(t, &cmd);
+        // With [guidance] the truth's ideal attitude is the target; else the scenario's.
+        let guided = self.truth_row.filter(|_| self.layout.guidance);
+        let q_cmd = guided.map_or(q_frame * self.target.q_rel, |r| r.q_cmd);
+        let target_euler_deg = match guided {
+            Some(r) => euler_from_quat(&(q_frame.conjugate() * r.q_cmd), self.target.seq).map(f64::to_degrees),
+            None => self.target.euler_deg,
+        };
         let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);
         let err_deg = err_rad.to_degrees();
         self.last_step = Some((cmd, err_deg));
         self.push_pointing(t, err_vec_rad.map(f64::to_degrees));
+        self.push_segment(t, &cmd);
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
 
@@ -785,6 +828,7 @@ impl<'a> Simulation<'a> {
                 ticks,
                 err_deg,
                 q_frame,
+                target_euler_deg,
                 input: &input,
                 dipole_cmd,
                 wheels: &wheels,
@@ -810,11 +854,68 @@ impl<'a> Simulation<'a> {
                     other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
                 }
             }
-            if let Some(q) = c.target {
+            let (target, pointing) = (c.target, c.pointing.clone());
+            if let Some(q) = target {
                 self.target.set(q);
             }
+            self.retarget_truth(target, pointing);
         }
         Ok(())
+    }
+
+    /// A ground command's new mission pointing, in the truth: a `target` (a fixed attitude
+    /// in the target's frame) or a `guidance`.
+    fn retarget_truth(&mut self, target: Option<Quat>, pointing: Option<TruthSet>) {
+        let Some(tg) = self.truth.as_mut() else { return };
+        let lvlh = self.target.lvlh;
+        let new = pointing.or_else(|| {
+            let main = crate::environment::guidance::TruthPointing::fixed(target?, lvlh);
+            Some(TruthSet { label: format!("target {}", self.pointing_id + 1), main, gate: None })
+        });
+        if let Some(set) = new {
+            tg.mission = set;
+            self.pointing_id += 1;
+        }
+    }
+
+    /// The truth of the pointing in force at `t` (the flight's reported mode's own, or the
+    /// mission's), with the true attitude's errors from it.
+    fn truth_step(&mut self, t: f64, cmd: &ActuatorCommand) -> Option<TruthRow> {
+        let mode = self.layout.mode.then_some(cmd.mode).and_then(Mode::from_code);
+        let tg = self.truth.as_mut()?;
+        let snap = self.snap.as_ref();
+        let env = self.craft.env.as_ref();
+        let sun = env.map(|e| crate::environment::torques::sun_position_eci(e.julian_date(t)));
+        let sky = snap.and_then(|s| s.orbit).zip(sun).map(|((r, v), sun)| Sky::new(t, r, v, sun, &tg.earth));
+        let own = mode.and_then(|m| tg.modes.get_mut(m.index())).and_then(Option::as_mut);
+        let set = match own {
+            Some(s) => s,
+            None => &mut tg.mission,
+        };
+        let step = set.step(sky.as_ref(), snap.and_then(|s| s.q_lvlh));
+        let q_cmd = step.ideal.map(|i| i.q).or(self.truth_row.map(|r| r.q_cmd)).unwrap_or_else(Quat::identity);
+        let errors = step.ideal.and_then(|i| i.errors(&self.state.q));
+        Some(TruthRow { step, errors, sky, q_cmd, earth_angle_rad: tg.earth.angle(t) })
+    }
+
+    /// The step's errors from the truth's pointing into the segment it belongs to.
+    fn push_segment(&mut self, t: f64, cmd: &ActuatorCommand) {
+        let (Some(seg), Some(row), Some(tg)) = (self.segments.as_mut(), self.truth_row, self.truth.as_ref()) else {
+            return;
+        };
+        let mode = self.layout.mode.then_some(cmd.mode);
+        let own = mode
+            .and_then(Mode::from_code)
+            .and_then(|m| tg.modes.get(m.index()).and_then(Option::as_ref).map(|s| (m, s)));
+        let (pointing, label) = match own {
+            Some((m, s)) => (u32::MAX - m.index() as u32, s.label.as_str()),
+            None => (self.pointing_id, tg.mission.label.as_str()),
+        };
+        let key = SegmentKey { mode, pointing, branch: row.step.branch };
+        let (_, err) = error_angle_and_vector(&self.state.q, &row.q_cmd);
+        let deg = |v: [f64; 3]| v.map(f64::to_degrees);
+        let primary = row.errors.map(|e| deg(e.primary_vec_rad.into()));
+        seg.push(t, key, (mode.map(mode_name), label), deg(err), primary);
     }
 
     /// The actuator command of step `k`: the flight code's answer to the sampled sensor
@@ -974,7 +1075,7 @@ impl<'a> Simulation<'a> {
         row.push(v.t);
         row.extend([state.q.i, state.q.j, state.q.k, state.q.w]);
         row.extend(euler_from_quat(&(v.q_frame.conjugate() * state.q), self.target.seq).map(f64::to_degrees));
-        row.extend(self.target.euler_deg);
+        row.extend(v.target_euler_deg);
         row.extend(state.w.iter());
         row.extend(cmd.torque_demand_nm.iter().map(|x| *x as f64));
         row.extend(cmd.torque_realised_nm.iter().map(|x| *x as f64));
@@ -1003,6 +1104,45 @@ impl<'a> Simulation<'a> {
             row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
         }
         self.fill_tail(v, &tq);
+        if self.layout.guidance {
+            self.fill_guidance(v.cmd);
+        }
+    }
+
+    /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
+    /// errors and view of the site, the flight's guidance telemetry, the true orbit state,
+    /// Sun direction and Earth angle.
+    fn fill_guidance(&mut self, cmd: &ActuatorCommand) {
+        let nan = f64::NAN;
+        let row = &mut self.row;
+        let tr = self.truth_row;
+        let e = tr.and_then(|r| r.errors);
+        row.push(e.map_or(nan, |e| e.primary_rad.to_degrees()));
+        row.push(e.map_or(nan, |e| e.secondary_rad.to_degrees()));
+        let g = &cmd.guidance;
+        let [x, y, z, w] = g.q_cmd_xyzw.map(f64::from);
+        let q_flight = Quat::new(w, x, y, z);
+        let guidance_error = match (tr, q_flight.norm()) {
+            (Some(r), n) if n > 0.5 => error_angle_and_vector(&(q_flight / n), &r.q_cmd).0.to_degrees(),
+            _ => nan,
+        };
+        row.push(guidance_error);
+        row.extend(e.map_or([nan; 3], |e| e.target_body.into()));
+        let step = tr.map(|r| r.step);
+        row.push(step.and_then(|s| s.elevation_rad).map_or(nan, f64::to_degrees));
+        row.push(step.and_then(|s| s.visible).map_or(nan, |v| f64::from(u8::from(v))));
+        row.push(self.segments.as_ref().and_then(Segments::current).map_or(nan, |i| i as f64));
+        let parallel = step.and_then(|s| s.ideal).and_then(|i| i.axes).map(|a| a.parallel);
+        row.push(parallel.map_or(nan, |p| f64::from(u8::from(p))));
+        row.extend([f64::from(g.flags), f64::from(g.switches), f64::from(g.parallel_events)]);
+        row.extend(g.rate_cmd_rad_s.map(f64::from));
+        row.extend(g.accel_cmd_rad_s2.map(f64::from));
+        let sky = tr.and_then(|r| r.sky);
+        row.extend(sky.map_or([nan; 3], |s| s.r_m.into()));
+        row.extend(sky.map_or([nan; 3], |s| s.v_m_s.into()));
+        let sun = sky.and_then(|s| (s.sun_m - s.r_m).try_normalize(0.0));
+        row.extend(sun.map_or([nan; 3], Into::into));
+        row.push(tr.map_or(nan, |r| r.earth_angle_rad));
     }
 
     /// The actuator-family and environment groups at the end of the row.
@@ -1096,7 +1236,19 @@ impl<'a> Simulation<'a> {
         // A diverged run reaches only the time of its failure.
         let sim_time = if self.failure.is_some() { self.t_end } else { self.sim_time_s() };
         let ef = self.errors.figures(sim_time);
-        let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
+        let q_frame = self.target.frame(self.snap.as_ref());
+        let final_q_rel = q_frame.conjugate() * self.state.q;
+        let guided = self.truth_row.filter(|_| self.layout.guidance);
+        let target_euler_deg = guided.map_or(self.target.euler_deg, |r| {
+            euler_from_quat(&(q_frame.conjugate() * r.q_cmd), self.target.seq).map(f64::to_degrees)
+        });
+        let (segments, unlisted) = match self.segments.clone() {
+            Some(s) => {
+                let (list, n) = s.finish();
+                (Some(list), Some(n))
+            }
+            None => (None, None),
+        };
         let n_ticks = m.n_ticks;
         let ipt = info.and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
         let hz = info.map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
@@ -1125,7 +1277,7 @@ impl<'a> Simulation<'a> {
             mean_error_whole_run_deg: ef.mean_error_whole_run_deg,
             rms_error_after_settle_deg: ef.rms_error_after_settle_deg,
             final_euler_deg: euler_from_quat(&final_q_rel, self.target.seq).map(f64::to_degrees),
-            target_euler_deg: self.target.euler_deg,
+            target_euler_deg,
             final_rate_rad_s: self.state.w.into(),
             max_gimbal_rate_rad_s: cmg.then_some(m.max_gimbal_rate),
             min_singularity_measure: cmg.then_some(m.min_singularity),
@@ -1160,6 +1312,8 @@ impl<'a> Simulation<'a> {
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),
             pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
+            pointing_segments: segments,
+            pointing_segments_unlisted: unlisted,
             margins: None,
         }
     }

@@ -151,8 +151,55 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
-    .chain([estimation_figure(), environment_figure()])
+    .chain([estimation_figure(), environment_figure(), pointing_figure()])
     .collect()
+}
+
+/// `pointing.png` (runs with `[guidance]`): the truth's primary (boresight) and secondary
+/// errors on log axes, the flight's commanded attitude against the truth's ideal one, and
+/// the site's view of the spacecraft as a visibility strip (the mode ribbon on top with a
+/// mode manager).
+fn pointing_figure() -> Figure {
+    let s = line;
+    let visible = Panel {
+        categories: vec![(0.0, "no".into()), (1.0, "yes".into())],
+        presence: Presence::AnyFinite,
+        ..panel(
+            "site sees the spacecraft (truth, at or above the mask)",
+            "visible",
+            vec![s("target_visible", "visible", false)],
+        )
+    };
+    Figure {
+        requires: Some("pointing_primary_error_deg".into()),
+        ..figure(
+            "pointing.png",
+            "Pointing (truth): boresight and secondary errors, guidance, visibility",
+            vec![
+                log_panel(
+                    "primary (boresight) error: true primary axis to the true target direction",
+                    "deg",
+                    vec![s("pointing_primary_error_deg", "primary", false)],
+                ),
+                log_panel(
+                    "secondary-axis error: true secondary axis to the ideal frame's",
+                    "deg",
+                    vec![s("pointing_secondary_error_deg", "secondary", false)],
+                ),
+                log_panel(
+                    "flight's commanded attitude to the truth's ideal attitude (on-board models, navigation)",
+                    "deg",
+                    vec![s("guidance_error_deg", "guidance", false)],
+                ),
+                panel(
+                    "elevation of the spacecraft above the site",
+                    "deg",
+                    vec![s("target_elevation_deg", "elevation", false)],
+                ),
+                visible,
+            ],
+        )
+    }
 }
 
 /// `modes.png` (runs with a mode manager only): the mode as named levels, the errors and

@@ -189,6 +189,14 @@ pub struct Summary {
     /// attitude error over `[performance] from_s` to the end, at its confidence level
     /// (docs/pointing.md).
     pub pointing: crate::recorder::pointing::PointingSummary,
+    /// With `[modes]` or `[guidance]`: APE and RPE per pointing segment (a span of one
+    /// mode, one pointing and one branch of it), the primary (boresight) error apart,
+    /// each with its window (docs/pointing.md, "Per segment").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pointing_segments: Option<Vec<crate::recorder::segments::SegmentSummary>>,
+    /// Segments beyond the listed cap (`recorder::segments::MAX_LISTED_SEGMENTS`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pointing_segments_unlisted: Option<u64>,
     /// With `[margins]`: the stability margins measured through the flight step at the
     /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -426,6 +426,8 @@ impl Scenario {
             F::Estimation => "estimation".into(),
             F::Momentum => "momentum".into(),
             F::MomentumDump => "momentum.dump_*".into(),
+            F::Pointing => "guidance".into(),
+            F::PointingAxes => "guidance.pointing (primary_body, secondary_body)".into(),
         }
     }
 }
