@@ -210,6 +210,36 @@ fn runs_the_flight_code_cannot_control_fail_the_campaign() {
     // A requirement every figure would meet (final error < 1000 deg) fails on both runs.
     assert_eq!(c["requirements"][0]["failed_runs"], serde_json::json!([0, 1]), "{}", c["requirements"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("2 not controlled"));
+/// The re-run commands `report.md` lists (here the worst runs of a requirement) work as
+/// written from the directory the campaign was run in (issue 38: they used to hold only
+/// inside the campaign directory), and give the run's own summary.
+#[test]
+fn report_rerun_commands_work_from_where_the_campaign_ran() {
+    let t = tempfile::tempdir().unwrap();
+    let extra = "[[requirement]]\nname = \"settles\"\nkey = \"settle_time_s\"\nop = \"<\"\nvalue = 15.0\n";
+    let f = campaign_file(t.path(), &test3(), 3, &format!("{TEST3_DISPERSIONS}{extra}"));
+    let in_tmp = |args: &[&str]| {
+        let o = sim_host().current_dir(t.path()).args(args).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    in_tmp(&["campaign", "plan", f.to_str().unwrap(), "--out", "c"]);
+    in_tmp(&["campaign", "run", "-q", "c"]);
+    let _ = sim_host().current_dir(t.path()).args(["campaign", "merge", "c", "--no-plots"]).output().unwrap();
+    let report = std::fs::read_to_string(t.path().join("c/report.md")).unwrap();
+    let commands: Vec<&str> =
+        report.split('`').filter(|s| s.starts_with("sim-host run ") && s.contains("scenario.toml")).collect();
+    assert!(!commands.is_empty(), "no re-run command in report.md:\n{report}");
+    for c in &commands {
+        let words: Vec<&str> = c.split_whitespace().skip(1).collect();
+        assert!(words[1].starts_with("c/runs/"), "{c}");
+        in_tmp(&[&words[..], &["-q", "--no-plots"]].concat());
+        let out = t.path().join(words[words.len() - 1]);
+        let alone: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let rec: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.parent().unwrap().join("result.json")).unwrap()).unwrap();
+        assert_eq!(alone["final_error_deg"], rec["summary"]["final_error_deg"], "{c}");
+    }
 }
 
 /// Uniform rotations within a cone: the angle distribution against rejection sampling of

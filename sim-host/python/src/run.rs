@@ -109,6 +109,8 @@ fn fly(
     let mut series = TimeSeries::default();
     let mut stop: Option<PyErr> = None;
     let mut last_look = Instant::now();
+    // `done` counts flight steps from the initial frame (0..=total); the callback gets the
+    // control steps of the CLI's "N steps" (total), so the bar ends at total/total.
     let mut observe = |done: u64, total: u64| -> anyhow::Result<()> {
         let progress = done.is_multiple_of(CHECK_EVERY) || done > total;
         let look = progress || (done.is_multiple_of(CLOCK_EVERY) && last_look.elapsed() >= SIGNAL_POLL);
@@ -119,7 +121,7 @@ fn fly(
         Python::attach(|py| {
             py.check_signals()?;
             match callback {
-                Some(cb) if progress => cb.call1(py, (done.min(total + 1), total + 1)).map(drop),
+                Some(cb) if progress => cb.call1(py, (done.min(total), total)).map(drop),
                 _ => Ok(()),
             }
         })

@@ -62,6 +62,15 @@ pub fn rerun_command(index: u32) -> String {
     format!("sim-host run runs/{d}/scenario.toml --out runs/{d}/out")
 }
 
+/// [`rerun_command`] with its paths under the campaign directory `dir` as the merge was
+/// given it, for `report.md`: it then works from where the campaign was run, as typed there
+/// (issue 38). `campaign.json` keeps the form relative to the campaign directory, so it
+/// stays identical whichever directory and machine merged it.
+fn rerun_from(dir: &Path, index: u32) -> String {
+    let run = dir.join("runs").join(run_dir_name(index));
+    format!("sim-host run {} --out {}", run.join("scenario.toml").display(), run.join("out").display())
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RunValue {
     pub run: u32,
@@ -565,7 +574,7 @@ fn distribution_figure(key: &str, xs: &[f64], flown: usize, req: Option<&Require
 }
 
 /// The report's head: base scenario, run counts, failed and missing runs, the verdict.
-fn md_head(s: &mut String, r: &CampaignResult) {
+fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
     let _ = writeln!(s, "# Campaign `{}`\n", r.campaign);
     if !r.description.is_empty() {
         let _ = writeln!(s, "{}\n", r.description);
@@ -595,7 +604,7 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
     ] {
         if !runs.is_empty() {
-            let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_command(*i))).collect();
+            let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_from(dir, *i))).collect();
             let _ = writeln!(s, "**{what} ({}, each fails every requirement):** {}\n", runs.len(), shown.join(", "));
         }
     }
@@ -607,7 +616,7 @@ fn md_head(s: &mut String, r: &CampaignResult) {
 }
 
 /// The requirements table and each requirement's statement with its worst runs.
-fn md_requirements(s: &mut String, r: &CampaignResult) {
+fn md_requirements(s: &mut String, r: &CampaignResult, dir: &Path) {
     if r.requirements.is_empty() {
         return;
     }
@@ -627,14 +636,14 @@ fn md_requirements(s: &mut String, r: &CampaignResult) {
     for q in &r.requirements {
         let _ = writeln!(s, "- {}", q.statement);
         for w in q.worst.iter().take(3) {
-            let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), w.rerun);
+            let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), rerun_from(dir, w.run));
         }
     }
     s.push('\n');
 }
 
 /// One table per discrete dispersion, then the runs in error.
-fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
+fn md_groups_and_errors(s: &mut String, r: &CampaignResult, dir: &Path) {
     for g in &r.groups {
         let _ = writeln!(s, "## By `{}`\n", g.key);
         let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
@@ -659,7 +668,7 @@ fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
     if !r.errors.is_empty() {
         let _ = writeln!(s, "## Runs in error\n");
         for e in r.errors.iter().take(50) {
-            let _ = writeln!(s, "- run {}: {} (`{}`)", e.run, e.message, e.rerun);
+            let _ = writeln!(s, "- run {}: {} (`{}`)", e.run, e.message, rerun_from(dir, e.run));
         }
         s.push('\n');
     }
@@ -696,9 +705,9 @@ fn md_statistics(s: &mut String, r: &CampaignResult) {
 
 fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall_s: f64) -> String {
     let mut s = String::new();
-    md_head(&mut s, r);
-    md_requirements(&mut s, r);
-    md_groups_and_errors(&mut s, r);
+    md_head(&mut s, r, dir);
+    md_requirements(&mut s, r, dir);
+    md_groups_and_errors(&mut s, r, dir);
     md_statistics(&mut s, r);
     if !figures.is_empty() {
         let _ = writeln!(s, "## Figures\n");
@@ -710,7 +719,8 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
     }
     let _ = writeln!(
         s,
-        "Re-run any run alone from this directory with `sim-host run runs/NNNNNN/scenario.toml --out DIR`.\n\n\
+        "The commands above work from the directory the campaign was run in; from this directory, re-run any run \
+         alone with `sim-host run runs/NNNNNN/scenario.toml --out DIR`.\n\n\
          Host time of the completed runs: {run_wall_s:.2} s in all, {:.2} ms per run (not in campaign.json).",
         1e3 * run_wall_s / r.completed.max(1) as f64
     );

@@ -316,6 +316,11 @@ fn positive(key: &str, x: f64) -> Result<()> {
     if x.is_finite() && x > 0.0 { Ok(()) } else { Err(bad(key, format!("must be > 0 (got {x})"))) }
 }
 
+/// How far from 1 a scenario quaternion's norm may be (docs/scenario.md): tighter than
+/// the f32 flight quaternion's own resolution (≈ 6e-8) would be pointless to demand of a
+/// hand-written file, looser would hide a typo in a component.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-6;
+
 impl AttitudeSpec {
     fn validate(&self, key: &str) -> Result<()> {
         match (&self.euler_deg, &self.quaternion_xyzw) {
@@ -324,8 +329,11 @@ impl AttitudeSpec {
                 let k = format!("{key}.quaternion_xyzw");
                 finite(&k, q)?;
                 let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-                if (n - 1.0).abs() > 1e-6 {
-                    return Err(bad(&k, format!("must have unit norm (got {n})")));
+                if (n - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                    return Err(bad(
+                        &k,
+                        format!("must have unit norm within {QUATERNION_NORM_TOLERANCE:e} (got {n}): normalise it"),
+                    ));
                 }
                 Ok(())
             }
