@@ -109,8 +109,9 @@ fn fly(
     let mut series = TimeSeries::default();
     let mut stop: Option<PyErr> = None;
     let mut last_look = Instant::now();
-    // `done` counts flight steps from the initial frame (0..=total); the callback gets the
-    // control steps of the CLI's "N steps" (total), so the bar ends at total/total.
+    // `done` counts flight steps, the initial frame's included (1..=total + 1); the callback
+    // gets the control steps elapsed (done - 1) of the CLI's "N steps" (total), so the bar
+    // ends once at total/total (issue 38: it counted to total + 1).
     let mut observe = |done: u64, total: u64| -> anyhow::Result<()> {
         let progress = done.is_multiple_of(CHECK_EVERY) || done > total;
         let look = progress || (done.is_multiple_of(CLOCK_EVERY) && last_look.elapsed() >= SIGNAL_POLL);
@@ -121,7 +122,7 @@ fn fly(
         Python::attach(|py| {
             py.check_signals()?;
             match callback {
-                Some(cb) if progress => cb.call1(py, (done.min(total), total)).map(drop),
+                Some(cb) if progress => cb.call1(py, (done.saturating_sub(1).min(total), total)).map(drop),
                 _ => Ok(()),
             }
         })

@@ -636,7 +636,14 @@ fn md_requirements(s: &mut String, r: &CampaignResult, dir: &Path) {
     for q in &r.requirements {
         let _ = writeln!(s, "- {}", q.statement);
         for w in q.worst.iter().take(3) {
-            let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), rerun_from(dir, w.run));
+            let _ = writeln!(
+                s,
+                "  - run {}: {} = {} (`{}`)",
+                w.run,
+                q.requirement.key,
+                sig_campaign(w.value),
+                rerun_from(dir, w.run)
+            );
         }
     }
     s.push('\n');

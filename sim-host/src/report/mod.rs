@@ -333,7 +333,14 @@ fn intro_section(rows: &[Row], papers: &[String]) -> Section {
     let title = if papers.is_empty() {
         "Reproduction report: the five source papers".to_owned()
     } else {
-        format!("Reproduction report: {} only", papers.iter().map(|p| if p.bytes().all(|b| b.is_ascii_digit()) { format!("paper {p}") } else { p.clone() }).collect::<Vec<_>>().join(", "))
+        format!(
+            "Reproduction report: {} only",
+            papers
+                .iter()
+                .map(|p| if p.bytes().all(|b| b.is_ascii_digit()) { format!("paper {p}") } else { p.clone() })
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
     };
     Section { level: 1, title, blocks: intro }
 }
