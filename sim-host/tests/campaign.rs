@@ -189,10 +189,9 @@ fn a_campaign_run_reruns_alone_with_sim_host_run() {
 fn runs_the_flight_code_cannot_control_fail_the_campaign() {
     let t = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(repo().join("scenarios/estimation/mekf-hold.toml")).unwrap();
-    let text = text.replace("duration_s = 3000.0", "duration_s = 300.0").replace(
-        "lost_attitude_sigma_deg = 1.0",
-        "lost_attitude_sigma_deg = 1e-4",
-    );
+    let text = text
+        .replace("duration_s = 3000.0", "duration_s = 300.0")
+        .replace("lost_attitude_sigma_deg = 1.0", "lost_attitude_sigma_deg = 1e-4");
     assert!(text.contains("lost_attitude_sigma_deg = 1e-4") && text.contains("duration_s = 300.0"));
     let base = t.path().join("uncontrolled.toml");
     std::fs::write(&base, text).unwrap();
