@@ -53,6 +53,18 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
 }
 
 /// The open-loop row in force at `t`.
+/// The mission pointings in the order they take effect, as [`Simulation::retarget_truth`]
+/// numbers them: the scenario's, then each ground command with a pointing or a target
+/// (label and start, s).
+fn mission_pointings(tg: &TruthGuidance, commands: &[GroundCommand]) -> Vec<(String, f64)> {
+    let mut out = vec![(tg.mission.label.clone(), 0.0)];
+    for c in commands.iter().filter(|c| c.pointing.is_some() || c.target.is_some()) {
+        let label = c.pointing.as_ref().map_or_else(|| format!("target {}", out.len()), |p| p.label.clone());
+        out.push((label, c.at_s));
+    }
+    out
+}
+
 fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
     rows.iter().take_while(|r| r.t_s <= t + 1e-12).last()
 }
@@ -522,6 +534,7 @@ impl<'a> Simulation<'a> {
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
+        let mission = truth.as_ref().map(|tg| mission_pointings(tg, &commands));
         Ok(Self {
             name,
             control_rate_hz,
@@ -542,9 +555,9 @@ impl<'a> Simulation<'a> {
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
             errors: ErrorStats::new(clock.dt, performance.settle_bound_deg),
             pointing: PointingStats::new(performance.windows),
-            segments: truth.as_ref().map(|_| {
+            segments: mission.map(|m| {
                 let p = &performance;
-                Segments::new(p.windows, p.confidence, p.segment_settle_s, p.from_s)
+                Segments::new(p.windows, p.confidence, p.segment_settle_s, p.from_s, m)
             }),
             truth,
             truth_row: None,
@@ -1242,12 +1255,12 @@ impl<'a> Simulation<'a> {
         let target_euler_deg = guided.map_or(self.target.euler_deg, |r| {
             euler_from_quat(&(q_frame.conjugate() * r.q_cmd), self.target.seq).map(f64::to_degrees)
         });
-        let (segments, unlisted) = match self.segments.clone() {
+        let (segments, unlisted, mission) = match self.segments.clone() {
             Some(s) => {
-                let (list, n) = s.finish();
-                (Some(list), Some(n))
+                let (list, n, mission) = s.finish();
+                (Some(list), Some(n), Some(mission))
             }
-            None => (None, None),
+            None => (None, None, None),
         };
         let n_ticks = m.n_ticks;
         let ipt = info.and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
@@ -1314,6 +1327,7 @@ impl<'a> Simulation<'a> {
             pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
             pointing_segments: segments,
             pointing_segments_unlisted: unlisted,
+            mission_pointings: mission,
             margins: None,
         }
     }

@@ -197,6 +197,12 @@ pub struct Summary {
     /// Segments beyond the listed cap (`recorder::segments::MAX_LISTED_SEGMENTS`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pointing_segments_unlisted: Option<u64>,
+    /// With `[modes]` or `[guidance]`: the segments' figures pooled by mission pointing
+    /// (`p0` the scenario's, `pN` the N-th ground command that sets a pointing), each
+    /// branch apart: the same keys in every run of a scenario (docs/pointing.md, "Per
+    /// mission pointing").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mission_pointings: Option<crate::recorder::segments::MissionPointings>,
     /// With `[margins]`: the stability margins measured through the flight step at the
     /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
     #[serde(skip_serializing_if = "Option::is_none")]
