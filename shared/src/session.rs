@@ -118,6 +118,10 @@ impl Session {
                 Ok(()) => FswMsg::Ack,
                 Err(_) => FswMsg::Error(LinkError::BadTarget),
             }),
+            HostMsg::SetPointing(g) => Some(match self.fsw.set_pointing(g) {
+                Ok(()) => FswMsg::Ack,
+                Err(e) => FswMsg::ParamsRejected(e),
+            }),
             HostMsg::UploadModeParams { mode, params } => Some(match self.fsw.configure_mode(*mode, params) {
                 Ok(checksum) => FswMsg::ParamsAccepted { checksum },
                 Err(e) => FswMsg::ParamsRejected(e),

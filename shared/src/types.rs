@@ -184,6 +184,12 @@ pub struct Setpoint {
     pub q_cmd: Quat,
     /// Rate of the commanded frame, body axes, rad/s.
     pub rate_cmd_rad_s: Vec3,
+    /// Angular acceleration of the commanded frame, body axes, rad/s² (the target's motion
+    /// fed forward; zero for a fixed attitude).
+    pub accel_cmd_rad_s2: Vec3,
+    /// Feed the commanded frame's motion forward (`GuidanceParams::feedforward`): the laws
+    /// that support it add `J (ω̇_c − ω × ω_c)`.
+    pub feedforward: bool,
     /// GSR dither clock, s (reduced modulo the dither period; 0 without GSR).
     pub dither_time_s: f32,
 }

@@ -177,7 +177,8 @@ impl AttitudeLaw for Law {
         let (q, w, q_cmd, w_cmd) = (&m.q, &m.rate_rad_s, &sp.q_cmd, &sp.rate_cmd_rad_s);
         match self {
             Self::QuaternionFeedback(g, s) => {
-                s.update(g, x.inertia, q, q_cmd, w, w_cmd, x.h_act_nms, x.dt_s, x.saturated_last).into()
+                let ff = sp.feedforward.then_some(&sp.accel_cmd_rad_s2);
+                s.update(g, x.inertia, q, q_cmd, w, w_cmd, ff, x.h_act_nms, x.dt_s, x.saturated_last).into()
             }
             Self::DcmPd(g) => dcm_pd(g, q, q_cmd, w, w_cmd).into(),
             Self::EulerPd(g) => euler_pd(g, q, q_cmd, w, w_cmd).into(),

@@ -38,7 +38,8 @@ pub struct QuaternionFeedback {
 
 impl QuaternionFeedback {
     /// One update. `q`, `q_cmd`: unit quaternions; `rate_cmd_rad_s`: rate of the
-    /// commanded frame in body axes (zero for inertial pointing); `h_act_nms`: actuator
+    /// commanded frame in body axes (zero for inertial pointing); `feedforward_accel`:
+    /// its angular acceleration, body axes, when fed forward; `h_act_nms`: actuator
     /// momentum in body axes (gyroscopic compensation); `saturated_last`: anti-windup.
     #[allow(clippy::too_many_arguments)]
     pub fn update(
@@ -49,6 +50,7 @@ impl QuaternionFeedback {
         q_cmd: &Quat,
         rate_rad_s: &Vec3,
         rate_cmd_rad_s: &Vec3,
+        feedforward_accel: Option<&Vec3>,
         h_act_nms: &Vec3,
         dt_s: f32,
         saturated_last: bool,
@@ -70,6 +72,12 @@ impl QuaternionFeedback {
         let mut u = -(g.k * ev_sat) - g.d * (rate_rad_s - rate_cmd_rad_s) - g.ki * self.integral;
         if g.gyro_compensation {
             u += rate_rad_s.cross(&(inertia * rate_rad_s + h_act_nms));
+        }
+        if let Some(accel_cmd) = feedforward_accel {
+            // Tracking feed-forward (Wie 2008 §7.3): the body-axes derivative of the
+            // commanded rate `C ω_r` is `C ω̇_r − ω × C ω_r`; supplying `J` times it leaves
+            // the feedback only the errors.
+            u += inertia * (accel_cmd - rate_rad_s.cross(rate_cmd_rad_s));
         }
         let (torque_nm, limited) = scale_to_box(&u, &g.torque_limit_nm);
         TorqueDemand { torque_nm, limited, error_angle_rad: rotation_angle(&e) }
@@ -107,11 +115,11 @@ mod tests {
         let rate = Vec3::new(0.0, 0.0, 2e-3);
         let q = quat_from_euler([0.0, 0.0, theta], EulerSeq::Zyx321);
         let mut c = QuaternionFeedback::default();
-        let d = c.update(&g, &inertia, &q, &Quat::identity(), &rate, &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
+        let d = c.update(&g, &inertia, &q, &Quat::identity(), &rate, &Vec3::zeros(), None, &Vec3::zeros(), 0.01, false);
         let expect = -5.8 * (wn * wn * theta + 2.0 * zeta * wn * 2e-3);
         // Tracking a frame that turns at the measured rate removes the damping term.
         let mut c2 = QuaternionFeedback::default();
-        let d2 = c2.update(&g, &inertia, &q, &Quat::identity(), &rate, &rate, &Vec3::zeros(), 0.01, false);
+        let d2 = c2.update(&g, &inertia, &q, &Quat::identity(), &rate, &rate, None, &Vec3::zeros(), 0.01, false);
         assert!((d2.torque_nm.z + 5.8 * wn * wn * theta).abs() < 1e-4 * 5.8 * wn * wn * theta);
         assert!((d.torque_nm.z - expect).abs() < 1e-4 * expect.abs(), "{} vs {}", d.torque_nm.z, expect);
         assert!(d.torque_nm.x.abs() < 1e-9 && d.torque_nm.y.abs() < 1e-9);
@@ -127,10 +135,31 @@ mod tests {
         let free = {
             let mut g2 = g;
             g2.torque_limit_nm = Vec3::repeat(1e3);
-            c.update(&g2, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false)
+            c.update(
+                &g2,
+                &inertia,
+                &q,
+                &Quat::identity(),
+                &Vec3::zeros(),
+                &Vec3::zeros(),
+                None,
+                &Vec3::zeros(),
+                0.01,
+                false,
+            )
         };
-        let lim =
-            c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
+        let lim = c.update(
+            &g,
+            &inertia,
+            &q,
+            &Quat::identity(),
+            &Vec3::zeros(),
+            &Vec3::zeros(),
+            None,
+            &Vec3::zeros(),
+            0.01,
+            false,
+        );
         assert!(lim.limited);
         assert!(lim.torque_nm.amax() <= 0.1 + 1e-7);
         let cos = lim.torque_nm.normalize().dot(&free.torque_nm.normalize());
@@ -150,7 +179,7 @@ mod tests {
         let mut c = QuaternionFeedback::default();
         let mut peak = 0.0f32;
         for _ in 0..20_000 {
-            let d = c.update(&g, &inertia, &q, &q_cmd, &w, &Vec3::zeros(), &Vec3::zeros(), dt, false);
+            let d = c.update(&g, &inertia, &q, &q_cmd, &w, &Vec3::zeros(), None, &Vec3::zeros(), dt, false);
             w += inertia.try_inverse().unwrap() * (d.torque_nm - w.cross(&(inertia * w))) * dt;
             q = (q + q * Quat::from_imag(w) * (0.5 * dt)).normalize();
             peak = peak.max(w.norm());
@@ -174,12 +203,34 @@ mod tests {
         let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
         let mut c = QuaternionFeedback::default();
         for _ in 0..1000 {
-            c.update(&g, &inertia, &q, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, false);
+            c.update(
+                &g,
+                &inertia,
+                &q,
+                &Quat::identity(),
+                &Vec3::zeros(),
+                &Vec3::zeros(),
+                None,
+                &Vec3::zeros(),
+                0.01,
+                false,
+            );
         }
         assert!((c.integral.z - 0.05).abs() < 1e-7, "clamped at the limit");
         let before = c.integral;
         let q2 = quat_from_euler([0.0, 0.0, -0.5], EulerSeq::Zyx321);
-        c.update(&g, &inertia, &q2, &Quat::identity(), &Vec3::zeros(), &Vec3::zeros(), &Vec3::zeros(), 0.01, true);
+        c.update(
+            &g,
+            &inertia,
+            &q2,
+            &Quat::identity(),
+            &Vec3::zeros(),
+            &Vec3::zeros(),
+            None,
+            &Vec3::zeros(),
+            0.01,
+            true,
+        );
         assert_eq!(c.integral, before, "frozen while saturated");
     }
 
@@ -200,6 +251,7 @@ mod tests {
                 &Quat::identity(),
                 &Vec3::zeros(),
                 &Vec3::zeros(),
+                None,
                 &Vec3::zeros(),
                 0.01,
                 false,

@@ -4,12 +4,12 @@ use super::{Configured, Fsw};
 use crate::allocation::family::{Actuators, ThrusterSet};
 use crate::control::{AttitudeLaw, Law};
 use crate::estimation::determination::Determination;
-use crate::guidance::Target;
+use crate::guidance::Guidance;
 use crate::math::{Vec3, quat_from_xyzw, quat_normalized};
 use crate::modes::ModeManager;
 use crate::params::{
-    EstimationParams, FlightParams, MODE_COUNT, Mode, ModeManagerParams, ModeRequest, ParamError, ParamField,
-    ParamReason,
+    EstimationParams, FlightParams, GuidanceParams, MODE_COUNT, Mode, ModeManagerParams, ModeRequest, ParamError,
+    ParamField, ParamReason, Pointing, TargetFrame,
 };
 use crate::types::Valid;
 
@@ -36,15 +36,13 @@ impl Configured {
     fn build(p: &FlightParams) -> Result<(Self, u32), ParamError> {
         p.validate()?;
         let checksum = p.checksum()?;
-        let q_target = quat_normalized(&quat_from_xyzw(p.target_q_xyzw))
-            .ok_or(ParamError { field: ParamField::Target, reason: ParamReason::NotUnitQuaternion })?;
         let dt_s = 1.0 / p.control_rate_hz;
         let law = Law::from_params(&p.controller)?;
         let actuators = Actuators::from_params(&p.actuator, dt_s)?;
-        let target = Target { q: q_target, frame: p.target_frame };
+        let guidance = Guidance::new(&p.guidance);
         let attitude = if law.needs_attitude() { Valid::ATTITUDE } else { Valid::empty() };
         let required = Valid::RATE | attitude | actuators.required();
-        let needs_navigation = target.needs_navigation();
+        let needs_navigation = guidance.needs_navigation();
         let dump = match p.momentum.dumps() {
             true => Some(
                 ThrusterSet::new(&p.momentum.dump_thrusters, dt_s)
@@ -53,7 +51,7 @@ impl Configured {
             false => None,
         };
         let inertia = p.inertia();
-        let cfg = Self { params: *p, inertia, law, dt_s, target, actuators, required, needs_navigation, dump };
+        let cfg = Self { params: *p, inertia, law, dt_s, guidance, actuators, required, needs_navigation, dump };
         Ok((cfg, checksum))
     }
 }
@@ -143,8 +141,7 @@ impl Fsw {
         }
         let now = mgr.mode;
         if now != before {
-            self.active = now.index();
-            self.reset_law_state();
+            self.switch_slot(now.index());
         }
         Ok(now)
     }
@@ -166,6 +163,18 @@ impl Fsw {
             return Err(FreezeError::NotConfigured);
         };
         if cfg.law.freeze_adaptation(frozen) { Ok(()) } else { Err(FreezeError::NotAdaptive) }
+    }
+
+    /// Hand over to slot `index` (a mode switch): fresh law state; its guidance takes
+    /// over from the command in force, blended over its `transition_s`.
+    pub(super) fn switch_slot(&mut self, index: usize) {
+        let previous = self.active_cfg().and_then(|c| c.guidance.last());
+        self.active = index;
+        self.reset_law_state();
+        if let Some(Some(cfg)) = self.slots.get_mut(index) {
+            cfg.guidance.reset();
+            cfg.guidance.continue_from(previous);
+        }
     }
 
     /// Fresh state for the law that takes over (integrators, filters, estimator).
@@ -216,15 +225,46 @@ impl Fsw {
         if !q.coords.iter().all(|x| x.is_finite()) || (crate::math::norm(&q.coords) - 1.0).abs() > 1e-3 {
             return Err(bad);
         }
-        let q = quat_normalized(&q).ok_or(bad)?;
+        quat_normalized(&q).ok_or(bad)?;
         let mut any = false;
-        for (i, slot) in self.slots.iter_mut().enumerate() {
+        for i in 0..self.slots.len() {
             let mission = !self.table || i == Mode::Manoeuvre.index() || i == Mode::Hold.index();
-            if let Some(cfg) = slot.as_mut().filter(|_| mission) {
-                cfg.target.q = q;
+            let Some(Some(cfg)) = self.slots.get(i).filter(|_| mission) else { continue };
+            // A new fixed attitude in the frame of the fixed pointing in force (inertial when
+            // the set pointed by two vectors).
+            let frame = match cfg.params.guidance.pointing {
+                Pointing::Fixed { frame, .. } => frame,
+                Pointing::Align { .. } => TargetFrame::Inertial,
+            };
+            let g = GuidanceParams { pointing: Pointing::Fixed { q_xyzw, frame }, ..cfg.params.guidance };
+            self.replace_guidance(i, &g);
+            any = true;
+        }
+        if any { Ok(()) } else { Err(bad) }
+    }
+
+    /// A new pointing for the mission modes (`HostMsg::SetPointing`): validated, then
+    /// blended in from the current command. On rejection nothing changes.
+    pub fn set_pointing(&mut self, g: &GuidanceParams) -> Result<(), ParamError> {
+        g.validate()?;
+        let mut any = false;
+        for i in 0..self.slots.len() {
+            let mission = !self.table || i == Mode::Manoeuvre.index() || i == Mode::Hold.index();
+            if mission && self.slots.get(i).is_some_and(Option::is_some) {
+                self.replace_guidance(i, g);
                 any = true;
             }
         }
-        if any { Ok(()) } else { Err(bad) }
+        if any { Ok(()) } else { Err(ParamError { field: ParamField::Pointing, reason: ParamReason::OutOfRange }) }
+    }
+
+    /// Slot `i`'s pointing replaced (its parameters and its guidance), blended from the
+    /// command in force; the navigation requirement follows the new pointing.
+    fn replace_guidance(&mut self, i: usize, g: &GuidanceParams) {
+        if let Some(Some(cfg)) = self.slots.get_mut(i) {
+            cfg.params.guidance = *g;
+            cfg.guidance.set_params(g);
+            cfg.needs_navigation = cfg.guidance.needs_navigation();
+        }
     }
 }

@@ -28,7 +28,7 @@ pub mod report;
 use crate::allocation::family::{ActuatorFamily, Actuators, Commands, ThrusterSet};
 use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
 use crate::estimation::determination::{Determination, Estimate};
-use crate::guidance::Target;
+use crate::guidance::Guidance;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
 use crate::modes::ModeManager;
@@ -47,7 +47,7 @@ struct Configured {
     /// The law with its own state.
     law: Law,
     dt_s: f32,
-    target: Target,
+    guidance: Guidance,
     actuators: Actuators,
     /// Validity bits a sensor frame must carry for this configuration (`ATTITUDE`: the
     /// estimation stage's attitude).
@@ -172,7 +172,7 @@ impl Fsw {
         // Estimate: actuator momentum (gyroscopic terms) and geometry.
         let act = cfg.actuators.observe(&m);
         // Guide.
-        let sp = cfg.target.setpoint(&m, cfg.actuators.steering(), f.time_us);
+        let sp = cfg.guidance.setpoint(&m, est.nav.as_ref(), cfg.actuators.steering(), f.time_us);
         // Control.
         let inputs = LawInputs {
             m: &m,
@@ -215,6 +215,7 @@ impl Fsw {
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
         cmd.adaptive_proportional_gain = cfg.law.adaptive_proportional_gain();
+        cmd.guidance = cfg.guidance.telemetry();
         if let Some(d) = dump {
             cmd.thruster_on = d.on;
             cmd.thruster_level = d.level;

@@ -28,7 +28,7 @@ impl Fsw {
         let (error_rad, rel_rate_rad_s) =
             match check::check_frame(f, cfg.required | Valid::ATTITUDE, cfg.needs_navigation, est) {
                 Ok(m) => {
-                    let (q_cmd, w_cmd) = cfg.target.command_frame(&m);
+                    let (q_cmd, w_cmd) = cfg.guidance.reference(&m);
                     (rotation_angle(&attitude_error(&m.q, &q_cmd)), norm(&(m.rate_rad_s - w_cmd)))
                 }
                 Err(_) => (f32::NAN, f32::NAN),
@@ -47,8 +47,7 @@ impl Fsw {
             gimbal_saturated,
         };
         if let Some((mode, _)) = mgr.update(&inputs) {
-            self.active = mode.index();
-            self.reset_law_state();
+            self.switch_slot(mode.index());
         }
     }
 

@@ -12,17 +12,19 @@
 //! typed [`Valid`] and [`Status`] (`from_bits_retain` / `bits`, same bits) at this boundary.
 
 use crate::checksum::CRC32;
-use crate::params::{EstimationParams, FlightParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError};
+use crate::params::{
+    EstimationParams, FlightParams, GuidanceParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError,
+};
 #[allow(unused_imports)] // doc links
 use crate::types::{MAX_CSS_HEADS, MAX_WHEELS, Status, Valid};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 14;
+pub const PROTOCOL_VERSION: u16 = 16;
 
 /// Largest postcard payload of any message (checked by a test).
-pub const MAX_PAYLOAD: usize = 1024;
+pub const MAX_PAYLOAD: usize = 1280;
 /// Largest frame on the wire: COBS overhead + CRC + delimiter.
 pub const MAX_FRAME: usize = MAX_PAYLOAD + 4 + MAX_PAYLOAD / 254 + 2;
 
@@ -219,6 +221,26 @@ pub struct ActuatorCommand {
     /// CMG gimbal-saturation events since the table was armed (saturating; flag only;
     /// protocol 12).
     pub gimbal_events: u16,
+    /// What guidance commanded this step (protocol 16; zero on a safe command).
+    pub guidance: GuidanceTelemetry,
+}
+
+/// Guidance telemetry of one step ([`crate::guidance`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GuidanceTelemetry {
+    /// [`crate::guidance::flags`] bits.
+    pub flags: u8,
+    /// Commanded attitude, body → inertial, scalar-last.
+    pub q_cmd_xyzw: [f32; 4],
+    /// Angular rate and acceleration of the commanded frame, inertial axes.
+    pub rate_cmd_rad_s: [f32; 3],
+    pub accel_cmd_rad_s2: [f32; 3],
+    /// Primary target direction, inertial unit vector (zero for a fixed attitude).
+    pub primary_eci: [f32; 3],
+    /// Entries into the near-parallel fallback and pointing switches (saturating).
+    pub parallel_events: u16,
+    pub switches: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.
@@ -284,7 +306,8 @@ pub struct FusionCounters {
     pub fused_late: u32,
     /// Refused: older than the filter history.
     pub too_old: u32,
-    /// Refused: newer than the frame or the gyro (from the future).
+    /// Refused: newer than the frame (from the future). A sample newer than the gyro but
+    /// not than the frame waits instead (`waiting`; protocol 15).
     pub from_the_future: u32,
     /// Refused: not newer than the sensor's last fused sample (out of order).
     pub out_of_order: u32,
@@ -292,6 +315,15 @@ pub struct FusionCounters {
     pub bad_input: u32,
     /// Most history nodes re-run to carry one late sample to now.
     pub max_replayed_nodes: u16,
+    /// Samples taken after the filter's time (the gyro lagging them) that waited for the
+    /// gyro and were then fused at their own time (counted in `fused_now` too). Protocol 15.
+    pub fused_after_wait: u32,
+    /// Refused: dropped while waiting for the gyro (the sensor's wait queue full, or the
+    /// filter stopped). Protocol 15.
+    pub dropped_waiting: u32,
+    /// Samples waiting for the gyro after this step (at most
+    /// `estimation::waiting::MAX_WAITING`). Protocol 15.
+    pub waiting: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.
@@ -408,6 +440,10 @@ pub enum HostMsg {
     /// (the QEMU test image, never a flight image) obeys; everything else answers
     /// `Error(DebugDisabled)`.
     DebugHang,
+    /// New pointing for the mission modes (manoeuvre and hold with a mode table; the set in
+    /// force otherwise), blended in over its `transition_s` (protocol 16). Reply: `Ack`, or
+    /// `ParamsRejected` naming the field (nothing changed).
+    SetPointing(GuidanceParams),
 }
 
 /// Flight computer → host.

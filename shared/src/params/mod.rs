@@ -13,10 +13,11 @@
 //! Gains are explicit matrices: the host turns scenario-level choices (e.g. paper 000's
 //! `zeta`, `wn`) into them, so the flight code stays generic and cheap.
 
-use crate::math::{Mat3, quat_from_xyzw};
+use crate::math::Mat3;
 pub mod actuator;
 pub mod controller;
 pub mod estimation;
+pub mod guidance;
 pub mod modes;
 pub mod momentum;
 pub mod sun_safe;
@@ -24,6 +25,7 @@ pub mod sun_safe;
 pub use actuator::*;
 pub use controller::*;
 pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE, MAX_REPLAYED_NODES_LIMIT};
+pub use guidance::{Direction, GuidanceParams, Pointing};
 pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
@@ -31,10 +33,10 @@ use serde::{Deserialize, Serialize};
 pub use sun_safe::{SunSafeError, SunSafeParams};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 10;
+pub const PARAMS_VERSION: u16 = 11;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
-pub const PARAMS_MAX_SIZE: usize = 1024;
+pub const PARAMS_MAX_SIZE: usize = 1280;
 
 /// Capacity of the thruster set.
 pub const MAX_THRUSTERS: usize = 12;
@@ -52,10 +54,9 @@ pub struct FlightParams {
     pub inertia_kgm2: [[f32; 3]; 3],
     pub controller: ControllerParams,
     pub actuator: ActuatorParams,
-    /// Commanded attitude, scalar-last `[x, y, z, w]` (see `math` for the convention),
-    /// relative to `target_frame`.
-    pub target_q_xyzw: [f32; 4],
-    pub target_frame: TargetFrame,
+    /// What the spacecraft points at (params version 11; a fixed attitude in the inertial
+    /// frame or LVLH before): [`GuidanceParams`].
+    pub guidance: GuidanceParams,
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).
     pub hold_after_missed_frames: u16,
@@ -118,6 +119,11 @@ pub enum ParamField {
     Momentum,
     /// The thruster dump of [`MomentumParams`] (`dump_*` fields, params version 10).
     MomentumDump,
+    /// Guidance ([`GuidanceParams`], params version 11): a direction, the gate, the
+    /// transition, the thresholds.
+    Pointing,
+    /// Guidance's body axes: not unit, or primary and secondary (nearly) parallel.
+    PointingAxes,
 }
 
 /// Why it was rejected.
@@ -265,11 +271,7 @@ impl FlightParams {
             ActuatorParams::Magnetorquers(m) => m.validate()?,
             ActuatorParams::Thrusters(t) => t.validate()?,
         }
-        check_finite(F::Target, &self.target_q_xyzw)?;
-        let n = crate::math::norm(&quat_from_xyzw(self.target_q_xyzw).coords);
-        if (n - 1.0).abs() > 1e-3 {
-            return Err(err(F::Target, R::NotUnitQuaternion));
-        }
+        self.guidance.validate()?;
         if self.hold_after_missed_frames == 0 {
             return Err(err(F::HoldAfterMissed, R::OutOfRange));
         }
@@ -352,8 +354,7 @@ impl Default for FlightParams {
                     saturation_check_m: 0.05,
                 },
             },
-            target_frame: TargetFrame::Inertial,
-            target_q_xyzw: [0.0, 0.0, 0.0, 1.0],
+            guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial),
             hold_after_missed_frames: 10,
             momentum: MomentumParams::OFF,
         }
@@ -479,7 +480,7 @@ mod tests {
         cmg(&mut p).h0_nms = 0.0;
         assert_eq!(p.validate().unwrap_err().field, ParamField::CmgMomentum);
         let mut p = base;
-        p.target_q_xyzw = [0.0, 0.0, 0.0, 2.0];
+        p.guidance = GuidanceParams::fixed([0.0, 0.0, 0.0, 2.0], TargetFrame::Inertial);
         assert_eq!(p.validate().unwrap_err().reason, ParamReason::NotUnitQuaternion);
         let mut p = base;
         p.version = 99;

@@ -109,6 +109,9 @@ fn fly(
     let mut series = TimeSeries::default();
     let mut stop: Option<PyErr> = None;
     let mut last_look = Instant::now();
+    // `done` counts flight steps, the initial frame's included (1..=total + 1); the callback
+    // gets the control steps elapsed (done - 1) of the CLI's "N steps" (total), so the bar
+    // ends once at total/total (issue 38: it counted to total + 1).
     let mut observe = |done: u64, total: u64| -> anyhow::Result<()> {
         let progress = done.is_multiple_of(CHECK_EVERY) || done > total;
         let look = progress || (done.is_multiple_of(CLOCK_EVERY) && last_look.elapsed() >= SIGNAL_POLL);
@@ -119,7 +122,7 @@ fn fly(
         Python::attach(|py| {
             py.check_signals()?;
             match callback {
-                Some(cb) if progress => cb.call1(py, (done.min(total + 1), total + 1)).map(drop),
+                Some(cb) if progress => cb.call1(py, (done.saturating_sub(1).min(total), total)).map(drop),
                 _ => Ok(()),
             }
         })
@@ -142,7 +145,10 @@ fn fly(
     };
     let measured =
         interruptible(&cancel, || sim_host::margins::summary::for_scenario(sc, &base)).map_err(Failed::Python)?;
-    summary.margins = measured?.map(|m| m.0);
+    // As `sim-host run` and campaigns: a loop that is not stable and steady fails the run.
+    if let Some((m, _)) = measured? {
+        summary.record_margins(m);
+    }
     Ok((summary, series))
 }
 

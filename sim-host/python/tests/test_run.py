@@ -58,7 +58,8 @@ def test_output_every_and_progress():
     sc = acs.Scenario.load(TEST3)
     seen = []
     r10 = acs.run(sc, output_every=10, progress=lambda done, total: seen.append((done, total)))
-    assert seen and seen[-1][0] == seen[-1][1] == sc.steps + 1
+    # The CLI's step count ("4000 steps over 40 s"), reached once at the end (issue 38).
+    assert seen and seen[-1][0] == seen[-1][1] == sc.steps == r10.summary["steps"]
     assert all(a[0] < b[0] for a, b in zip(seen, seen[1:]))
     r1 = acs.run(sc, output_every=1)
     every10 = r1.columns["t_s"][::10]
@@ -181,3 +182,28 @@ def test_a_scenario_changed_while_it_flies_from_another_thread():
 
     assert without_wall_clock(result["r"].summary) == without_wall_clock(unchanged)
     assert acs.run(sc).summary["final_error_deg"] != unchanged["final_error_deg"]
+
+
+def test_margins_of_an_unstable_loop_fail_the_run_as_on_the_command_line():
+    """Issue 37 finding 3 in Python: the unstable fixture (gains x 10, 0.2 s wheel-torque
+    delay; closed-form phase margin -15.4 deg) with `[margins]` returns a failed run
+    (`margins_failed`, the figures beside `stable` false), not an ok one."""
+    import warnings
+
+    text = (REPO / "tests/scenarios/margins/rigid-pd.toml").read_text()
+    for old, new in [
+        ("k_diag_nm = [5.0, 6.0, 7.5]", "k_diag_nm = [50.0, 60.0, 75.0]"),
+        ("d_diag_nms = [7.0, 8.4, 10.5]", "d_diag_nms = [70.0, 84.0, 105.0]"),
+        ("torque_limit_nm = [50.0, 50.0, 50.0]", "torque_limit_nm = [500.0, 500.0, 500.0]"),
+        ("inertia_kgm2 = 0.01", "inertia_kgm2 = 0.01\ntorque_delay_s = 0.2"),
+    ]:
+        assert old in text, old
+        text = text.replace(old, new)
+    sc = acs.Scenario.from_toml(text + "\n[margins]\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", acs.RunStatusWarning)
+        r = acs.run(sc)
+    assert r.status == "margins_failed" and not r.ok, r.summary["failure"]
+    m = r.summary["margins"]
+    assert m["status"] == "unstable" and m["stable"] is False, m
+    assert m["phase_margin_deg"] < 0.0, m

@@ -33,6 +33,14 @@ pub enum RunStatus {
     /// Flew, but the flight code refused the input of every step (summary `run_status`
     /// `all_refused`): misses every requirement.
     AllRefused,
+    /// Flew, but the margins its `[margins]` asks for are not those of a stable loop at a
+    /// steady hold (summary `run_status` `margins_failed`, `margins.status` not
+    /// `measured`: what `sim-host run` exits non-zero for): misses every requirement.
+    MarginsFailed,
+    /// Flew, but the flight code could not control for a material part of the run (summary
+    /// `run_status` `no_control`: no estimate or a refused input after the start-up
+    /// allowance): misses every requirement.
+    NoControl,
 }
 
 impl RunStatus {
@@ -80,9 +88,9 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// Flies one run and, with `[margins]`, measures its margins into `summary.margins` (one
-/// worker thread: the campaign runs its runs in parallel). A refused measurement is a
-/// summary with its status and reason: the requirements on its figures then fail. Once
-/// `cancel` is cancelled the run and its measurement stop at their next control step.
+/// worker thread: the campaign runs its runs in parallel). A measurement that is not a
+/// stable loop at a steady hold makes the run `margins_failed` (summary `run_status`).
+/// Once `cancel` is cancelled the run and its measurement stop at their next control step.
 fn fly_with_margins(sc: &Scenario, cancel: &Cancel) -> anyhow::Result<runner::Summary> {
     let link_options = LinkOptions { cancel: Some(cancel.clone()), ..Default::default() };
     let mut l = link::open(&LinkKind::InProcess, &link_options)?;
@@ -90,8 +98,27 @@ fn fly_with_margins(sc: &Scenario, cancel: &Cancel) -> anyhow::Result<runner::Su
     let mut summary = runner::run_observed(sc, l.as_mut(), &mut Discard, &mut |_, _| cancel.check())?;
     drop(l);
     let base = crate::margins::MarginOptions { threads: 1, link_options, ..Default::default() };
-    summary.margins = crate::margins::summary::for_scenario(sc, &base)?.map(|(m, _)| m);
+    crate::margins::summary::record(sc, &base, &mut summary)?;
     Ok(summary)
+}
+
+/// How a summary's run failed, if it did: its `run_status`, and a `margins.status` other
+/// than `measured` whatever `run_status` says (a summary written before `margins_failed`).
+fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
+    let margins = summary.get("margins").filter(|m| !m.is_null());
+    match summary.get("run_status").and_then(|s| s.as_str()) {
+        Some("diverged") => Some(RunStatus::Diverged),
+        Some("all_refused") => Some(RunStatus::AllRefused),
+        Some("margins_failed") => Some(RunStatus::MarginsFailed),
+        Some("no_control") => Some(RunStatus::NoControl),
+        Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
+            Some(RunStatus::MarginsFailed)
+        }
+        Some("ok") => None,
+        // Any other failed run (e.g. `link_anomaly`; a summary without a status is not
+        // one this simulator wrote): its figures are not to be judged either.
+        _ => Some(RunStatus::Error),
+    }
 }
 
 /// One run, start to verdict; never fails (errors and panics become the record's status).
@@ -116,15 +143,9 @@ pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement], cance
         }
     };
     let values = flatten(&summary);
-    // A diverged or refused run misses every requirement, whatever its partial figures say.
-    let failed_run = match summary.get("run_status").and_then(|s| s.as_str()) {
-        Some("diverged") => Some(RunStatus::Diverged),
-        Some("all_refused") => Some(RunStatus::AllRefused),
-        Some("ok") => None,
-        // Any other failed run (e.g. `link_anomaly`; a summary without a status is not
-        // one this simulator wrote): its figures are not to be judged either.
-        _ => Some(RunStatus::Error),
-    };
+    // A diverged, refused or margins-failed run misses every requirement, whatever its
+    // figures say.
+    let failed_run = failed_run(&summary);
     let failed_requirements: Vec<String> = requirements
         .iter()
         .filter(|r| failed_run.is_some() || !r.met_by(values.get(&r.key).copied().flatten()))
@@ -153,6 +174,9 @@ pub struct ShardReport {
     /// Runs that diverged or whose every step the flight code refused.
     pub diverged: usize,
     pub all_refused: usize,
+    /// Runs whose `[margins]` measurement is not a stable loop at a steady hold.
+    pub margins_failed: usize,
+    pub no_control: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -209,6 +233,8 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::Error => r.errors += 1,
                         RunStatus::Diverged => r.diverged += 1,
                         RunStatus::AllRefused => r.all_refused += 1,
+                        RunStatus::MarginsFailed => r.margins_failed += 1,
+                        RunStatus::NoControl => r.no_control += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);
