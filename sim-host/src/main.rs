@@ -747,7 +747,11 @@ fn view_run(dir: &Path, opts: &sim_host::view::ViewOptions) -> Result<()> {
         r.page_bytes as f64 / 1e6,
         r.rows_kept,
         r.rows_recorded,
-        if r.selection.buckets > 0 { format!(", decimated over {} buckets", r.selection.buckets) } else { String::new() },
+        if r.selection.buckets > 0 {
+            format!(", decimated over {} buckets", r.selection.buckets)
+        } else {
+            String::new()
+        },
         r.geometry.describe()
     );
     if r.selection.transition_rows_dropped > 0 {

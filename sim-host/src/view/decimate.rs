@@ -130,7 +130,8 @@ mod tests {
         noisy[123_457] = 50.0;
         noisy[987_651] = -40.0;
         let ramp: Vec<f64> = (0..n).map(|i| i as f64).collect();
-        let gappy: Vec<f64> = (0..n).map(|i| if (1000..5000).contains(&i) { f64::NAN } else { (i as f64).sin() }).collect();
+        let gappy: Vec<f64> =
+            (0..n).map(|i| if (1000..5000).contains(&i) { f64::NAN } else { (i as f64).sin() }).collect();
         (mode, noisy, ramp, gappy)
     }
 

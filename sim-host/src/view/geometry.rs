@@ -16,7 +16,7 @@ use sim_core::environment::frames::q_lvlh_to_eci;
 use sim_core::environment::orbit::R_E;
 use sim_core::environment::torques::{in_shadow_cylindrical, sun_position_eci};
 use sim_core::recorder::series::TimeSeries;
-use sim_core::scenario::{RefFrame, Scenario};
+use sim_core::scenario::{Scenario, TargetConfig};
 
 /// Where the orbit geometry came from (shown on the page and in docs/viewer.md).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -73,7 +73,7 @@ pub fn orbit_point(r_m: Vec3, v_m_s: Vec3, sun: Vec3, earth_rotation_rad: f64) -
     }
 }
 
-fn col3(ts: &TimeSeries, names: [&str; 3]) -> Option<[&[f64]; 3]> {
+fn col3<'a>(ts: &'a TimeSeries, names: [&str; 3]) -> Option<[&'a [f64]; 3]> {
     Some([ts.col(names[0])?, ts.col(names[1])?, ts.col(names[2])?])
 }
 
@@ -86,7 +86,9 @@ pub fn orbit(sc: Option<&Scenario>, ts: &TimeSeries, rows: &[usize]) -> Result<(
     let Some(mut env) = sc.map(Scenario::environment).transpose()?.flatten() else {
         return Ok((Source::None, Vec::new()));
     };
-    let Some(prop) = env.orbit.as_mut() else { return Ok((Source::None, Vec::new())) };
+    if env.orbit.is_none() {
+        return Ok((Source::None, Vec::new()));
+    }
     let t = ts.col("t_s").ok_or_else(|| anyhow!("the time series has no t_s column"))?;
     let r_cols = col3(ts, ["r_eci_x_m", "r_eci_y_m", "r_eci_z_m"]);
     let v_cols = col3(ts, ["v_eci_x_m_s", "v_eci_y_m_s", "v_eci_z_m_s"]);
@@ -98,8 +100,10 @@ pub fn orbit(sc: Option<&Scenario>, ts: &TimeSeries, rows: &[usize]) -> Result<(
         let (r, v, sun) = match (&r_cols, &v_cols, &sun_cols) {
             (Some(r), Some(v), Some(s)) => (at(r, i), at(v, i), at(s, i)),
             _ => {
+                let jd = env.julian_date(t_s);
+                let prop = env.orbit.as_mut().ok_or_else(|| anyhow!("no orbit"))?;
                 let (r, v) = prop.try_state_at(t_s).map_err(|e| anyhow!("orbit at t = {t_s} s: {e:?}"))?;
-                (r, v, sun_position_eci(env.julian_date(t_s)))
+                (r, v, sun_position_eci(jd))
             }
         };
         out.push(orbit_point(r, v, sun, env.earth.angle(t_s)));
@@ -114,11 +118,10 @@ pub fn orbit(sc: Option<&Scenario>, ts: &TimeSeries, rows: &[usize]) -> Result<(
 pub fn target(sc: Option<&Scenario>, ts: &TimeSeries, rows: &[usize], orbit: &[OrbitPoint]) -> Option<Vec<Quat>> {
     let sc = sc?;
     let e = col3(ts, ["roll_target_deg", "pitch_target_deg", "yaw_target_deg"])?;
-    let lvlh = sc.target.frame == RefFrame::Lvlh;
+    let TargetConfig { seq, lvlh, .. } = TargetConfig::of(sc);
     if lvlh && orbit.len() != rows.len() {
         return None;
     }
-    let seq = sc.target.euler_sequence.into();
     Some(
         rows.iter()
             .enumerate()

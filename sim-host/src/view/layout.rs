@@ -145,7 +145,8 @@ mod tests {
 
     #[test]
     fn the_template_takes_the_data_once_and_escapes_markup() {
-        let page = fill_template("<script>const D = \"__ACS_REPLAY_DATA__\";</script>", r#"{"n":"</script>"}"#).unwrap();
+        let page =
+            fill_template("<script>const D = \"__ACS_REPLAY_DATA__\";</script>", r#"{"n":"</script>"}"#).unwrap();
         assert_eq!(page, "<script>const D = {\"n\":\"\\u003c/script>\"};</script>");
         assert!(fill_template("no placeholder", "{}").is_err());
     }

@@ -84,7 +84,10 @@ fn read_bundle(path: &Path) -> Result<String> {
 }
 
 /// The run's scenario: from the time series' metadata, else the file given.
-fn scenario_of(metadata: &std::collections::BTreeMap<String, String>, given: Option<&Path>) -> Result<Option<Scenario>> {
+fn scenario_of(
+    metadata: &std::collections::BTreeMap<String, String>,
+    given: Option<&Path>,
+) -> Result<Option<Scenario>> {
     if let Some(p) = given {
         return Ok(Some(Scenario::load(p)?));
     }
@@ -208,7 +211,8 @@ pub fn campaign_run_index(dir: &Path, which: CampaignRun) -> Result<u32> {
             let path = dir.join("campaign.json");
             let text = std::fs::read_to_string(&path)
                 .with_context(|| format!("reading {} (run `sim-host campaign merge` first)", path.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
+            let v: serde_json::Value =
+                serde_json::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
             let first = v["requirements"].as_array().and_then(|r| r.first());
             let run = first.and_then(|r| r["worst"].get(0)?.get("run")?.as_u64());
             let run = run.ok_or_else(|| {

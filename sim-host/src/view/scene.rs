@@ -8,7 +8,7 @@ use super::layout::Channel;
 use acs_flight::params::Mode;
 use anyhow::Result;
 use serde_json::{Value, json};
-use sim_core::scenario::{RefFrame, Scenario};
+use sim_core::scenario::{Scenario, TargetConfig};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -60,7 +60,7 @@ pub fn document(i: &Inputs) -> Result<Value> {
             "transition_rows_dropped": i.selection.transition_rows_dropped,
         },
         "geometry": { "source": format!("{:?}", i.geometry).to_lowercase(), "note": i.geometry.describe() },
-        "target_frame": i.scenario.map(|sc| if sc.target.frame == RefFrame::Lvlh { "lvlh" } else { "inertial" }),
+        "target_frame": i.scenario.map(|sc| if TargetConfig::of(sc).lvlh { "lvlh" } else { "inertial" }),
         "modes": modes,
         "spacecraft": i.scenario.map(spacecraft).unwrap_or_else(|| json!({ "box_m": [1.0, 1.0, 1.0], "box_source": "default (no scenario)" })),
         "channels": i.channels.iter().map(Channel::encode).collect::<Vec<_>>(),
@@ -171,7 +171,8 @@ mod tests {
 
     #[test]
     fn the_default_box_has_the_inertia_of_a_uniform_box() {
-        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/paper000/test1.toml")).unwrap();
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/paper000/test1.toml")).unwrap();
         let mut sc = Scenario::from_toml(&text).unwrap();
         sc.spacecraft.box_m = None;
         sc.spacecraft.mass_kg = Some(12.0);

@@ -22,18 +22,20 @@ const FIRST_FRAME_TIMEOUT_MS = 60_000;
 
 const script = JSON.parse(readFileSync(process.argv[2], 'utf8'));
 const profile = mkdtempSync(join(tmpdir(), 'acs-chromium-'));
-const browser = await chromium.launch({
+// A fresh profile directory per run (playwright passes it as --user-data-dir).
+const width = script.width || 1280, height = script.height || 800;
+const context = await chromium.launchPersistentContext(profile, {
   executablePath: CHROMIUM,
   headless: true,
+  viewport: { width, height },
   args: [
-    '--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-    '--disable-component-update', '--disable-sync', '--no-first-run', `--user-data-dir=${profile}`,
-    '--enable-unsafe-swiftshader', '--use-angle=swiftshader',
+    '--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
+    '--disable-sync', '--no-first-run', '--enable-unsafe-swiftshader', '--use-angle=swiftshader',
   ],
 });
 const out = { consoleErrors: [], pageErrors: [], requests: [], results: [] };
 try {
-  const page = await browser.newPage({ viewport: { width: script.width || 1280, height: script.height || 800 } });
+  const page = context.pages()[0] || (await context.newPage());
   page.on('console', (m) => { if (m.type() === 'error') out.consoleErrors.push(m.text()); });
   page.on('pageerror', (e) => out.pageErrors.push(String(e)));
   // The page must not touch the network: every request other than the page itself is
@@ -74,7 +76,7 @@ try {
     }
   }
 } finally {
-  await browser.close();
+  await context.close();
   rmSync(profile, { recursive: true, force: true });
 }
 console.log(JSON.stringify(out));
