@@ -112,16 +112,34 @@ fn rows_that_fit(max_page_bytes: usize, template_bytes: usize, dtypes: impl Into
     (room / per_row).min(MAX_ROWS)
 }
 
-/// Writes the replay page of the run in `run_dir`.
+/// A run as its page is built from it: the recorded rows, the time series' metadata, the
+/// summary (`None`: a run that stopped with an error) and the scenario (`None`: no body,
+/// actuators or orbit in the scene).
+pub struct RunData {
+    pub series: TimeSeries,
+    pub metadata: std::collections::BTreeMap<String, String>,
+    pub summary: Option<serde_json::Value>,
+    pub scenario: Option<Scenario>,
+}
+
+/// Writes the replay page of the run in `run_dir` (`RUN_DIR/replay.html` unless `o.out`).
 pub fn write_replay(run_dir: &Path, o: &ViewOptions) -> Result<ViewReport> {
-    let template = read_bundle(&o.bundle.clone().unwrap_or_else(bundle_path))?;
     let run = read_run(run_dir)?;
     let summary = read_summary(run_dir)?;
-    let sc = scenario_of(&run.metadata, o.scenario.as_deref())?;
-    let ts = &run.series;
+    let scenario = scenario_of(&run.metadata, o.scenario.as_deref())?;
+    let out = o.out.clone().unwrap_or_else(|| run_dir.join(PAGE_FILE));
+    let data = RunData { series: run.series, metadata: run.metadata, summary, scenario };
+    write_page(&data, run_dir, &out, o)
+}
+
+/// Writes the replay page of `run` to `out`; `source` names the run on the page (its
+/// directory, or what the Python package says).
+pub fn write_page(run: &RunData, source: &Path, out: &Path, o: &ViewOptions) -> Result<ViewReport> {
+    let template = read_bundle(&o.bundle.clone().unwrap_or_else(bundle_path))?;
+    let (ts, sc) = (&run.series, run.scenario.as_ref());
     let n = ts.len();
     if n == 0 {
-        bail!("{}: the time series has no rows", run_dir.display());
+        bail!("{}: the time series has no rows", source.display());
     }
     let max_page = o.max_page_bytes.unwrap_or(MAX_PAGE_BYTES);
     let mut dtypes: Vec<Dtype> = ts.names.iter().map(|c| recorded_channel(c, &[], &[]).dtype).collect();
@@ -130,34 +148,33 @@ pub fn write_replay(run_dir: &Path, o: &ViewOptions) -> Result<ViewReport> {
     let max_rows = rows_that_fit(max_page, template.len(), dtypes);
     let selection = select_rows(ts, max_rows);
     let rows = &selection.rows;
-    let (source, orbit) = geometry::orbit(sc.as_ref(), ts, rows)?;
-    let target = geometry::target(sc.as_ref(), ts, rows, &orbit);
+    let (geometry, orbit) = geometry::orbit(sc, ts, rows)?;
+    let target = geometry::target(sc, ts, rows, &orbit);
     let mut channels: Vec<Channel> =
         ts.names.iter().zip(&ts.cols).map(|(name, col)| recorded_channel(name, col, rows)).collect();
     channels.extend(geometry::channels(&orbit, target.as_deref()));
     let doc = scene::document(&scene::Inputs {
-        run_dir,
-        summary: summary.as_ref(),
-        scenario: sc.as_ref(),
+        run_dir: source,
+        summary: run.summary.as_ref(),
+        scenario: sc,
         metadata: &run.metadata,
         channels: &channels,
         rows_recorded: n,
         selection: &selection,
-        geometry: &source,
+        geometry: &geometry,
     })?;
     let page = layout::fill_template(&template, &serde_json::to_string(&doc)?)?;
     if page.len() > max_page {
         bail!("the replay page would be {} bytes, over its bound of {max_page}", page.len());
     }
-    let out = o.out.clone().unwrap_or_else(|| run_dir.join(PAGE_FILE));
-    sim_core::files::write_atomic(&out, page.as_bytes())?;
+    sim_core::files::write_atomic(out, page.as_bytes())?;
     Ok(ViewReport {
-        page: out,
+        page: out.to_path_buf(),
         page_bytes: page.len(),
         rows_recorded: n,
         rows_kept: rows.len(),
         selection: selection.clone(),
-        geometry: source,
+        geometry,
     })
 }
 
