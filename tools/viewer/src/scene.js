@@ -6,8 +6,13 @@
 // (docs/conventions.md), so the run's quaternions go in as they are.
 import * as THREE from 'three';
 
-const EARTH_DISTANCE = 7; // scene units from the spacecraft to the drawn Earth's centre
+// Scene units from the spacecraft to the drawn Earth's centre: the globe is scaled to the
+// Earth's true angular radius at that distance, so its surface stays a few spacecraft sizes
+// away (at 500 km altitude: 30 × (1 − sin 66°) ≈ 2.6 units) and the body axes stay in view.
+const EARTH_DISTANCE = 30;
 const R_EARTH_M = 6378137.0;
+/** World ← LVLH of the LVLH camera: half a turn about x (z nadir → world z zenith). */
+const ZENITH_UP = new THREE.Quaternion(1, 0, 0, 0);
 
 const C = {
   x: 0xd55e00, y: 0x009e73, z: 0x0072b2, // Okabe–Ito vermillion, bluish green, blue
@@ -193,7 +198,8 @@ export class Scene {
   /** World ← ECI for the camera frame at this time. */
   frameQuat(camera, qBody, qLvlh) {
     if (camera === 'body') return new THREE.Quaternion(...qBody).invert();
-    if (camera === 'lvlh' && qLvlh) return new THREE.Quaternion(...qLvlh).invert();
+    // LVLH drawn with the zenith up (world z = −LVLH z, x along track): the Earth below.
+    if (camera === 'lvlh' && qLvlh) return ZENITH_UP.clone().multiply(new THREE.Quaternion(...qLvlh).invert());
     return new THREE.Quaternion();
   }
 
@@ -317,8 +323,12 @@ export class OrbitScene {
       g.setAttribute('position', new THREE.BufferAttribute(pts, 3));
       return new THREE.Line(g, new THREE.LineBasicMaterial({ color }));
     };
-    this.scene.add(line(orbit, 0x88aaff));
-    this.earth.add(line(track, 0xffdd55)); // turns with the Earth
+    // The last orbital period up to the current time: over days a whole track would cover
+    // the globe (J2 turns the plane, the Earth turns under it).
+    this.orbitLine = line(orbit, 0x88aaff);
+    this.trackLine = line(track, 0xffdd55);
+    this.scene.add(this.orbitLine);
+    this.earth.add(this.trackLine); // turns with the Earth
     this.craft = new THREE.Mesh(new THREE.SphereGeometry(0.04, 16, 8), new THREE.MeshBasicMaterial({ color: 0xff5533 }));
     this.scene.add(this.craft);
     this.sun = arrow([1, 0, 0], C.sun, 2.2, 0.15, 0.08);
@@ -329,6 +339,13 @@ export class OrbitScene {
     if (!this.ok) return;
     const r = this.r;
     const p = r.vec3('geo_r_eci_', loc, '_m').map((x) => x / R_EARTH_M);
+    // Period of the circular orbit of this radius (μ = GM of the Earth, WGS 84).
+    const period_s = 2 * Math.PI * Math.sqrt((Math.hypot(...p) * R_EARTH_M) ** 3 / 3.986004418e14);
+    const t = r.t[loc.k] + loc.a * ((r.t[loc.k + 1] ?? r.t[loc.k]) - r.t[loc.k]);
+    const k0 = r.locate(t - period_s).k;
+    const count = Math.max(2, loc.k + 2 - k0);
+    this.orbitLine.geometry.setDrawRange(k0, count);
+    this.trackLine.geometry.setDrawRange(k0, count);
     this.craft.position.set(...p);
     const sun = new THREE.Vector3(...r.vec3('geo_sun_eci_', loc)).normalize();
     this.sun.setDirection(sun);
