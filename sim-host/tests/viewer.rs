@@ -260,3 +260,43 @@ fn a_failed_run_says_so() {
     let reason = summary["failure"]["reason"].as_str().unwrap();
     assert!(status.starts_with("RUN NO_CONTROL: ") && status.contains(reason), "{status}");
 }
+
+/// `sim-host view CAMPAIGN --run worst` opens the run `campaign.json` names as the first
+/// requirement's worst: the page is that run's (its scenario, and its final error equal to
+/// the error the merge recorded for it, bit for bit), and it loads in the browser.
+#[test]
+fn a_campaigns_worst_run_opens_the_same_way() {
+    let Some(driver) = browser() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let base = scenario(tmp.path(), "scenarios/paper000/test3.toml", 10.0, None);
+    let spec = tmp.path().join("c.toml");
+    let text = format!(
+        "name = \"v\"\nbase = {:?}\nruns = 4\nseed = 11\n\
+         [[dispersion]]\nkey = \"initial.euler_deg\"\ndist = {{ type = \"rotation\", max_deg = 40.0 }}\n\
+         [[requirement]]\nname = \"error\"\nkey = \"final_error_deg\"\nop = \"<\"\nvalue = 1000.0\n",
+        base.display().to_string()
+    );
+    std::fs::write(&spec, text).unwrap();
+    let dir = tmp.path().join("c");
+    let ok = |args: &[&str]| {
+        let o = sim_host().args(args).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    let d = dir.to_str().unwrap();
+    ok(&["campaign", "plan", spec.to_str().unwrap(), "--out", d]);
+    ok(&["campaign", "run", "-q", d]);
+    ok(&["campaign", "merge", "--no-plots", d]);
+    ok(&["view", d, "--run", "worst"]);
+    let merged: Value = serde_json::from_str(&std::fs::read_to_string(dir.join("campaign.json")).unwrap()).unwrap();
+    let worst = &merged["requirements"][0]["worst"][0];
+    let run = worst["run"].as_u64().unwrap();
+    let out = dir.join("runs").join(format!("{run:06}")).join("out");
+    let summary: Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["final_error_deg"], worst["value"], "worst {worst}, flown again {summary}");
+    let v = drive(
+        &driver,
+        tmp.path(),
+        json!({ "page": out.join("replay.html"), "ops": [{ "op": "text", "selector": "#title" }] }),
+    );
+    assert_eq!(v["results"][0], summary["scenario"]);
+}
