@@ -958,7 +958,7 @@ fn decade_tick(v: f64) -> String {
         return String::new();
     }
     let x = 10f64.powi(e as i32);
-    if (-3.0..=3.0).contains(&e) { format!("{}", short_decimal(x)) } else { format!("{x:.0e}") }
+    if (-3.0..=3.0).contains(&e) { short_decimal(x) } else { format!("{x:.0e}") }
 }
 
 /// 0.001, 0.01, 0.1, 1, 10 … without trailing zeros.
