@@ -126,6 +126,9 @@ pub struct Figure {
     /// One unit is as many pixels on x as on y (a Nyquist plot): square plot areas and the
     /// same span on both axes, each centred on its data.
     pub equal_scale: bool,
+    /// The x column holds log10 of the quantity (a frequency): ticks are labelled with the
+    /// quantity at whole decades (0.1, 1, 10, 100), other ticks unlabelled.
+    pub x_log10: bool,
 }
 
 /// What every figure of one render names: the scenario (or campaign, or experiment).
@@ -202,6 +205,8 @@ pub struct FigurePlan {
     pub x_label: String,
     pub x: Vec<f64>,
     pub x_range: (f64, f64),
+    /// See [`Figure::x_log10`].
+    pub x_log10: bool,
     pub panels: Vec<PanelPlan>,
     /// Mode spans (from, to, mode name) for the ribbon and the transition lines.
     pub modes: Vec<(f64, f64, String)>,
@@ -334,6 +339,7 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         x_label: fig.x_label.clone(),
         x: x.to_vec(),
         x_range,
+        x_log10: fig.x_log10,
         panels,
         modes,
         eclipses,
@@ -709,7 +715,8 @@ where
     DB: DrawingBackend + 'a,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    let x_fmt = tick_formatter(p.x_range.0, p.x_range.1, X_TICKS);
+    let linear_fmt = tick_formatter(p.x_range.0, p.x_range.1, X_TICKS);
+    let x_fmt = |v: &f64| if p.x_log10 { decade_tick(*v) } else { linear_fmt(v) };
     let mut mesh = chart.configure_mesh();
     let y_ticks = if panel.categories.is_empty() { Y_TICKS } else { 2 * panel.categories.len() + 1 };
     mesh.y_desc(&panel.y_label)
@@ -739,8 +746,9 @@ where
     for m in p.modes.iter().skip(1) {
         stroke(&area, vertical(m.0), GREY, Dash::Dashed)?;
     }
-    for l in &p.x_lines {
-        stroke(&area, vertical(l.0), RGBColor(0, 0, 0), Dash::Dashed)?;
+    for (k, l) in p.x_lines.iter().enumerate() {
+        let (colour, dash) = x_line_style(k);
+        stroke(&area, vertical(l.0), colour, dash)?;
     }
     let mut rows = Vec::new();
     for t in &panel.thresholds {
@@ -824,7 +832,10 @@ fn draw_legend(cell: &Area, p: &FigurePlan, panel: &PanelPlan, threshold_rows: &
         .lines
         .iter()
         .map(|l| (l.label.clone(), l.colour, l.dash))
-        .chain(p.x_lines.iter().map(|l| (l.1.clone(), RGBColor(0, 0, 0), Dash::Dashed)))
+        .chain(p.x_lines.iter().enumerate().map(|(k, l)| {
+            let (colour, dash) = x_line_style(k);
+            (l.1.clone(), colour, dash)
+        }))
         .collect();
     let point_labels = panel.points.iter().map(|q| &q.2);
     let size = entries.iter().map(|e| &e.0).chain(point_labels).map(|l| fit_font(l, 15, LEGEND_W - 48)).min();
@@ -926,6 +937,36 @@ fn tick_formatter(lo: f64, hi: f64, n: usize) -> impl Fn(&f64) -> String {
     }
 }
 
+/// The style of the k-th vertical reference line: black dashed, then vermillion dotted,
+/// blue long-dashed, … so that lines of different meaning (a crossover and a phase
+/// crossing) are told apart in the legend.
+fn x_line_style(k: usize) -> (RGBColor, Dash) {
+    const STYLES: [(RGBColor, Dash); 4] = [
+        (RGBColor(0, 0, 0), Dash::Dashed),
+        (RGBColor(213, 94, 0), Dash::Dotted),
+        (RGBColor(0, 114, 178), Dash::LongDash),
+        (RGBColor(0, 158, 115), Dash::Dashed),
+    ];
+    STYLES[k % STYLES.len()]
+}
+
+/// Tick label of a log10 axis: the quantity at a whole decade (0.001 … 1000, else 1e-4),
+/// nothing between decades.
+fn decade_tick(v: f64) -> String {
+    let e = v.round();
+    if (v - e).abs() > 1e-9 {
+        return String::new();
+    }
+    let x = 10f64.powi(e as i32);
+    if (-3.0..=3.0).contains(&e) { short_decimal(x) } else { format!("{x:.0e}") }
+}
+
+/// 0.001, 0.01, 0.1, 1, 10 … without trailing zeros.
+fn short_decimal(x: f64) -> String {
+    let s = format!("{x:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// Tick label for log axes: powers of ten as 10⁻³ etc., anything else as 2e-3.
 fn log_tick(v: &f64) -> String {
     let e = v.log10().round();
@@ -975,6 +1016,21 @@ fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_log10_axis_reads_decades_and_reference_lines_differ() {
+        // The labels are the quantity, 10^v, at whole decades only.
+        for (v, want) in [(-3.0, "0.001"), (-1.0, "0.1"), (0.0, "1"), (1.0, "10"), (2.0, "100"), (5.0, "1e5")] {
+            assert_eq!(decade_tick(v), want, "v = {v}");
+        }
+        assert_eq!(decade_tick(0.5), "");
+        assert_eq!(decade_tick(-1.0 + 1e-12), "0.1");
+        // Consecutive reference lines never share colour and dash.
+        for k in 0..8 {
+            let (a, b) = (x_line_style(k), x_line_style(k + 1));
+            assert!(a.0 != b.0 || a.1 != b.1, "lines {k} and {}", k + 1);
+        }
+    }
 
     #[test]
     fn ranges_and_ticks() {
