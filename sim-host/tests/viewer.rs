@@ -120,6 +120,16 @@ fn angle_deg(a: &[f64], b: &[f64]) -> f64 {
     cross.iter().map(|c| c * c).sum::<f64>().sqrt().atan2(dot).to_degrees()
 }
 
+/// `v` rotated by the unit quaternion `[x, y, z, w]` (body → ECI): v + 2w (u × v) + 2 u × (u × v).
+fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
+    let (u, w) = ([q[0], q[1], q[2]], q[3]);
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let t = cross(u, v).map(|x| 2.0 * x);
+    let ut = cross(u, t);
+    [0, 1, 2].map(|k| v[k] + w * t[k] + ut[k])
+}
+
 fn unit(v: [f64; 3]) -> [f64; 3] {
     let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
     v.map(|x| x / n)
@@ -177,7 +187,8 @@ fn the_mission_replays_as_flown() {
 }
 
 /// A guidance run records its orbit, Sun and Earth angle: the scene's Sun and Earth
-/// directions equal them within 0.01° in every camera frame, and the geometry the page
+/// directions equal them within 0.01° in every camera frame, so does the ray to the tracked
+/// site (its recorded body-axes direction), and the geometry the page
 /// computes from the scenario alone (for runs that record none) agrees with them too.
 #[test]
 fn sun_and_earth_are_where_the_run_says() {
@@ -200,6 +211,7 @@ fn sun_and_earth_are_where_the_run_says() {
     let ops: Vec<Value> =
         rows.iter().enumerate().map(|(k, &i)| json!({ "op": "state", "t": t[i], "camera": cameras[k % 3] })).collect();
     let v = drive(&driver, tmp.path(), json!({ "page": out.join("replay.html"), "ops": ops }));
+    let mut targets = 0;
     for (s, &i) in v["results"].as_array().unwrap().iter().zip(&rows) {
         let sun_run = unit([sun[0][i], sun[1][i], sun[2][i]]);
         let earth_run = unit([-r_m[0][i], -r_m[1][i], -r_m[2][i]]);
@@ -211,9 +223,21 @@ fn sun_and_earth_are_where_the_run_says() {
             t[i],
             s["camera"]
         );
+        // The tracked site: the recorded body-axes direction, turned into ECI here by the
+        // run's quaternion (v' = q v q*, written out), against the ray the page draws.
+        let tb = [col("target_body_x")[i], col("target_body_y")[i], col("target_body_z")[i]];
+        if tb.iter().all(|x| x.is_finite()) {
+            let q = [col("q_x")[i], col("q_y")[i], col("q_z")[i], col("q_w")[i]];
+            let want = rotate(q, unit(tb));
+            let e_target = angle_deg(&vec_of(&s["targetEci"]), &want);
+            assert!(e_target < 0.01, "t = {} s, {}: target ray off by {e_target}°", t[i], s["camera"]);
+            assert_eq!(s["targetVisible"], json!(col("target_visible")[i] == 1.0), "{s}");
+            targets += 1;
+        }
         let radius = (sim_core::environment::orbit::R_E / r_m.iter().map(|c| c[i] * c[i]).sum::<f64>().sqrt()).asin();
         assert!((s["earthRadiusRad"].as_f64().unwrap() - radius).abs() < 1e-6, "{s}");
     }
+    assert!(targets >= 3, "the target ray was checked at {targets} rows only");
     // The geometry from the scenario alone: same run, recorded orbit columns hidden.
     let sc_run = sim_core::scenario::Scenario::load(&sc).unwrap();
     let mut bare = ts.clone();

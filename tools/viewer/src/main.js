@@ -173,6 +173,8 @@ function main() {
         bodyToEci: q4(Finv.clone().multiply(scene.craft.quaternion)),
         ghostToEci: scene.ghost.visible ? q4(Finv.clone().multiply(scene.ghost.quaternion)) : null,
         keepout: scene.keepout || [],
+        targetEci: scene.target ? v3(scene.target.world.clone().applyQuaternion(Finv)) : null,
+        targetVisible: scene.target ? scene.target.visible : null,
       };
       if (scene.hasOrbit) {
         const sunW = new THREE.Vector3(0, 1, 0).applyQuaternion(scene.sunArrow.quaternion);

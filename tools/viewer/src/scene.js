@@ -17,7 +17,7 @@ const ZENITH_UP = new THREE.Quaternion(1, 0, 0, 0);
 const C = {
   x: 0xd55e00, y: 0x009e73, z: 0x0072b2, // Okabe–Ito vermillion, bluish green, blue
   sun: 0xf0c000, lvlh: 0x888888, ghost: 0x56b4e9, wheel: 0xcc79a7, cmg: 0xe69f00,
-  dipole: 0x7b3fe4, plume: 0xff7733, ok: 0x44aa44, bad: 0xff2222,
+  dipole: 0x7b3fe4, plume: 0xff7733, ok: 0x44aa44, bad: 0xff2222, target: 0xff44cc,
 };
 
 function arrow(dir, color, length, headLength = 0.12, headWidth = 0.06) {
@@ -117,6 +117,42 @@ export class Scene {
     this.buildBoresights(sc);
     this.buildGhost(dims);
     this.buildEnvironment();
+    this.buildTarget();
+  }
+
+  /** The tracked ground target or station (`[guidance]` runs record its direction in body
+   *  axes, `target_body_*`): a magenta ray from the spacecraft to where it meets the drawn
+   *  Earth, with a marker there; pale while the site is below its elevation mask. */
+  buildTarget() {
+    this.hasTarget = this.r.has('target_body_x');
+    this.targetRay = arrow([1, 0, 0], C.target, 3, 0.12, 0.06);
+    this.targetMark = new THREE.Mesh(new THREE.SphereGeometry(0.09, 16, 8), new THREE.MeshBasicMaterial({ color: C.target }));
+    this.scene.add(this.targetRay, this.targetMark);
+    this.targetRay.visible = this.targetMark.visible = false;
+  }
+
+  updateTarget(loc) {
+    this.target = null;
+    const v = this.hasTarget ? this.r.vec3('target_body_', loc) : [NaN];
+    const ok = v.every(Number.isFinite) && Math.hypot(...v) > 0;
+    this.targetRay.visible = this.targetMark.visible = ok;
+    if (!ok) return;
+    const dir = new THREE.Vector3(...v).normalize().applyQuaternion(this.craft.quaternion);
+    // Nearest intersection of the ray with the drawn globe, else 3 scene units.
+    let len = 3;
+    if (this.hasOrbit) {
+      const c = this.earth.position, R = this.earth.scale.x;
+      const b = dir.dot(c), disc = b * b - (c.lengthSq() - R * R);
+      if (disc >= 0 && b - Math.sqrt(disc) > 0) len = b - Math.sqrt(disc);
+    }
+    this.targetRay.setDirection(dir);
+    this.targetRay.setLength(len, 0.12, 0.06);
+    this.targetMark.position.copy(dir.clone().multiplyScalar(len));
+    const visible = this.r.value('target_visible', loc) === 1;
+    const colour = visible ? C.target : 0x804070;
+    this.targetRay.setColor(colour);
+    this.targetMark.material.color.setHex(colour);
+    this.target = { world: dir, visible };
   }
 
   buildActuators(sc) {
@@ -215,6 +251,7 @@ export class Scene {
     this.updateActuators(loc);
     if (this.hasOrbit) this.updateEnvironment(loc, F, qLvlh);
     this.updateBoresights(loc);
+    this.updateTarget(loc);
   }
 
   updateActuators(loc) {
