@@ -203,6 +203,21 @@ fn hold_figures() {
 fn pointing_figures() {
     let (sc, plans, pngs) = fly("guidance/eo-cubesat.toml", 6000.0);
     check_common(&sc, &plans, &pngs);
+    // No detumble in this run: the torquer panel does not name B-dot.
+    let momentum = panel_titles(&plans, "momentum.png");
+    assert!(momentum.contains(&"torquer torque m × B (unloading)"), "{momentum:?}");
+    // The blends of the pointing are shaded and named.
+    let pointing = plans.iter().find(|p| p.file_name == "pointing.png").unwrap();
+    assert!(!pointing.shaded.is_empty() && pointing.subtitle.contains("pointing blend"), "{:?}", pointing.shaded);
+    // A blend lasts its pointing's transition_s (120 s for the passes, 180 s for Sun and
+    // nadir); tolerance 2 s: the plot envelope's buckets (2 rows of 1 s) and the 0.25 s
+    // step. A blend restarted before its end is one longer span (at most two transitions).
+    let spans: Vec<f64> = pointing.shaded.iter().skip(1).map(|(a, b)| b - a).collect();
+    assert!(spans.iter().all(|d| (118.0..=362.0).contains(d)), "{spans:?}");
+    assert!(
+        spans.iter().any(|d| (d - 120.0).abs() <= 2.0) && spans.iter().any(|d| (d - 180.0).abs() <= 2.0),
+        "{spans:?}"
+    );
 }
 
 #[test]
@@ -224,6 +239,9 @@ fn thruster_figures() {
 fn mode_manager_figures() {
     let (sc, plans, pngs) = fly("modes/cubesat-mission.toml", 10_000.0);
     check_common(&sc, &plans, &pngs);
+    // The run detumbles (B-dot on the torquers): the torquer panel says so.
+    let momentum = panel_titles(&plans, "momentum.png");
+    assert!(momentum.iter().any(|t| t.contains("B-dot while detumbling")), "{momentum:?}");
     let modes = plans.iter().find(|p| p.file_name == "modes.png").unwrap();
     let names = ["detumble", "sun-safe", "stabilise", "manoeuvre", "hold"];
     assert_eq!(modes.panels[0].categories, names, "modes as named levels");
