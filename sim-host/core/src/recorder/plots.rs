@@ -371,14 +371,7 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         return None;
     }
     let data_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
-    let lines = fig.x_lines.iter().map(|l| l.0);
-    let points = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0)).collect::<Vec<_>>();
-    let mut x_range = finite_range(x.iter().copied().chain(lines).chain(points)).unwrap_or((0.0, 1.0));
-    if x_range.1 <= x_range.0 {
-        x_range = pad(x_range, 0.0);
-    } else if !fig.x_lines.is_empty() || fig.equal_scale {
-        x_range = pad(x_range, 0.03);
-    }
+    let mut x_range = x_range_of(x, fig, &panels);
     let cell_w = (WIDTH - LEGEND_W) as i32;
     let plot_w = cell_w - (MARGIN + MARGIN_RIGHT + Y_AREA) as i32;
     // The caption's height as plotters lays it out (the first panel's; estimated 30 px
@@ -406,9 +399,9 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         _ => Vec::new(),
     };
     let subtitle = if time {
-        let shade = if eclipses.is_empty() { "" } else { " · grey: eclipse" };
-        let note = fig.shade.as_ref().filter(|_| !shaded.is_empty()).map_or(String::new(), |s| format!(" · {}", s.1));
-        format!("{} · t = {} … {} s{shade}{note}", ctx.scenario, short(data_range.0), short(data_range.1))
+        let shade = if eclipses.is_empty() { None } else { Some("grey: eclipse") };
+        let note = fig.shade.as_ref().filter(|_| !shaded.is_empty()).map(|s| s.1.as_str());
+        time_subtitle(&ctx.scenario, data_range, [shade, note])
     } else {
         ctx.scenario.clone()
     };
@@ -444,6 +437,27 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         plot_area,
         legend_area: Rect { x0: cell_w, y0: 0, x1: WIDTH as i32, y1: panel_h as i32 },
     })
+}
+
+/// The x range: the data, the vertical lines and the marked points (3 % margins with
+/// vertical lines or an equal scale).
+fn x_range_of(x: &[f64], fig: &Figure, panels: &[PanelPlan]) -> (f64, f64) {
+    let lines = fig.x_lines.iter().map(|l| l.0);
+    let points = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0)).collect::<Vec<_>>();
+    let x_range = finite_range(x.iter().copied().chain(lines).chain(points)).unwrap_or((0.0, 1.0));
+    if x_range.1 <= x_range.0 {
+        pad(x_range, 0.0)
+    } else if !fig.x_lines.is_empty() || fig.equal_scale {
+        pad(x_range, 0.03)
+    } else {
+        x_range
+    }
+}
+
+/// "scenario · t = a … b s" and the notes of the shadings drawn.
+fn time_subtitle(scenario: &str, (a, b): (f64, f64), notes: [Option<&str>; 2]) -> String {
+    let notes: String = notes.iter().flatten().map(|n| format!(" · {n}")).collect();
+    format!("{scenario} · t = {} … {} s{notes}", short(a), short(b))
 }
 
 /// The panels with a steady-state panel after each linear one whose steady-state part
