@@ -940,15 +940,21 @@ fn summary_line(s: &Summary) -> String {
         sig(s.real_time_factor, 3)
     );
     let p = &s.pointing;
+    let pc = percent(p.confidence);
+    // The hold first, its window named (issue 38: a headline over the whole run included
+    // the slew and the detumble).
+    line += &match (s.after_settle_from_s, s.ape_after_settle_deg) {
+        (Some(from), Some(ape)) => {
+            format!("; APE {pc} % after settle (hold, {}–{} s) {} deg", sig(from, 6), sig(s.sim_time_s, 6), sig(ape, 4))
+        }
+        (Some(from), None) => {
+            format!("; APE after settle: none (its window starts at {} s, after the end)", sig(from, 6))
+        }
+        (None, _) => "; APE after settle: none (never settled)".into(),
+    };
     if let Some(ape) = p.ape_deg.total {
         let window = if p.from_s > 0.0 { "from" } else { "whole run" };
-        line += &format!(
-            "; APE at {} % ({window} {}–{} s) {} deg",
-            percent(p.confidence),
-            sig(p.from_s, 6),
-            sig(s.sim_time_s, 6),
-            sig(ape, 4)
-        );
+        line += &format!("; APE {pc} % ({window} {}–{} s) {} deg", sig(p.from_s, 6), sig(s.sim_time_s, 6), sig(ape, 4));
     }
     let opt =
         |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {}{unit}", sig(x, 4))).unwrap_or_default();

@@ -255,9 +255,9 @@ fn mode_manager_figures() {
     let rate = modes.panels.iter().find(|p| p.title.starts_with("body rate")).unwrap();
     assert_eq!(rate.y_label, "deg/s");
     let m = sc.modes.as_ref().unwrap();
-    assert!(rate.thresholds.iter().any(|t| t.0 == m.detumble_enter_rate_deg_s));
+    assert!(rate.thresholds.iter().any(|t| Some(t.0) == m.detumble_enter_rate_deg_s));
     let error = modes.panels.iter().find(|p| p.title.starts_with("attitude error")).unwrap();
-    assert!(error.thresholds.iter().any(|t| t.0 == m.hold_exit_error_deg));
+    assert!(error.thresholds.iter().any(|t| Some(t.0) == m.hold_exit_error_deg));
     // Every time plot carries the mode spans.
     assert!(plans.iter().all(|p| p.modes == modes.modes));
     // And the eclipses, shaded and named in the subtitle. A whole eclipse of this circular
