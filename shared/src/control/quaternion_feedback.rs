@@ -105,6 +105,18 @@ mod tests {
         }
     }
 
+    /// One 10 ms update towards the identity attitude, at rest, nothing fed forward.
+    fn hold_identity(
+        c: &mut QuaternionFeedback,
+        g: &QuaternionFeedbackGains,
+        inertia: &Mat3,
+        q: &Quat,
+        saturated_last: bool,
+    ) -> TorqueDemand {
+        let zero = Vec3::zeros();
+        c.update(g, inertia, q, &Quat::identity(), &zero, &zero, None, &zero, 0.01, saturated_last)
+    }
+
     #[test]
     fn small_angle_law_is_the_second_order_system() {
         // For a small yaw error θ the demand must be -I (ωn² θ + 2 ζ ωn θ̇) (eq 18, small angle).
@@ -135,31 +147,9 @@ mod tests {
         let free = {
             let mut g2 = g;
             g2.torque_limit_nm = Vec3::repeat(1e3);
-            c.update(
-                &g2,
-                &inertia,
-                &q,
-                &Quat::identity(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                None,
-                &Vec3::zeros(),
-                0.01,
-                false,
-            )
+            hold_identity(&mut c, &g2, &inertia, &q, false)
         };
-        let lim = c.update(
-            &g,
-            &inertia,
-            &q,
-            &Quat::identity(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            None,
-            &Vec3::zeros(),
-            0.01,
-            false,
-        );
+        let lim = hold_identity(&mut c, &g, &inertia, &q, false);
         assert!(lim.limited);
         assert!(lim.torque_nm.amax() <= 0.1 + 1e-7);
         let cos = lim.torque_nm.normalize().dot(&free.torque_nm.normalize());
@@ -203,34 +193,12 @@ mod tests {
         let q = quat_from_euler([0.0, 0.0, 0.5], EulerSeq::Zyx321);
         let mut c = QuaternionFeedback::default();
         for _ in 0..1000 {
-            c.update(
-                &g,
-                &inertia,
-                &q,
-                &Quat::identity(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                None,
-                &Vec3::zeros(),
-                0.01,
-                false,
-            );
+            hold_identity(&mut c, &g, &inertia, &q, false);
         }
         assert!((c.integral.z - 0.05).abs() < 1e-7, "clamped at the limit");
         let before = c.integral;
         let q2 = quat_from_euler([0.0, 0.0, -0.5], EulerSeq::Zyx321);
-        c.update(
-            &g,
-            &inertia,
-            &q2,
-            &Quat::identity(),
-            &Vec3::zeros(),
-            &Vec3::zeros(),
-            None,
-            &Vec3::zeros(),
-            0.01,
-            true,
-        );
+        hold_identity(&mut c, &g, &inertia, &q2, true);
         assert_eq!(c.integral, before, "frozen while saturated");
     }
 
@@ -244,18 +212,7 @@ mod tests {
             g.ki = Mat3::identity() * 0.1;
             g.integral_limit_s = lim;
             let mut c = QuaternionFeedback::default();
-            let d = c.update(
-                &g,
-                &inertia,
-                &q,
-                &Quat::identity(),
-                &Vec3::zeros(),
-                &Vec3::zeros(),
-                None,
-                &Vec3::zeros(),
-                0.01,
-                false,
-            );
+            let d = hold_identity(&mut c, &g, &inertia, &q, false);
             assert_eq!(c.integral, Vec3::zeros(), "limit {lim}");
             assert!(d.torque_nm.iter().all(|x| x.is_finite()), "limit {lim}");
         }
