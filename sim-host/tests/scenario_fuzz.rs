@@ -345,26 +345,7 @@ fn cases() -> Vec<Case> {
 fn mutated_scenarios_are_refused_naming_the_key_or_run_to_a_finite_or_failed_summary() {
     let t0 = Instant::now();
     let all = cases();
-    let tmp = tempfile::tempdir().unwrap();
-    let next = AtomicUsize::new(0);
-    let verdicts = Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..WORKERS {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(c) = all.get(i) else { break };
-                    let dir = tmp.path().join(format!("case{i}"));
-                    std::fs::create_dir_all(&dir).unwrap();
-                    let v = run_case(c, &dir);
-                    std::fs::remove_dir_all(&dir).ok();
-                    verdicts.lock().unwrap().push((i, v));
-                }
-            });
-        }
-    });
-    let mut verdicts = verdicts.into_inner().unwrap();
-    verdicts.sort_by_key(|(i, _)| *i);
+    let verdicts = run_all(&all, run_case);
     let count = |f: fn(&Verdict) -> bool| verdicts.iter().filter(|(_, v)| f(v)).count();
     println!(
         "scenario_fuzz: {} cases (seed {:#x}) in {:.1} s: {} refused, {} ok, {} failed runs, {} bad",
