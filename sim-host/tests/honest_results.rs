@@ -5,6 +5,9 @@
 //! runner per campaign shard; a failed re-run leaves no stale output; I/O errors name
 //! their file.
 
+#[path = "support/shipped_scenario.rs"]
+mod shipped_scenario;
+
 use acs_flight::link::status::BAD_INPUT;
 use acs_flight::link::{StepReport, status};
 use sim_core::link::tap::{Tap, Tapped};
@@ -28,21 +31,7 @@ fn sim_host() -> Command {
 /// A shipped scenario with `from` replaced by `to` (and the duration shortened to
 /// `duration_s`), written into `dir`.
 fn scenario(dir: &Path, shipped: &str, from: &str, to: &str, duration_s: f64) -> PathBuf {
-    let text = std::fs::read_to_string(repo().join(shipped)).unwrap();
-    assert!(text.contains(from), "{shipped}: {from}");
-    let mut out = String::new();
-    for line in text.replacen(from, to, 1).lines() {
-        if line.starts_with("duration_s") {
-            out += &format!("duration_s = {duration_s:?}\n");
-        } else {
-            out += line;
-            out.push('\n');
-        }
-    }
-    static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let p = dir.join(format!("sc{}.toml", N.fetch_add(1, std::sync::atomic::Ordering::Relaxed)));
-    std::fs::write(&p, out).unwrap();
-    p
+    shipped_scenario::scenario(dir, shipped, duration_s, Some((from, to)))
 }
 
 fn run_cli(sc: &Path, out: &Path, plots: bool) -> Output {

@@ -15,6 +15,9 @@
 //! Needs node, Chromium, tools/viewer/node_modules and the bundle (`scripts/setup.sh`):
 //! under CI a missing one fails the test (support/require_tool.rs).
 
+#[path = "support/shipped_scenario.rs"]
+mod shipped_scenario;
+use shipped_scenario::scenario;
 #[path = "support/require_tool.rs"]
 mod require_tool;
 
@@ -75,27 +78,6 @@ fn drive(driver: &Path, dir: &Path, script: Value) -> Value {
     }
     assert_eq!(v["startError"], Value::Null, "{v}");
     v
-}
-
-/// A shipped scenario with its duration replaced and, optionally, a line replaced.
-fn scenario(dir: &Path, shipped: &str, duration_s: f64, edit: Option<(&str, &str)>) -> PathBuf {
-    let text = std::fs::read_to_string(repo().join(shipped)).unwrap();
-    let mut out = String::new();
-    for line in text.lines() {
-        if line.trim_start().starts_with("duration_s") {
-            out += &format!("duration_s = {duration_s:?}\n");
-        } else {
-            out += line;
-            out.push('\n');
-        }
-    }
-    if let Some((from, to)) = edit {
-        assert!(out.contains(from), "{shipped} has no `{from}`");
-        out = out.replacen(from, to, 1);
-    }
-    let p = dir.join(Path::new(shipped).file_name().unwrap());
-    std::fs::write(&p, out).unwrap();
-    p
 }
 
 fn run_with_view(sc: &Path, out: &Path) -> Output {
