@@ -24,6 +24,11 @@ impl Dtype {
     }
 }
 
+/// Columns whose changes are kept exactly (step levels: modes, codes, flags); the page
+/// holds them between kept rows instead of interpolating (each encoded channel says which).
+pub const STEP_CHANNELS: [&str; 7] =
+    ["mode", "status", "eclipse", "thrusters_on", "target_visible", "pointing_segment", "geo_eclipse"];
+
 /// One channel: a value per kept row.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Channel {
@@ -39,6 +44,8 @@ pub struct Encoded {
     pub name: String,
     pub unit: String,
     pub dtype: Dtype,
+    /// A step channel ([`STEP_CHANNELS`]): held at the earlier row's level between rows.
+    pub step: bool,
     /// Little-endian values, base64 (RFC 4648, padded).
     pub data: String,
 }
@@ -53,7 +60,13 @@ impl Channel {
                 Dtype::F32 => bytes.extend_from_slice(&(x as f32).to_le_bytes()),
             }
         }
-        Encoded { name: self.name.clone(), unit: self.unit.clone(), dtype: self.dtype, data: base64(&bytes) }
+        Encoded {
+            name: self.name.clone(),
+            unit: self.unit.clone(),
+            dtype: self.dtype,
+            step: STEP_CHANNELS.contains(&self.name.as_str()),
+            data: base64(&bytes),
+        }
     }
 }
 

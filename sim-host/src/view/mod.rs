@@ -11,6 +11,7 @@ pub mod layout;
 mod scene;
 
 use anyhow::{Context, Result, anyhow, bail};
+pub use layout::STEP_CHANNELS;
 use layout::{Channel, Dtype};
 use sim_core::recorder::output::read_run;
 use sim_core::recorder::series::TimeSeries;
@@ -29,10 +30,6 @@ pub const BUNDLE_ENV: &str = "ACS_VIEWER_BUNDLE";
 pub const BUNDLE_FILE: &str = "replay-template.html";
 /// The page's file name in the run directory.
 pub const PAGE_FILE: &str = "replay.html";
-
-/// Columns whose changes are kept exactly (step levels: modes, codes, flags).
-pub const STEP_CHANNELS: [&str; 7] =
-    ["mode", "status", "eclipse", "thrusters_on", "target_visible", "pointing_segment", "geo_eclipse"];
 
 /// Where the page goes and what it is built from.
 #[derive(Clone, Debug, Default)]

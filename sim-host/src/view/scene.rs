@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Version of the document the page reads (tools/viewer/src/data.js checks it).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 /// Longest side of the default body box, m, when the scenario gives neither `box_m` nor a
 /// mass (the box then has the proportions of the inertia's uniform box).
 pub const DEFAULT_BOX_SIDE_M: f64 = 1.0;

@@ -3,12 +3,8 @@
 // values of any channel at any time (exact at a kept row; between rows linear, slerp for
 // quaternions, the earlier row's level for step channels).
 
-export const FORMAT_VERSION = 1;
+export const FORMAT_VERSION = 2;
 
-/** Step channels: held, never interpolated (sim-host/src/view/mod.rs STEP_CHANNELS). */
-export const STEP_CHANNELS = new Set([
-  'mode', 'status', 'eclipse', 'thrusters_on', 'target_visible', 'pointing_segment', 'geo_eclipse',
-]);
 
 function decode(ch) {
   const bin = atob(ch.data);
@@ -34,9 +30,12 @@ export class Replay {
     this.doc = doc;
     this.ch = new Map();
     this.units = new Map();
+    // Step channels (`step` in the document: sim-host/src/view/layout.rs STEP_CHANNELS).
+    this.steps = new Set();
     for (const c of doc.channels) {
       this.ch.set(c.name, decode(c));
       this.units.set(c.name, c.unit);
+      if (c.step) this.steps.add(c.name);
     }
     this.t = this.ch.get('t_s');
     if (!this.t || this.t.length === 0) throw new Error('the replay has no t_s channel');
@@ -69,7 +68,7 @@ export class Replay {
     const c = this.ch.get(name);
     if (!c) return NaN;
     const { k, a } = loc;
-    if (a === 0 || STEP_CHANNELS.has(name)) return c[k];
+    if (a === 0 || this.steps.has(name)) return c[k];
     return c[k] + a * (c[k + 1] - c[k]);
   }
 

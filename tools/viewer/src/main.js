@@ -160,6 +160,8 @@ function main() {
     play: () => { if (!state.playing) $('play').click(); },
     pause: () => { if (state.playing) $('play').click(); },
     rows: () => Array.from(replay.t),
+    // Where the time plot draws the instant a `fraction` of the run in (canvas px).
+    plotX: (fraction) => plot.x(replay.t0 + fraction * (replay.t1 - replay.t0)),
     state() {
       const F = scene.F || new THREE.Quaternion();
       const Finv = F.clone().invert();

@@ -250,7 +250,7 @@ export class Scene {
     if (this.ghost.visible) this.ghost.quaternion.copy(F).multiply(new THREE.Quaternion(...r.quat('geo_q_target_', loc)));
     this.updateActuators(loc);
     if (this.hasOrbit) this.updateEnvironment(loc, F, qLvlh);
-    this.updateBoresights(loc);
+    this.updateBoresights();
     this.updateTarget(loc);
   }
 
@@ -307,10 +307,11 @@ export class Scene {
 
   /** Each boresight's margin to each of its cones, deg (negative inside: a violation),
    *  from the scene's own objects; a violated cone is drawn red. */
-  updateBoresights(loc) {
+  updateBoresights() {
     this.keepout = [];
     if (!this.hasOrbit) return;
-    const sun = new THREE.Vector3(...this.r.vec3('geo_sun_eci_', loc)).normalize().applyQuaternion(this.F);
+    // As drawn by updateEnvironment (called first): the Sun ball and the Earth globe.
+    const sun = this.sunBall.position.clone().normalize();
     const earthC = this.earth.position.clone().normalize();
     const rhoDeg = (Math.asin(this.earth.scale.x / EARTH_DISTANCE) * 180) / Math.PI;
     for (const b of this.boresights) {

@@ -62,9 +62,9 @@ try {
       out.results.push(await page.evaluate(() => window.acsReplay.state()));
     } else if (op.op === 'clickPlot') {
       const box = await page.locator('#plot').boundingBox();
-      // The plot's data area starts 54 px in and ends 10 px before the right edge (plot.js pad).
+      // Click where the plot draws that instant (the page's own x(t), inverted by its click handler).
       const sx = box.width / (await page.evaluate(() => document.getElementById('plot').width));
-      const x = box.x + sx * (54 + op.fraction * (await page.evaluate(() => document.getElementById('plot').width) - 64));
+      const x = box.x + sx * (await page.evaluate((f) => window.acsReplay.plotX(f), op.fraction));
       await page.mouse.click(x, box.y + box.height / 2);
       out.results.push(await page.evaluate(() => window.acsReplay.state()));
     } else if (op.op === 'screenshot') {
