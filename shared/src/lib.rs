@@ -33,10 +33,12 @@
 //!    law; momentum management;
 //! 10. [`allocation`]: actuator effectiveness apart from the allocation methods, every
 //!     family behind one trait with one result type;
-//! 11. [`modes`]: the mode manager (detumble → sun-safe → stabilise → manoeuvre → hold);
-//! 12. [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator
+//! 11. [`fdir`]: fault detection monitors (residual tests with persistence), below the
+//!     isolation and recovery that act on their verdicts;
+//! 12. [`modes`]: the mode manager (detumble → sun-safe → stabilise → manoeuvre → hold);
+//! 13. [`fsw`]: [`fsw::Fsw`], the one synchronous `step` the firmware and the simulator
 //!     call;
-//! 13. [`session`]: the flight side of a link session (the firmware's link task and the
+//! 14. [`session`]: the flight side of a link session (the firmware's link task and the
 //!     simulator's virtual flight computer).
 #![cfg_attr(not(feature = "std"), no_std)]
 // Flight rules on top of the workspace baseline (`[workspace.lints]` in the root
@@ -78,6 +80,7 @@ pub mod allocation;
 pub mod checksum;
 pub mod control;
 pub mod estimation;
+pub mod fdir;
 pub mod fsw;
 pub mod guidance;
 pub mod link;

@@ -233,6 +233,8 @@ fn path_pointers(text: &str) -> Vec<Pointer> {
         if path.contains(['*', '<', '{', '$'])
             || path.contains("/out")
             || path.contains("/target/")
+            || path.ends_with("/target")
+            || path.contains("node_modules")
             || path.contains("..")
         {
             continue;

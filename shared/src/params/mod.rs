@@ -17,6 +17,7 @@ use crate::math::Mat3;
 pub mod actuator;
 pub mod controller;
 pub mod estimation;
+pub mod fdir;
 pub mod guidance;
 pub mod modes;
 pub mod momentum;

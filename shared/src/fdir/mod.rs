@@ -1,0 +1,18 @@
+//! Fault detection monitors: residual streams turned into verdicts with a stated
+//! false-alarm probability (issue 42; docs/fdir.md).
+//!
+//! Detection apart from reaction, as PX4's EKF2 keeps *when to fuse* apart from *the
+//! fusion math*: each monitor here owns one statistic and its persistence, and says only
+//! whether its test fired; isolation (which unit) and recovery (drop the unit, fall back)
+//! act on those verdicts one layer up. Every monitor is bounded (fixed-size state, no loop
+//! over data from the link), never panics, and treats a non-finite input as an exceedance
+//! (a sensor or command that turns non-finite is itself a fault), never as a pass.
+//!
+//! - [`window`]: k-of-n persistence of a per-sample test (false alarm: the binomial tail);
+//! - [`repeat`]: a frozen or stuck output (bit-identical samples despite fresh time tags);
+//! - [`wheel`]: a reaction wheel's torque residual, commanded against measured by its
+//!   tachometer, normalised by its σ from tachometer noise and quantisation.
+
+pub mod repeat;
+pub mod wheel;
+pub mod window;

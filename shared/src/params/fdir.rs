@@ -1,0 +1,81 @@
+//! Parameters of the fault detection monitors ([`crate::fdir`]), with their validation.
+//! Wire types (postcard), ready for the uploaded parameter set; each threshold's
+//! false-alarm probability is stated where it is chosen (docs/fdir.md).
+
+/// Largest persistence window, samples (the outcomes are the bits of a `u32`).
+pub const MAX_WINDOW: u8 = 32;
+
+/// k-of-n persistence: a test fires when at least `k` of the last `n` samples exceeded
+/// their threshold ([`crate::fdir::window`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct KOfN {
+    pub k: u8,
+    pub n: u8,
+}
+
+impl KOfN {
+    /// `1 ≤ k ≤ n ≤ 32`.
+    pub fn valid(&self) -> bool {
+        self.k >= 1 && self.k <= self.n && self.n <= MAX_WINDOW
+    }
+}
+
+/// Noise of what a wheel's torque residual is computed from ([`crate::fdir::wheel`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WheelResidualNoise {
+    /// White noise of one tachometer reading, rad/s (1σ, ≥ 0).
+    pub tach_sigma_rad_s: f32,
+    /// Quantisation step of the tachometer, rad/s (≥ 0; 0: not quantised).
+    pub tach_lsb_rad_s: f32,
+    /// White noise of the gyro's rate about one wheel axis, rad/s (1σ, ≥ 0; 0 when the
+    /// body's rate change is not used).
+    pub gyro_sigma_rad_s: f32,
+}
+
+/// The wheel monitor: a residual beyond `threshold_sigma` of its σ is an exceedance; a
+/// wheel is declared failed when `window` fires.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WheelMonitorParams {
+    pub noise: WheelResidualNoise,
+    /// Rotor inertia about the spin axis, kg m² (> 0).
+    pub inertia_kgm2: f32,
+    /// Threshold on |residual| / σ (> 0). Two-sided Gaussian tail per sample:
+    /// 3 → 2.7e-3, 4 → 6.3e-5, 5 → 5.7e-7.
+    pub threshold_sigma: f32,
+    /// A floor on the threshold, N m (≥ 0): torque errors the model does not carry
+    /// (friction transients, command quantisation) below it never count.
+    pub floor_nm: f32,
+    pub window: KOfN,
+}
+
+/// Which monitor parameter is invalid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FdirParamError {
+    WheelNoise,
+    WheelInertia,
+    WheelThreshold,
+    WheelWindow,
+}
+
+impl WheelMonitorParams {
+    pub fn validate(&self) -> Result<(), FdirParamError> {
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let n = &self.noise;
+        if !(nonneg(n.tach_sigma_rad_s) && nonneg(n.tach_lsb_rad_s) && nonneg(n.gyro_sigma_rad_s)) {
+            return Err(FdirParamError::WheelNoise);
+        }
+        if !(self.inertia_kgm2.is_finite() && self.inertia_kgm2 > 0.0) {
+            return Err(FdirParamError::WheelInertia);
+        }
+        if !(self.threshold_sigma.is_finite() && self.threshold_sigma > 0.0 && nonneg(self.floor_nm)) {
+            return Err(FdirParamError::WheelThreshold);
+        }
+        if !self.window.valid() {
+            return Err(FdirParamError::WheelWindow);
+        }
+        Ok(())
+    }
+}
