@@ -6,11 +6,18 @@
 //!     `k` steps; a repeated frame (Δt = 0) is not judged;
 //! (c) a quantised, noisy constant reading repeats `r` times in a row with probability
 //!     `Σ_k p_k^(r+1)` (p_k: the probability of quantisation step k, from erf).
+//! (d) a fired wheel residual is named rotor or tachometer from the body's mismatch: the
+//!     mismatch of a rigid body integrated here (RK4, f64) is zero with honest tachometers
+//!     and `−r aⱼ` with a lying one; with noise the unit is misnamed at `Φ(−|r|/(2σ_m))`.
 //! Noise from a seeded SplitMix64 (acs-test-support); f64 oracles written here.
 
+#![allow(clippy::disallowed_methods)] // test-side oracles may use nalgebra's own sqrt
+
+use acs_flight::fdir::isolate::{WheelIsolation, body_mismatch_nm, isolate_wheel};
 use acs_flight::fdir::repeat::Repeats;
 use acs_flight::fdir::wheel::{WheelMonitor, WheelStep, residual_sigma_nm};
 use acs_flight::fdir::window::{KOfN, Persistence};
+use acs_flight::math::{Mat3, Vec3};
 use acs_flight::params::fdir::{WheelMonitorParams, WheelResidualNoise};
 use acs_flight::types::MAX_WHEELS;
 use acs_test_support::rng::SplitMix64;
@@ -232,4 +239,114 @@ fn a_quantised_noisy_constant_repeats_at_the_closed_form_rate() {
         println!("run of {r} repeats: {got:.5} per sample vs closed form {want:.5}");
         assert!((got - want).abs() < 5.0 * se, "r {r}: {got} vs {want}");
     }
+}
+
+/// A rigid body with four pyramid wheels (β = 54.74°) flown by RK4 in f64 over one 0.1 s
+/// step under held rotor torques `tau`; the body rate before and after and the wheel
+/// momentum (body axes) at the step's midpoint.
+fn pyramid_step(tau: [f64; 4], w0: [f64; 3]) -> ([Vec3; 4], Vec3, Vec3, Vec3) {
+    let (sb, cb) = (54.7356f64.to_radians().sin(), 54.7356f64.to_radians().cos());
+    let axes = [[cb, 0.0, sb], [0.0, cb, sb], [-cb, 0.0, sb], [0.0, -cb, sb]];
+    let j = [[0.9, 0.02, -0.01], [0.02, 1.1, 0.03], [-0.01, 0.03, 0.7]];
+    let mv = |m: &[[f64; 3]; 3], v: [f64; 3]| [0, 1, 2].map(|r| (0..3).map(|c| m[r][c] * v[c]).sum::<f64>());
+    let cross =
+        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    // J ω̇ = −Σ aᵢ τᵢ − ω × (J ω + h), h = Σ aᵢ hᵢ, ḣᵢ = τᵢ; the state is (ω, h_1..4).
+    let jinv = nalgebra::Matrix3::from_fn(|r, c| j[r][c]).try_inverse().unwrap();
+    let deriv = |w: [f64; 3], hw: [f64; 4]| {
+        let mut h = [0.0; 3];
+        let mut t = [0.0; 3];
+        for i in 0..4 {
+            for k in 0..3 {
+                h[k] += axes[i][k] * hw[i];
+                t[k] -= axes[i][k] * tau[i];
+            }
+        }
+        let jw = mv(&j, w);
+        let g = cross(w, [jw[0] + h[0], jw[1] + h[1], jw[2] + h[2]]);
+        let rhs = nalgebra::Vector3::new(t[0] - g[0], t[1] - g[1], t[2] - g[2]);
+        let a = jinv * rhs;
+        ([a.x, a.y, a.z], tau)
+    };
+    let (dt, n) = (0.1f64, 100);
+    let h = dt / f64::from(n);
+    let (mut w, mut hw) = (w0, [0.5, -0.3, 0.2, 0.4]);
+    let mut h_mid = [0.0; 3];
+    for s in 0..n {
+        if s == n / 2 {
+            for i in 0..4 {
+                for k in 0..3 {
+                    h_mid[k] += axes[i][k] * hw[i];
+                }
+            }
+        }
+        let add = |x: [f64; 3], d: [f64; 3], f: f64| [x[0] + f * d[0], x[1] + f * d[1], x[2] + f * d[2]];
+        let add4 = |x: [f64; 4], d: [f64; 4], f: f64| [0, 1, 2, 3].map(|i| x[i] + f * d[i]);
+        let (k1w, k1h) = deriv(w, hw);
+        let (k2w, k2h) = deriv(add(w, k1w, h / 2.0), add4(hw, k1h, h / 2.0));
+        let (k3w, k3h) = deriv(add(w, k2w, h / 2.0), add4(hw, k2h, h / 2.0));
+        let (k4w, k4h) = deriv(add(w, k3w, h), add4(hw, k3h, h));
+        for k in 0..3 {
+            w[k] += h / 6.0 * (k1w[k] + 2.0 * k2w[k] + 2.0 * k3w[k] + k4w[k]);
+        }
+        for i in 0..4 {
+            hw[i] += h / 6.0 * (k1h[i] + 2.0 * k2h[i] + 2.0 * k3h[i] + k4h[i]);
+        }
+    }
+    let f = |v: [f64; 3]| Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+    (axes.map(f), f(w0), f(w), f(h_mid))
+}
+
+#[test]
+fn the_body_mismatch_is_zero_with_honest_tachometers_and_minus_r_a_j_with_a_lying_one() {
+    let jb = Mat3::new(0.9, 0.02, -0.01, 0.02, 1.1, 0.03, -0.01, 0.03, 0.7);
+    let tau = [2e-3, -1e-3, 0.5e-3, 1.5e-3];
+    let (axes, w0, w1, h) = pyramid_step(tau, [0.01, -0.02, 0.005]);
+    let tach_axes = |t: [f64; 4]| (0..4).fold(Vec3::zeros(), |acc, i| acc + axes[i] * t[i] as f32);
+    let honest = body_mismatch_nm(&jb, &w0, &w1, 0.1, &h, &tach_axes(tau));
+    // The flight code takes ω at the step's middle as the mean of its ends: off by
+    // ω̈ Δt²/8 ≈ 9e-3 · 0.01 / 8 = 1.1e-5 rad/s here, times |h| ≈ 0.6 N m s: 7e-6 N m of
+    // bias (beside a gyroscopic torque of 1.4e-2 N m and rotor torques of 1e-3 N m).
+    assert!(honest.norm() < 1e-5, "honest mismatch {honest:?}");
+    // Wheel 2's tachometer reads 1e-3 N m less than the rotor got: r = u − τᵗ = +1e-3.
+    let mut lying = tau;
+    lying[2] -= 1e-3;
+    let m = body_mismatch_nm(&jb, &w0, &w1, 0.1, &h, &tach_axes(lying));
+    // The lie adds exactly −r a₂ (f32 rounding only).
+    let want = -axes[2] * 1e-3;
+    assert!((m - honest - want).norm() < 1e-9, "{m:?} vs {want:?}");
+    assert_eq!(isolate_wheel(1e-3, &axes[2], &m, 1e-5, 3.0), WheelIsolation::Tachometer);
+    // The rotor got nothing although commanded 1e-3 more (a rotor fault): honest tachs.
+    assert_eq!(isolate_wheel(1e-3, &axes[2], &honest, 1e-5, 3.0), WheelIsolation::Rotor);
+}
+
+#[test]
+fn wheel_isolation_misnames_at_the_closed_form_rate_and_does_not_guess_below_its_ratio() {
+    let axis = Vec3::new(0.3, -0.5, 0.8).normalize();
+    let sigma = 1e-4f32;
+    let draws = 40_000;
+    for ratio in [2.0f32, 3.0, 4.0] {
+        let r = ratio * sigma;
+        let mut rng = SplitMix64(0x150 + ratio as u64);
+        let mut wrong = 0;
+        for i in 0..draws {
+            let tach_fault = i % 2 == 0;
+            let noise = Vec3::new(rng.normal() as f32, rng.normal() as f32, rng.normal() as f32) * sigma;
+            let m = if tach_fault { -axis * r + noise } else { noise };
+            let got = isolate_wheel(r, &axis, &m, sigma, 1.0);
+            let right = if tach_fault { WheelIsolation::Tachometer } else { WheelIsolation::Rotor };
+            if got != right {
+                wrong += 1;
+            }
+        }
+        let got = f64::from(wrong) / f64::from(draws);
+        let want = phi(-f64::from(ratio) / 2.0);
+        let se = (want * (1.0 - want) / f64::from(draws)).sqrt();
+        println!("|r|/σ_m = {ratio}: misnamed {got:.4} vs Φ(−|r|/2σ) {want:.4}");
+        assert!((got - want).abs() < 5.0 * se, "ratio {ratio}: {got} vs {want}");
+    }
+    assert_eq!(isolate_wheel(2e-4, &axis, &Vec3::zeros(), 1e-4, 3.0), WheelIsolation::Ambiguous);
+    assert_eq!(isolate_wheel(f32::NAN, &axis, &Vec3::zeros(), 1e-4, 3.0), WheelIsolation::Ambiguous);
+    assert_eq!(isolate_wheel(1.0, &axis, &Vec3::repeat(f32::NAN), 1e-4, 3.0), WheelIsolation::Ambiguous);
+    assert_eq!(isolate_wheel(0.0, &axis, &Vec3::zeros(), 0.0, 0.0), WheelIsolation::Ambiguous);
 }

@@ -11,8 +11,11 @@
 //! - [`window`]: k-of-n persistence of a per-sample test (false alarm: the binomial tail);
 //! - [`repeat`]: a frozen or stuck output (bit-identical samples despite fresh time tags);
 //! - [`wheel`]: a reaction wheel's torque residual, commanded against measured by its
-//!   tachometer, normalised by its σ from tachometer noise and quantisation.
+//!   tachometer, normalised by its σ from tachometer noise and quantisation;
+//! - [`isolate`]: whether a fired wheel residual names the rotor or its tachometer, from
+//!   the body's reaction seen by the gyro.
 
+pub mod isolate;
 pub mod repeat;
 pub mod wheel;
 pub mod window;
