@@ -21,16 +21,20 @@
 pub mod align;
 pub mod blend;
 pub mod directions;
+pub mod keepout;
 pub mod kinematics;
+pub mod manoeuvre;
+pub mod profile;
 
 use crate::estimation::navigation::NavSolution;
 use crate::link::GuidanceTelemetry;
 use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized, quat_to_xyzw, rotate_ref_to_body};
-use crate::params::{GuidanceParams, Pointing, SteeringLaw, SteeringParams, TargetFrame};
+use crate::params::{GuidanceParams, ManoeuvreParams, Pointing, SteeringLaw, SteeringParams, TargetFrame};
 use crate::types::{Measurements, Setpoint};
 use align::{AlignFrame, Aligned};
 use blend::Blend;
 use directions::{Epoch, Site};
+use manoeuvre::{ConeEnv, Manoeuvre};
 
 /// A fixed target attitude and the frame it is given in.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,6 +71,10 @@ pub mod flags {
     pub const BLENDING: u8 = 1 << 3;
     /// The pointing could not be computed this step: the last command is held.
     pub const HELD: u8 = 1 << 4;
+    /// A planned slew is being planned or flown.
+    pub const SLEWING: u8 = 1 << 5;
+    /// A slew (or a hold) was refused by the keep-out cones: the last safe command is held.
+    pub const KEEPOUT_REFUSED: u8 = 1 << 6;
 }
 
 /// The guided command of one step, inertial axes.
@@ -109,12 +117,15 @@ pub struct Guidance {
     branch: Branch,
     last: Option<Guided>,
     blend: Option<Blend>,
+    /// Planned slews and keep-out cones; a switch waits for the next target to plan.
+    manoeuvre: Manoeuvre,
+    slew_pending: bool,
     report: GuidanceReport,
 }
 
 impl Guidance {
     /// Guidance for validated parameters.
-    pub fn new(params: &GuidanceParams) -> Self {
+    pub fn new(params: &GuidanceParams, manoeuvre: &ManoeuvreParams) -> Self {
         let gate_site = params
             .min_elevation_rad
             .and_then(|_| params.pointing.primary_site())
@@ -127,6 +138,8 @@ impl Guidance {
             branch: Branch::Main,
             last: None,
             blend: None,
+            manoeuvre: Manoeuvre::new(manoeuvre),
+            slew_pending: false,
             report: GuidanceReport::default(),
         }
     }
@@ -155,13 +168,19 @@ impl Guidance {
             primary_eci: self.report.primary_eci.into(),
             parallel_events: self.report.parallel_events,
             switches: self.report.switches,
+            keepout_margin_rad: self.manoeuvre.last_margin_rad,
+            slews_planned: self.manoeuvre.counters.planned,
+            slews_with_waypoint: self.manoeuvre.counters.with_waypoint,
+            slews_refused: self.manoeuvre.counters.refused,
         }
     }
 
     /// A new pointing (ground command): blended in from the current command.
     pub fn set_params(&mut self, params: &GuidanceParams) {
-        let (last, report) = (self.last, self.report);
-        *self = Self::new(params);
+        let (last, report, manoeuvre) = (self.last, self.report, self.manoeuvre);
+        let p = manoeuvre.params();
+        *self = Self::new(params, &p);
+        self.manoeuvre.counters = manoeuvre.counters;
         self.last = last;
         self.report = report;
         self.start_blend(0);
@@ -172,6 +191,7 @@ impl Guidance {
     pub fn reset(&mut self) {
         self.last = None;
         self.blend = None;
+        self.slew_pending = false;
         self.branch = Branch::Main;
     }
 
@@ -187,6 +207,12 @@ impl Guidance {
     }
 
     fn start_blend(&mut self, time_us: u64) {
+        if self.manoeuvre.enabled() && self.last.is_some() {
+            self.blend = None;
+            self.slew_pending = true;
+            self.report.switches = self.report.switches.saturating_add(1);
+            return;
+        }
         self.blend = match (self.last, self.params.transition_s > 0.0) {
             (Some(from), true) => Some(Blend::new(from, time_us, self.params.transition_s)),
             _ => None,
@@ -271,18 +297,44 @@ impl Guidance {
             flags |= flags::HELD;
             self.report.held_steps = self.report.held_steps.saturating_add(1);
         }
-        let out = match self.blend.as_mut().and_then(|b| b.apply(&target, time_us)) {
-            Some(g) => {
-                flags |= flags::BLENDING;
-                g
-            }
-            None => {
-                self.blend = None;
-                target
-            }
+        let out = match self.slew(&target, epoch.as_ref(), time_us, &mut flags) {
+            Some(g) => g,
+            None => match self.blend.as_mut().and_then(|b| b.apply(&target, time_us)) {
+                Some(g) => {
+                    flags |= flags::BLENDING;
+                    g
+                }
+                None => {
+                    self.blend = None;
+                    target
+                }
+            },
         };
         self.report.flags = flags;
         self.last = Some(out);
+        out
+    }
+
+    /// The planned slew's command this step, if one is planned or flown (or the target
+    /// was refused by the keep-out cones).
+    fn slew(&mut self, target: &Guided, epoch: Option<&Epoch>, time_us: u64, flags: &mut u8) -> Option<Guided> {
+        if !self.manoeuvre.enabled() {
+            return None;
+        }
+        if self.slew_pending {
+            self.slew_pending = false;
+            if let Some(from) = self.last {
+                self.manoeuvre.begin(&from, target);
+            }
+        }
+        let env = epoch.and_then(cone_env);
+        let out = self.manoeuvre.step(target, env.as_ref(), time_us);
+        if self.manoeuvre.busy() {
+            *flags |= flags::SLEWING;
+        }
+        if self.manoeuvre.refusal().is_some() {
+            *flags |= flags::KEEPOUT_REFUSED;
+        }
         out
     }
 
@@ -330,4 +382,16 @@ pub fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
         }
         _ => 0.0,
     }
+}
+
+/// The keep-out geometry at an epoch: the Sun (on-board ephemeris, from the spacecraft),
+/// nadir, the Earth's angular radius and the orbit rate.
+fn cone_env(e: &Epoch) -> Option<ConeEnv> {
+    let sun = e.direction(&crate::params::Direction::Sun, None)?.unit()?.x;
+    let r = crate::math::norm(&e.r_m);
+    let nadir = -e.r_m / r;
+    let earth_radius_rad = keepout::earth_angular_radius_rad(&e.r_m)?;
+    let orbit_rate_rad_s = crate::math::norm(&e.r_m.cross(&e.v_m_s)) / (r * r);
+    let env = ConeEnv { sun, nadir, earth_radius_rad, orbit_rate_rad_s };
+    (nadir.iter().all(|x| x.is_finite()) && orbit_rate_rad_s.is_finite()).then_some(env)
 }

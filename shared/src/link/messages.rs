@@ -241,6 +241,13 @@ pub struct GuidanceTelemetry {
     /// Entries into the near-parallel fallback and pointing switches (saturating).
     pub parallel_events: u16,
     pub switches: u16,
+    /// The commanded attitude's smallest keep-out margin over every cone, rad (negative:
+    /// inside; +∞ without cones or geometry).
+    pub keepout_margin_rad: f32,
+    /// Slews planned (of which through a waypoint) and refused by the cones (saturating).
+    pub slews_planned: u16,
+    pub slews_with_waypoint: u16,
+    pub slews_refused: u16,
 }
 
 /// `EstimateTelemetry::flags` bits.

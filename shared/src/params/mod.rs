@@ -25,7 +25,7 @@ pub mod sun_safe;
 pub use actuator::*;
 pub use controller::*;
 pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE, MAX_REPLAYED_NODES_LIMIT};
-pub use guidance::{Direction, GuidanceParams, Pointing};
+pub use guidance::{Direction, GuidanceParams, KeepOutCone, ManoeuvreParams, Pointing};
 pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
@@ -57,6 +57,8 @@ pub struct FlightParams {
     /// What the spacecraft points at (params version 11; a fixed attitude in the inertial
     /// frame or LVLH before): [`GuidanceParams`].
     pub guidance: GuidanceParams,
+    /// Planned slews and keep-out cones (params version 11).
+    pub manoeuvre: ManoeuvreParams,
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).
     pub hold_after_missed_frames: u16,
@@ -124,6 +126,8 @@ pub enum ParamField {
     Pointing,
     /// Guidance's body axes: not unit, or primary and secondary (nearly) parallel.
     PointingAxes,
+    /// Planned slews and keep-out cones ([`ManoeuvreParams`]).
+    Manoeuvre,
 }
 
 /// Why it was rejected.
@@ -272,6 +276,7 @@ impl FlightParams {
             ActuatorParams::Thrusters(t) => t.validate()?,
         }
         self.guidance.validate()?;
+        self.manoeuvre.validate()?;
         if self.hold_after_missed_frames == 0 {
             return Err(err(F::HoldAfterMissed, R::OutOfRange));
         }
@@ -355,6 +360,7 @@ impl Default for FlightParams {
                 },
             },
             guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial),
+            manoeuvre: ManoeuvreParams::OFF,
             hold_after_missed_frames: 10,
             momentum: MomentumParams::OFF,
         }

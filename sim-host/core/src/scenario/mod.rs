@@ -651,6 +651,7 @@ impl Scenario {
                     RefFrame::Lvlh => TargetFrame::Reference,
                 },
             ),
+            manoeuvre: acs_flight::params::ManoeuvreParams::OFF,
             hold_after_missed_frames: 10,
             momentum: acs_flight::params::MomentumParams::OFF,
         })
