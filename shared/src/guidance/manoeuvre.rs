@@ -67,6 +67,12 @@ impl ConeEnv {
         worst
     }
 
+    /// The smallest margin over every cone along the eigen-axis `rotation` from `q0`,
+    /// each cone widened by `widen`.
+    pub fn margin_along(&self, cones: &[KeepOutCone], q0: &Quat, rotation: &Vec3, widen: f32) -> f32 {
+        self.leg_margin(cones, q0, rotation, widen, 0.0)
+    }
+
     /// The smallest margin of every cone at attitude `q` (no widening).
     pub fn margin_at(&self, cones: &[KeepOutCone], q: &Quat) -> f32 {
         let mut worst = f32::INFINITY;

@@ -25,6 +25,7 @@ pub mod keepout;
 pub mod kinematics;
 pub mod manoeuvre;
 pub mod profile;
+pub mod timeline;
 
 use crate::estimation::navigation::NavSolution;
 use crate::link::GuidanceTelemetry;
@@ -386,7 +387,7 @@ pub fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
 
 /// The keep-out geometry at an epoch: the Sun (on-board ephemeris, from the spacecraft),
 /// nadir, the Earth's angular radius and the orbit rate.
-fn cone_env(e: &Epoch) -> Option<ConeEnv> {
+pub(crate) fn cone_env(e: &Epoch) -> Option<ConeEnv> {
     let sun = e.direction(&crate::params::Direction::Sun, None)?.unit()?.x;
     let r = crate::math::norm(&e.r_m);
     let nadir = -e.r_m / r;

@@ -21,6 +21,7 @@ pub mod guidance;
 pub mod modes;
 pub mod momentum;
 pub mod sun_safe;
+pub mod timeline;
 
 pub use actuator::*;
 pub use controller::*;
@@ -31,6 +32,7 @@ pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 pub use sun_safe::{SunSafeError, SunSafeParams};
+pub use timeline::{MAX_TIMELINE_SEGMENTS, TimelineError, TimelineFault, TimelineSegment};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
 pub const PARAMS_VERSION: u16 = 11;
