@@ -13,7 +13,7 @@ cd "$(dirname "$0")/.."
 
 VENV=${ACS_PY_VENV:-target/py-venv}
 PY=${PYTHON:-python3}
-TEST_DEPS=(pytest numpy pandas polars pyarrow hypothesis matplotlib tqdm control scipy)
+TEST_DEPS=(pytest numpy pandas polars pyarrow hypothesis matplotlib tqdm control scipy astropy)
 
 missing() {
   local why=$1

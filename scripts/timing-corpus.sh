@@ -16,7 +16,8 @@ ALL="modes/cubesat-mission paper000/test1 paper000/test2 paper000/test3 paper000
     paper002/gsr-manoeuvre paper002/lqr-gimbal-rates paper003/rig-lqr paper003/rig-pd \
     paper003/orbit-lqr paper003/orbit-mtq-hold paper003/bdot paper004/dp-nominal \
     paper004/bodson-nominal paper004/dp-fail-1-4 paper004/dp-fail-1-3-7 paper004/bodson-fail-1-4 \
-    estimation/mekf-hold estimation/tracker-outage-eclipse estimation/sun-safe-from-tumble"
+    estimation/mekf-hold estimation/tracker-outage-eclipse estimation/sun-safe-from-tumble \
+    guidance/eo-cubesat"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 for f in ${@:-$ALL}; do

@@ -177,11 +177,11 @@ enum Cmd {
     /// and a table. Exit status 2: loop not supported; 3: not a steady hold, or unstable.
     Margins {
         scenario: PathBuf,
-        /// Operating point, s (default: the end of the scenario's duration).
-        #[arg(long)]
+        /// Operating point, s, in [0, duration_s] (default: the end of the scenario's duration).
+        #[arg(long, allow_negative_numbers = true, value_parser = parse_at)]
         at: Option<f64>,
         /// Where the loop is broken: input (actuator command) | output (attitude measurement).
-        #[arg(long = "loop", default_value = "input")]
+        #[arg(long = "loop", default_value = "input", value_parser = ["input", "output"])]
         loop_point: String,
         /// Print margins.json to stdout instead of the table.
         #[arg(long)]
@@ -195,19 +195,22 @@ enum Cmd {
         /// Firmware ELF for --link qemu.
         #[arg(long)]
         firmware: Option<PathBuf>,
-        /// Frequencies of the log-spaced grid, before refinement.
-        #[arg(long, default_value_t = 40)]
+        /// Frequencies of the log-spaced grid, before refinement, in [5, 400] (with
+        /// --no-refine, enough that adjacent ones are within 1.5x).
+        #[arg(long, allow_negative_numbers = true, default_value_t = 40, value_parser = parse_grid_points)]
         grid_points: usize,
-        /// Worker threads.
-        #[arg(long, default_value_t = 2)]
+        /// Worker threads, in [1, 64].
+        #[arg(long, allow_negative_numbers = true, default_value_t = 2, value_parser = parse_threads)]
         threads: usize,
-        /// Attitude excitation aimed at, rad.
-        #[arg(long, default_value_t = 1e-4)]
+        /// Attitude excitation aimed at, rad, in [1e-6, 1e-2].
+        #[arg(long, allow_negative_numbers = true, default_value_t = 1e-4, value_parser = parse_amplitude)]
         amplitude_rad: f64,
-        /// Crossover estimate, rad/s (skips the pilot sweep).
-        #[arg(long)]
+        /// Crossover estimate, rad/s, below the control Nyquist frequency (skips the pilot
+        /// sweep; the grid then starts at hint / 30 and must start below the crossover).
+        #[arg(long, allow_negative_numbers = true, value_parser = parse_crossover_hint)]
         crossover_hint: Option<f64>,
-        /// No refinement of crossings and peaks.
+        /// No refinement of crossings and peaks (needs a grid whose adjacent frequencies are
+        /// within 1.5x: about 20 points over three decades).
         #[arg(long)]
         no_refine: bool,
         /// Re-fly every experiment from t = 0 even in-process (as under QEMU).
@@ -218,11 +221,11 @@ enum Cmd {
         no_plots: bool,
         /// closed | open (the loop broken at the actuator input, measures unstable loops)
         /// | auto (closed; open if the closed-loop experiment diverges or saturates).
-        #[arg(long, default_value = "auto")]
+        #[arg(long, default_value = "auto", value_parser = ["closed", "open", "auto"])]
         method: String,
         /// Refuse (exit 2) a sweep that would cost more plant (RK4) steps than this,
         /// counted before it runs (the report uses 1e7); default: no limit.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true, value_parser = parse_max_plant_steps)]
         max_plant_steps: Option<u64>,
         /// Measure an adaptive law (DMCS) as flown, adapting in every run, instead of at
         /// its frozen adaptation state (the default; docs/margins.md).
@@ -296,8 +299,9 @@ enum Cmd {
         json: bool,
     },
     /// Compare two runs' time series (`timeseries.parquet` / `.csv` files or run
-    /// directories) value by value, bit for bit (an empty CSV field matches any NaN or
-    /// infinity); exit status 1 at the first difference.
+    /// directories) value by value, bit for bit: any two NaNs are equal, a NaN equals no
+    /// infinity, and an empty CSV field (NaN or an infinity) matches any non-finite value
+    /// (docs/outputs.md); exit status 1 at the first difference.
     CompareSeries {
         /// First run: its output directory, or a timeseries.parquet / .csv file.
         a: PathBuf,
@@ -313,6 +317,42 @@ enum Cmd {
         #[arg(long, default_value_t = link::serve::DEFAULT_IDLE_TIMEOUT.as_secs_f64())]
         idle_timeout_s: f64,
     },
+}
+
+/// The `sim-host margins` flags, parsed and range-checked by the checks `[margins]` and
+/// `sim_host::margins::measure` use (`sim_core::scenario::margin_check`); what needs the
+/// scenario (at_s against its duration, the hint against its Nyquist frequency, the grid
+/// with --no-refine) is checked by `measure` before it flies. A refusal exits with status 2.
+fn parse_number<T: std::str::FromStr>(s: &str) -> std::result::Result<T, String>
+where
+    T::Err: std::fmt::Display,
+{
+    s.trim().parse::<T>().map_err(|e| format!("{e}"))
+}
+
+fn parse_at(s: &str) -> std::result::Result<f64, String> {
+    let t: f64 = parse_number(s)?;
+    if t.is_finite() && t >= 0.0 { Ok(t) } else { Err("must be a time in [0, duration_s] s".into()) }
+}
+
+fn parse_grid_points(s: &str) -> std::result::Result<usize, String> {
+    sim_core::scenario::margin_check::grid_points(parse_number(s)?).map_err(|e| e.why)
+}
+
+fn parse_threads(s: &str) -> std::result::Result<usize, String> {
+    sim_core::scenario::margin_check::threads(parse_number(s)?).map_err(|e| e.why)
+}
+
+fn parse_amplitude(s: &str) -> std::result::Result<f64, String> {
+    sim_core::scenario::margin_check::amplitude_rad(parse_number(s)?).map_err(|e| e.why)
+}
+
+fn parse_crossover_hint(s: &str) -> std::result::Result<f64, String> {
+    sim_core::scenario::margin_check::crossover_hint(parse_number(s)?, None).map_err(|e| e.why)
+}
+
+fn parse_max_plant_steps(s: &str) -> std::result::Result<u64, String> {
+    sim_core::scenario::margin_check::max_plant_steps(parse_number(s)?).map_err(|e| e.why)
 }
 
 /// `SIM_HOST_ASSUME_FREE_BYTES`: free space to assume on the output filesystem instead of
@@ -416,7 +456,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 at_s: at,
                 point,
                 link,
-                link_options: LinkOptions { firmware },
+                link_options: LinkOptions { firmware, ..Default::default() },
                 grid_points,
                 threads,
                 amplitude_rad,
@@ -430,8 +470,9 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             margins(&scenario, &opts, json, out, no_plots)
         }
         Cmd::CompareSeries { a, b } => {
-            let (x, y) = (output::read_run(&a)?.series, output::read_run(&b)?.series);
-            if let Some(d) = output::first_difference(&x, &y) {
+            let (ra, rb) = (output::read_run(&a)?, output::read_run(&b)?);
+            let (x, y) = (&ra.series, &rb.series);
+            if let Some(d) = output::first_difference_by(x, y, output::Equality::of(&ra, &rb)) {
                 anyhow::bail!("{} and {} differ: {d}", a.display(), b.display());
             }
             say!("identical: {} rows of {} columns", x.len(), x.names.len());
@@ -564,7 +605,7 @@ fn cycles(
     let opts = CyclesOptions { plugin, wait_states };
     let (summary, steps, fw) = run_scenario(&sc, firmware.as_deref(), &opts)?;
     if let Some(p) = &per_step {
-        std::fs::write(p, per_step_table(&steps, &fw)).with_context(|| format!("writing {}", p.display()))?;
+        sim_core::files::write_atomic(p, per_step_table(&steps, &fw).as_bytes())?;
     }
     let report = CyclesReport::of(&summary, &steps, &fw, wait_states);
     if json {
@@ -597,7 +638,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
-                 {} diverged, {} refused by the flight code, {} errors",
+                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -608,6 +649,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.requirement_failed,
                 r.diverged,
                 r.all_refused,
+                r.margins_failed,
+                r.no_control,
                 r.errors
             );
         }
@@ -616,7 +659,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = &m.result;
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
-                 {} errors)",
+                 {} margins failed, {} not controlled, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -624,14 +667,20 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.requirement_failed,
                 r.diverged.len(),
                 r.all_refused.len(),
+                r.margins_failed.len(),
+                r.no_control.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
                 say!("  {}", q.statement);
             }
-            for (what, runs) in
-                [("missing", &r.missing), ("diverged", &r.diverged), ("all steps refused", &r.all_refused)]
-            {
+            for (what, runs) in [
+                ("missing", &r.missing),
+                ("diverged", &r.diverged),
+                ("all steps refused", &r.all_refused),
+                ("margins failed", &r.margins_failed),
+                ("not controlled", &r.no_control),
+            ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();
                     say!("  {what} runs ({}): {}", runs.len(), shown.join(", "));
@@ -686,11 +735,11 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     };
     let margin_base = sim_host::margins::MarginOptions {
         link: kind.clone(),
-        link_options: LinkOptions { firmware: firmware.clone() },
+        link_options: LinkOptions { firmware: firmware.clone(), ..Default::default() },
         threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
         ..Default::default()
     };
-    let mut l = link::open(&kind, &LinkOptions { firmware })?;
+    let mut l = link::open(&kind, &LinkOptions { firmware, ..Default::default() })?;
     let mut rec = output::RunOutput::new(out, !no_plots)
         .format(format)
         .metadata(metadata)
@@ -706,6 +755,9 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
     }
     for m in &summary.mode_transitions {
         say!("  t = {:>9.2} s: {} -> {} ({})", m.t_s, m.from, m.to, m.reason);
+    }
+    for l in segment_lines(&summary) {
+        say!("  {l}");
     }
     for f in files.iter().chain(&margin_files) {
         say!("  wrote {}", f.display());
@@ -738,22 +790,31 @@ fn run_verdict(summary: &Summary) -> Result<()> {
             Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
                 .into())
         }
-        None => match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {
-            None | Some(0) => Ok(()),
-            Some(code) => Err(ExitWith(
-                code as u8,
-                format!(
-                    "{}: [margins] not met: {}",
-                    summary.scenario,
-                    summary.margins.as_ref().map_or(String::new(), sim_host::margins::summary::line)
-                ),
-            )
-            .into()),
-        },
+        Some(Failure::Control { reason }) => Err(RunFailed(format!(
+            "{}: the flight code could not control: {reason} (summary.json: run_status \"no_control\")",
+            summary.scenario
+        ))
+        .into()),
+        // `[margins]` not a stable loop at a steady hold: `sim-host margins`'s exit status.
+        Some(Failure::Margins { .. }) | None => {
+            match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {
+                None | Some(0) => Ok(()),
+                Some(code) => Err(ExitWith(
+                    code as u8,
+                    format!(
+                        "{}: [margins] not met (summary.json: run_status \"margins_failed\"): {}",
+                        summary.scenario,
+                        summary.margins.as_ref().map_or(String::new(), sim_host::margins::summary::line)
+                    ),
+                )
+                .into()),
+            }
+        }
     }
 }
 
-/// With `[margins]`: measures the margins after the run into `summary.margins`, and writes
+/// With `[margins]`: measures the margins after the run into `summary.margins` (a
+/// measurement that is not a stable loop at a steady hold fails the run), and writes
 /// margins.json (and its figures) beside the run's outputs. Returns the files written.
 fn run_margins(
     sc: &Scenario,
@@ -762,17 +823,25 @@ fn run_margins(
     out: &Path,
     no_plots: bool,
 ) -> Result<Vec<PathBuf>> {
-    let Some((m, report)) = sim_host::margins::summary::for_scenario(sc, base)? else { return Ok(Vec::new()) };
-    summary.margins = Some(m);
-    let Some(report) = report else { return Ok(Vec::new()) };
+    let Some(report) = sim_host::margins::summary::record(sc, base, summary)? else { return Ok(Vec::new()) };
+    write_margins(out, &report, no_plots).map(|(_, files)| files)
+}
+
+/// `margins.json` and (unless `no_plots`) the figures of `report` in `out`, each written
+/// whole or not at all; returns the JSON text and the files written.
+fn write_margins(
+    out: &Path,
+    report: &sim_host::margins::MarginReport,
+    no_plots: bool,
+) -> Result<(String, Vec<PathBuf>)> {
     let path = out.join("margins.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&report)?)
-        .with_context(|| format!("writing {}", path.display()))?;
+    let text = serde_json::to_string_pretty(report)?;
+    sim_core::files::write_atomic(&path, text.as_bytes())?;
     let mut files = vec![path];
     if !no_plots {
-        files.extend(sim_host::margins::plots::write(out, &report)?);
+        files.extend(sim_host::margins::plots::write(out, report)?);
     }
-    Ok(files)
+    Ok((text, files))
 }
 
 /// The one-line result of a run: figures to 4 significant digits, counts as integers, and
@@ -792,7 +861,14 @@ fn summary_line(s: &Summary) -> String {
     );
     let p = &s.pointing;
     if let Some(ape) = p.ape_deg.total {
-        line += &format!("; APE at {} % {} deg", percent(p.confidence), sig(ape, 4));
+        let window = if p.from_s > 0.0 { "from" } else { "whole run" };
+        line += &format!(
+            "; APE at {} % ({window} {}–{} s) {} deg",
+            percent(p.confidence),
+            sig(p.from_s, 6),
+            sig(s.sim_time_s, 6),
+            sig(ape, 4)
+        );
     }
     let opt =
         |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {}{unit}", sig(x, 4))).unwrap_or_default();
@@ -805,6 +881,52 @@ fn summary_line(s: &Summary) -> String {
     line += &count("max pulses", s.max_pulses.map(u64::from));
     line += &count("max instructions/step", s.max_step_instructions);
     line
+}
+
+/// Most pointing segments the console lists (all are in `summary.json`).
+const CONSOLE_SEGMENTS: usize = 12;
+
+/// One line per pointing segment (the longest [`CONSOLE_SEGMENTS`], in time order): its
+/// mode, pointing and branch, its window, and its APE and RPE at the run's confidence (the
+/// primary axis apart).
+fn segment_lines(s: &Summary) -> Vec<String> {
+    use sim_host::format::sig_short as sig;
+    let Some(segs) = &s.pointing_segments else { return Vec::new() };
+    let pc = percent(s.pointing.confidence);
+    let mut longest: Vec<usize> = (0..segs.len()).collect();
+    longest.sort_by(|a, b| (segs[*b].end_s - segs[*b].start_s).total_cmp(&(segs[*a].end_s - segs[*a].start_s)));
+    longest.truncate(CONSOLE_SEGMENTS);
+    longest.sort_unstable();
+    let fig = |v: Option<f64>| v.map_or("-".to_string(), |x| sig(x, 3));
+    let mut out: Vec<String> = longest
+        .iter()
+        .map(|&i| {
+            let g = &segs[i];
+            let mode = g.mode.as_deref().map(|m| format!("{m} · ")).unwrap_or_default();
+            let branch = if g.branch == "otherwise" { " (otherwise)" } else { "" };
+            let from = if g.from_s > g.start_s { format!(" (from {} s)", sig(g.from_s, 6)) } else { String::new() };
+            let mut l = format!(
+                "segment {i} {mode}{}{branch}, {}–{} s{from}: APE {} / RPE {} deg",
+                g.pointing,
+                sig(g.start_s, 6),
+                sig(g.end_s, 6),
+                fig(g.ape_deg.total),
+                fig(g.rpe_deg.total)
+            );
+            if let (Some(a), Some(r)) = (&g.primary_ape_deg, &g.primary_rpe_deg) {
+                l += &format!("; boresight APE {} / RPE {} deg", fig(a.total), fig(r.total));
+            }
+            l
+        })
+        .collect();
+    if let Some(first) = out.first_mut() {
+        *first = format!("pointing per segment at {pc} %: {first}");
+    }
+    let hidden = segs.len() - longest.len() + s.pointing_segments_unlisted.unwrap_or(0) as usize;
+    if hidden > 0 {
+        out.push(format!("… {hidden} more segments (summary.json pointing_segments)"));
+    }
+    out
 }
 
 /// `0.95` → `"95"`: a confidence level as the percentage in an index's name.
@@ -957,6 +1079,9 @@ fn margins(
     no_plots: bool,
 ) -> Result<()> {
     let sc = Scenario::load(path)?;
+    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-margins", sc.name)));
+    // A previous measurement's outputs go first: a refused one leaves none beside it.
+    output::clear_files(&out, &output::MARGIN_FILES)?;
     let report = sim_host::margins::measure(&sc, opts)?;
     if let Some(note) = report.method_note.as_ref().filter(|_| json) {
         eprintln!("note: {note}");
@@ -964,17 +1089,13 @@ fn margins(
     if let Some(a) = report.adaptation.as_ref().filter(|_| json) {
         eprintln!("note: {}", a.note);
     }
-    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{}-margins", sc.name)));
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-    let text = serde_json::to_string_pretty(&report)?;
-    std::fs::write(out.join("margins.json"), &text).with_context(|| format!("writing {}", out.display()))?;
-    let figures = if no_plots { Vec::new() } else { sim_host::margins::plots::write(&out, &report)? };
+    let (text, files) = write_margins(&out, &report, no_plots)?;
     if json {
         say!("{text}");
     } else {
         say!("{}", sim_host::margins::report::table(&report));
-        say!("  wrote {}", out.join("margins.json").display());
-        for f in figures {
+        for f in files {
             say!("  wrote {}", f.display());
         }
     }

@@ -181,6 +181,68 @@ fn a_campaign_run_reruns_alone_with_sim_host_run() {
     }
 }
 
+/// A run the flight code cannot control (the MEKF never claims an estimate:
+/// `lost_attitude_sigma_deg` below anything it can reach) has `run_status` `no_control`
+/// (issue 37): a campaign counts it as such, it fails every requirement whatever its
+/// figures, and the merge fails (exit 1).
+#[test]
+fn runs_the_flight_code_cannot_control_fail_the_campaign() {
+    let t = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("scenarios/estimation/mekf-hold.toml")).unwrap();
+    let text = text
+        .replace("duration_s = 3000.0", "duration_s = 300.0")
+        .replace("lost_attitude_sigma_deg = 1.0", "lost_attitude_sigma_deg = 1e-4");
+    assert!(text.contains("lost_attitude_sigma_deg = 1e-4") && text.contains("duration_s = 300.0"));
+    let base = t.path().join("uncontrolled.toml");
+    std::fs::write(&base, text).unwrap();
+    let extra = "[[dispersion]]\nkey = \"sensors.seed\"\ndist = { type = \"seed\" }\n\
+                 [[requirement]]\nname = \"error\"\nkey = \"final_error_deg\"\nop = \"<\"\nvalue = 1000.0\n";
+    let f = campaign_file(t.path(), &base, 2, extra);
+    let dir = t.path().join("c");
+    assert!(sim_host().args(["campaign", "plan"]).arg(&f).arg("--out").arg(&dir).status().unwrap().success());
+    assert!(sim_host().args(["campaign", "run", "-q"]).arg(&dir).status().unwrap().success());
+    let o = sim_host().args(["campaign", "merge", "--no-plots"]).arg(&dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stdout));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("campaign.json")).unwrap()).unwrap();
+    assert_eq!(c["no_control"], serde_json::json!([0, 1]), "{c}");
+    // A requirement every figure would meet (final error < 1000 deg) fails on both runs.
+    assert_eq!(c["requirements"][0]["failed_runs"], serde_json::json!([0, 1]), "{}", c["requirements"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 not controlled"));
+}
+
+/// The re-run commands `report.md` lists (here the worst runs of a requirement) work as
+/// written from the directory the campaign was run in (issue 38: they used to hold only
+/// inside the campaign directory), and give the run's own summary.
+#[test]
+fn report_rerun_commands_work_from_where_the_campaign_ran() {
+    let t = tempfile::tempdir().unwrap();
+    let extra = "[[requirement]]\nname = \"settles\"\nkey = \"settle_time_s\"\nop = \"<\"\nvalue = 15.0\n";
+    let f = campaign_file(t.path(), &test3(), 3, &format!("{TEST3_DISPERSIONS}{extra}"));
+    let in_tmp = |args: &[&str]| {
+        let o = sim_host().current_dir(t.path()).args(args).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    in_tmp(&["campaign", "plan", f.to_str().unwrap(), "--out", "c"]);
+    in_tmp(&["campaign", "run", "-q", "c"]);
+    let _ = sim_host().current_dir(t.path()).args(["campaign", "merge", "c", "--no-plots"]).output().unwrap();
+    let report = std::fs::read_to_string(t.path().join("c/report.md")).unwrap();
+    let commands: Vec<&str> =
+        report.split('`').filter(|s| s.starts_with("sim-host run ") && s.contains("/runs/0")).collect();
+    assert!(!commands.is_empty(), "no re-run command in report.md:\n{report}");
+    for c in &commands {
+        let words: Vec<&str> = c.split_whitespace().skip(1).collect();
+        assert!(words[1].starts_with("c/runs/"), "{c}");
+        in_tmp(&[&words[..], &["-q", "--no-plots"]].concat());
+        let out = t.path().join(words[words.len() - 1]);
+        let alone: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let rec: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.parent().unwrap().join("result.json")).unwrap()).unwrap();
+        assert_eq!(alone["final_error_deg"], rec["summary"]["final_error_deg"], "{c}");
+    }
+}
+
 /// Uniform rotations within a cone: the angle distribution against rejection sampling of
 /// Haar-uniform quaternions (normalised 4-D Gaussians), by a two-sample Kolmogorov-Smirnov
 /// statistic (critical value at alpha = 0.001: 1.95 sqrt(2/n)).

@@ -93,7 +93,7 @@ fn dmcs_experiment_against_independent_truths() {
         // The model's large-angle settling from the eigen-axis ODE, started at the plant's
         // initial angle to the target.
         let q_i = sc.initial.attitude.quaternion();
-        let q_t = sc.target.quaternion();
+        let q_t = sc.target.as_ref().unwrap().quaternion();
         let theta0 = sim_core::attitude::error_angle(&q_i, &q_t);
         let (settle, theta_end) = eigen_axis_settle_s(theta0, 0.02, sc.duration_s);
         let got = f(&format!("model_settle_s_{tag}"));

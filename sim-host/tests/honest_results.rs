@@ -5,6 +5,7 @@
 //! runner per campaign shard; a failed re-run leaves no stale output; I/O errors name
 //! their file.
 
+use acs_flight::link::status::BAD_INPUT;
 use acs_flight::link::{StepReport, status};
 use sim_core::link::tap::{Tap, Tapped};
 use sim_core::link::{self, LinkKind, LinkOptions};
@@ -164,7 +165,7 @@ fn a_run_whose_every_step_was_refused_fails_and_says_why() {
 /// The in-process flight code behind a telemetry tap whose hook may corrupt its step
 /// reports (`hook(seq, report)`, `seq` of the frame answered): a flight computer that
 /// answers NaN, or refuses everything, whatever the scenario's validation lets through.
-fn fly(sc: &Scenario, hook: fn(u32, &mut StepReport)) -> runner::RunResult {
+fn fly(sc: &Scenario, hook: impl Fn(u32, &mut StepReport)) -> runner::RunResult {
     let inner = link::open(&LinkKind::InProcess, &LinkOptions::default()).unwrap();
     let mut l = Tap::new(inner, |t: Tapped<'_>| {
         if let Some(r) = t.reply() {
@@ -211,8 +212,9 @@ fn a_non_finite_flight_command_stops_the_run_at_that_step() {
     assert!(s.status_counts.bad_input == 0 && clean.summary.status_counts.bad_input == 0);
 }
 
-/// Every step's status carries `bad_input`: all_refused with the reason; one step
-/// accepted: ok (the rule is "every step", not "many").
+/// Every step's status carries `bad_input`: all_refused with the reason. One step
+/// accepted: not `all_refused` (that rule is "every step"), but not ok either: a run the
+/// flight code could not control for a material part is `no_control` (issue 37).
 #[test]
 fn all_refused_means_every_step() {
     let sc = test3(1.0);
@@ -230,9 +232,41 @@ fn all_refused_means_every_step() {
             r.cmd.status |= status::BAD_INPUT
         }
     });
-    assert_eq!(but_one.summary.run_status, Status::Ok);
-    assert_eq!(but_one.summary.failure, None);
+    assert_eq!(but_one.summary.run_status, Status::NoControl);
     assert_eq!(but_one.summary.status_counts.bad_input, 100);
+}
+
+/// The no-control rule (issue 37) at its edges, on 1 s of test3 at 100 Hz: 101 flight
+/// steps, start-up allowance ⌈10 % × 101⌉ = 11 steps (under 60 s), 90 steps judged, at
+/// most 10 % = 9 of them uncontrolled (`bad_input` or `no_estimate`). Uncontrolled steps
+/// inside the allowance do not count; any other status bit does not count.
+#[test]
+fn no_control_means_more_than_a_tenth_of_the_steps_after_the_start_up_allowance() {
+    use acs_flight::link::status::{NO_ESTIMATE, TORQUE_LIMITED};
+    let sc = test3(1.0);
+    let with = |lo: u32, hi: u32, bit: u16| {
+        fly(&sc, move |seq, r| {
+            if (lo..hi).contains(&seq) {
+                r.cmd.status |= bit;
+            }
+        })
+        .summary
+    };
+    // The allowance (0..11) and 9 more: ok.
+    let s = with(0, 20, NO_ESTIMATE);
+    assert_eq!((s.run_status, s.status_counts.no_estimate), (Status::Ok, 20));
+    // 10 after the allowance: no_control, and the reason counts them.
+    let s = with(11, 21, BAD_INPUT);
+    assert_eq!(s.run_status, Status::NoControl);
+    match &s.failure {
+        Some(Failure::Control { reason }) => assert!(reason.contains("10 of the 90 control steps"), "{reason}"),
+        f => panic!("{f:?}"),
+    }
+    let s = with(91, 101, NO_ESTIMATE);
+    assert_eq!(s.run_status, Status::NoControl);
+    // Other status bits are not a loss of control.
+    let s = with(0, 101, TORQUE_LIMITED);
+    assert_eq!(s.run_status, Status::Ok);
 }
 
 /// The campaign of the issue: `initial.rate_rad_s[0]` drawn from {0, 1e300}, requirement

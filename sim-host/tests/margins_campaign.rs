@@ -118,30 +118,98 @@ fn run_with_margins(dir: &Path, scenario: &str, edits: &[(&str, &str)]) -> (Opti
     (o.status.code(), json(&dir.join("out/summary.json")))
 }
 
-/// No failure of the margins ends with exit 0: a loop measured unstable (gains × 10 with
-/// 0.2 s of delay on the rigid-body fixture: the closed form's phase margin is negative)
-/// and an operating point that is not a steady hold (paper 001's wheels stopped in their
-/// friction band) both exit 3, with the reason in `summary.json` `margins` and no figure.
+/// The unstable fixture of issue 37: gains × 10 and 0.2 s of wheel-torque delay on the
+/// rigid-body loop (the closed form's phase margin is −15.4°).
+const UNSTABLE: [(&str, &str); 4] = [
+    ("k_diag_nm = [5.0, 6.0, 7.5]", "k_diag_nm = [50.0, 60.0, 75.0]"),
+    ("d_diag_nms = [7.0, 8.4, 10.5]", "d_diag_nms = [70.0, 84.0, 105.0]"),
+    ("torque_limit_nm = [50.0, 50.0, 50.0]", "torque_limit_nm = [500.0, 500.0, 500.0]"),
+    ("inertia_kgm2 = 0.01", "inertia_kgm2 = 0.01\ntorque_delay_s = 0.2"),
+];
+
+/// No failure of the margins ends with exit 0 or `run_status` `ok`: a loop measured
+/// unstable (the fixture above) and an operating point that is not a steady hold (paper
+/// 001's wheels stopped in their friction band) both exit 3 with `run_status`
+/// `margins_failed`. The unstable loop's figures stay, beside `status` `unstable` and
+/// `stable` false; the refused one has its reason and no figure.
 #[test]
-fn a_run_whose_margins_are_negative_or_not_measured_exits_3_with_the_reason() {
+fn a_run_whose_margins_are_negative_or_not_measured_exits_3_with_a_failed_status() {
     let tmp = tempfile::tempdir().unwrap();
-    let unstable = [
-        ("k_diag_nm = [5.0, 6.0, 7.5]", "k_diag_nm = [50.0, 60.0, 75.0]"),
-        ("d_diag_nms = [7.0, 8.4, 10.5]", "d_diag_nms = [70.0, 84.0, 105.0]"),
-        ("torque_limit_nm = [50.0, 50.0, 50.0]", "torque_limit_nm = [500.0, 500.0, 500.0]"),
-        ("inertia_kgm2 = 0.01", "inertia_kgm2 = 0.01\ntorque_delay_s = 0.2"),
-    ];
-    let (code, s) = run_with_margins(tmp.path(), "tests/scenarios/margins/rigid-pd.toml", &unstable);
+    let (code, s) = run_with_margins(tmp.path(), "tests/scenarios/margins/rigid-pd.toml", &UNSTABLE);
     let m = &s["margins"];
     assert_eq!(code, Some(3), "{m}");
-    assert_eq!((m["status"].as_str(), m["stable"].as_bool()), (Some("measured"), Some(false)), "{m}");
+    assert_eq!(s["run_status"], "margins_failed", "{s}");
+    assert!(s["failure"]["reason"].as_str().is_some_and(|r| r.contains("unstable")), "{}", s["failure"]);
+    assert_eq!((m["status"].as_str(), m["stable"].as_bool()), (Some("unstable"), Some(false)), "{m}");
     assert!(m["phase_margin_deg"].as_f64().is_some_and(|p| p < 0.0), "{m}");
+    assert!(m["reason"].as_str().is_some_and(|r| r.contains("negative margin")), "{m}");
+    assert!(tmp.path().join("out/margins.json").exists());
 
     let tmp = tempfile::tempdir().unwrap();
     let (code, s) = run_with_margins(tmp.path(), "scenarios/paper001/wheel-slew.toml", &[]);
     let m = &s["margins"];
     assert_eq!(code, Some(3), "{m}");
+    assert_eq!(s["run_status"], "margins_failed", "{s}");
     assert_eq!(m["status"], "not_steady", "{m}");
     assert!(m["reason"].as_str().is_some_and(|r| r.contains("friction")), "{m}");
     assert!(m["phase_margin_deg"].is_null() && m["stable"].is_null(), "{m}");
+    assert!(!tmp.path().join("out/margins.json").exists(), "no measurement, no margins.json");
+}
+
+/// Issue 37, finding 3: a campaign never passes over a run `sim-host run` exits 3 for. Six
+/// runs of the unstable fixture with `[margins]`, requiring multiloop disk α ≥ 0.1 and the
+/// high gain margin ≥ 6 dB — figures the unstable loop's measurement meets (α 0.136, GM
+/// 9.1 dB: a disk margin of the measured `(I + L)⁻¹` is no guarantee when `L` is
+/// unstable) — merge to FAIL with exit status 1: every run is `margins_failed`, misses
+/// both requirements, and is listed.
+#[test]
+fn a_campaign_over_a_loop_measured_unstable_fails() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut text = std::fs::read_to_string(repo().join("tests/scenarios/margins/rigid-pd.toml")).unwrap();
+    for (from, to) in UNSTABLE {
+        text = text.replace(from, to);
+    }
+    std::fs::write(tmp.path().join("base.toml"), format!("{text}\n[margins]\n")).unwrap();
+    let campaign = r#"name = "unstable-margins"
+base = "base.toml"
+runs = 6
+seed = 37
+[[dispersion]]
+key = "margins.at_s"
+dist = { type = "choice", values = [20.0] }
+[[requirement]]
+name = "multiloop disk alpha >= 0.1"
+key = "margins.multiloop_disk_alpha"
+op = ">="
+value = 0.1
+[[requirement]]
+name = "gain margin >= 6 dB"
+key = "margins.gain_margin_high_db"
+op = ">="
+value = 6.0
+"#;
+    std::fs::write(tmp.path().join("c.toml"), campaign).unwrap();
+    let o = sim_host(tmp.path(), &["campaign", "plan", "c.toml", "--out", "c"]);
+    assert!(o.status.success(), "plan: {}", String::from_utf8_lossy(&o.stderr));
+    let o = sim_host(tmp.path(), &["campaign", "run", "c", "--quiet"]);
+    assert!(o.status.success(), "run: {}", String::from_utf8_lossy(&o.stderr));
+    let o = sim_host(tmp.path(), &["campaign", "merge", "c", "--no-plots"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    eprintln!("merge: exit {:?}\n{stdout}", o.status.code());
+    assert_eq!(o.status.code(), Some(1), "{stdout}{}", String::from_utf8_lossy(&o.stderr));
+    let c = json(&tmp.path().join("c/campaign.json"));
+    assert_eq!(c["margins_failed"], serde_json::json!([0, 1, 2, 3, 4, 5]), "{c}");
+    assert_eq!(c["ok"].as_u64(), Some(0));
+    for r in c["requirements"].as_array().unwrap() {
+        assert_eq!((r["passed"].as_u64(), r["verdict"].as_str()), (Some(0), Some("not_met")), "{r}");
+    }
+    let report = std::fs::read_to_string(tmp.path().join("c/report.md")).unwrap();
+    assert!(report.contains("**Verdict: FAIL**"), "{report}");
+    // The figures the requirements name were measured and would have passed on their own.
+    let rec = json(&tmp.path().join("c/runs/000000/result.json"));
+    let m = &rec["summary"]["margins"];
+    assert_eq!(rec["status"], "margins_failed", "{rec}");
+    assert_eq!((m["status"].as_str(), m["stable"].as_bool()), (Some("unstable"), Some(false)), "{m}");
+    assert!(m["multiloop_disk_alpha"].as_f64().is_some_and(|a| a >= 0.1), "{m}");
+    assert!(m["gain_margin_high_db"].as_f64().is_some_and(|g| g >= 6.0), "{m}");
 }

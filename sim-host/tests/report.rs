@@ -92,4 +92,6 @@ fn papers_filter_keeps_only_those_papers() {
     assert!(r.rows.iter().all(|x| x.outcome.paper == "002"));
     assert!(r.markdown.contains("## Paper 002"));
     assert!(!r.markdown.contains("## Paper 000") && !r.markdown.contains("## Beyond the papers"));
+    // The title says the report holds one paper, not "the five source papers" (issue 38).
+    assert!(r.markdown.contains("Reproduction report: paper 002 only"), "{}", &r.markdown[..200.min(r.markdown.len())]);
 }

@@ -4,10 +4,21 @@
 //!
 //! - refused: exit 1 and the message names the mutated key;
 //! - run: exit 0, `summary.json` with finite figures and not every step refused;
-//! - failed run: exit 3, `summary.json` with `run_status` "diverged" or "all_refused".
+//! - failed run: exit 3, `summary.json` with a failed `run_status` ("diverged",
+//!   "all_refused", "no_control", ...).
 //!
 //! Anything else (exit 0 on a non-finite or all-refused run, a panic, a signal, a hang
 //! beyond the per-case limit) fails the test, listing every offending case.
+//!
+//! A second fuzz (issue 37) mutates the sensors' timing (`rate_hz`, `phase_s`,
+//! `jitter_s`, `latency_s` of each sensor table, the suite's `latency_s`) and the
+//! estimator's settings (`max_sample_latency_s`, `max_replayed_nodes`, `max_sample_age_s`,
+//! `coarse_update_interval_s`, ...) of the MEKF scenarios, one to three keys at a time,
+//! over 60 s runs with every step recorded. Every case is refused naming a mutated key,
+//! or runs (exit 0) with commands and an estimate — at most 10 % of the steps after the
+//! start-up allowance held the safe command for a missing input or estimate, counted
+//! from the time series' `status` column here —, or exits 3 with a failed status (a
+//! `no_control` verdict checked against the same count). None exits 0 with no control.
 
 // SplitMix64 (Steele, Lea & Flood 2014): the test's only source of randomness.
 use acs_test_support::rng::SplitMix64;
@@ -216,7 +227,7 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
     let status = s.get("run_status").and_then(Json::as_str);
     if code == 3 {
         return match status {
-            Some(st @ ("diverged" | "all_refused")) => Verdict::Failed(st.into()),
+            Some(st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped")) => Verdict::Failed(st.into()),
             other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
         };
     }
@@ -243,13 +254,16 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
     Verdict::Ok
 }
 
-fn run_case(c: &Case, dir: &Path) -> Verdict {
+/// Runs `sim-host run` on the case's scenario (with `extra` arguments) into `dir/out`:
+/// its exit code and stderr, or a verdict when it hangs.
+fn spawn_case(doc: &Value, dir: &Path, extra: &[&str]) -> Result<(Option<i32>, String), Verdict> {
     let sc = dir.join("sc.toml");
-    std::fs::write(&sc, toml::to_string(&c.doc).unwrap()).unwrap();
+    std::fs::write(&sc, toml::to_string(doc).unwrap()).unwrap();
     let out = dir.join("out");
     let mut child = Command::new(env!("CARGO_BIN_EXE_sim-host"))
         .args(["run", sc.to_str().unwrap(), "--out", out.to_str().unwrap(), "--no-plots", "--quiet"])
         .args(["--link", "in-process"])
+        .args(extra)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -262,13 +276,22 @@ fn run_case(c: &Case, dir: &Path) -> Verdict {
         if t0.elapsed() > CASE_LIMIT {
             child.kill().ok();
             child.wait().ok();
-            return Verdict::Bad(format!("no answer within {CASE_LIMIT:?}"));
+            return Err(Verdict::Bad(format!("no answer within {CASE_LIMIT:?}")));
         }
         std::thread::sleep(Duration::from_millis(5));
     };
     let mut err = String::new();
     std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).ok();
-    match status.code() {
+    Ok((status.code(), err))
+}
+
+fn run_case(c: &Case, dir: &Path) -> Verdict {
+    let (code, err) = match spawn_case(&c.doc, dir, &[]) {
+        Ok(x) => x,
+        Err(v) => return v,
+    };
+    let out = dir.join("out");
+    match code {
         Some(1) if err.contains(&c.key) || (!c.table.is_empty() && err.contains(&format!("`{}`", c.table))) => {
             Verdict::Refused
         }
@@ -349,4 +372,224 @@ fn mutated_scenarios_are_refused_naming_the_key_or_run_to_a_finite_or_failed_sum
         })
         .collect();
     assert!(bad.is_empty(), "{} of {} cases broke the contract:\n{}", bad.len(), verdicts.len(), bad.join("\n"));
+}
+
+/// Runs `judge` on every case, `WORKERS` at a time, each in its own directory; the
+/// verdicts in case order.
+fn run_all<C: Sync>(all: &[C], judge: impl Fn(&C, &Path) -> Verdict + Sync) -> Vec<(usize, Verdict)> {
+    let tmp = tempfile::tempdir().unwrap();
+    let next = AtomicUsize::new(0);
+    let verdicts = Mutex::new(Vec::new());
+    std::thread::scope(|s| {
+        for _ in 0..WORKERS {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, Ordering::SeqCst);
+                    let Some(c) = all.get(i) else { break };
+                    let dir = tmp.path().join(format!("case{i}"));
+                    std::fs::create_dir_all(&dir).unwrap();
+                    let v = judge(c, &dir);
+                    std::fs::remove_dir_all(&dir).ok();
+                    verdicts.lock().unwrap().push((i, v));
+                }
+            });
+        }
+    });
+    let mut v = verdicts.into_inner().unwrap();
+    v.sort_by_key(|(i, _)| *i);
+    v
+}
+
+/// Cases of the timing fuzz; `TIMING_FUZZ_CASES` overrides.
+const TIMING_CASES: usize = 400;
+/// Run length of the timing fuzz, s: long enough for the start-up allowance (10 %, at most
+/// 60 s) to leave most steps to judge.
+const TIMING_DURATION_S: f64 = 60.0;
+
+/// A value pool for a key.
+#[derive(Clone, Copy)]
+enum Pool {
+    Floats(&'static [f64]),
+    Ints(&'static [i64]),
+}
+
+const LATENCIES: Pool =
+    Pool::Floats(&[0.0, 1e-4, 0.01, 0.05, 0.2, 0.3, 0.6, 1.0, 2.5, 10.0, 10.5, -0.1, f64::NAN, 1e300]);
+const RATES: Pool =
+    Pool::Floats(&[1e-9, 0.05, 0.3, 1.0, 2.0, 3.0, 4.0, 10.0, 100.0, 1e8, 0.0, -1.0, f64::NAN, f64::INFINITY]);
+const PHASES: Pool = Pool::Floats(&[0.0, 0.01, 0.1, 0.4, 2.0, 5e8, -0.1, f64::NAN]);
+const JITTERS: Pool = Pool::Floats(&[0.0, 0.001, 0.05, 0.2, -0.01]);
+
+/// The keys the timing fuzz mutates: sensor timing in every sensor table the base has, the
+/// suite's latency, and the estimator's settings.
+fn timing_keys(doc: &Value) -> Vec<(KeyPath, Pool)> {
+    let key = |a: &str, b: &str| vec![Seg::Key(a.into()), Seg::Key(b.into())];
+    let mut keys = vec![(key("sensors", "latency_s"), LATENCIES)];
+    for table in ["gyro", "star_tracker", "magnetometer", "css", "sun", "gnss"] {
+        if doc["sensors"].get(table).is_some() {
+            for (k, pool) in [("rate_hz", RATES), ("phase_s", PHASES), ("jitter_s", JITTERS), ("latency_s", LATENCIES)]
+            {
+                keys.push((vec![Seg::Key("sensors".into()), Seg::Key(table.into()), Seg::Key(k.into())], pool));
+            }
+        }
+    }
+    for (k, pool) in [
+        ("max_sample_latency_s", Pool::Floats(&[0.01, 0.1, 0.3, 0.5, 2.0, 60.0, 0.0, 61.0, f64::NAN])),
+        ("max_replayed_nodes", Pool::Ints(&[0, 1, 2, 4, 8, 31, 32, 255])),
+        ("max_sample_age_s", Pool::Floats(&[0.05, 0.3, 1.0, 3.0, 60.0, 3600.0, 0.0, 1e5])),
+        ("coarse_update_interval_s", Pool::Floats(&[0.0, 0.5, 5.0, 60.0, 1e5, -1.0])),
+        ("lost_attitude_sigma_deg", Pool::Floats(&[1e-4, 0.01, 0.5, 1.0, 10.0])),
+        ("initial_attitude_sigma_deg", Pool::Floats(&[0.01, 2.0, 30.0])),
+        ("max_consecutive_rejections", Pool::Ints(&[1, 2, 20])),
+    ] {
+        keys.push((key("estimation", k), pool));
+    }
+    keys
+}
+
+/// Set `path` (a table's key, the table existing) to `v`.
+fn set(doc: &mut Value, path: &KeyPath, v: Value) {
+    let (last, table) = path.split_last().unwrap();
+    let Seg::Key(k) = last else { unreachable!() };
+    at(doc, &table.to_vec()).as_table_mut().unwrap().insert(k.clone(), v);
+}
+
+/// The MEKF scenarios, 60 s long, every step recorded.
+fn timing_bases() -> Vec<(String, Value)> {
+    shipped()
+        .iter()
+        .filter_map(|p| {
+            let mut doc: Value = toml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
+            let mekf = doc.get("estimation").and_then(|e| e.get("source")).and_then(Value::as_str) == Some("mekf");
+            mekf.then(|| {
+                doc["duration_s"] = Value::Float(TIMING_DURATION_S);
+                doc["timing"].as_table_mut().unwrap().insert("output_every".into(), Value::Integer(1));
+                (p.strip_prefix(repo()).unwrap().display().to_string(), doc)
+            })
+        })
+        .collect()
+}
+
+struct TimingCase {
+    name: String,
+    what: String,
+    /// The dotted keys mutated: a refusal names one of them.
+    keys: Vec<String>,
+    doc: Value,
+}
+
+fn timing_cases() -> Vec<TimingCase> {
+    let mut rng = SplitMix64(env_or("SCENARIO_FUZZ_SEED", SEED) ^ 0x37);
+    let bases = timing_bases();
+    assert!(bases.len() >= 4, "MEKF scenarios: {}", bases.len());
+    let mut all: Vec<TimingCase> = bases
+        .iter()
+        .map(|(n, d)| TimingCase { name: n.clone(), what: "unmutated".into(), keys: vec![], doc: d.clone() })
+        .collect();
+    for _ in 0..env_or("TIMING_FUZZ_CASES", TIMING_CASES) {
+        let (name, base) = &bases[rng.below(bases.len())];
+        let mut doc = base.clone();
+        let pool = timing_keys(&doc);
+        let (mut what, mut keys) = (Vec::new(), Vec::new());
+        for _ in 0..1 + rng.below(3) {
+            let (path, values) = &pool[rng.below(pool.len())];
+            let v = match values {
+                Pool::Floats(xs) => Value::Float(xs[rng.below(xs.len())]),
+                Pool::Ints(xs) => Value::Integer(xs[rng.below(xs.len())]),
+            };
+            what.push(format!("{} = {v}", dotted(path)));
+            keys.push(dotted(path));
+            set(&mut doc, path, v);
+        }
+        all.push(TimingCase { name: name.clone(), what: what.join(", "), keys, doc });
+    }
+    all
+}
+
+/// From `timeseries.csv` (every step): the steps after the start-up allowance (the first
+/// 10 % of the steps, at most 60 s) and those of them that held the safe command for a
+/// missing input or estimate (`BAD_INPUT` or `NO_ESTIMATE`).
+fn uncontrolled(csv: &Path, control_rate_hz: f64) -> (usize, usize) {
+    let text = std::fs::read_to_string(csv).unwrap();
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "status").expect("status column");
+    let status: Vec<u16> =
+        lines.map(|l| l.split(',').nth(col).unwrap().parse::<f64>().map_or(u16::MAX, |x| x as u16)).collect();
+    let allowance = ((0.1 * status.len() as f64).ceil()).min((60.0 * control_rate_hz).ceil()) as usize;
+    let bits = acs_flight::link::status::BAD_INPUT | acs_flight::link::status::NO_ESTIMATE;
+    let after = &status[allowance.min(status.len())..];
+    (after.len(), after.iter().filter(|s| **s & bits != 0).count())
+}
+
+fn judge_timing(c: &TimingCase, dir: &Path) -> Verdict {
+    let (code, err) = match spawn_case(&c.doc, dir, &["--format", "csv"]) {
+        Ok(x) => x,
+        Err(v) => return v,
+    };
+    let out = dir.join("out");
+    match code {
+        Some(1) if c.keys.iter().any(|k| err.contains(k.as_str())) => Verdict::Refused,
+        Some(1) => Verdict::Bad(format!("refused without naming any of {:?}: {}", c.keys, err.trim())),
+        Some(code @ (0 | 3)) => {
+            let v = judge_summary(&out, code);
+            if matches!(v, Verdict::Bad(_)) {
+                return v;
+            }
+            let rate = c.doc["timing"]["control_rate_hz"].as_float().unwrap();
+            let (n, bad) = uncontrolled(&out.join("timeseries.csv"), rate);
+            let material = bad as f64 > 0.1 * n as f64;
+            let s: Json = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+            match (&v, material) {
+                (Verdict::Ok, true) => Verdict::Bad(format!("exit 0 with {bad} of {n} steps uncontrolled")),
+                (Verdict::Ok, false) if s.get("estimation_steps").and_then(Json::as_u64).unwrap_or(0) == 0 => {
+                    Verdict::Bad("exit 0 and the filter never ran".into())
+                }
+                (Verdict::Failed(st), false) if st == "no_control" => {
+                    Verdict::Bad(format!("no_control with {bad} of {n} steps uncontrolled"))
+                }
+                _ => v,
+            }
+        }
+        other => Verdict::Bad(format!("exit {other:?}: {}", err.trim())),
+    }
+}
+
+#[test]
+fn sensor_timing_and_estimator_settings_are_refused_naming_a_key_or_run_controlled_or_fail() {
+    let t0 = Instant::now();
+    let all = timing_cases();
+    let verdicts = run_all(&all, judge_timing);
+    let count = |f: fn(&Verdict) -> bool| verdicts.iter().filter(|(_, v)| f(v)).count();
+    println!(
+        "timing fuzz: {} cases in {:.1} s: {} refused, {} ok, {} failed runs ({} no_control), {} bad",
+        verdicts.len(),
+        t0.elapsed().as_secs_f64(),
+        count(|v| *v == Verdict::Refused),
+        count(|v| *v == Verdict::Ok),
+        count(|v| matches!(v, Verdict::Failed(_))),
+        count(|v| matches!(v, Verdict::Failed(s) if s == "no_control")),
+        count(|v| matches!(v, Verdict::Bad(_)))
+    );
+    let broken: Vec<_> = verdicts
+        .iter()
+        .filter(|(i, v)| all[*i].what == "unmutated" && *v != Verdict::Ok)
+        .map(|(i, v)| format!("{}: {v:?}", all[*i].name))
+        .collect();
+    assert!(broken.is_empty(), "MEKF scenarios that do not run 60 s: {broken:#?}");
+    let bad: Vec<String> = verdicts
+        .iter()
+        .filter_map(|(i, v)| match v {
+            Verdict::Bad(why) => Some(format!("{} [{}]: {why}", all[*i].name, all[*i].what)),
+            _ => None,
+        })
+        .collect();
+    for (i, v) in &verdicts {
+        if matches!(v, Verdict::Failed(_)) {
+            println!("  {} [{}]: {v:?}", all[*i].name, all[*i].what);
+        }
+    }
+    assert!(bad.is_empty(), "{} of {} cases broke the contract:\n{}", bad.len(), verdicts.len(), bad.join("\n"));
+    // The fuzz reaches every outcome (else its pools are too tame or too wild).
+    assert!(count(|v| *v == Verdict::Refused) > 10 && count(|v| *v == Verdict::Ok) > 10);
 }

@@ -6,7 +6,10 @@
 //! - every repository path named in `README.md` and `docs/*.md` exists, and a
 //!   `path:LINE` pointer names a line the file has;
 //! - the top-level modules of every crate form a DAG (`crate::x` uses), and so do the
-//!   workspace crates with their dev-dependencies (`cargo metadata`).
+//!   workspace crates with their dev-dependencies (`cargo metadata`);
+//! - so do the files of every crate: no file-level import circle, siblings' `super::`
+//!   imports included (edges between a module and its own ancestors are structure, not
+//!   imports, and are left out).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -433,4 +436,184 @@ fn crate_graph_with_dev_dependencies_has_no_cycle() {
     assert!(g["sim-host"].contains("sim-core"), "the tools crate is built on the core: {:?}", g["sim-host"]);
     assert!(!g["sim-core"].contains("sim-host"), "the core must not depend on its tools");
     assert!(cycles(&g).is_empty(), "crate cycles: {:?}", cycles(&g));
+}
+
+/// The module paths a `use` tree names: `a::{b, c::{d, e as f}}` → `a::b`, `a::c::d`,
+/// `a::c::e` (renames and globs dropped to their path).
+fn flatten_use(tree: &str) -> Vec<String> {
+    // Drop renames (`e as f` → `e`) while the words are still apart, then the whitespace.
+    let mut words = tree.split_whitespace().peekable();
+    let mut kept = String::new();
+    while let Some(w) = words.next() {
+        if w == "as" {
+            // The new name, and whatever punctuation closes it.
+            let name = words.next().unwrap_or("");
+            kept.push_str(name.trim_start_matches(|c: char| c.is_alphanumeric() || c == '_'));
+        } else {
+            kept.push_str(w);
+        }
+    }
+    let tree = kept;
+    let mut out = Vec::new();
+    fn walk(prefix: &str, t: &str, out: &mut Vec<String>) {
+        // Split `t` at top-level commas.
+        let (mut depth, mut start) = (0i32, 0usize);
+        let mut parts = Vec::new();
+        for (i, ch) in t.char_indices() {
+            match ch {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                ',' if depth == 0 => {
+                    parts.push(&t[start..i]);
+                    start = i + 1;
+                }
+                _ => {}
+            }
+        }
+        parts.push(&t[start..]);
+        for part in parts.into_iter().filter(|p| !p.is_empty()) {
+            match part.find("::{") {
+                Some(i) if part.ends_with('}') => {
+                    let head = &part[..i];
+                    let inner = &part[i + 3..part.len() - 1];
+                    let p = if prefix.is_empty() { head.to_owned() } else { format!("{prefix}::{head}") };
+                    walk(&p, inner, out);
+                }
+                _ => {
+                    let part = part.trim_end_matches("::*");
+                    out.push(if prefix.is_empty() { part.to_owned() } else { format!("{prefix}::{part}") });
+                }
+            }
+        }
+    }
+    let tree = tree.strip_prefix('{').and_then(|t| t.strip_suffix('}')).unwrap_or(&tree);
+    walk("", tree, &mut out);
+    out
+}
+
+/// The `use` statements and inline `crate::`/`super::`/`self::` paths of a file's product
+/// code (before its `#[cfg(test)] mod tests`), each as a path from the crate root.
+fn file_imports(module: &str, is_mod_file: bool, text: &str) -> Vec<Vec<String>> {
+    let product = text.split("#[cfg(test)]\nmod tests").next().unwrap_or("");
+    let code: String = product.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n");
+    // The module a `super::` resolves against: a `mod.rs` file *is* its directory's module.
+    let own: Vec<&str> = if module == "(crate root)" { vec![] } else { module.split("::").collect() };
+    let parent = |n: usize| -> Vec<String> {
+        let base = if is_mod_file { own.len() } else { own.len().saturating_sub(1) };
+        own[..base.saturating_sub(n.saturating_sub(1))].iter().map(|s| s.to_string()).collect()
+    };
+    let resolve = |path: &str| -> Option<Vec<String>> {
+        let segs: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
+        let first = *segs.first()?;
+        let (mut base, rest): (Vec<String>, &[&str]) = match first {
+            "crate" => (vec![], &segs[1..]),
+            "super" => {
+                let n = segs.iter().take_while(|s| **s == "super").count();
+                (parent(n), &segs[n..])
+            }
+            "self" => (if is_mod_file { own.iter().map(|s| s.to_string()).collect() } else { parent(0) }, &segs[1..]),
+            _ => return None,
+        };
+        base.extend(rest.iter().map(|s| s.to_string()));
+        Some(base)
+    };
+    let mut out = Vec::new();
+    // `use` statements (possibly over several lines), flattened.
+    for stmt in code.split(';') {
+        let Some(i) = stmt.find("use ") else { continue };
+        let before = stmt[..i].trim_end();
+        if !(before.is_empty()
+            || before.ends_with("pub")
+            || before.ends_with(')')
+            || before.ends_with('}')
+            || before.ends_with('\n'))
+        {
+            continue;
+        }
+        for p in flatten_use(&stmt[i + 4..]) {
+            if let Some(r) = resolve(&p) {
+                out.push(r);
+            }
+        }
+    }
+    // Inline paths in expressions and types.
+    for prefix in ["crate::", "super::", "self::"] {
+        for (i, _) in code.match_indices(prefix) {
+            if code[..i].ends_with(|c: char| c.is_alphanumeric() || c == '_' || c == ':') {
+                continue;
+            }
+            let path: String =
+                code[i..].chars().take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':').collect();
+            if let Some(r) = resolve(&path) {
+                out.push(r);
+            }
+        }
+    }
+    out
+}
+
+/// Edges `file → files it imports` of the crate at `dir` (module paths; the longest
+/// module prefix of each imported path), leaving out edges between a module and its own
+/// ancestors.
+fn file_graph(dir: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let files = rust_files(dir);
+    let modules: BTreeSet<String> = files.iter().map(|r| module_path(r)).collect();
+    let mut g: BTreeMap<String, BTreeSet<String>> = modules.iter().map(|m| (m.clone(), BTreeSet::new())).collect();
+    let is_ancestor = |a: &str, b: &str| b.starts_with(&format!("{a}::"));
+    for rel in &files {
+        let m = module_path(rel);
+        let is_mod = rel.file_name().is_some_and(|n| n == "mod.rs" || n == "lib.rs" || n == "main.rs");
+        let text = std::fs::read_to_string(dir.join(rel)).unwrap();
+        for path in file_imports(&m, is_mod, &text) {
+            // The longest prefix that is a file of this crate.
+            let target = (1..=path.len()).rev().map(|n| path[..n].join("::")).find(|p| modules.contains(p));
+            let Some(t) = target else { continue };
+            if t == m || m == "(crate root)" || is_ancestor(&t, &m) || is_ancestor(&m, &t) {
+                continue;
+            }
+            g.get_mut(&m).unwrap().insert(t);
+        }
+    }
+    g
+}
+
+#[test]
+fn file_cycle_finder_finds_a_planted_circle_between_siblings() {
+    let dir = std::env::temp_dir().join(format!("acs-arch-planted-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("alloc")).unwrap();
+    std::fs::write(dir.join("lib.rs"), "pub mod alloc;\n").unwrap();
+    std::fs::write(dir.join("alloc/mod.rs"), "pub mod lp;\npub mod zono;\nuse lp::Solver;\n").unwrap();
+    std::fs::write(dir.join("alloc/lp.rs"), "use super::zono::{clampf, Bounds};\npub struct Solver;\n").unwrap();
+    std::fs::write(
+        dir.join("alloc/zono.rs"),
+        "pub fn clampf() {}\npub struct Bounds;\nfn f() { super::lp::Solver; }\n",
+    )
+    .unwrap();
+    let g = file_graph(&dir);
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(cycles(&g), vec![vec!["alloc::lp".to_owned(), "alloc::zono".into()]], "{g:?}");
+    // A parent using its child and the child using the parent is structure, not a circle.
+    assert!(g["alloc"].is_empty() || !g["alloc"].contains("alloc::lp"), "{g:?}");
+}
+
+#[test]
+fn use_trees_flatten_to_paths() {
+    assert_eq!(flatten_use("super::{a, b::{C, d::E}}"), vec!["super::a", "super::b::C", "super::b::d::E"]);
+    assert_eq!(flatten_use("crate::x::*"), vec!["crate::x"]);
+    assert_eq!(flatten_use("super::{a as b, c::D as E}"), vec!["super::a", "super::c::D"]);
+}
+
+#[test]
+fn no_crate_has_a_file_level_import_circle() {
+    let mut found = Vec::new();
+    for (src, name) in CRATES {
+        let dir = repo().join(src);
+        if !dir.is_dir() {
+            continue;
+        }
+        for c in cycles(&file_graph(&dir)) {
+            found.push(format!("{name}: {}", c.join(" ↔ ")));
+        }
+    }
+    assert!(found.is_empty(), "file-level import circles:\n{}", found.join("\n"));
 }

@@ -9,13 +9,16 @@
 //! not a list kept by hand: for every package the builds share, the feature sets must be
 //! equal.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use std::process::Command;
 
-/// `package version` → its enabled features, as `cargo tree` resolves them for `selection`
-/// (the packages a command selects and the dependency kinds it builds).
-fn resolved_features(selection: &[&str]) -> BTreeMap<String, String> {
+/// `package version` → the feature sets it is built with, as `cargo tree` resolves them for
+/// `selection` (the packages a command selects and the dependency kinds it builds). A
+/// package can be built more than once (e.g. `serde` for the target and, with fewer
+/// features, for a build script): each instance is one set, so their order in the tree
+/// does not matter.
+fn resolved_features(selection: &[&str]) -> BTreeMap<String, BTreeSet<String>> {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let out = Command::new(cargo)
@@ -31,15 +34,15 @@ fn resolved_features(selection: &[&str]) -> BTreeMap<String, String> {
         // `name vX.Y.Z (path)` → `name vX.Y.Z`
         let key: String = package.split_whitespace().take(2).collect::<Vec<_>>().join(" ");
         if !key.is_empty() {
-            map.insert(key, features.trim().to_string());
+            map.entry(key).or_insert_with(BTreeSet::new).insert(features.trim().to_string());
         }
     }
     map
 }
 
 /// Packages both maps hold with different features.
-fn differences(a: &BTreeMap<String, String>, b: &BTreeMap<String, String>) -> Vec<String> {
-    a.iter().filter_map(|(k, fa)| b.get(k).filter(|fb| *fb != fa).map(|fb| format!("{k}: [{fa}] vs [{fb}]"))).collect()
+fn differences(a: &BTreeMap<String, BTreeSet<String>>, b: &BTreeMap<String, BTreeSet<String>>) -> Vec<String> {
+    a.iter().filter_map(|(k, fa)| b.get(k).filter(|fb| *fb != fa).map(|fb| format!("{k}: {fa:?} vs {fb:?}"))).collect()
 }
 
 #[test]

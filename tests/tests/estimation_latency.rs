@@ -25,7 +25,7 @@ fn slew(tracker_hz: f64, latency_s: f64, control_hz: f64, seed: u64, arw: f64) -
     // Sensor sample times are quantised to the substep: 1/32 s at 4 Hz.
     sc.timing.dynamics_substeps = (32.0 / control_hz).round() as u32;
     sc.timing.output_every = 1;
-    sc.target.euler_deg = Some([30.0, -20.0, 270.0]);
+    sc.target.as_mut().unwrap().euler_deg = Some([30.0, -20.0, 270.0]);
     sc.sensors.seed = seed;
     let g = sc.sensors.gyro.as_mut().unwrap();
     g.bias_instability_rad_s = 0.0;

@@ -220,7 +220,7 @@ fn frozen_dmcs_hold_matches_the_closed_form_of_its_frozen_gains() {
     let out = tempfile::tempdir().unwrap();
     let o = Command::new(acs_tests::sim_host_bin())
         .args(["margins", repo().join(SCENARIO).to_str().unwrap(), "--no-plots"])
-        .args(["--grid-points", "8", "--crossover-hint", "0.5", "--no-refine"])
+        .args(["--grid-points", "8", "--crossover-hint", "0.5"])
         .args(["--out", out.path().to_str().unwrap()])
         .output()
         .expect("running sim-host margins");

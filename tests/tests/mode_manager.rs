@@ -187,7 +187,7 @@ fn from_hold(
     let mut sc = scenario("modes/cubesat-mission.toml");
     let modes = sc.modes.as_mut().unwrap();
     modes.initial = "hold".into();
-    sc.initial.attitude = sc.target.clone();
+    sc.initial.attitude = sc.target.clone().unwrap();
     sc.initial.rate_rad_s = [0.0, f64::to_radians(rate_deg_s), 0.0];
     sc.commands.clear();
     sc.duration_s = 5000.0;

@@ -13,12 +13,15 @@
 //!    ([`super::css`]);
 //! 4. attitude:
 //!    - `AttitudeSource::Sensor`: the attitude sensor's quaternion and the gyro as measured;
-//!    - `AttitudeSource::Mekf` ([`super::mekf`]): propagate with the mean of the previous
-//!      and the current gyro reading (trapezoid) over the elapsed time (pieces of at most `MAX_PROPAGATION_DT_S`, at most
-//!      `MAX_PROPAGATION_PIECES`; a longer gap restarts the filter), then the star tracker
-//!      update (covariance from the cross/about-boresight σ), then the Sun and the field
-//!      as sequential unit-vector updates. Without a filter it initialises from the
-//!      tracker, else from TRIAD on (Sun, field) ([`super::triad`]).
+//!    - `AttitudeSource::Mekf` ([`super::mekf`]): propagate the history
+//!      ([`super::history`]) to the gyro sample's time with the increment's mean rate
+//!      (pieces of at most `MAX_PROPAGATION_DT_S`, at most `MAX_PROPAGATION_PIECES`; a
+//!      longer gap restarts the filter), stopping at each sample that waited for the gyro
+//!      ([`super::waiting`]) to fuse it at its own time, then fuse each new sample at its
+//!      own time: the star tracker (covariance from the cross/about-boresight σ), the Sun
+//!      and the field (unit-vector updates); a sample newer than the gyro's waits. Without
+//!      a filter it initialises from the tracker, else from TRIAD on (Sun, field)
+//!      ([`super::triad`]).
 //!      `max_consecutive_rejections` tracker rejections in a row mean divergence (the
 //!      tracker keeps disagreeing): the filter restarts from the next fix.
 //!      The attitude is *available* to the laws while the largest per-axis 1σ is within
@@ -27,11 +30,12 @@
 //! No heap, no panics; every loop is bounded by a constant.
 
 use super::css::{CssHeads, sun_vector};
-use super::history::{FuseRefusal, Measurement, MekfHistory, SensorTrack, span_s};
+use super::history::{FuseOutcome, FuseRefusal, Measurement, MekfHistory, SensorTrack, span_s};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::references::References;
 use super::triad::triad;
+use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
 use crate::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags};
 use crate::math::{Quat, Vec3, quat_to_xyzw};
 use crate::models::sun::in_eclipse;
@@ -97,6 +101,8 @@ pub struct Determination {
     css: CssHeads,
     /// The MEKF and its short history of past states (delayed fusion).
     history: Option<MekfHistory>,
+    /// Samples newer than the history's now, waiting for the gyro ([`super::waiting`]).
+    waiting: WaitQueue,
     nav: Navigation,
     references: References,
     /// The previous gyro rate sample (trapezoid propagation without an increment).
@@ -145,6 +151,7 @@ impl Determination {
             mekf_cfg: mekf_config(&params),
             css: css_heads(&params),
             history: None,
+            waiting: WaitQueue::EMPTY,
             nav: Navigation::new(),
             references: References::new(),
             last_gyro: None,
@@ -169,6 +176,9 @@ impl Determination {
                 out_of_order: 0,
                 bad_input: 0,
                 max_replayed_nodes: 0,
+                fused_after_wait: 0,
+                dropped_waiting: 0,
+                waiting: 0,
             },
         }
     }
@@ -186,6 +196,11 @@ impl Determination {
     /// The running filter (at the newest gyro time), if any.
     pub fn mekf(&self) -> Option<&Mekf> {
         self.history.as_ref().map(|h| h.filter())
+    }
+
+    /// The running filter's history (its nodes: test oracles), if any.
+    pub fn history(&self) -> Option<&MekfHistory> {
+        self.history.as_ref()
     }
 
     /// Restart everything (a new configuration).
@@ -338,14 +353,19 @@ impl Determination {
             magnetometer: age_s(s.time_us, s.magnetometer.map(|x| x.time_us)),
         };
         t.fusion = self.fusion;
+        // ≤ MAX_WAITING (16).
+        t.fusion.waiting = u16::try_from(self.waiting.len()).unwrap_or(u16::MAX);
         t
     }
 
+    /// Stop the filter; the samples waiting for it can no longer be fused (counted).
     fn lose(&mut self) {
         if self.history.take().is_some() {
             self.resets = self.resets.saturating_add(1);
         }
         self.consecutive_rejections = 0;
+        let dropped = u32::try_from(self.waiting.clear()).unwrap_or(u32::MAX);
+        self.fusion.dropped_waiting = self.fusion.dropped_waiting.saturating_add(dropped);
     }
 
     /// Count a filter outcome: accepted / gate-rejected.
@@ -390,6 +410,12 @@ impl Determination {
             let predicted = m.rate_rad_s(&g.rate_rad_s);
             let mut ahead = m;
             if ahead.propagate(&(predicted + m.bias_rad_s()), dt).is_ok() {
+                // One rate sample (white noise σv/√T over its interval T) held over dt > T:
+                // the attitude error grows as σv dt/√T, not as the model's σv √dt.
+                if let Some(t) = g.increment.map(|i| i.interval_s).filter(|t| dt > *t) {
+                    let sv = self.params.gyro_arw_rad_sqrt_s;
+                    let _ = ahead.add_attitude_variance(sv * sv * (dt * dt / t - dt));
+                }
                 m = ahead;
             }
         }
@@ -407,10 +433,11 @@ impl Determination {
 
     /// Carry the history from its newest time to the gyro sample's time with the
     /// increment's mean rate (without an increment: the mean of the previous and this
-    /// rate sample, the trapezoid), in pieces of at most `MAX_PROPAGATION_DT_S`. A held
-    /// gyro sample (same time) propagates nothing; one older than the history is counted
-    /// out of order; a gap beyond `MAX_PROPAGATION_PIECES` pieces or a failed
-    /// propagation loses the filter.
+    /// rate sample, the trapezoid), in pieces of at most `MAX_PROPAGATION_DT_S`, stopping
+    /// at each waiting sample the gyro has now caught up with (in time order) to fuse it
+    /// there. A held gyro sample (same time) propagates nothing; one older than the
+    /// history is counted out of order; a gap beyond `MAX_PROPAGATION_PIECES` pieces or a
+    /// failed propagation loses the filter.
     fn propagate_history(&mut self, g: &GyroRate) {
         // The rate over the interval without an increment: the mean of its two end
         // readings. The readings are instantaneous samples and the torque is held over the
@@ -420,7 +447,7 @@ impl Determination {
             (None, Some(a)) => (a + g.rate_rad_s) * 0.5,
             (None, None) => g.rate_rad_s,
         };
-        let Some(h) = self.history.as_mut() else {
+        let Some(h) = self.history.as_ref() else {
             self.last_gyro = Some(g.rate_rad_s);
             return;
         };
@@ -432,20 +459,56 @@ impl Determination {
             return;
         }
         self.last_gyro = Some(g.rate_rad_s);
-        let span_us = g.time_us.saturating_sub(now);
         let span = span_s(now, g.time_us).unwrap_or(f32::INFINITY);
-        let pieces = libm::ceilf(span / MAX_PROPAGATION_DT_S);
-        let ok = pieces <= MAX_PROPAGATION_PIECES as f32 && {
-            // Integral, 1 … 16 (checked above).
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            let n = (pieces as u64).max(1);
-            (1..=n).all(|i| {
-                let t_i = now.saturating_add(span_us.saturating_mul(i).checked_div(n).unwrap_or(span_us));
-                h.propagate_rate(&rate, t_i).is_ok()
-            })
-        };
-        if !ok {
+        if libm::ceilf(span / MAX_PROPAGATION_DT_S) > MAX_PROPAGATION_PIECES as f32 || span.is_nan() {
             self.lose();
+            return;
+        }
+        // Each round takes one waiting sample (or ends the step): at most MAX_WAITING + 1.
+        for _ in 0..=MAX_WAITING {
+            let due = self.waiting.pop_due(g.time_us);
+            let stop_us = due.map_or(g.time_us, |(_, w)| w.t_us);
+            if !self.propagate_to(&rate, stop_us, due) {
+                self.lose();
+                return;
+            }
+            if due.is_none() {
+                return;
+            }
+        }
+    }
+
+    /// Carry the history from now to `stop_us` with `rate` in equal pieces of at most
+    /// `MAX_PROPAGATION_DT_S` (within the step checked by the caller: ≤ 16); with `due`, the
+    /// last piece ends at that waiting sample, which is fused there. False: a propagation
+    /// failed.
+    fn propagate_to(&mut self, rate: &Vec3, stop_us: u64, due: Option<(usize, Waiting)>) -> bool {
+        let Some(h) = self.history.as_mut() else { return false };
+        let now = h.now_us();
+        let span_us = stop_us.saturating_sub(now);
+        if span_us > 0 || due.is_none() {
+            let span = span_s(now, stop_us).unwrap_or(f32::INFINITY);
+            // Integral, 1 … 16 (the whole step was checked by the caller).
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let n = (libm::ceilf(span / MAX_PROPAGATION_DT_S) as u64).max(1);
+            let at = |i: u64| now.saturating_add(span_us.saturating_mul(i).checked_div(n).unwrap_or(span_us));
+            // With a sample, its own node ends the last piece (`History::fuse_ahead`).
+            let pieces = if due.is_some() { n.saturating_sub(1) } else { n };
+            if span_us > 0 && !(1..=pieces).all(|i| h.propagate_rate(rate, at(i)).is_ok()) {
+                return false;
+            }
+        }
+        let Some((index, w)) = due else { return true };
+        let Some(sensor) = Sensor::from_index(index) else { return true };
+        let track = self.tracks.fusion_mut(sensor);
+        match h.fuse_ahead(track, rate, w.t_us, &w.measurement) {
+            Err(_) => false,
+            Ok(r) => {
+                if self.record(sensor, false, r).is_some() {
+                    self.fusion.fused_after_wait = self.fusion.fused_after_wait.saturating_add(1);
+                }
+                true
+            }
         }
     }
 
@@ -494,14 +557,13 @@ impl Determination {
         }
     }
 
-    /// A coarse vector sample at `t_us` may be fused: at least `coarse_update_interval_s`
-    /// after the sensor's last fused one (the errors' decorrelation interval).
-    fn coarse_due(&self, track: &Track, t_us: u64) -> bool {
-        track
-            .fusion
-            .last_fused_us
-            .and_then(|last| span_s(last, t_us))
-            .is_none_or(|dt| dt >= self.params.coarse_update_interval_s)
+    /// A coarse vector sample of `sensor` at `t_us` may be fused: at least
+    /// `coarse_update_interval_s` after the sensor's last fused or waiting one (the
+    /// errors' decorrelation interval).
+    fn coarse_due(&self, sensor: Sensor, t_us: u64) -> bool {
+        let fused = self.tracks.fusion(sensor).last_fused_us;
+        let last = fused.max(self.waiting.newest_us(sensor.index()));
+        last.and_then(|last| span_s(last, t_us)).is_none_or(|dt| dt >= self.params.coarse_update_interval_s)
     }
 
     fn sun_track(&mut self, fine: bool) -> &mut Track {
@@ -519,7 +581,7 @@ impl Determination {
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
             && self.sun_track(v.sun_is_fine).fresh(v.sun_time_us)
-            && (v.sun_is_fine || self.coarse_due(&self.tracks.css, v.sun_time_us))
+            && (v.sun_is_fine || self.coarse_due(Sensor::Css, v.sun_time_us))
         {
             let sensor = if v.sun_is_fine { Sensor::FineSun } else { Sensor::Css };
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: v.sun_sigma };
@@ -528,14 +590,14 @@ impl Determination {
         if let (Some((b, t)), Some(r)) = (v.mag_body, v.field_eci)
             && self.params.magnetometer_sigma_rad > 0.0
             && self.tracks.magnetometer.fresh(t)
-            && self.coarse_due(&self.tracks.magnetometer, t)
+            && self.coarse_due(Sensor::Magnetometer, t)
         {
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: self.params.magnetometer_sigma_rad };
             self.fuse(Sensor::Magnetometer, t, &m);
         }
     }
 
-    /// Fuse a tracker sample at its time if it is new; counts consecutive rejections.
+    /// Fuse a tracker sample at its time if it is new.
     fn fuse_tracker(&mut self, x: StarTrackerAttitude) {
         if !self.tracks.star_tracker.fresh(x.time_us) {
             return;
@@ -546,42 +608,62 @@ impl Determination {
             self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
         );
         let r_rad2 = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
-        match self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 }) {
-            Some(Ok(_)) => self.consecutive_rejections = 0,
-            Some(Err(MekfError::Rejected { .. })) => {
-                self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
-            }
-            _ => {}
-        }
+        self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 });
     }
 
-    /// Fuse one sample at `t_us` through the history; counts the outcome. `None`: refused.
+    /// Fuse one sample at `t_us` through the history; counts the outcome. A sample taken
+    /// after the history's now (the gyro lags it) waits for the gyro instead. `None`:
+    /// refused, or waiting.
     fn fuse(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) -> Option<Result<f32, MekfError>> {
         let h = self.history.as_mut()?;
-        let late = t_us < h.now_us();
+        let now = h.now_us();
+        if t_us > now {
+            self.wait(sensor, t_us, m);
+            return None;
+        }
         // Beyond the latency horizon or the replay cap: refused before any replay (bounds
         // the step's cost however close the frames come).
-        if span_s(t_us, h.now_us()).is_some_and(|age| age > self.params.max_sample_latency_s)
+        if span_s(t_us, now).is_some_and(|age| age > self.params.max_sample_latency_s)
             || h.nodes_after(t_us) > usize::from(self.params.max_replayed_nodes)
         {
             self.fusion.too_old = self.fusion.too_old.saturating_add(1);
             return None;
         }
-        let track = match sensor {
-            Sensor::StarTracker => &mut self.tracks.star_tracker.fusion,
-            Sensor::FineSun => &mut self.tracks.sun_sensor.fusion,
-            Sensor::Css => &mut self.tracks.css.fusion,
-            Sensor::Magnetometer => &mut self.tracks.magnetometer.fusion,
-        };
+        let r = h.fuse_at(self.tracks.fusion_mut(sensor), t_us, m);
+        self.record(sensor, t_us < now, r)
+    }
+
+    /// Queue a sample taken after the history's now until the gyro reaches it.
+    fn wait(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) {
         let f = &mut self.fusion;
-        match h.fuse_at(track, t_us, m) {
+        let c = if !m.is_finite() {
+            &mut f.bad_input
+        } else {
+            match self.waiting.push(sensor.index(), Waiting { t_us, measurement: *m }) {
+                Pushed::Queued => return,
+                Pushed::Full => &mut f.dropped_waiting,
+                Pushed::OutOfOrder => &mut f.out_of_order,
+            }
+        };
+        *c = c.saturating_add(1);
+    }
+
+    /// Count what the history did with a sample (`late`: fused before now, replayed);
+    /// a tracker's gate rejections in a row are counted for the divergence check.
+    fn record(
+        &mut self,
+        sensor: Sensor,
+        late: bool,
+        r: Result<FuseOutcome, FuseRefusal>,
+    ) -> Option<Result<f32, MekfError>> {
+        let f = &mut self.fusion;
+        let result = match r {
             Ok(outcome) => {
                 let c = if late { &mut f.fused_late } else { &mut f.fused_now };
                 *c = c.saturating_add(1);
                 let replayed = u16::try_from(outcome.replayed_nodes).unwrap_or(u16::MAX);
                 f.max_replayed_nodes = f.max_replayed_nodes.max(replayed);
-                self.count(outcome.result);
-                Some(outcome.result)
+                outcome.result
             }
             Err(reason) => {
                 let c = match reason {
@@ -591,9 +673,20 @@ impl Determination {
                     FuseRefusal::NonFiniteInput | FuseRefusal::ReplayFailed => &mut f.bad_input,
                 };
                 *c = c.saturating_add(1);
-                None
+                return None;
+            }
+        };
+        self.count(result);
+        if sensor == Sensor::StarTracker {
+            match result {
+                Ok(_) => self.consecutive_rejections = 0,
+                Err(MekfError::Rejected { .. }) => {
+                    self.consecutive_rejections = self.consecutive_rejections.saturating_add(1);
+                }
+                Err(_) => {}
             }
         }
+        Some(result)
     }
 }
 
@@ -605,12 +698,50 @@ struct MekfOutput {
     filter: Option<Mekf>,
 }
 
+/// The sensors the MEKF fuses, in the order of [`super::waiting::WAITING_SENSORS`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Sensor {
     StarTracker,
     FineSun,
     Css,
     Magnetometer,
+}
+
+impl Sensor {
+    const ALL: [Self; 4] = [Self::StarTracker, Self::FineSun, Self::Css, Self::Magnetometer];
+
+    const fn index(self) -> usize {
+        self as usize
+    }
+
+    fn from_index(i: usize) -> Option<Self> {
+        Self::ALL.get(i).copied()
+    }
+}
+
+impl Tracks {
+    fn track(&self, sensor: Sensor) -> &Track {
+        match sensor {
+            Sensor::StarTracker => &self.star_tracker,
+            Sensor::FineSun => &self.sun_sensor,
+            Sensor::Css => &self.css,
+            Sensor::Magnetometer => &self.magnetometer,
+        }
+    }
+
+    fn fusion(&self, sensor: Sensor) -> &SensorTrack {
+        &self.track(sensor).fusion
+    }
+
+    fn fusion_mut(&mut self, sensor: Sensor) -> &mut SensorTrack {
+        let t = match sensor {
+            Sensor::StarTracker => &mut self.star_tracker,
+            Sensor::FineSun => &mut self.sun_sensor,
+            Sensor::Css => &mut self.css,
+            Sensor::Magnetometer => &mut self.magnetometer,
+        };
+        &mut t.fusion
+    }
 }
 
 struct Vectors {
@@ -764,6 +895,80 @@ mod tests {
         let e2 = d.step(&sensor_samples(&SensorFrame { seq: 22, time_us: 2_200_000, ..g }));
         assert_eq!(e1.telemetry.fusion.fused_late, before.fused_late + 1);
         assert_eq!(e2.telemetry.fusion, e1.telemetry.fusion);
+    }
+
+    /// A slewing body (0.01 rad/s about x) seen by a gyro whose samples reach the frames
+    /// `gyro_lag` frames late, and a tracker on time every frame (frames 100 ms apart).
+    fn lagging_gyro_frame(k: u32, gyro_lag: u32, tracker: bool) -> SensorSamples {
+        let w = 0.01f32;
+        // A rotation about x at w from 0.3 rad: its body rate is w about x.
+        let q_at = |t_s: f32| {
+            let half = 0.5 * (0.3 + w * t_s);
+            crate::math::quat_from_xyzw([libm::sinf(half), 0.0, 0.0, libm::cosf(half)])
+        };
+        let t_us = u64::from(k) * 100_000;
+        let g = k.saturating_sub(gyro_lag);
+        let mut f = SensorFrame {
+            q_ib_xyzw: quat_to_xyzw(&q_at(k as f32 * 0.1)),
+            rate_rad_s: [w, 0.0, 0.0],
+            gyro_angle_rad: [w * 0.1, 0.0, 0.0],
+            gyro_interval_us: 100_000,
+            valid: valid::RATE | if tracker { valid::ATTITUDE } else { 0 },
+            ..SensorFrame::empty(k, t_us)
+        };
+        f.sampled_at.gyro_us = u64::from(g) * 100_000;
+        sensor_samples(&f)
+    }
+
+    #[test]
+    fn a_sample_newer_than_a_lagging_gyro_waits_and_is_fused_at_its_own_time() {
+        // Issue 37: the gyro one frame late. Each tracker sample waits one step for the gyro,
+        // then is fused at its own time; the filter is then bit for bit the filter that had
+        // the gyro on time, one step earlier (the same propagations and updates).
+        let mut lagging = Determination::new(&mekf_params()).unwrap();
+        let mut on_time = Determination::new(&mekf_params()).unwrap();
+        let mut on_time_filters = Vec::new();
+        for k in 0..50 {
+            on_time.step(&lagging_gyro_frame(k, 0, true));
+            on_time_filters.push(*on_time.mekf().unwrap());
+        }
+        let mut e = None;
+        for k in 0..50 {
+            e = Some(lagging.step(&lagging_gyro_frame(k, 1, true)));
+            if k >= 2 {
+                // At frame k the lagging filter is at frame k − 1's time.
+                assert_eq!(lagging.mekf(), Some(&on_time_filters[k as usize - 1]), "frame {k}");
+            }
+        }
+        let f = e.unwrap().telemetry.fusion;
+        // Sample 0 started the filter (at the gyro's time); 1 … 48 waited and were fused;
+        // 49 waits for the next gyro sample.
+        assert_eq!((f.fused_now, f.fused_after_wait, f.waiting, f.fused_late), (49, 48, 1, 0), "{f:?}");
+        assert_eq!((f.from_the_future, f.too_old, f.dropped_waiting, f.out_of_order, f.bad_input), (0, 0, 0, 0, 0));
+    }
+
+    #[test]
+    fn a_gyro_lagging_beyond_the_wait_queue_refuses_what_does_not_fit_counted() {
+        // The gyro 6 frames late, the tracker every frame: 6 samples would wait, 4 may. The
+        // 4 waiting are fused as the gyro reaches them, the ones that found the queue full
+        // are refused (counted): 4 of every 6 fused.
+        let mut d = Determination::new(&mekf_params()).unwrap();
+        let mut e = None;
+        for k in 0..40 {
+            e = Some(d.step(&lagging_gyro_frame(k, 6, true)));
+        }
+        let f = e.unwrap().telemetry.fusion;
+        assert_eq!(usize::from(f.waiting), super::super::waiting::WAITING_PER_SENSOR);
+        // Every sample is accounted for: one started the filter, the others fused after a
+        // wait, dropped from the full queue, or still waiting.
+        assert_eq!(1 + f.fused_after_wait + f.dropped_waiting + u32::from(f.waiting), 40, "{f:?}");
+        assert!(f.fused_after_wait >= 20 && f.dropped_waiting >= 10, "{f:?}");
+        assert_eq!(f.fused_now, f.fused_after_wait + 1);
+        // The filter stops (no gyro): the waiting samples can no longer be fused, counted.
+        let mut none = lagging_gyro_frame(40, 6, true);
+        none.gyro = None;
+        let f2 = d.step(&none).telemetry.fusion;
+        assert_eq!((f2.waiting, f2.dropped_waiting), (0, f.dropped_waiting + u32::from(f.waiting)));
     }
 
     #[test]

@@ -191,6 +191,19 @@ pub struct SensorTrack {
     pub refused: u32,
 }
 
+/// A node as [`History::nodes`] shows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeView<'a> {
+    /// Flight-clock time, µs.
+    pub time_us: u64,
+    /// Mean gyro rate of the step that ends here, rad/s (unused for the oldest node).
+    pub rate_rad_s: Vec3,
+    /// The sample fused here, if any (a gate rejection included).
+    pub measurement: Option<Measurement>,
+    /// The filter after propagating here and fusing the sample.
+    pub filter: &'a Mekf,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Node {
     time_us: u64,
@@ -257,6 +270,17 @@ impl<const N: usize> History<N> {
 
     pub fn counters(&self) -> HistoryCounters {
         self.counters
+    }
+
+    /// The nodes, oldest first: what a test oracle reads to feed a reference filter the
+    /// same propagation steps and samples in time order.
+    pub fn nodes(&self) -> impl Iterator<Item = NodeView<'_>> {
+        (0..self.len).filter_map(|k| self.at(k)).map(|n| NodeView {
+            time_us: n.time_us,
+            rate_rad_s: n.rate_rad_s,
+            measurement: n.measurement,
+            filter: &n.filter,
+        })
     }
 
     /// Ring slot of the `k`-th oldest node.
@@ -372,6 +396,53 @@ impl<const N: usize> History<N> {
             }
         }
         result
+    }
+
+    /// Fuse `measurement`, taken at `t_sample_us` after now, when the gyro has caught up
+    /// with it: propagate now → `t_sample_us` with `rate_rad_s` (the mean rate of the gyro
+    /// step that contains it), apply the update there and keep both in *one* node (a sample
+    /// node whose step ends at its time). The result is, operation for operation, that of
+    /// propagating to `t_sample_us` and fusing at now, or of fusing it late through
+    /// [`Self::fuse_at`] after the whole step (same propagation spans, same update), without
+    /// a replay and with one node instead of two. A sample at or before now goes to
+    /// [`Self::fuse_at`].
+    ///
+    /// `Err(step)`: the propagation failed (nothing changed, counted as a refused step);
+    /// `Ok(Err(refusal))`: propagated (the node kept, without the sample), sample refused.
+    pub fn fuse_ahead(
+        &mut self,
+        sensor: &mut SensorTrack,
+        rate_rad_s: &Vec3,
+        t_sample_us: u64,
+        measurement: &Measurement,
+    ) -> Result<Result<FuseOutcome, FuseRefusal>, StepError> {
+        if t_sample_us <= self.now_us {
+            return Ok(self.fuse_at(sensor, t_sample_us, measurement));
+        }
+        if !measurement.is_finite() || sensor.last_fused_us.is_some_and(|last| t_sample_us <= last) {
+            // Refused before anything moves: the caller propagates without it.
+            return Ok(self.fuse_at(sensor, t_sample_us, measurement));
+        }
+        self.propagate_rate(rate_rad_s, t_sample_us)?;
+        // Now is the propagation node just appended: fuse there (no replay), then fold the
+        // sample into that node.
+        let mut filter = self.now;
+        let result = measurement.apply(&mut filter);
+        if matches!(result, Err(MekfError::NonFiniteInput | MekfError::BadConfig | MekfError::BadTimeStep)) {
+            sensor.refused = sensor.refused.saturating_add(1);
+            self.counters.count_refusal(FuseRefusal::NonFiniteInput);
+            return Ok(Err(FuseRefusal::NonFiniteInput));
+        }
+        let last = self.len.saturating_sub(1);
+        if let Some(node) = self.at_mut(last) {
+            node.filter = filter;
+            node.measurement = Some(*measurement);
+        }
+        self.now = filter;
+        sensor.last_fused_us = Some(t_sample_us);
+        sensor.fused = sensor.fused.saturating_add(1);
+        self.counters.count_fused(0, false);
+        Ok(Ok(FuseOutcome { result, replayed_nodes: 0 }))
     }
 
     fn try_fuse(&mut self, sensor: &SensorTrack, t_s: u64, m: &Measurement) -> Result<FuseOutcome, FuseRefusal> {
@@ -504,6 +575,36 @@ mod tests {
         // the nodes from 3 on (the old 200 000 and 300 000 µs) remain.
         assert_eq!((h.len(), h.oldest_us(), h.now_us()), (2, 200_000, 300_000));
         assert_eq!((h.counters().replay_failed, sensor.refused, sensor.last_fused_us), (1, 1, None));
+    }
+
+    #[test]
+    fn fusing_ahead_is_propagating_then_fusing_at_now_in_one_node() {
+        let rate = Vec3::new(0.01, -0.02, 0.005);
+        let m = Measurement::Vector { body: Vec3::new(0.6, 0.8, 0.0), reference: Vec3::x(), sigma_rad: 0.01 };
+        let (mut a, mut b) = (history(), history());
+        let (mut sa, mut sb) = (SensorTrack::default(), SensorTrack::default());
+        let outcome = a.fuse_ahead(&mut sa, &rate, 70_000, &m).unwrap().unwrap();
+        b.propagate_rate(&rate, 70_000).unwrap();
+        let reference = b.fuse_at(&mut sb, 70_000, &m).unwrap();
+        assert_eq!(outcome, reference);
+        assert_eq!(a.filter(), b.filter());
+        assert_eq!((a.len(), b.len(), a.now_us()), (2, 3, 70_000));
+        assert_eq!((sa, a.counters().fused_now, a.counters().steps), (sb, 1, 1));
+        // Then carried on with the same rate to the gyro's time, and a replay that passes over
+        // the folded node re-applies its sample: the same as the two-node history.
+        a.propagate_rate(&rate, 100_000).unwrap();
+        b.propagate_rate(&rate, 100_000).unwrap();
+        let late = Measurement::Vector { body: Vec3::y(), reference: Vec3::y(), sigma_rad: 0.02 };
+        a.fuse_at(&mut SensorTrack::default(), 40_000, &late).unwrap();
+        b.fuse_at(&mut SensorTrack::default(), 40_000, &late).unwrap();
+        assert_eq!(a.filter(), b.filter());
+        // Refusals change nothing but the counters; a non-finite rate is a failed step.
+        let before = a.clone();
+        assert_eq!(a.fuse_ahead(&mut sa, &rate, 60_000, &m), Ok(Err(FuseRefusal::Repeated)));
+        let nan = Measurement::Vector { body: Vec3::new(f32::NAN, 0.0, 0.0), reference: Vec3::x(), sigma_rad: 0.01 };
+        assert_eq!(a.fuse_ahead(&mut sa, &rate, 200_000, &nan), Ok(Err(FuseRefusal::NonFiniteInput)));
+        assert_eq!(a.fuse_ahead(&mut sa, &Vec3::new(f32::NAN, 0.0, 0.0), 200_000, &m), Err(StepError::NonFiniteInput));
+        assert_eq!((a.filter(), a.now_us(), a.len()), (before.filter(), before.now_us(), before.len()));
     }
 
     #[test]

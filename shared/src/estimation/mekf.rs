@@ -214,6 +214,22 @@ impl Mekf {
         &self.cfg
     }
 
+    /// Adds `var_rad2` to each attitude variance: white attitude noise the propagation
+    /// model does not carry (an output prediction that holds one noisy rate sample over
+    /// longer than the sample's own interval). The state is unchanged.
+    pub fn add_attitude_variance(&mut self, var_rad2: f32) -> Result<(), MekfError> {
+        if !(var_rad2.is_finite() && var_rad2 >= 0.0) {
+            return Err(MekfError::NonFiniteInput);
+        }
+        for i in 0..3 {
+            if let Some(v) = self.p.get_mut((i, i)) {
+                *v += var_rad2;
+            }
+        }
+        self.health = Self::health_of(&self.p, self.health);
+        Ok(())
+    }
+
     /// The body rate estimate for a gyro reading: `ω_m − b`.
     pub fn rate_rad_s(&self, gyro_rad_s: &Vec3) -> Vec3 {
         gyro_rad_s - self.bias

@@ -11,6 +11,7 @@
 //! - [`references`]: the Sun and field reference directions at the rate they change (the
 //!   field evaluated at nodes, spread over the steps, interpolated in between);
 //! - [`history`]: delayed fusion, each sample fused at its own time ([`history::MekfHistory`]);
+//! - [`waiting`]: samples newer than the gyro, waiting for it to catch up;
 //! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
 
 pub mod css;
@@ -23,4 +24,5 @@ pub mod navigation;
 pub mod quest;
 pub mod references;
 pub mod triad;
+pub mod waiting;
 pub use lqg::LqgEstimator;

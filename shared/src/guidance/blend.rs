@@ -61,6 +61,9 @@ pub struct Blend {
     from: Guided,
     start_us: u64,
     shape: Shape,
+    /// The rotation it started along (planned slews): a rotation near 180° toward a moving
+    /// target keeps this sense instead of flipping to the other short way.
+    sense: Option<Vec3>,
 }
 
 /// `Exp(v)`: the unit quaternion of the rotation vector `v` (rad).
@@ -88,12 +91,17 @@ pub fn quat_log(q: &Quat) -> Vec3 {
 impl Blend {
     /// A quintic blend over `duration_s`.
     pub fn new(from: Guided, start_us: u64, duration_s: f32) -> Self {
-        Self { from, start_us, shape: Shape::Quintic { duration_s } }
+        Self { from, start_us, shape: Shape::Quintic { duration_s }, sense: None }
     }
 
     /// A blend of any shape.
     pub fn shaped(from: Guided, start_us: u64, shape: Shape) -> Self {
-        Self { from, start_us, shape }
+        Self { from, start_us, shape, sense: None }
+    }
+
+    /// The same blend kept turning in the sense of `rotation`.
+    pub fn keeping_sense(self, rotation: Vec3) -> Self {
+        Self { sense: Some(rotation), ..self }
     }
 
     /// The command it starts from, when, and its shape.
@@ -114,7 +122,7 @@ impl Blend {
         let d = self.shape.duration_s();
         // Finite, non-negative and below 2^53 µs (checked): the conversion is exact enough.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        (d.is_finite() && d >= 0.0 && d < 1.0e9).then(|| self.start_us.saturating_add((d * 1.0e6) as u64))
+        (0.0..1.0e9).contains(&d).then(|| self.start_us.saturating_add((d * 1.0e6) as u64))
     }
 
     /// The blended command at `now_us` toward `to`; `None` once the blend is over (or
@@ -128,7 +136,14 @@ impl Blend {
         let (s, s_dot, s_ddot) = self.shape.weight(dt);
         let w0 = self.from.rate_rad_s;
         let q_a = quat_exp(&(w0 * dt)) * self.from.q;
-        let phi = quat_log(&(to.q * q_a.conjugate()));
+        let mut phi = quat_log(&(to.q * q_a.conjugate()));
+        if let Some(r) = self.sense {
+            let n = norm(&phi);
+            // The other way round by 2π − n (only past a quarter turn, where the flip can be).
+            if phi.dot(&r) < 0.0 && n > core::f32::consts::FRAC_PI_2 {
+                phi *= (n - core::f32::consts::TAU) / n;
+            }
+        }
         let q = quat_normalized(&(quat_exp(&(phi * s)) * q_a))?;
         let rate = w0 * (1.0 - s) + to.rate_rad_s * s + phi * s_dot;
         let accel = to.accel_rad_s2 * s + (to.rate_rad_s - w0) * (2.0 * s_dot) + phi * s_ddot;

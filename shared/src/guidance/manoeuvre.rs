@@ -30,7 +30,8 @@ use crate::params::{KeepOutCone, ManoeuvreParams};
 pub const CANDIDATES: usize = 78;
 /// Candidates evaluated per control step (bounds the step's cost).
 pub const CANDIDATES_PER_STEP: usize = 6;
-const TURNS_RAD: [f32; 3] = [0.785_398_2, 1.570_796_3, 2.356_194_5];
+const TURNS_RAD: [f32; 3] =
+    [core::f32::consts::FRAC_PI_4, core::f32::consts::FRAC_PI_2, 3.0 * core::f32::consts::FRAC_PI_4];
 
 /// What the cones are measured against at one step (inertial unit vectors).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -46,7 +47,7 @@ pub struct ConeEnv {
 impl ConeEnv {
     /// Half-angle of `cone`'s Earth cone (disc + margin + `extra`), if it has one.
     fn earth_half(&self, cone: &KeepOutCone, extra: f32) -> Option<f32> {
-        (cone.earth_margin_rad >= 0.0).then(|| self.earth_radius_rad + cone.earth_margin_rad + extra)
+        (cone.earth_margin_rad >= 0.0).then_some(self.earth_radius_rad + cone.earth_margin_rad + extra)
     }
 
     /// The smallest margin over every cone along the leg from `q0` about the inertial
@@ -100,6 +101,29 @@ pub enum Refusal {
     NoGeometry,
 }
 
+impl Refusal {
+    /// Wire code (telemetry `slew_refusal`; 0: none) and index into
+    /// [`ManoeuvreCounters::refused`].
+    pub fn code(self) -> u8 {
+        match self {
+            Self::TargetInCone => 1,
+            Self::NoPath => 2,
+            Self::NoGeometry => 3,
+        }
+    }
+}
+
+/// Phase of the slew in force (telemetry `slew_phase`).
+pub mod phase {
+    pub const IDLE: u8 = 0;
+    pub const PLANNING: u8 = 1;
+    pub const ACCELERATING: u8 = 2;
+    pub const COASTING: u8 = 3;
+    pub const DECELERATING: u8 = 4;
+    /// Refused: the last safe command is held.
+    pub const REFUSED: u8 = 5;
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Leg {
     blend: Blend,
@@ -132,7 +156,14 @@ enum State {
 pub struct ManoeuvreCounters {
     pub planned: u16,
     pub with_waypoint: u16,
-    pub refused: u16,
+    /// Refusals by reason: [`Refusal::code`] − 1 (target in a cone, no path, no geometry).
+    pub refused: [u16; 3],
+}
+
+impl ManoeuvreCounters {
+    pub fn refused_total(&self) -> u16 {
+        self.refused.iter().fold(0u16, |a, b| a.saturating_add(*b))
+    }
 }
 
 /// The slew planner and executor of one parameter set.
@@ -143,6 +174,12 @@ pub struct Manoeuvre {
     pub counters: ManoeuvreCounters,
     /// The smallest cone margin of the last command, rad (∞ without cones or geometry).
     pub last_margin_rad: f32,
+    /// The phase of the last step ([`phase`]), the latest refusal's reason (kept after the
+    /// refusal ends), and the waypoint candidates evaluated in the last step (≤
+    /// [`CANDIDATES_PER_STEP`]).
+    pub last_phase: u8,
+    pub last_refusal: Option<Refusal>,
+    pub last_candidates: u8,
 }
 
 fn at_rest(q: Quat) -> Guided {
@@ -169,6 +206,9 @@ impl Manoeuvre {
             state: State::Idle,
             counters: ManoeuvreCounters::default(),
             last_margin_rad: f32::INFINITY,
+            last_phase: phase::IDLE,
+            last_refusal: None,
+            last_candidates: 0,
         }
     }
 
@@ -213,10 +253,19 @@ impl Manoeuvre {
     }
 
     /// The command of this step toward the live `target`, or `None` when no slew is in
-    /// progress (the caller commands the target itself).
-    pub fn step(&mut self, target: &Guided, env: Option<&ConeEnv>, now_us: u64) -> Option<Guided> {
+    /// progress (the caller commands the target itself). `last`: the command in force (what
+    /// a refused hold keeps).
+    pub fn step(
+        &mut self,
+        target: &Guided,
+        last: Option<&Guided>,
+        env: Option<&ConeEnv>,
+        now_us: u64,
+    ) -> Option<Guided> {
+        self.last_candidates = 0;
+        self.last_phase = phase::IDLE;
         let out = match self.state {
-            State::Idle => self.check_hold(target, env),
+            State::Idle => self.check_hold(target, last, env),
             State::Planning { from, target: q1, next, best } => Some(self.plan_step(from, q1, next, best, env, now_us)),
             State::Executing { legs, current } => self.execute(legs, current, target, now_us),
             State::Refused { at, .. } => self.retry(at, target, env),
@@ -227,21 +276,33 @@ impl Manoeuvre {
             (Some(e), None) => e.margin_at(cones, &target.q),
             (None, _) => f32::INFINITY,
         };
+        self.last_phase = match self.state {
+            State::Idle => phase::IDLE,
+            State::Planning { .. } => phase::PLANNING,
+            State::Executing { .. } => self.last_phase,
+            State::Refused { .. } => phase::REFUSED,
+        };
         out
     }
 
-    /// Holding the target: refuse it when it enters a cone (hold the last safe command).
-    fn check_hold(&mut self, target: &Guided, env: Option<&ConeEnv>) -> Option<Guided> {
+    /// Holding the target: refuse it when it enters a cone and hold the command in force
+    /// (the last one outside), at rest.
+    fn check_hold(&mut self, target: &Guided, last: Option<&Guided>, env: Option<&ConeEnv>) -> Option<Guided> {
         let e = env?;
         if self.params.active_cones().is_empty() || e.margin_at(self.params.active_cones(), &target.q) >= 0.0 {
             return None;
         }
-        self.refuse(target.q, Refusal::TargetInCone);
-        Some(at_rest(target.q))
+        let at = last.map_or(target.q, |g| g.q);
+        self.refuse(at, Refusal::TargetInCone);
+        Some(at_rest(at))
     }
 
     fn refuse(&mut self, at: Quat, why: Refusal) {
-        self.counters.refused = self.counters.refused.saturating_add(1);
+        let i = usize::from(why.code().saturating_sub(1));
+        if let Some(c) = self.counters.refused.get_mut(i) {
+            *c = c.saturating_add(1);
+        }
+        self.last_refusal = Some(why);
         self.state = State::Refused { at, why };
     }
 
@@ -277,7 +338,8 @@ impl Manoeuvre {
         let hold = at_rest(from);
         let Some(e) = env.filter(|_| !self.params.active_cones().is_empty()).copied() else {
             if env.is_none() && !self.params.active_cones().is_empty() {
-                // Cones but no geometry: wait at rest (counted once when it gives up).
+                // Cones but no geometry: refused (counted); held until it returns.
+                self.refuse(from, Refusal::NoGeometry);
                 return hold;
             }
             self.fly(from, None, now_us);
@@ -298,6 +360,7 @@ impl Manoeuvre {
         let mut best = best;
         let end = next.saturating_add(CANDIDATES_PER_STEP).min(CANDIDATES);
         for k in next..end {
+            self.last_candidates = self.last_candidates.saturating_add(1);
             let Some(qm) = candidate(&q_mid, k) else { continue };
             let (leg1, leg2) = (quat_log(&(qm * from.conjugate())), quat_log(&(q1 * qm.conjugate())));
             let time = self.leg_time_s(&leg1) + self.leg_time_s(&leg2);
@@ -341,12 +404,12 @@ impl Manoeuvre {
             let from = leg.blend.from();
             let rotation = quat_log(&(to.q * from.q.conjugate()));
             let blend = match leg.blend.shape() {
-                Shape::Quintic { duration_s } if duration_s == 0.0 => {
+                Shape::Quintic { duration_s: 0.0 } => {
                     let Some(p) = Profile::plan(norm(&rotation), &self.limits()) else {
                         self.refuse(from.q, Refusal::NoGeometry);
                         return Some(from);
                     };
-                    Blend::shaped(from, leg.blend.start_us(), Shape::Profile(p))
+                    Blend::shaped(from, leg.blend.start_us(), Shape::Profile(p)).keeping_sense(rotation)
                 }
                 _ => leg.blend,
             };
@@ -355,6 +418,7 @@ impl Manoeuvre {
             }
             if let Some(g) = blend.apply(&to, now_us) {
                 self.state = State::Executing { legs, current };
+                self.last_phase = profile_phase(&blend, now_us);
                 return Some(g);
             }
             // This leg is over: the next starts from where it ended, at rest.
@@ -368,6 +432,19 @@ impl Manoeuvre {
         }
         self.state = State::Idle;
         None
+    }
+}
+
+/// The phase of a profile blend at `now_us`.
+fn profile_phase(blend: &Blend, now_us: u64) -> u8 {
+    let Shape::Profile(p) = blend.shape() else { return phase::ACCELERATING };
+    let t = crate::estimation::history::span_s(blend.start_us(), now_us).unwrap_or(0.0);
+    if t < p.accel_s {
+        phase::ACCELERATING
+    } else if t < p.accel_s + p.coast_s {
+        phase::COASTING
+    } else {
+        phase::DECELERATING
     }
 }
 
@@ -400,7 +477,13 @@ mod tests {
     fn fly(m: &mut Manoeuvre, from: Quat, to: Quat, env: Option<&ConeEnv>, seconds: f32) -> Vec<Guided> {
         m.begin(&at_rest(from), &at_rest(to));
         let steps = (seconds * 10.0) as u64;
-        (0..steps).map(|k| m.step(&at_rest(to), env, k * 100_000).unwrap_or(at_rest(to))).collect()
+        let mut last = at_rest(from);
+        (0..steps)
+            .map(|k| {
+                last = m.step(&at_rest(to), Some(&last), env, k * 100_000).unwrap_or(at_rest(to));
+                last
+            })
+            .collect()
     }
 
     #[test]
@@ -426,8 +509,11 @@ mod tests {
     /// sweeps it through the Sun at +x: the planner flies around it.
     #[test]
     fn a_slew_across_a_sun_cone_goes_around_it_and_never_enters() {
-        let tracker =
-            KeepOutCone { boresight_body: [0.0, 1.0, 0.0], sun_half_angle_rad: 0.523_6, earth_margin_rad: -1.0 };
+        let tracker = KeepOutCone {
+            boresight_body: [0.0, 1.0, 0.0],
+            sun_half_angle_rad: core::f32::consts::FRAC_PI_6,
+            earth_margin_rad: -1.0,
+        };
         let mut m = Manoeuvre::new(&params(&[tracker]));
         let from = Quat::identity();
         let to = quat_exp(&Vec3::new(0.0, 0.0, -2.4));
@@ -435,7 +521,7 @@ mod tests {
         let direct = quat_log(&(to * from.conjugate()));
         assert!(e.leg_margin(&[tracker], &from, &direct, 0.0, 0.0) < 0.0, "the direct path must cross the cone");
         let out = fly(&mut m, from, to, Some(&e), 400.0);
-        assert_eq!((m.counters.planned, m.counters.with_waypoint, m.counters.refused), (1, 1, 0));
+        assert_eq!((m.counters.planned, m.counters.with_waypoint, m.counters.refused_total()), (1, 1, 0));
         let worst = out.iter().map(|g| e.margin_at(&[tracker], &g.q)).fold(f32::INFINITY, f32::min);
         assert!(worst >= 0.0, "entered the cone: margin {worst} rad");
         let last = out.last().unwrap();
@@ -444,14 +530,17 @@ mod tests {
 
     #[test]
     fn a_target_inside_a_cone_is_refused_and_the_attitude_held() {
-        let tracker =
-            KeepOutCone { boresight_body: [0.0, 1.0, 0.0], sun_half_angle_rad: 0.523_6, earth_margin_rad: -1.0 };
+        let tracker = KeepOutCone {
+            boresight_body: [0.0, 1.0, 0.0],
+            sun_half_angle_rad: core::f32::consts::FRAC_PI_6,
+            earth_margin_rad: -1.0,
+        };
         let mut m = Manoeuvre::new(&params(&[tracker]));
         // Yaw −90°: body +y onto inertial +x, the Sun.
         let to = quat_exp(&Vec3::new(0.0, 0.0, -core::f32::consts::FRAC_PI_2));
         let out = fly(&mut m, Quat::identity(), to, Some(&env()), 5.0);
         assert_eq!(m.refusal(), Some(Refusal::TargetInCone));
         assert!(out.iter().all(|g| rotation_angle(&g.q) < 1e-6), "held at the start");
-        assert_eq!(m.counters.refused, 1);
+        assert_eq!(m.counters.refused, [1, 0, 0]);
     }
 }

@@ -78,6 +78,10 @@ pub mod flags {
     pub const KEEPOUT_REFUSED: u8 = 1 << 6;
 }
 
+/// A step of the target's attitude beyond its own motion that starts a planned slew, rad
+/// (0.57°; a tracked target moves less than 1e-3 rad beyond its rate in a step).
+pub const TARGET_JUMP_RAD: f32 = 0.01;
+
 /// The guided command of one step, inertial axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Guided {
@@ -118,9 +122,14 @@ pub struct Guidance {
     branch: Branch,
     last: Option<Guided>,
     blend: Option<Blend>,
-    /// Planned slews and keep-out cones; a switch waits for the next target to plan.
+    /// A change handed over outside a step (ground command, mode switch): its blend starts
+    /// at the next step's clock (the handover has no time of its own).
+    blend_pending: bool,
+    /// Planned slews and keep-out cones; a switch waits for the next step to plan.
     manoeuvre: Manoeuvre,
     slew_pending: bool,
+    /// Flight clock of `last`, µs.
+    last_us: Option<u64>,
     report: GuidanceReport,
 }
 
@@ -139,8 +148,10 @@ impl Guidance {
             branch: Branch::Main,
             last: None,
             blend: None,
+            blend_pending: false,
             manoeuvre: Manoeuvre::new(manoeuvre),
             slew_pending: false,
+            last_us: None,
             report: GuidanceReport::default(),
         }
     }
@@ -155,6 +166,11 @@ impl Guidance {
 
     pub fn report(&self) -> GuidanceReport {
         self.report
+    }
+
+    /// The slew planner (its counters, phase and latest refusal).
+    pub fn manoeuvre(&self) -> &Manoeuvre {
+        &self.manoeuvre
     }
 
     /// The wire telemetry of the last step.
@@ -173,18 +189,22 @@ impl Guidance {
             slews_planned: self.manoeuvre.counters.planned,
             slews_with_waypoint: self.manoeuvre.counters.with_waypoint,
             slews_refused: self.manoeuvre.counters.refused,
+            slew_phase: self.manoeuvre.last_phase,
+            slew_refusal: self.manoeuvre.last_refusal.map_or(0, |r| r.code()),
         }
     }
 
     /// A new pointing (ground command): blended in from the current command.
     pub fn set_params(&mut self, params: &GuidanceParams) {
-        let (last, report, manoeuvre) = (self.last, self.report, self.manoeuvre);
+        let (last, last_us, report, manoeuvre) = (self.last, self.last_us, self.report, self.manoeuvre);
         let p = manoeuvre.params();
         *self = Self::new(params, &p);
         self.manoeuvre.counters = manoeuvre.counters;
+        self.manoeuvre.last_refusal = manoeuvre.last_refusal;
         self.last = last;
+        self.last_us = last_us;
         self.report = report;
-        self.start_blend(0);
+        self.start_blend_next_step();
     }
 
     /// Forget the state (a new configuration or mode): the next step commands its
@@ -192,7 +212,9 @@ impl Guidance {
     pub fn reset(&mut self) {
         self.last = None;
         self.blend = None;
+        self.blend_pending = false;
         self.slew_pending = false;
+        self.last_us = None;
         self.branch = Branch::Main;
     }
 
@@ -200,25 +222,41 @@ impl Guidance {
     /// previous mode's): the change is blended.
     pub fn continue_from(&mut self, previous: Option<Guided>) {
         self.last = previous;
-        self.start_blend(0);
+        self.start_blend_next_step();
     }
 
     pub fn last(&self) -> Option<Guided> {
         self.last
     }
 
+    /// Count the switch now; the blend starts at the next step's clock.
+    /// With planned slews the next step plans one from the command in force instead.
+    fn start_blend_next_step(&mut self) {
+        self.blend = None;
+        self.report.switches = self.report.switches.saturating_add(1);
+        if self.manoeuvre.enabled() && self.last.is_some() {
+            self.slew_pending = true;
+        } else {
+            self.blend_pending = true;
+        }
+    }
+
     fn start_blend(&mut self, time_us: u64) {
+        self.blend_pending = false;
+        self.report.switches = self.report.switches.saturating_add(1);
         if self.manoeuvre.enabled() && self.last.is_some() {
             self.blend = None;
             self.slew_pending = true;
-            self.report.switches = self.report.switches.saturating_add(1);
             return;
         }
-        self.blend = match (self.last, self.params.transition_s > 0.0) {
+        self.blend = self.blend_from_last(time_us);
+    }
+
+    fn blend_from_last(&self, time_us: u64) -> Option<Blend> {
+        match (self.last, self.params.transition_s > 0.0) {
             (Some(from), true) => Some(Blend::new(from, time_us, self.params.transition_s)),
             _ => None,
-        };
-        self.report.switches = self.report.switches.saturating_add(1);
+        }
     }
 
     /// The set point of one step; `steering`: the CMG steering law, if any (its dither).
@@ -237,7 +275,8 @@ impl Guidance {
             q_cmd: g.q,
             rate_cmd_rad_s: body(&g.rate_rad_s),
             accel_cmd_rad_s2: body(&g.accel_rad_s2),
-            feedforward: self.params.feedforward,
+            // A planned slew's profile acceleration is always fed forward.
+            feedforward: self.params.feedforward || self.manoeuvre.enabled(),
             dither_time_s: steering.map_or(0.0, |s| dither_time_s(s, time_us)),
         }
     }
@@ -269,6 +308,10 @@ impl Guidance {
             time: n.time,
             ut1_minus_clock_s: self.params.ut1_minus_clock_s,
         });
+        if self.blend_pending {
+            self.blend_pending = false;
+            self.blend = self.blend_from_last(time_us);
+        }
         let mut flags = self.update_branch(epoch.as_ref(), time_us);
         let frame = match self.branch {
             Branch::Main => &mut self.main,
@@ -313,6 +356,7 @@ impl Guidance {
         };
         self.report.flags = flags;
         self.last = Some(out);
+        self.last_us = Some(time_us);
         out
     }
 
@@ -322,14 +366,15 @@ impl Guidance {
         if !self.manoeuvre.enabled() {
             return None;
         }
-        if self.slew_pending {
+        let idle = !self.manoeuvre.busy() && self.manoeuvre.refusal().is_none();
+        if self.slew_pending || (idle && self.target_jumped(target, time_us)) {
             self.slew_pending = false;
             if let Some(from) = self.last {
                 self.manoeuvre.begin(&from, target);
             }
         }
         let env = epoch.and_then(cone_env);
-        let out = self.manoeuvre.step(target, env.as_ref(), time_us);
+        let out = self.manoeuvre.step(target, self.last.as_ref(), env.as_ref(), time_us);
         if self.manoeuvre.busy() {
             *flags |= flags::SLEWING;
         }
@@ -337,6 +382,17 @@ impl Guidance {
             *flags |= flags::KEEPOUT_REFUSED;
         }
         out
+    }
+
+    /// The target stepped away from the command in force carried on at its rate (by more
+    /// than [`TARGET_JUMP_RAD`]): leaving the near-parallel fallback turns a two-vector
+    /// frame by up to 180° about its boresight at once. With planned slews that turn is
+    /// planned, not stepped.
+    fn target_jumped(&self, target: &Guided, time_us: u64) -> bool {
+        let (Some(last), Some(last_us)) = (self.last, self.last_us) else { return false };
+        let Some(dt) = crate::estimation::history::span_s(last_us, time_us) else { return false };
+        let carried = blend::quat_exp(&(last.rate_rad_s * dt)) * last.q;
+        crate::math::rotation_angle(&(target.q * carried.conjugate())) > TARGET_JUMP_RAD
     }
 
     /// Visibility of the gated site and the branch it selects; a change starts a blend.
@@ -395,4 +451,57 @@ pub(crate) fn cone_env(e: &Epoch) -> Option<ConeEnv> {
     let orbit_rate_rad_s = crate::math::norm(&e.r_m.cross(&e.v_m_s)) / (r * r);
     let env = ConeEnv { sun, nadir, earth_radius_rad, orbit_rate_rad_s };
     (nadir.iter().all(|x| x.is_finite()) && orbit_rate_rad_s.is_finite()).then_some(env)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{EulerSeq, quat_from_euler, rotation_angle};
+
+    fn measurements() -> Measurements {
+        Measurements {
+            q: Quat::identity(),
+            rate_rad_s: Vec3::zeros(),
+            gimbal_angle_rad: [0.0; 4],
+            wheel_speed_rad_s: [0.0; crate::types::MAX_WHEELS],
+            mag_field_t: Vec3::zeros(),
+            q_ref: Quat::identity(),
+            ref_rate_rad_s: Vec3::zeros(),
+            sun_body: None,
+            eclipse: false,
+        }
+    }
+
+    fn inertial(euler_rad: [f32; 3], transition_s: f32) -> GuidanceParams {
+        let q = quat_from_euler(euler_rad, EulerSeq::Zyx321);
+        GuidanceParams { transition_s, ..GuidanceParams::fixed(quat_to_xyzw(&q), TargetFrame::Inertial) }
+    }
+
+    /// A ground command long after start (1000 s ≫ transition_s) is blended from the
+    /// command in force: the first step after it commands the old attitude (within one
+    /// step's progress of the smoothstep), the blend flag is up, and `transition_s` later
+    /// the new attitude exactly. (Regression: the blend used to start at clock 0, so a
+    /// command after `transition_s` stepped.)
+    #[test]
+    fn a_late_set_pointing_is_blended_from_the_command_in_force() {
+        let m = measurements();
+        let old = inertial([0.0, 0.0, 0.0], 20.0);
+        let new = inertial([0.0, 0.0, 1.0], 20.0);
+        let mut g = Guidance::new(&old, &ManoeuvreParams::OFF);
+        let t0 = 1_000_000_000u64;
+        let q_old = g.guide(&m, None, t0).q;
+        g.set_params(&new);
+        let first = g.guide(&m, None, t0 + 250_000);
+        // The blend starts at this step: s(0) = 0, the old command.
+        assert!(rotation_angle(&(first.q * q_old.conjugate())) < 1e-6, "{first:?}");
+        assert!(g.report().flags & flags::BLENDING != 0);
+        let mid = g.guide(&m, None, t0 + 250_000 + 10_000_000);
+        // Halfway, s = 1/2: half the 1 rad turn.
+        assert!((rotation_angle(&(mid.q * q_old.conjugate())) - 0.5).abs() < 1e-4, "{mid:?}");
+        let end = g.guide(&m, None, t0 + 250_000 + 20_000_000);
+        let q_new = quat_from_euler([0.0, 0.0, 1.0], EulerSeq::Zyx321);
+        assert!(rotation_angle(&(end.q * q_new.conjugate())) < 1e-6);
+        assert!(g.report().flags & flags::BLENDING == 0);
+        assert_eq!(g.report().switches, 1);
+    }
 }

@@ -80,7 +80,11 @@ pub fn checksum(segments: &[TimelineSegment]) -> Option<u32> {
 
 impl Timeline {
     pub const fn new() -> Self {
-        Self { staged: [None; MAX_TIMELINE_SEGMENTS], armed: None, counters: TimelineCounters { met: 0, missed: 0, in_force: 0 } }
+        Self {
+            staged: [None; MAX_TIMELINE_SEGMENTS],
+            armed: None,
+            counters: TimelineCounters { met: 0, missed: 0, in_force: 0 },
+        }
     }
 
     /// Stage segment `index` (its pointing validated; a bad index is out of range).
@@ -175,8 +179,11 @@ impl Timeline {
 }
 
 /// Only fills the unused tail of a fixed array (never executed).
-const PLACEHOLDER: TimelineSegment =
-    TimelineSegment { start_j2000_days: 0, start_j2000_s: 0.0, guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], crate::params::TargetFrame::Inertial) };
+const PLACEHOLDER: TimelineSegment = TimelineSegment {
+    start_j2000_days: 0,
+    start_j2000_s: 0.0,
+    guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], crate::params::TargetFrame::Inertial),
+};
 
 /// What arming checks a segment against.
 struct Check<'a> {
@@ -188,12 +195,20 @@ struct Check<'a> {
 
 impl Check<'_> {
     /// The segment's start offset from now and `(lead, command at its start)`.
-    fn segment(&self, seg: &TimelineSegment, previous: Option<(f32, Quat)>) -> Result<(f32, (f32, Quat)), TimelineFault> {
+    fn segment(
+        &self,
+        seg: &TimelineSegment,
+        previous: Option<(f32, Quat)>,
+    ) -> Result<(f32, (f32, Quat)), TimelineFault> {
         seg.guidance.validate().map_err(TimelineFault::Pointing)?;
         let start = J2000Time::new(seg.start_j2000_days, seg.start_j2000_s).ok_or(TimelineFault::InThePast)?;
         let offset = seconds_between(&self.nav.time, &start);
         if !(offset > 0.0) {
-            return Err(if previous.is_some_and(|(p, _)| offset <= p) { TimelineFault::NotIncreasing } else { TimelineFault::InThePast });
+            return Err(if previous.is_some_and(|(p, _)| offset <= p) {
+                TimelineFault::NotIncreasing
+            } else {
+                TimelineFault::InThePast
+            });
         }
         if previous.is_some_and(|(p, _)| offset <= p) {
             return Err(TimelineFault::NotIncreasing);
@@ -232,7 +247,8 @@ impl Check<'_> {
         if !self.manoeuvre.enabled {
             return g.transition_s;
         }
-        let limits = Limits { rate_rad_s: self.manoeuvre.max_rate_rad_s, accel_rad_s2: self.manoeuvre.max_accel_rad_s2 };
+        let limits =
+            Limits { rate_rad_s: self.manoeuvre.max_rate_rad_s, accel_rad_s2: self.manoeuvre.max_accel_rad_s2 };
         let rotation = quat_log(&(to * from.conjugate()));
         let direct_clear = env.is_none_or(|e| {
             let p = self.manoeuvre;

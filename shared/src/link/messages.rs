@@ -21,7 +21,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 15;
+pub const PROTOCOL_VERSION: u16 = 17;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -221,7 +221,7 @@ pub struct ActuatorCommand {
     /// CMG gimbal-saturation events since the table was armed (saturating; flag only;
     /// protocol 12).
     pub gimbal_events: u16,
-    /// What guidance commanded this step (protocol 15; zero on a safe command).
+    /// What guidance commanded this step (protocol 16; zero on a safe command).
     pub guidance: GuidanceTelemetry,
 }
 
@@ -244,10 +244,15 @@ pub struct GuidanceTelemetry {
     /// The commanded attitude's smallest keep-out margin over every cone, rad (negative:
     /// inside; +∞ without cones or geometry).
     pub keepout_margin_rad: f32,
-    /// Slews planned (of which through a waypoint) and refused by the cones (saturating).
+    /// Slews planned (of which through a waypoint), and refused by reason: target inside
+    /// a cone, no path, no geometry (saturating; protocol 17).
     pub slews_planned: u16,
     pub slews_with_waypoint: u16,
-    pub slews_refused: u16,
+    pub slews_refused: [u16; 3],
+    /// [`crate::guidance::manoeuvre::phase`] of this step, and the latest refusal's reason
+    /// ([`crate::guidance::manoeuvre::Refusal::code`], 0: none yet).
+    pub slew_phase: u8,
+    pub slew_refusal: u8,
 }
 
 /// `EstimateTelemetry::flags` bits.
@@ -313,7 +318,8 @@ pub struct FusionCounters {
     pub fused_late: u32,
     /// Refused: older than the filter history.
     pub too_old: u32,
-    /// Refused: newer than the frame or the gyro (from the future).
+    /// Refused: newer than the frame (from the future). A sample newer than the gyro but
+    /// not than the frame waits instead (`waiting`; protocol 15).
     pub from_the_future: u32,
     /// Refused: not newer than the sensor's last fused sample (out of order).
     pub out_of_order: u32,
@@ -321,6 +327,15 @@ pub struct FusionCounters {
     pub bad_input: u32,
     /// Most history nodes re-run to carry one late sample to now.
     pub max_replayed_nodes: u16,
+    /// Samples taken after the filter's time (the gyro lagging them) that waited for the
+    /// gyro and were then fused at their own time (counted in `fused_now` too). Protocol 15.
+    pub fused_after_wait: u32,
+    /// Refused: dropped while waiting for the gyro (the sensor's wait queue full, or the
+    /// filter stopped). Protocol 15.
+    pub dropped_waiting: u32,
+    /// Samples waiting for the gyro after this step (at most
+    /// `estimation::waiting::MAX_WAITING`). Protocol 15.
+    pub waiting: u16,
 }
 
 /// A step's command and what the flight computer measured while producing it.
@@ -438,7 +453,7 @@ pub enum HostMsg {
     /// `Error(DebugDisabled)`.
     DebugHang,
     /// New pointing for the mission modes (manoeuvre and hold with a mode table; the set in
-    /// force otherwise), blended in over its `transition_s` (protocol 15). Reply: `Ack`, or
+    /// force otherwise), blended in over its `transition_s` (protocol 16). Reply: `Ack`, or
     /// `ParamsRejected` naming the field (nothing changed).
     SetPointing(GuidanceParams),
 }

@@ -14,7 +14,7 @@ pub const UNIT_TOL: f32 = 1e-3;
 /// that the secondary constrains nothing.
 pub const MIN_BODY_AXES_ANGLE_RAD: f32 = 0.017_453_3;
 /// Range of the near-parallel threshold, rad (0.1° … 45°).
-pub const PARALLEL_THRESHOLD_RANGE_RAD: (f32, f32) = (0.001_745_33, 0.785_398_2);
+pub const PARALLEL_THRESHOLD_RANGE_RAD: (f32, f32) = (0.001_745_33, core::f32::consts::FRAC_PI_4);
 /// Longest pointing transition, s.
 pub const MAX_TRANSITION_S: f32 = 3_600.0;
 /// Largest |UT1 − on-board clock|, s (DUT1 ≤ 0.9 s plus the GNSS scale's ≤ 40 s offset).
@@ -231,7 +231,7 @@ impl KeepOutCone {
     pub const NONE: Self = Self { boresight_body: [0.0, 0.0, 1.0], sun_half_angle_rad: 0.0, earth_margin_rad: -1.0 };
 }
 
-/// Planned slews: rate and acceleration limits, keep-out cones (params version 11).
+/// Planned slews: rate and acceleration limits, keep-out cones (params version 12).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ManoeuvreParams {

@@ -35,7 +35,7 @@ pub use sun_safe::{SunSafeError, SunSafeParams};
 pub use timeline::{MAX_TIMELINE_SEGMENTS, TimelineError, TimelineFault, TimelineSegment};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 11;
+pub const PARAMS_VERSION: u16 = 12;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1280;
@@ -59,7 +59,7 @@ pub struct FlightParams {
     /// What the spacecraft points at (params version 11; a fixed attitude in the inertial
     /// frame or LVLH before): [`GuidanceParams`].
     pub guidance: GuidanceParams,
-    /// Planned slews and keep-out cones (params version 11).
+    /// Planned slews and keep-out cones (params version 12).
     pub manoeuvre: ManoeuvreParams,
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).

@@ -9,6 +9,7 @@
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
 
 use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotate_ref_to_body};
+use crate::environment::guidance::{PointingErrors, Sky, TruthGuidance, TruthSet, TruthStep};
 use crate::environment::model::{EnvSnapshot, FrozenField};
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
@@ -20,9 +21,11 @@ use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueRepo
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
+use crate::recorder::segments::{SegmentKey, Segments};
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
-    ErrorStats, Failure, ModeTransition, RunStatus, StatusCounts, Summary, nan_max, nan_min,
+    CONTROL_STARTUP_FRACTION, CONTROL_STARTUP_MAX_S, ErrorStats, Failure, MAX_UNCONTROLLED_FRACTION, ModeTransition,
+    RunStatus, StatusCounts, Summary, nan_max, nan_min,
 };
 use crate::scenario::{
     Clock, GroundCommand, InertiaChange, OpenLoopRow, Performance, Resolved, Scenario, TargetConfig, Upload, layout,
@@ -50,6 +53,18 @@ pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<S
 }
 
 /// The open-loop row in force at `t`.
+/// The mission pointings in the order they take effect, as [`Simulation::retarget_truth`]
+/// numbers them: the scenario's, then each ground command with a pointing or a target
+/// (label and start, s).
+fn mission_pointings(tg: &TruthGuidance, commands: &[GroundCommand]) -> Vec<(String, f64)> {
+    let mut out = vec![(tg.mission.label.clone(), 0.0)];
+    for c in commands.iter().filter(|c| c.pointing.is_some() || c.target.is_some()) {
+        let label = c.pointing.as_ref().map_or_else(|| format!("target {}", out.len()), |p| p.label.clone());
+        out.push((label, c.at_s));
+    }
+    out
+}
+
 fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
     rows.iter().take_while(|r| r.t_s <= t + 1e-12).last()
 }
@@ -166,6 +181,11 @@ struct Actuation {
     gimbal_delay: DelayLine<MAX_GIMBALS>,
     /// The wheel torque commands of this control period (before `wheel_delay`).
     wheel_cmd: [f64; MAX_WHEELS],
+    /// The gimbal-rate and dipole commands of this control period as the plant receives
+    /// them (a loop injection added; before the delays and limits): what
+    /// [`Simulation::plant_commands`] reports.
+    gimbal_cmd: [f64; MAX_GIMBALS],
+    dipole_cmd: [f64; 3],
 }
 
 impl Actuation {
@@ -186,6 +206,8 @@ impl Actuation {
             wheel_delay,
             gimbal_delay,
             wheel_cmd: [0.0; MAX_WHEELS],
+            gimbal_cmd: [0.0; MAX_GIMBALS],
+            dipole_cmd: [0.0; 3],
         }
     }
 
@@ -208,6 +230,7 @@ impl Actuation {
             }
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
+        self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
         input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
         input.wheel_torque_cmd_nm = self.wheel_torques();
         let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
@@ -216,6 +239,7 @@ impl Actuation {
                 Some(inj) => inj.add_to_dipole(if inj.replace_commands { [0.0; 3] } else { dipole_cmd }),
                 None => dipole_cmd,
             };
+            self.dipole_cmd = applied;
             let acting = self.mtq_delay.push(applied);
             self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
         }
@@ -251,6 +275,10 @@ struct Metrics {
     sum_ticks: f64,
     n_ticks: u64,
     frames_dropped_flight: u32,
+    /// Flight steps after the start-up allowance, and those of them uncontrolled
+    /// (`bad_input` or `no_estimate`): the no-control check.
+    steps_after_startup: u64,
+    uncontrolled_after_startup: u64,
     mode_now: Option<u8>,
     mode_transitions: Vec<ModeTransition>,
 }
@@ -355,6 +383,20 @@ impl LoopInjection {
     }
 }
 
+/// The actuator commands of the last control step as the plant receives them: the flight's
+/// command with a loop injection added (or the injection alone, open loop), before the
+/// actuators' delays and limits ([`Simulation::plant_commands`]; `sim-host margins` checks
+/// them against the limits during its experiments).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PlantCommands {
+    /// Per wheel, motor torque, N m.
+    pub wheel_torque_nm: [f64; MAX_WHEELS],
+    /// Per gimbal, rate, rad/s.
+    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
+    /// Per rod, dipole, A m² (zero without magnetorquers).
+    pub dipole_am2: [f64; 3],
+}
+
 /// What one control step saw, for the recorded row.
 struct StepView<'a> {
     t: f64,
@@ -362,12 +404,25 @@ struct StepView<'a> {
     ticks: u32,
     err_deg: f64,
     q_frame: Quat,
+    /// The target's Euler angles relative to `q_frame`, deg.
+    target_euler_deg: [f64; 3],
     input: &'a Input,
     dipole_cmd: [f64; 3],
     /// The wheels evaluated at the step (their outputs are recorded, and they make the
     /// applied torque).
     wheels: &'a [(WheelDeriv, WheelOutput); MAX_WHEELS],
     n_wheels: usize,
+}
+
+/// The truth of the pointing at one control step (with `[guidance]` or `[modes]`).
+#[derive(Clone, Copy, Debug)]
+struct TruthRow {
+    step: TruthStep,
+    errors: Option<PointingErrors>,
+    sky: Option<Sky>,
+    /// The ideal attitude (held from the last step when this one's cannot be defined).
+    q_cmd: Quat,
+    earth_angle_rad: f64,
 }
 
 /// A run in progress.
@@ -421,6 +476,14 @@ pub struct Simulation<'a> {
     /// The last control step's command and true attitude error (deg), for tools that
     /// observe a run step by step.
     last_step: Option<(ActuatorCommand, f64)>,
+    /// The truth of the pointing (with `[guidance]` or `[modes]`).
+    truth: Option<TruthGuidance>,
+    /// The truth of the step being recorded.
+    truth_row: Option<TruthRow>,
+    /// Pointing performance per segment (with `[guidance]` or `[modes]`).
+    segments: Option<Segments>,
+    /// Changes whenever a ground command replaces the mission's pointing.
+    pointing_id: u32,
 }
 
 impl<'a> Simulation<'a> {
@@ -442,6 +505,7 @@ impl<'a> Simulation<'a> {
             magnetorquers,
             sensors,
             target: TargetConfig { q_rel, seq, lvlh },
+            truth,
             inertia_change,
             open_loop,
             commands,
@@ -470,6 +534,7 @@ impl<'a> Simulation<'a> {
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
+        let mission = truth.as_ref().map(|tg| mission_pointings(tg, &commands));
         Ok(Self {
             name,
             control_rate_hz,
@@ -490,6 +555,13 @@ impl<'a> Simulation<'a> {
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
             errors: ErrorStats::new(clock.dt, performance.settle_bound_deg),
             pointing: PointingStats::new(performance.windows),
+            segments: mission.map(|m| {
+                let p = &performance;
+                Segments::new(p.windows, p.confidence, p.segment_settle_s, p.from_s, m)
+            }),
+            truth,
+            truth_row: None,
+            pointing_id: 0,
             performance,
             estimation: EstimationStats::default(),
             row: Vec::with_capacity(columns.len()),
@@ -544,6 +616,10 @@ impl<'a> Simulation<'a> {
             t_end: self.t_end,
             injection: self.injection,
             last_step: self.last_step,
+            truth: self.truth.clone(),
+            truth_row: self.truth_row,
+            segments: self.segments.clone(),
+            pointing_id: self.pointing_id,
         }
     }
 
@@ -579,6 +655,14 @@ impl<'a> Simulation<'a> {
         }
     }
 
+    /// The true attitude error of the state now against the target in the frame of the last
+    /// environment snapshot, deg: before the first step, exactly what step 0 records (an
+    /// operating point at t = 0 has no step to read it from).
+    pub fn attitude_error_now_deg(&self) -> f64 {
+        let q_cmd = self.target.frame(self.snap.as_ref()) * self.target.q_rel;
+        error_angle_and_vector(&self.state.q, &q_cmd).0.to_degrees()
+    }
+
     /// The field in body axes now (at the next control step's time), T.
     pub fn field_body_t(&self) -> Option<Vec3> {
         self.snap.and_then(|s| s.b_ref_t).map(|b| rotate_ref_to_body(&self.state.q, &b))
@@ -606,6 +690,15 @@ impl<'a> Simulation<'a> {
     }
 
     /// The last control step's flight command and its true attitude error (deg).
+    /// The commands of the last control step as the plant received them ([`PlantCommands`]).
+    pub fn plant_commands(&self) -> PlantCommands {
+        PlantCommands {
+            wheel_torque_nm: self.act.wheel_cmd,
+            gimbal_rate_rad_s: self.act.gimbal_cmd,
+            dipole_am2: self.act.dipole_cmd,
+        }
+    }
+
     pub fn last_step(&self) -> Option<&(ActuatorCommand, f64)> {
         self.last_step.as_ref()
     }
@@ -719,11 +812,19 @@ impl<'a> Simulation<'a> {
         self.t_end = t;
         let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
         let q_frame = self.target.frame(self.snap.as_ref());
-        let q_cmd = q_frame * self.target.q_rel;
+        self.truth_row = self.truth_step(t, &cmd);
+        // With [guidance] the truth's ideal attitude is the target; else the scenario's.
+        let guided = self.truth_row.filter(|_| self.layout.guidance);
+        let q_cmd = guided.map_or(q_frame * self.target.q_rel, |r| r.q_cmd);
+        let target_euler_deg = match guided {
+            Some(r) => euler_from_quat(&(q_frame.conjugate() * r.q_cmd), self.target.seq).map(f64::to_degrees),
+            None => self.target.euler_deg,
+        };
         let (err_rad, err_vec_rad) = error_angle_and_vector(&self.state.q, &q_cmd);
         let err_deg = err_rad.to_degrees();
         self.last_step = Some((cmd, err_deg));
         self.push_pointing(t, err_vec_rad.map(f64::to_degrees));
+        self.push_segment(t, &cmd);
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
 
@@ -740,6 +841,7 @@ impl<'a> Simulation<'a> {
                 ticks,
                 err_deg,
                 q_frame,
+                target_euler_deg,
                 input: &input,
                 dipole_cmd,
                 wheels: &wheels,
@@ -765,11 +867,68 @@ impl<'a> Simulation<'a> {
                     other => bail!("command {msg:?} at t = {t:.3} s refused: {other:?}"),
                 }
             }
-            if let Some(q) = c.target {
+            let (target, pointing) = (c.target, c.pointing.clone());
+            if let Some(q) = target {
                 self.target.set(q);
             }
+            self.retarget_truth(target, pointing);
         }
         Ok(())
+    }
+
+    /// A ground command's new mission pointing, in the truth: a `target` (a fixed attitude
+    /// in the target's frame) or a `guidance`.
+    fn retarget_truth(&mut self, target: Option<Quat>, pointing: Option<TruthSet>) {
+        let Some(tg) = self.truth.as_mut() else { return };
+        let lvlh = self.target.lvlh;
+        let new = pointing.or_else(|| {
+            let main = crate::environment::guidance::TruthPointing::fixed(target?, lvlh);
+            Some(TruthSet { label: format!("target {}", self.pointing_id + 1), main, gate: None })
+        });
+        if let Some(set) = new {
+            tg.mission = set;
+            self.pointing_id += 1;
+        }
+    }
+
+    /// The truth of the pointing in force at `t` (the flight's reported mode's own, or the
+    /// mission's), with the true attitude's errors from it.
+    fn truth_step(&mut self, t: f64, cmd: &ActuatorCommand) -> Option<TruthRow> {
+        let mode = self.layout.mode.then_some(cmd.mode).and_then(Mode::from_code);
+        let tg = self.truth.as_mut()?;
+        let snap = self.snap.as_ref();
+        let env = self.craft.env.as_ref();
+        let sun = env.map(|e| crate::environment::torques::sun_position_eci(e.julian_date(t)));
+        let sky = snap.and_then(|s| s.orbit).zip(sun).map(|((r, v), sun)| Sky::new(t, r, v, sun, &tg.earth));
+        let own = mode.and_then(|m| tg.modes.get_mut(m.index())).and_then(Option::as_mut);
+        let set = match own {
+            Some(s) => s,
+            None => &mut tg.mission,
+        };
+        let step = set.step(sky.as_ref(), snap.and_then(|s| s.q_lvlh));
+        let q_cmd = step.ideal.map(|i| i.q).or(self.truth_row.map(|r| r.q_cmd)).unwrap_or_else(Quat::identity);
+        let errors = step.ideal.and_then(|i| i.errors(&self.state.q));
+        Some(TruthRow { step, errors, sky, q_cmd, earth_angle_rad: tg.earth.angle(t) })
+    }
+
+    /// The step's errors from the truth's pointing into the segment it belongs to.
+    fn push_segment(&mut self, t: f64, cmd: &ActuatorCommand) {
+        let (Some(seg), Some(row), Some(tg)) = (self.segments.as_mut(), self.truth_row, self.truth.as_ref()) else {
+            return;
+        };
+        let mode = self.layout.mode.then_some(cmd.mode);
+        let own = mode
+            .and_then(Mode::from_code)
+            .and_then(|m| tg.modes.get(m.index()).and_then(Option::as_ref).map(|s| (m, s)));
+        let (pointing, label) = match own {
+            Some((m, s)) => (u32::MAX - m.index() as u32, s.label.as_str()),
+            None => (self.pointing_id, tg.mission.label.as_str()),
+        };
+        let key = SegmentKey { mode, pointing, branch: row.step.branch };
+        let (_, err) = error_angle_and_vector(&self.state.q, &row.q_cmd);
+        let deg = |v: [f64; 3]| v.map(f64::to_degrees);
+        let primary = row.errors.map(|e| deg(e.primary_vec_rad.into()));
+        seg.push(t, key, (mode.map(mode_name), label), deg(err), primary);
     }
 
     /// The actuator command of step `k`: the flight code's answer to the sampled sensor
@@ -805,6 +964,7 @@ impl<'a> Simulation<'a> {
         err_deg: f64,
     ) -> [(WheelDeriv, WheelOutput); MAX_WHEELS] {
         self.errors.push(t, err_deg);
+        let after_startup = self.k >= self.startup_steps();
         let m = &mut self.metrics;
         if let Some(c) = &self.craft.cmg {
             m.min_singularity = nan_min(m.min_singularity, c.singularity_measure(&self.state.gimbal_rad));
@@ -816,7 +976,38 @@ impl<'a> Simulation<'a> {
         m.wheels(wheels[..n_wheels].iter().map(|(_, o)| o));
         m.status(cmd.status);
         m.ticks(ticks);
+        if after_startup {
+            m.steps_after_startup += 1;
+            m.uncontrolled_after_startup += u64::from(cmd.status & (status::BAD_INPUT | status::NO_ESTIMATE) != 0);
+        }
         wheels
+    }
+
+    /// Flight steps of the start-up allowance of the no-control check: the first
+    /// `CONTROL_STARTUP_FRACTION` of the run's steps, at most `CONTROL_STARTUP_MAX_S`.
+    fn startup_steps(&self) -> u64 {
+        let total = (self.clock.steps + 1) as f64;
+        let by_time = (CONTROL_STARTUP_MAX_S / self.clock.dt).ceil();
+        (CONTROL_STARTUP_FRACTION * total).ceil().min(by_time) as u64
+    }
+
+    /// Why the run counts as uncontrolled (`no_control`), if it does.
+    fn no_control_reason(&self) -> Option<String> {
+        let m = &self.metrics;
+        let (n, bad) = (m.steps_after_startup, m.uncontrolled_after_startup);
+        if self.info.is_none() || n == 0 || (bad as f64) <= MAX_UNCONTROLLED_FRACTION * n as f64 {
+            return None;
+        }
+        let allowance_s = self.startup_steps() as f64 * self.clock.dt;
+        Some(format!(
+            "the flight code held the safe command on {bad} of the {n} control steps after the first {allowance_s} s \
+             ({:.1} %, more than {:.0} %): the active mode lacked an input it needs (status_counts: bad_input {}, \
+             no_estimate {} over the run)",
+            100.0 * bad as f64 / n as f64,
+            100.0 * MAX_UNCONTROLLED_FRACTION,
+            m.counts.bad_input,
+            m.counts.no_estimate
+        ))
     }
 
     /// Stored-momentum figures of step at `t` (every step, with the momentum group).
@@ -897,7 +1088,7 @@ impl<'a> Simulation<'a> {
         row.push(v.t);
         row.extend([state.q.i, state.q.j, state.q.k, state.q.w]);
         row.extend(euler_from_quat(&(v.q_frame.conjugate() * state.q), self.target.seq).map(f64::to_degrees));
-        row.extend(self.target.euler_deg);
+        row.extend(v.target_euler_deg);
         row.extend(state.w.iter());
         row.extend(cmd.torque_demand_nm.iter().map(|x| *x as f64));
         row.extend(cmd.torque_realised_nm.iter().map(|x| *x as f64));
@@ -926,6 +1117,45 @@ impl<'a> Simulation<'a> {
             row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
         }
         self.fill_tail(v, &tq);
+        if self.layout.guidance {
+            self.fill_guidance(v.cmd);
+        }
+    }
+
+    /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
+    /// errors and view of the site, the flight's guidance telemetry, the true orbit state,
+    /// Sun direction and Earth angle.
+    fn fill_guidance(&mut self, cmd: &ActuatorCommand) {
+        let nan = f64::NAN;
+        let row = &mut self.row;
+        let tr = self.truth_row;
+        let e = tr.and_then(|r| r.errors);
+        row.push(e.map_or(nan, |e| e.primary_rad.to_degrees()));
+        row.push(e.map_or(nan, |e| e.secondary_rad.to_degrees()));
+        let g = &cmd.guidance;
+        let [x, y, z, w] = g.q_cmd_xyzw.map(f64::from);
+        let q_flight = Quat::new(w, x, y, z);
+        let guidance_error = match (tr, q_flight.norm()) {
+            (Some(r), n) if n > 0.5 => error_angle_and_vector(&(q_flight / n), &r.q_cmd).0.to_degrees(),
+            _ => nan,
+        };
+        row.push(guidance_error);
+        row.extend(e.map_or([nan; 3], |e| e.target_body.into()));
+        let step = tr.map(|r| r.step);
+        row.push(step.and_then(|s| s.elevation_rad).map_or(nan, f64::to_degrees));
+        row.push(step.and_then(|s| s.visible).map_or(nan, |v| f64::from(u8::from(v))));
+        row.push(self.segments.as_ref().and_then(Segments::current).map_or(nan, |i| i as f64));
+        let parallel = step.and_then(|s| s.ideal).and_then(|i| i.axes).map(|a| a.parallel);
+        row.push(parallel.map_or(nan, |p| f64::from(u8::from(p))));
+        row.extend([f64::from(g.flags), f64::from(g.switches), f64::from(g.parallel_events)]);
+        row.extend(g.rate_cmd_rad_s.map(f64::from));
+        row.extend(g.accel_cmd_rad_s2.map(f64::from));
+        let sky = tr.and_then(|r| r.sky);
+        row.extend(sky.map_or([nan; 3], |s| s.r_m.into()));
+        row.extend(sky.map_or([nan; 3], |s| s.v_m_s.into()));
+        let sun = sky.and_then(|s| (s.sun_m - s.r_m).try_normalize(0.0));
+        row.extend(sun.map_or([nan; 3], Into::into));
+        row.push(tr.map_or(nan, |r| r.earth_angle_rad));
     }
 
     /// The actuator-family and environment groups at the end of the row.
@@ -982,7 +1212,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
-    /// control steps the flight code answered), or ok.
+    /// control steps the flight code answered), a link anomaly, sensor samples dropped,
+    /// not controlled for a material part of the run, or ok.
     fn outcome(&self) -> (RunStatus, Option<Failure>) {
         if let Some(f) = &self.failure {
             return (RunStatus::Diverged, Some(f.clone()));
@@ -1005,6 +1236,9 @@ impl<'a> Simulation<'a> {
             let reason = format!("sensor samples dropped by the latency queues: {}", lost.join(", "));
             return (RunStatus::SamplesDropped, Some(Failure::Sensors { reason }));
         }
+        if let Some(reason) = self.no_control_reason() {
+            return (RunStatus::NoControl, Some(Failure::Control { reason }));
+        }
         (RunStatus::Ok, None)
     }
 
@@ -1015,7 +1249,19 @@ impl<'a> Simulation<'a> {
         // A diverged run reaches only the time of its failure.
         let sim_time = if self.failure.is_some() { self.t_end } else { self.sim_time_s() };
         let ef = self.errors.figures(sim_time);
-        let final_q_rel = self.target.frame(self.snap.as_ref()).conjugate() * self.state.q;
+        let q_frame = self.target.frame(self.snap.as_ref());
+        let final_q_rel = q_frame.conjugate() * self.state.q;
+        let guided = self.truth_row.filter(|_| self.layout.guidance);
+        let target_euler_deg = guided.map_or(self.target.euler_deg, |r| {
+            euler_from_quat(&(q_frame.conjugate() * r.q_cmd), self.target.seq).map(f64::to_degrees)
+        });
+        let (segments, unlisted, mission) = match self.segments.clone() {
+            Some(s) => {
+                let (list, n, mission) = s.finish();
+                (Some(list), Some(n), Some(mission))
+            }
+            None => (None, None, None),
+        };
         let n_ticks = m.n_ticks;
         let ipt = info.and_then(|i| i.instructions_per_tick).filter(|_| n_ticks > 0);
         let hz = info.map(|i| i.cost_counter_hz as f64).filter(|h| *h > 0.0 && n_ticks > 0);
@@ -1044,7 +1290,7 @@ impl<'a> Simulation<'a> {
             mean_error_whole_run_deg: ef.mean_error_whole_run_deg,
             rms_error_after_settle_deg: ef.rms_error_after_settle_deg,
             final_euler_deg: euler_from_quat(&final_q_rel, self.target.seq).map(f64::to_degrees),
-            target_euler_deg: self.target.euler_deg,
+            target_euler_deg,
             final_rate_rad_s: self.state.w.into(),
             max_gimbal_rate_rad_s: cmg.then_some(m.max_gimbal_rate),
             min_singularity_measure: cmg.then_some(m.min_singularity),
@@ -1071,6 +1317,7 @@ impl<'a> Simulation<'a> {
             estimation_error_max_deg: est.map(|e| e.error_max_deg),
             bias_error_final_deg_h: est.and_then(|e| e.bias_error_final_deg_h),
             nees_mean: est.and_then(|e| e.nees_mean),
+            estimation_steps: est.map(|e| e.steps),
             innovations_rejected: est.map(|e| e.innovations_rejected),
             estimator_resets: est.map(|e| e.resets),
             sample_fusion: est.map(|e| e.sample_fusion),
@@ -1078,6 +1325,9 @@ impl<'a> Simulation<'a> {
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),
             pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
+            pointing_segments: segments,
+            pointing_segments_unlisted: unlisted,
+            mission_pointings: mission,
             margins: None,
         }
     }

@@ -82,7 +82,7 @@ fn h_inertial(r: &RunResult, i: usize) -> nalgebra::Vector3<f64> {
 /// Orbit-averaged gravity-gradient torque on a fixed inertial attitude, inertial axes.
 fn closed_form_torque(sc: &Scenario) -> nalgebra::Vector3<f64> {
     let (n, a, _) = orbit(sc);
-    let target = sc.target.quaternion();
+    let target = sc.target.as_ref().unwrap().quaternion();
     let rot = sim_core::attitude::dcm_body_to_ref(&target);
     let j_body = nalgebra::Matrix3::from_row_slice(sc.spacecraft.inertia_kgm2.as_flattened());
     let j = rot * j_body * rot.transpose();

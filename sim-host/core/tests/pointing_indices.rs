@@ -155,7 +155,7 @@ fn a_run_reports_the_indices_of_its_recorded_error() {
     let exact = nearest_rank(after.iter().map(|&i| err[i]).collect(), 0.95);
     let got = p.ape_deg.total.unwrap();
     assert!(got >= exact && got <= exact * RATIO, "APE total {got} vs recorded {exact}");
-    let [r, pi, y] = sc.target.euler_deg.unwrap().map(f64::to_radians);
+    let [r, pi, y] = sc.target.as_ref().unwrap().euler_deg.unwrap().map(f64::to_radians);
     let q_t = nalgebra::UnitQuaternion::from_euler_angles(r, pi, y);
     let q = ["q_x", "q_y", "q_z", "q_w"].map(|c| ts.col(c).unwrap());
     for (axis, got) in [p.ape_deg.x, p.ape_deg.y, p.ape_deg.z].into_iter().enumerate() {

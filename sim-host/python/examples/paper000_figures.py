@@ -5,14 +5,21 @@ settling time of the dispersed test-3 campaign.
     python sim-host/python/examples/paper000_figures.py [OUT_DIR] [--runs N]
 
 writes OUT_DIR/paper000-test1-attitude.png and OUT_DIR/paper000-test3-settle-histogram.png
-(OUT_DIR defaults to out/python-example). Kept runnable by tests/test_example.py.
+(OUT_DIR defaults to out/python-example). Needs matplotlib, which the package's analysis
+extra installs: pip install "./sim-host/python[analysis]". Kept runnable by
+tests/test_example.py.
 """
 
 import argparse
 import json
 from pathlib import Path
 
-import matplotlib
+try:
+    import matplotlib
+except ImportError:  # the README's plain install has no plotting library
+    raise SystemExit(
+        "this example draws with matplotlib: pip install './sim-host/python[analysis]' (the package's analysis extra)"
+    ) from None
 
 matplotlib.use("Agg")  # files only: also works without a display
 import matplotlib.pyplot as plt  # noqa: E402

@@ -1,11 +1,14 @@
 //! Campaigns from Python (`acs.campaign.plan / run / merge`): the `sim_host::campaign`
 //! functions the `sim-host campaign` commands call, so the directory holds the same files
-//! and `campaign.json` the same result. The lock is released while they work.
+//! and `campaign.json` the same result. The lock is released while they work; a campaign
+//! run stops on Ctrl-C (`KeyboardInterrupt`) within a fraction of a second.
 
 use crate::convert::json_to_py;
 use crate::errors::{Kind, guard};
+use crate::run::interruptible;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use sim_core::link::cancel::Cancel;
 use sim_host::campaign::{self, Campaign, Shard};
 use std::path::PathBuf;
 
@@ -37,7 +40,12 @@ pub fn campaign_run<'py>(
             None => Shard::ALL,
         };
         let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from)).max(1);
-        let r = py.detach(|| campaign::run_shard(&dir, shard, jobs, progress)).map_err(|e| Kind::Campaign.chain(&e))?;
+        // On worker threads while this one looks for Ctrl-C: the runs in flight then stop
+        // and write nothing (the shard resumes with them), and KeyboardInterrupt is raised.
+        let cancel = Cancel::new();
+        let r = py
+            .detach(|| interruptible(&cancel, || campaign::run_shard_until(&dir, shard, jobs, progress, &cancel)))?
+            .map_err(|e| Kind::Campaign.chain(&e))?;
         let d = PyDict::new(py);
         for (k, v) in [
             ("assigned", r.assigned),

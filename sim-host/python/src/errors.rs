@@ -6,8 +6,10 @@
 //! Exception` does not catch).
 
 use pyo3::create_exception;
-use pyo3::exceptions::PyException;
+use pyo3::exceptions::{PyException, PyKeyError, PyTypeError};
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyDict, PyTuple, PyType};
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
 create_exception!(acs, AcsError, PyException, "Base class of every error the acs package raises.");
@@ -31,6 +33,38 @@ create_exception!(
 );
 create_exception!(acs, CampaignError, AcsError, "A campaign that cannot be planned, run or merged.");
 create_exception!(acs, InternalError, AcsError, "A bug: the Rust code panicked (the interpreter keeps running).");
+
+/// `acs.ScenarioKeyError(ScenarioError, KeyError)`: reading a key the scenario does not
+/// have. Both an `acs` error and the `KeyError` a mapping raises.
+static SCENARIO_KEY_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+/// `acs.ScenarioTypeError(ScenarioError, TypeError)`: an argument of the wrong Python type
+/// where a scenario is built (`Scenario.from_dict` of a list).
+static SCENARIO_TYPE_ERROR: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+
+/// A class deriving from `bases` (PyO3's `create_exception!` takes one base), made by
+/// calling `type(name, bases, namespace)` as a `class` statement would.
+fn subclass<'py>(py: Python<'py>, name: &str, bases: Bound<'py, PyTuple>, doc: &str) -> PyResult<Bound<'py, PyType>> {
+    let ns = PyDict::new(py);
+    ns.set_item("__module__", "acs")?;
+    ns.set_item("__doc__", doc)?;
+    py.get_type::<PyType>().call1((name, bases, ns))?.cast_into::<PyType>().map_err(PyErr::from)
+}
+
+fn class<'py>(py: Python<'py>, cell: &'static PyOnceLock<Py<PyType>>, name: &str) -> PyResult<Bound<'py, PyType>> {
+    cell.get(py)
+        .map(|t| t.bind(py).clone())
+        .ok_or_else(|| InternalError::new_err(format!("acs.{name} used before the module was initialised")))
+}
+
+/// `acs.ScenarioKeyError` with `msg`.
+pub fn scenario_key_error(py: Python<'_>, msg: String) -> PyErr {
+    class(py, &SCENARIO_KEY_ERROR, "ScenarioKeyError").map_or_else(|e| e, |t| PyErr::from_type(t, msg))
+}
+
+/// `acs.ScenarioTypeError` with `msg`.
+pub fn scenario_type_error(py: Python<'_>, msg: String) -> PyErr {
+    class(py, &SCENARIO_TYPE_ERROR, "ScenarioTypeError").map_or_else(|e| e, |t| PyErr::from_type(t, msg))
+}
 
 /// Which exception class an entry point raises for its errors.
 #[derive(Clone, Copy, Debug)]
@@ -77,6 +111,19 @@ pub fn register(py: Python<'_>, m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("FrameError", py.get_type::<FrameError>())?;
     m.add("CampaignError", py.get_type::<CampaignError>())?;
     m.add("InternalError", py.get_type::<InternalError>())?;
+    let scenario = py.get_type::<ScenarioError>();
+    let key = SCENARIO_KEY_ERROR.get_or_try_init(py, || {
+        let bases = PyTuple::new(py, [scenario.clone(), py.get_type::<PyKeyError>()])?;
+        let doc = "A key the scenario does not have (an acs.ScenarioError and a KeyError).";
+        subclass(py, "ScenarioKeyError", bases, doc).map(Bound::unbind)
+    })?;
+    let ty = SCENARIO_TYPE_ERROR.get_or_try_init(py, || {
+        let bases = PyTuple::new(py, [scenario.clone(), py.get_type::<PyTypeError>()])?;
+        let doc = "An argument of the wrong type for a scenario (an acs.ScenarioError and a TypeError).";
+        subclass(py, "ScenarioTypeError", bases, doc).map(Bound::unbind)
+    })?;
+    m.add("ScenarioKeyError", key.bind(py))?;
+    m.add("ScenarioTypeError", ty.bind(py))?;
     Ok(())
 }
 

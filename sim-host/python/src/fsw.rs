@@ -13,7 +13,7 @@ use crate::scenario::PyScenario;
 use acs_flight::link::{FswMsg, HostMsg, SensorFrame, StepReport};
 use anyhow::{Context, Result, bail};
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict, PyList};
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList};
 use sim_core::link::FlightLink;
 use sim_core::link::in_process::InProcess;
 use sim_core::link::tap::{Tap, Tapped};
@@ -44,21 +44,46 @@ fn configure(link: &mut dyn FlightLink, sc: &Scenario) -> Result<()> {
     Ok(())
 }
 
-/// A frame from a dict (the serde form of `SensorFrame`) or postcard bytes.
+/// A frame from a dict (the serde form of `SensorFrame`, read by [`crate::strict`]: every
+/// field typed, no unknown key) or its postcard bytes, which must be one `SensorFrame` and
+/// nothing else: the wire refuses a frame with bytes left over (`FrameError::Decode`).
 fn frame_of(obj: &Bound<'_, PyAny>) -> Result<SensorFrame> {
-    if let Ok(b) = obj.cast::<PyBytes>() {
-        return postcard::from_bytes(b.as_bytes()).context("postcard SensorFrame");
+    let bytes = match (obj.cast::<PyBytes>(), obj.cast::<PyByteArray>()) {
+        (Ok(b), _) => Some(b.as_bytes().to_vec()),
+        (_, Ok(b)) => Some(b.to_vec()),
+        _ => None,
+    };
+    if let Some(b) = bytes {
+        let (frame, rest) = postcard::take_from_bytes::<SensorFrame>(&b).context("postcard SensorFrame")?;
+        if !rest.is_empty() {
+            bail!(
+                "postcard SensorFrame: {} bytes after the frame's {} (a frame carries one message and nothing \
+                 else; the wire refuses it)",
+                rest.len(),
+                b.len() - rest.len()
+            );
+        }
+        return Ok(frame);
     }
-    crate::convert::from_py(obj).context("SensorFrame dict")
+    crate::strict::from_py(obj).context("SensorFrame dict")
+}
+
+/// `PyFsw`'s one mutable borrow, taken after the Python arguments were read (reading them
+/// may run Python code that uses this object): a failure is an `acs.FrameError`, never
+/// PyO3's `RuntimeError("Already borrowed")`.
+fn borrow<'py>(slf: &Bound<'py, PyFsw>) -> PyResult<PyRefMut<'py, PyFsw>> {
+    slf.try_borrow_mut()
+        .map_err(|e| Kind::Frame.err(format!("this acs.Fsw is in use (called from inside its own call): {e}")))
 }
 
 #[pymethods]
 impl PyFsw {
     #[new]
-    fn new(scenario: PyRef<'_, PyScenario>) -> PyResult<Self> {
+    fn new(scenario: &Bound<'_, PyScenario>) -> PyResult<Self> {
         guard(|| {
+            let sc = crate::scenario::snapshot(scenario)?;
             let mut link = InProcess::new();
-            configure(&mut link, &scenario.parsed).map_err(|e| Kind::Scenario.chain(&e))?;
+            configure(&mut link, &sc).map_err(|e| Kind::Scenario.chain(&e))?;
             Ok(Self { link })
         })
     }
@@ -67,12 +92,14 @@ impl PyFsw {
     /// link counters) as a dict. `frame`: a dict like `acs.empty_frame()` or the postcard
     /// bytes of a `SensorFrame`. Frames must come in increasing `seq` (one frame, one step,
     /// as on the wire); a refused frame raises `acs.FrameError`.
-    fn step<'py>(&mut self, py: Python<'py>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    fn step<'py>(slf: &Bound<'py, Self>, frame: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         guard(|| {
+            let py = slf.py();
             let f = frame_of(frame).map_err(|e| Kind::Frame.chain(&e))?;
             // Through the session with no cost counter: the reply does not depend on the
             // host's clock (step_cost_ticks = 0).
-            match self.link.request(&HostMsg::Sensor(f)).map_err(|e| Kind::Frame.chain(&e))? {
+            let reply = borrow(slf)?.link.request(&HostMsg::Sensor(f)).map_err(|e| Kind::Frame.chain(&e))?;
+            match reply {
                 FswMsg::Step(r) => to_py(py, &r).map_err(|e| Kind::Frame.chain(&e)),
                 FswMsg::Error(e) => Err(Kind::Frame.err(format!("the flight code refused frame {}: {e:?}", f.seq))),
                 other => Err(Kind::Frame.err(format!("unexpected answer to frame {}: {other:?}", f.seq))),
@@ -80,22 +107,33 @@ impl PyFsw {
         })
     }
 
-    /// Any other link message (`HostMsg` as a dict, e.g. `{"RequestMode": ...}`, a ground
-    /// command recorded by `acs.record_frames`): the flight side's reply as a dict.
-    fn request<'py>(&mut self, py: Python<'py>, msg: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    /// Any other link message (`HostMsg` as a dict, e.g. `{"CommandMode": {"Enter": "Hold"}}`, a ground
+    /// command recorded by `acs.record_frames`): the flight side's reply as a dict. Read as
+    /// strictly as a frame ([`crate::strict`]).
+    fn request<'py>(slf: &Bound<'py, Self>, msg: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         guard(|| {
-            let m: HostMsg = crate::convert::from_py(msg).map_err(|e| Kind::Frame.err(format!("HostMsg: {e:#}")))?;
-            let reply = self.link.request(&m).map_err(|e| Kind::Frame.chain(&e))?;
-            to_py(py, &reply).map_err(|e| Kind::Frame.chain(&e))
+            let m: HostMsg = crate::strict::from_py(msg).map_err(|e| Kind::Frame.err(format!("HostMsg {e}")))?;
+            let reply = borrow(slf)?.link.request(&m).map_err(|e| Kind::Frame.chain(&e))?;
+            to_py(slf.py(), &reply).map_err(|e| Kind::Frame.chain(&e))
         })
     }
 }
 
 /// A frame with nothing valid in it (identity attitude, zeros), as a dict to fill in.
+/// `seq` and `time_us` are read as the frame's fields are ([`crate::strict`]).
 #[pyfunction]
-#[pyo3(signature = (seq, time_us=0))]
-pub fn empty_frame(py: Python<'_>, seq: u32, time_us: u64) -> PyResult<Bound<'_, PyAny>> {
-    guard(|| to_py(py, &SensorFrame::empty(seq, time_us)).map_err(|e| Kind::Frame.chain(&e)))
+#[pyo3(signature = (seq, time_us=None))]
+pub fn empty_frame<'py>(
+    py: Python<'py>,
+    seq: &Bound<'py, PyAny>,
+    time_us: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    guard(|| {
+        let field = |name: &str, e: crate::strict::StrictError| Kind::Frame.err(format!("empty_frame `{name}`: {e}"));
+        let seq: u32 = crate::strict::from_py(seq).map_err(|e| field("seq", e))?;
+        let time_us: u64 = time_us.map_or(Ok(0), crate::strict::from_py).map_err(|e| field("time_us", e))?;
+        to_py(py, &SensorFrame::empty(seq, time_us)).map_err(|e| Kind::Frame.chain(&e))
+    })
 }
 
 /// The postcard bytes of a frame (what `Fsw.step` also accepts; the payload of a wire
@@ -124,11 +162,11 @@ struct Recorded {
 #[pyo3(signature = (scenario, steps=None))]
 pub fn record_frames<'py>(
     py: Python<'py>,
-    scenario: PyRef<'_, PyScenario>,
+    scenario: &Bound<'py, PyScenario>,
     steps: Option<u64>,
 ) -> PyResult<Bound<'py, PyList>> {
     guard(|| {
-        let sc = scenario.parsed.clone();
+        let sc = crate::scenario::snapshot(scenario)?;
         if !sc.closed_loop() {
             return Err(Kind::Scenario.err(format!("{}: open loop: no frames reach the flight code", sc.name)));
         }

@@ -9,6 +9,7 @@
 //! - [`scenario`]: `acs.Scenario`, keys addressed by the campaigns' key paths;
 //! - [`run`]: one run in memory, columns handed to numpy without a copy per row;
 //! - [`fsw`]: `acs.Fsw`, the flight step called from Python, and recorded frames;
+//! - [`strict`]: Python values read into the flight messages as strictly as the wire reads them;
 //! - [`campaign`]: plan, run and merge of a Monte Carlo campaign.
 
 use pyo3::prelude::*;
@@ -19,6 +20,7 @@ pub mod errors;
 pub mod fsw;
 pub mod run;
 pub mod scenario;
+pub mod strict;
 
 #[pymodule]
 #[pyo3(name = "_core")]
@@ -27,6 +29,12 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("PROTOCOL_VERSION", acs_flight::link::PROTOCOL_VERSION)?;
     errors::register(py, m)?;
+    // numpy's C API is loaded now, not at the first array a run returns: loading it runs
+    // Python code, which a pending Ctrl-C would interrupt (rust-numpy then panics).
+    errors::guard(|| {
+        drop(numpy::PyArray1::<f64>::from_vec(py, Vec::new()));
+        Ok(())
+    })?;
     m.add_class::<scenario::PyScenario>()?;
     m.add_class::<fsw::PyFsw>()?;
     m.add_function(wrap_pyfunction!(run::run, m)?)?;

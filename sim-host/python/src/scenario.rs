@@ -8,8 +8,7 @@
 //! as a run does (`Scenario` → `Resolved`, the flight parameters it uploads).
 
 use crate::convert::{from_py, to_py};
-use crate::errors::{Kind, guard};
-use pyo3::exceptions::{PyKeyError, PyTypeError};
+use crate::errors::{Kind, guard, scenario_key_error, scenario_type_error};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use sim_core::scenario::{Resolved, Scenario};
@@ -38,16 +37,17 @@ impl PyScenario {
         Self::new(Scenario::from_toml(&toml::to_string(value)?)?)
     }
 
-    /// The value at `key`, or a `KeyError` naming what is missing.
-    fn get(&self, key: &str) -> PyResult<toml::Value> {
+    /// The value at `key`, or an `acs.ScenarioKeyError` (a `KeyError`) naming what is missing.
+    fn get(&self, py: Python<'_>, key: &str) -> PyResult<toml::Value> {
         let path = KeyPath::parse(key).map_err(|e| Kind::Scenario.chain(&e))?;
         let mut v = self.value.clone();
-        path.get_mut(&mut v, false).map(|x| x.clone()).map_err(|e| PyKeyError::new_err(format!("{e:#}")))
+        path.get_mut(&mut v, false).map(|x| x.clone()).map_err(|e| scenario_key_error(py, format!("{e:#}")))
     }
 
-    /// `self` with every `(key, value)` set, checked once at the end.
-    fn with(&self, changes: &[(String, Bound<'_, PyAny>)]) -> PyResult<Self> {
-        let mut v = self.value.clone();
+    /// The scenario `value` with every `(key, value)` set, checked once at the end. Reading
+    /// the Python values may run Python code, so no borrow of the object is held meanwhile.
+    fn with(value: &toml::Value, changes: &[(String, Bound<'_, PyAny>)]) -> PyResult<Self> {
+        let mut v = value.clone();
         for (key, obj) in changes {
             let path = KeyPath::parse(key).map_err(|e| Kind::Scenario.chain(&e))?;
             let new: toml::Value = from_py(obj).map_err(|e| {
@@ -60,6 +60,28 @@ impl PyScenario {
         let keys: Vec<&str> = changes.iter().map(|(k, _)| k.as_str()).collect();
         Self::from_value(&v).map_err(|e| Kind::Scenario.err(format!("setting `{}`: {e:#}", keys.join("`, `"))))
     }
+}
+
+/// The scenario a run or a flight software is built from: a copy taken now, so that the
+/// object can be changed meanwhile (from another thread, while a run flies without the
+/// interpreter's lock) without a borrow conflict and without changing what flies.
+pub fn snapshot(obj: &Bound<'_, PyScenario>) -> PyResult<Scenario> {
+    Ok(obj.try_borrow().map_err(|e| busy(&e))?.parsed.clone())
+}
+
+/// Sets `changes` on `slf`: computed from a copy (no borrow held while Python values are
+/// read), then swapped in whole.
+fn replace(slf: &Bound<'_, PyScenario>, changes: &[(String, Bound<'_, PyAny>)]) -> PyResult<()> {
+    let value = slf.try_borrow().map_err(|e| busy(&e))?.value.clone();
+    let new = PyScenario::with(&value, changes)?;
+    *slf.try_borrow_mut().map_err(|e| busy(&e))? = new;
+    Ok(())
+}
+
+/// A borrow refused: only possible when a scenario is changed from inside the reading of
+/// its own new value (Python code called back); never PyO3's bare `RuntimeError`.
+fn busy(e: &dyn std::fmt::Display) -> PyErr {
+    Kind::Scenario.err(format!("the scenario is being changed by another call ({e})"))
 }
 
 #[pymethods]
@@ -81,7 +103,7 @@ impl PyScenario {
     fn from_dict(d: &Bound<'_, PyAny>) -> PyResult<Self> {
         guard(|| {
             if !d.is_instance_of::<PyDict>() {
-                return Err(PyTypeError::new_err("Scenario.from_dict needs a dict"));
+                return Err(scenario_type_error(d.py(), "Scenario.from_dict needs a dict".into()));
             }
             let v: toml::Value = from_py(d).map_err(|e| Kind::Scenario.err(format!("scenario dict: {e}")))?;
             Self::from_value(&v).map_err(|e| Kind::Scenario.chain(&e))
@@ -100,28 +122,29 @@ impl PyScenario {
     }
 
     fn __getitem__<'py>(&self, py: Python<'py>, key: &str) -> PyResult<Bound<'py, PyAny>> {
-        guard(|| to_py(py, &self.get(key)?).map_err(|e| Kind::Scenario.chain(&e)))
+        guard(|| to_py(py, &self.get(py, key)?).map_err(|e| Kind::Scenario.chain(&e)))
     }
 
-    fn __setitem__(&mut self, key: String, value: Bound<'_, PyAny>) -> PyResult<()> {
-        guard(|| {
-            *self = self.with(&[(key, value)])?;
-            Ok(())
-        })
+    fn __setitem__(slf: &Bound<'_, Self>, key: String, value: Bound<'_, PyAny>) -> PyResult<()> {
+        guard(|| replace(slf, &[(key, value)]))
     }
 
-    fn __contains__(&self, key: &str) -> bool {
-        self.get(key).is_ok()
+    fn __contains__(&self, py: Python<'_>, key: &str) -> bool {
+        self.get(py, key).is_ok()
     }
 
     /// Sets several keys at once, checked together (a change that needs two keys, such as
     /// a new controller type and its gains).
-    fn update(&mut self, changes: &Bound<'_, PyDict>) -> PyResult<()> {
+    fn update(slf: &Bound<'_, Self>, changes: &Bound<'_, PyDict>) -> PyResult<()> {
         guard(|| {
-            let pairs: Vec<(String, Bound<'_, PyAny>)> =
-                changes.iter().map(|(k, v)| Ok((k.extract::<String>()?, v))).collect::<PyResult<_>>()?;
-            *self = self.with(&pairs)?;
-            Ok(())
+            let pairs: Vec<(String, Bound<'_, PyAny>)> = changes
+                .iter()
+                .map(|(k, v)| match k.extract::<String>() {
+                    Ok(k) => Ok((k, v)),
+                    Err(_) => Err(Kind::Scenario.err(format!("update: a key is {k:?}, not a key path (a string)"))),
+                })
+                .collect::<PyResult<_>>()?;
+            replace(slf, &pairs)
         })
     }
 

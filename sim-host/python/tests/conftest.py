@@ -95,3 +95,18 @@ def cli_run_finish(p: subprocess.Popen, out: Path):
     if (out / "timeseries.parquet").exists():
         return p.returncode, summary, read_parquet_columns(out / "timeseries.parquet")
     return p.returncode, summary, read_csv_columns(out / "timeseries.csv")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def ctrl_c_reaches_python():
+    """Ctrl-C as a terminal delivers it. A suite started in the background (`cmd &` in a
+    script, nohup) inherits SIGINT ignored; Python then installs no handler, and
+    `_thread.interrupt_main` (the in-process Ctrl-C tests) does nothing. Restore Python's
+    own handler for the session."""
+    import signal
+
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)

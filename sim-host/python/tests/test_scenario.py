@@ -116,6 +116,16 @@ def test_check_resolves_like_sim_host_check(sc):
 def test_errors_are_acs_errors():
     for cls in (acs.ScenarioError, acs.RunError, acs.FrameError, acs.CampaignError, acs.InternalError):
         assert issubclass(cls, acs.AcsError) and issubclass(cls, Exception)
+    # Issue 37: the KeyError and TypeError the scenario raises are acs errors too.
+    assert issubclass(acs.ScenarioKeyError, acs.ScenarioError) and issubclass(acs.ScenarioKeyError, KeyError)
+    assert issubclass(acs.ScenarioTypeError, acs.ScenarioError) and issubclass(acs.ScenarioTypeError, TypeError)
+    sc = acs.Scenario.load(TEST1)
+    with pytest.raises(acs.ScenarioKeyError, match="nope"):
+        sc["nope"]
+    with pytest.raises(acs.ScenarioTypeError, match="needs a dict"):
+        acs.Scenario.from_dict([1, 2])
+    with pytest.raises(acs.ScenarioError, match="key path"):
+        sc.update({1: 2.0})
 
 
 def test_a_rust_panic_raises_and_the_interpreter_goes_on():

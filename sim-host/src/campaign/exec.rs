@@ -2,47 +2,21 @@
 //! result written atomically (`runs/NNNNNN/result.json`) so that an interrupted shard
 //! resumes where it stopped.
 
+use super::lock::{Shard, ShardLock};
 use super::plan::{Manifest, PlannedRun};
 use super::spec::Requirement;
 use super::{flatten, write_atomic};
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use serde::{Deserialize, Serialize};
+use sim_core::link::cancel::Cancel;
+use sim_core::link::{self, LinkKind, LinkOptions};
+use sim_core::recorder::series::Discard;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// Shard `index` of `count` (0-based, as a job array's task index): runs `i` with
-/// `i % count == index`, so that every shard gets runs from the whole campaign.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Shard {
-    pub index: u32,
-    pub count: u32,
-}
-
-impl Shard {
-    pub const ALL: Shard = Shard { index: 0, count: 1 };
-
-    pub fn owns(&self, run: u32) -> bool {
-        run % self.count == self.index
-    }
-}
-
-impl FromStr for Shard {
-    type Err = anyhow::Error;
-    fn from_str(s: &str) -> Result<Self> {
-        let (k, n) = s.split_once('/').ok_or_else(|| anyhow!("--shard K/S (e.g. 0/4), got {s:?}"))?;
-        let index: u32 = k.trim().parse().map_err(|_| anyhow!("--shard: {k:?} is not a shard index"))?;
-        let count: u32 = n.trim().parse().map_err(|_| anyhow!("--shard: {n:?} is not a shard count"))?;
-        if count == 0 || index >= count {
-            bail!("--shard K/S needs 0 <= K < S (got {index}/{count})");
-        }
-        Ok(Shard { index, count })
-    }
-}
 
 #[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq, PartialOrd, Ord)]
 #[serde(rename_all = "snake_case")]
@@ -59,6 +33,14 @@ pub enum RunStatus {
     /// Flew, but the flight code refused the input of every step (summary `run_status`
     /// `all_refused`): misses every requirement.
     AllRefused,
+    /// Flew, but the margins its `[margins]` asks for are not those of a stable loop at a
+    /// steady hold (summary `run_status` `margins_failed`, `margins.status` not
+    /// `measured`: what `sim-host run` exits non-zero for): misses every requirement.
+    MarginsFailed,
+    /// Flew, but the flight code could not control for a material part of the run (summary
+    /// `run_status` `no_control`: no estimate or a refused input after the start-up
+    /// allowance): misses every requirement.
+    NoControl,
 }
 
 impl RunStatus {
@@ -106,20 +88,45 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 }
 
 /// Flies one run and, with `[margins]`, measures its margins into `summary.margins` (one
-/// worker thread: the campaign runs its runs in parallel). A refused measurement is a
-/// summary with its status and reason: the requirements on its figures then fail.
-fn fly_with_margins(sc: &Scenario) -> anyhow::Result<runner::Summary> {
-    let mut summary = runner::fly(sc)?;
-    let base = crate::margins::MarginOptions { threads: 1, ..Default::default() };
-    summary.margins = crate::margins::summary::for_scenario(sc, &base)?.map(|(m, _)| m);
+/// worker thread: the campaign runs its runs in parallel). A measurement that is not a
+/// stable loop at a steady hold makes the run `margins_failed` (summary `run_status`).
+/// Once `cancel` is cancelled the run and its measurement stop at their next control step.
+fn fly_with_margins(sc: &Scenario, cancel: &Cancel) -> anyhow::Result<runner::Summary> {
+    let link_options = LinkOptions { cancel: Some(cancel.clone()), ..Default::default() };
+    let mut l = link::open(&LinkKind::InProcess, &link_options)?;
+    // `runner::fly`, with the token checked at every step (open-loop runs use no link).
+    let mut summary = runner::run_observed(sc, l.as_mut(), &mut Discard, &mut |_, _| cancel.check())?;
+    drop(l);
+    let base = crate::margins::MarginOptions { threads: 1, link_options, ..Default::default() };
+    crate::margins::summary::record(sc, &base, &mut summary)?;
     Ok(summary)
 }
 
+/// How a summary's run failed, if it did: its `run_status`, and a `margins.status` other
+/// than `measured` whatever `run_status` says (a summary written before `margins_failed`).
+fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
+    let margins = summary.get("margins").filter(|m| !m.is_null());
+    match summary.get("run_status").and_then(|s| s.as_str()) {
+        Some("diverged") => Some(RunStatus::Diverged),
+        Some("all_refused") => Some(RunStatus::AllRefused),
+        Some("margins_failed") => Some(RunStatus::MarginsFailed),
+        Some("no_control") => Some(RunStatus::NoControl),
+        Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
+            Some(RunStatus::MarginsFailed)
+        }
+        Some("ok") => None,
+        // Any other failed run (e.g. `link_anomaly`; a summary without a status is not
+        // one this simulator wrote): its figures are not to be judged either.
+        _ => Some(RunStatus::Error),
+    }
+}
+
 /// One run, start to verdict; never fails (errors and panics become the record's status).
-pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> RunRecord {
+/// A run cut short by `cancel` gives a record that must not be kept (see [`run_shard_until`]).
+pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement], cancel: &Cancel) -> RunRecord {
     let start = Instant::now();
     let path = dir.join(&run.scenario);
-    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly_with_margins(&sc)))
+    let flown = std::panic::catch_unwind(|| Scenario::load(&path).and_then(|sc| fly_with_margins(&sc, cancel)))
         .unwrap_or_else(|p| Err(anyhow!("panic: {}", panic_message(p.as_ref()))));
     let wall_time_s = start.elapsed().as_secs_f64();
     let summary = match flown.and_then(|s| Ok(serde_json::to_value(&s)?)) {
@@ -136,15 +143,9 @@ pub fn run_one(dir: &Path, run: &PlannedRun, requirements: &[Requirement]) -> Ru
         }
     };
     let values = flatten(&summary);
-    // A diverged or refused run misses every requirement, whatever its partial figures say.
-    let failed_run = match summary.get("run_status").and_then(|s| s.as_str()) {
-        Some("diverged") => Some(RunStatus::Diverged),
-        Some("all_refused") => Some(RunStatus::AllRefused),
-        Some("ok") => None,
-        // Any other failed run (e.g. `link_anomaly`; a summary without a status is not
-        // one this simulator wrote): its figures are not to be judged either.
-        _ => Some(RunStatus::Error),
-    };
+    // A diverged, refused or margins-failed run misses every requirement, whatever its
+    // figures say.
+    let failed_run = failed_run(&summary);
     let failed_requirements: Vec<String> = requirements
         .iter()
         .filter(|r| failed_run.is_some() || !r.met_by(values.get(&r.key).copied().flatten()))
@@ -173,6 +174,9 @@ pub struct ShardReport {
     /// Runs that diverged or whose every step the flight code refused.
     pub diverged: usize,
     pub all_refused: usize,
+    /// Runs whose `[margins]` measurement is not a stable loop at a steady hold.
+    pub margins_failed: usize,
+    pub no_control: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -180,10 +184,18 @@ pub const MAX_JOBS: usize = 256;
 
 /// Runs the pending runs of `shard` on `jobs` threads (at most [`MAX_JOBS`]).
 pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Result<ShardReport> {
+    run_shard_until(dir, shard, jobs, progress, &Cancel::new())
+}
+
+/// [`run_shard`] that stops once `cancel` is cancelled (Ctrl-C in the Python package):
+/// no run starts after that, the runs in flight stop at their next control step and their
+/// results are not written, so the shard resumes with them. The report counts the runs
+/// whose results were written.
+pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, cancel: &Cancel) -> Result<ShardReport> {
     let manifest = Manifest::load(dir)?;
     let requirements = manifest.campaign()?.requirements;
     // Held until the shard returns: a second runner of these runs refuses.
-    let _lock = super::lock::ShardLock::acquire(dir, shard)?;
+    let _lock = ShardLock::acquire(dir, shard)?;
     let mine: Vec<&PlannedRun> = manifest.runs.iter().filter(|r| shard.owns(r.index)).collect();
     let pending: Vec<&PlannedRun> = mine.iter().copied().filter(|r| RunRecord::load(dir, r).is_none()).collect();
     let report =
@@ -200,7 +212,10 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
                 loop {
                     let i = next.fetch_add(1, Ordering::Relaxed);
                     let Some(run) = pending.get(i) else { break };
-                    let rec = run_one(dir, run, &requirements);
+                    let rec = run_one(dir, run, &requirements, cancel);
+                    if cancel.is_cancelled() {
+                        break; // cut short, or not to be judged: run again on resume
+                    }
                     let written = serde_json::to_vec_pretty(&rec)
                         .map_err(anyhow::Error::from)
                         .and_then(|b| write_atomic(&RunRecord::path(dir, run), &b));
@@ -218,6 +233,8 @@ pub fn run_shard(dir: &Path, shard: Shard, jobs: usize, progress: bool) -> Resul
                         RunStatus::Error => r.errors += 1,
                         RunStatus::Diverged => r.diverged += 1,
                         RunStatus::AllRefused => r.all_refused += 1,
+                        RunStatus::MarginsFailed => r.margins_failed += 1,
+                        RunStatus::NoControl => r.no_control += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

@@ -13,12 +13,41 @@
 //! - On a filesystem without advisory locks, an existing lock file is never taken
 //!   over: remove it by hand once no runner is alive.
 
-use super::exec::Shard;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use std::fs::{File, OpenOptions, TryLockError};
 use std::io::{Read, Write};
 use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// Shard `index` of `count` (0-based, as a job array's task index): runs `i` with
+/// `i % count == index`, so that every shard gets runs from the whole campaign.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl Shard {
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    pub fn owns(&self, run: u32) -> bool {
+        run % self.count == self.index
+    }
+}
+
+impl FromStr for Shard {
+    type Err = anyhow::Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let (k, n) = s.split_once('/').ok_or_else(|| anyhow!("--shard K/S (e.g. 0/4), got {s:?}"))?;
+        let index: u32 = k.trim().parse().map_err(|_| anyhow!("--shard: {k:?} is not a shard index"))?;
+        let count: u32 = n.trim().parse().map_err(|_| anyhow!("--shard: {n:?} is not a shard count"))?;
+        if count == 0 || index >= count {
+            bail!("--shard K/S needs 0 <= K < S (got {index}/{count})");
+        }
+        Ok(Shard { index, count })
+    }
+}
 
 /// The lock of one shard, held while it lives (removed on drop).
 #[derive(Debug)]

@@ -62,6 +62,15 @@ pub fn rerun_command(index: u32) -> String {
     format!("sim-host run runs/{d}/scenario.toml --out runs/{d}/out")
 }
 
+/// [`rerun_command`] with its paths under the campaign directory `dir` as the merge was
+/// given it, for `report.md`: it then works from where the campaign was run, as typed there
+/// (issue 38). `campaign.json` keeps the form relative to the campaign directory, so it
+/// stays identical whichever directory and machine merged it.
+fn rerun_from(dir: &Path, index: u32) -> String {
+    let run = dir.join("runs").join(run_dir_name(index));
+    format!("sim-host run {} --out {}", run.join("scenario.toml").display(), run.join("out").display())
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct RunValue {
     pub run: u32,
@@ -111,7 +120,8 @@ pub struct GroupRow {
     pub value: serde_json::Value,
     pub runs: usize,
     pub errors: usize,
-    /// Runs of this value that diverged or whose every step was refused.
+    /// Runs of this value that diverged, whose every step was refused, or whose margins
+    /// failed.
     pub failed_runs: usize,
     /// Runs of this value that missed each requirement (by name).
     pub failed: BTreeMap<String, usize>,
@@ -148,6 +158,13 @@ pub struct CampaignResult {
     /// each misses every requirement and fails the campaign.
     pub diverged: Vec<u32>,
     pub all_refused: Vec<u32>,
+    /// Runs whose `[margins]` measurement is not a stable loop at a steady hold (summary
+    /// `run_status` `margins_failed`: `sim-host run` exits non-zero for them): each misses
+    /// every requirement and fails the campaign.
+    pub margins_failed: Vec<u32>,
+    /// Runs the flight code could not control for a material part of (summary
+    /// `run_status` `no_control`): each misses every requirement and fails the campaign.
+    pub no_control: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -155,13 +172,15 @@ pub struct CampaignResult {
 }
 
 impl CampaignResult {
-    /// Whether the campaign passes: every run present, none in error, diverged or refused,
-    /// every requirement met.
+    /// Whether the campaign passes: every run present, none in error, diverged, refused or
+    /// with failed margins, every requirement met.
     pub fn passed(&self) -> bool {
         self.missing.is_empty()
             && self.errors.is_empty()
             && self.diverged.is_empty()
             && self.all_refused.is_empty()
+            && self.margins_failed.is_empty()
+            && self.no_control.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -325,7 +344,10 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
             if rec.status == RunStatus::Error {
                 row.errors += 1;
             }
-            if matches!(rec.status, RunStatus::Diverged | RunStatus::AllRefused) {
+            if matches!(
+                rec.status,
+                RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed | RunStatus::NoControl
+            ) {
                 row.failed_runs += 1;
             }
             for r in requirements {
@@ -380,6 +402,8 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         errors,
         diverged: runs_of(RunStatus::Diverged),
         all_refused: runs_of(RunStatus::AllRefused),
+        margins_failed: runs_of(RunStatus::MarginsFailed),
+        no_control: runs_of(RunStatus::NoControl),
         requirements,
         groups,
         statistics,
@@ -550,7 +574,7 @@ fn distribution_figure(key: &str, xs: &[f64], flown: usize, req: Option<&Require
 }
 
 /// The report's head: base scenario, run counts, failed and missing runs, the verdict.
-fn md_head(s: &mut String, r: &CampaignResult) {
+fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
     let _ = writeln!(s, "# Campaign `{}`\n", r.campaign);
     if !r.description.is_empty() {
         let _ = writeln!(s, "{}\n", r.description);
@@ -559,7 +583,8 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         s,
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
-         {} ended in error.\n",
+         {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
+         part of the run, {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -568,11 +593,18 @@ fn md_head(s: &mut String, r: &CampaignResult) {
         r.requirement_failed,
         r.diverged.len(),
         r.all_refused.len(),
+        r.margins_failed.len(),
+        r.no_control.len(),
         r.errors.len()
     );
-    for (what, runs) in [("Diverged runs", &r.diverged), ("Runs with every step refused", &r.all_refused)] {
+    for (what, runs) in [
+        ("Diverged runs", &r.diverged),
+        ("Runs with every step refused", &r.all_refused),
+        ("Runs whose margins are not a stable loop at a steady hold (`margins.status`)", &r.margins_failed),
+        ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
+    ] {
         if !runs.is_empty() {
-            let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_command(*i))).collect();
+            let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_from(dir, *i))).collect();
             let _ = writeln!(s, "**{what} ({}, each fails every requirement):** {}\n", runs.len(), shown.join(", "));
         }
     }
@@ -584,7 +616,7 @@ fn md_head(s: &mut String, r: &CampaignResult) {
 }
 
 /// The requirements table and each requirement's statement with its worst runs.
-fn md_requirements(s: &mut String, r: &CampaignResult) {
+fn md_requirements(s: &mut String, r: &CampaignResult, dir: &Path) {
     if r.requirements.is_empty() {
         return;
     }
@@ -604,18 +636,25 @@ fn md_requirements(s: &mut String, r: &CampaignResult) {
     for q in &r.requirements {
         let _ = writeln!(s, "- {}", q.statement);
         for w in q.worst.iter().take(3) {
-            let _ = writeln!(s, "  - run {}: {} = {} (`{}`)", w.run, q.requirement.key, sig_campaign(w.value), w.rerun);
+            let _ = writeln!(
+                s,
+                "  - run {}: {} = {} (`{}`)",
+                w.run,
+                q.requirement.key,
+                sig_campaign(w.value),
+                rerun_from(dir, w.run)
+            );
         }
     }
     s.push('\n');
 }
 
 /// One table per discrete dispersion, then the runs in error.
-fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
+fn md_groups_and_errors(s: &mut String, r: &CampaignResult, dir: &Path) {
     for g in &r.groups {
         let _ = writeln!(s, "## By `{}`\n", g.key);
         let names: Vec<&String> = r.requirements.iter().map(|q| &q.requirement.name).collect();
-        let _ = write!(s, "| value | runs | errors | diverged or refused |");
+        let _ = write!(s, "| value | runs | errors | diverged, refused or margins failed |");
         for n in &names {
             let _ = write!(s, " missed `{n}` |");
         }
@@ -636,7 +675,7 @@ fn md_groups_and_errors(s: &mut String, r: &CampaignResult) {
     if !r.errors.is_empty() {
         let _ = writeln!(s, "## Runs in error\n");
         for e in r.errors.iter().take(50) {
-            let _ = writeln!(s, "- run {}: {} (`{}`)", e.run, e.message, e.rerun);
+            let _ = writeln!(s, "- run {}: {} (`{}`)", e.run, e.message, rerun_from(dir, e.run));
         }
         s.push('\n');
     }
@@ -673,9 +712,9 @@ fn md_statistics(s: &mut String, r: &CampaignResult) {
 
 fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall_s: f64) -> String {
     let mut s = String::new();
-    md_head(&mut s, r);
-    md_requirements(&mut s, r);
-    md_groups_and_errors(&mut s, r);
+    md_head(&mut s, r, dir);
+    md_requirements(&mut s, r, dir);
+    md_groups_and_errors(&mut s, r, dir);
     md_statistics(&mut s, r);
     if !figures.is_empty() {
         let _ = writeln!(s, "## Figures\n");
@@ -687,7 +726,8 @@ fn report_markdown(r: &CampaignResult, figures: &[PathBuf], dir: &Path, run_wall
     }
     let _ = writeln!(
         s,
-        "Re-run any run alone from this directory with `sim-host run runs/NNNNNN/scenario.toml --out DIR`.\n\n\
+        "The commands above work from the directory the campaign was run in; from this directory, re-run any run \
+         alone with `sim-host run runs/NNNNNN/scenario.toml --out DIR`.\n\n\
          Host time of the completed runs: {run_wall_s:.2} s in all, {:.2} ms per run (not in campaign.json).",
         1e3 * run_wall_s / r.completed.max(1) as f64
     );

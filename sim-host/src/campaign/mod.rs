@@ -26,7 +26,8 @@ pub mod stats;
 
 use std::collections::BTreeMap;
 
-pub use exec::{RunRecord, RunStatus, Shard, ShardReport, run_shard};
+pub use exec::{RunRecord, RunStatus, ShardReport, run_shard, run_shard_until};
+pub use lock::Shard;
 pub use merge::{MergeOutcome, merge};
 pub use plan::{Manifest, plan};
 pub use spec::Campaign;

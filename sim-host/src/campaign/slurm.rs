@@ -129,7 +129,7 @@ pub fn write_scripts(dir: &Path, o: &SlurmOptions) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for (file, text) in texts {
         let p = slurm.join(file);
-        std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))?;
+        sim_core::files::write_atomic(&p, text.as_bytes())?;
         #[cfg(unix)]
         {
             use std::os::unix::fs::PermissionsExt;

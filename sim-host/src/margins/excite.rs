@@ -253,10 +253,12 @@ fn pseudo_inverse_rows(b: &nalgebra::DMatrix<f64>) -> Option<Vec<[f64; 3]>> {
     Some((0..n).map(|k| std::array::from_fn(|j| (0..3).map(|i| b[(i, k)] * inv[(i, j)]).sum::<f64>())).collect())
 }
 
-/// Status bits that say the loop is not linear at this step.
+/// Status bits that say the loop is not linear at this step (`RATE_SCALED`: the
+/// allocation scaled its commands to the actuators' limits, named per family by
+/// [`scaled_label`]).
 const NONLINEAR: [(u16, &str); 10] = [
     (status::TORQUE_LIMITED, "torque limited"),
-    (status::RATE_SCALED, "gimbal rates scaled"),
+    (status::RATE_SCALED, "commands scaled"),
     (status::ANGLE_LIMITED, "gimbal angle limited"),
     (status::SINGULAR, "CMG near a singularity"),
     (status::BAD_INPUT, "input refused"),
@@ -267,6 +269,17 @@ const NONLINEAR: [(u16, &str); 10] = [
     (status::NO_ESTIMATE, "no attitude estimate"),
 ];
 
+/// What the allocation's `RATE_SCALED` bit means for `family`: it scales the commands of
+/// whichever actuators it allocates to their limits.
+fn scaled_label(family: Option<Family>) -> &'static str {
+    match family {
+        Some(Family::Cmg) => "gimbal rates scaled",
+        Some(Family::Wheels) => "wheel torques scaled to their limit",
+        Some(Family::Magnetorquers) => "dipoles scaled to their limit",
+        None => "commands scaled",
+    }
+}
+
 /// The names of the nonlinear status bits a command of `family`'s loop carries, if any.
 /// Magnetorquers: the torque along the field is never made (the allocation reports it as a
 /// shortfall and a scaled command at every step: the loop's rank, not a saturation), so a
@@ -276,12 +289,33 @@ pub fn nonlinear_status(cmd: &ActuatorCommand, family: Option<Family>) -> Option
         Some(Family::Magnetorquers) => status::TORQUE_SHORTFALL | status::RATE_SCALED,
         _ => 0,
     };
-    let mut set: Vec<&str> =
-        NONLINEAR.iter().filter(|(b, _)| cmd.status & b & !expected != 0).map(|(_, n)| *n).collect();
+    let mut set: Vec<&str> = NONLINEAR
+        .iter()
+        .filter(|(b, _)| cmd.status & b & !expected != 0)
+        .map(|(b, n)| if *b == status::RATE_SCALED { scaled_label(family) } else { *n })
+        .collect();
     if family == Some(Family::Magnetorquers) && cmd.saturated != 0 {
         set.push("magnetorquer at its dipole limit");
     }
     (!set.is_empty()).then(|| set.join(", "))
+}
+
+/// Relative margin over a limit before a command counts as beyond it: the f32 rounding of a
+/// flight command the allocation scaled to the limit itself (2⁻²⁴ ≈ 6e-8 relative).
+const F32_LIMIT_TOLERANCE: f64 = 1e-6;
+
+/// Fraction of its speed limit beyond which a wheel is not linear (the ideal model's torque
+/// fades over the last 1 %, the accurate model's speed limiter acts near it).
+const WHEEL_SPEED_FRACTION: f64 = 0.95;
+
+/// A wheel within 5 % of its speed limit, if any.
+fn wheel_speed_limit(sim: &Simulation) -> Option<String> {
+    let (craft, s) = (sim.craft(), sim.state());
+    craft.wheels.iter().zip(s.wheels.iter()).enumerate().find_map(|(i, (p, ws))| {
+        let w = ws.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&s.w);
+        (w.abs() > WHEEL_SPEED_FRACTION * p.max_speed_rad_s)
+            .then(|| format!("wheel {} at {:.0} % of its speed limit", i + 1, 100.0 * w.abs() / p.max_speed_rad_s))
+    })
 }
 
 /// A wheel that makes the loop nonlinear at the operating point, if any: within 5 % of its
@@ -289,12 +323,12 @@ pub fn nonlinear_status(cmd: &ActuatorCommand, family: Option<Family>) -> Option
 /// friction model's sign-smoothing speed: stiction, where the friction torque flips with
 /// the sign of the speed).
 fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
+    if let Some(r) = wheel_speed_limit(sim) {
+        return Some(r);
+    }
     let (craft, s) = (sim.craft(), sim.state());
     craft.wheels.iter().zip(s.wheels.iter()).enumerate().find_map(|(i, (p, ws))| {
         let w = ws.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&s.w);
-        if w.abs() > 0.95 * p.max_speed_rad_s {
-            return Some(format!("wheel {} at {:.0} % of its speed limit", i + 1, 100.0 * w.abs() / p.max_speed_rad_s));
-        }
         (p.fidelity == Fidelity::Accurate && p.coulomb_nm > 0.0 && w.abs() < 3.0 * p.sign_smoothing_rad_s).then(|| {
             format!(
                 "wheel {} at {w:.2e} rad/s, inside its Coulomb-friction band (±{:.2e} rad/s): the friction torque \
@@ -307,9 +341,62 @@ fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
     })
 }
 
+/// The loop's actuators at a limit on the plant side at the last step, if any: the commands
+/// the plant received (the flight's, with the excitation added) beyond a wheel's motor-torque
+/// limit, a gimbal's rate limit or a rod's dipole limit, a non-zero rod command inside its
+/// dead band, a gimbal at an angle stop, and any wheel within 5 % of its speed limit. The
+/// flight's status bits see only its own command, and within the limits it was given.
+pub fn actuator_limit(sim: &Simulation, family: Option<Family>) -> Option<String> {
+    let (craft, c) = (sim.craft(), sim.plant_commands());
+    let beyond = |what: &str, i: usize, x: f64, unit: &str, lim: f64| {
+        format!("{what} {} command {x:.4e} {unit} beyond its {lim:.4e} {unit} limit", i + 1)
+    };
+    // A flight command scaled to exactly its limit reads back from f32 a few ulps over it.
+    let over = |x: f64, lim: f64| x.abs() > lim * (1.0 + F32_LIMIT_TOLERANCE);
+    let found = match family {
+        Some(Family::Wheels) => craft.wheels.iter().zip(c.wheel_torque_nm).enumerate().find_map(|(i, (p, x))| {
+            let lim = match p.fidelity {
+                Fidelity::Ideal => p.max_torque_nm,
+                Fidelity::Accurate => p.max_torque_nm.min(p.max_current_a * p.torque_constant_nm_per_a),
+            };
+            over(x, lim).then(|| beyond("wheel", i, x, "N m", lim))
+        }),
+        Some(Family::Cmg) => craft.cmg.as_ref().and_then(|g| {
+            let delta = &sim.state().gimbal_rad;
+            g.units.iter().enumerate().find_map(|(i, _)| {
+                let x = c.gimbal_rate_rad_s[i];
+                let stop = g.angle_limits_rad.is_some_and(|(lo, hi)| delta[i] <= lo || delta[i] >= hi);
+                if over(x, g.max_rate_rad_s) {
+                    Some(beyond("gimbal", i, x, "rad/s", g.max_rate_rad_s))
+                } else {
+                    stop.then(|| format!("gimbal {} at its angle stop", i + 1))
+                }
+            })
+        }),
+        Some(Family::Magnetorquers) => {
+            sim.magnetorquers().rods.iter().zip(c.dipole_am2).enumerate().find_map(|(i, (r, x))| {
+                if over(x.max(0.0), r.max_pos_am2) || over(x.min(0.0), r.max_neg_am2) {
+                    Some(format!("magnetorquer {} at its dipole limit (command {x:.4e} A m^2)", i + 1))
+                } else {
+                    (x != 0.0 && x > r.deadband_lo_am2 && x < r.deadband_hi_am2).then(|| {
+                        format!(
+                            "magnetorquer {} command {x:.4e} A m^2 inside its dead band: torque not realised",
+                            i + 1
+                        )
+                    })
+                }
+            })
+        }
+        None => None,
+    };
+    found.or_else(|| wheel_speed_limit(sim))
+}
+
 /// Flies `sim` from where it is to control step `k_op` (the operating point): every step
-/// from `check_from` on must be free of saturation flags, and at the end the attitude error
-/// must be within `settle_bound_deg` and no wheel near its speed limit.
+/// from `check_from` on must be free of saturation flags and of actuators at a limit
+/// ([`actuator_limit`]), and at the end the attitude error must be within
+/// `settle_bound_deg` (at `k_op = 0`, that of the initial state) and no wheel near its
+/// speed limit or in stiction.
 pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg: f64) -> Result<(), MarginError> {
     sim.extend_to(u64::MAX / 4);
     let family = Family::of(sim);
@@ -323,15 +410,15 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
             });
         }
         if sim.steps_done() > check_from
-            && let Some(reason) = sim.last_step().and_then(|(c, _)| nonlinear_status(c, family))
+            && let Some(reason) =
+                sim.last_step().and_then(|(c, _)| nonlinear_status(c, family)).or_else(|| actuator_limit(sim, family))
         {
             return Err(MarginError::NotSteady { t_s: t, reason });
         }
     }
     let t = k_op as f64 * dt;
-    if let Some((_, err)) = sim.last_step()
-        && !(*err <= settle_bound_deg)
-    {
+    let err = sim.last_step().map_or_else(|| sim.attitude_error_now_deg(), |(_, e)| *e);
+    if !(err <= settle_bound_deg) {
         let reason =
             format!("attitude error {err:.4} deg above the settle bound {settle_bound_deg} deg: not a settled hold");
         return Err(MarginError::NotSteady { t_s: t, reason });
@@ -570,8 +657,9 @@ fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
     Ok(())
 }
 
-/// Both runs still finite; the twin free of saturation (else the operating point is not a
-/// steady hold), the excited run too (else the excitation is too large to stay linear).
+/// Both runs still finite; the twin free of saturation and of actuators at a limit
+/// ([`actuator_limit`]: else the operating point is not a steady hold), the excited run too
+/// (else the excitation is too large to stay linear).
 fn check_step(
     exc: &Simulation,
     twin: &Simulation,
@@ -584,13 +672,13 @@ fn check_step(
     let (Some((ce, _)), Some((ct, _))) = (exc.last_step(), twin.last_step()) else {
         return Err(MarginError::Unstable { reason: format!("no flight command at t = {t:.3} s") });
     };
-    if let Some(r) = nonlinear_status(ct, family) {
+    if let Some(r) = nonlinear_status(ct, family).or_else(|| actuator_limit(twin, family)) {
         return Err(MarginError::NotSteady {
             t_s: t,
             reason: format!("the operating point does not stay a steady hold: {r}"),
         });
     }
-    if let Some(r) = nonlinear_status(ce, family) {
+    if let Some(r) = nonlinear_status(ce, family).or_else(|| actuator_limit(exc, family)) {
         return Err(MarginError::NotSteady {
             t_s: t,
             reason: format!("{EXCITATION_NONLINEAR} ({r}): lower --amplitude-rad"),

@@ -53,11 +53,17 @@ impl Freq {
     }
 }
 
+/// The lowest frequency of a grid asked to start at `lo` (at most half the Nyquist
+/// frequency).
+pub fn lowest(lo: f64, dt: f64) -> f64 {
+    lo.min(PI / dt / 2.0)
+}
+
 /// `count` leakage-free frequencies log-spaced from `lo` to the Nyquist frequency `π/T`
 /// (the last one exactly Nyquist), duplicates removed, ascending.
 pub fn log_grid(lo: f64, count: usize, dt: f64) -> Vec<Freq> {
     let hi = PI / dt;
-    let lo = lo.min(hi / 2.0);
+    let lo = lowest(lo, dt);
     let mut out: Vec<Freq> = (0..count)
         .map(|i| {
             if i + 1 == count {

@@ -32,7 +32,7 @@ use grid::Freq;
 use response::{Pool, Response, Setup};
 use sim_core::environment::model::FrozenField;
 use sim_core::link::{LinkKind, LinkOptions};
-use sim_core::scenario::{Resolved, Scenario};
+use sim_core::scenario::{OptionRefused, Resolved, Scenario, margin_check as check};
 use std::time::Instant;
 
 /// Why no margin could be measured.
@@ -48,6 +48,9 @@ pub enum MarginError {
     Unstable { reason: String },
     /// The sweep would cost more plant steps than `MarginOptions::max_plant_steps` allows.
     OverBudget(OverBudget),
+    /// An option outside its range ([`MarginOptions::check`]), or a crossover hint that
+    /// put the whole grid above the loop's crossover: named as its flag.
+    Refused(OptionRefused),
 }
 
 /// A measurement refused over its plant-step budget: what it had charged, and the batch
@@ -82,11 +85,12 @@ impl MarginError {
     }
 
     /// The command's exit status for this error: 1 flight/scenario error, 2 unsupported,
-    /// 3 not a steady hold or unstable.
+    /// over budget or an option refused (as the command line refuses a flag), 3 not a
+    /// steady hold or unstable.
     pub fn exit_code(&self) -> i32 {
         match self {
             MarginError::Flight(_) => 1,
-            MarginError::Unsupported(_) | MarginError::OverBudget(_) => 2,
+            MarginError::Unsupported(_) | MarginError::OverBudget(_) | MarginError::Refused(_) => 2,
             MarginError::NotSteady { .. } | MarginError::Unstable { .. } => 3,
         }
     }
@@ -104,6 +108,7 @@ impl std::fmt::Display for MarginError {
                 write!(f, "the operating point is not a steady hold: {reason}; no margin measured")
             }
             MarginError::Unstable { reason } => write!(f, "unstable at operating point: {reason}"),
+            MarginError::Refused(r) => write!(f, "{r}"),
             MarginError::OverBudget(o) => write!(
                 f,
                 "not measured: the sweep would cost at least {:.3e} plant steps, over the budget of {:.3e} ({}); \
@@ -151,6 +156,25 @@ pub struct MarginOptions {
     /// Measure an adaptive law (DMCS) at its frozen adaptation state ([`freeze`], the
     /// default); `false`: as flown, adapting in each run.
     pub freeze_adaptation: bool,
+}
+
+impl MarginOptions {
+    /// Every option within its range, for a scenario of `duration_s` flown at the control
+    /// period `dt_s` (the checks the scenario's `[margins]` and the command line's flags use:
+    /// [`sim_core::scenario::margin_check`]); the refusal names the flag.
+    pub fn check(&self, duration_s: f64, dt_s: f64) -> Result<(), OptionRefused> {
+        check::at_s(self.at_s.unwrap_or(duration_s), duration_s)?;
+        check::grid_points(self.grid_points)?;
+        check::threads(self.threads)?;
+        check::amplitude_rad(self.amplitude_rad)?;
+        if let Some(w) = self.crossover_hint_rad_s {
+            check::crossover_hint(w, Some(dt_s))?;
+        }
+        if let Some(n) = self.max_plant_steps {
+            check::max_plant_steps(n)?;
+        }
+        Ok(())
+    }
 }
 
 impl Default for MarginOptions {
@@ -306,10 +330,8 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     let settle = resolved.performance.settle_bound_deg;
     let substeps = u64::from(resolved.clock.substeps.max(1));
     drop(resolved);
+    opts.check(scenario.duration_s, dt).map_err(MarginError::Refused)?;
     let at_s = opts.at_s.unwrap_or(scenario.duration_s);
-    if !(at_s.is_finite() && at_s >= 0.0) {
-        return Err(MarginError::Flight(format!("--at {at_s}: must be a time >= 0 s")));
-    }
     let k_op = (at_s / dt).round() as u64;
     let mut setup = Setup {
         scenario,
@@ -456,6 +478,7 @@ fn with_context(e: MarginError, closed: &MarginError) -> MarginError {
         MarginError::Flight(r) => MarginError::Flight(add(r)),
         MarginError::Unsupported(r) => MarginError::Unsupported(add(r)),
         MarginError::OverBudget(o) => MarginError::OverBudget(OverBudget { context: add(o.context), ..o }),
+        refused @ MarginError::Refused(_) => refused,
     }
 }
 
@@ -467,9 +490,16 @@ fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured,
         None => pilot(pool, plan, &mut m)?,
     };
     let wc = m.crossover_estimate_rad_s;
-    let grid = grid::log_grid(wc / GRID_BELOW_CROSSOVER, opts.grid_points.max(2), plan.dt);
+    let grid = grid::log_grid(wc / GRID_BELOW_CROSSOVER, opts.grid_points, plan.dt);
+    if !opts.refine {
+        let (lo, hi) = (grid::lowest(wc / GRID_BELOW_CROSSOVER, plan.dt), std::f64::consts::PI / plan.dt);
+        check::unrefined_spacing(opts.grid_points, lo, hi).map_err(MarginError::Refused)?;
+    }
     measure_frequencies(pool, plan, &grid, wc, &mut m)?;
     unsettled(&m)?;
+    if let Some(hint) = opts.crossover_hint_rad_s {
+        crossover_in_grid(&m, plan, hint)?;
+    }
     if opts.refine {
         for _ in 0..REFINE_ROUNDS {
             let new: Vec<Freq> = refinement_points(&m.response, plan.dt);
@@ -481,6 +511,31 @@ fn sweep(pool: &mut Pool, plan: &Plan, opts: &MarginOptions) -> Result<Measured,
         }
     }
     Ok(m)
+}
+
+/// A hinted grid must start below the loop's crossover, as the pilot's does: every actuated
+/// axis's `|l_i|` above 1 at the lowest grid frequency (an attitude loop — a double
+/// integrator under its law — has its gain crossover above it). Otherwise the crossover
+/// lies below the grid and no margin on the grid is the loop's.
+fn crossover_in_grid(m: &Measured, plan: &Plan, hint: f64) -> Result<(), MarginError> {
+    let (Some(f), Some(l)) = (m.response.freqs.first(), m.response.l.first()) else { return Ok(()) };
+    let Some(s) = analysis::sensitivity(l) else { return Ok(()) };
+    let w = f.rad_s(plan.dt);
+    for (i, name) in plan.axes.names().iter().enumerate().take(plan.axes.actuated) {
+        let g = analysis::loop_at_a_time(&s, i).norm();
+        if !(g > 1.0) {
+            return Err(MarginError::Refused(OptionRefused {
+                option: sim_core::scenario::MarginOption::CrossoverHint,
+                value: format!("{hint}"),
+                why: format!(
+                    "the grid starts above the loop's gain crossover (axis {name}: |l| = {g:.4} at its lowest frequency \
+                     {w:.5} rad/s, the hint / {GRID_BELOW_CROSSOVER}): no margin on it would be the loop's; give a hint \
+                     nearer the crossover, or none (the pilot sweep finds it)"
+                ),
+            }));
+        }
+    }
+    Ok(())
 }
 
 /// More than a tenth of the experiments so far (the pilot's excepted: it waits on a guess)

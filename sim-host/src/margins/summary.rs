@@ -4,14 +4,22 @@
 //! require.
 
 use super::{MarginError, MarginOptions, MarginReport, measure};
-use sim_core::runner::{MarginStatus, MarginSummary};
-use sim_core::scenario::{MarginRequest, Scenario};
+use sim_core::runner::{MarginStatus, MarginSummary, Summary};
+use sim_core::scenario::{MarginRequest, Scenario, THREADS};
 
 impl MarginOptions {
     /// These options (link, threads) with the operating point, loop and grid of a
-    /// `[margins]` request.
+    /// `[margins]` request, refined (`[margins]` always refines). The caller's thread count
+    /// (the machine's cores, not a user's choice) is kept within [`THREADS`].
     pub fn with_request(&self, req: &MarginRequest) -> Self {
-        Self { at_s: Some(req.at_s), point: req.point, grid_points: req.grid_points, ..self.clone() }
+        Self {
+            at_s: Some(req.at_s),
+            point: req.point,
+            grid_points: req.grid_points,
+            refine: true,
+            threads: self.threads.clamp(THREADS.0, THREADS.1),
+            ..self.clone()
+        }
     }
 }
 
@@ -42,7 +50,7 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
         Ok(r) => r,
         Err(e) => {
             let status = match e {
-                MarginError::Flight(_) => MarginStatus::Error,
+                MarginError::Flight(_) | MarginError::Refused(_) => MarginStatus::Error,
                 MarginError::Unsupported(_) => MarginStatus::Unsupported,
                 MarginError::OverBudget(_) => MarginStatus::OverBudget,
                 MarginError::NotSteady { .. } => MarginStatus::NotSteady,
@@ -52,9 +60,22 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
         }
     };
     let axes = &r.axes;
+    // A loop measured unstable keeps its figures (how far from stable), beside its status.
+    let (status, reason) = if r.stable {
+        (MarginStatus::Measured, None)
+    } else {
+        (
+            MarginStatus::Unstable,
+            Some(format!(
+                "measured {} loop with a negative margin: the loop is not stable at the operating point (the \
+                 figures are those of the unstable loop)",
+                if r.method == super::Method::Open { "open" } else { "closed" }
+            )),
+        )
+    };
     MarginSummary {
-        status: MarginStatus::Measured,
-        reason: None,
+        status,
+        reason,
         at_s: r.at_s,
         loop_point: r.loop_point,
         method: serde_json::to_value(r.method).ok().and_then(|v| v.as_str().map(str::to_owned)),
@@ -71,7 +92,8 @@ pub fn summarize(req: &MarginRequest, measured: &Result<MarginReport, MarginErro
 }
 
 /// Measures the margins `[margins]` asks for (None without the table). An invalid table is
-/// an error; a refused measurement is a summary with its status and reason.
+/// an error; a refused measurement is a summary with its status and reason. [`record`]
+/// puts it into a run's summary.
 pub fn for_scenario(
     sc: &Scenario,
     base: &MarginOptions,
@@ -81,9 +103,18 @@ pub fn for_scenario(
     Ok(Some((summarize(&req, &measured), measured.ok())))
 }
 
-/// The exit status a run with `[margins]` ends with: 0 when measured and stable, else
-/// `sim-host margins`'s (1 error, 2 unsupported, 3 not steady, unstable or a negative
-/// margin).
+/// Measures the margins `[margins]` asks for into `summary` ([`Summary::record_margins`]:
+/// a measurement that is not a stable loop at a steady hold fails the run,
+/// `run_status` `margins_failed`); returns the report when one was measured.
+pub fn record(sc: &Scenario, base: &MarginOptions, summary: &mut Summary) -> anyhow::Result<Option<MarginReport>> {
+    let Some((m, report)) = for_scenario(sc, base)? else { return Ok(None) };
+    summary.record_margins(m);
+    Ok(report)
+}
+
+/// The exit status a run with `[margins]` ends with: 0 when measured (a stable loop at a
+/// steady hold), else `sim-host margins`'s (1 error, 2 unsupported or over budget, 3 not
+/// steady, or unstable — diverged, or measured with a negative margin).
 pub fn exit_code(m: &MarginSummary) -> i32 {
     match m.status {
         MarginStatus::Measured if m.stable == Some(true) => 0,
@@ -98,7 +129,7 @@ pub fn line(m: &MarginSummary) -> String {
     use crate::format::sig_short as sig;
     let f = |v: Option<f64>, unit: &str| v.map_or("inf".into(), |x| format!("{}{unit}", sig(x, 4)));
     match m.status {
-        MarginStatus::Measured => format!(
+        MarginStatus::Measured | MarginStatus::Unstable if m.stable.is_some() => format!(
             "margins at t = {} s ({} loop, {}), worst axis: PM {}, GM {} / {}, delay margin {}, crossover {}, \
              multiloop disk alpha {}; {}",
             sig(m.at_s, 6),

@@ -61,6 +61,7 @@ fn refusal(e: &MarginError, sc: &Scenario) -> String {
         ),
         MarginError::Unstable { reason } => format!("Unstable: {}", first(reason)),
         MarginError::Flight(m) => format!("Error: {}", first(m)),
+        MarginError::Refused(r) => format!("Error: {r}"),
     }
 }
 

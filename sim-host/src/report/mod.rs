@@ -209,8 +209,8 @@ pub fn generate(o: &Options) -> Result<Report> {
         doc.insert(1, margins_section(t));
     }
     let markdown = render::markdown(&doc);
-    std::fs::write(o.out.join("report.md"), &markdown)?;
-    std::fs::write(o.out.join("index.html"), render::html(&doc, "Reproduction report"))?;
+    sim_core::files::write_atomic(&o.out.join("report.md"), markdown.as_bytes())?;
+    sim_core::files::write_atomic(&o.out.join("index.html"), render::html(&doc, "Reproduction report").as_bytes())?;
     Ok(Report { rows, experiments, markdown })
 }
 
@@ -287,7 +287,7 @@ fn title_word(file: &str, _title: &str) -> String {
 }
 
 /// The report's opening section: what it is, the verdict counts, one row per paper.
-fn intro_section(rows: &[Row]) -> Section {
+fn intro_section(rows: &[Row], papers: &[String]) -> Section {
     let count = |v: Verdict| rows.iter().filter(|r| r.verdict == v).count();
     let mut intro = vec![
         Block::Para(
@@ -329,7 +329,20 @@ fn intro_section(rows: &[Row]) -> Section {
         header: ["paper", "outcomes", "reproduced", "differs, explained", "differs, open"].map(String::from).to_vec(),
         rows: summary_rows,
     });
-    Section { level: 1, title: "Reproduction report: the five source papers".into(), blocks: intro }
+    // `--papers` narrows the report: its title says which it holds (issue 38).
+    let title = if papers.is_empty() {
+        "Reproduction report: the five source papers".to_owned()
+    } else {
+        format!(
+            "Reproduction report: {} only",
+            papers
+                .iter()
+                .map(|p| if p.bytes().all(|b| b.is_ascii_digit()) { format!("paper {p}") } else { p.clone() })
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    Section { level: 1, title, blocks: intro }
 }
 
 /// A paper's published outcomes beside ours.
@@ -465,7 +478,7 @@ fn document(
     papers: &[String],
     mut checks: Option<(Block, Block)>,
 ) -> Vec<Section> {
-    let mut doc = vec![intro_section(rows)];
+    let mut doc = vec![intro_section(rows, papers)];
     for (p, title) in PAPERS {
         if !papers.is_empty() && !papers.iter().any(|x| x == p) {
             continue;

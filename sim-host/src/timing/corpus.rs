@@ -102,10 +102,9 @@ impl Corpus {
 
     pub fn save(&self, path: &Path) -> Result<()> {
         if let Some(d) = path.parent() {
-            std::fs::create_dir_all(d)?;
+            std::fs::create_dir_all(d).with_context(|| format!("creating {} (for {})", d.display(), path.display()))?;
         }
-        std::fs::write(path, serde_json::to_string_pretty(self)? + "\n")
-            .with_context(|| format!("writing {}", path.display()))
+        sim_core::files::write_atomic(path, (serde_json::to_string_pretty(self)? + "\n").as_bytes())
     }
 }
 

@@ -431,7 +431,15 @@ impl<'a> Evaluator<'a> {
                     slots: t.slots.iter().map(|(m, p)| (*m, with_failures(p, failed_mask))).collect(),
                     manager: t.manager,
                 };
-                let mut ok = true;
+                // An armed table refuses slots of another control rate (the flight's rule:
+                // one table, one rate), and the link may hold the previous scenario's table:
+                // a single set first clears it, so each scenario starts from its own table.
+                let mut ok = match t.slots.first() {
+                    Some((_, p)) => {
+                        matches!(self.link.request(&HostMsg::UploadParams(*p))?, FswMsg::ParamsAccepted { .. })
+                    }
+                    None => false,
+                };
                 for (mode, params) in &t.slots {
                     let r = self.link.request(&HostMsg::UploadModeParams { mode: *mode, params: *params })?;
                     ok &= matches!(r, FswMsg::ParamsAccepted { .. });

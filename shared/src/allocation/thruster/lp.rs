@@ -65,7 +65,8 @@
 //! bounds are non-finite or inverted. `λ = 0`; `realised = B u` and
 //! `shortfall = m_d - realised` (components set to 0 where non-finite).
 
-use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, default_iteration_cap};
+use super::Bounds;
+use super::simplex::{Basis, Dot2, Fault, Lp, LpSolution, LpStatus, at, clampf, default_iteration_cap, solve3};
 use super::zonotope::{self, Geo};
 use crate::allocation::{AXES, AllocOutcome, AllocResult, AllocStatus};
 
@@ -74,13 +75,6 @@ pub const LAMBDA_TOL: f32 = 1e-5;
 /// A thruster is flagged saturated when within `SAT_TOL · (u_hi - u_lo)` of a bound
 /// (a failed thruster, `u_lo = u_hi`, is flagged at both).
 pub const SAT_TOL: f32 = 1e-5;
-
-/// Per-call admissible thrust interval `[lo, hi]` (eq 8).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds<const N: usize> {
-    pub lo: [f32; N],
-    pub hi: [f32; N],
-}
 
 /// Rate limits (eqs 6-7): `rho_min <= u̇ <= rho_max`, previous command `u_prev`,
 /// sample time `dt` (the paper's `T`).
@@ -117,93 +111,6 @@ impl Failures {
         }
         Self { failed, stuck_on: 0 }
     }
-}
-
-/// Panic-free clamp (`f32::clamp` asserts `lo <= hi`): `lo` wins if `lo > hi`,
-/// NaN `x` gives `lo`.
-#[inline(always)]
-pub(crate) fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
-    if !(x >= lo) {
-        lo
-    } else if x > hi {
-        hi
-    } else {
-        x
-    }
-}
-
-/// Solve the 3×3 system `a z = r` by Gaussian elimination with partial pivoting,
-/// plus one step of iterative refinement with a compensated residual ([`Dot2`]).
-/// `Ok(None)` if singular (pivot < 1e-12 · max |a|) or non-finite.
-pub(crate) fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
-    let amax = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
-    if !(amax > 0.0) || !amax.is_finite() {
-        return Ok(None);
-    }
-    let elim = |rhs: &[f32; 3]| -> Result<Option<[f32; 3]>, Fault> {
-        let mut m = *a;
-        let mut v = *rhs;
-        // column 0..2 pivoting, written out (no runtime indexing)
-        let piv = |m: &mut [[f32; 3]; 3], v: &mut [f32; 3], c: usize| -> Result<f32, Fault> {
-            let mut best = c;
-            let mut bv = 0.0f32;
-            for (i, row) in m.iter().enumerate().skip(c) {
-                let x = at(row, c)?.abs();
-                if x > bv {
-                    bv = x;
-                    best = i;
-                }
-            }
-            m.swap(c.min(2), best.min(2));
-            v.swap(c.min(2), best.min(2));
-            Ok(bv)
-        };
-        for c in 0..3usize {
-            if !(piv(&mut m, &mut v, c)? > 1e-12 * amax) {
-                return Ok(None);
-            }
-            let (prow, pv) = (at(&m, c)?, at(&v, c)?);
-            let p = at(&prow, c)?;
-            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c.saturating_add(1)) {
-                let f = at(row, c)? / p;
-                for (x, y) in row.iter_mut().zip(prow.iter()) {
-                    *x -= f * y;
-                }
-                *vi -= f * pv;
-            }
-        }
-        let mut z = [0.0f32; 3];
-        for c in (0..3usize).rev() {
-            let row = at(&m, c)?;
-            let mut acc = at(&v, c)?;
-            for (k, zk) in z.iter().enumerate().skip(c.saturating_add(1)) {
-                acc -= at(&row, k)? * zk;
-            }
-            *z.get_mut(c).ok_or(Fault)? = acc / at(&row, c)?;
-        }
-        Ok(if z.iter().all(|x| x.is_finite()) { Some(z) } else { None })
-    };
-    let Some(z) = elim(r)? else {
-        return Ok(None);
-    };
-    let mut res = [0.0f32; 3];
-    for ((ri, row), rhs) in res.iter_mut().zip(a.iter()).zip(r.iter()) {
-        let mut acc = Dot2::new(*rhs);
-        for (aij, zj) in row.iter().zip(z.iter()) {
-            acc.add_prod(-*aij, *zj);
-        }
-        *ri = acc.value();
-    }
-    Ok(match elim(&res)? {
-        Some(dz) => {
-            let mut out = z;
-            for (o, d) in out.iter_mut().zip(dz.iter()) {
-                *o += d;
-            }
-            Some(out)
-        }
-        None => Some(z),
-    })
 }
 
 /// `k = argmax |m_i|` (first on ties), `|m_k|` and `m̂ = m_d / |m_k|`.

@@ -18,6 +18,13 @@ pub mod pwpf;
 pub mod simplex;
 mod zonotope;
 
-pub use lp::{Allocator, Bounds, Failures, RateLimit};
+pub use lp::{Allocator, Failures, RateLimit};
 pub use pwpf::{Pwpf, PwpfParams};
 pub use simplex::{Basis, Fault, Lp, LpSolution, LpStatus, Pricing};
+
+/// Per-call admissible thrust interval `[lo, hi]` (eq 8).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds<const N: usize> {
+    pub lo: [f32; N],
+    pub hi: [f32; N],
+}

@@ -171,7 +171,7 @@ impl<const N: usize> Pwpf<N> {
                 was_on
             };
             let y = if on { self.p.u_m } else { 0.0 };
-            let rin = if ri.is_finite() { super::lp::clampf(*ri, -lim, lim) } else { 0.0 };
+            let rin = if ri.is_finite() { super::simplex::clampf(*ri, -lim, lim) } else { 0.0 };
             // Kahan: f += c (Km e - f)
             let inc = self.c * (self.p.km * (rin - y) - *f) - *comp;
             let next = *f + inc;

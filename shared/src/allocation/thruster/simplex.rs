@@ -58,6 +58,11 @@
 //! overflows return [`LpStatus::NonFinite`]; `h_j < 0` returns
 //! [`LpStatus::Infeasible`]. All array accesses are checked (`get`) or iterator
 //! based; loops are bounded by `M`, `N` and the iteration cap.
+//!
+//! # Shared numerics
+//! The small helpers both solvers of the allocation use live here, below them
+//! ([`super::lp`] and the geometric `zonotope` solve): the compensated dot product
+//! [`Dot2`], the panic-free [`clampf`] and the 3×3 solve [`solve3`].
 
 /// Pivot tolerance: a scaled tableau entry with `|α| <= PIVOT_TOL` is never pivoted on
 /// (its basic variable is not limited by the ratio test; the result is snapped back
@@ -1094,6 +1099,93 @@ impl Dot2 {
     pub(crate) fn value(&self) -> f32 {
         self.s + self.c
     }
+}
+
+/// Panic-free clamp (`f32::clamp` asserts `lo <= hi`): `lo` wins if `lo > hi`,
+/// NaN `x` gives `lo`.
+#[inline(always)]
+pub(crate) fn clampf(x: f32, lo: f32, hi: f32) -> f32 {
+    if !(x >= lo) {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
+/// Solve the 3×3 system `a z = r` by Gaussian elimination with partial pivoting,
+/// plus one step of iterative refinement with a compensated residual ([`Dot2`]).
+/// `Ok(None)` if singular (pivot < 1e-12 · max |a|) or non-finite.
+pub(crate) fn solve3(a: &[[f32; 3]; 3], r: &[f32; 3]) -> Result<Option<[f32; 3]>, Fault> {
+    let amax = a.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
+    if !(amax > 0.0) || !amax.is_finite() {
+        return Ok(None);
+    }
+    let elim = |rhs: &[f32; 3]| -> Result<Option<[f32; 3]>, Fault> {
+        let mut m = *a;
+        let mut v = *rhs;
+        // column 0..2 pivoting, written out (no runtime indexing)
+        let piv = |m: &mut [[f32; 3]; 3], v: &mut [f32; 3], c: usize| -> Result<f32, Fault> {
+            let mut best = c;
+            let mut bv = 0.0f32;
+            for (i, row) in m.iter().enumerate().skip(c) {
+                let x = at(row, c)?.abs();
+                if x > bv {
+                    bv = x;
+                    best = i;
+                }
+            }
+            m.swap(c.min(2), best.min(2));
+            v.swap(c.min(2), best.min(2));
+            Ok(bv)
+        };
+        for c in 0..3usize {
+            if !(piv(&mut m, &mut v, c)? > 1e-12 * amax) {
+                return Ok(None);
+            }
+            let (prow, pv) = (at(&m, c)?, at(&v, c)?);
+            let p = at(&prow, c)?;
+            for (row, vi) in m.iter_mut().zip(v.iter_mut()).skip(c.saturating_add(1)) {
+                let f = at(row, c)? / p;
+                for (x, y) in row.iter_mut().zip(prow.iter()) {
+                    *x -= f * y;
+                }
+                *vi -= f * pv;
+            }
+        }
+        let mut z = [0.0f32; 3];
+        for c in (0..3usize).rev() {
+            let row = at(&m, c)?;
+            let mut acc = at(&v, c)?;
+            for (k, zk) in z.iter().enumerate().skip(c.saturating_add(1)) {
+                acc -= at(&row, k)? * zk;
+            }
+            *z.get_mut(c).ok_or(Fault)? = acc / at(&row, c)?;
+        }
+        Ok(if z.iter().all(|x| x.is_finite()) { Some(z) } else { None })
+    };
+    let Some(z) = elim(r)? else {
+        return Ok(None);
+    };
+    let mut res = [0.0f32; 3];
+    for ((ri, row), rhs) in res.iter_mut().zip(a.iter()).zip(r.iter()) {
+        let mut acc = Dot2::new(*rhs);
+        for (aij, zj) in row.iter().zip(z.iter()) {
+            acc.add_prod(-*aij, *zj);
+        }
+        *ri = acc.value();
+    }
+    Ok(match elim(&res)? {
+        Some(dz) => {
+            let mut out = z;
+            for (o, d) in out.iter_mut().zip(dz.iter()) {
+                *o += d;
+            }
+            Some(out)
+        }
+        None => Some(z),
+    })
 }
 
 #[cfg(test)]

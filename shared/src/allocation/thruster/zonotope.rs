@@ -42,8 +42,8 @@
 //! Loops: pairs `≤ N²/2`, triples `≤ N³/6`, each over `N` generators: bounded by the
 //! capacity `N <= 32`, no iteration depends on the data.
 
-use super::lp::{Bounds, clampf, solve3};
-use super::simplex::{Dot2, Fault, at};
+use super::Bounds;
+use super::simplex::{Dot2, Fault, at, clampf, solve3};
 use crate::allocation::AXES;
 
 /// A generator is "in a facet's plane" when `|n·g| <= DEGEN_TOL · ‖n‖₁ · max|g|`

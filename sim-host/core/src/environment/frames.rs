@@ -55,6 +55,53 @@ impl EarthRotation {
     }
 }
 
+/// Largest |UT1 − UTC| a scenario may give, s (the IERS keeps it within 0.9 s).
+pub const MAX_UT1_UTC_S: f64 = 1.0;
+/// Largest polar-motion coordinate a scenario may give, arcsec (observed within ±0.6″).
+pub const MAX_POLAR_MOTION_ARCSEC: f64 = 1.0;
+
+/// The truth's orientation of the Earth for ground sites (`[orbit] ut1_utc_s`,
+/// `polar_motion_arcsec`): the terrestrial (ITRF) frame in the simulator's ECI,
+/// `r_eci = R3(−θ(UT1)) W r_itrf`, with θ the Earth rotation angle ([`EarthRotation`])
+/// of UT1 = UTC + `ut1_utc_s` and `W = R2(−x_p) R1(−y_p)` in passive-rotation terms the
+/// IERS polar-motion matrix (IERS Conventions 2010 eq 5.3; Vallado 4th ed. eq 3-77)
+/// without the TIO locator s′ (< 0.05 mas per century). Neither term moves the magnetic
+/// field, which keeps the Earth rotation of UTC (its model error, ≥ 100 nT, dwarfs
+/// 0.9 s of rotation: 0.004° of longitude).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EarthOrientation {
+    pub rotation: EarthRotation,
+    pub ut1_utc_s: f64,
+    /// Polar motion `x_p`, `y_p`, rad.
+    pub xp_rad: f64,
+    pub yp_rad: f64,
+}
+
+impl EarthOrientation {
+    /// The rotation of `rotation` alone (UT1 = UTC, no polar motion).
+    pub fn of(rotation: EarthRotation) -> Self {
+        Self { rotation, ut1_utc_s: 0.0, xp_rad: 0.0, yp_rad: 0.0 }
+    }
+
+    /// Earth rotation angle at scenario time `t_s` (UTC), rad: the GMST of UT1.
+    pub fn angle(&self, t_s: f64) -> f64 {
+        self.rotation.angle(t_s + self.ut1_utc_s)
+    }
+
+    /// The polar-motion matrix `W`: `r_pef = W r_itrf`.
+    pub fn polar_motion(&self) -> Matrix3<f64> {
+        // Passive R2(x_p) R1(y_p) = active rotations by −x_p about y and −y_p about x.
+        let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), -self.xp_rad);
+        let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), -self.yp_rad);
+        (ry * rx).into_inner()
+    }
+
+    /// ITRF → ECI at `t_s`: `r_eci = M r_itrf`.
+    pub fn itrf_to_eci(&self, t_s: f64) -> Matrix3<f64> {
+        rot_eci_to_ecef(self.angle(t_s)).inverse().into_inner() * self.polar_motion()
+    }
+}
+
 /// GMST, IAU-1982 model (Aoki et al. 1982; Vallado 4th ed. eq. 3-47; SOFA `iauGmst82`),
 /// for the UT1 Julian date `jd_ut1 + extra_days` (two parts keep the precision).
 /// `GMST[s] = 67310.54841 + (876600 h + 8640184.812866 s) T + 0.093104 T^2 - 6.2e-6 T^3`;
@@ -255,6 +302,24 @@ mod tests {
         }
         println!("geodetic round trip worst error {worst:.3e} m");
         assert!(worst < 1e-3);
+    }
+
+    /// Polar motion moves the pole to `(x_p, −y_p)` in ITRF (IERS sign convention), and
+    /// UT1 − UTC turns the Earth by `ω_E (UT1 − UTC)`.
+    #[test]
+    fn earth_orientation_moves_the_pole_and_the_meridian() {
+        let base = EarthOrientation::of(EarthRotation::Simple { theta0_rad: 0.7 });
+        let (xp, yp) = (1e-6, -2e-6);
+        let o = EarthOrientation { xp_rad: xp, yp_rad: yp, ..base };
+        // The CIP (z of PEF) in ITRF: Wᵀ ẑ.
+        let pole = o.polar_motion().transpose() * Vector3::z();
+        assert!((pole - Vector3::new(xp, -yp, 1.0)).norm() < 1e-11, "{pole}");
+        let m = o.polar_motion();
+        assert!((m.transpose() * m - Matrix3::identity()).norm() < 1e-15);
+        let late = EarthOrientation { ut1_utc_s: 0.5, ..base };
+        let g = Vector3::new(WGS84_A, 0.0, 0.0);
+        let d = (late.itrf_to_eci(10.0) * g - base.itrf_to_eci(10.0) * g).norm();
+        assert!((d / (WGS84_A * OMEGA_E * 0.5) - 1.0).abs() < 1e-6, "{d}");
     }
 
     #[test]

@@ -2,6 +2,8 @@
 //!
 //! * [`orbit`]: circular / Kepler / J2 (RK4) / TLE (SGP4) propagation in ECI.
 //! * [`frames`]: Earth rotation (GMST), ECI <-> ECEF, WGS-84 geodetic, LVLH, orbit rate.
+//! * [`guidance`]: the truth of pointing: directions, the ideal two-vector attitude, the
+//!   errors of the true attitude from it.
 //! * [`magnetic`]: tilted dipole and WMM (2020-2029) field in ECI.
 //! * [`torques`]: gravity gradient, drag, SRP, residual dipole, harmonic external torques.
 //!
@@ -9,6 +11,7 @@
 //! `q_ib` (nalgebra `UnitQuaternion`, Hamilton) maps body vectors to ECI, `v_I = q_ib * v_B`;
 //! project storage `[x, y, z, w]` = `q.coords`.
 pub mod frames;
+pub mod guidance;
 pub mod magnetic;
 pub mod model;
 pub mod orbit;

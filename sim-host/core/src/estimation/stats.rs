@@ -54,6 +54,8 @@ pub struct EstimationFigures {
     pub error_final_deg: Option<f64>,
     pub bias_error_final_deg_h: Option<f64>,
     pub nees_mean: Option<f64>,
+    /// Steps where the filter ran (the figures are over them).
+    pub steps: u64,
     pub innovations_rejected: u32,
     pub resets: u16,
     pub sample_fusion: SampleFusion,
@@ -150,8 +152,12 @@ impl EstimationStats {
     pub fn sample_columns(&self) -> [f64; 7] {
         let age = |a: f32| if a < 0.0 { f64::NAN } else { f64::from(a) };
         let (a, f) = (&self.ages, &self.fusion);
-        let refused =
-            f.too_old.saturating_add(f.from_the_future).saturating_add(f.out_of_order).saturating_add(f.bad_input);
+        let refused = f
+            .too_old
+            .saturating_add(f.from_the_future)
+            .saturating_add(f.out_of_order)
+            .saturating_add(f.bad_input)
+            .saturating_add(f.dropped_waiting);
         [
             age(a.gyro),
             age(a.star_tracker),
@@ -168,6 +174,9 @@ impl EstimationStats {
         SampleFusion {
             fused: f.fused_now.saturating_add(f.fused_late),
             fused_late: f.fused_late,
+            fused_after_wait: f.fused_after_wait,
+            waiting_at_end: f.waiting,
+            refused_dropped_waiting: f.dropped_waiting,
             refused_too_old: f.too_old,
             refused_from_the_future: f.from_the_future,
             refused_out_of_order: f.out_of_order,
@@ -194,6 +203,7 @@ impl EstimationStats {
             error_final_deg: self.last_error_deg(),
             bias_error_final_deg_h: self.last_bias_err_deg_h,
             nees_mean: (self.n_nees > 0).then(|| self.sum_nees / self.n_nees as f64),
+            steps: self.n,
             innovations_rejected: self.rejected,
             resets: self.resets,
             sample_fusion: self.sample_fusion(),

@@ -4,8 +4,10 @@
 //! - [`framed::Framed`]: the postcard/COBS/CRC protocol over any byte stream
 //!   (TCP to a board bridge or to QEMU, a serial port);
 //! - [`qemu`]: starts the real firmware under QEMU and connects a `Framed` link to it;
-//! - [`tap::Tap`]: wraps any link and hands every step reply to a hook (the telemetry tap).
+//! - [`tap::Tap`]: wraps any link and hands every step reply to a hook (the telemetry tap);
+//! - [`cancel::Cancellable`]: wraps any link so that another thread can stop what flies on it.
 
+pub mod cancel;
 pub mod framed;
 pub mod in_process;
 pub mod qemu;
@@ -226,13 +228,23 @@ impl std::str::FromStr for LinkKind {
 pub struct LinkOptions {
     /// Firmware ELF for `qemu`; default: the release build under `firmware/target`.
     pub firmware: Option<PathBuf>,
+    /// Stops every link opened with these options, and their forks, once cancelled
+    /// ([`cancel`]: Ctrl-C in the Python package); `None`: not cancellable.
+    pub cancel: Option<cancel::Cancel>,
 }
 
 pub fn open(kind: &LinkKind, opts: &LinkOptions) -> Result<Box<dyn FlightLink>> {
-    Ok(match kind {
+    if let Some(c) = &opts.cancel {
+        c.check()?;
+    }
+    let link: Box<dyn FlightLink> = match kind {
         LinkKind::InProcess => Box::new(in_process::InProcess::new()),
         LinkKind::Qemu => Box::new(qemu::QemuLink::start(opts.firmware.as_deref())?),
         LinkKind::Tcp(addr) => Box::new(framed::Framed::tcp(addr)?),
         LinkKind::Serial { device, baud } => Box::new(framed::Framed::serial(device, *baud)?),
+    };
+    Ok(match &opts.cancel {
+        Some(c) => Box::new(cancel::Cancellable::new(link, c.clone())),
+        None => link,
     })
 }

@@ -112,11 +112,58 @@ pub const ESTIMATION: [&str; 14] = [
     "est_refused",
 ];
 
+/// The guidance group (with `[guidance]`), in column order: the truth's pointing errors,
+/// the primary direction in body axes, the gate site's view, the segment, the flight's
+/// guidance telemetry, and the true orbit state, Sun and Earth angle (ECI).
+pub const GUIDANCE: [&str; 29] = [
+    "pointing_primary_error_deg",
+    "pointing_secondary_error_deg",
+    "guidance_error_deg",
+    "target_body_x",
+    "target_body_y",
+    "target_body_z",
+    "target_elevation_deg",
+    "target_visible",
+    "pointing_segment",
+    "pointing_parallel",
+    "guidance_flags",
+    "guidance_switches",
+    "guidance_parallel_events",
+    "guidance_rate_cmd_x_rad_s",
+    "guidance_rate_cmd_y_rad_s",
+    "guidance_rate_cmd_z_rad_s",
+    "guidance_accel_cmd_x_rad_s2",
+    "guidance_accel_cmd_y_rad_s2",
+    "guidance_accel_cmd_z_rad_s2",
+    "r_eci_x_m",
+    "r_eci_y_m",
+    "r_eci_z_m",
+    "v_eci_x_m_s",
+    "v_eci_y_m_s",
+    "v_eci_z_m_s",
+    "sun_eci_x",
+    "sun_eci_y",
+    "sun_eci_z",
+    "earth_angle_rad",
+];
+
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 18] = [
+const DIMENSIONLESS: [&str; 30] = [
     "eclipse",
+    "target_body_x",
+    "target_body_y",
+    "target_body_z",
+    "target_visible",
+    "pointing_segment",
+    "pointing_parallel",
+    "guidance_flags",
+    "guidance_switches",
+    "guidance_parallel_events",
+    "sun_eci_x",
+    "sun_eci_y",
+    "sun_eci_z",
     "q_x",
     "q_y",
     "q_z",
@@ -137,14 +184,17 @@ const DIMENSIONLESS: [&str; 18] = [
 ];
 
 /// The unit of a column from its name's suffix (first match; longer suffixes first).
-const UNIT_SUFFIXES: [(&str, &str); 15] = [
+const UNIT_SUFFIXES: [(&str, &str); 18] = [
+    ("_rad_s2", "rad/s^2"),
     ("_rad_s", "rad/s"),
+    ("_m_s", "m/s"),
     ("_deg_h", "deg/h"),
     ("_insns", "instructions"),
     ("_nms", "N m s"),
     ("_am2", "A m^2"),
     ("_rpm", "rpm"),
     ("_deg", "deg"),
+    ("_rad", "rad"),
     ("_nm", "N m"),
     ("_kg", "kg"),
     ("_s", "s"),
@@ -200,6 +250,9 @@ pub struct Layout {
     /// 1 while the spacecraft is in the Earth's shadow, else 0 (1; with an orbit and an
     /// environment model: the figures shade those spans).
     pub eclipse: bool,
+    /// The pointing's truth and the flight's guidance telemetry, the true orbit state, Sun
+    /// and Earth angle ([`GUIDANCE`]; with `[guidance]`).
+    pub guidance: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -255,6 +308,9 @@ impl Layout {
         if self.eclipse {
             v.push("eclipse".into());
         }
+        if self.guidance {
+            v.extend(GUIDANCE.iter().map(|s| s.to_string()));
+        }
         v
     }
 }
@@ -307,6 +363,7 @@ mod tests {
             estimation: true,
             momentum: true,
             eclipse: true,
+            guidance: true,
         }
     }
 

@@ -10,7 +10,8 @@
 //! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;
 //! - [`output`]: the streamed files of `sim-host run` and [`output::read_run`];
 //! - [`plots`]: the PNG figures;
-//! - [`pointing`]: pointing-performance indices (APE, MPE, RPE, PDE, stability), streamed.
+//! - [`pointing`]: pointing-performance indices (APE, MPE, RPE, PDE, stability), streamed;
+//! - [`segments`]: the APE and RPE of each pointing segment (mode × pointing × branch).
 
 pub mod columns;
 pub mod csv;
@@ -20,5 +21,6 @@ pub mod output;
 pub mod parquet;
 pub mod plots;
 pub mod pointing;
+pub mod segments;
 pub mod series;
 pub mod summary;

@@ -151,8 +151,55 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
-    .chain([estimation_figure(), environment_figure()])
+    .chain([estimation_figure(), environment_figure(), pointing_figure()])
     .collect()
+}
+
+/// `pointing.png` (runs with `[guidance]`): the truth's primary (boresight) and secondary
+/// errors on log axes, the flight's commanded attitude against the truth's ideal one, and
+/// the site's view of the spacecraft as a visibility strip (the mode ribbon on top with a
+/// mode manager).
+fn pointing_figure() -> Figure {
+    let s = line;
+    let visible = Panel {
+        categories: vec![(0.0, "no".into()), (1.0, "yes".into())],
+        presence: Presence::AnyFinite,
+        ..panel(
+            "site sees the spacecraft (truth, at or above the mask)",
+            "visible",
+            vec![s("target_visible", "visible", false)],
+        )
+    };
+    Figure {
+        requires: Some("pointing_primary_error_deg".into()),
+        ..figure(
+            "pointing.png",
+            "Pointing (truth): boresight and secondary errors, guidance, visibility",
+            vec![
+                log_panel(
+                    "primary (boresight) error: true primary axis to the true target direction",
+                    "deg",
+                    vec![s("pointing_primary_error_deg", "primary", false)],
+                ),
+                log_panel(
+                    "secondary-axis error: true secondary axis to the ideal frame's",
+                    "deg",
+                    vec![s("pointing_secondary_error_deg", "secondary", false)],
+                ),
+                log_panel(
+                    "flight's commanded attitude to the truth's ideal attitude (on-board models, navigation)",
+                    "deg",
+                    vec![s("guidance_error_deg", "guidance", false)],
+                ),
+                panel(
+                    "elevation of the spacecraft above the site",
+                    "deg",
+                    vec![s("target_elevation_deg", "elevation", false)],
+                ),
+                visible,
+            ],
+        )
+    }
 }
 
 /// `modes.png` (runs with a mode manager only): the mode as named levels, the errors and
@@ -400,13 +447,48 @@ pub fn check_space(dir: &Path, format: Format, rows: u64, columns: usize, free: 
 /// in either format).
 pub const RUN_FILES: [&str; 3] = ["timeseries.parquet", "timeseries.csv", "summary.json"];
 
-/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`] and every figure of
-/// [`figures`]; nothing else, and nothing when `dir` does not exist).
+/// The files a margins measurement writes (`sim-host margins`, and `sim-host run` with
+/// `[margins]`; `sim_host::margins::plots` draws the three figures).
+pub const MARGIN_FILES: [&str; 4] = ["margins.json", "bode.png", "nyquist.png", "disk.png"];
+
+/// Whether `name` is a temporary file [`crate::files::write_atomic`] (or the streamed time
+/// series) leaves behind when its process is killed before the rename: `.NAME.tmp-…` of one
+/// of `outputs`.
+fn is_stale_temporary<'a>(name: &str, mut outputs: impl Iterator<Item = &'a str>) -> bool {
+    name.strip_prefix('.')
+        .and_then(|rest| rest.split_once(".tmp-"))
+        .is_some_and(|(output, _)| outputs.any(|o| o == output))
+}
+
+/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`], [`MARGIN_FILES`] and
+/// every figure of [`figures`]), and the temporaries of those files that a killed run left
+/// (`.timeseries.parquet.tmp-…`: a run killed by SIGINT or SIGKILL never renames its
+/// temporary); nothing else, and nothing when `dir` does not exist. Two runs into one
+/// directory at once are not supported (each clears the other's outputs).
 pub fn clear_previous(dir: &Path) -> Result<()> {
     let figures = figures();
-    let names = RUN_FILES.iter().copied().chain(figures.iter().map(|f| f.file_name.as_str()));
+    let names: Vec<&str> =
+        RUN_FILES.iter().chain(&MARGIN_FILES).copied().chain(figures.iter().map(|f| f.file_name.as_str())).collect();
+    clear_files(dir, &names)
+}
+
+/// Removes `names` from `dir`, and their temporaries (see [`clear_previous`]); each error
+/// names its file.
+pub fn clear_files(dir: &Path, names: &[&str]) -> Result<()> {
     for name in names {
         crate::files::remove_if_present(&dir.join(name))?;
+    }
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(e).with_context(|| format!("listing {} (for stale temporary files)", dir.display())),
+    };
+    for entry in entries {
+        let entry = entry.with_context(|| format!("listing {} (for stale temporary files)", dir.display()))?;
+        let name = entry.file_name();
+        if name.to_str().is_some_and(|n| is_stale_temporary(n, names.iter().copied())) {
+            crate::files::remove_if_present(&entry.path())?;
+        }
     }
     Ok(())
 }
@@ -417,6 +499,9 @@ pub struct RunData {
     pub series: TimeSeries,
     /// The Parquet file's key-value metadata (empty for a CSV).
     pub metadata: BTreeMap<String, String>,
+    /// Read from a `timeseries.csv`: its empty fields (NaN here) stand for NaN or ±∞
+    /// ([`Equality::CsvBlank`]).
+    pub from_csv: bool,
 }
 
 /// Reads a run's time series: a `timeseries.parquet` or `timeseries.csv` file, or a run's
@@ -436,22 +521,53 @@ pub fn read_run(path: &Path) -> Result<RunData> {
     match file.extension().and_then(|e| e.to_str()) {
         Some("parquet") => {
             let (series, metadata) = crate::recorder::parquet::read_parquet(&file)?;
-            Ok(RunData { series, metadata })
+            Ok(RunData { series, metadata, from_csv: false })
         }
-        Some("csv") => Ok(RunData { series: crate::recorder::csv::read_csv(&file)?, metadata: BTreeMap::new() }),
+        Some("csv") => {
+            Ok(RunData { series: crate::recorder::csv::read_csv(&file)?, metadata: BTreeMap::new(), from_csv: true })
+        }
         _ => bail!("{}: not a .parquet or .csv file", file.display()),
     }
 }
 
-/// Whether two recorded values are the same: the same bits, or one NaN (a CSV's empty
-/// field) and the other not finite (a CSV cannot tell NaN from the infinities).
-pub fn same_value(a: f64, b: f64) -> bool {
-    a.to_bits() == b.to_bits() || (a.is_nan() && !b.is_finite()) || (b.is_nan() && !a.is_finite())
+/// When two recorded values are the same (`sim-host compare-series`, docs/outputs.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Equality {
+    /// The same bits; any two NaNs are equal whatever their payload and sign (a NaN's
+    /// payload is not a result), and a NaN equals nothing else: NaN ≠ +∞ ≠ −∞.
+    Exact,
+    /// As `Exact`, and a NaN on either side — a CSV's empty field, which the CSV writes for
+    /// NaN and for both infinities — equals any non-finite value on the other.
+    CsvBlank,
+}
+
+impl Equality {
+    /// The rule for comparing two runs: `CsvBlank` when either was read from a CSV.
+    pub fn of(a: &RunData, b: &RunData) -> Self {
+        if a.from_csv || b.from_csv { Equality::CsvBlank } else { Equality::Exact }
+    }
+}
+
+/// Whether two recorded values are the same under `rule` ([`Equality`]).
+pub fn same_value(a: f64, b: f64, rule: Equality) -> bool {
+    if a.is_nan() || b.is_nan() {
+        return match rule {
+            Equality::Exact => a.is_nan() && b.is_nan(),
+            Equality::CsvBlank => !a.is_finite() && !b.is_finite(),
+        };
+    }
+    a.to_bits() == b.to_bits()
 }
 
 /// The first difference between two time series (names, lengths, values by
-/// [`same_value`]), `None` when they are the same.
+/// [`same_value`] under [`Equality::Exact`]), `None` when they are the same.
 pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
+    first_difference_by(a, b, Equality::Exact)
+}
+
+/// The first difference between two time series under `rule`, `None` when they are the
+/// same.
+pub fn first_difference_by(a: &TimeSeries, b: &TimeSeries, rule: Equality) -> Option<String> {
     if a.names != b.names {
         let i = a.names.iter().zip(&b.names).position(|(x, y)| x != y).unwrap_or(a.names.len().min(b.names.len()));
         let name = |n: &[String]| n.get(i).map_or("(none)".to_string(), Clone::clone);
@@ -467,7 +583,7 @@ pub fn first_difference(a: &TimeSeries, b: &TimeSeries) -> Option<String> {
         return Some(format!("{} and {} rows", a.len(), b.len()));
     }
     for (name, (x, y)) in a.names.iter().zip(a.cols.iter().zip(&b.cols)) {
-        if let Some(r) = x.iter().zip(y).position(|(p, q)| !same_value(*p, *q)) {
+        if let Some(r) = x.iter().zip(y).position(|(p, q)| !same_value(*p, *q, rule)) {
             return Some(format!(
                 "{name} row {r}: {:e} ({:#x}) and {:e} ({:#x})",
                 x[r],
@@ -664,5 +780,73 @@ impl Recorder for RunOutput {
             self.plot.record(&self.plot_row)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn one(x: f64) -> TimeSeries {
+        TimeSeries { names: vec!["v".into()], cols: vec![vec![x]] }
+    }
+
+    /// The comparison rule of `compare-series` (docs/outputs.md): bits, NaNs equal to each
+    /// other whatever their payload, NaN ≠ ±∞, +∞ ≠ −∞, +0 ≠ −0; against a CSV an empty
+    /// field (NaN) matches any non-finite value and nothing finite.
+    #[test]
+    fn values_are_equal_only_bit_for_bit_with_the_stated_nan_rule() {
+        let quiet_payload = f64::from_bits(0x7ff8_0000_0000_0001);
+        let negative_nan = f64::from_bits(0xfff8_0000_0000_0000);
+        let (inf, ninf, nan) = (f64::INFINITY, f64::NEG_INFINITY, f64::NAN);
+        for (a, b, exact, csv) in [
+            (1.0, 1.0, true, true),
+            (0.1 + 0.2, 0.3, false, false),
+            (0.0, -0.0, false, false),
+            (nan, quiet_payload, true, true),
+            (nan, negative_nan, true, true),
+            (nan, inf, false, true),
+            (ninf, nan, false, true),
+            (inf, ninf, false, false),
+            (inf, inf, true, true),
+            (nan, 0.0, false, false),
+            (1e308, nan, false, false),
+        ] {
+            assert_eq!(same_value(a, b, Equality::Exact), exact, "{a:e} vs {b:e} exact");
+            assert_eq!(same_value(b, a, Equality::Exact), exact, "symmetric");
+            assert_eq!(same_value(a, b, Equality::CsvBlank), csv, "{a:e} vs {b:e} against a CSV");
+            assert_eq!(first_difference(&one(a), &one(b)).is_none(), exact);
+        }
+    }
+
+    /// A killed run's temporaries (`.NAME.tmp-PID-THREAD`) of a run output are removed with
+    /// the previous run's outputs; other files (a user's, another tool's temporaries) stay.
+    #[test]
+    fn clearing_removes_the_outputs_and_the_stale_temporaries_of_killed_runs_only() {
+        let tmp = tempfile::tempdir().unwrap();
+        let d = tmp.path();
+        let mine = [
+            "summary.json",
+            "margins.json",
+            "bode.png",
+            "disk.png",
+            "attitude.png",
+            ".timeseries.parquet.tmp-4242-ThreadId(1)",
+            ".timeseries.csv.tmp-7-ThreadId(3)",
+            ".margins.json.tmp-99-ThreadId(2)",
+            ".summary.json.tmp-1-ThreadId(1)",
+        ];
+        let theirs = ["notes.txt", ".timeseries.parquet", ".other.json.tmp-1-ThreadId(1)", "timeseries.parquet.tmp-1"];
+        for f in mine.iter().chain(&theirs) {
+            std::fs::write(d.join(f), b"x").unwrap();
+        }
+        clear_previous(d).unwrap();
+        let mut left: Vec<String> =
+            std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        left.sort();
+        let mut want: Vec<String> = theirs.iter().map(|s| s.to_string()).collect();
+        want.sort();
+        assert_eq!(left, want);
+        clear_previous(&d.join("absent")).unwrap();
     }
 }

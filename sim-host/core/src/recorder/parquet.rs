@@ -53,6 +53,12 @@ impl Default for ParquetOptions {
     }
 }
 
+/// The inertial frame of every inertial-axes column (`inertial_frame` in the metadata;
+/// docs/guidance.md, "Frames").
+pub const INERTIAL_FRAME: &str = "the simulator's ECI: Earth-centred, z along the Earth's spin axis, x the mean \
+    equinox of date, turning into the Earth-fixed frame by GMST (IAU 1982) of UT1; TEME for TLE (SGP4) orbits; \
+    of date, not J2000 (precession and nutation are not modelled)";
+
 /// What the file says about the run besides its columns (key-value metadata).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RunMetadata {
@@ -68,8 +74,8 @@ pub struct RunMetadata {
 
 impl RunMetadata {
     /// The key-value pairs of the file: `units` (JSON object column → unit), `scenario`,
-    /// `scenario_path`, `seed`, `scenario_toml`, `protocol_version` (of the link) and
-    /// `format_version` ([`FORMAT_VERSION`]).
+    /// `scenario_path`, `seed`, `scenario_toml`, `protocol_version` (of the link),
+    /// `format_version` ([`FORMAT_VERSION`]) and `inertial_frame` ([`INERTIAL_FRAME`]).
     pub fn key_values(&self, columns: &[String]) -> Result<Vec<(String, String)>> {
         let units: serde_json::Map<String, serde_json::Value> =
             columns.iter().map(|c| (c.clone(), crate::recorder::columns::unit(c).unwrap_or("").into())).collect();
@@ -81,6 +87,7 @@ impl RunMetadata {
             ("scenario_toml".into(), self.scenario_toml.clone()),
             ("protocol_version".into(), acs_flight::link::PROTOCOL_VERSION.to_string()),
             ("format_version".into(), FORMAT_VERSION.to_string()),
+            ("inertial_frame".into(), INERTIAL_FRAME.into()),
         ])
     }
 }

@@ -84,6 +84,9 @@ pub enum Presence {
     /// When these columns exist and are all identically zero (e.g. the mechanical power of
     /// ideal wheels, whose motor current is recorded as 0).
     ZeroIn(Vec<String>),
+    /// Unless every series is NaN throughout (a quantity the run does not have, e.g. a
+    /// site's elevation without a ground pointing).
+    AnyFinite,
 }
 
 /// One panel (sub-plot) with a y-axis label (the unit: it selects the resolution floor,
@@ -432,6 +435,7 @@ fn present(ts: &TimeSeries, p: &Panel, cols: &[(&Series, &[f64])]) -> bool {
     match &p.presence {
         Presence::Always => true,
         Presence::NonZero => !cols.iter().all(|(_, y)| identically_zero(y)),
+        Presence::AnyFinite => cols.iter().any(|(_, y)| y.iter().any(|v| !v.is_nan())),
         Presence::NonZeroIn(names) => names.iter().filter_map(|n| ts.col(n)).any(|y| !identically_zero(y)),
         Presence::ZeroIn(names) => {
             let c: Vec<&[f64]> = names.iter().filter_map(|n| ts.col(n)).collect();

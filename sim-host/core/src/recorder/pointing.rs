@@ -127,21 +127,85 @@ impl MagnitudeQuantile {
     /// The smallest bound that at least a fraction `p` of the magnitudes stay at or below
     /// (nearest-rank), `None` when empty or `p` is outside (0, 1].
     pub fn quantile(&self, p: f64) -> Option<f64> {
-        if self.count == 0 || !(p > 0.0 && p <= 1.0) {
-            return None;
-        }
-        let rank = ((p * self.count as f64).ceil() as u64).clamp(1, self.count);
-        let mut seen = self.below_floor;
+        let bins = self.bins.iter().enumerate().map(|(i, n)| (i, u64::from(*n)));
+        nearest_rank(p, self.count, self.below_floor, self.max_binned, bins)
+    }
+}
+
+/// The nearest-rank quantile `p` of a histogram: `count` magnitudes, `below_floor` of them
+/// under the floor, the occupied bins in increasing order (bin, count); the rest (above
+/// the ceiling) are +∞.
+fn nearest_rank(
+    p: f64,
+    count: u64,
+    below_floor: u64,
+    max_binned: f64,
+    bins: impl Iterator<Item = (usize, u64)>,
+) -> Option<f64> {
+    if count == 0 || !(p > 0.0 && p <= 1.0) {
+        return None;
+    }
+    let rank = ((p * count as f64).ceil() as u64).clamp(1, count);
+    let mut seen = below_floor;
+    if seen >= rank {
+        return Some(MagnitudeQuantile::FLOOR.min(max_binned));
+    }
+    for (i, n) in bins {
+        seen += n;
         if seen >= rank {
-            return Some(Self::FLOOR.min(self.max_binned));
+            return Some(MagnitudeQuantile::upper_edge(i).min(max_binned));
         }
-        for (i, n) in self.bins.iter().enumerate() {
-            seen += u64::from(*n);
-            if seen >= rank {
-                return Some(Self::upper_edge(i).min(self.max_binned));
-            }
+    }
+    Some(f64::INFINITY)
+}
+
+/// Several [`MagnitudeQuantile`]s added together (a mission pointing's figures over all
+/// its segments): the same bins, kept sparse (memory grows with the occupied bins, at
+/// most the samples absorbed), so the pooled quantile is exactly the one a single
+/// histogram of all the samples would give.
+#[derive(Clone, Debug, Default)]
+pub struct PooledQuantile {
+    bins: std::collections::BTreeMap<usize, u64>,
+    below_floor: u64,
+    count: u64,
+    max_binned: f64,
+}
+
+impl PooledQuantile {
+    /// Adds every magnitude `q` holds.
+    pub fn absorb(&mut self, q: &MagnitudeQuantile) {
+        for (i, n) in q.bins.iter().enumerate().filter(|(_, n)| **n > 0) {
+            *self.bins.entry(i).or_insert(0) += u64::from(*n);
         }
-        Some(f64::INFINITY)
+        self.below_floor += q.below_floor;
+        self.count += q.count;
+        self.max_binned = self.max_binned.max(q.max_binned);
+    }
+
+    pub fn quantile(&self, p: f64) -> Option<f64> {
+        let bins = self.bins.iter().map(|(i, n)| (*i, *n));
+        nearest_rank(p, self.count, self.below_floor, self.max_binned, bins)
+    }
+}
+
+/// [`AxisQuantiles`] pooled ([`PooledQuantile`]).
+#[derive(Clone, Debug, Default)]
+pub struct PooledAxes {
+    axes: [PooledQuantile; 3],
+    total: PooledQuantile,
+}
+
+impl PooledAxes {
+    pub fn absorb(&mut self, q: &AxisQuantiles) {
+        for (pool, part) in self.axes.iter_mut().zip(&q.axes) {
+            pool.absorb(part);
+        }
+        self.total.absorb(&q.total);
+    }
+
+    pub fn figures(&self, p: f64) -> AxisFigures {
+        let [x, y, z] = [0, 1, 2].map(|i| self.axes[i].quantile(p));
+        AxisFigures { x, y, z, total: self.total.quantile(p), samples: self.total.count }
     }
 }
 

@@ -43,7 +43,28 @@ pub enum RunStatus {
     /// (`sensor_samples_dropped` > 0): the flight code did not see the sensor the scenario
     /// describes. Zero by construction of the queues' cap; this says so if it ever is not.
     SamplesDropped,
+    /// The flight was ok, but the stability margins `[margins]` asks for were not measured
+    /// as a stable loop at a steady hold (`margins.status` is not `measured`): the run
+    /// exits as `sim-host margins` would (3 not steady or unstable, 2 unsupported or over
+    /// budget, 1 error) and a campaign counts it as a failed run (docs/margins.md).
+    MarginsFailed,
+    /// The flight code could not control for a material part of the run: after the
+    /// start-up allowance ([`CONTROL_STARTUP_FRACTION`] of the steps, at most
+    /// [`CONTROL_STARTUP_MAX_S`]), more than [`MAX_UNCONTROLLED_FRACTION`] of the steps
+    /// held the safe command because the active mode lacked an input it needs
+    /// (`status_counts.bad_input`: a sensor missing, lost or out of range; or
+    /// `no_estimate`: the fine attitude estimate or the navigation solution).
+    NoControl,
 }
+
+/// Start-up allowance of the no-control check: the first tenth of the run's steps…
+pub const CONTROL_STARTUP_FRACTION: f64 = 0.1;
+/// …but at most this much flight time, s (a filter converges, a tracker locks, a field
+/// model fills within it).
+pub const CONTROL_STARTUP_MAX_S: f64 = 60.0;
+/// After the allowance, a run with more than this fraction of its steps uncontrolled
+/// (`bad_input` or `no_estimate`) fails with `no_control`.
+pub const MAX_UNCONTROLLED_FRACTION: f64 = 0.1;
 
 /// Why a run failed (`summary.json` `failure`; null for a run that is ok).
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -57,12 +78,18 @@ pub enum Failure {
     Link { reason: String },
     /// Which sensors' samples the simulator lost.
     Sensors { reason: String },
+    /// Why the margins `[margins]` asks for are not those of a stable loop at a steady hold
+    /// (`margins.status` and `margins.reason`).
+    Margins { reason: String },
+    /// How many steps after the start-up allowance were uncontrolled, and why.
+    Control { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct Summary {
     pub scenario: String,
-    /// `ok`, `diverged`, `all_refused` or `link_anomaly` (see [`RunStatus`]).
+    /// `ok`, `diverged`, `all_refused`, `link_anomaly`, `samples_dropped`, `no_control` or
+    /// `margins_failed` (see [`RunStatus`]).
     pub run_status: RunStatus,
     /// Null when `run_status` is `ok`.
     pub failure: Option<Failure>,
@@ -129,7 +156,8 @@ pub struct Summary {
     /// With the MEKF (`[estimation]`): RMS and largest attitude-estimation error against
     /// the truth, deg; gyro-bias error at the end, deg/h; mean NEES (6 for a consistent
     /// filter); innovations the chi-square gates rejected; filter restarts. Absent
-    /// otherwise.
+    /// otherwise. The error and NEES figures are over the steps where the filter ran
+    /// (`estimation_steps`, of `steps` + 1 flight steps).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub estimation_error_rms_deg: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -138,6 +166,9 @@ pub struct Summary {
     pub bias_error_final_deg_h: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nees_mean: Option<f64>,
+    /// Flight steps where the filter ran: what the figures above are over.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub estimation_steps: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub innovations_rejected: Option<u32>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -158,23 +189,63 @@ pub struct Summary {
     /// attitude error over `[performance] from_s` to the end, at its confidence level
     /// (docs/pointing.md).
     pub pointing: crate::recorder::pointing::PointingSummary,
+    /// With `[modes]` or `[guidance]`: APE and RPE per pointing segment (a span of one
+    /// mode, one pointing and one branch of it), the primary (boresight) error apart,
+    /// each with its window (docs/pointing.md, "Per segment").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pointing_segments: Option<Vec<crate::recorder::segments::SegmentSummary>>,
+    /// Segments beyond the listed cap (`recorder::segments::MAX_LISTED_SEGMENTS`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pointing_segments_unlisted: Option<u64>,
+    /// With `[modes]` or `[guidance]`: the segments' figures pooled by mission pointing
+    /// (`p0` the scenario's, `pN` the N-th ground command that sets a pointing), each
+    /// branch apart: the same keys in every run of a scenario (docs/pointing.md, "Per
+    /// mission pointing").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mission_pointings: Option<crate::recorder::segments::MissionPointings>,
     /// With `[margins]`: the stability margins measured through the flight step at the
     /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub margins: Option<MarginSummary>,
 }
 
-/// Whether the margins of `[margins]` were measured, or why not (`sim-host margins`'s exit
-/// status: 0 `measured` and stable, 1 `error`, 2 `unsupported` or `over_budget`, 3 `not_steady`, `unstable`
-/// or measured with a negative margin).
+impl Summary {
+    /// Records the `[margins]` measurement of this run: `margins`, and, when it is not a
+    /// stable loop measured at a steady hold (`status` other than `measured`), a flight that
+    /// was ok becomes `run_status` `margins_failed` with the margins' reason as its `failure`
+    /// (an earlier failure of the flight itself stays the run's status).
+    pub fn record_margins(&mut self, m: MarginSummary) {
+        if m.status != MarginStatus::Measured && self.run_status == RunStatus::Ok {
+            let status = serde_json::to_value(m.status).ok().and_then(|v| v.as_str().map(str::to_owned));
+            let reason = format!(
+                "margins {}: {}",
+                status.unwrap_or_default(),
+                m.reason.as_deref().unwrap_or("not a stable loop at a steady hold")
+            );
+            self.run_status = RunStatus::MarginsFailed;
+            self.failure = Some(Failure::Margins { reason });
+        }
+        self.margins = Some(m);
+    }
+}
+
+/// Whether the margins of `[margins]` were measured as a stable loop at a steady hold, or
+/// why not. Anything but `Measured` is a failed run (`run_status` `margins_failed`; exit
+/// status as `sim-host margins`'s: 1 `error`, 2 `unsupported` or `over_budget`, 3
+/// `not_steady` or `unstable`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MarginStatus {
+    /// Measured at a steady hold, and stable: every crossover's phase margin positive and
+    /// the multiloop disk margin positive.
     Measured,
     /// The operating point is not a steady hold (saturation, stiction, unsettled error,
-    /// a response that never becomes periodic).
+    /// a response that never becomes periodic), at the operating point or during an
+    /// experiment (an actuator at its limit): no figure.
     NotSteady,
-    /// The loop diverged while being measured.
+    /// The loop is unstable: it diverged while being measured (no figure), or it was
+    /// measured (open loop, or closed) with a negative phase margin — the figures are then
+    /// those of the unstable loop, beside `stable: false`, and say how far it is from stable.
     Unstable,
     /// A loop this measurement does not cover (thrusters; a magnetorquer loop at the output or
     /// with the magnetometer in the estimator).
@@ -186,8 +257,10 @@ pub enum MarginStatus {
 
 /// `summary.json` `margins`: the scalars a campaign disperses over and requires, each the
 /// worst over the three axes (loop-at-a-time), plus the multiloop disk margin. A figure is
-/// `null` when not measured (`status` ≠ `measured`, `reason` says why) or infinite (gain
-/// margins with no phase crossing, below the control Nyquist frequency).
+/// a number only beside `status` `measured` (a stable loop), or `unstable` with `stable:
+/// false` (a loop measured unstable: its figures say how far); `null` when not measured
+/// (`reason` says why) or infinite (gain margins with no phase crossing, below the control
+/// Nyquist frequency).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MarginSummary {
     pub status: MarginStatus,
@@ -221,13 +294,19 @@ pub struct MarginSummary {
 }
 
 /// What the flight estimator did with the sensor samples over a run (`summary.json`
-/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at their own time (of them, late: taken
-/// before the filter's newest time and carried forward through its history), refused by
-/// reason, and the largest sample age per sensor, s (−1: never sampled).
+/// `sample_fusion`, with the MEKF; filled by `crate::estimation::stats`): samples fused at
+/// their own time (of them, late: taken before the filter's newest time and carried
+/// forward through its history; after a wait: taken after it, fused when the gyro caught
+/// up), refused by reason, still waiting for the gyro at the end, and the largest sample
+/// age per sensor, s (−1: never sampled).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct SampleFusion {
     pub fused: u32,
     pub fused_late: u32,
+    pub fused_after_wait: u32,
+    pub waiting_at_end: u16,
+    /// Dropped while waiting for the gyro (its wait queue full, or the filter stopped).
+    pub refused_dropped_waiting: u32,
     pub refused_too_old: u32,
     pub refused_from_the_future: u32,
     pub refused_out_of_order: u32,

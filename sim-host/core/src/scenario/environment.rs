@@ -2,7 +2,7 @@
 
 use super::{Scenario, bad, finite, parse_epoch, positive, yes};
 use crate::attitude::Vec3;
-use crate::environment::frames::EarthRotation;
+use crate::environment::frames::{EarthOrientation, EarthRotation, MAX_POLAR_MOTION_ARCSEC, MAX_UT1_UTC_S};
 use crate::environment::magnetic::{FieldModel, MagneticField};
 use crate::environment::model::{Environment, FieldSource};
 use crate::environment::orbit::{OrbitModel, OrbitPropagator, PropagatorOptions};
@@ -55,6 +55,13 @@ pub struct OrbitSpec {
     /// UTC epoch of t = 0, "YYYY-MM-DDThh:mm:ss" (Earth rotation, WMM date, Sun).
     #[serde(default = "default_epoch")]
     pub epoch_utc: String,
+    /// UT1 − UTC of the truth's Earth rotation for ground sites, s (the magnetic field
+    /// keeps UTC).
+    #[serde(default)]
+    pub ut1_utc_s: f64,
+    /// Polar motion `[x_p, y_p]` of the truth's terrestrial frame for ground sites, arcsec.
+    #[serde(default)]
+    pub polar_motion_arcsec: [f64; 2],
 }
 
 impl OrbitSpec {
@@ -310,7 +317,23 @@ impl OrbitSpec {
             OrbitKind::Tle { .. } => {}
         }
         let jd = parse_epoch(&self.epoch_utc).map_err(|e| bad("orbit.epoch_utc", e))?;
+        self.earth_orientation(EarthRotation::Simple { theta0_rad: 0.0 })?;
         Ok((orbit_model(&kind), jd))
+    }
+
+    /// The truth's Earth orientation on `rotation` (`ut1_utc_s`, `polar_motion_arcsec`,
+    /// checked naming the key).
+    pub fn earth_orientation(&self, rotation: EarthRotation) -> Result<EarthOrientation> {
+        let u = self.ut1_utc_s;
+        if !(u.is_finite() && u.abs() <= MAX_UT1_UTC_S) {
+            return Err(bad("orbit.ut1_utc_s", format!("|{u}| exceeds {MAX_UT1_UTC_S} s")));
+        }
+        let [xp, yp] = self.polar_motion_arcsec;
+        if !([xp, yp].iter().all(|x| x.is_finite() && x.abs() <= MAX_POLAR_MOTION_ARCSEC)) {
+            return Err(bad("orbit.polar_motion_arcsec", format!("each within ±{MAX_POLAR_MOTION_ARCSEC} arcsec")));
+        }
+        let arcsec = std::f64::consts::PI / (180.0 * 3600.0);
+        Ok(EarthOrientation { rotation, ut1_utc_s: u, xp_rad: xp * arcsec, yp_rad: yp * arcsec })
     }
 }
 

@@ -150,6 +150,15 @@ pub(super) fn parse_error(text: &str, e: toml::de::Error) -> anyhow::Error {
     let Some(span) = e.span() else { return whole };
     let Some(header) = text.get(span).map(str::trim).filter(|h| h.starts_with('[')) else { return whole };
     let path: Vec<&str> = header.trim_matches(|c| c == '[' || c == ']').split('.').map(str::trim).collect();
+    // A required key left out: name it, not a key that is there (issue 38: removing any
+    // key before it changes serde's message too, so the probe below would blame that one).
+    if let Some(missing) = e.message().strip_prefix("missing field `").and_then(|m| m.split('`').next()) {
+        return anyhow!(
+            "missing key `{}.{missing}`: the [{}] table needs it (docs/scenario.md)",
+            path.join("."),
+            path.join(".")
+        );
+    }
     let Ok(doc) = toml::from_str::<toml::Table>(text) else { return whole };
     let mut table = &doc;
     for p in &path {
@@ -467,5 +476,19 @@ mod tests {
         assert!(e.contains("line 5") && e.ends_with("did you mean `output_every`?"), "{e}");
         let e = Scenario::from_toml(&format!("{base}zzz = 2\n")).unwrap_err().to_string();
         assert!(e.contains("unknown field `zzz`") && !e.contains("did you mean"), "{e}");
+    }
+
+    /// A required key left out is named as missing, not blamed on the table's first key
+    /// (issue 38: `tracker_sigma_cross_deg` was reported against `gyro_arw_rad_sqrt_s`).
+    #[test]
+    fn a_missing_key_is_named() {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/estimation/mekf-hold.toml"))
+                .unwrap();
+        let cut: String =
+            text.lines().filter(|l| !l.starts_with("tracker_sigma_cross_deg")).map(|l| format!("{l}\n")).collect();
+        assert_ne!(cut, text);
+        let e = Scenario::from_toml(&cut).unwrap_err().to_string();
+        assert!(e.contains("missing key `estimation.tracker_sigma_cross_deg`") && !e.contains("gyro_arw"), "{e}");
     }
 }

@@ -21,10 +21,15 @@ mod actuators;
 mod controller;
 mod environment;
 pub mod estimation;
+mod guidance;
+pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
 mod limits;
 mod margins;
 mod modes;
-pub use margins::{GRID_POINTS, LoopPoint, MarginRequest, MarginsSpec};
+pub use margins::{
+    AMPLITUDE_RAD, GRID_POINTS, LoopPoint, MarginOption, MarginRequest, MarginsSpec, OptionRefused, PILOT_LEVELS,
+    THREADS, UNREFINED_MAX_RATIO, check as margin_check,
+};
 mod momentum;
 pub use momentum::MomentumSpec;
 mod performance;
@@ -65,7 +70,12 @@ pub struct Scenario {
     pub timing: Timing,
     pub spacecraft: SpacecraftSpec,
     pub initial: InitialState,
-    pub target: AttitudeSpec,
+    /// The mission's fixed target attitude (or `[guidance]`: exactly one of the two).
+    #[serde(default)]
+    pub target: Option<AttitudeSpec>,
+    /// The mission's pointing by two vectors or as a fixed attitude (instead of `[target]`).
+    #[serde(default)]
+    pub guidance: Option<GuidanceSpec>,
     pub actuators: Actuators,
     /// The control law (absent with `[modes]`).
     #[serde(default)]
@@ -208,7 +218,7 @@ pub struct OpenLoopRow {
 }
 
 /// An attitude: Euler angles `[roll, pitch, yaw]` in degrees with a sequence, or a quaternion.
-#[derive(Clone, Debug, Deserialize, Serialize)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AttitudeSpec {
     /// "inertial" (default) or "lvlh" (the orbit frame: z nadir, y = -orbit normal).
@@ -269,6 +279,18 @@ pub struct LinkSpec {
     pub kind: Option<String>,
 }
 
+/// A fixed target attitude as the flight's pointing (what `[target]` uploads).
+pub fn fixed_guidance(target: &AttitudeSpec) -> GuidanceParams {
+    let q = target.quaternion();
+    GuidanceParams::fixed(
+        [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
+        match target.frame {
+            RefFrame::Inertial => TargetFrame::Inertial,
+            RefFrame::Lvlh => TargetFrame::Reference,
+        },
+    )
+}
+
 /// A 3×3 matrix as the flight code's row-major f32 array.
 fn f32_rows(m: &Matrix3<f64>) -> [[f32; 3]; 3] {
     std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)] as f32))
@@ -294,6 +316,11 @@ fn positive(key: &str, x: f64) -> Result<()> {
     if x.is_finite() && x > 0.0 { Ok(()) } else { Err(bad(key, format!("must be > 0 (got {x})"))) }
 }
 
+/// How far from 1 a scenario quaternion's norm may be (docs/scenario.md): tighter than
+/// the f32 flight quaternion's own resolution (≈ 6e-8) would be pointless to demand of a
+/// hand-written file, looser would hide a typo in a component.
+pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-6;
+
 impl AttitudeSpec {
     fn validate(&self, key: &str) -> Result<()> {
         match (&self.euler_deg, &self.quaternion_xyzw) {
@@ -302,8 +329,11 @@ impl AttitudeSpec {
                 let k = format!("{key}.quaternion_xyzw");
                 finite(&k, q)?;
                 let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
-                if (n - 1.0).abs() > 1e-6 {
-                    return Err(bad(&k, format!("must have unit norm (got {n})")));
+                if (n - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                    return Err(bad(
+                        &k,
+                        format!("must have unit norm within {QUATERNION_NORM_TOLERANCE:e} (got {n}): normalise it"),
+                    ));
                 }
                 Ok(())
             }
@@ -387,6 +417,7 @@ impl Scenario {
         self.validate_momentum()?;
         self.validate_control_source()?;
         self.validate_estimation()?;
+        self.validate_estimator_timing()?;
         self.performance()?;
         self.margin_request()?;
         Ok(())
@@ -438,7 +469,6 @@ impl Scenario {
     fn validate_frames_and_orbit(&self) -> Result<()> {
         self.initial.attitude.validate("initial")?;
         finite("initial.rate_rad_s", &self.initial.rate_rad_s)?;
-        self.target.validate("target")?;
         let needs_orbit =
             |k: &str| -> Result<()> { if self.orbit.is_none() { Err(bad(k, "needs an [orbit]")) } else { Ok(()) } };
         if self.initial.attitude.frame == RefFrame::Lvlh {
@@ -447,8 +477,18 @@ impl Scenario {
         if self.initial.orbit_synchronous {
             needs_orbit("initial.orbit_synchronous")?;
         }
-        if self.target.frame == RefFrame::Lvlh {
-            needs_orbit("target.frame")?;
+        match (&self.target, &self.guidance) {
+            (Some(t), None) => {
+                t.validate("target")?;
+                if t.frame == RefFrame::Lvlh {
+                    needs_orbit("target.frame")?;
+                }
+            }
+            (None, Some(g)) => {
+                g.resolve("guidance", self.orbit.is_some())?;
+            }
+            (Some(_), Some(_)) => return Err(bad("guidance", "give [target] or [guidance], not both")),
+            (None, None) => return Err(bad("target", "missing (or give [guidance])")),
         }
         if let Some(o) = &self.orbit {
             if self.rig.is_some() {
@@ -554,7 +594,8 @@ impl Scenario {
             (Some(_), None) => {
                 // Last line of defence: the flight code's own validation must accept the upload.
                 let law = self.controller.as_ref();
-                self.flight_params()?.validate().map_err(|e| self.param_refusal(e, "controller", law, "target"))?;
+                let aim = if self.guidance.is_some() { "guidance" } else { "target" };
+                self.flight_params()?.validate().map_err(|e| self.param_refusal(e, "controller", law, aim))?;
             }
             (None, Some(m)) => self.validate_modes(m)?,
         }
@@ -626,31 +667,39 @@ impl Scenario {
     /// The parameter set uploaded to the flight code (single `[controller]`).
     pub fn flight_params(&self) -> Result<FlightParams> {
         let c = self.controller.as_ref().ok_or_else(|| bad("controller", "missing (or use [modes])"))?;
-        let mut p = self.params_for(c, None, &self.target)?;
+        let mut p = self.params_for(c, None, self.mission_guidance()?)?;
         p.momentum = self.momentum_params(None, &p.actuator);
         Ok(p)
     }
 
+    /// The mission's pointing as the flight code receives it: `[target]` as a fixed
+    /// attitude in its frame, or `[guidance]`.
+    pub fn mission_guidance(&self) -> Result<GuidanceParams> {
+        match (&self.target, &self.guidance) {
+            (_, Some(g)) => Ok(g.resolve("guidance", self.orbit.is_some())?.params),
+            (Some(t), None) => Ok(fixed_guidance(t)),
+            (None, None) => Err(bad("target", "missing (or give [guidance])")),
+        }
+    }
+
+    /// The mission's pointing, checked (`None` with `[target]`).
+    pub fn mission_set(&self) -> Result<Option<GuidanceSet>> {
+        self.guidance.as_ref().map(|g| g.resolve("guidance", self.orbit.is_some())).transpose()
+    }
+
     /// A parameter set for one law, on one actuator family (`None`: the only one
-    /// present), pointing at `target`.
-    pub fn params_for(&self, c: &Controller, family: Option<&str>, target: &AttitudeSpec) -> Result<FlightParams> {
+    /// present), pointing as `guidance` says.
+    pub fn params_for(&self, c: &Controller, family: Option<&str>, guidance: GuidanceParams) -> Result<FlightParams> {
         let inertia = self.inertia();
         let f = f32_rows;
         let controller = self.controller_params(c, "controller")?;
-        let q = target.quaternion();
         Ok(FlightParams {
             version: PARAMS_VERSION,
             control_rate_hz: self.timing.control_rate_hz as f32,
             inertia_kgm2: f(&inertia),
             controller,
             actuator: self.actuator_params(family)?,
-            guidance: GuidanceParams::fixed(
-                [q.i as f32, q.j as f32, q.k as f32, q.w as f32],
-                match target.frame {
-                    RefFrame::Inertial => TargetFrame::Inertial,
-                    RefFrame::Lvlh => TargetFrame::Reference,
-                },
-            ),
+            guidance,
             manoeuvre: acs_flight::params::ManoeuvreParams::OFF,
             hold_after_missed_frames: 10,
             momentum: acs_flight::params::MomentumParams::OFF,

@@ -20,10 +20,11 @@
 //! target = { frame = "lvlh", euler_deg = [0, 0, 0] }
 //! controller = { type = "lqr", q_diag = [...], r_diag = [...] }
 //! ```
-//! Manoeuvre and hold point at the scenario's `[target]` (the mission target, which
-//! `[[commands]]` may change); detumble and stabilise may have their own.
+//! Manoeuvre and hold point at the scenario's `[target]` or `[guidance]` (the mission
+//! pointing, which `[[commands]]` may change); the other modes may have their own
+//! (`target` or `guidance`).
 
-use super::{AttitudeSpec, Controller, RefFrame, Scenario, bad};
+use super::{AttitudeSpec, Controller, GuidanceSpec, RefFrame, Scenario, bad, fixed_guidance};
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
@@ -117,6 +118,24 @@ pub struct ModeSpec {
     /// Default: the scenario's `[target]`. Not allowed for manoeuvre and hold.
     #[serde(default)]
     pub target: Option<AttitudeSpec>,
+    /// The mode's own pointing (instead of `target`; default: the mission's). Not allowed
+    /// for manoeuvre and hold.
+    #[serde(default)]
+    pub guidance: Option<GuidanceSpec>,
+}
+
+impl ModeSpec {
+    /// The key of this mode's pointing (`modes.<mode>.target` / `.guidance`), or the
+    /// mission's (`target` / `guidance`) when it has none of its own.
+    pub fn pointing_key(spec: Option<&ModeSpec>, mode: Mode, sc: &Scenario) -> String {
+        let key = format!("modes.{}", mode.name());
+        match spec {
+            Some(s) if s.target.is_some() => format!("{key}.target"),
+            Some(s) if s.guidance.is_some() => format!("{key}.guidance"),
+            _ if sc.guidance.is_some() => "guidance".into(),
+            _ => "target".into(),
+        }
+    }
 }
 
 /// A ground command at `at_s`: a new mission target and/or a mode command.
@@ -127,6 +146,9 @@ pub struct CommandSpec {
     /// New mission target, in the frame of `[target]`.
     #[serde(default)]
     pub target: Option<AttitudeSpec>,
+    /// New mission pointing (`SetPointing`; with `[guidance]`).
+    #[serde(default)]
+    pub guidance: Option<GuidanceSpec>,
     /// "detumble", "sun_safe", "stabilise", "manoeuvre", "hold" (enter) or "auto" (resume automatic
     /// transitions).
     #[serde(default)]
@@ -255,8 +277,7 @@ impl Scenario {
         for (mode, p) in &table.slots {
             let key = format!("modes.{}", mode.name());
             let spec = m.slots().into_iter().find(|(md, _)| md == mode).and_then(|(_, sp)| sp);
-            let target =
-                if spec.is_some_and(|s| s.target.is_some()) { format!("{key}.target") } else { "target".to_string() };
+            let target = ModeSpec::pointing_key(spec, *mode, self);
             let law = spec.map(|s| &s.controller);
             p.validate().map_err(|e| self.param_refusal(e, &format!("{key}.controller"), law, &target))?;
         }
@@ -296,6 +317,18 @@ impl Scenario {
         if matches!(spec.controller, Controller::None) {
             return Err(bad(&format!("{key}.controller"), "a mode needs a control law"));
         }
+        if spec.target.is_some() && spec.guidance.is_some() {
+            return Err(bad(&format!("{key}.guidance"), "give target or guidance, not both"));
+        }
+        if let Some(g) = &spec.guidance {
+            if matches!(mode, Mode::Manoeuvre | Mode::Hold) {
+                return Err(bad(
+                    &format!("{key}.guidance"),
+                    "manoeuvre and hold point at the mission pointing ([target] or [guidance])",
+                ));
+            }
+            g.resolve(&format!("{key}.guidance"), self.orbit.is_some())?;
+        }
         if let Some(t) = &spec.target {
             if matches!(mode, Mode::Manoeuvre | Mode::Hold) {
                 return Err(bad(&format!("{key}.target"), "manoeuvre and hold point at [target]"));
@@ -320,16 +353,11 @@ impl Scenario {
             if !self.closed_loop() {
                 return Err(bad(&key, "commands go to the flight code: needs a controller or [modes]"));
             }
-            if let Some(t) = &c.target {
-                t.validate(&format!("{key}.target"))?;
-                if t.frame != self.target.frame {
-                    return Err(bad(&format!("{key}.target.frame"), "must be the frame of [target]"));
-                }
-            }
+            self.validate_command_pointing(c, &key)?;
             match (c.mode.as_deref(), &self.modes) {
                 (None, _) => {
-                    if c.target.is_none() {
-                        return Err(bad(&key, "give a target and/or a mode"));
+                    if c.target.is_none() && c.guidance.is_none() {
+                        return Err(bad(&key, "give a target (or guidance) and/or a mode"));
                     }
                     if c.lock {
                         return Err(bad(&format!("{key}.lock"), "needs a mode"));
@@ -353,6 +381,30 @@ impl Scenario {
         Ok(())
     }
 
+    /// A command's new pointing: a `target` in the frame of `[target]`, or a `guidance`
+    /// with `[guidance]`.
+    fn validate_command_pointing(&self, c: &CommandSpec, key: &str) -> Result<()> {
+        if let Some(t) = &c.target {
+            let Some(mission) = &self.target else {
+                return Err(bad(&format!("{key}.target"), "needs [target] (with [guidance]: give guidance)"));
+            };
+            t.validate(&format!("{key}.target"))?;
+            if t.frame != mission.frame {
+                return Err(bad(&format!("{key}.target.frame"), "must be the frame of [target]"));
+            }
+        }
+        if let Some(g) = &c.guidance {
+            if self.guidance.is_none() {
+                return Err(bad(&format!("{key}.guidance"), "needs [guidance] (with [target]: give target)"));
+            }
+            if c.target.is_some() {
+                return Err(bad(&format!("{key}.guidance"), "give target or guidance, not both"));
+            }
+            g.resolve(&format!("{key}.guidance"), self.orbit.is_some())?;
+        }
+        Ok(())
+    }
+
     /// The mode table to upload (`None` without `[modes]`).
     pub fn mode_table(&self) -> Result<Option<ModeTable>> {
         let Some(m) = &self.modes else {
@@ -362,10 +414,15 @@ impl Scenario {
         let mut mask = 0u8;
         for (mode, spec) in m.slots() {
             if let Some(spec) = spec {
-                let target = spec.target.as_ref().unwrap_or(&self.target);
+                let key = format!("modes.{}", mode.name());
+                let guidance = match (&spec.target, &spec.guidance) {
+                    (Some(t), _) => fixed_guidance(t),
+                    (None, Some(g)) => g.resolve(&format!("{key}.guidance"), self.orbit.is_some())?.params,
+                    (None, None) => self.mission_guidance()?,
+                };
                 let mut p = self
-                    .params_for(&spec.controller, spec.actuator.as_deref(), target)
-                    .with_context(|| format!("modes.{}", mode.name()))?;
+                    .params_for(&spec.controller, spec.actuator.as_deref(), guidance)
+                    .with_context(|| key.clone())?;
                 p.momentum = self.momentum_params(Some(mode), &p.actuator);
                 slots.push((mode, p));
                 mask |= 1 << mode.index();
@@ -400,6 +457,10 @@ impl Scenario {
         if let Some(t) = &c.target {
             let q = t.quaternion();
             v.push(HostMsg::SetTarget { target_q_xyzw: [q.i as f32, q.j as f32, q.k as f32, q.w as f32] });
+        }
+        // Validated with the scenario: a refusal here cannot happen.
+        if let Some(g) = c.guidance.as_ref().and_then(|g| g.resolve("commands.guidance", self.orbit.is_some()).ok()) {
+            v.push(HostMsg::SetPointing(g.params));
         }
         match c.mode.as_deref() {
             Some("auto") => v.push(HostMsg::CommandMode(ModeRequest::Auto)),

@@ -10,6 +10,7 @@
 //! window_s = 10.0               # Δt of MPE, RPE and PDE (rounded to whole control steps)
 //! drift_separation_s = 100.0    # Δt_s between the two PDE windows (whole windows)
 //! stability_window_s = 1.0      # Δt of the stability index e(t + Δt) − e(t)
+//! segment_settle_s = 0.0        # per pointing segment: its first seconds left out
 //! ```
 
 use super::{Scenario, bad};
@@ -32,6 +33,10 @@ pub struct PerformanceSpec {
     pub drift_separation_s: f64,
     #[serde(default = "stability_window")]
     pub stability_window_s: f64,
+    /// The first seconds of each pointing segment (acquisition, blended transition) are
+    /// left out of its indices (`crate::recorder::segments`).
+    #[serde(default)]
+    pub segment_settle_s: f64,
 }
 
 fn settle_bound() -> f64 {
@@ -59,6 +64,7 @@ impl Default for PerformanceSpec {
             window_s: window(),
             drift_separation_s: drift_separation(),
             stability_window_s: stability_window(),
+            segment_settle_s: 0.0,
         }
     }
 }
@@ -70,6 +76,7 @@ pub struct Performance {
     pub from_s: f64,
     pub confidence: f64,
     pub windows: Windows,
+    pub segment_settle_s: f64,
 }
 
 impl PerformanceSpec {
@@ -89,7 +96,11 @@ impl PerformanceSpec {
         }
         let windows = Windows::from_seconds(dt_s, self.window_s, self.drift_separation_s, self.stability_window_s)
             .map_err(|e| bad("performance", e))?;
-        Ok(Performance { settle_bound_deg: b, from_s: self.from_s, confidence: p, windows })
+        let settle = self.segment_settle_s;
+        if !(settle.is_finite() && settle >= 0.0) {
+            return Err(bad(&k("segment_settle_s"), format!("must be >= 0 (got {settle})")));
+        }
+        Ok(Performance { settle_bound_deg: b, from_s: self.from_s, confidence: p, windows, segment_settle_s: settle })
     }
 }
 

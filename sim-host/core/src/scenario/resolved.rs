@@ -4,6 +4,8 @@
 
 use super::{AttitudeSpec, Clock, Controller, InertiaChange, ModeTable, OpenLoopRow, RefFrame, Scenario};
 use crate::attitude::Quat;
+use crate::environment::frames::{EarthOrientation, EarthRotation};
+use crate::environment::guidance::{TruthGuidance, TruthPointing, TruthSet};
 use crate::environment::model::EnvSnapshot;
 use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::ThrusterSet;
@@ -12,7 +14,7 @@ use crate::recorder::columns::Layout;
 use crate::sensors::SensorSuite;
 use acs_flight::link::HostMsg;
 use acs_flight::math::EulerSeq;
-use acs_flight::params::{EstimationParams, FlightParams, MAX_THRUSTERS};
+use acs_flight::params::{EstimationParams, FlightParams, MAX_THRUSTERS, MODE_COUNT};
 use anyhow::Result;
 
 /// What the flight side receives before the first step of a closed-loop run.
@@ -24,7 +26,8 @@ pub enum Upload {
     Modes(ModeTable),
 }
 
-/// The attitude target at the start of the run.
+/// The attitude target at the start of the run (with `[guidance]`: the frame of the Euler
+/// angles only, LVLH with an orbit, else inertial; the truth gives the target).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TargetConfig {
     /// Relative to its frame.
@@ -36,12 +39,13 @@ pub struct TargetConfig {
 }
 
 /// A ground command, resolved: when it is sent, its link messages in order, and the new
-/// target it sets (relative to the target's frame).
+/// target it sets (relative to the target's frame) or the truth of its new pointing.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GroundCommand {
     pub at_s: f64,
     pub messages: Vec<HostMsg>,
     pub target: Option<Quat>,
+    pub pointing: Option<TruthSet>,
 }
 
 /// A scenario whose every subsystem has been checked and built once; a run reads nothing
@@ -69,6 +73,8 @@ pub struct Resolved {
     pub magnetorquers: MagnetorquerSet,
     pub sensors: SensorSuite,
     pub target: TargetConfig,
+    /// The truth of the pointing (`[guidance]` only).
+    pub truth: Option<TruthGuidance>,
     pub inertia_change: Option<InertiaChange>,
     /// The open-loop command table (empty without `[open_loop]`).
     pub open_loop: Vec<OpenLoopRow>,
@@ -105,20 +111,28 @@ impl TryFrom<&Scenario> for Resolved {
         let initial = sc.initial_state(&craft, snap0.as_ref());
         let thrusters = sc.thruster_set();
         let n_thrusters = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
-        let target = TargetConfig {
-            q_rel: sc.target.quaternion(),
-            seq: sc.target.euler_sequence.into(),
-            lvlh: sc.target.frame == RefFrame::Lvlh,
+        let target = match &sc.target {
+            Some(t) => {
+                TargetConfig { q_rel: t.quaternion(), seq: t.euler_sequence.into(), lvlh: t.frame == RefFrame::Lvlh }
+            }
+            None => TargetConfig { q_rel: Quat::identity(), seq: EulerSeq::Zyx321, lvlh: sc.orbit.is_some() },
         };
+        let has_orbit = sc.orbit.is_some();
         let commands = sc
             .commands
             .iter()
-            .map(|c| GroundCommand {
-                at_s: c.at_s,
-                messages: sc.command_messages(c),
-                target: c.target.as_ref().map(AttitudeSpec::quaternion),
+            .enumerate()
+            .map(|(k, c)| {
+                let pointing = c.guidance.as_ref().map(|g| g.resolve(&format!("commands[{k}].guidance"), has_orbit));
+                Ok(GroundCommand {
+                    at_s: c.at_s,
+                    messages: sc.command_messages(c),
+                    target: c.target.as_ref().map(AttitudeSpec::quaternion),
+                    pointing: pointing.transpose()?.map(|g| g.truth()),
+                })
             })
-            .collect();
+            .collect::<Result<_>>()?;
+        let truth = truth_guidance(sc, &craft)?;
         Ok(Self {
             name: sc.name.clone(),
             clock: Clock::try_from(sc)?,
@@ -135,6 +149,7 @@ impl TryFrom<&Scenario> for Resolved {
             magnetorquers: sc.magnetorquer_set(),
             sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
             target,
+            truth,
             inertia_change: sc.spacecraft.inertia_change.clone(),
             open_loop: sc.open_loop.as_ref().map_or_else(Vec::new, |o| o.commands.clone()),
             commands,
@@ -143,6 +158,42 @@ impl TryFrom<&Scenario> for Resolved {
             performance: sc.performance()?,
         })
     }
+}
+
+/// The truth of a scenario's pointing, with `[guidance]` or `[modes]` (`None` otherwise):
+/// the mission's (`[guidance]` or `[target]`), each mode's own (`target` or `guidance` of
+/// `[modes.<mode>]`), the Earth orientation of `[orbit]`.
+fn truth_guidance(sc: &Scenario, craft: &Spacecraft) -> Result<Option<TruthGuidance>> {
+    let fixed = |label: String, t: &AttitudeSpec| TruthSet {
+        label,
+        main: TruthPointing::fixed(t.quaternion(), t.frame == RefFrame::Lvlh),
+        gate: None,
+    };
+    let set = match (sc.mission_set()?, &sc.target) {
+        (Some(g), _) => g.truth(),
+        (None, Some(t)) if sc.modes.is_some() => fixed("target".into(), t),
+        _ => return Ok(None),
+    };
+    let rotation = craft.env.as_ref().map_or(EarthRotation::Simple { theta0_rad: 0.0 }, |e| e.earth);
+    let earth = match &sc.orbit {
+        Some(o) => o.earth_orientation(rotation)?,
+        None => EarthOrientation::of(rotation),
+    };
+    let mut modes = vec![None; MODE_COUNT];
+    if let Some(m) = &sc.modes {
+        for (mode, spec) in m.slots() {
+            let key = format!("modes.{}", mode.name());
+            let own = match spec.map(|s| (&s.target, &s.guidance)) {
+                Some((Some(t), _)) => Some(fixed(format!("{key}.target"), t)),
+                Some((None, Some(g))) => Some(g.resolve(&format!("{key}.guidance"), sc.orbit.is_some())?.truth()),
+                _ => None,
+            };
+            if let Some(slot) = modes.get_mut(mode.index()) {
+                *slot = own;
+            }
+        }
+    }
+    Ok(Some(TruthGuidance { mission: set, modes, earth }))
 }
 
 /// The columns a scenario records (see [`Layout`]).
@@ -164,6 +215,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
                 .as_ref()
                 .is_some_and(|m| m.momentum_trip_speed_fraction > 0.0 || m.slow_fdir_persistence_s > 0.0),
         eclipse: sc.orbit.is_some(),
+        guidance: sc.guidance.is_some(),
     }
 }
 

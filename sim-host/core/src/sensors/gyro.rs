@@ -12,7 +12,6 @@
 //! noise and random walk, the bias instability on [`sensor_sub_rng`] sub 1.
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::{gauss3, sensor_rng, sensor_sub_rng};
 use crate::attitude::Vec3;
 use nalgebra::UnitQuaternion;
@@ -200,15 +199,6 @@ impl Gyro {
     /// Current Gauss–Markov (bias instability) part of the bias, rad/s.
     pub fn bias_instability_state_rad_s(&self) -> [f64; 3] {
         self.bias_gm.into()
-    }
-}
-
-impl GyroSpec {
-    /// The gyro of a scenario's `[sensors]` table: `[sensors.gyro]` when given, else the
-    /// shortcut `rate_noise_rad_s` / `rate_bias_rad_s`. `control_rate_hz`: the sample rate
-    /// when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Self {
-        s.gyro_model(control_rate_hz)
     }
 }
 

@@ -3,6 +3,22 @@
 
 use std::collections::VecDeque;
 
+/// Most samples one sensor may have in flight (the loader refuses a scenario whose
+/// `⌈latency_s × rate_hz⌉ + 2` exceeds it, naming both keys). 100,000: a 10 kHz sensor
+/// 10 s late; at most 6.4 MB per sensor, and only what is really in flight is allocated
+/// (a sensor samples at most once per dynamics substep, whatever its rate).
+pub const MAX_SAMPLES_IN_FLIGHT: usize = 100_000;
+
+/// Samples allocated up front per queue (it grows, up to its cap, only if needed).
+const INITIAL_CAPACITY: usize = 64;
+
+/// `⌈latency × rate⌉ + 2`, the cap of a queue (see [`SampleQueue`]); `None` when not a
+/// finite count (a non-finite or absurd product).
+pub fn in_flight_cap(latency_s: f64, rate_hz: f64) -> Option<usize> {
+    let n = (latency_s * rate_hz).ceil();
+    (0.0..1e15).contains(&n).then(|| n as usize + 2)
+}
+
 /// One sample on its way: its time tag (the time the truth was sampled, µs) and the time
 /// it becomes available (µs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -18,7 +34,9 @@ pub struct Pending<T> {
 /// `latency`, and a window that long holds at most `⌈(latency + 2 jitter) × rate⌉ + 1 ≤
 /// ⌈latency × rate⌉ + 2` jittered grid points (jitter < half a period; a sample is at most
 /// one substep late, and one boundary samples once). Should the cap ever be reached the
-/// oldest sample is dropped (and counted in `dropped`).
+/// oldest sample is dropped (and counted in `dropped`). The cap is at most
+/// [`MAX_SAMPLES_IN_FLIGHT`] (validated inputs; clamped here too) and memory grows only
+/// with the samples really in flight.
 #[derive(Clone, Debug)]
 pub struct SampleQueue<T> {
     latency_us: u64,
@@ -32,11 +50,11 @@ pub struct SampleQueue<T> {
 
 impl<T: Copy> SampleQueue<T> {
     pub fn new(latency_s: f64, rate_hz: f64) -> Self {
-        let cap = (latency_s * rate_hz).ceil() as usize + 2;
+        let cap = in_flight_cap(latency_s, rate_hz).unwrap_or(MAX_SAMPLES_IN_FLIGHT).min(MAX_SAMPLES_IN_FLIGHT);
         Self {
             latency_us: (latency_s * 1e6).round() as u64,
             cap,
-            pending: VecDeque::with_capacity(cap),
+            pending: VecDeque::with_capacity(cap.min(INITIAL_CAPACITY)),
             dropped: 0,
             max_len: 0,
         }
@@ -87,5 +105,16 @@ mod tests {
         assert_eq!(q.pop_available(130_000), None);
         assert_eq!(q.pop_available(230_000).map(|p| p.value), Some('b'));
         assert!(q.is_empty());
+    }
+
+    #[test]
+    fn the_cap_is_bounded_and_nothing_large_is_allocated_up_front() {
+        // Issue 37: 1e8 Hz × 10 s used to allocate a billion samples at construction.
+        let q: SampleQueue<[f64; 6]> = SampleQueue::new(10.0, 1e8);
+        assert_eq!(q.cap(), MAX_SAMPLES_IN_FLIGHT);
+        assert!(q.pending.capacity() <= 2 * INITIAL_CAPACITY, "{}", q.pending.capacity());
+        assert_eq!(in_flight_cap(10.0, 1e8), Some(1_000_000_002));
+        assert_eq!(in_flight_cap(0.3, 2.0), Some(3));
+        assert_eq!((in_flight_cap(f64::INFINITY, 1.0), in_flight_cap(1e300, 1e300)), (None, None));
     }
 }

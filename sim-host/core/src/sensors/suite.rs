@@ -22,7 +22,7 @@ use super::config::{Sampled, Sensors as SensorSpec};
 use super::css::{CoarseSunSensors, CssGeometry, CssSpec, MAX_CSS_HEADS};
 use super::encoders::Encoders;
 use super::gnss::{GnssReceiver, GnssSpec};
-use super::gyro::{Gyro, GyroSpec};
+use super::gyro::Gyro;
 use super::latency::SampleQueue;
 use super::magnetometer::{Magnetometer, MagnetometerSpec};
 use super::noise::sensor_sub_rng;
@@ -206,7 +206,7 @@ impl SensorSuite {
         let gnss = GnssSpec::from_config(s, control_rate_hz).map(|g| GnssReceiver::new(g, seed, GNSS_STREAM));
         let mut suite = Self {
             encoders: Encoders::new(seed, s.gimbal_noise_deg.to_radians(), s.wheel_speed_noise_rad_s),
-            gyro: Gyro::new(GyroSpec::from_config(s, control_rate_hz), seed, GYRO_STREAM),
+            gyro: Gyro::new(s.gyro_model(control_rate_hz), seed, GYRO_STREAM),
             attitude: AttitudeSensor::new(AttitudeSensorSpec::from_config(s, control_rate_hz), seed, ATTITUDE_STREAM),
             mag: Magnetometer::new(MagnetometerSpec::from_config(s, control_rate_hz), seed, MAGNETOMETER_STREAM),
             sun,

@@ -13,6 +13,7 @@ native module `acs._core`. Guide: docs/python.md.
 
 from __future__ import annotations
 
+import operator
 import warnings
 from typing import Any, Callable, Dict, List, Optional, Union
 
@@ -28,6 +29,8 @@ from ._core import (
     RunError,
     Scenario,
     ScenarioError,
+    ScenarioKeyError,
+    ScenarioTypeError,
     empty_frame,
     frame_to_bytes,
     record_frames,
@@ -49,6 +52,8 @@ __all__ = [
     "RunFailed",
     "Scenario",
     "ScenarioError",
+    "ScenarioKeyError",
+    "ScenarioTypeError",
     "campaign",
     "empty_frame",
     "frame_to_bytes",
@@ -89,7 +94,9 @@ class RunResult:
 
     @property
     def status(self) -> str:
-        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"`` or ``"samples_dropped"``."""
+        """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"``,
+        ``"samples_dropped"``, ``"no_control"`` or ``"margins_failed"`` (a ``[margins]`` loop not
+        stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
@@ -173,12 +180,27 @@ def run(
     ``"serial:DEV[@BAUD]"`` — as ``sim-host run --link``. ``progress``: ``True`` shows a bar
     (``tqdm.auto`` when installed: a widget in notebooks), a callable gets
     ``(steps_done, steps_total)``. ``output_every``: record every Nth control step
-    (overrides ``timing.output_every``). Ctrl-C stops the run (``KeyboardInterrupt``).
+    (overrides ``timing.output_every``). Ctrl-C stops the run (``KeyboardInterrupt``)
+    within a fraction of a second, in the run and in its ``[margins]`` measurement.
+    The run flies a copy of ``scenario`` taken when it starts: changing the scenario
+    meanwhile (from another thread) is allowed and does not change this run.
 
     A run that completes with ``run_status != "ok"`` is returned with ``ok == False`` and a
     ``RunStatusWarning``; errors before or during the run raise ``acs.RunError`` (or
     ``acs.ScenarioError`` for an invalid ``output_every``).
     """
+    if not isinstance(scenario, Scenario):
+        raise ScenarioTypeError(f"acs.run needs an acs.Scenario, not {type(scenario).__name__}")
+    if output_every is not None:
+        try:
+            n = None if isinstance(output_every, bool) else operator.index(output_every)
+        except TypeError:
+            n = None
+        if n is None or not 1 <= n < 2**32:
+            raise ScenarioError(f"output_every: must be an integer in [1, 2**32) (got {output_every!r})")
+        output_every = n
+    if link is not None and not isinstance(link, str):
+        raise RunError(f"link: a string such as \"in-process\" or \"tcp:HOST:PORT\" (got {type(link).__name__})")
     callback, close = _progress_callback(progress)
     try:
         summary, names, columns = _core.run(scenario, link, callback, output_every, firmware)

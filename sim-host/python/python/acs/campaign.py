@@ -25,7 +25,8 @@ def plan(spec: PathLike, out: PathLike, runs: Optional[int] = None) -> Dict[str,
 def run(out: PathLike, jobs: Optional[int] = None, shard: Optional[str] = None, progress: bool = False) -> Dict[str, int]:
     """Flies the pending runs of ``out`` (``shard="K/S"``: one shard) on ``jobs`` threads
     (default: every core), resumable; returns what the shard did (``ran``, ``ok``,
-    ``errors``, ...). Not interruptible with Ctrl-C while it runs."""
+    ``errors``, ...). Ctrl-C stops it within a fraction of a second (``KeyboardInterrupt``):
+    the runs in flight stop and write no result, so the next ``run`` flies them again."""
     return _core.campaign_run(out, jobs, shard, progress)
 
 

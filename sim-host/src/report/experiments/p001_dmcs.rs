@@ -127,7 +127,8 @@ struct Following {
 fn model_following(sc: &Scenario, ts: &TimeSeries, t: &[f64], (wn_rad_s, zeta): (f64, f64)) -> Result<Following> {
     let dt = 1.0 / sc.timing.control_rate_hz;
     let n = t.len();
-    let q_cmd = sc.target.quaternion();
+    let target = sc.target.as_ref().context("paper 001 points at a [target]")?;
+    let q_cmd = target.quaternion();
     let qc: Vec<&[f64]> = ["q_x", "q_y", "q_z", "q_w"].iter().map(|c| col(ts, c)).collect::<Result<_>>()?;
     let wc: Vec<&[f64]> =
         ["rate_x_rad_s", "rate_y_rad_s", "rate_z_rad_s"].iter().map(|c| col(ts, c)).collect::<Result<_>>()?;
@@ -135,7 +136,7 @@ fn model_following(sc: &Scenario, ts: &TimeSeries, t: &[f64], (wn_rad_s, zeta): 
         (0..n).map(|i| attitude_error(&Quat::new(qc[3][i], qc[0][i], qc[1][i], qc[2][i]), &q_cmd)).collect();
     let steps = t.last().map_or(0, |tl| (tl / dt).round() as usize);
     let model = reference_model(errs[0], wn_rad_s, zeta, dt, steps);
-    let seq = sc.target.euler_sequence.into();
+    let seq = target.euler_sequence.into();
     let mut euler_model_deg: [Vec<f64>; 3] = Default::default();
     let (mut follow, mut rate_follow, mut model_angle, mut plant_angle) = (vec![], vec![], vec![], vec![]);
     for i in 0..n {
