@@ -1,5 +1,5 @@
 //! Planned slews that keep every boresight out of its keep-out cones (docs/guidance.md,
-//! "Slews and keep-out cones").
+//! "Planned slews and keep-out cones").
 //!
 //! A change of pointing with [`ManoeuvreParams::enabled`] is flown as rate- and
 //! acceleration-limited eigen-axis legs ([`super::profile`], [`super::blend::Shape`]):

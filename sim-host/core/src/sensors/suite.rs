@@ -344,15 +344,7 @@ impl SensorSuite {
         if !self.attitude.spec.has_exclusion() {
             return None;
         }
-        let (Some((r, _)), Some(m)) = (env.and_then(|e| e.orbit), craft.env.as_ref()) else {
-            return None;
-        };
-        let rs = sun_position_eci(m.julian_date(t_s));
-        Some(ExclusionGeometry {
-            sun_ref: (rs - r).normalize(),
-            nadir_ref: -r.normalize(),
-            earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
-        })
+        exclusion_geometry(t_s, craft, env)
     }
 
     /// The sensors that need the orbit: fine and coarse sun sensors, GNSS receiver (each
@@ -496,6 +488,20 @@ impl SensorSuite {
             f.valid |= valid::WHEELS;
         }
     }
+}
+
+/// Where the Sun and the Earth are seen from the spacecraft at `t_s` (the tracker's
+/// exclusion rules, the keep-out columns): `None` without an orbit or an environment model.
+pub fn exclusion_geometry(t_s: f64, craft: &Spacecraft, env: Option<&EnvSnapshot>) -> Option<ExclusionGeometry> {
+    let (Some((r, _)), Some(m)) = (env.and_then(|e| e.orbit), craft.env.as_ref()) else {
+        return None;
+    };
+    let rs = sun_position_eci(m.julian_date(t_s));
+    Some(ExclusionGeometry {
+        sun_ref: (rs - r).normalize(),
+        nadir_ref: -r.normalize(),
+        earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
+    })
 }
 
 #[cfg(test)]
