@@ -2,7 +2,9 @@
 # Installs what the build and the tests need on a Debian/Ubuntu machine: the Cortex-M4F
 # Rust target and the lint tools, QEMU 10.x (processor-in-the-loop), the LLVM binutils
 # (tools/elf-check), a C compiler (the QEMU cycle plugin), python3 with venv (the Python
-# package's tests) and a single-node Slurm with munge (the campaign tests).
+# package's tests), a single-node Slurm with munge (the campaign tests), node >= 20 with npm
+# (the 3D viewer's bundle: tools/viewer's locked packages, built into target/viewer/) and
+# Debian's Chromium (the viewer's browser tests).
 #
 # Every run asks apt for the exact package set, whether or not the commands are already on
 # the PATH: a no-op when the set is installed, a failure when it cannot be installed. So a
@@ -17,6 +19,7 @@
 set -euo pipefail
 
 QEMU_MIN_MAJOR=10
+NODE_MIN_MAJOR=20
 PREFS=/etc/apt/preferences.d/acs-qemu-backports
 BACKPORTS_LIST=/etc/apt/sources.list.d/acs-bookworm-backports.sources
 
@@ -39,7 +42,7 @@ if [ "$(id -u)" -ne 0 ]; then
   SUDO="sudo"
 fi
 command -v apt-get >/dev/null 2>&1 \
-  || die "no apt-get: install by hand qemu-system-arm (>= $QEMU_MIN_MAJOR.0), llvm, gcc, python3-venv, slurmctld, slurmd, slurm-client, munge"
+  || die "no apt-get: install by hand qemu-system-arm (>= $QEMU_MIN_MAJOR.0), llvm, gcc, python3-venv, slurmctld, slurmd, slurm-client, munge, nodejs (>= 20) with npm, chromium"
 
 codename=""
 [ -r /etc/os-release ] && codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-}")
@@ -89,6 +92,10 @@ apt_install qemu-system-arm
 apt_install llvm gcc libc6-dev
 apt_install python3 python3-venv
 apt_install slurmctld slurmd slurm-client munge
+# The 3D replay: node builds the viewer bundle; the browser tests drive Debian's Chromium.
+apt_install nodejs chromium
+# Debian's nodejs ships npm apart (NodeSource's includes it).
+command -v npm >/dev/null 2>&1 || apt_install npm
 
 # --- Checks: what the tests will call is there, at a supported version ---------------------
 command -v qemu-system-arm >/dev/null 2>&1 || die "qemu-system-arm is not on the PATH after its install"
@@ -106,6 +113,18 @@ for bin in sbatch slurmctld slurmd munged; do
 done
 # (sbatch --version needs a slurm.conf; the daemons print the version without one)
 slurmctld -V
+
+# The viewer: node >= NODE_MIN_MAJOR (playwright-core's floor), its npm packages exactly as
+# locked (no install scripts: esbuild's binary comes as an optional package), the bundle in
+# target/viewer/ where `sim-host view` finds it (docs/viewer.md).
+node_major=$(node --version 2>/dev/null | sed -nE 's/^v([0-9]+)\..*/\1/p')
+[ -n "$node_major" ] && [ "$node_major" -ge "$NODE_MIN_MAJOR" ] \
+  || die "node $(node --version 2>/dev/null || echo missing): the viewer needs node >= $NODE_MIN_MAJOR (apt's nodejs from a NodeSource repository, or nvm)"
+[ -x /usr/bin/chromium ] || die "/usr/bin/chromium is missing after installing chromium"
+viewer="$(dirname "${BASH_SOURCE[0]}")/../tools/viewer"
+npm --prefix "$viewer" ci --ignore-scripts --no-audit --no-fund --loglevel=error >/dev/null \
+  || die "npm ci in tools/viewer (the npm registry must be reachable)"
+npm --prefix "$viewer" run --silent build || die "the viewer bundle did not build (tools/viewer/build.mjs)"
 
 # The QEMU cycle plugin (tools/qemu-cycles: only libc, no QEMU or glib headers needed).
 "$(dirname "${BASH_SOURCE[0]}")/../tools/qemu-cycles/build.sh" >/dev/null \

@@ -8,6 +8,7 @@
 //! - [`cycles`]: cycle bounds of the firmware under QEMU (TCG plugin);
 //! - [`analysis`]: post-run analyses (thruster allocation envelopes);
 //! - [`margins`]: stability margins measured through the flight step;
+//! - [`view`]: the 3D replay page of a run (`sim-host view`);
 //! - [`format`]: number formatting of the text outputs.
 
 // Index loops over parallel fixed-size arrays read better than zips.
@@ -20,3 +21,4 @@ pub mod format;
 pub mod margins;
 pub mod report;
 pub mod timing;
+pub mod view;

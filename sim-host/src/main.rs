@@ -171,6 +171,26 @@ enum Cmd {
         /// Time-series file: parquet (timeseries.parquet) | csv (timeseries.csv).
         #[arg(long, default_value = "parquet")]
         format: output::Format,
+        /// Also write the 3D replay page (replay.html, as `sim-host view`).
+        #[arg(long)]
+        view: bool,
+    },
+    /// Write the 3D replay of a run (RUN_DIR/replay.html: one self-contained page, no
+    /// network; docs/viewer.md), or of one run of a merged campaign directory (--run).
+    View {
+        /// A run's output directory (timeseries.parquet / .csv, summary.json), or a campaign
+        /// directory with --run.
+        dir: PathBuf,
+        /// Campaign run: `worst` (the first requirement's worst run) or its number; the run
+        /// is flown again into runs/NNNNNN/out.
+        #[arg(long)]
+        run: Option<sim_host::view::CampaignRun>,
+        /// Page to write (default DIR/replay.html).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Scenario file, for a run whose time series has none in its metadata (CSV).
+        #[arg(long)]
+        scenario: Option<PathBuf>,
     },
     /// Stability margins of the flight loop at an operating point, measured through the
     /// flight step (docs/margins.md): margins.json, bode.png, nyquist.png, disk.png in --out
@@ -415,8 +435,21 @@ fn main() -> std::process::ExitCode {
 
 fn dispatch(cmd: Cmd) -> Result<()> {
     match cmd {
-        Cmd::Run { scenario, out, link, firmware, no_plots, quiet, format } => {
-            run(&scenario, &out, link, firmware, RunOptions { no_plots, quiet, format })
+        Cmd::Run { scenario, out, link, firmware, no_plots, quiet, format, view } => {
+            let flown = run(&scenario, &out, link, firmware, RunOptions { no_plots, quiet, format });
+            // A failed run (exit 3) still gets its page: it says so.
+            let failed = matches!(&flown, Err(e) if e.downcast_ref::<RunFailed>().is_some());
+            if view && (flown.is_ok() || failed) {
+                view_run(&out, &sim_host::view::ViewOptions::default())?;
+            }
+            flown
+        }
+        Cmd::View { dir, run, out, scenario } => {
+            let opts = sim_host::view::ViewOptions { out, scenario, ..Default::default() };
+            match run {
+                None => view_run(&dir, &opts),
+                Some(which) => view_campaign_run(&dir, which, &opts),
+            }
         }
         Cmd::Lqr { scenario } => lqr(&scenario),
         Cmd::Analyze { what: Analyze::Thrusters { scenario, json, max_failed } } => {
@@ -705,6 +738,53 @@ fn campaign(what: CampaignCmd) -> Result<()> {
     Ok(())
 }
 
+/// `sim-host view RUN_DIR`: the replay page and one line about it.
+fn view_run(dir: &Path, opts: &sim_host::view::ViewOptions) -> Result<()> {
+    let r = sim_host::view::write_replay(dir, opts)?;
+    say!(
+        "  wrote {} ({:.1} MB; {} of {} rows{}; {})",
+        r.page.display(),
+        r.page_bytes as f64 / 1e6,
+        r.rows_kept,
+        r.rows_recorded,
+        if r.selection.buckets > 0 {
+            format!(", decimated over {} buckets", r.selection.buckets)
+        } else {
+            String::new()
+        },
+        r.geometry.describe()
+    );
+    if r.selection.transition_rows_dropped > 0 {
+        eprintln!(
+            "warning: {} rows of step-channel transitions did not fit the page's bound (the page says so)",
+            r.selection.transition_rows_dropped
+        );
+    }
+    Ok(())
+}
+
+/// `sim-host view CAMPAIGN_DIR --run worst|N`: the run flown again from its scenario file
+/// into `runs/NNNNNN/out` (as `campaign merge`'s re-run command does), then its page.
+fn view_campaign_run(dir: &Path, which: sim_host::view::CampaignRun, opts: &sim_host::view::ViewOptions) -> Result<()> {
+    let index = sim_host::view::campaign_run_index(dir, which)?;
+    let run_dir = dir.join("runs").join(sim_host::campaign::run_dir_name(index));
+    let scenario = run_dir.join("scenario.toml");
+    if !scenario.exists() {
+        anyhow::bail!("{}: no such run in the campaign", scenario.display());
+    }
+    let out = run_dir.join("out");
+    say!("campaign run {index}: flying {} into {}", scenario.display(), out.display());
+    let o = RunOptions { no_plots: true, quiet: true, format: output::Format::Parquet };
+    let flown = run(&scenario, &out, None, None, o);
+    if let Err(e) = &flown
+        && e.downcast_ref::<RunFailed>().is_none()
+    {
+        return flown;
+    }
+    view_run(&out, opts)?;
+    flown
+}
+
 /// What `sim-host run` writes besides the run's result.
 struct RunOptions {
     no_plots: bool,
@@ -860,15 +940,21 @@ fn summary_line(s: &Summary) -> String {
         sig(s.real_time_factor, 3)
     );
     let p = &s.pointing;
+    let pc = percent(p.confidence);
+    // The hold first, its window named (issue 38: a headline over the whole run included
+    // the slew and the detumble).
+    line += &match (s.after_settle_from_s, s.ape_after_settle_deg) {
+        (Some(from), Some(ape)) => {
+            format!("; APE {pc} % after settle (hold, {}–{} s) {} deg", sig(from, 6), sig(s.sim_time_s, 6), sig(ape, 4))
+        }
+        (Some(from), None) => {
+            format!("; APE after settle: none (its window starts at {} s, after the end)", sig(from, 6))
+        }
+        (None, _) => "; APE after settle: none (never settled)".into(),
+    };
     if let Some(ape) = p.ape_deg.total {
         let window = if p.from_s > 0.0 { "from" } else { "whole run" };
-        line += &format!(
-            "; APE at {} % ({window} {}–{} s) {} deg",
-            percent(p.confidence),
-            sig(p.from_s, 6),
-            sig(s.sim_time_s, 6),
-            sig(ape, 4)
-        );
+        line += &format!("; APE {pc} % ({window} {}–{} s) {} deg", sig(p.from_s, 6), sig(s.sim_time_s, 6), sig(ape, 4));
     }
     let opt =
         |name: &str, v: Option<f64>, unit: &str| v.map(|x| format!("; {name} {}{unit}", sig(x, 4))).unwrap_or_default();

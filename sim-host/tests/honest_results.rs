@@ -83,6 +83,8 @@ fn assert_diverged(s: &serde_json::Value, what: &str, duration_s: f64) {
         "final_error_deg",
         "mean_error_whole_run_deg",
         "rms_error_after_settle_deg",
+        "after_settle_from_s",
+        "ape_after_settle_deg",
     ] {
         assert!(s[k].is_null(), "{what}: {k} = {}", s[k]);
     }

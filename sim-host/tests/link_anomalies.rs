@@ -116,11 +116,13 @@ fn series(out: &Path) -> TimeSeries {
 }
 
 /// The figures of a run (summary.json without the link, timing and wall-clock keys).
-const FIGURES: [&str; 12] = [
+const FIGURES: [&str; 14] = [
     "steps",
     "final_error_deg",
     "settle_time_s",
+    "after_settle_from_s",
     "max_error_after_settle_deg",
+    "ape_after_settle_deg",
     "mean_error_whole_run_deg",
     "rms_error_after_settle_deg",
     "final_euler_deg",

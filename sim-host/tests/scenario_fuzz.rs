@@ -234,10 +234,26 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
     if let Some(f) = FIGURES.iter().find(|f| s.get(**f).is_none_or(|v| v.is_null() || !finite_json(v))) {
         return Verdict::Bad(format!("exit 0 with {f} = {}", s.get(*f).unwrap_or(&Json::Null)));
     }
-    // The post-settle figures exist exactly when the run settled.
-    for f in ["rms_error_after_settle_deg", "max_error_after_settle_deg"] {
-        if s.get(f).is_none_or(Json::is_null) != s.get("settle_time_s").is_none_or(Json::is_null) {
-            return Verdict::Bad(format!("exit 0 with {f} = {} and settle_time_s = {}", s[f], s["settle_time_s"]));
+    // The figures after settle exist exactly when the run settled and their window (from
+    // `after_settle_from_s`) reaches into the run (1e-9 s: the float of a sample time).
+    let settled = !s.get("settle_time_s").is_none_or(Json::is_null);
+    let from = s.get("after_settle_from_s").and_then(Json::as_f64);
+    let end = s.get("sim_time_s").and_then(Json::as_f64).unwrap_or(f64::NAN);
+    if settled != from.is_some() {
+        return Verdict::Bad(format!(
+            "exit 0 with after_settle_from_s = {} and settle_time_s = {}",
+            s["after_settle_from_s"], s["settle_time_s"]
+        ));
+    }
+    for f in ["rms_error_after_settle_deg", "max_error_after_settle_deg", "ape_after_settle_deg"] {
+        let present = !s.get(f).is_none_or(Json::is_null);
+        let inside = from.is_some_and(|t| t < end - 1e-9);
+        let outside = from.is_none_or(|t| t > end + 1e-9);
+        if (present && outside) || (!present && inside) {
+            return Verdict::Bad(format!(
+                "exit 0 with {f} = {}, after_settle_from_s = {}, sim_time_s = {end}",
+                s[f], s["after_settle_from_s"]
+            ));
         }
     }
     if !finite_json(&s) {

@@ -41,6 +41,7 @@ fn window(s: &Series, t0: f64, t1: f64) -> impl Iterator<Item = usize> + '_ {
 fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() {
     let sc = scenario("modes/cubesat-mission.toml");
     let m = sc.modes.clone().unwrap();
+    let th = m.thresholds().unwrap();
     let r = run_in_process(&sc);
     let s = series(&r);
     let tr: Vec<(&str, &str, &str)> =
@@ -72,8 +73,8 @@ fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() 
     let t_detumbled = at(0).t_s;
     let dwell: Vec<f64> =
         window(&s, t_detumbled - m.dwell_s + step_out, t_detumbled).map(|i| s.rate_deg_s[i]).collect();
-    assert!(!dwell.is_empty() && dwell.iter().all(|w| *w < m.detumble_exit_rate_deg_s + 0.01), "{dwell:?}");
-    assert!(window(&s, 0.0, t_detumbled - m.dwell_s - step_out).any(|i| s.rate_deg_s[i] > m.detumble_exit_rate_deg_s));
+    assert!(!dwell.is_empty() && dwell.iter().all(|w| *w < th.detumble_exit_rate_deg_s + 0.01), "{dwell:?}");
+    assert!(window(&s, 0.0, t_detumbled - m.dwell_s - step_out).any(|i| s.rate_deg_s[i] > th.detumble_exit_rate_deg_s));
     // The initial 10 deg/s tumble is above the trigger, so no mode but detumble ran before.
     assert!(window(&s, 0.0, t_detumbled).all(|i| s.mode[i] == 1.0));
 
@@ -84,7 +85,7 @@ fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() 
     let (t_ss, t_fine) = (at(0).t_s, at(1).t_s);
     let peak_ss = window(&s, t_ss, t_fine).map(|i| s.rate_deg_s[i]).fold(0.0, f64::max);
     eprintln!("sun-safe {t_ss:.0}-{t_fine:.0} s: peak rate {peak_ss:.3} deg/s");
-    assert!(peak_ss < m.detumble_enter_rate_deg_s, "{peak_ss}");
+    assert!(peak_ss < th.detumble_enter_rate_deg_s, "{peak_ss}");
     assert!(t_fine - t_ss >= m.dwell_s, "{t_ss} {t_fine}");
 
     // Manoeuvre → hold: the error to the mission target (the runner's error column) stayed
@@ -92,7 +93,7 @@ fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() 
     for k in [3, 5, 8] {
         let (t0, t1) = (at(k - 1).t_s, at(k).t_s);
         let e: Vec<f64> = window(&s, t1 - m.dwell_s + step_out, t1).map(|i| s.error_deg[i]).collect();
-        assert!(!e.is_empty() && e.iter().all(|x| *x < m.hold_enter_error_deg), "transition {k}: {e:?}");
+        assert!(!e.is_empty() && e.iter().all(|x| *x < th.hold_enter_error_deg), "transition {k}: {e:?}");
         let peak = window(&s, t0 + 20.0, t1).map(|i| s.rate_deg_s[i]).fold(0.0, f64::max);
         eprintln!("manoeuvre {t0:.0}-{t1:.0} s: peak rate {peak:.3} deg/s");
         assert!(peak < 1.1, "eigen-axis slew rate limit 1 deg/s: {peak}");
@@ -118,7 +119,7 @@ fn mission_runs_detumble_sun_safe_stabilise_manoeuvre_hold_and_obeys_commands() 
         "hold: RMS {rms:.4} deg, max {max:.4} deg; wheels peak {:.0} rpm",
         r.summary.max_wheel_speed_rpm.unwrap()
     );
-    assert!(rms < 0.02 && max < m.hold_enter_error_deg, "{rms} {max}");
+    assert!(rms < 0.02 && max < th.hold_enter_error_deg, "{rms} {max}");
     assert_eq!(r.summary.final_mode.as_deref(), Some("hold"));
     assert!(r.summary.max_wheel_speed_rpm.unwrap() < 10_000.0);
     // B-dot ran on gyro and magnetometer and sun-safe on the coarse sun sensors and gyro

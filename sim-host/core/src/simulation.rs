@@ -556,7 +556,12 @@ impl<'a> Simulation<'a> {
             target,
             next_command: 0,
             metrics: Metrics { min_singularity: f64::INFINITY, ..Metrics::default() },
-            errors: ErrorStats::new(clock.dt, performance.settle_bound_deg),
+            errors: ErrorStats::new(
+                clock.dt,
+                performance.settle_bound_deg,
+                performance.settle_dwell_s,
+                performance.confidence,
+            ),
             pointing: PointingStats::new(performance.windows),
             segments: mission.map(|m| {
                 let p = &performance;
@@ -1295,9 +1300,11 @@ impl<'a> Simulation<'a> {
             final_error_deg: ef.final_error_deg,
             settle_time_s: ef.settle_time_s,
             settle_bound_deg: self.performance.settle_bound_deg,
+            after_settle_from_s: ef.after_settle_from_s,
             max_error_after_settle_deg: ef.max_error_after_settle_deg,
             mean_error_whole_run_deg: ef.mean_error_whole_run_deg,
             rms_error_after_settle_deg: ef.rms_error_after_settle_deg,
+            ape_after_settle_deg: ef.ape_after_settle_deg,
             final_euler_deg: euler_from_quat(&final_q_rel, self.target.seq).map(f64::to_degrees),
             target_euler_deg,
             final_rate_rad_s: self.state.w.into(),

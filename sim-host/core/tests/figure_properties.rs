@@ -62,10 +62,6 @@ fn check_common(sc: &Scenario, plans: &[FigurePlan], pngs: &[String]) {
             for t in &panel.y_ticks {
                 assert!(plots::text_width(t, 15) <= plots::Y_TICK_W, "{g}: tick label {t:?} wider than its column");
             }
-            let legend_w = (p.legend_area.x1 - p.legend_area.x0 - 48) as u32;
-            for l in &panel.lines {
-                assert!(plots::text_width(&l.label, 11) <= legend_w, "{g}: legend label {:?} does not fit", l.label);
-            }
             let styles: HashSet<_> = panel.lines.iter().map(|l| (l.colour, l.dash)).collect();
             assert_eq!(styles.len(), panel.lines.len(), "{g}: a (colour, dash) pair repeats");
             assert!(panel.y_label != "-", "{g}: dimensionless axis labelled \"-\"");
@@ -76,8 +72,80 @@ fn check_common(sc: &Scenario, plans: &[FigurePlan], pngs: &[String]) {
             assert!(!(model_panel && all_zero), "{g}: every line ≡ 0 (a model that is off)");
         }
     }
+    check_steady_state(sc, plans);
+    check_text_fits(sc, plans);
     let has_modes = plans.iter().any(|p| p.file_name == "modes.png");
     assert_eq!(has_modes, sc.modes.is_some(), "{}: modes.png without a mode manager (or none with one)", sc.name);
+}
+
+/// Every line of every linear panel of a time figure: its steady-state part (from the
+/// plan's `steady_from`: the second half of the run) spans at least the visible fraction
+/// of its axis (3 %: 7 px of a 230-px plot area), or its legend says it is constant there
+/// ("≡", "≈"); a panel followed by its steady-state panel is read there instead.
+fn check_steady_state(sc: &Scenario, plans: &[FigurePlan]) {
+    let visible = plots::STEADY_ZOOM.visible_fraction;
+    let mut bad = Vec::new();
+    for p in plans {
+        let Some(from) = p.steady_from else { continue };
+        for (k, panel) in p.panels.iter().enumerate() {
+            let zoomed = p.panels.get(k + 1).is_some_and(|n| n.steady_from.is_some());
+            if panel.log_y || !panel.categories.is_empty() || zoomed {
+                continue;
+            }
+            if let Some(z) = panel.steady_from {
+                assert_eq!(z, from, "{} / {}: steady-state window", p.file_name, panel.title);
+                assert_eq!(panel.x_range.0, from, "{} / {}: drawn from its window", p.file_name, panel.title);
+            }
+            let axis = panel.y_range.1 - panel.y_range.0;
+            for l in &panel.lines {
+                let tail = p.x.iter().zip(&l.y).filter(|(x, y)| **x >= from && y.is_finite()).map(|(_, y)| *y);
+                let (lo, hi) = tail.fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| (a.0.min(v), a.1.max(v)));
+                let shown = hi - lo >= visible * axis;
+                let annotated = l.label.contains('≡') || l.label.contains('≈') || l.label.contains("no data");
+                if !(shown || annotated || lo > hi) {
+                    let pct = 100.0 * (hi - lo) / axis;
+                    bad.push(format!("{} / {} / {}: {pct:.3} % of the axis", p.file_name, panel.title, l.label));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}: steady state flat and not annotated:\n{}", sc.name, bad.join("\n"));
+}
+
+/// No title, subtitle or legend text leaves the canvas: every text line's width measured
+/// with the embedded font at the size it is drawn, against the figure's width and its
+/// legend column; the legend's last line inside its panel's cell.
+fn check_text_fits(sc: &Scenario, plans: &[FigurePlan]) {
+    let mut bad = Vec::new();
+    for p in plans {
+        if plots::text_width(&p.subtitle, p.subtitle_size) > p.width - 20 {
+            bad.push(format!("{}: subtitle {:?}", p.file_name, p.subtitle));
+        }
+        let legend_w = p.legend_area.x1 - p.legend_area.x0;
+        for (k, panel) in p.panels.iter().enumerate() {
+            let entries: Vec<&str> = panel.legend.iter().flat_map(|e| e.lines.iter().map(|l| l.as_str())).collect();
+            for l in panel.lines.iter().map(|l| &l.label).chain(p.x_lines.iter().map(|l| &l.1)) {
+                let words = l.split(' ').filter(|w| !w.is_empty());
+                assert!(
+                    words.clone().all(|w| entries.iter().any(|e| e.contains(w))),
+                    "{}: {l:?} not in the legend",
+                    p.file_name
+                );
+            }
+            for e in &panel.legend {
+                for line in &e.lines {
+                    if e.x + plots::text_width(line, e.size) as i32 > legend_w {
+                        bad.push(format!("{} / {}: legend {line:?}", p.file_name, panel.title));
+                    }
+                }
+                let bottom = e.y + (e.lines.len() as i32 - 1) * e.line_height() + e.size as i32 / 2;
+                if bottom > p.cell_height(k) as i32 {
+                    bad.push(format!("{} / {}: legend entry {:?} below the panel", p.file_name, panel.title, e.lines));
+                }
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}: text beyond the canvas:\n{}", sc.name, bad.join("\n"));
 }
 
 fn panel_titles<'a>(plans: &'a [FigurePlan], file: &str) -> Vec<&'a str> {
@@ -89,8 +157,15 @@ fn cmg_figures() {
     let (sc, plans, pngs) = fly("paper000/test1.toml", 40.0);
     check_common(&sc, &plans, &pngs);
     let gimbals = plans.iter().find(|p| p.file_name == "gimbals.png").unwrap();
-    let rates: Vec<&str> = gimbals.panels[1].lines.iter().map(|l| l.label.as_str()).collect();
+    let rate_panel = gimbals.panels.iter().find(|p| p.title == "commanded gimbal rates dδ/dt").unwrap();
+    let rates: Vec<&str> = rate_panel.lines.iter().map(|l| l.label.as_str()).collect();
     assert_eq!(rates, ["dδ1/dt", "dδ2/dt", "dδ3/dt", "dδ4/dt"], "gimbal-rate legend");
+    // In the unit of the scenario's limit (deg/s), and within it.
+    assert_eq!(rate_panel.y_label, "deg/s");
+    let peak = rate_panel.lines.iter().flat_map(|l| l.y.iter()).fold(0.0f64, |m, v| m.max(v.abs()));
+    // The slew saturates the servo: the peak is the limit (f32 command: 1e-6 relative).
+    let limit = sc.actuators.cmg.as_ref().unwrap().max_gimbal_rate_deg_s;
+    assert!((peak - limit).abs() <= 1e-6 * limit, "peak gimbal rate drawn {peak} deg/s, limit {limit} deg/s");
     let sing = plans.iter().find(|p| p.file_name == "singularity.png").unwrap();
     assert!(sing.panels.iter().all(|p| p.y_label == "(dimensionless)"));
 }
@@ -119,6 +194,33 @@ fn ideal_wheel_and_estimation_figures() {
 }
 
 #[test]
+fn hold_figures() {
+    let (sc, plans, pngs) = fly("estimation/mekf-hold.toml", 3000.0);
+    check_common(&sc, &plans, &pngs);
+}
+
+#[test]
+fn pointing_figures() {
+    let (sc, plans, pngs) = fly("guidance/eo-cubesat.toml", 6000.0);
+    check_common(&sc, &plans, &pngs);
+    // No detumble in this run: the torquer panel does not name B-dot.
+    let momentum = panel_titles(&plans, "momentum.png");
+    assert!(momentum.contains(&"torquer torque m × B (unloading)"), "{momentum:?}");
+    // The blends of the pointing are shaded and named.
+    let pointing = plans.iter().find(|p| p.file_name == "pointing.png").unwrap();
+    assert!(!pointing.shaded.is_empty() && pointing.subtitle.contains("pointing blend"), "{:?}", pointing.shaded);
+    // A blend lasts its pointing's transition_s (120 s for the passes, 180 s for Sun and
+    // nadir); tolerance 2 s: the plot envelope's buckets (2 rows of 1 s) and the 0.25 s
+    // step. A blend restarted before its end is one longer span (at most two transitions).
+    let spans: Vec<f64> = pointing.shaded.iter().skip(1).map(|(a, b)| b - a).collect();
+    assert!(spans.iter().all(|d| (118.0..=362.0).contains(d)), "{spans:?}");
+    assert!(
+        spans.iter().any(|d| (d - 120.0).abs() <= 2.0) && spans.iter().any(|d| (d - 180.0).abs() <= 2.0),
+        "{spans:?}"
+    );
+}
+
+#[test]
 fn magnetorquer_figures() {
     let (sc, plans, pngs) = fly("paper003/bdot.toml", 600.0);
     check_common(&sc, &plans, &pngs);
@@ -137,6 +239,9 @@ fn thruster_figures() {
 fn mode_manager_figures() {
     let (sc, plans, pngs) = fly("modes/cubesat-mission.toml", 10_000.0);
     check_common(&sc, &plans, &pngs);
+    // The run detumbles (B-dot on the torquers): the torquer panel says so.
+    let momentum = panel_titles(&plans, "momentum.png");
+    assert!(momentum.iter().any(|t| t.contains("B-dot while detumbling")), "{momentum:?}");
     let modes = plans.iter().find(|p| p.file_name == "modes.png").unwrap();
     let names = ["detumble", "sun-safe", "stabilise", "manoeuvre", "hold"];
     assert_eq!(modes.panels[0].categories, names, "modes as named levels");
@@ -150,9 +255,9 @@ fn mode_manager_figures() {
     let rate = modes.panels.iter().find(|p| p.title.starts_with("body rate")).unwrap();
     assert_eq!(rate.y_label, "deg/s");
     let m = sc.modes.as_ref().unwrap();
-    assert!(rate.thresholds.iter().any(|t| t.0 == m.detumble_enter_rate_deg_s));
+    assert!(rate.thresholds.iter().any(|t| Some(t.0) == m.detumble_enter_rate_deg_s));
     let error = modes.panels.iter().find(|p| p.title.starts_with("attitude error")).unwrap();
-    assert!(error.thresholds.iter().any(|t| t.0 == m.hold_exit_error_deg));
+    assert!(error.thresholds.iter().any(|t| Some(t.0) == m.hold_exit_error_deg));
     // Every time plot carries the mode spans.
     assert!(plans.iter().all(|p| p.modes == modes.modes));
     // And the eclipses, shaded and named in the subtitle. A whole eclipse of this circular

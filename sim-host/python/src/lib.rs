@@ -21,6 +21,7 @@ pub mod fsw;
 pub mod run;
 pub mod scenario;
 pub mod strict;
+pub mod view;
 
 #[pymodule]
 #[pyo3(name = "_core")]
@@ -44,6 +45,8 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(campaign::campaign_plan, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_run, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_merge, m)?)?;
+    m.add_function(wrap_pyfunction!(view::view_run_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(view::view_result, m)?)?;
     m.add_function(wrap_pyfunction!(errors::panic_for_test, m)?)?;
     Ok(())
 }

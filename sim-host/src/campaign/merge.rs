@@ -765,6 +765,40 @@ mod tests {
         assert!(fig.panels[1].series[0].column == "tail", "a key required small fails above x");
     }
 
+    /// The eo-cubesat campaign's requirement name was cut at the figure's right edge
+    /// ("threshold (hold APE (95 % of the time) <"): every legend line, measured with the
+    /// embedded font at the size it is drawn, ends inside the legend column, and every word
+    /// of every label is in the legend.
+    #[test]
+    fn long_requirement_names_are_wrapped_inside_the_legend() {
+        let xs: Vec<f64> = (0..200).map(|i| 0.001 * i as f64).collect();
+        let name = "hold APE (95 % of the time) < 0.5 deg over every target pass, boresight";
+        let req = Requirement {
+            name: name.into(),
+            key: "pointing.ape_deg".into(),
+            op: Op::Lt,
+            value: 0.5,
+            probability: 0.95,
+            confidence: 0.9,
+        };
+        let (ts, fig) = distribution_figure("pointing.ape_deg", &xs, xs.len(), Some(&req));
+        let plan = plots::plan(&ts, &fig, &plots::FigureContext::new("campaign eo-cubesat-dispersed")).unwrap();
+        let legend_w = plan.legend_area.x1 - plan.legend_area.x0;
+        for (k, panel) in plan.panels.iter().enumerate() {
+            let text: Vec<&str> = panel.legend.iter().flat_map(|e| e.lines.iter().map(|l| l.as_str())).collect();
+            for e in &panel.legend {
+                for l in &e.lines {
+                    let right = e.x + plots::text_width(l, e.size) as i32;
+                    assert!(right <= legend_w, "{l:?} ends at {right} px, the column is {legend_w} px");
+                }
+                let bottom = e.y + (e.lines.len() as i32 - 1) * e.line_height() + e.size as i32 / 2;
+                assert!(bottom <= plan.cell_height(k) as i32, "{:?} below the panel", e.lines);
+            }
+            assert!(name.split(' ').all(|w| text.iter().any(|l| l.contains(w))), "{text:?}");
+        }
+        assert!(plots::text_width(&plan.title, plan.title_size) <= plan.width - 20);
+    }
+
     /// A key required to be large (a margin): the tail panel is the lower tail (the failing
     /// side), with its upper bound above it and the allowed fraction `1 − p`; runs without a
     /// value are counted in the title.

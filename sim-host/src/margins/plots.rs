@@ -1,6 +1,7 @@
 //! The figures of a margin measurement, drawn with the recorder's plotting helpers
 //! (`sim_core::recorder::plots`): `bode.png` (loop-at-a-time `|l_i|` and phase against
-//! `log10 ω`, the crossover and phase-crossing frequencies marked, the margins in the
+//! ω on a log axis labelled in decades of rad/s, the crossover and phase-crossing
+//! frequencies marked in different styles, the margins in the
 //! panel titles), `nyquist.png` (each `l_i` near the critical point, one scale on both
 //! axes, the unit circle and the critical point −1 marked) and `disk.png` (`|s_i − 1/2|`
 //! per axis and the multiloop μ bound of `S − I/2`, whose peaks are the reciprocal disk
@@ -88,7 +89,8 @@ fn bode(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
             if r.loop_axes_body.is_some() { " (perp1, perp2: ⊥ the frozen field)" } else { "" }
         ),
         x: "log10_w".into(),
-        x_label: "log10 frequency [rad/s]".into(),
+        x_label: "frequency [rad/s], log scale".into(),
+        x_log10: true,
         panels: vec![
             Panel {
                 title: format!("magnitude: {}", or_none(gm, "no phase crossing, gain margin infinite")),
@@ -225,7 +227,8 @@ fn disk(r: &MarginReport, s: &[Option<Cmat>]) -> (TimeSeries, Figure) {
         file_name: "disk.png".into(),
         title: format!("{}: disk margins = 1 / peak (multiloop α {:.3})", r.scenario, m.alpha),
         x: "log10_w".into(),
-        x_label: "log10 frequency [rad/s]".into(),
+        x_label: "frequency [rad/s], log scale".into(),
+        x_log10: true,
         panels: vec![Panel {
             title: format!("balanced (σ = 0): multiloop ±{gm} dB, ±{:.1}°", m.phase_margin_deg),
             y_label: "1 / α(ω)".into(),

@@ -1,6 +1,6 @@
 #![allow(dead_code)] // a test-support module: each test binary uses part of it
 //! The one rule for tests that need a tool outside Cargo — QEMU (`qemu-system-arm`), the
-//! QEMU cycle plugin, the firmware ELF, Slurm: [`require_tool`].
+//! QEMU cycle plugin, the firmware ELF, Slurm, the browser: [`require_tool`].
 //!
 //! - `CI` set (and not `0`/`false`; `.ci/run` sets it): a missing tool FAILS the test, with
 //!   a message naming the command that installs or builds it.
@@ -28,6 +28,9 @@ pub enum Tool {
     FirmwareElf,
     /// A single-node Slurm with MUNGE (slurmctld, slurmd, slurm-client, munge).
     Slurm,
+    /// The 3D replay's browser tests: `node`, Debian's Chromium, playwright-core in
+    /// tools/viewer/node_modules and the viewer bundle in target/viewer.
+    Browser,
 }
 
 impl Tool {
@@ -38,6 +41,7 @@ impl Tool {
             Tool::CyclePlugin => "QEMU cycle plugin",
             Tool::FirmwareElf => "QEMU firmware ELF",
             Tool::Slurm => "Slurm/MUNGE",
+            Tool::Browser => "node, Chromium and the viewer bundle",
         }
     }
     /// The command that installs or builds it.
@@ -47,6 +51,9 @@ impl Tool {
             Tool::CyclePlugin => "scripts/setup.sh (a C compiler; builds tools/qemu-cycles)",
             Tool::FirmwareElf => "scripts/firmware.sh build (after scripts/setup.sh)",
             Tool::Slurm => "scripts/setup.sh (apt-get install slurmctld slurmd slurm-client munge)",
+            Tool::Browser => {
+                "scripts/setup.sh (apt-get install nodejs npm chromium; npm ci and the bundle in tools/viewer)"
+            }
         }
     }
 }

@@ -80,6 +80,19 @@ pub struct ModeThresholds {
 /// recorded row before decimation; it is not written to the time series).
 pub const RATE_NORM_DEG_S: &str = "rate_norm_deg_s";
 
+/// 1 while the guidance blends from one pointing to the next (`guidance_flags` bit 3,
+/// `acs_flight::guidance::flags::BLENDING`), else 0 (NaN without guidance): a column the
+/// plots derive, shaded on `pointing.png`.
+pub const GUIDANCE_BLENDING: &str = "guidance_blending";
+
+/// [`GUIDANCE_BLENDING`] of a recorded row with the guidance flags at `flags` (if any).
+fn guidance_blending(row: &[f64], flags: Option<usize>) -> f64 {
+    match flags.and_then(|i| row.get(i)) {
+        Some(f) if f.is_finite() => f64::from((*f as u32) & u32::from(acs_flight::guidance::flags::BLENDING) != 0),
+        _ => f64::NAN,
+    }
+}
+
 /// The body-rate norm of a recorded row, deg/s ([`RATE_NORM_DEG_S`]).
 pub fn rate_norm_deg_s(row: &[f64]) -> f64 {
     let rate = Col::RATE.map(|c| row.get(c.index()).copied().unwrap_or(f64::NAN));
@@ -90,6 +103,11 @@ pub fn rate_norm_deg_s(row: &[f64]) -> f64 {
 /// undecimated series; [`RunOutput`] derives them row by row before its decimation).
 pub fn with_plot_columns(ts: &TimeSeries) -> TimeSeries {
     let mut out = ts.clone();
+    if let Some(flags) = ts.col("guidance_flags") {
+        let blending = flags.iter().map(|f| guidance_blending(&[*f], Some(0)));
+        out.names.push(GUIDANCE_BLENDING.into());
+        out.cols.push(blending.collect());
+    }
     if let Some(fixed) = Col::RATE.iter().map(|c| ts.fixed(*c)).collect::<Option<Vec<_>>>() {
         let norm = (0..ts.len()).map(|i| fixed.iter().map(|c| c[i] * c[i]).sum::<f64>().sqrt().to_degrees());
         out.names.push(RATE_NORM_DEG_S.into());
@@ -130,7 +148,11 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
             vec![
                 panel("gimbal angles δ", "deg", per_unit("gimbal", "deg", "δ", 4)),
                 // dδ/dt, not δ̇: the embedded font's renderer does not compose the combining dot.
-                panel("commanded gimbal rates dδ/dt", "rad/s", gimbal_rates),
+                // In deg/s, the unit of the scenario's `max_gimbal_rate_deg_s`.
+                Panel {
+                    y_scale: Some(180.0 / std::f64::consts::PI),
+                    ..panel("commanded gimbal rates dδ/dt", "deg/s", gimbal_rates)
+                },
             ],
         ),
         figure(
@@ -172,6 +194,7 @@ fn pointing_figure() -> Figure {
     };
     Figure {
         requires: Some("pointing_primary_error_deg".into()),
+        shade: Some((GUIDANCE_BLENDING.into(), "blue: pointing blend".into())),
         ..figure(
             "pointing.png",
             "Pointing (truth): boresight and secondary errors, guidance, visibility",
@@ -268,11 +291,14 @@ fn actuator_figures() -> Vec<Figure> {
             vec![
                 panel("stored momentum, body axes", "N m s", xyz("h_body", "nms")),
                 panel("stored momentum, inertial axes", "N m s", xyz("h_inertial", "nms")),
-                panel(
-                    "torquer torque m × B (B-dot while detumbling, unloading after)",
-                    "N m",
-                    xyz("torque_unload", "nm"),
-                ),
+                Panel {
+                    title_when: Some((
+                        "mode".into(),
+                        1.0,
+                        "torquer torque m × B (B-dot while detumbling, unloading after)".into(),
+                    )),
+                    ..panel("torquer torque m × B (unloading)", "N m", xyz("torque_unload", "nm"))
+                },
                 panel("|h|", "N m s", vec![line("h_norm_nms", "|h|", false)]),
             ],
         ),
@@ -300,19 +326,26 @@ fn estimation_figure() -> Figure {
         "estimation.png",
         "On-board attitude determination (MEKF) against the truth; σ: the filter's own (dashed)",
         vec![
-            log_panel(
-                "attitude error |δθ| and √tr Pθθ",
-                "deg",
-                vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
-            ),
-            log_panel(
-                "gyro bias error |δb| and √tr Pbb",
-                "deg/h",
-                vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
-            ),
+            Panel {
+                bands: vec!["est_error_deg".into()],
+                ..log_panel(
+                    "attitude error |δθ| (pale) and √tr Pθθ",
+                    "deg",
+                    vec![s("est_error_deg", "error", false), s("est_sigma_deg", "σ", true)],
+                )
+            },
+            Panel {
+                bands: vec!["est_bias_error_deg_h".into()],
+                ..log_panel(
+                    "gyro bias error |δb| (pale) and √tr Pbb",
+                    "deg/h",
+                    vec![s("est_bias_error_deg_h", "error", false), s("est_bias_sigma_deg_h", "σ", true)],
+                )
+            },
             Panel {
                 thresholds: vec![(6.0, "mean of χ²₆".into())],
-                ..log_panel("NEES (χ²₆: mean 6)", "(dimensionless)", vec![s("est_nees", "NEES", false)])
+                bands: vec!["est_nees".into()],
+                ..log_panel("NEES (pale; χ²₆: mean 6)", "(dimensionless)", vec![s("est_nees", "NEES", false)])
             },
             step_panel(
                 "innovations rejected, filter restarts; samples refused (too old, future, out of order)",
@@ -623,8 +656,11 @@ pub struct RunOutput {
     /// the start).
     tmp: Option<PathBuf>,
     plot: Envelope,
-    /// A recorded row with the derived plot columns appended ([`RATE_NORM_DEG_S`]).
+    /// A recorded row with the derived plot columns appended ([`RATE_NORM_DEG_S`],
+    /// [`GUIDANCE_BLENDING`]).
     plot_row: Vec<f64>,
+    /// Index of `guidance_flags` in the recorded row (runs with guidance).
+    flags_column: Option<usize>,
     /// The mode manager's thresholds for `modes.png`.
     thresholds: ModeThresholds,
 }
@@ -642,6 +678,7 @@ impl RunOutput {
             tmp: None,
             plot: Envelope::new(),
             plot_row: Vec::new(),
+            flags_column: None,
             thresholds: ModeThresholds::default(),
         }
     }
@@ -762,6 +799,8 @@ impl Recorder for RunOutput {
         if self.with_plots {
             let mut plot_columns = columns.to_vec();
             plot_columns.push(RATE_NORM_DEG_S.into());
+            plot_columns.push(GUIDANCE_BLENDING.into());
+            self.flags_column = columns.iter().position(|c| c == "guidance_flags");
             self.plot.start(&plot_columns, rows)?;
         }
         Ok(())
@@ -777,6 +816,7 @@ impl Recorder for RunOutput {
             self.plot_row.clear();
             self.plot_row.extend_from_slice(row);
             self.plot_row.push(rate_norm_deg_s(row));
+            self.plot_row.push(guidance_blending(row, self.flags_column));
             self.plot.record(&self.plot_row)?;
         }
         Ok(())

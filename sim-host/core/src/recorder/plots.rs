@@ -109,6 +109,14 @@ pub struct Panel {
     /// The lines lie on one another: the first is drawn solid, the others dashed, dotted,
     /// long-dashed in turn (whatever their `dashed`), so that every colour shows.
     pub cycle_dashes: bool,
+    /// Columns drawn as a pale band under the other lines (a noisy error that the σ bound
+    /// or a reference line drawn over it must not be hidden by).
+    pub bands: Vec<String>,
+    /// Factor from the columns' unit to the panel's `y_label` (e.g. rad/s → deg/s).
+    pub y_scale: Option<f64>,
+    /// (column, value, title): the title used instead when the column takes the value
+    /// somewhere in the run (e.g. a mention of B-dot only when the run detumbled).
+    pub title_when: Option<(String, f64, String)>,
 }
 
 /// A figure: panels stacked vertically sharing the x axis (column `x`, usually "t_s", label "time [s]").
@@ -126,6 +134,12 @@ pub struct Figure {
     /// One unit is as many pixels on x as on y (a Nyquist plot): square plot areas and the
     /// same span on both axes, each centred on its data.
     pub equal_scale: bool,
+    /// The x column holds log10 of the quantity (a frequency): ticks are labelled with the
+    /// quantity at whole decades (0.1, 1, 10, 100), other ticks unlabelled.
+    pub x_log10: bool,
+    /// (column, subtitle note): spans where the column is 1 are shaded in a pale blue
+    /// (e.g. a pointing blend); the note names the shading in the subtitle.
+    pub shade: Option<(String, String)>,
 }
 
 /// What every figure of one render names: the scenario (or campaign, or experiment).
@@ -157,8 +171,11 @@ pub struct LinePlan {
     pub label: String,
     pub colour: RGBColor,
     pub dash: Dash,
-    /// The y values (category indices on a category axis).
+    /// The y values (category indices on a category axis; NaN outside a steady-state
+    /// panel's window).
     pub y: Vec<f64>,
+    /// Drawn as a pale band under the other lines ([`Panel::bands`]).
+    pub band: bool,
 }
 
 /// A panel as it will be drawn.
@@ -180,6 +197,39 @@ pub struct PanelPlan {
     pub lines: Vec<LinePlan>,
     pub thresholds: Vec<(f64, String)>,
     pub points: Vec<(f64, f64, String)>,
+    /// The x range drawn: the figure's, or a steady-state panel's window.
+    pub x_range: (f64, f64),
+    /// A steady-state panel: the panel above it rescaled to `t ≥ this` ([`STEADY_ZOOM`]).
+    pub steady_from: Option<f64>,
+    /// The legend's text, laid out (wrapped, sized, placed) as it is drawn.
+    pub legend: Vec<LegendEntry>,
+}
+
+/// What marks a legend entry.
+#[derive(Clone, Debug, PartialEq)]
+pub enum LegendMark {
+    Line { colour: RGBColor, dash: Dash, band: bool },
+    Point,
+    Threshold,
+}
+
+/// One legend entry: its text lines (wrapped to the legend column), font size, where the
+/// text starts (x) and the centre of its first line (y), relative to the panel's legend
+/// cell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LegendEntry {
+    pub lines: Vec<String>,
+    pub size: u32,
+    pub x: i32,
+    pub y: i32,
+    pub mark: LegendMark,
+}
+
+impl LegendEntry {
+    /// Height of one text line of this entry, px.
+    pub fn line_height(&self) -> i32 {
+        self.size as i32 + 4
+    }
 }
 
 /// A pixel rectangle, `x0..x1` × `y0..y1` (relative to the panel's cell).
@@ -199,14 +249,22 @@ pub struct FigurePlan {
     pub title_size: u32,
     /// Scenario name and time window.
     pub subtitle: String,
+    pub subtitle_size: u32,
     pub x_label: String,
     pub x: Vec<f64>,
     pub x_range: (f64, f64),
+    /// See [`Figure::x_log10`].
+    pub x_log10: bool,
     pub panels: Vec<PanelPlan>,
     /// Mode spans (from, to, mode name) for the ribbon and the transition lines.
     pub modes: Vec<(f64, f64, String)>,
     /// Eclipse spans (from, to).
     pub eclipses: Vec<(f64, f64)>,
+    /// Spans shaded by [`Figure::shade`] (from, to).
+    pub shaded: Vec<(f64, f64)>,
+    /// Start of the steady-state window of a time figure (the second half of the run),
+    /// [`STEADY_ZOOM`]; `None` for other figures.
+    pub steady_from: Option<f64>,
     pub x_lines: Vec<(f64, String)>,
     pub width: u32,
     pub height: u32,
@@ -215,6 +273,28 @@ pub struct FigurePlan {
     /// Where the data are drawn in each panel's cell, and where its legend goes.
     pub plot_area: Rect,
     pub legend_area: Rect,
+}
+
+impl FigurePlan {
+    /// Height of panel `k`'s cell (the last one also holds the x-axis label).
+    pub fn cell_height(&self, k: usize) -> u32 {
+        self.panel_height + if k + 1 == self.panels.len() { XLABEL_H } else { 0 }
+    }
+}
+
+/// Steady state: the second half of a time figure's run. A linear panel whose lines over
+/// that window span less than `ZOOM_BELOW` of its axis (a start-up transient set the
+/// scale) gets a second panel under it with that window alone, rescaled; a line whose
+/// steady-state part still spans less than `VISIBLE_FRACTION` of its panel's axis is
+/// labelled with its value there ("≈ c ± d").
+pub const STEADY_ZOOM: SteadyZoom = SteadyZoom { from_fraction: 0.5, zoom_below: 0.2, visible_fraction: 0.03 };
+
+/// The constants of [`STEADY_ZOOM`].
+#[derive(Clone, Copy, Debug)]
+pub struct SteadyZoom {
+    pub from_fraction: f64,
+    pub zoom_below: f64,
+    pub visible_fraction: f64,
 }
 
 const WIDTH: u32 = 1200;
@@ -296,14 +376,7 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         return None;
     }
     let data_range = finite_range(x.iter().copied()).unwrap_or((0.0, 1.0));
-    let lines = fig.x_lines.iter().map(|l| l.0);
-    let points = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0)).collect::<Vec<_>>();
-    let mut x_range = finite_range(x.iter().copied().chain(lines).chain(points)).unwrap_or((0.0, 1.0));
-    if x_range.1 <= x_range.0 {
-        x_range = pad(x_range, 0.0);
-    } else if !fig.x_lines.is_empty() || fig.equal_scale {
-        x_range = pad(x_range, 0.03);
-    }
+    let mut x_range = x_range_of(x, fig, &panels);
     let cell_w = (WIDTH - LEGEND_W) as i32;
     let plot_w = cell_w - (MARGIN + MARGIN_RIGHT + Y_AREA) as i32;
     // The caption's height as plotters lays it out (the first panel's; estimated 30 px
@@ -316,39 +389,243 @@ pub fn plan(ts: &TimeSeries, fig: &Figure, ctx: &FigureContext) -> Option<Figure
         PANEL_H
     };
     let time = fig.x == "t_s";
+    let steady_from = (time && !fig.equal_scale && data_range.1 > data_range.0)
+        .then_some(data_range.0 + STEADY_ZOOM.from_fraction * (data_range.1 - data_range.0));
+    for p in panels.iter_mut() {
+        p.x_range = x_range;
+    }
+    if let Some(from) = steady_from {
+        panels = with_steady_panels(panels, x, from, data_range.1);
+    }
     let modes = if time { mode_spans(ts, x, x_range) } else { Vec::new() };
-    let eclipses = if time { eclipse_spans(ts, x) } else { Vec::new() };
+    let eclipses = if time { eclipse_spans(ts, x, "eclipse") } else { Vec::new() };
+    let shaded = match (&fig.shade, time) {
+        (Some((column, _)), true) => eclipse_spans(ts, x, column),
+        _ => Vec::new(),
+    };
     let subtitle = if time {
-        let shade = if eclipses.is_empty() { "" } else { " · grey: eclipse" };
-        format!("{} · t = {} … {} s{shade}", ctx.scenario, short(data_range.0), short(data_range.1))
+        let shade = if eclipses.is_empty() { None } else { Some("grey: eclipse") };
+        let note = fig.shade.as_ref().filter(|_| !shaded.is_empty()).map(|s| s.1.as_str());
+        time_subtitle(&ctx.scenario, data_range, [shade, note])
     } else {
         ctx.scenario.clone()
     };
     let n = panels.len() as u32;
     let ribbon = if modes.is_empty() { 0 } else { RIBBON_H };
+    let plot_area = Rect {
+        x0: (MARGIN + Y_AREA) as i32,
+        y0: MARGIN as i32 + caption_h,
+        x1: cell_w - MARGIN_RIGHT as i32,
+        y1: (panel_h - MARGIN - X_AREA) as i32,
+    };
+    for p in panels.iter_mut() {
+        p.legend = layout_legend(p, &fig.x_lines, plot_area);
+    }
     Some(FigurePlan {
         file_name: fig.file_name.clone(),
         title: fig.title.clone(),
         title_size: fit_font(&fig.title, 26, WIDTH - 40),
+        subtitle_size: fit_font(&subtitle, 16, WIDTH - 40),
         subtitle,
         x_label: fig.x_label.clone(),
         x: x.to_vec(),
         x_range,
+        x_log10: fig.x_log10,
         panels,
         modes,
         eclipses,
+        shaded,
+        steady_from,
         x_lines: fig.x_lines.clone(),
         width: WIDTH,
         height: TITLE_H + ribbon + n * panel_h + XLABEL_H,
         panel_height: panel_h,
-        plot_area: Rect {
-            x0: (MARGIN + Y_AREA) as i32,
-            y0: MARGIN as i32 + caption_h,
-            x1: cell_w - MARGIN_RIGHT as i32,
-            y1: (panel_h - MARGIN - X_AREA) as i32,
-        },
+        plot_area,
         legend_area: Rect { x0: cell_w, y0: 0, x1: WIDTH as i32, y1: panel_h as i32 },
     })
+}
+
+/// The x range: the data, the vertical lines and the marked points (3 % margins with
+/// vertical lines or an equal scale).
+fn x_range_of(x: &[f64], fig: &Figure, panels: &[PanelPlan]) -> (f64, f64) {
+    let lines = fig.x_lines.iter().map(|l| l.0);
+    let points = panels.iter().flat_map(|p| p.points.iter().map(|q| q.0)).collect::<Vec<_>>();
+    let x_range = finite_range(x.iter().copied().chain(lines).chain(points)).unwrap_or((0.0, 1.0));
+    if x_range.1 <= x_range.0 {
+        pad(x_range, 0.0)
+    } else if !fig.x_lines.is_empty() || fig.equal_scale {
+        pad(x_range, 0.03)
+    } else {
+        x_range
+    }
+}
+
+/// "scenario · t = a … b s" and the notes of the shadings drawn.
+fn time_subtitle(scenario: &str, (a, b): (f64, f64), notes: [Option<&str>; 2]) -> String {
+    let notes: String = notes.iter().flatten().map(|n| format!(" · {n}")).collect();
+    format!("{scenario} · t = {} … {} s{notes}", short(a), short(b))
+}
+
+/// The panels with a steady-state panel after each linear one whose steady-state part
+/// (`x ≥ from`) a transient has flattened ([`STEADY_ZOOM`]), and the lines still flat
+/// over that window labelled with their value there.
+fn with_steady_panels(panels: Vec<PanelPlan>, x: &[f64], from: f64, end: f64) -> Vec<PanelPlan> {
+    let mut out = Vec::with_capacity(2 * panels.len());
+    for mut p in panels {
+        let zoom = steady_panel(&p, x, from, end);
+        if zoom.is_none() {
+            label_flat_tails(&mut p, x, from, true);
+        }
+        out.push(p);
+        out.extend(zoom);
+    }
+    out
+}
+
+/// Range of the finite values of `y` where `x ≥ from`.
+fn tail_range(x: &[f64], y: &[f64], from: f64) -> Option<(f64, f64)> {
+    finite_range(x.iter().zip(y).filter(|(t, _)| **t >= from).map(|(_, v)| *v))
+}
+
+/// The steady-state panel of `p` (`None`: not a linear panel, or its steady-state part
+/// already spans a fair part of its axis, or is flat).
+fn steady_panel(p: &PanelPlan, x: &[f64], from: f64, end: f64) -> Option<PanelPlan> {
+    if p.log_y || !p.categories.is_empty() {
+        return None;
+    }
+    let tails: Vec<(f64, f64)> = p.lines.iter().filter_map(|l| tail_range(x, &l.y, from)).collect();
+    let lo = tails.iter().map(|t| t.0).reduce(f64::min)?;
+    let hi = tails.iter().map(|t| t.1).reduce(f64::max)?;
+    let axis = p.y_range.1 - p.y_range.0;
+    if hi - lo < p.floor.max(1e-9 * lo.abs().max(hi.abs())) || hi - lo >= STEADY_ZOOM.zoom_below * axis {
+        return None;
+    }
+    let y_range = linear_range([lo, hi].into_iter(), p.floor);
+    let lines = p
+        .lines
+        .iter()
+        .map(|l| {
+            let y: Vec<f64> = x.iter().zip(&l.y).map(|(t, v)| if *t >= from { *v } else { f64::NAN }).collect();
+            let label = annotate(base_label(&l.label), &y, p.floor, &p.y_label);
+            LinePlan { label, y, ..l.clone() }
+        })
+        .collect();
+    let title = format!("{} — steady state, t ≥ {} s, rescaled", p.title, short(from));
+    let mut zoom = PanelPlan {
+        title_size: fit_font(&title, 19, WIDTH - LEGEND_W - 40),
+        title,
+        y_range,
+        y_ticks: linear_ticks(y_range),
+        lines,
+        thresholds: p.thresholds.iter().filter(|t| (y_range.0..=y_range.1).contains(&t.0)).cloned().collect(),
+        points: Vec::new(),
+        x_range: (from, end),
+        steady_from: Some(from),
+        legend: Vec::new(),
+        ..p.clone()
+    };
+    label_flat_tails(&mut zoom, x, from, false);
+    Some(zoom)
+}
+
+/// A legend label without the flatness note [`annotate`] added.
+fn base_label(label: &str) -> &str {
+    [" ≡ ", " ≈ ", " (no data)"].iter().filter_map(|m| label.find(m)).min().map_or(label, |i| &label[..i])
+}
+
+/// Labels each line whose part at `x ≥ from` spans under [`STEADY_ZOOM`]'s visible
+/// fraction of the axis with its value there, "≈ c ± d" (`say_when`: "for t ≥ from s").
+fn label_flat_tails(p: &mut PanelPlan, x: &[f64], from: f64, say_when: bool) {
+    if p.log_y || !p.categories.is_empty() {
+        return;
+    }
+    let axis = p.y_range.1 - p.y_range.0;
+    for l in p.lines.iter_mut().filter(|l| base_label(&l.label) == l.label) {
+        let Some((lo, hi)) = tail_range(x, &l.y, from) else { continue };
+        if hi - lo < STEADY_ZOOM.visible_fraction * axis {
+            let when = if say_when { format!(" for t ≥ {} s", short(from)) } else { String::new() };
+            l.label = format!("{} ≈ {} ± {}{when}", l.label, short(0.5 * (lo + hi)), short(0.5 * (hi - lo)));
+        }
+    }
+}
+
+/// The legend of a panel, laid out: one entry per line, vertical reference line and
+/// marked point from the top, at the largest size from 15 down to 12 at which every label
+/// fits on one line (at 12, the ones still too wide are wrapped); then the thresholds'
+/// labels beside their lines (moved down when they would overlap), wrapped likewise.
+fn layout_legend(panel: &PanelPlan, x_lines: &[(f64, String)], area: Rect) -> Vec<LegendEntry> {
+    let marks: Vec<(String, LegendMark)> = panel
+        .lines
+        .iter()
+        .map(|l| (l.label.clone(), LegendMark::Line { colour: l.colour, dash: l.dash, band: l.band }))
+        .chain(x_lines.iter().enumerate().map(|(k, l)| {
+            let (colour, dash) = x_line_style(k);
+            (l.1.clone(), LegendMark::Line { colour, dash, band: false })
+        }))
+        .chain(panel.points.iter().map(|q| (q.2.clone(), LegendMark::Point)))
+        .collect();
+    let width = LEGEND_W - LEGEND_TEXT_X as u32 - 4;
+    let size = marks.iter().map(|m| fit_font(&m.0, 15, width)).min().unwrap_or(15).max(12);
+    let mut entries = Vec::new();
+    let mut y = MARGIN as i32 + CAPTION_H + 8;
+    for (label, mark) in marks {
+        let e = LegendEntry { lines: wrap(&label, size, width), size, x: LEGEND_TEXT_X, y, mark };
+        y += e.lines.len() as i32 * e.line_height() + 2;
+        entries.push(e);
+    }
+    let (lo, hi) = panel.y_range;
+    let row = |v: f64| {
+        let f = if panel.log_y { (hi.log10() - v.log10()) / (hi.log10() - lo.log10()) } else { (hi - v) / (hi - lo) };
+        area.y0 + (f * (area.y1 - area.y0) as f64).round() as i32
+    };
+    let mut order: Vec<(i32, &(f64, String))> = panel.thresholds.iter().map(|t| (row(t.0), t)).collect();
+    order.sort_by_key(|o| o.0);
+    let mut next = y;
+    for (r, t) in order {
+        let label = format!("{} {}", short(t.0), t.1);
+        let e = LegendEntry {
+            lines: wrap(&label, 13, LEGEND_W - THRESHOLD_TEXT_X as u32 - 4),
+            size: 13,
+            x: THRESHOLD_TEXT_X,
+            y: r.max(next),
+            mark: LegendMark::Threshold,
+        };
+        next = e.y + e.lines.len() as i32 * e.line_height();
+        entries.push(e);
+    }
+    entries
+}
+
+/// Where a legend entry's text starts in the legend cell (lines and points; thresholds).
+const LEGEND_TEXT_X: i32 = 40;
+const THRESHOLD_TEXT_X: i32 = 24;
+
+/// `text` in lines of at most `width` px at font size `size`: broken at spaces, a word
+/// wider than a line broken between characters.
+pub fn wrap(text: &str, size: u32, width: u32) -> Vec<String> {
+    if ensure_font().is_err() {
+        return vec![text.to_string()];
+    }
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ') {
+        let joined = if line.is_empty() { word.to_string() } else { format!("{line} {word}") };
+        if text_width(&joined, size) <= width {
+            line = joined;
+            continue;
+        }
+        if !line.is_empty() {
+            lines.push(std::mem::take(&mut line));
+        }
+        for c in word.chars() {
+            if !line.is_empty() && text_width(&format!("{line}{c}"), size) > width {
+                lines.push(std::mem::take(&mut line));
+            }
+            line.push(c);
+        }
+    }
+    lines.push(line);
+    lines
 }
 
 /// Gives `x_range` and every panel's y range one span (the largest, so every range still
@@ -387,10 +664,15 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
                 // Never solid again: a later solid line would hide all those under it.
                 dash = [Dash::Dashed, Dash::Dotted, Dash::LongDash][(i - 1) % 3];
             }
-            let y: Vec<f64> =
-                if categorical { y.iter().map(|v| category_index(&p.categories, *v)).collect() } else { y.to_vec() };
+            let k = p.y_scale.unwrap_or(1.0);
+            let y: Vec<f64> = if categorical {
+                y.iter().map(|v| category_index(&p.categories, *v)).collect()
+            } else {
+                y.iter().map(|v| k * v).collect()
+            };
             let label = if categorical { s.label.clone() } else { annotate(&s.label, &y, floor, &p.y_label) };
-            LinePlan { column: s.column.clone(), label, colour, dash, y }
+            let band = p.bands.contains(&s.column);
+            LinePlan { column: s.column.clone(), label, colour, dash, y, band }
         })
         .collect();
     let values = lines
@@ -410,10 +692,14 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
         _ if p.log_y => Vec::new(),
         _ => linear_ticks(y_range),
     };
+    let title = match &p.title_when {
+        Some((column, value, title)) if ts.col(column).is_some_and(|c| c.contains(value)) => title.clone(),
+        _ => p.title.clone(),
+    };
     Some(PanelPlan {
         y_ticks,
-        title: p.title.clone(),
-        title_size: fit_font(&p.title, 19, WIDTH - LEGEND_W - 40),
+        title_size: fit_font(&title, 19, WIDTH - LEGEND_W - 40),
+        title,
         y_label: p.y_label.clone(),
         log_y: p.log_y && !categorical,
         step: p.step || categorical,
@@ -423,6 +709,9 @@ fn plan_panel(ts: &TimeSeries, p: &Panel) -> Option<PanelPlan> {
         lines,
         thresholds: p.thresholds.clone(),
         points: p.points.clone(),
+        x_range: (0.0, 1.0),
+        steady_from: None,
+        legend: Vec::new(),
     })
 }
 
@@ -516,9 +805,9 @@ fn mode_spans(ts: &TimeSeries, x: &[f64], (x0, x1): (f64, f64)) -> Vec<(f64, f64
     merged.into_iter().map(|(a, b, m)| (a, b, name(m))).collect()
 }
 
-/// Spans where the `eclipse` column is 1.
-fn eclipse_spans(ts: &TimeSeries, x: &[f64]) -> Vec<(f64, f64)> {
-    let Some(e) = ts.col("eclipse") else { return Vec::new() };
+/// Spans where `column` is 1 (the `eclipse` column: 1 in shadow).
+fn eclipse_spans(ts: &TimeSeries, x: &[f64], column: &str) -> Vec<(f64, f64)> {
+    let Some(e) = ts.col(column) else { return Vec::new() };
     let mut spans: Vec<(f64, f64)> = Vec::new();
     let mut inside = false;
     for (&t, &v) in x.iter().zip(e) {
@@ -628,7 +917,7 @@ fn draw(p: &FigurePlan) -> io::Result<(Vec<u8>, Vec<Rect>)> {
         let centre = Pos::new(HPos::Center, VPos::Center);
         let title = TextStyle::from((FONT, p.title_size as f64).into_font()).pos(centre);
         top.draw_text(&p.title, &title, ((w / 2) as i32, 20)).map_err(err)?;
-        let sub = TextStyle::from((FONT, 16).into_font()).color(&GREY).pos(centre);
+        let sub = TextStyle::from((FONT, p.subtitle_size as f64).into_font()).color(&GREY).pos(centre);
         top.draw_text(&p.subtitle, &sub, ((w / 2) as i32, 48)).map_err(err)?;
         let ribbon = if p.modes.is_empty() {
             None
@@ -643,8 +932,8 @@ fn draw(p: &FigurePlan) -> io::Result<(Vec<u8>, Vec<Rect>)> {
             let (cell, rest) = area.split_vertically(p.panel_height + if last { XLABEL_H } else { 0 });
             area = rest;
             let (chart_cell, legend_cell) = cell.split_horizontally(WIDTH - LEGEND_W);
-            let (drawn, ys) = draw_panel(&chart_cell, p, panel, last)?;
-            draw_legend(&legend_cell, p, panel, &ys)?;
+            let drawn = draw_panel(&chart_cell, p, panel, last)?;
+            draw_legend(&legend_cell, panel)?;
             plot_px = Some((drawn.x0, drawn.x1));
             let base = chart_cell.get_base_pixel();
             areas.push(Rect {
@@ -665,16 +954,15 @@ fn draw(p: &FigurePlan) -> io::Result<(Vec<u8>, Vec<Rect>)> {
 /// Width of the y tick labels' column: [`Y_AREA`] less the rotated axis description.
 pub const Y_TICK_W: u32 = Y_AREA - 36;
 
-/// Draws one panel's chart; returns the plot area in absolute pixels and the absolute
-/// pixel rows of its thresholds.
-fn draw_panel(cell: &Area, p: &FigurePlan, panel: &PanelPlan, last: bool) -> io::Result<(Rect, Vec<i32>)> {
+/// Draws one panel's chart; returns the plot area in absolute pixels.
+fn draw_panel(cell: &Area, p: &FigurePlan, panel: &PanelPlan, last: bool) -> io::Result<Rect> {
     let mut cb = ChartBuilder::on(cell);
     cb.margin(MARGIN)
         .margin_right(MARGIN_RIGHT)
         .caption(&panel.title, (FONT, panel.title_size as f64))
         .x_label_area_size(if last { X_AREA + XLABEL_H } else { X_AREA })
         .y_label_area_size(Y_AREA);
-    let x_rng = p.x_range.0..p.x_range.1;
+    let x_rng = panel.x_range.0..panel.x_range.1;
     let (lo, hi) = panel.y_range;
     if panel.log_y {
         let chart = cb.build_cartesian_2d(x_rng, (lo..hi).log_scale()).map_err(err)?;
@@ -704,12 +992,14 @@ fn fill_panel<'a, DB, Y>(
     panel: &PanelPlan,
     last: bool,
     y_fmt: &dyn Fn(&f64) -> String,
-) -> io::Result<(Rect, Vec<i32>)>
+) -> io::Result<Rect>
 where
     DB: DrawingBackend + 'a,
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
-    let x_fmt = tick_formatter(p.x_range.0, p.x_range.1, X_TICKS);
+    let (x0, x1) = panel.x_range;
+    let linear_fmt = tick_formatter(x0, x1, X_TICKS);
+    let x_fmt = |v: &f64| if p.x_log10 { decade_tick(*v) } else { linear_fmt(v) };
     let mut mesh = chart.configure_mesh();
     let y_ticks = if panel.categories.is_empty() { Y_TICKS } else { 2 * panel.categories.len() + 1 };
     mesh.y_desc(&panel.y_label)
@@ -728,36 +1018,67 @@ where
     }
     mesh.draw().map_err(err)?;
     let (lo, hi) = panel.y_range;
-    for &(a, b) in &p.eclipses {
-        let shade = RGBColor(215, 215, 215).mix(0.5).filled();
-        chart.draw_series([Rectangle::new([(a, lo), (b, hi)], shade)]).map_err(err)?;
+    let inside = |&&(a, b): &&(f64, f64)| b >= x0 && a <= x1;
+    let eclipse = RGBColor(215, 215, 215).mix(0.5).filled();
+    let blend = PALETTE[5].mix(0.18).filled();
+    let spans = p
+        .eclipses
+        .iter()
+        .filter(inside)
+        .map(|s| (s, eclipse))
+        .chain(p.shaded.iter().filter(inside).map(|s| (s, blend)));
+    for (&(a, b), style) in spans {
+        chart.draw_series([Rectangle::new([(a.max(x0), lo), (b.min(x1), hi)], style)]).map_err(err)?;
     }
     let area = chart.plotting_area().use_screen_coord();
     let (xs, ys) = chart.plotting_area().get_pixel_range();
     let px = |x: f64, y: f64| chart.backend_coord(&(x, y));
     let vertical = |x: f64| vec![(px(x, lo).0, ys.start), (px(x, lo).0, ys.end - 1)];
-    for m in p.modes.iter().skip(1) {
+    let within = |x: &f64| (x0..=x1).contains(x);
+    for m in p.modes.iter().skip(1).filter(|m| within(&m.0)) {
         stroke(&area, vertical(m.0), GREY, Dash::Dashed)?;
     }
-    for l in &p.x_lines {
-        stroke(&area, vertical(l.0), RGBColor(0, 0, 0), Dash::Dashed)?;
+    for (k, l) in p.x_lines.iter().enumerate().filter(|(_, l)| within(&l.0)) {
+        let (colour, dash) = x_line_style(k);
+        stroke(&area, vertical(l.0), colour, dash)?;
     }
-    let mut rows = Vec::new();
-    for t in &panel.thresholds {
-        let y = px(p.x_range.0, t.0).1;
-        stroke(&area, vec![(xs.start, y), (xs.end - 1, y)], GREY, Dash::Dotted)?;
-        rows.push(y);
-    }
-    for line in &panel.lines {
-        for run in runs(&p.x, &line.y, panel.log_y, panel.step) {
-            let pts: Vec<(i32, i32)> = run.iter().map(|&(x, y)| px(x, y)).collect();
-            stroke(&area, dedup(pts), line.colour, line.dash)?;
+    // z-order: pale bands, then the reference lines, then targets and commands (dashed,
+    // drawn wider so that a response lying on them leaves their edges showing), then the
+    // responses on top.
+    let draw_lines = |lines: &mut dyn Iterator<Item = &LinePlan>, width: Width| -> io::Result<()> {
+        for line in lines {
+            let colour = if line.band { pale(line.colour) } else { line.colour };
+            for run in runs(&p.x, &line.y, panel.log_y, panel.step) {
+                let pts: Vec<(i32, i32)> = run.iter().map(|&(x, y)| px(x, y)).collect();
+                stroke_width(&area, dedup(pts), colour, line.dash, width)?;
+            }
         }
+        Ok(())
+    };
+    draw_lines(&mut panel.lines.iter().filter(|l| l.band), Width::Normal)?;
+    for t in &panel.thresholds {
+        let y = px(x0, t.0).1;
+        stroke(&area, vec![(xs.start, y), (xs.end - 1, y)], GREY, Dash::Dotted)?;
     }
+    draw_lines(&mut panel.lines.iter().filter(|l| !l.band && l.dash != Dash::Solid), Width::Wide)?;
+    draw_lines(&mut panel.lines.iter().filter(|l| !l.band && l.dash == Dash::Solid), Width::Normal)?;
     for &(x, y, _) in &panel.points {
         point_marker(&area, px(x, y))?;
     }
-    Ok((Rect { x0: xs.start, y0: ys.start, x1: xs.end, y1: ys.end }, rows))
+    Ok(Rect { x0: xs.start, y0: ys.start, x1: xs.end, y1: ys.end })
+}
+
+/// A band's colour: the line's colour mixed 35 % into white.
+fn pale(c: RGBColor) -> RGBColor {
+    let mix = |v: u8| (255.0 - 0.35 * (255.0 - v as f64)).round() as u8;
+    RGBColor(mix(c.0), mix(c.1), mix(c.2))
+}
+
+/// Line widths: 2 px, or 4 px for targets under responses.
+#[derive(Clone, Copy)]
+enum Width {
+    Normal,
+    Wide,
 }
 
 /// A marked point: a black cross in a ring, 6 px from its centre.
@@ -800,8 +1121,23 @@ fn stroke<DB: DrawingBackend>(
     colour: RGBColor,
     dash: Dash,
 ) -> io::Result<()> {
+    stroke_width(area, pts, colour, dash, Width::Normal)
+}
+
+/// [`stroke`] at `width`: 2 px, or 4 px (one more row above and below).
+fn stroke_width<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    pts: Vec<(i32, i32)>,
+    colour: RGBColor,
+    dash: Dash,
+    width: Width,
+) -> io::Result<()> {
     let style = ShapeStyle::from(&colour).stroke_width(1);
-    for dy in [0, 1] {
+    let rows: &[i32] = match width {
+        Width::Normal => &[0, 1],
+        Width::Wide => &[-1, 0, 1, 2],
+    };
+    for &dy in rows {
         let p: Vec<(i32, i32)> = pts.iter().map(|&(x, y)| (x, y + dy)).collect();
         let drawn = match dash {
             Dash::Solid => area.draw(&PathElement::new(p, style)),
@@ -814,44 +1150,30 @@ fn stroke<DB: DrawingBackend>(
     Ok(())
 }
 
-/// The legend right of the plot: one entry per line from the top, then the vertical
-/// reference lines, then the thresholds' labels beside their lines (in the order of the
-/// lines, moved down when they would overlap).
-fn draw_legend(cell: &Area, p: &FigurePlan, panel: &PanelPlan, threshold_rows: &[i32]) -> io::Result<()> {
-    let base = cell.get_base_pixel();
+/// The legend right of the plot, as laid out in the plan ([`layout_legend`]).
+fn draw_legend(cell: &Area, panel: &PanelPlan) -> io::Result<()> {
     let left = Pos::new(HPos::Left, VPos::Center);
-    let entries: Vec<(String, RGBColor, Dash)> = panel
-        .lines
-        .iter()
-        .map(|l| (l.label.clone(), l.colour, l.dash))
-        .chain(p.x_lines.iter().map(|l| (l.1.clone(), RGBColor(0, 0, 0), Dash::Dashed)))
-        .collect();
-    let point_labels = panel.points.iter().map(|q| &q.2);
-    let size = entries.iter().map(|e| &e.0).chain(point_labels).map(|l| fit_font(l, 15, LEGEND_W - 48)).min();
-    let size = size.unwrap_or(15);
-    let style = TextStyle::from((FONT, size as f64).into_font()).pos(left);
-    let mut y = MARGIN as i32 + CAPTION_H + 8;
-    for (label, colour, dash) in entries {
-        stroke(cell, vec![(6, y), (34, y)], colour, dash)?;
-        cell.draw_text(&label, &style, (40, y)).map_err(err)?;
-        y += 19;
-    }
-    for (_, _, label) in &panel.points {
-        point_marker(cell, (20, y))?;
-        cell.draw_text(label, &style, (40, y)).map_err(err)?;
-        y += 19;
-    }
-    let mut order: Vec<(i32, &(f64, String))> = threshold_rows.iter().copied().zip(&panel.thresholds).collect();
-    order.sort_by_key(|o| o.0);
-    let mut next = y;
-    for (row, t) in order {
-        let ty = (row - base.1).max(next);
-        let label = format!("{} {}", short(t.0), t.1);
-        let style =
-            TextStyle::from((FONT, fit_font(&label, 13, LEGEND_W - 30) as f64).into_font()).color(&GREY).pos(left);
-        stroke(cell, vec![(6, ty), (20, ty)], GREY, Dash::Dotted)?;
-        cell.draw_text(&label, &style, (24, ty)).map_err(err)?;
-        next = ty + 16;
+    for e in &panel.legend {
+        let y = e.y;
+        let colour = match e.mark {
+            LegendMark::Line { colour, dash, band } => {
+                let (c, w) = if band { (pale(colour), Width::Normal) } else { (colour, Width::Normal) };
+                stroke_width(cell, vec![(6, y), (34, y)], c, dash, w)?;
+                RGBColor(0, 0, 0)
+            }
+            LegendMark::Point => {
+                point_marker(cell, (20, y))?;
+                RGBColor(0, 0, 0)
+            }
+            LegendMark::Threshold => {
+                stroke(cell, vec![(6, y), (20, y)], GREY, Dash::Dotted)?;
+                GREY
+            }
+        };
+        let style = TextStyle::from((FONT, e.size as f64).into_font()).color(&colour).pos(left);
+        for (k, line) in e.lines.iter().enumerate() {
+            cell.draw_text(line, &style, (e.x, y + k as i32 * e.line_height())).map_err(err)?;
+        }
     }
     Ok(())
 }
@@ -926,6 +1248,36 @@ fn tick_formatter(lo: f64, hi: f64, n: usize) -> impl Fn(&f64) -> String {
     }
 }
 
+/// The style of the k-th vertical reference line: black dashed, then vermillion dotted,
+/// blue long-dashed, … so that lines of different meaning (a crossover and a phase
+/// crossing) are told apart in the legend.
+fn x_line_style(k: usize) -> (RGBColor, Dash) {
+    const STYLES: [(RGBColor, Dash); 4] = [
+        (RGBColor(0, 0, 0), Dash::Dashed),
+        (RGBColor(213, 94, 0), Dash::Dotted),
+        (RGBColor(0, 114, 178), Dash::LongDash),
+        (RGBColor(0, 158, 115), Dash::Dashed),
+    ];
+    STYLES[k % STYLES.len()]
+}
+
+/// Tick label of a log10 axis: the quantity at a whole decade (0.001 … 1000, else 1e-4),
+/// nothing between decades.
+fn decade_tick(v: f64) -> String {
+    let e = v.round();
+    if (v - e).abs() > 1e-9 {
+        return String::new();
+    }
+    let x = 10f64.powi(e as i32);
+    if (-3.0..=3.0).contains(&e) { short_decimal(x) } else { format!("{x:.0e}") }
+}
+
+/// 0.001, 0.01, 0.1, 1, 10 … without trailing zeros.
+fn short_decimal(x: f64) -> String {
+    let s = format!("{x:.3}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// Tick label for log axes: powers of ten as 10⁻³ etc., anything else as 2e-3.
 fn log_tick(v: &f64) -> String {
     let e = v.log10().round();
@@ -975,6 +1327,21 @@ fn write_png(path: &Path, w: u32, h: u32, rgb: &[u8]) -> io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_log10_axis_reads_decades_and_reference_lines_differ() {
+        // The labels are the quantity, 10^v, at whole decades only.
+        for (v, want) in [(-3.0, "0.001"), (-1.0, "0.1"), (0.0, "1"), (1.0, "10"), (2.0, "100"), (5.0, "1e5")] {
+            assert_eq!(decade_tick(v), want, "v = {v}");
+        }
+        assert_eq!(decade_tick(0.5), "");
+        assert_eq!(decade_tick(-1.0 + 1e-12), "0.1");
+        // Consecutive reference lines never share colour and dash.
+        for k in 0..8 {
+            let (a, b) = (x_line_style(k), x_line_style(k + 1));
+            assert!(a.0 != b.0 || a.1 != b.1, "lines {k} and {}", k + 1);
+        }
+    }
 
     #[test]
     fn ranges_and_ticks() {
@@ -1051,6 +1418,59 @@ mod tests {
         let (_, drawn) = draw(&p).unwrap();
         let d = drawn[0];
         assert!([d.x0 - a.x0, d.y0 - a.y0, d.x1 - a.x1, d.y1 - a.y1].iter().all(|e| e.abs() <= 1), "{d:?} vs {a:?}");
+    }
+
+    #[test]
+    fn a_transient_does_not_set_the_steady_state_scale() {
+        // 100 at t = 0, then sin(t) of amplitude 1, and a second line flat at 0.5 ± 1e-3
+        // after the start: the panel keeps the transient, a second panel shows t ≥ 50
+        // (the second half) on the sine's scale, and the flat line is labelled there.
+        let mut ts = TimeSeries::with_columns(vec!["t_s".into(), "a".into(), "b".into()], 101);
+        for i in 0..=100 {
+            let t = i as f64;
+            let a = if i == 0 { 100.0 } else { t.sin() };
+            ts.push_row(&[t, a, 0.5 + 1e-3 * (t / 7.0).cos()]);
+        }
+        let series = vec![
+            Series { column: "a".into(), label: "a".into(), dashed: false },
+            Series { column: "b".into(), label: "b".into(), dashed: false },
+        ];
+        let fig = Figure {
+            file_name: "f.png".into(),
+            x: "t_s".into(),
+            panels: vec![Panel { title: "p".into(), y_label: "m".into(), series, ..Default::default() }],
+            ..Default::default()
+        };
+        let p = plan(&ts, &fig, &FigureContext::new("s")).unwrap();
+        assert_eq!(p.steady_from, Some(50.0));
+        assert_eq!(p.panels.len(), 2, "{:?}", p.panels.iter().map(|q| &q.title).collect::<Vec<_>>());
+        let (main, zoom) = (&p.panels[0], &p.panels[1]);
+        assert!(main.y_range.1 >= 100.0 && main.steady_from.is_none());
+        assert_eq!((zoom.steady_from, zoom.x_range), (Some(50.0), (50.0, 100.0)));
+        // sin over t = 50 … 100 reaches within 1e-3 of ±1 (integer t); 5 % margins.
+        let (lo, hi) = zoom.y_range;
+        assert!((-1.11..=-1.09).contains(&lo) && (1.09..=1.11).contains(&hi), "{lo} {hi}");
+        assert!(zoom.lines[0].y[..50].iter().all(|v| v.is_nan()), "nothing before the window");
+        assert_eq!(zoom.lines[0].label, "a");
+        assert!(zoom.lines[1].label.starts_with("b ≈ 0.5"), "{}", zoom.lines[1].label);
+        // The panel height follows the number of panels.
+        assert_eq!(p.height, TITLE_H + 2 * PANEL_H + XLABEL_H);
+    }
+
+    #[test]
+    fn legend_text_is_wrapped_inside_its_column() {
+        ensure_font().unwrap();
+        let label = "threshold (hold APE (95 % of the time) < 0.5 deg over the pass of the target)";
+        let width = LEGEND_W - LEGEND_TEXT_X as u32 - 4;
+        let lines = wrap(label, 12, width);
+        assert!(lines.len() >= 2, "{lines:?}");
+        assert!(lines.iter().all(|l| text_width(l, 12) <= width), "{lines:?}");
+        assert_eq!(lines.join(" "), label, "every word kept, in order");
+        // A word wider than the column is broken between characters.
+        let long = "x".repeat(200);
+        let lines = wrap(&long, 12, width);
+        assert!(lines.len() >= 2 && lines.iter().all(|l| text_width(l, 12) <= width));
+        assert_eq!(lines.concat(), long);
     }
 
     #[test]

@@ -119,6 +119,12 @@ impl MagnitudeQuantile {
         self.count
     }
 
+    /// Empties the histogram (as new, without reallocating).
+    pub fn clear(&mut self) {
+        self.bins.fill(0);
+        (self.below_floor, self.above_ceiling, self.count, self.max, self.max_binned) = (0, 0, 0, 0.0, 0.0);
+    }
+
     /// The largest magnitude pushed (exact).
     pub fn max(&self) -> f64 {
         self.max

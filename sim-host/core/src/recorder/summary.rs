@@ -1,6 +1,7 @@
 //! A run's summary (`summary.json`) and the online statistics of the attitude error it
 //! reports, computed as the run goes (no stored history).
 
+use super::pointing::MagnitudeQuantile;
 use serde::Serialize;
 
 /// Default attitude-error bound that defines the settle time, deg (`[performance]
@@ -105,12 +106,20 @@ pub struct Summary {
     /// Time after which the error stays below `settle_bound_deg`; `null` if it never does.
     pub settle_time_s: Option<f64>,
     pub settle_bound_deg: f64,
+    /// Start of the window after settle: `settle_time_s` + `[performance]
+    /// settle_dwell_s` (default: the settle time again), s; null if the run never settles.
+    pub after_settle_from_s: Option<f64>,
+    /// Largest error over [`after_settle_from_s`, end], deg; null if the run never settles
+    /// or the window is empty.
     pub max_error_after_settle_deg: Option<f64>,
     /// Mean error over the whole run, deg.
     pub mean_error_whole_run_deg: f64,
-    /// RMS error from the settle time to the end, deg; null if the run never settles
-    /// (the whole-run figures are in `pointing`).
+    /// RMS error over [`after_settle_from_s`, end], deg; null as the maximum (the
+    /// whole-run figures are in `pointing`).
     pub rms_error_after_settle_deg: Option<f64>,
+    /// The error's quantile at `[performance] confidence` over [`after_settle_from_s`,
+    /// end] (the hold's APE, principal angle), deg; null as the maximum.
+    pub ape_after_settle_deg: Option<f64>,
     /// Euler angles relative to the target's frame (inertial, lab or LVLH), deg.
     pub final_euler_deg: [f64; 3],
     pub target_euler_deg: [f64; 3],
@@ -335,9 +344,16 @@ pub struct ModeTransition {
 
 /// Online statistics of the attitude error: final, mean, settle time (the time after
 /// which the error stays below the bound: one control period after the last sample at or
-/// above it) and, after the settle time, the RMS and the maximum. The accumulators after
-/// the settle time restart at every exceedance, and sums run in time order, so the figures
-/// are bit-identical to those of the whole stored history.
+/// above it) and, over the window *after settle* — from the settle time plus a dwell to
+/// the end — the RMS, the maximum and the APE (the error's quantile at the run's
+/// confidence). The dwell (`[performance] settle_dwell_s`; by default the length of the
+/// last excursion above the bound, from its first sample above to the settle time, so the
+/// transient gets as long again to die out — a dip below the bound shorter than the
+/// excursion after it, an overshoot, does not split the transient) keeps the end of the
+/// transient out: right
+/// after the last crossing the error is just below the bound, so a window starting there
+/// would report the bound, not the hold (issue 38). The accumulators of the window restart at every exceedance, and sums run in
+/// time order, so the figures are bit-identical to those of the whole stored history.
 ///
 /// A non-finite error (NaN) is never "below the bound": it counts as an exceedance (the run
 /// has not settled at that time) and propagates into the mean, RMS and final error, so a
@@ -346,16 +362,34 @@ pub struct ModeTransition {
 pub struct ErrorStats {
     dt: f64,
     bound: f64,
+    /// `[performance] settle_dwell_s` (`None`: the last excursion's length).
+    dwell: Option<f64>,
+    /// Time of the first sample of the current (or last) excursion above the bound.
+    above_since: f64,
+    /// Time of the first sample of the current stay below the bound.
+    below_since: f64,
+    /// The excursion before the current one: its start, and the stay below between them.
+    prev_above_since: f64,
+    dip_s: f64,
+    /// A sample was at or above the bound (the "excursion" a run starts in is none).
+    had_excursion: bool,
+    /// The previous sample was at or above the bound.
+    was_above: bool,
+    /// Confidence of the APE after settle.
+    confidence: f64,
     /// Time of the last sample at or above the bound (the run starts "above": 0).
     last_above: f64,
     /// Samples at `t >= settle_from` count as settled (`last_above + dt`).
     settle_from: f64,
+    /// Samples at `t >= after_from` (`settle_from` + the dwell) are in the window.
+    after_from: f64,
     last: f64,
     n: u64,
     sum: f64,
     n_after: u64,
     sum_sq_after: f64,
     max_after: f64,
+    ape_after: MagnitudeQuantile,
 }
 
 /// The larger of `a` and `b`, NaN if either is NaN (`f64::max` ignores a NaN operand,
@@ -374,24 +408,44 @@ pub fn nan_min(a: f64, b: f64) -> f64 {
 pub struct ErrorFigures {
     pub final_error_deg: f64,
     pub settle_time_s: Option<f64>,
+    /// Start of the window after settle (`settle_time_s` + the dwell); `null` if the run
+    /// never settles.
+    pub after_settle_from_s: Option<f64>,
+    /// Over [`after_settle_from_s`, end]; `null` if the run never settles or the window
+    /// holds no sample (the dwell reaches past the end).
     pub max_error_after_settle_deg: Option<f64>,
     pub mean_error_whole_run_deg: f64,
     pub rms_error_after_settle_deg: Option<f64>,
+    pub ape_after_settle_deg: Option<f64>,
 }
 
 impl ErrorStats {
-    pub fn new(dt: f64, bound: f64) -> Self {
+    /// `dwell_s`: the window after settle starts this long after the settle time (`None`:
+    /// the length of the last excursion above the bound); `confidence`: of its APE, in
+    /// (0, 1]. The run starts in an excursion at t = 0.
+    pub fn new(dt: f64, bound: f64, dwell_s: Option<f64>, confidence: f64) -> Self {
+        let settle_from = 0.0 + dt;
         Self {
             dt,
             bound,
+            dwell: dwell_s,
+            above_since: 0.0,
+            below_since: 0.0,
+            prev_above_since: 0.0,
+            dip_s: f64::INFINITY,
+            had_excursion: false,
+            was_above: true,
+            confidence,
             last_above: 0.0,
-            settle_from: 0.0 + dt,
+            settle_from,
+            after_from: f64::INFINITY,
             last: f64::NAN,
             n: 0,
             sum: 0.0,
             n_after: 0,
             sum_sq_after: 0.0,
             max_after: 0.0,
+            ape_after: MagnitudeQuantile::new(),
         }
     }
 
@@ -402,25 +456,60 @@ impl ErrorStats {
         self.sum += err;
         // `!(err < bound)`: NaN is an exceedance (`err >= bound` is false for NaN).
         if !(err < self.bound) {
+            if !self.was_above {
+                // A new excursion; whether it continues the one before is decided when
+                // it ends (`excursion_ended`).
+                let dip = if self.had_excursion { t - self.below_since } else { f64::INFINITY };
+                (self.prev_above_since, self.dip_s) = (self.above_since, dip);
+                self.above_since = t;
+            }
+            (self.was_above, self.had_excursion) = (true, true);
             self.last_above = t;
             self.settle_from = t + self.dt;
-            (self.n_after, self.sum_sq_after, self.max_after) = (0, 0.0, 0.0);
-        } else if t >= self.settle_from {
-            self.n_after += 1;
-            self.sum_sq_after += err * err;
-            self.max_after = nan_max(self.max_after, err);
+            self.after_from = f64::INFINITY;
+            // Only a window that received samples needs clearing (a run above the bound
+            // step after step costs nothing here).
+            if self.n_after > 0 {
+                (self.n_after, self.sum_sq_after, self.max_after) = (0, 0.0, 0.0);
+                self.ape_after.clear();
+            }
+        } else {
+            if self.was_above {
+                self.excursion_ended(t);
+            }
+            self.was_above = false;
+            if t >= self.after_from {
+                self.n_after += 1;
+                self.sum_sq_after += err * err;
+                self.max_after = nan_max(self.max_after, err);
+                self.ape_after.push(err);
+            }
         }
+    }
+
+    /// The excursion above the bound ended at `t`: a dip below before it shorter than
+    /// the excursion itself was an overshoot of the same transient (the two are one),
+    /// and the window after settle starts the dwell after the settle time.
+    fn excursion_ended(&mut self, t: f64) {
+        if self.dip_s < t - self.above_since {
+            self.above_since = self.prev_above_since;
+        }
+        self.below_since = t;
+        self.after_from = self.settle_from + self.dwell.unwrap_or(self.settle_from - self.above_since);
     }
 
     /// The figures of a run that ended at `sim_time` (the time of the last sample).
     pub fn figures(&self, sim_time: f64) -> ErrorFigures {
         let settle_time_s = (self.last_above < sim_time).then_some(self.settle_from);
+        let window = settle_time_s.filter(|_| self.n_after > 0);
         ErrorFigures {
             final_error_deg: if self.n == 0 { f64::NAN } else { self.last },
             settle_time_s,
-            max_error_after_settle_deg: settle_time_s.map(|_| self.max_after),
+            after_settle_from_s: settle_time_s.map(|_| self.after_from),
+            max_error_after_settle_deg: window.map(|_| self.max_after),
             mean_error_whole_run_deg: self.sum / self.n.max(1) as f64,
-            rms_error_after_settle_deg: settle_time_s.map(|_| (self.sum_sq_after / self.n_after.max(1) as f64).sqrt()),
+            rms_error_after_settle_deg: window.map(|_| (self.sum_sq_after / self.n_after as f64).sqrt()),
+            ape_after_settle_deg: window.and_then(|_| self.ape_after.quantile(self.confidence)),
         }
     }
 }
@@ -429,24 +518,55 @@ impl ErrorStats {
 mod tests {
     use super::*;
 
-    /// The definitions applied to the whole stored history (what a run reported before
-    /// the statistics were computed online).
-    fn from_history(errors: &[(f64, f64)], dt: f64, bound: f64, sim_time: f64) -> ErrorFigures {
+    /// The definitions applied to the whole stored history: the settle time one period
+    /// after the last sample at or above the bound, the window after settle from there
+    /// plus the dwell (default: the last excursion's length, from its first sample above
+    /// the bound to the settle time), its APE the nearest-rank quantile.
+    fn from_history(errors: &[(f64, f64)], dt: f64, bound: f64, dwell: Option<f64>, sim_time: f64) -> ErrorFigures {
         let last_above = errors.iter().filter(|e| e.1 >= bound).map(|e| e.0).fold(0.0, f64::max);
         let settle = (last_above < sim_time).then_some(last_above + dt);
-        let after: Vec<f64> = errors.iter().filter(|(t, _)| settle.is_none_or(|s| *t >= s)).map(|e| e.1).collect();
+        // The excursions: maximal runs of samples above the bound (NaN counts as above;
+        // the run starts in one at t = 0), a run merged into the one before when the stay
+        // below between them is shorter than the run itself (an overshoot).
+        let mut runs: Vec<(f64, f64)> = Vec::new(); // (start, first time below after it)
+        let mut k = 0;
+        while k < errors.len() {
+            let above = |j: usize| !(errors[j].1 < bound);
+            if !above(k) {
+                k += 1;
+                continue;
+            }
+            let start = if runs.is_empty() && k == 0 { 0.0 } else { errors[k].0 };
+            while k < errors.len() && above(k) {
+                k += 1;
+            }
+            let end = errors.get(k).map_or(f64::INFINITY, |e| e.0);
+            match runs.last_mut() {
+                Some(prev) if start - prev.1 < end - start => prev.1 = end,
+                _ => runs.push((start, end)),
+            }
+        }
+        let since = runs.last().map_or(0.0, |r| r.0);
+        let from = settle.map(|s| s + dwell.unwrap_or(s - since));
+        let after: Vec<f64> = errors.iter().filter(|(t, _)| from.is_some_and(|f| *t >= f)).map(|e| e.1).collect();
+        let window = from.filter(|_| !after.is_empty());
+        let mut sorted = after.clone();
+        sorted.sort_by(f64::total_cmp);
+        let rank = (0.95 * sorted.len() as f64).ceil() as usize;
         ErrorFigures {
             final_error_deg: errors.last().map_or(f64::NAN, |e| e.1),
             settle_time_s: settle,
-            max_error_after_settle_deg: settle.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
+            after_settle_from_s: from,
+            max_error_after_settle_deg: window.map(|_| after.iter().fold(0.0f64, |a, e| a.max(*e))),
             mean_error_whole_run_deg: errors.iter().map(|e| e.1).sum::<f64>() / errors.len().max(1) as f64,
-            rms_error_after_settle_deg: settle
-                .map(|_| (after.iter().map(|e| e * e).sum::<f64>() / after.len().max(1) as f64).sqrt()),
+            rms_error_after_settle_deg: window
+                .map(|_| (after.iter().map(|e| e * e).sum::<f64>() / after.len() as f64).sqrt()),
+            ape_after_settle_deg: window.map(|_| sorted[rank.max(1) - 1]),
         }
     }
 
     #[test]
-    fn online_figures_equal_those_of_the_history_bit_for_bit() {
+    fn online_figures_equal_those_of_the_history() {
         let dt = 0.1;
         let mut lcg = acs_test_support::rng::Lcg64(7);
         let mut rnd = || lcg.uniform();
@@ -463,12 +583,16 @@ mod tests {
                 })
                 .collect();
             let sim_time = steps as f64 * dt;
-            let mut s = ErrorStats::new(dt, 1.0);
+            // The default dwell, none, and one that may reach past the end.
+            let dwell = [None, Some(0.0), Some(3.0)][case % 3];
+            let mut s = ErrorStats::new(dt, 1.0, dwell, 0.95);
             for (t, e) in &errors {
                 s.push(*t, *e);
             }
-            let (a, b) = (s.figures(sim_time), from_history(&errors, dt, 1.0, sim_time));
+            let (a, b) = (s.figures(sim_time), from_history(&errors, dt, 1.0, dwell, sim_time));
             assert_eq!(a.settle_time_s, b.settle_time_s, "case {case}");
+            assert_eq!(a.after_settle_from_s, b.after_settle_from_s, "case {case}");
+            // Bit for bit: the sums run in time order in both.
             for (x, y) in [
                 (a.final_error_deg, b.final_error_deg),
                 (a.mean_error_whole_run_deg, b.mean_error_whole_run_deg),
@@ -477,12 +601,87 @@ mod tests {
             ] {
                 assert_eq!(x.to_bits(), y.to_bits(), "case {case}: {x} vs {y}");
             }
+            // The APE is the upper edge of the histogram bin of the exact quantile: never
+            // below it, above it by less than one bin (and never above the maximum).
+            match (a.ape_after_settle_deg, b.ape_after_settle_deg) {
+                (Some(x), Some(y)) => assert!(y <= x && x <= y * MagnitudeQuantile::RATIO, "case {case}: {x} vs {y}"),
+                (x, y) => assert_eq!(x, y, "case {case}"),
+            }
         }
     }
 
-    /// Statistics of `errors` sampled every `dt` from 0, ended at the last sample.
+    /// The figures after settle describe the hold, not the end of the transient: on
+    /// `e(t) = e0 exp(−t/τ) + a |sin ωt|` (a decaying transient plus a known bounded
+    /// "noise" of amplitude `a`, far below the bound), the settle time lies where the
+    /// closed form puts the last crossing, `τ ln(e0 / b)` to `τ ln(e0 / (b − a))`; over
+    /// the window after it (dwell long enough for the transient to fall below 1e-4 a) the
+    /// maximum is `a` (0.5 %: the sampled peak of |sin|), the RMS `a/√2` (1 %: whole
+    /// periods up to one), the 95 % APE `a sin(0.95 π/2)` (the quantile of a|sin| over
+    /// whole periods; 1 %: one bin, 0.39 %, and the partial period). The last crossing
+    /// alone (no dwell) would report a maximum just below the bound, 20 times `a`.
+    #[test]
+    fn figures_after_settle_match_the_closed_form_of_a_decaying_transient() {
+        let (e0, tau, b, a, w, dt) = (5.0, 10.0, 1.0, 0.05, 2.0 * std::f64::consts::PI / 7.0, 0.01);
+        let t_end = 400.0;
+        let e = |t: f64| e0 * (-t / tau).exp() + a * (w * t).sin().abs();
+        // Transient below 1e-4 a after settle + dwell: t > τ ln(e0 / (1e-4 a)).
+        let dwell = tau * (e0 / (1e-4 * a)).ln();
+        let stats = |dwell: Option<f64>| {
+            let mut s = ErrorStats::new(dt, b, dwell, 0.95);
+            let n = (t_end / dt).round() as u64;
+            for k in 0..=n {
+                s.push(k as f64 * dt, e(k as f64 * dt));
+            }
+            s.figures(n as f64 * dt)
+        };
+        let f = stats(Some(dwell));
+        let ts = f.settle_time_s.unwrap();
+        let (lo, hi) = (tau * (e0 / b).ln(), tau * (e0 / (b - a)).ln() + dt);
+        assert!(ts > lo && ts <= hi, "settle {ts} outside [{lo}, {hi}]");
+        assert_eq!(f.after_settle_from_s, Some(ts + dwell));
+        let max = f.max_error_after_settle_deg.unwrap();
+        let rms = f.rms_error_after_settle_deg.unwrap();
+        let ape = f.ape_after_settle_deg.unwrap();
+        let ape_closed = a * (0.95 * std::f64::consts::FRAC_PI_2).sin();
+        eprintln!(
+            "settle {ts} s in [{lo:.3}, {hi:.3}]; max {max:.5} (a {a}), rms {rms:.5} (a/√2 {:.5}), APE {ape:.5} ({ape_closed:.5})",
+            a / 2f64.sqrt()
+        );
+        assert!((max / a - 1.0).abs() < 5e-3, "max {max} vs {a}");
+        assert!((rms / (a / 2f64.sqrt()) - 1.0).abs() < 1e-2, "rms {rms}");
+        assert!((ape / ape_closed - 1.0).abs() < 1e-2, "APE {ape} vs {ape_closed}");
+        // Without a dwell the window starts at the last crossing: the bound, not the hold.
+        let last_crossing = stats(Some(0.0)).max_error_after_settle_deg.unwrap();
+        assert!(last_crossing > 0.9 * b, "{last_crossing}");
+        // The default dwell (the excursion's length: here the settle time again, the run
+        // starts above the bound) leaves e0 exp(−2 ts/τ) ≈ b²/e0 of the transient.
+        let d = stats(None);
+        assert_eq!(d.after_settle_from_s, Some(2.0 * d.settle_time_s.unwrap()));
+        let m = d.max_error_after_settle_deg.unwrap();
+        let residue = e0 * (-2.0 * d.settle_time_s.unwrap() / tau).exp();
+        assert!(m >= a * 0.995 && m <= residue + a, "{m} vs {residue} + {a}");
+        // A late excursion (the error above the bound for 3 s from 300 s, as after a new
+        // target): the default dwell is that excursion's length, not the time since t = 0.
+        let mut s = ErrorStats::new(dt, b, None, 0.95);
+        let n = (t_end / dt).round() as u64;
+        for k in 0..=n {
+            let t = k as f64 * dt;
+            s.push(t, if (300.0..303.0).contains(&t) { 2.0 } else { a });
+        }
+        let late = s.figures(n as f64 * dt);
+        let ts = late.settle_time_s.unwrap();
+        assert!((ts - 303.0).abs() < 1e-9, "{ts}");
+        assert!((late.after_settle_from_s.unwrap() - 306.0).abs() < 1e-6, "{late:?}");
+        // A dwell past the end: an empty window, its figures null (not 0), its start said.
+        let past = stats(Some(1e6));
+        assert!(past.after_settle_from_s.is_some() && past.max_error_after_settle_deg.is_none());
+        assert!(past.rms_error_after_settle_deg.is_none() && past.ape_after_settle_deg.is_none());
+    }
+
+    /// Statistics of `errors` sampled every `dt` from 0, ended at the last sample, with
+    /// the window after settle starting at the settle time (no dwell).
     fn stats_of(errors: &[f64], dt: f64) -> ErrorFigures {
-        let mut s = ErrorStats::new(dt, 1.0);
+        let mut s = ErrorStats::new(dt, 1.0, Some(0.0), 0.95);
         for (k, e) in errors.iter().enumerate() {
             s.push(k as f64 * dt, *e);
         }

@@ -1,7 +1,7 @@
 //! Actuators of a scenario: CMG cluster and steering, reaction wheels, magnetorquers,
 //! thrusters — their TOML tables, validation, plant models and flight parameters.
 
-use super::{Controller, Scenario, bad, finite, positive, yes};
+use super::{Controller, MomentumSpec, Scenario, bad, finite, positive, yes};
 use crate::attitude::Vec3;
 use crate::plant::MAX_WHEELS;
 use crate::plant::magnetorquers::{MagnetorquerSet, MagnetorquerSpec};
@@ -286,24 +286,60 @@ pub enum Alpha {
     Exponential { a0: f64, mu: f64 },
 }
 
+/// An actuator family, as `[actuators.<name>]` and `modes.<mode>.actuator` name it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Family {
+    Cmg,
+    Wheels,
+    Magnetorquers,
+    Thrusters,
+}
+
+impl Family {
+    /// The table's name: `[actuators.<name>]`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Family::Cmg => "cmg",
+            Family::Wheels => "wheels",
+            Family::Magnetorquers => "magnetorquers",
+            Family::Thrusters => "thrusters",
+        }
+    }
+}
+
+/// Why a `[controller]` cannot choose among `several` families, and what to write
+/// instead (`stores`: wheels or CMGs are present, which magnetorquers or thrusters
+/// could unload).
+fn several_families(several: &[Family], stores: bool) -> String {
+    let tables: Vec<String> = several.iter().map(|f| format!("[actuators.{}]", f.name())).collect();
+    let has = |f: Family| several.contains(&f);
+    let fix = if has(Family::Cmg) && has(Family::Wheels) {
+        "remove one of the momentum-exchange families".to_string()
+    } else if stores && has(Family::Magnetorquers) && !has(Family::Thrusters) {
+        "add a [momentum] table (`gain_per_s`, 1/s) so the magnetorquers unload the stored momentum while the \
+         [controller] flies the wheels (CMGs)"
+            .to_string()
+    } else if stores && has(Family::Thrusters) && !has(Family::Magnetorquers) {
+        "add a [momentum] table with `method = \"thrusters\"` (`dump_gain_per_s`, `dump_torque_max_nm`, \
+         `dump_start_nms`, `dump_stop_nms`) so the thrusters dump the stored momentum while the [controller] \
+         flies the wheels (CMGs)"
+            .to_string()
+    } else {
+        "remove the families the law does not use".to_string()
+    };
+    format!(
+        "a [controller] allocates to one actuator family, and {} are given: {fix}; or replace [controller] by \
+         [modes], each `[modes.<mode>]` naming its `actuator = \"{}\"` (docs/scenario.md, \"[modes]\")",
+        tables.join(" and "),
+        several.iter().map(|f| f.name()).collect::<Vec<_>>().join("\" | \""),
+    )
+}
+
 impl Scenario {
     pub(super) fn validate_actuators(&self) -> Result<()> {
         let act = &self.actuators;
-        let families = [act.cmg.is_some(), act.wheels.is_some(), act.magnetorquers.is_some(), act.thrusters.is_some()];
-        let mut n_families = families.iter().filter(|x| **x).count();
-        // A thruster momentum dump flies the thrusters beside the wheels or CMGs: the
-        // attitude law allocates to the one family, the dump to the thrusters.
-        if self.momentum.as_ref().is_some_and(|m| m.dumps())
-            && act.thrusters.is_some()
-            && (act.wheels.is_some() || act.cmg.is_some())
-        {
-            n_families -= 1;
-        }
-        if self.controller.as_ref().is_some_and(|c| !matches!(c, Controller::None)) && n_families != 1 {
-            return Err(bad(
-                "actuators",
-                format!("closed-loop control allocates to exactly one actuator family ({n_families} given)"),
-            ));
+        if self.controller.as_ref().is_some_and(|c| !matches!(c, Controller::None)) {
+            self.control_family()?;
         }
         if let Some(cmg) = &act.cmg {
             self.validate_cmg(cmg)?;
@@ -318,6 +354,47 @@ impl Scenario {
             self.validate_thrusters(t)?;
         }
         Ok(())
+    }
+
+    /// The one actuator family a single `[controller]` allocates its torque to (issue
+    /// 38): the family present that does not serve `[momentum]`. Magnetic unloading puts
+    /// the magnetorquers beside the wheels (or CMGs), a thruster dump the thrusters: the
+    /// standard cubesat set (wheels + magnetorquers + `[momentum]`) flies without
+    /// `[modes]`. Any other combination is refused with what to write instead.
+    pub fn control_family(&self) -> Result<Family> {
+        let act = &self.actuators;
+        let stores = act.wheels.is_some() || act.cmg.is_some();
+        let unloading = self.momentum.as_ref();
+        let rods_unload = stores && act.magnetorquers.is_some() && unloading.is_some_and(|m| !m.dumps());
+        let thrusters_dump = stores && act.thrusters.is_some() && unloading.is_some_and(MomentumSpec::dumps);
+        let present: Vec<Family> = [
+            (Family::Cmg, act.cmg.is_some()),
+            (Family::Wheels, act.wheels.is_some()),
+            (Family::Magnetorquers, act.magnetorquers.is_some() && !rods_unload),
+            (Family::Thrusters, act.thrusters.is_some() && !thrusters_dump),
+        ]
+        .into_iter()
+        .filter_map(|(f, on)| on.then_some(f))
+        .collect();
+        let family = match present.as_slice() {
+            [one] => *one,
+            [] => {
+                return Err(bad(
+                    "actuators",
+                    "closed-loop control needs an actuator: add [actuators.wheels], [actuators.magnetorquers], [actuators.cmg] or [actuators.thrusters]",
+                ));
+            }
+            several => return Err(bad("actuators", several_families(several, stores))),
+        };
+        // A law that commands the rods cannot fly on the wheels beside them.
+        if rods_unload && matches!(self.controller, Some(Controller::Bdot { .. })) {
+            return Err(bad(
+                "controller.type",
+                "B-dot commands the magnetorquers, which [momentum] gives to unloading while the [controller] \
+                 flies the wheels (CMGs): detumble with B-dot under [modes] (`[modes.detumble] actuator = \"magnetorquers\"`)",
+            ));
+        }
+        Ok(family)
     }
 
     /// `[actuators.cmg]` (and `[steering]` with it).

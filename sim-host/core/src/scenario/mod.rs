@@ -39,7 +39,7 @@ pub use performance::{Performance, PerformanceSpec};
 mod resolved;
 mod sensors;
 pub use actuators::{
-    Actuators, Alpha, CmgConfig, CmgSpec, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
+    Actuators, Alpha, CmgConfig, CmgSpec, Family, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
     ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
 };
 pub use controller::{Controller, LqrDesign};
@@ -47,7 +47,10 @@ pub use environment::{EnvironmentSpec, OrbitKind, OrbitSpec, RigSpec};
 pub use limits::{
     MAX_ANGLE_NOISE_DEG, MAX_INPUT_BYTES, MAX_MAGNITUDE, MAX_SCALE_FACTOR_PPM, NOISE_FRACTION_OF_LIMIT, read_capped,
 };
-pub use modes::{CommandSpec, ModeSpec, ModeTable, ModesSpec, parse_mode};
+pub use modes::{
+    CommandSpec, ModeSpec, ModeTable, ModesSpec, Thresholds, UNUSED_HOLD_ENTER_DEG, UNUSED_HOLD_EXIT_DEG, parse_mode,
+    unused_detumble_rates_deg_s,
+};
 pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
@@ -674,7 +677,12 @@ impl Scenario {
     /// The parameter set uploaded to the flight code (single `[controller]`).
     pub fn flight_params(&self) -> Result<FlightParams> {
         let c = self.controller.as_ref().ok_or_else(|| bad("controller", "missing (or use [modes])"))?;
-        let mut p = self.params_for(c, None, self.mission_guidance()?)?;
+        // The family the law flies on: the one not serving [momentum] (`control_family`).
+        let family = match c {
+            Controller::None => None,
+            _ => Some(self.control_family()?.name()),
+        };
+        let mut p = self.params_for(c, family, self.mission_guidance()?)?;
         p.momentum = self.momentum_params(None, &p.actuator);
         Ok(p)
     }

@@ -20,6 +20,9 @@
 //! target = { frame = "lvlh", euler_deg = [0, 0, 0] }
 //! controller = { type = "lqr", q_diag = [...], r_diag = [...] }
 //! ```
+//! A table gives only the thresholds of the transitions it can make
+//! ([`ModesSpec::thresholds`]): a hold + sun-safe table needs neither the detumble rates
+//! nor the hold entry and exit, only `dwell_s` and `trigger_persistence_s`.
 //! Manoeuvre and hold point at the scenario's `[target]` or `[guidance]` (the mission
 //! pointing, which `[[commands]]` may change); the other modes may have their own
 //! (`target` or `guidance`).
@@ -36,15 +39,23 @@ use acs_flight::params::{MODE_COUNT, Mode, ModeManagerParams, ModeRequest};
 pub struct ModesSpec {
     #[serde(default = "default_initial")]
     pub initial: String,
-    pub detumble_enter_rate_deg_s: f64,
-    pub detumble_exit_rate_deg_s: f64,
+    /// Any mode → detumble above this rate; required with `[modes.detumble]` and another
+    /// mode (see [`ModesSpec::thresholds`]).
+    #[serde(default)]
+    pub detumble_enter_rate_deg_s: Option<f64>,
+    #[serde(default)]
+    pub detumble_exit_rate_deg_s: Option<f64>,
     #[serde(default)]
     pub stabilise_exit_error_deg: f64,
     #[serde(default)]
     pub stabilise_exit_rate_deg_s: f64,
-    pub hold_enter_error_deg: f64,
-    pub hold_enter_rate_deg_s: f64,
-    pub hold_exit_error_deg: f64,
+    /// Manoeuvre ↔ hold; required with `[modes.manoeuvre]` and `[modes.hold]`.
+    #[serde(default)]
+    pub hold_enter_error_deg: Option<f64>,
+    #[serde(default)]
+    pub hold_enter_rate_deg_s: Option<f64>,
+    #[serde(default)]
+    pub hold_exit_error_deg: Option<f64>,
     pub dwell_s: f64,
     pub trigger_persistence_s: f64,
     /// Momentum FDIR: a wheel above this fraction of its speed limit for
@@ -79,28 +90,122 @@ pub struct ModesSpec {
     pub sun_safe: Option<ModeSpec>,
 }
 
+/// The mode manager's thresholds in the keys' units (deg, deg/s, s), resolved once
+/// ([`ModesSpec::thresholds`]): each transition the table can make with the keys given,
+/// the others with inert values that never trigger.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Thresholds {
+    pub detumble_enter_rate_deg_s: f64,
+    pub detumble_exit_rate_deg_s: f64,
+    pub stabilise_exit_error_deg: f64,
+    pub stabilise_exit_rate_deg_s: f64,
+    pub hold_enter_error_deg: f64,
+    pub hold_enter_rate_deg_s: f64,
+    pub hold_exit_error_deg: f64,
+    pub dwell_s: f64,
+    pub trigger_persistence_s: f64,
+}
+
+/// The flight code's largest threshold in degrees (less one part in 1e6: the degree
+/// figure is rounded to f32 radians on upload).
+fn max_threshold_deg() -> f64 {
+    f64::from(acs_flight::params::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6)
+}
+
+/// Inert detumble thresholds for a table that cannot detumble (the rate test runs only
+/// with a detumble slot): the flight code's largest rate and half of it, deg/s.
+pub fn unused_detumble_rates_deg_s() -> (f64, f64) {
+    (max_threshold_deg(), max_threshold_deg() / 2.0)
+}
+
+/// Inert hold thresholds for a table without manoeuvre or hold: manoeuvre never
+/// converges (error and rate below 0) and hold never leaves (error above 180°, which a
+/// principal angle cannot exceed).
+pub const UNUSED_HOLD_ENTER_DEG: f64 = 0.0;
+pub const UNUSED_HOLD_EXIT_DEG: f64 = 180.0;
+
 impl ModesSpec {
-    /// The thresholds `modes.png` draws, in the units of `[modes]` (deg, deg/s); zero ones
-    /// (unused) are left out. The hold-entry rate is compared on board with the rate
-    /// relative to the target, drawn against the body rate norm.
+    /// The thresholds to arm, parsed once (issue 38: a table asks only for the
+    /// thresholds of the transitions it can make). The detumble pair is required when
+    /// `[modes.detumble]` and another mode are present; the hold triple
+    /// (`hold_enter_error_deg`, `hold_enter_rate_deg_s`, `hold_exit_error_deg`) when
+    /// `[modes.manoeuvre]` and `[modes.hold]` are. A group given in part is refused
+    /// (naming the missing key); a group not needed and not given takes inert values.
+    pub fn thresholds(&self) -> Result<Thresholds> {
+        let present = self.slots().iter().filter(|(_, s)| s.is_some()).count();
+        let detumble_used = self.detumble.is_some() && present > 1;
+        let hold_used = self.manoeuvre.is_some() && self.hold.is_some();
+        let (enter, exit) = unused_detumble_rates_deg_s();
+        let [detumble_enter_rate_deg_s, detumble_exit_rate_deg_s] = group(
+            detumble_used,
+            "[modes.detumble] with another mode (any mode → detumble above the enter rate, detumble → next below the exit rate)",
+            [
+                ("detumble_enter_rate_deg_s", self.detumble_enter_rate_deg_s, enter),
+                ("detumble_exit_rate_deg_s", self.detumble_exit_rate_deg_s, exit),
+            ],
+        )?;
+        let [hold_enter_error_deg, hold_enter_rate_deg_s, hold_exit_error_deg] = group(
+            hold_used,
+            "[modes.manoeuvre] with [modes.hold] (manoeuvre → hold below the enter error and rate, hold → manoeuvre above the exit error)",
+            [
+                ("hold_enter_error_deg", self.hold_enter_error_deg, UNUSED_HOLD_ENTER_DEG),
+                ("hold_enter_rate_deg_s", self.hold_enter_rate_deg_s, UNUSED_HOLD_ENTER_DEG),
+                ("hold_exit_error_deg", self.hold_exit_error_deg, UNUSED_HOLD_EXIT_DEG),
+            ],
+        )?;
+        Ok(Thresholds {
+            detumble_enter_rate_deg_s,
+            detumble_exit_rate_deg_s,
+            stabilise_exit_error_deg: self.stabilise_exit_error_deg,
+            stabilise_exit_rate_deg_s: self.stabilise_exit_rate_deg_s,
+            hold_enter_error_deg,
+            hold_enter_rate_deg_s,
+            hold_exit_error_deg,
+            dwell_s: self.dwell_s,
+            trigger_persistence_s: self.trigger_persistence_s,
+        })
+    }
+
+    /// The thresholds `modes.png` draws, in the units of `[modes]` (deg, deg/s): those
+    /// the file gives (zero ones, unused, are left out). The hold-entry rate is compared
+    /// on board with the rate relative to the target, drawn against the body rate norm.
     pub fn plot_thresholds(&self) -> crate::recorder::output::ModeThresholds {
-        let keep = |v: &[(f64, &str)]| -> Vec<(f64, String)> {
-            v.iter().filter(|t| t.0 > 0.0).map(|(x, l)| (*x, l.to_string())).collect()
+        let keep = |v: &[(Option<f64>, &str)]| -> Vec<(f64, String)> {
+            v.iter().filter_map(|(x, l)| x.filter(|x| *x > 0.0).map(|x| (x, l.to_string()))).collect()
         };
         crate::recorder::output::ModeThresholds {
             error_deg: keep(&[
-                (self.stabilise_exit_error_deg, "stabilise exit"),
+                (Some(self.stabilise_exit_error_deg), "stabilise exit"),
                 (self.hold_enter_error_deg, "hold enter"),
                 (self.hold_exit_error_deg, "hold exit"),
             ]),
             rate_deg_s: keep(&[
                 (self.detumble_enter_rate_deg_s, "detumble enter"),
                 (self.detumble_exit_rate_deg_s, "detumble exit"),
-                (self.stabilise_exit_rate_deg_s, "stabilise exit"),
+                (Some(self.stabilise_exit_rate_deg_s), "stabilise exit"),
                 (self.hold_enter_rate_deg_s, "hold enter (rel.)"),
             ]),
         }
     }
+}
+
+/// One group of thresholds of a transition: all given, or (when the table cannot make
+/// the transition) none given and each inert. `why` says when the group is needed.
+fn group<const N: usize>(used: bool, why: &str, keys: [(&str, Option<f64>, f64); N]) -> Result<[f64; N]> {
+    let given = keys.iter().any(|k| k.1.is_some());
+    let mut out = [0.0; N];
+    for (o, (key, value, inert)) in out.iter_mut().zip(keys) {
+        *o = match value {
+            Some(v) => v,
+            None if used || given => {
+                return Err(anyhow::anyhow!(
+                    "missing key `modes.{key}`: the [modes] table needs it with {why} (docs/scenario.md)"
+                ));
+            }
+            None => inert,
+        };
+    }
+    Ok(out)
 }
 
 fn default_initial() -> String {
@@ -174,12 +279,10 @@ impl ModesSpec {
     }
 }
 
-/// The mode manager's thresholds: each within the flight code's range, and the detumble
-/// hysteresis.
-fn validate_mode_thresholds(m: &ModesSpec) -> Result<()> {
-    // The flight code's limit, in the key's unit (degrees for angles and rates).
-    // (less one part in 1e6: the degree figure is rounded to f32 radians on upload).
-    let max_deg = f64::from(acs_flight::params::MAX_THRESHOLD).to_degrees() * (1.0 - 1e-6);
+/// The mode manager's thresholds: each within the flight code's range, and the
+/// hysteresis of detumble and hold.
+fn validate_mode_thresholds(m: &Thresholds) -> Result<()> {
+    let max_deg = max_threshold_deg();
     let max_s = f64::from(acs_flight::params::MAX_THRESHOLD);
     for (k, v, max) in [
         ("modes.detumble_enter_rate_deg_s", m.detumble_enter_rate_deg_s, max_deg),
@@ -199,6 +302,9 @@ fn validate_mode_thresholds(m: &ModesSpec) -> Result<()> {
     if !(m.detumble_enter_rate_deg_s > m.detumble_exit_rate_deg_s && m.detumble_exit_rate_deg_s > 0.0) {
         return Err(bad("modes.detumble_enter_rate_deg_s", "must exceed detumble_exit_rate_deg_s (> 0): hysteresis"));
     }
+    if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
+        return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
+    }
     Ok(())
 }
 
@@ -207,11 +313,8 @@ impl Scenario {
         let initial = parse_mode(&m.initial).ok_or_else(|| {
             bad("modes.initial", "must be \"detumble\", \"sun_safe\", \"stabilise\", \"manoeuvre\" or \"hold\"")
         })?;
-        validate_mode_thresholds(m)?;
+        validate_mode_thresholds(&m.thresholds()?)?;
         self.validate_mode_monitors(m)?;
-        if m.hold_exit_error_deg.partial_cmp(&m.hold_enter_error_deg) != Some(std::cmp::Ordering::Greater) {
-            return Err(bad("modes.hold_exit_error_deg", "must exceed hold_enter_error_deg: hysteresis"));
-        }
         self.validate_mode_slots(m, initial)?;
         self.validate_mode_table(m)
     }
@@ -293,7 +396,11 @@ impl Scenario {
         let key = format!("modes.{}", mode.name());
         match spec.actuator.as_deref() {
             None if n_families != 1 => {
-                return Err(bad(&format!("{key}.actuator"), "required with several actuator families"));
+                return Err(bad(
+                    &format!("{key}.actuator"),
+                    "required with several actuator families: name the one this mode's law commands \
+                     (\"wheels\", \"magnetorquers\", \"cmg\" or \"thrusters\")",
+                ));
             }
             None => {}
             Some(f @ ("cmg" | "wheels" | "magnetorquers" | "thrusters")) => {
@@ -429,18 +536,19 @@ impl Scenario {
             }
         }
         let deg = |x: f64| x.to_radians() as f32;
+        let t = m.thresholds()?;
         let manager = ModeManagerParams {
             slots: mask,
             initial: parse_mode(&m.initial).ok_or_else(|| bad("modes.initial", "unknown mode"))?,
-            detumble_enter_rate_rad_s: deg(m.detumble_enter_rate_deg_s),
-            detumble_exit_rate_rad_s: deg(m.detumble_exit_rate_deg_s),
-            stabilise_exit_error_rad: deg(m.stabilise_exit_error_deg),
-            stabilise_exit_rate_rad_s: deg(m.stabilise_exit_rate_deg_s),
-            hold_enter_error_rad: deg(m.hold_enter_error_deg),
-            hold_enter_rate_rad_s: deg(m.hold_enter_rate_deg_s),
-            hold_exit_error_rad: deg(m.hold_exit_error_deg),
-            dwell_s: m.dwell_s as f32,
-            trigger_persistence_s: m.trigger_persistence_s as f32,
+            detumble_enter_rate_rad_s: deg(t.detumble_enter_rate_deg_s),
+            detumble_exit_rate_rad_s: deg(t.detumble_exit_rate_deg_s),
+            stabilise_exit_error_rad: deg(t.stabilise_exit_error_deg),
+            stabilise_exit_rate_rad_s: deg(t.stabilise_exit_rate_deg_s),
+            hold_enter_error_rad: deg(t.hold_enter_error_deg),
+            hold_enter_rate_rad_s: deg(t.hold_enter_rate_deg_s),
+            hold_exit_error_rad: deg(t.hold_exit_error_deg),
+            dwell_s: t.dwell_s as f32,
+            trigger_persistence_s: t.trigger_persistence_s as f32,
             momentum_trip_fraction: m.momentum_trip_speed_fraction as f32,
             momentum_recover_fraction: m.momentum_recover_speed_fraction as f32,
             momentum_keepup_fraction: m.momentum_keepup_fraction as f32,

@@ -5,6 +5,8 @@
 //! ```toml
 //! [performance]
 //! settle_bound_deg = 1.0        # settle_time_s: the error stays below this from then on
+//! settle_dwell_s = 300.0        # the figures "after settle" start this long after it
+//!                               # (default: the settle time again)
 //! from_s = 0.0                  # the indices are taken over [from_s, end of the run]
 //! confidence = 0.95             # fraction of the period each index stays below its figure
 //! window_s = 10.0               # Δt of MPE, RPE and PDE (rounded to whole control steps)
@@ -23,6 +25,10 @@ use serde::{Deserialize, Serialize};
 pub struct PerformanceSpec {
     #[serde(default = "settle_bound")]
     pub settle_bound_deg: f64,
+    /// The window of the figures after settle starts this long after the settle time, s
+    /// (`None`: the settle time again, i.e. the window starts at twice the settle time).
+    #[serde(default)]
+    pub settle_dwell_s: Option<f64>,
     #[serde(default)]
     pub from_s: f64,
     #[serde(default = "confidence")]
@@ -59,6 +65,7 @@ impl Default for PerformanceSpec {
     fn default() -> Self {
         Self {
             settle_bound_deg: settle_bound(),
+            settle_dwell_s: None,
             from_s: 0.0,
             confidence: confidence(),
             window_s: window(),
@@ -73,6 +80,7 @@ impl Default for PerformanceSpec {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Performance {
     pub settle_bound_deg: f64,
+    pub settle_dwell_s: Option<f64>,
     pub from_s: f64,
     pub confidence: f64,
     pub windows: Windows,
@@ -87,6 +95,11 @@ impl PerformanceSpec {
         if !(b.is_finite() && b > 0.0) {
             return Err(bad(&k("settle_bound_deg"), format!("must be > 0 (got {b})")));
         }
+        if let Some(d) = self.settle_dwell_s
+            && !(d.is_finite() && d >= 0.0)
+        {
+            return Err(bad(&k("settle_dwell_s"), format!("must be >= 0 (got {d})")));
+        }
         if !(self.from_s.is_finite() && self.from_s >= 0.0) {
             return Err(bad(&k("from_s"), format!("must be >= 0 (got {})", self.from_s)));
         }
@@ -100,7 +113,14 @@ impl PerformanceSpec {
         if !(settle.is_finite() && settle >= 0.0) {
             return Err(bad(&k("segment_settle_s"), format!("must be >= 0 (got {settle})")));
         }
-        Ok(Performance { settle_bound_deg: b, from_s: self.from_s, confidence: p, windows, segment_settle_s: settle })
+        Ok(Performance {
+            settle_bound_deg: b,
+            settle_dwell_s: self.settle_dwell_s,
+            from_s: self.from_s,
+            confidence: p,
+            windows,
+            segment_settle_s: settle,
+        })
     }
 }
 
@@ -123,6 +143,7 @@ mod tests {
         for (spec, key) in [
             (PerformanceSpec { settle_bound_deg: 0.0, ..ok.clone() }, "performance.settle_bound_deg"),
             (PerformanceSpec { from_s: f64::NAN, ..ok.clone() }, "performance.from_s"),
+            (PerformanceSpec { settle_dwell_s: Some(-1.0), ..ok.clone() }, "performance.settle_dwell_s"),
             (PerformanceSpec { confidence: 1.5, ..ok.clone() }, "performance.confidence"),
             (PerformanceSpec { window_s: -1.0, ..ok.clone() }, "window_s"),
             (PerformanceSpec { stability_window_s: 1e9, ..ok.clone() }, "stability_window_s"),

@@ -38,6 +38,19 @@ pub struct TargetConfig {
     pub lvlh: bool,
 }
 
+impl TargetConfig {
+    /// The scenario's target: its `[target]`, else (with `[guidance]` or none) the identity
+    /// in LVLH when there is an orbit, in the inertial frame otherwise, Euler sequence 3-2-1.
+    pub fn of(sc: &Scenario) -> Self {
+        match &sc.target {
+            Some(t) => {
+                TargetConfig { q_rel: t.quaternion(), seq: t.euler_sequence.into(), lvlh: t.frame == RefFrame::Lvlh }
+            }
+            None => TargetConfig { q_rel: Quat::identity(), seq: EulerSeq::Zyx321, lvlh: sc.orbit.is_some() },
+        }
+    }
+}
+
 /// A ground command, resolved: when it is sent, its link messages in order, and the new
 /// target it sets (relative to the target's frame) or the truth of its new pointing.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,12 +126,7 @@ impl TryFrom<&Scenario> for Resolved {
         let initial = sc.initial_state(&craft, snap0.as_ref());
         let thrusters = sc.thruster_set();
         let n_thrusters = thrusters.as_ref().map_or(0, |t| t.thrusters.len()).min(MAX_THRUSTERS);
-        let target = match &sc.target {
-            Some(t) => {
-                TargetConfig { q_rel: t.quaternion(), seq: t.euler_sequence.into(), lvlh: t.frame == RefFrame::Lvlh }
-            }
-            None => TargetConfig { q_rel: Quat::identity(), seq: EulerSeq::Zyx321, lvlh: sc.orbit.is_some() },
-        };
+        let target = TargetConfig::of(sc);
         let has_orbit = sc.orbit.is_some();
         let commands = sc
             .commands

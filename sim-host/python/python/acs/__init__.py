@@ -6,6 +6,7 @@
     r = acs.run(sc)                           # in-process (SIL); link="qemu" for PIL
     r.ok, r.summary["final_error_deg"], r.columns["t"]
     df = r.to_pandas()
+    r.view("replay.html")                     # the run in 3D, in a browser
 
 The simulator is the Rust library `sim-core`; this package is a thin layer over its
 native module `acs._core`. Guide: docs/python.md.
@@ -14,6 +15,7 @@ native module `acs._core`. Guide: docs/python.md.
 from __future__ import annotations
 
 import operator
+import os
 import warnings
 from typing import Any, Callable, Dict, List, Optional, Union
 
@@ -37,6 +39,8 @@ from ._core import (
 )
 from . import campaign
 
+PathLike = Union[str, "os.PathLike[str]"]
+
 __version__ = _core.__version__
 PROTOCOL_VERSION = _core.PROTOCOL_VERSION
 
@@ -59,6 +63,7 @@ __all__ = [
     "frame_to_bytes",
     "record_frames",
     "run",
+    "view",
 ]
 
 
@@ -85,12 +90,28 @@ class RunResult:
     ``acs.run`` then also warns (``RunStatusWarning``), and ``raise_for_status()`` raises.
     """
 
-    __slots__ = ("summary", "columns", "column_names")
+    __slots__ = ("summary", "columns", "column_names", "scenario_toml")
 
-    def __init__(self, summary: Dict[str, Any], column_names: List[str], columns: Dict[str, np.ndarray]) -> None:
+    def __init__(
+        self,
+        summary: Dict[str, Any],
+        column_names: List[str],
+        columns: Dict[str, np.ndarray],
+        scenario_toml: Optional[str] = None,
+    ) -> None:
         self.summary = summary
         self.column_names = column_names
         self.columns = columns
+        #: The TOML of the scenario as it flew (``acs.run`` keeps it for ``view``).
+        self.scenario_toml = scenario_toml
+
+    def view(self, path: PathLike) -> str:
+        """Writes the run's 3D replay (one self-contained HTML page, no network; the page
+        ``sim-host view`` writes, docs/viewer.md) to ``path`` and returns the path. Open it in
+        a browser. Needs the viewer bundle (``scripts/setup.sh``)."""
+        if self.scenario_toml is None:
+            raise RunError("this RunResult has no scenario (acs.run keeps it): use acs.view(run_dir) on a run directory")
+        return _core.view_result(self.summary, self.column_names, self.columns, self.scenario_toml, os.fspath(path))
 
     @property
     def status(self) -> str:
@@ -201,12 +222,20 @@ def run(
         output_every = n
     if link is not None and not isinstance(link, str):
         raise RunError(f"link: a string such as \"in-process\" or \"tcp:HOST:PORT\" (got {type(link).__name__})")
+    # The scenario as it flies (the run takes its own copy when it starts).
+    scenario_toml = scenario.to_toml()
     callback, close = _progress_callback(progress)
     try:
         summary, names, columns = _core.run(scenario, link, callback, output_every, firmware)
     finally:
         close()
-    result = RunResult(summary, names, columns)
+    result = RunResult(summary, names, columns, scenario_toml)
     if not result.ok:
         warnings.warn(_status_message(summary), RunStatusWarning, stacklevel=2)
     return result
+
+
+def view(run_dir: PathLike, out: Optional[PathLike] = None) -> str:
+    """Writes the 3D replay of a run directory (``sim-host run --out DIR``), as ``sim-host
+    view DIR`` does: ``DIR/replay.html`` unless ``out``; returns the page's path."""
+    return _core.view_run_dir(os.fspath(run_dir), None if out is None else os.fspath(out))
