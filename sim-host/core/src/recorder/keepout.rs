@@ -160,8 +160,12 @@ mod tests {
             sun_half_angle_rad: Some(30f64.to_radians()),
             earth_margin_rad: Some(10f64.to_radians()),
         };
-        let g =
-            ExclusionGeometry { sun_ref: Vec3::x(), nadir_ref: -Vec3::y(), earth_half_angle_rad: 60f64.to_radians() };
+        let g = ExclusionGeometry {
+            sun_ref: Vec3::x(),
+            nadir_ref: -Vec3::y(),
+            earth_half_angle_rad: 60f64.to_radians(),
+            earth_lit: true,
+        };
         for alpha in [-120.0f64, -60.0, 0.0, 45.0] {
             let q = UnitQuaternion::from_axis_angle(&Vec3::z_axis(), alpha.to_radians()).into_inner();
             let (sun, earth) = c.margins_rad(&q, &g);
