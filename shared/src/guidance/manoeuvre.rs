@@ -229,9 +229,11 @@ impl Manoeuvre {
         Profile::plan(norm(rotation), &self.limits()).map_or(f32::INFINITY, |p| p.duration_s())
     }
 
-    /// A leg's worst margin, the Earth cone widened by the nadir's turn during it.
-    fn leg_margin(&self, env: &ConeEnv, q0: &Quat, rotation: &Vec3) -> f32 {
-        let drift = env.orbit_rate_rad_s * self.leg_time_s(rotation);
+    /// A leg that starts `before_s` after planning: its worst margin, the Earth cone
+    /// widened by the nadir's turn from planning to the leg's end (the second leg of a
+    /// waypoint slew flies after the first: its Earth has moved for both).
+    fn leg_margin(&self, env: &ConeEnv, q0: &Quat, rotation: &Vec3, before_s: f32) -> f32 {
+        let drift = env.orbit_rate_rad_s * (before_s + self.leg_time_s(rotation));
         env.leg_margin(self.params.active_cones(), q0, rotation, self.params.planning_margin_rad, drift)
     }
 
@@ -351,7 +353,7 @@ impl Manoeuvre {
                 self.refuse(from, Refusal::TargetInCone);
                 return hold;
             }
-            if self.leg_margin(&e, &from, &direct) >= 0.0 {
+            if self.leg_margin(&e, &from, &direct, 0.0) >= 0.0 {
                 self.fly(from, None, now_us);
                 return hold;
             }
@@ -363,11 +365,12 @@ impl Manoeuvre {
             self.last_candidates = self.last_candidates.saturating_add(1);
             let Some(qm) = candidate(&q_mid, k) else { continue };
             let (leg1, leg2) = (quat_log(&(qm * from.conjugate())), quat_log(&(q1 * qm.conjugate())));
-            let time = self.leg_time_s(&leg1) + self.leg_time_s(&leg2);
+            let time1 = self.leg_time_s(&leg1);
+            let time = time1 + self.leg_time_s(&leg2);
             if best.is_some_and(|(t, _)| t <= time) {
                 continue;
             }
-            if self.leg_margin(&e, &from, &leg1) >= 0.0 && self.leg_margin(&e, &qm, &leg2) >= 0.0 {
+            if self.leg_margin(&e, &from, &leg1, 0.0) >= 0.0 && self.leg_margin(&e, &qm, &leg2, time1) >= 0.0 {
                 best = Some((time, qm));
             }
         }
