@@ -296,7 +296,10 @@ fn planner_steps_on_the_firmware_stay_within_the_instruction_bound() {
             let by_phase: Vec<f64> = (0..=5)
                 .map(|p| (0..cost.len()).filter(|&i| phase[i] == p as f64).map(|i| cost[i]).fold(0.0f64, f64::max))
                 .collect();
-            eprintln!("with the planner: {:?}; worst step by slew phase (idle, planning, accel, coast, decel, refused): {by_phase:?}", s.keepout);
+            eprintln!(
+                "with the planner: {:?}; worst step by slew phase (idle, planning, accel, coast, decel, refused): {by_phase:?}",
+                s.keepout
+            );
             let planning = by_phase[1..].iter().copied().fold(0.0f64, f64::max);
             assert!(planning < 120_000.0, "a step with a plan in progress cost {planning} instructions");
             assert!(s.keepout.as_ref().is_some_and(|k| k.slews_planned >= 1), "{:?}", s.keepout);
