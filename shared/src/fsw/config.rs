@@ -39,7 +39,7 @@ impl Configured {
         let dt_s = 1.0 / p.control_rate_hz;
         let law = Law::from_params(&p.controller)?;
         let actuators = Actuators::from_params(&p.actuator, dt_s)?;
-        let guidance = Guidance::new(&p.guidance);
+        let guidance = Guidance::new(&p.guidance, &p.manoeuvre);
         let attitude = if law.needs_attitude() { Valid::ATTITUDE } else { Valid::empty() };
         let required = Valid::RATE | attitude | actuators.required();
         let needs_navigation = guidance.needs_navigation();

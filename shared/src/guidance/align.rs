@@ -106,6 +106,27 @@ impl AlignFrame {
         }
     }
 
+    /// The commanded attitude at a (future) epoch, from the epoch alone: a fixed LVLH
+    /// attitude takes its frame from the epoch's position and velocity. For checks ahead
+    /// of time (the timeline's arming); `None` when it cannot be computed.
+    pub fn attitude_at(&mut self, epoch: &Epoch, threshold_rad: f32) -> Option<Quat> {
+        match self.kind {
+            Kind::Fixed(t) => match t.frame {
+                crate::params::TargetFrame::Inertial => Some(t.q),
+                crate::params::TargetFrame::Reference => {
+                    let l = crate::models::lvlh::lvlh(&epoch.r_m, &epoch.v_m_s).ok()?;
+                    Some(l.q_eci_lvlh * t.q)
+                }
+            },
+            Kind::Align { body, primary, primary_site, secondary, secondary_site } => {
+                let p = direction(Some(epoch), &primary, primary_site.as_ref())?.unit()?;
+                let s = direction(Some(epoch), &secondary, secondary_site.as_ref())?;
+                self.align(&body, &p, &s, threshold_rad).map(|a| a.guided.q)
+            }
+            Kind::Invalid => None,
+        }
+    }
+
     fn align(&mut self, body: &Mat3, p: &VecKin, s: &VecKin, threshold_rad: f32) -> Option<Aligned> {
         let s_unit = s.unit()?;
         let parallel = !(norm(&p.x.cross(&s_unit.x)) >= sin(threshold_rad));

@@ -12,15 +12,58 @@
 //! torque-limited slews are a separate matter (they replace a blend where configured).
 
 use super::Guided;
+use super::profile::Profile;
 use crate::math::f32m::{atan2, sin_cos};
 use crate::math::{Quat, Vec3, norm, quat_normalized};
+
+/// How the blend weight `s` runs from 0 to 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Shape {
+    /// The quintic smoothstep over a duration, s.
+    Quintic { duration_s: f32 },
+    /// A rate- and acceleration-limited rest-to-rest profile over the angle between the
+    /// two commands at the start ([`super::profile`]): `s = angle(t)/Θ`, so a slew between
+    /// two fixed attitudes is the exact eigen-axis bang-coast-bang manoeuvre.
+    Profile(Profile),
+}
+
+impl Shape {
+    fn duration_s(&self) -> f32 {
+        match self {
+            Self::Quintic { duration_s } => *duration_s,
+            Self::Profile(p) => p.duration_s(),
+        }
+    }
+
+    /// `(s, ṡ, s̈)` at `dt` into the blend (`dt < duration`).
+    fn weight(&self, dt: f32) -> (f32, f32, f32) {
+        match self {
+            Self::Quintic { duration_s } => {
+                let tau = dt / duration_s;
+                let (t2, t3) = (tau * tau, tau * tau * tau);
+                let s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
+                let s_dot = 30.0 * t2 * (1.0 - tau) * (1.0 - tau) / duration_s;
+                let s_ddot = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) / (duration_s * duration_s);
+                (s, s_dot, s_ddot)
+            }
+            Self::Profile(p) if p.angle_rad > 0.0 => {
+                let x = p.at(dt);
+                (x.angle_rad / p.angle_rad, x.rate_rad_s / p.angle_rad, x.accel_rad_s2 / p.angle_rad)
+            }
+            Self::Profile(_) => (1.0, 0.0, 0.0),
+        }
+    }
+}
 
 /// A blend in progress.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Blend {
     from: Guided,
     start_us: u64,
-    duration_s: f32,
+    shape: Shape,
+    /// The rotation it started along (planned slews): a rotation near 180° toward a moving
+    /// target keeps this sense instead of flipping to the other short way.
+    sense: Option<Vec3>,
 }
 
 /// `Exp(v)`: the unit quaternion of the rotation vector `v` (rad).
@@ -46,25 +89,61 @@ pub fn quat_log(q: &Quat) -> Vec3 {
 }
 
 impl Blend {
+    /// A quintic blend over `duration_s`.
     pub fn new(from: Guided, start_us: u64, duration_s: f32) -> Self {
-        Self { from, start_us, duration_s }
+        Self { from, start_us, shape: Shape::Quintic { duration_s }, sense: None }
+    }
+
+    /// A blend of any shape.
+    pub fn shaped(from: Guided, start_us: u64, shape: Shape) -> Self {
+        Self { from, start_us, shape, sense: None }
+    }
+
+    /// The same blend kept turning in the sense of `rotation`.
+    pub fn keeping_sense(self, rotation: Vec3) -> Self {
+        Self { sense: Some(rotation), ..self }
+    }
+
+    /// The command it starts from, when, and its shape.
+    pub fn from(&self) -> Guided {
+        self.from
+    }
+
+    pub fn start_us(&self) -> u64 {
+        self.start_us
+    }
+
+    pub fn shape(&self) -> Shape {
+        self.shape
+    }
+
+    /// When it ends, µs on the flight clock (`None` for a non-finite duration).
+    pub fn end_us(&self) -> Option<u64> {
+        let d = self.shape.duration_s();
+        // Finite, non-negative and below 2^53 µs (checked): the conversion is exact enough.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        (0.0..1.0e9).contains(&d).then(|| self.start_us.saturating_add((d * 1.0e6) as u64))
     }
 
     /// The blended command at `now_us` toward `to`; `None` once the blend is over (or
     /// before it began: a clock that stepped back ends it).
     pub fn apply(&self, to: &Guided, now_us: u64) -> Option<Guided> {
         let dt = crate::estimation::history::span_s(self.start_us, now_us)?;
-        if !(self.duration_s > 0.0) || dt >= self.duration_s {
+        let duration = self.shape.duration_s();
+        if !(duration > 0.0) || dt >= duration {
             return None;
         }
-        let tau = dt / self.duration_s;
-        let (t2, t3) = (tau * tau, tau * tau * tau);
-        let s = t3 * (10.0 - 15.0 * tau + 6.0 * t2);
-        let s_dot = 30.0 * t2 * (1.0 - tau) * (1.0 - tau) / self.duration_s;
-        let s_ddot = 60.0 * tau * (1.0 - 3.0 * tau + 2.0 * t2) / (self.duration_s * self.duration_s);
+        let (s, s_dot, s_ddot) = self.shape.weight(dt);
         let w0 = self.from.rate_rad_s;
         let q_a = quat_exp(&(w0 * dt)) * self.from.q;
-        let phi = quat_log(&(to.q * q_a.conjugate()));
+        let mut phi = quat_log(&(to.q * q_a.conjugate()));
+        if let Some(r) = self.sense {
+            let n = norm(&phi);
+            // The other way round by 2π − n (only past a quarter turn, where the flip can be).
+            if phi.dot(&r) < 0.0 && n > core::f32::consts::FRAC_PI_2 {
+                phi *= (n - core::f32::consts::TAU) / n;
+            }
+        }
         let q = quat_normalized(&(quat_exp(&(phi * s)) * q_a))?;
         let rate = w0 * (1.0 - s) + to.rate_rad_s * s + phi * s_dot;
         let accel = to.accel_rad_s2 * s + (to.rate_rad_s - w0) * (2.0 * s_dot) + phi * s_ddot;

@@ -21,16 +21,21 @@
 pub mod align;
 pub mod blend;
 pub mod directions;
+pub mod keepout;
 pub mod kinematics;
+pub mod manoeuvre;
+pub mod profile;
+pub mod timeline;
 
 use crate::estimation::navigation::NavSolution;
 use crate::link::GuidanceTelemetry;
 use crate::math::{Quat, Vec3, quat_from_xyzw, quat_normalized, quat_to_xyzw, rotate_ref_to_body};
-use crate::params::{GuidanceParams, Pointing, SteeringLaw, SteeringParams, TargetFrame};
+use crate::params::{GuidanceParams, ManoeuvreParams, Pointing, SteeringLaw, SteeringParams, TargetFrame};
 use crate::types::{Measurements, Setpoint};
 use align::{AlignFrame, Aligned};
 use blend::Blend;
 use directions::{Epoch, Site};
+use manoeuvre::{ConeEnv, Manoeuvre};
 
 /// A fixed target attitude and the frame it is given in.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,7 +72,15 @@ pub mod flags {
     pub const BLENDING: u8 = 1 << 3;
     /// The pointing could not be computed this step: the last command is held.
     pub const HELD: u8 = 1 << 4;
+    /// A planned slew is being planned or flown.
+    pub const SLEWING: u8 = 1 << 5;
+    /// A slew (or a hold) was refused by the keep-out cones: the last safe command is held.
+    pub const KEEPOUT_REFUSED: u8 = 1 << 6;
 }
+
+/// A step of the target's attitude beyond its own motion that starts a planned slew, rad
+/// (0.57°; a tracked target moves less than 1e-3 rad beyond its rate in a step).
+pub const TARGET_JUMP_RAD: f32 = 0.01;
 
 /// The guided command of one step, inertial axes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -112,12 +125,17 @@ pub struct Guidance {
     /// A change handed over outside a step (ground command, mode switch): its blend starts
     /// at the next step's clock (the handover has no time of its own).
     blend_pending: bool,
+    /// Planned slews and keep-out cones; a switch waits for the next step to plan.
+    manoeuvre: Manoeuvre,
+    slew_pending: bool,
+    /// Flight clock of `last`, µs.
+    last_us: Option<u64>,
     report: GuidanceReport,
 }
 
 impl Guidance {
     /// Guidance for validated parameters.
-    pub fn new(params: &GuidanceParams) -> Self {
+    pub fn new(params: &GuidanceParams, manoeuvre: &ManoeuvreParams) -> Self {
         let gate_site = params
             .min_elevation_rad
             .and_then(|_| params.pointing.primary_site())
@@ -131,6 +149,9 @@ impl Guidance {
             last: None,
             blend: None,
             blend_pending: false,
+            manoeuvre: Manoeuvre::new(manoeuvre),
+            slew_pending: false,
+            last_us: None,
             report: GuidanceReport::default(),
         }
     }
@@ -147,6 +168,11 @@ impl Guidance {
         self.report
     }
 
+    /// The slew planner (its counters, phase and latest refusal).
+    pub fn manoeuvre(&self) -> &Manoeuvre {
+        &self.manoeuvre
+    }
+
     /// The wire telemetry of the last step.
     pub fn telemetry(&self) -> GuidanceTelemetry {
         let g =
@@ -159,14 +185,24 @@ impl Guidance {
             primary_eci: self.report.primary_eci.into(),
             parallel_events: self.report.parallel_events,
             switches: self.report.switches,
+            keepout_margin_rad: self.manoeuvre.last_margin_rad,
+            slews_planned: self.manoeuvre.counters.planned,
+            slews_with_waypoint: self.manoeuvre.counters.with_waypoint,
+            slews_refused: self.manoeuvre.counters.refused,
+            slew_phase: self.manoeuvre.last_phase,
+            slew_refusal: self.manoeuvre.last_refusal.map_or(0, |r| r.code()),
         }
     }
 
     /// A new pointing (ground command): blended in from the current command.
     pub fn set_params(&mut self, params: &GuidanceParams) {
-        let (last, report) = (self.last, self.report);
-        *self = Self::new(params);
+        let (last, last_us, report, manoeuvre) = (self.last, self.last_us, self.report, self.manoeuvre);
+        let p = manoeuvre.params();
+        *self = Self::new(params, &p);
+        self.manoeuvre.counters = manoeuvre.counters;
+        self.manoeuvre.last_refusal = manoeuvre.last_refusal;
         self.last = last;
+        self.last_us = last_us;
         self.report = report;
         self.start_blend_next_step();
     }
@@ -177,6 +213,8 @@ impl Guidance {
         self.last = None;
         self.blend = None;
         self.blend_pending = false;
+        self.slew_pending = false;
+        self.last_us = None;
         self.branch = Branch::Main;
     }
 
@@ -192,16 +230,26 @@ impl Guidance {
     }
 
     /// Count the switch now; the blend starts at the next step's clock.
+    /// With planned slews the next step plans one from the command in force instead.
     fn start_blend_next_step(&mut self) {
         self.blend = None;
-        self.blend_pending = true;
         self.report.switches = self.report.switches.saturating_add(1);
+        if self.manoeuvre.enabled() && self.last.is_some() {
+            self.slew_pending = true;
+        } else {
+            self.blend_pending = true;
+        }
     }
 
     fn start_blend(&mut self, time_us: u64) {
         self.blend_pending = false;
-        self.blend = self.blend_from_last(time_us);
         self.report.switches = self.report.switches.saturating_add(1);
+        if self.manoeuvre.enabled() && self.last.is_some() {
+            self.blend = None;
+            self.slew_pending = true;
+            return;
+        }
+        self.blend = self.blend_from_last(time_us);
     }
 
     fn blend_from_last(&self, time_us: u64) -> Option<Blend> {
@@ -227,7 +275,8 @@ impl Guidance {
             q_cmd: g.q,
             rate_cmd_rad_s: body(&g.rate_rad_s),
             accel_cmd_rad_s2: body(&g.accel_rad_s2),
-            feedforward: self.params.feedforward,
+            // A planned slew's profile acceleration is always fed forward.
+            feedforward: self.params.feedforward || self.manoeuvre.enabled(),
             dither_time_s: steering.map_or(0.0, |s| dither_time_s(s, time_us)),
         }
     }
@@ -292,19 +341,58 @@ impl Guidance {
             flags |= flags::HELD;
             self.report.held_steps = self.report.held_steps.saturating_add(1);
         }
-        let out = match self.blend.as_mut().and_then(|b| b.apply(&target, time_us)) {
-            Some(g) => {
-                flags |= flags::BLENDING;
-                g
-            }
-            None => {
-                self.blend = None;
-                target
-            }
+        let out = match self.slew(&target, epoch.as_ref(), time_us, &mut flags) {
+            Some(g) => g,
+            None => match self.blend.as_mut().and_then(|b| b.apply(&target, time_us)) {
+                Some(g) => {
+                    flags |= flags::BLENDING;
+                    g
+                }
+                None => {
+                    self.blend = None;
+                    target
+                }
+            },
         };
         self.report.flags = flags;
         self.last = Some(out);
+        self.last_us = Some(time_us);
         out
+    }
+
+    /// The planned slew's command this step, if one is planned or flown (or the target
+    /// was refused by the keep-out cones).
+    fn slew(&mut self, target: &Guided, epoch: Option<&Epoch>, time_us: u64, flags: &mut u8) -> Option<Guided> {
+        if !self.manoeuvre.enabled() {
+            return None;
+        }
+        let idle = !self.manoeuvre.busy() && self.manoeuvre.refusal().is_none();
+        if self.slew_pending || (idle && self.target_jumped(target, time_us)) {
+            self.slew_pending = false;
+            if let Some(from) = self.last {
+                self.manoeuvre.begin(&from, target);
+            }
+        }
+        let env = epoch.and_then(cone_env);
+        let out = self.manoeuvre.step(target, self.last.as_ref(), env.as_ref(), time_us);
+        if self.manoeuvre.busy() {
+            *flags |= flags::SLEWING;
+        }
+        if self.manoeuvre.refusal().is_some() {
+            *flags |= flags::KEEPOUT_REFUSED;
+        }
+        out
+    }
+
+    /// The target stepped away from the command in force carried on at its rate (by more
+    /// than [`TARGET_JUMP_RAD`]): leaving the near-parallel fallback turns a two-vector
+    /// frame by up to 180° about its boresight at once. With planned slews that turn is
+    /// planned, not stepped.
+    fn target_jumped(&self, target: &Guided, time_us: u64) -> bool {
+        let (Some(last), Some(last_us)) = (self.last, self.last_us) else { return false };
+        let Some(dt) = crate::estimation::history::span_s(last_us, time_us) else { return false };
+        let carried = blend::quat_exp(&(last.rate_rad_s * dt)) * last.q;
+        crate::math::rotation_angle(&(target.q * carried.conjugate())) > TARGET_JUMP_RAD
     }
 
     /// Visibility of the gated site and the branch it selects; a change starts a blend.
@@ -353,6 +441,18 @@ pub fn dither_time_s(p: &SteeringParams, time_us: u64) -> f32 {
     }
 }
 
+/// The keep-out geometry at an epoch: the Sun (on-board ephemeris, from the spacecraft),
+/// nadir, the Earth's angular radius and the orbit rate.
+pub(crate) fn cone_env(e: &Epoch) -> Option<ConeEnv> {
+    let sun = e.direction(&crate::params::Direction::Sun, None)?.unit()?.x;
+    let r = crate::math::norm(&e.r_m);
+    let nadir = -e.r_m / r;
+    let earth_radius_rad = keepout::earth_angular_radius_rad(&e.r_m)?;
+    let orbit_rate_rad_s = crate::math::norm(&e.r_m.cross(&e.v_m_s)) / (r * r);
+    let env = ConeEnv { sun, nadir, earth_radius_rad, orbit_rate_rad_s };
+    (nadir.iter().all(|x| x.is_finite()) && orbit_rate_rad_s.is_finite()).then_some(env)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,7 +487,7 @@ mod tests {
         let m = measurements();
         let old = inertial([0.0, 0.0, 0.0], 20.0);
         let new = inertial([0.0, 0.0, 1.0], 20.0);
-        let mut g = Guidance::new(&old);
+        let mut g = Guidance::new(&old, &ManoeuvreParams::OFF);
         let t0 = 1_000_000_000u64;
         let q_old = g.guide(&m, None, t0).q;
         g.set_params(&new);

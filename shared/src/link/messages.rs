@@ -21,7 +21,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 16;
+pub const PROTOCOL_VERSION: u16 = 17;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -241,6 +241,18 @@ pub struct GuidanceTelemetry {
     /// Entries into the near-parallel fallback and pointing switches (saturating).
     pub parallel_events: u16,
     pub switches: u16,
+    /// The commanded attitude's smallest keep-out margin over every cone, rad (negative:
+    /// inside; +∞ without cones or geometry).
+    pub keepout_margin_rad: f32,
+    /// Slews planned (of which through a waypoint), and refused by reason: target inside
+    /// a cone, no path, no geometry (saturating; protocol 17).
+    pub slews_planned: u16,
+    pub slews_with_waypoint: u16,
+    pub slews_refused: [u16; 3],
+    /// [`crate::guidance::manoeuvre::phase`] of this step, and the latest refusal's reason
+    /// ([`crate::guidance::manoeuvre::Refusal::code`], 0: none yet).
+    pub slew_phase: u8,
+    pub slew_refusal: u8,
 }
 
 /// `EstimateTelemetry::flags` bits.

@@ -208,3 +208,79 @@ impl GuidanceParams {
         check_range(ParamField::Pointing, self.ut1_minus_clock_s, -MAX_UT1_OFFSET_S, MAX_UT1_OFFSET_S)
     }
 }
+
+/// Most keep-out boresights of a parameter set.
+pub const MAX_KEEPOUT_CONES: usize = 4;
+/// Largest planning margin, rad (10°).
+pub const MAX_PLANNING_MARGIN_RAD: f32 = 0.174_532_9;
+
+/// A body-fixed boresight that must stay out of the Sun's and the Earth's keep-out cones.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct KeepOutCone {
+    /// Boresight, body axes (unit).
+    pub boresight_body: [f32; 3],
+    /// Half-angle of the cone about the Sun, rad, in (0, π/2]; 0: no Sun cone.
+    pub sun_half_angle_rad: f32,
+    /// Margin beyond the Earth's disc (its angular radius from the orbit altitude), rad, in
+    /// [0, π/2]; negative: no Earth cone.
+    pub earth_margin_rad: f32,
+}
+
+impl KeepOutCone {
+    pub const NONE: Self = Self { boresight_body: [0.0, 0.0, 1.0], sun_half_angle_rad: 0.0, earth_margin_rad: -1.0 };
+}
+
+/// Planned slews: rate and acceleration limits, keep-out cones (params version 12).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ManoeuvreParams {
+    /// A change of pointing is a planned, limited slew (instead of guidance's blend).
+    pub enabled: bool,
+    /// Slew rate and angular acceleration limits, rad/s and rad/s² (> 0 when enabled).
+    pub max_rate_rad_s: f32,
+    pub max_accel_rad_s2: f32,
+    /// Cones `0..cone_count` are in force.
+    pub cones: [KeepOutCone; MAX_KEEPOUT_CONES],
+    pub cone_count: u8,
+    /// Added to every cone when a slew is planned (the path's moving ends), rad.
+    pub planning_margin_rad: f32,
+}
+
+impl ManoeuvreParams {
+    pub const OFF: Self = Self {
+        enabled: false,
+        max_rate_rad_s: 0.0,
+        max_accel_rad_s2: 0.0,
+        cones: [KeepOutCone::NONE; MAX_KEEPOUT_CONES],
+        cone_count: 0,
+        planning_margin_rad: 0.0,
+    };
+
+    /// The cones in force.
+    pub fn active_cones(&self) -> &[KeepOutCone] {
+        self.cones.get(..usize::from(self.cone_count)).unwrap_or(&[])
+    }
+
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let bad = |reason| err(ParamField::Manoeuvre, reason);
+        if usize::from(self.cone_count) > MAX_KEEPOUT_CONES {
+            return Err(bad(ParamReason::OutOfRange));
+        }
+        if self.enabled {
+            check_range(ParamField::Manoeuvre, self.max_rate_rad_s, 1.0e-6, 1.0)?;
+            check_range(ParamField::Manoeuvre, self.max_accel_rad_s2, 1.0e-7, 1.0)?;
+        }
+        check_range(ParamField::Manoeuvre, self.planning_margin_rad, 0.0, MAX_PLANNING_MARGIN_RAD)?;
+        let half = core::f32::consts::FRAC_PI_2;
+        for c in self.active_cones() {
+            unit_axis(&c.boresight_body).map_err(|_| bad(ParamReason::OutOfRange))?;
+            check_range(ParamField::Manoeuvre, c.sun_half_angle_rad, 0.0, half)?;
+            check_finite(ParamField::Manoeuvre, &[c.earth_margin_rad])?;
+            if c.earth_margin_rad > half {
+                return Err(bad(ParamReason::OutOfRange));
+            }
+        }
+        Ok(())
+    }
+}

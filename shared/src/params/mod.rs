@@ -22,19 +22,21 @@ pub mod guidance;
 pub mod modes;
 pub mod momentum;
 pub mod sun_safe;
+pub mod timeline;
 
 pub use actuator::*;
 pub use controller::*;
 pub use estimation::{AttitudeSource, CUBE_FACES, EstimationParams, MAX_NOISE_FIGURE, MAX_REPLAYED_NODES_LIMIT};
-pub use guidance::{Direction, GuidanceParams, Pointing};
+pub use guidance::{Direction, GuidanceParams, KeepOutCone, ManoeuvreParams, Pointing};
 pub use modes::{MAX_THRESHOLD, MODE_COUNT, MODE_NONE, Mode, ModeManagerParams, ModeRequest};
 pub use momentum::{MomentumParams, NO_THRUSTERS, UnloadMethod};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 pub use sun_safe::{SunSafeError, SunSafeParams};
+pub use timeline::{MAX_TIMELINE_SEGMENTS, TimelineError, TimelineFault, TimelineSegment};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 11;
+pub const PARAMS_VERSION: u16 = 12;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1280;
@@ -58,6 +60,8 @@ pub struct FlightParams {
     /// What the spacecraft points at (params version 11; a fixed attitude in the inertial
     /// frame or LVLH before): [`GuidanceParams`].
     pub guidance: GuidanceParams,
+    /// Planned slews and keep-out cones (params version 12).
+    pub manoeuvre: ManoeuvreParams,
     /// Steps without a valid sensor frame after which the real-time loop holds the safe
     /// command (zero gimbal rates).
     pub hold_after_missed_frames: u16,
@@ -125,6 +129,8 @@ pub enum ParamField {
     Pointing,
     /// Guidance's body axes: not unit, or primary and secondary (nearly) parallel.
     PointingAxes,
+    /// Planned slews and keep-out cones ([`ManoeuvreParams`]).
+    Manoeuvre,
 }
 
 /// Why it was rejected.
@@ -273,6 +279,7 @@ impl FlightParams {
             ActuatorParams::Thrusters(t) => t.validate()?,
         }
         self.guidance.validate()?;
+        self.manoeuvre.validate()?;
         if self.hold_after_missed_frames == 0 {
             return Err(err(F::HoldAfterMissed, R::OutOfRange));
         }
@@ -356,6 +363,7 @@ impl Default for FlightParams {
                 },
             },
             guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial),
+            manoeuvre: ManoeuvreParams::OFF,
             hold_after_missed_frames: 10,
             momentum: MomentumParams::OFF,
         }

@@ -462,6 +462,8 @@ pub struct Simulation<'a> {
     momentum: Option<MomentumStats>,
     /// The keep-up and gimbal monitors are on (their counts go in the summary).
     slow_fdir: bool,
+    /// Keep-out margins of the truth (with `[manoeuvre]` cones and an orbit).
+    keepout: Option<crate::recorder::keepout::KeepOutStats>,
     columns: Vec<String>,
     row: Vec<f64>,
     /// The next control step.
@@ -510,6 +512,7 @@ impl<'a> Simulation<'a> {
             open_loop,
             commands,
             layout,
+            keepout,
             momentum_trip,
             slow_fdir,
             performance,
@@ -572,6 +575,7 @@ impl<'a> Simulation<'a> {
             row: Vec::with_capacity(columns.len()),
             momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
             slow_fdir,
+            keepout: (!keepout.is_empty()).then(|| crate::recorder::keepout::KeepOutStats::new(keepout)),
             layout,
             columns,
             k: 0,
@@ -613,6 +617,7 @@ impl<'a> Simulation<'a> {
             layout: self.layout.clone(),
             momentum: self.momentum.clone(),
             slow_fdir: self.slow_fdir,
+            keepout: self.keepout.clone(),
             columns: self.columns.clone(),
             row: self.row.clone(),
             k: self.k,
@@ -1125,6 +1130,10 @@ impl<'a> Simulation<'a> {
         if self.layout.guidance {
             self.fill_guidance(v.cmd);
         }
+        if let Some(k) = self.keepout.as_mut() {
+            let g = crate::sensors::suite::exclusion_geometry(v.t, &self.craft, self.snap.as_ref());
+            k.row(&self.state.q, g.as_ref(), &v.cmd.guidance, &mut self.row);
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
@@ -1331,6 +1340,7 @@ impl<'a> Simulation<'a> {
             wall_time_s: wall_s,
             real_time_factor: sim_time / wall_s.max(1e-9),
             momentum: self.momentum.as_ref().map(MomentumStats::summary),
+            keepout: self.keepout.as_ref().map(crate::recorder::keepout::KeepOutStats::summary),
             pointing: self.pointing.summary(self.performance.from_s, self.performance.confidence, self.clock.dt),
             pointing_segments: segments,
             pointing_segments_unlisted: unlisted,

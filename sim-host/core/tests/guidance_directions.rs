@@ -14,7 +14,7 @@ use acs_flight::guidance::directions::{Epoch, Site as FlightSite};
 use acs_flight::guidance::{Guidance, flags};
 use acs_flight::math::{Quat as FQuat, Vec3 as FVec3};
 use acs_flight::models::time::J2000Time;
-use acs_flight::params::{Direction, GuidanceParams, Pointing};
+use acs_flight::params::{Direction, GuidanceParams, ManoeuvreParams, Pointing};
 use acs_flight::types::{MAX_WHEELS, Measurements};
 use nalgebra::Vector3;
 use sim_core::environment::frames::{EarthOrientation, EarthRotation, JD_J2000, WGS84_A, ecef_to_geodetic, gmst_iau82};
@@ -317,7 +317,8 @@ fn an_equatorial_pass_has_the_closed_form_duration_and_peak_rate() {
     let lon = (n * t_peak - gmst_iau82(jd0, t_peak / 86_400.0)).rem_euclid(std::f64::consts::TAU);
     let station = Direction::Ground { lat_rad: 0.0, lon_rad: lon as f32 - std::f32::consts::TAU, alt_m: 0.0 };
     let nadir = align(Direction::Nadir, Direction::OrbitNormal);
-    let mut g = Guidance::new(&params(align(station, Direction::OrbitNormal), Some(mask as f32), nadir));
+    let mut g =
+        Guidance::new(&params(align(station, Direction::OrbitNormal), Some(mask as f32), nadir), &ManoeuvreParams::OFF);
     let m = measurements();
     let (mut first, mut last, mut peak) = (f64::NAN, f64::NAN, 0.0f64);
     let dt = 0.1;
@@ -351,7 +352,7 @@ fn an_equatorial_pass_has_the_closed_form_duration_and_peak_rate() {
 fn fly(p: &GuidanceParams, jd0: f64, e1: V3, e2: V3, steps: u32) -> (Vec<u8>, acs_flight::guidance::GuidanceReport) {
     let r = WGS84_A + 500e3;
     let n = (MU / r.powi(3)).sqrt();
-    let mut g = Guidance::new(p);
+    let mut g = Guidance::new(p, &ManoeuvreParams::OFF);
     let m = measurements();
     let mut seen = Vec::new();
     for k in 0..steps {

@@ -150,7 +150,10 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 30] = [
+const DIMENSIONLESS: [&str; 33] = [
+    "slew_phase",
+    "slews_planned",
+    "slews_refused",
     "eclipse",
     "target_body_x",
     "target_body_y",
@@ -253,6 +256,9 @@ pub struct Layout {
     /// The pointing's truth and the flight's guidance telemetry, the true orbit state, Sun
     /// and Earth angle ([`GUIDANCE`]; with `[guidance]`).
     pub guidance: bool,
+    /// With `[manoeuvre]` keep-out cones and an orbit: the columns of
+    /// [`crate::recorder::keepout::column_names`] (empty: none).
+    pub keepout: Vec<String>,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -311,6 +317,7 @@ impl Layout {
         if self.guidance {
             v.extend(GUIDANCE.iter().map(|s| s.to_string()));
         }
+        v.extend(self.keepout.iter().cloned());
         v
     }
 }
@@ -364,6 +371,12 @@ mod tests {
             momentum: true,
             eclipse: true,
             guidance: true,
+            keepout: crate::recorder::keepout::column_names(&[crate::recorder::keepout::Cone {
+                name: "st".into(),
+                boresight_body: crate::attitude::Vec3::z(),
+                sun_half_angle_rad: Some(0.5),
+                earth_margin_rad: Some(0.1),
+            }]),
         }
     }
 

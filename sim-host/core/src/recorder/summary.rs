@@ -194,6 +194,10 @@ pub struct Summary {
     /// pointing by day (with `[momentum]` or the momentum FDIR on; docs/momentum.md).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub momentum: Option<crate::recorder::momentum::MomentumSummary>,
+    /// With `[manoeuvre]` keep-out cones and an orbit: the smallest margin per boresight
+    /// and cone (truth), steps inside, slews planned and refused (docs/outputs.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub keepout: Option<crate::recorder::keepout::KeepOutSummary>,
     /// Pointing-performance indices (APE, MPE, RPE, PDE, stability) of the body-axis
     /// attitude error over `[performance] from_s` to the end, at its confidence level
     /// (docs/pointing.md).

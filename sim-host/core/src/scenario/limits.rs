@@ -437,6 +437,7 @@ impl Scenario {
             F::MomentumDump => "momentum.dump_*".into(),
             F::Pointing => "guidance".into(),
             F::PointingAxes => "guidance.pointing (primary_body, secondary_body)".into(),
+            F::Manoeuvre => "manoeuvre".into(),
         }
     }
 }

@@ -22,7 +22,9 @@ mod controller;
 mod environment;
 pub mod estimation;
 mod guidance;
+mod manoeuvre;
 pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
+pub use manoeuvre::{KeepOutSpec, ManoeuvreSpec};
 mod limits;
 mod margins;
 mod modes;
@@ -79,6 +81,10 @@ pub struct Scenario {
     /// The mission's pointing by two vectors or as a fixed attitude (instead of `[target]`).
     #[serde(default)]
     pub guidance: Option<GuidanceSpec>,
+    /// Planned slews and keep-out cones, for the mission and every mode (absent: changes
+    /// of pointing are blended).
+    #[serde(default)]
+    pub manoeuvre: Option<ManoeuvreSpec>,
     pub actuators: Actuators,
     /// The control law (absent with `[modes]`).
     #[serde(default)]
@@ -410,6 +416,7 @@ impl Scenario {
         self.validate_timing()?;
         self.validate_spacecraft()?;
         self.validate_frames_and_orbit()?;
+        self.manoeuvre_params()?;
         self.validate_environment()?;
         self.validate_actuators()?;
         if let Some(c) = &self.controller {
@@ -708,9 +715,20 @@ impl Scenario {
             controller,
             actuator: self.actuator_params(family)?,
             guidance,
+            manoeuvre: self.manoeuvre_params()?,
             hold_after_missed_frames: 10,
             momentum: acs_flight::params::MomentumParams::OFF,
         })
+    }
+
+    /// `[manoeuvre]` as flight parameters (off when absent); keep-out cones need an orbit
+    /// (the Sun and the Earth are placed from the on-board navigation).
+    pub fn manoeuvre_params(&self) -> Result<acs_flight::params::ManoeuvreParams> {
+        let Some(m) = &self.manoeuvre else { return Ok(acs_flight::params::ManoeuvreParams::OFF) };
+        if !m.keepout.is_empty() && self.orbit.is_none() {
+            return Err(bad("manoeuvre.keepout", "keep-out cones need an [orbit]"));
+        }
+        m.params("manoeuvre")
     }
 
     /// Whether the flight code runs (a controller other than "none", or a mode table).

@@ -95,6 +95,8 @@ pub struct Resolved {
     pub commands: Vec<GroundCommand>,
     /// The recorded columns.
     pub layout: Layout,
+    /// `[manoeuvre]` keep-out cones, for the truth's margin columns (with an orbit).
+    pub keepout: Vec<crate::recorder::keepout::Cone>,
     /// Momentum FDIR trip (wheel speed fraction), for the summary (`None`: off).
     pub momentum_trip: Option<f64>,
     /// The keep-up and gimbal monitors are on (`[modes] slow_fdir_persistence_s` > 0).
@@ -149,6 +151,7 @@ impl TryFrom<&Scenario> for Resolved {
             upload,
             estimation,
             layout: layout(sc, craft.wheels.len(), n_thrusters),
+            keepout: keepout_cones(sc),
             craft,
             snap0,
             initial,
@@ -224,6 +227,17 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
                 .is_some_and(|m| m.momentum_trip_speed_fraction > 0.0 || m.slow_fdir_persistence_s > 0.0),
         eclipse: sc.orbit.is_some(),
         guidance: sc.guidance.is_some(),
+        keepout: crate::recorder::keepout::column_names(&keepout_cones(sc)),
+    }
+}
+
+/// The keep-out cones the truth records (none without an orbit or `[manoeuvre]` cones).
+pub fn keepout_cones(sc: &Scenario) -> Vec<crate::recorder::keepout::Cone> {
+    match (&sc.manoeuvre, &sc.orbit) {
+        (Some(m), Some(_)) if !m.keepout.is_empty() => {
+            m.keepout.iter().map(crate::recorder::keepout::Cone::from_spec).collect()
+        }
+        _ => Vec::new(),
     }
 }
 

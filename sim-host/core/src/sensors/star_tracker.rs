@@ -8,8 +8,9 @@
 //! small rotation n (rad, 1σ per axis; three normals per sample), both body-frame
 //! perturbations, the multiplicative error convention of the MEKF (Markley & Crassidis
 //! 2014, §6.2). With a boresight the noise is given per tracker axis (cross-boresight x,
-//! y; about-boresight z). The reading is invalid above the rate limit and when the Sun or
-//! the Earth's limb is inside its exclusion cone around the boresight.
+//! y; about-boresight z). The reading is invalid above the rate limit and when the Sun (not
+//! behind the Earth) or the limb of a lit Earth is inside its exclusion cone around the
+//! boresight.
 
 use super::clock::Clock;
 use super::config::Sensors;
@@ -58,6 +59,16 @@ pub struct ExclusionGeometry {
     pub nadir_ref: Vec3,
     /// Earth's angular radius seen from the spacecraft, asin(R_E / r), rad.
     pub earth_half_angle_rad: f64,
+    /// Some of the Earth's visible cap is sunlit (the Earth rule applies only then: a
+    /// wholly dark Earth does not blind the tracker).
+    pub earth_lit: bool,
+}
+
+impl ExclusionGeometry {
+    /// The Sun is behind the Earth's disc (its rule does not apply).
+    pub fn sun_occulted(&self) -> bool {
+        self.sun_ref.normalize().dot(&self.nadir_ref.normalize()).clamp(-1.0, 1.0).acos() < self.earth_half_angle_rad
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -129,8 +140,8 @@ impl AttitudeSensor {
             let mut valid = self.spec.max_rate_rad_s.is_none_or(|m| rate_rad_s.norm() <= m);
             if let Some(g) = geometry {
                 let (sun, limb) = self.exclusion_angles_rad(q_ib_true, g);
-                valid &= self.spec.sun_exclusion_rad.is_none_or(|x| sun >= x);
-                valid &= self.spec.earth_exclusion_rad.is_none_or(|x| limb >= x);
+                valid &= g.sun_occulted() || self.spec.sun_exclusion_rad.is_none_or(|x| sun >= x);
+                valid &= !g.earth_lit || self.spec.earth_exclusion_rad.is_none_or(|x| limb >= x);
             }
             self.last = AttitudeReading { t_s, q_ib: q, valid };
         }
@@ -245,8 +256,12 @@ mod tests {
         // Boresight body z; the body turned by α about y puts it at (sin α, 0, cos α) in
         // inertial axes. Sun along inertial x: boresight–Sun angle |90° − α|. Earth centre
         // along −z with angular radius 60°: boresight–limb angle (180° − α) − 60°.
-        let geo =
-            ExclusionGeometry { sun_ref: Vec3::x(), nadir_ref: -Vec3::z(), earth_half_angle_rad: 60f64.to_radians() };
+        let geo = ExclusionGeometry {
+            sun_ref: Vec3::x(),
+            nadir_ref: -Vec3::z(),
+            earth_half_angle_rad: 60f64.to_radians(),
+            earth_lit: true,
+        };
         let att = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::y_axis(), deg.to_radians()).into_inner();
         let sun_only = AttitudeSensorSpec { sun_exclusion_rad: Some(30f64.to_radians()), ..ideal_tracker() };
         let earth_only = AttitudeSensorSpec { earth_exclusion_rad: Some(20f64.to_radians()), ..ideal_tracker() };
@@ -274,6 +289,7 @@ mod tests {
             sun_ref: Vec3::new(25f64.to_radians().cos(), 25f64.to_radians().sin(), 0.0),
             nadir_ref: -Vec3::x(),
             earth_half_angle_rad: 0.5,
+            earth_lit: true,
         };
         let (sun, limb) = s.exclusion_angles_rad(&Quat::identity(), &g2);
         assert!((sun - 25f64.to_radians()).abs() < 1e-12 && (limb - (std::f64::consts::PI - 0.5)).abs() < 1e-12);

@@ -344,15 +344,7 @@ impl SensorSuite {
         if !self.attitude.spec.has_exclusion() {
             return None;
         }
-        let (Some((r, _)), Some(m)) = (env.and_then(|e| e.orbit), craft.env.as_ref()) else {
-            return None;
-        };
-        let rs = sun_position_eci(m.julian_date(t_s));
-        Some(ExclusionGeometry {
-            sun_ref: (rs - r).normalize(),
-            nadir_ref: -r.normalize(),
-            earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
-        })
+        exclusion_geometry(t_s, craft, env)
     }
 
     /// The sensors that need the orbit: fine and coarse sun sensors, GNSS receiver (each
@@ -496,6 +488,25 @@ impl SensorSuite {
             f.valid |= valid::WHEELS;
         }
     }
+}
+
+/// Where the Sun and the Earth are seen from the spacecraft at `t_s` (the tracker's
+/// exclusion rules, the keep-out columns): `None` without an orbit or an environment model.
+pub fn exclusion_geometry(t_s: f64, craft: &Spacecraft, env: Option<&EnvSnapshot>) -> Option<ExclusionGeometry> {
+    let (Some((r, _)), Some(m)) = (env.and_then(|e| e.orbit), craft.env.as_ref()) else {
+        return None;
+    };
+    let rs = sun_position_eci(m.julian_date(t_s));
+    // The visible cap (half-angle acos(R_E / r) about the zenith) meets the lit hemisphere
+    // (90° about the Sun) unless their centres are more than the sum apart.
+    let cap_rad = (R_E / r.norm()).min(1.0).acos();
+    let zenith_sun_rad = r.normalize().dot(&rs.normalize()).clamp(-1.0, 1.0).acos();
+    Some(ExclusionGeometry {
+        sun_ref: (rs - r).normalize(),
+        nadir_ref: -r.normalize(),
+        earth_half_angle_rad: (R_E / r.norm()).min(1.0).asin(),
+        earth_lit: zenith_sun_rad < std::f64::consts::FRAC_PI_2 + cap_rad,
+    })
 }
 
 #[cfg(test)]
@@ -732,7 +743,9 @@ mod tests {
         use config::StarTrackerSpec;
         use nalgebra::UnitQuaternion;
         let c = env_craft();
-        let (t, r) = (100.0, Vec3::new(0.0, 7.0e6, 0.0));
+        // Over the subsolar point at 7000 km: the Earth below lit, the Sun not behind it.
+        let t = 100.0;
+        let r = sun_position_eci(2_451_545.0 + t / 86_400.0).normalize() * 7.0e6;
         let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
         // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
         let sun = (sun_position_eci(2_451_545.0 + t / 86_400.0) - r).normalize();
@@ -746,20 +759,65 @@ mod tests {
         };
         let sun_rule = StarTrackerSpec { sun_exclusion_deg: Some(30.0), ..Default::default() };
         // Boresight 29° / 31° from the Sun (turned about an axis normal to it).
-        let n = sun.cross(&Vec3::z()).normalize();
+        let n = sun.cross(&Vec3::x()).normalize();
         let off = |deg: f64| UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(n), deg.to_radians()) * sun;
         assert!(!run(sun_rule.clone(), &off(29.0), Some(&env)));
         assert!(run(sun_rule.clone(), &off(31.0), Some(&env)));
         assert!(run(sun_rule, &off(0.0), None), "no orbit: no rule");
         // Earth at 7000 km: angular radius ρ = asin(R_E / r) = 65.7°; a boresight turned θ
-        // from nadir (within the x-y plane) is θ − ρ from the limb; at nadir it is on the Earth.
+        // from nadir is θ − ρ from the limb; at nadir it is on the Earth.
         let earth_rule = StarTrackerSpec { earth_exclusion_deg: Some(20.0), ..Default::default() };
         let rho = (crate::environment::orbit::R_E / r.norm()).asin().to_degrees();
         let nadir = -r.normalize();
-        let from_nadir = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::z_axis(), deg.to_radians()) * nadir;
+        let axis = nalgebra::Unit::new_normalize(nadir.cross(&Vec3::z()));
+        let from_nadir = |deg: f64| UnitQuaternion::from_axis_angle(&axis, deg.to_radians()) * nadir;
         assert!(!run(earth_rule.clone(), &nadir, Some(&env)));
         assert!(!run(earth_rule.clone(), &from_nadir(rho + 19.9), Some(&env)));
         assert!(run(earth_rule.clone(), &from_nadir(rho + 20.1), Some(&env)));
         assert!(run(earth_rule, &-nadir, Some(&env)));
+    }
+
+    #[test]
+    fn tracker_sees_only_a_lit_earth_and_an_unocculted_sun() {
+        use config::StarTrackerSpec;
+        use nalgebra::UnitQuaternion;
+        // The spacecraft at 7000 km, φ from the subsolar direction ŝ (Earth centre → Sun)
+        // in a plane through it. Closed forms: some of the visible cap (half-angle
+        // acos(R_E / r) about the zenith) is lit while φ < 90° + acos(R_E / r); the Sun is
+        // behind the Earth (the Sun–nadir angle 180° − φ below the disc's asin(R_E / r))
+        // once φ > 180° − asin(R_E / r), up to the Sun's parallax (4.7e-5 rad), well inside
+        // the ±0.01° probes.
+        let c = env_craft();
+        let t = 100.0;
+        let s_hat = sun_position_eci(2_451_545.0 + t / 86_400.0).normalize();
+        let p_hat = s_hat.cross(&Vec3::z()).normalize();
+        let r_m = 7.0e6;
+        let ratio = crate::environment::orbit::R_E / r_m;
+        let at = |phi_deg: f64| {
+            let (sn, cs) = phi_deg.to_radians().sin_cos();
+            (s_hat * cs + p_hat * sn) * r_m
+        };
+        let point = |d: &Vec3| UnitQuaternion::rotation_between(&Vec3::z(), d).unwrap().into_inner();
+        let valid = |st: &StarTrackerSpec, r: Vec3, boresight: &Vec3| {
+            let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
+            let spec = SensorSpec { star_tracker: Some(st.clone()), ..Default::default() };
+            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut x = state();
+            x.q = point(boresight);
+            s.sample(0, t, &x, &c, Some(&env), &[0.0; 3]).valid & valid::ATTITUDE != 0
+        };
+        let earth_rule = StarTrackerSpec { earth_exclusion_deg: Some(20.0), ..Default::default() };
+        let dark_from = 90.0 + ratio.acos().to_degrees();
+        for (phi, expect) in [(0.0, false), (dark_from - 0.01, false), (dark_from + 0.01, true), (180.0, true)] {
+            let r = at(phi);
+            assert_eq!(valid(&earth_rule, r, &-r.normalize()), expect, "nadir boresight, φ = {phi}");
+        }
+        let sun_rule = StarTrackerSpec { sun_exclusion_deg: Some(30.0), ..Default::default() };
+        let hidden_from = 180.0 - ratio.asin().to_degrees();
+        for (phi, expect) in [(90.0, false), (hidden_from - 0.01, false), (hidden_from + 0.01, true), (180.0, true)] {
+            let r = at(phi);
+            let sun = (sun_position_eci(2_451_545.0 + t / 86_400.0) - r).normalize();
+            assert_eq!(valid(&sun_rule, r, &sun), expect, "boresight on the Sun, φ = {phi}");
+        }
     }
 }
