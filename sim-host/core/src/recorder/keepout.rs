@@ -4,7 +4,6 @@
 //! and over the run the smallest margin per boresight and cone (docs/outputs.md).
 
 use crate::attitude::{Quat, Vec3};
-use crate::scenario::KeepOutSpec;
 use crate::sensors::star_tracker::ExclusionGeometry;
 use acs_flight::link::GuidanceTelemetry;
 use nalgebra::UnitQuaternion;
@@ -21,15 +20,6 @@ pub struct Cone {
 }
 
 impl Cone {
-    pub fn from_spec(s: &KeepOutSpec) -> Self {
-        Self {
-            name: s.name.clone(),
-            boresight_body: Vec3::from(s.boresight_body).normalize(),
-            sun_half_angle_rad: s.sun_half_angle_deg.map(f64::to_radians),
-            earth_margin_rad: s.earth_margin_deg.map(f64::to_radians),
-        }
-    }
-
     /// `(sun, earth)` margins, rad, at the true attitude `q_ib` (body → inertial).
     pub fn margins_rad(&self, q_ib: &Quat, g: &ExclusionGeometry) -> (Option<f64>, Option<f64>) {
         let b = UnitQuaternion::from_quaternion(*q_ib) * self.boresight_body;

@@ -234,9 +234,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
 /// The keep-out cones the truth records (none without an orbit or `[manoeuvre]` cones).
 pub fn keepout_cones(sc: &Scenario) -> Vec<crate::recorder::keepout::Cone> {
     match (&sc.manoeuvre, &sc.orbit) {
-        (Some(m), Some(_)) if !m.keepout.is_empty() => {
-            m.keepout.iter().map(crate::recorder::keepout::Cone::from_spec).collect()
-        }
+        (Some(m), Some(_)) if !m.keepout.is_empty() => m.keepout.iter().map(cone_of).collect(),
         _ => Vec::new(),
     }
 }
@@ -267,5 +265,16 @@ mod tests {
         assert!(!r.target.lvlh && r.inertia_change.is_none() && r.open_loop.is_empty());
         assert_eq!((r.name.as_str(), r.control_rate_hz, r.dynamics_rate_hz), ("t", 100.0, 100.0));
         assert!(r.commands.is_empty() && r.snap0.is_none() && r.initial.w == crate::attitude::Vec3::zeros());
+    }
+}
+
+/// A `[[manoeuvre.keepout]]` entry as the recorder's margin columns use it (f64, unit
+/// boresight, radians).
+fn cone_of(s: &super::KeepOutSpec) -> crate::recorder::keepout::Cone {
+    crate::recorder::keepout::Cone {
+        name: s.name.clone(),
+        boresight_body: crate::attitude::Vec3::from(s.boresight_body).normalize(),
+        sun_half_angle_rad: s.sun_half_angle_deg.map(f64::to_radians),
+        earth_margin_rad: s.earth_margin_deg.map(f64::to_radians),
     }
 }
