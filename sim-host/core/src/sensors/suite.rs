@@ -230,14 +230,14 @@ impl SensorSuite {
         let timing = |w: Sampled| spec.timing(w);
         // Built in this order (the optional sensors first) so that a bad table fails on
         // the same check as before.
-        let sun = spec.sun.clone().map(|x| SunSensor::new(x, seed, SUN_STREAM));
+        let sun = spec.sun.map(|x| SunSensor::new(x, seed, SUN_STREAM));
         let css = spec.css.clone().map(|c| CoarseSunSensors::new(c, seed, CSS_STREAM));
         let gnss = spec.gnss.clone().map(|g| GnssReceiver::new(g, seed, GNSS_STREAM));
         let mut suite = Self {
             encoders: Encoders::new(seed, spec.gimbal_noise_rad, spec.wheel_speed_noise_rad_s),
-            gyro: Gyro::new(spec.gyro.clone(), seed, GYRO_STREAM),
-            attitude: AttitudeSensor::new(spec.attitude.clone(), seed, ATTITUDE_STREAM),
-            mag: Magnetometer::new(spec.magnetometer.clone(), seed, MAGNETOMETER_STREAM),
+            gyro: Gyro::new(spec.gyro, seed, GYRO_STREAM),
+            attitude: AttitudeSensor::new(spec.attitude, seed, ATTITUDE_STREAM),
+            mag: Magnetometer::new(spec.magnetometer, seed, MAGNETOMETER_STREAM),
             sun,
             css,
             gnss,
