@@ -31,8 +31,8 @@ fn slew(tracker_hz: f64, latency_s: f64, control_hz: f64, seed: u64, arw: f64) -
     g.bias_instability_rad_s = 0.0;
     g.arw_rad_sqrt_s = arw;
     let t = sc.sensors.star_tracker.as_mut().unwrap();
-    t.rate_hz = Some(tracker_hz);
-    t.latency_s = latency_s;
+    t.timing.rate_hz = Some(tracker_hz);
+    t.timing.latency_s = latency_s;
     let e = sc.estimation.as_mut().unwrap();
     (e.magnetometer_sigma_deg, e.css_sigma_deg, e.sun_sensor_sigma_deg) = (None, None, None);
     e.gyro_arw_rad_sqrt_s = arw;

@@ -60,10 +60,10 @@ fn grid_scenario(grid: Grid, (gyro_s, tracker_s, vectors_s): (f64, f64, f64), se
     sc.timing.control_rate_hz = grid.control_hz;
     sc.timing.output_every = 1;
     sc.sensors.seed = seed;
-    sc.sensors.gyro.as_mut().unwrap().latency_s = gyro_s;
-    sc.sensors.star_tracker.as_mut().unwrap().latency_s = tracker_s;
-    sc.sensors.magnetometer.as_mut().unwrap().latency_s = vectors_s;
-    sc.sensors.css.as_mut().unwrap().latency_s = vectors_s;
+    sc.sensors.gyro.as_mut().unwrap().timing.latency_s = gyro_s;
+    sc.sensors.star_tracker.as_mut().unwrap().timing.latency_s = tracker_s;
+    sc.sensors.magnetometer.as_mut().unwrap().timing.latency_s = vectors_s;
+    sc.sensors.css.as_mut().unwrap().timing.latency_s = vectors_s;
     sc.validate().unwrap_or_else(|e| panic!("{gyro_s}/{tracker_s}/{vectors_s}: {e:#}"));
     sc
 }

@@ -10,8 +10,8 @@ use acs_flight::link::{SensorFrame, valid};
 use nalgebra::{Matrix3, UnitQuaternion};
 use sim_core::attitude::Vec3;
 use sim_core::plant::{MAX_GIMBALS, Spacecraft, State};
+use sim_core::scenario::{GyroSpec, SampleTimingSpec, Sensors, StarTrackerSpec};
 use sim_core::sensors::SensorSuite;
-use sim_core::sensors::config::{GyroSensorSpec, Sensors, StarTrackerSpec};
 
 fn craft() -> Spacecraft {
     Spacecraft::new(Matrix3::identity(), None).unwrap()
@@ -79,7 +79,13 @@ fn tracker(t: StarTrackerSpec) -> Sensors {
 /// exactly when m changed since the previous frame.
 fn tracker_3hz(control_hz: f64, steps: u32) -> (u32, u32) {
     let h = 1.0 / control_hz / 50.0;
-    let mut s = SensorSuite::new(&tracker(StarTrackerSpec { rate_hz: Some(3.0), ..Default::default() }), control_hz);
+    let mut s = SensorSuite::new(
+        &tracker(StarTrackerSpec {
+            timing: SampleTimingSpec { rate_hz: Some(3.0), ..Default::default() },
+            ..Default::default()
+        })
+        .suite_spec(control_hz),
+    );
     let (mut last, mut new, mut held) = (None::<(f64, u64)>, 0, 0);
     drive(
         &mut s,
@@ -129,8 +135,11 @@ fn latency_delivers_the_newest_sample_at_least_that_old_with_its_exact_tag() {
     // Tracker and loop at 10 Hz, substep 10 ms, latency 0.13 s: frame t_k carries the
     // newest sample with tag ≤ t_k − 0.13 s, i.e. grid point ⌊10 (t_k − 0.13)⌋ / 10 exactly
     // (the grid falls on boundaries); nothing before t = 0.13 s.
-    let spec = tracker(StarTrackerSpec { latency_s: 0.13, ..Default::default() });
-    let mut s = SensorSuite::new(&spec, 10.0);
+    let spec = tracker(StarTrackerSpec {
+        timing: SampleTimingSpec { latency_s: 0.13, ..Default::default() },
+        ..Default::default()
+    });
+    let mut s = SensorSuite::new(&spec.suite_spec(10.0));
     drive(
         &mut s,
         10.0,
@@ -151,10 +160,13 @@ fn latency_delivers_the_newest_sample_at_least_that_old_with_its_exact_tag() {
     // The suite latency adds to the tracker's: 0.05 + 0.08 s is the same 0.13 s.
     let spec = Sensors {
         latency_s: 0.05,
-        star_tracker: Some(StarTrackerSpec { latency_s: 0.08, ..Default::default() }),
+        star_tracker: Some(StarTrackerSpec {
+            timing: SampleTimingSpec { latency_s: 0.08, ..Default::default() },
+            ..Default::default()
+        }),
         ..Default::default()
     };
-    let mut s = SensorSuite::new(&spec, 10.0);
+    let mut s = SensorSuite::new(&spec.suite_spec(10.0));
     drive(
         &mut s,
         10.0,
@@ -173,7 +185,7 @@ fn latency_delivers_the_newest_sample_at_least_that_old_with_its_exact_tag() {
     );
 }
 
-fn gyro(g: GyroSensorSpec) -> Sensors {
+fn gyro(g: GyroSpec) -> Sensors {
     Sensors { seed: 11, gyro: Some(g), ..Default::default() }
 }
 
@@ -193,8 +205,14 @@ fn the_gyro_increment_integrates_a_constant_angular_acceleration_and_adds_the_bi
     let truth = |t: f64| state_at(t, axis * (w0 + alpha * t));
     let bias = [1e-4, -2e-4, 3e-4];
     for b in [[0.0; 3], bias] {
-        let mut s =
-            SensorSuite::new(&gyro(GyroSensorSpec { rate_hz: Some(50.0), bias_rad_s: b, ..Default::default() }), 10.0);
+        let mut s = SensorSuite::new(
+            &gyro(GyroSpec {
+                timing: SampleTimingSpec { rate_hz: Some(50.0), ..Default::default() },
+                bias_rad_s: b,
+                ..Default::default()
+            })
+            .suite_spec(10.0),
+        );
         let mut prev_tag: Option<u64> = None;
         drive(&mut s, 10.0, 20, 500, truth, |k, t, f, _| {
             assert_eq!(f.sampled_at.gyro_us, (t * 1e6).round() as u64, "frame {k}: the newest 50 Hz sample is now");
@@ -227,9 +245,9 @@ fn the_gyro_increment_angle_random_walk_has_variance_arw_squared_times_the_inter
     // within 5 σ/√n of zero. The rate samples keep the white noise they had before the
     // increments existed (their own stream): checked against a suite built without them.
     let n_arw = 1e-3;
-    let spec = gyro(GyroSensorSpec { arw_rad_sqrt_s: n_arw, ..Default::default() });
+    let spec = gyro(GyroSpec { arw_rad_sqrt_s: n_arw, ..Default::default() });
     let w = Vec3::new(0.01, 0.0, -0.02);
-    let mut s = SensorSuite::new(&spec, 10.0);
+    let mut s = SensorSuite::new(&spec.suite_spec(10.0));
     let (mut sum, mut sum2, mut n) = (0.0, 0.0, 0usize);
     let mut rates = Vec::new();
     drive(
@@ -272,25 +290,21 @@ fn same_seed_same_bits_with_jitter_latency_and_noise() {
     let spec = Sensors {
         seed: 3,
         latency_s: 0.02,
-        gyro: Some(GyroSensorSpec {
-            rate_hz: Some(40.0),
-            jitter_s: 0.004,
-            phase_s: 0.01,
+        gyro: Some(GyroSpec {
+            timing: SampleTimingSpec { rate_hz: Some(40.0), jitter_s: 0.004, phase_s: 0.01, latency_s: 0.0 },
             arw_rad_sqrt_s: 1e-3,
             rrw_rad_s_sqrt_s: 1e-5,
             ..Default::default()
         }),
         star_tracker: Some(StarTrackerSpec {
-            rate_hz: Some(3.0),
-            jitter_s: 0.05,
-            latency_s: 0.13,
+            timing: SampleTimingSpec { rate_hz: Some(3.0), jitter_s: 0.05, latency_s: 0.13, phase_s: 0.0 },
             noise_deg: 0.01,
             ..Default::default()
         }),
         ..Default::default()
     };
     let run = |spec: &Sensors| {
-        let mut s = SensorSuite::new(spec, 10.0);
+        let mut s = SensorSuite::new(&spec.suite_spec(10.0));
         let mut frames = Vec::new();
         drive(&mut s, 10.0, 10, 2000, |t| state_at(t, Vec3::new(0.0, 0.0, YAW_RATE)), |_, _, f, _| frames.push(*f));
         frames
@@ -319,16 +333,17 @@ fn the_queues_stay_within_their_cap_over_a_long_run() {
     // 9 Hz tracker behind 0.55 s. Cap ⌈latency × rate⌉ + 2; nothing dropped.
     let spec = Sensors {
         latency_s: 0.3,
-        gyro: Some(GyroSensorSpec { rate_hz: Some(47.0), jitter_s: 0.01, ..Default::default() }),
+        gyro: Some(GyroSpec {
+            timing: SampleTimingSpec { rate_hz: Some(47.0), jitter_s: 0.01, ..Default::default() },
+            ..Default::default()
+        }),
         star_tracker: Some(StarTrackerSpec {
-            rate_hz: Some(9.0),
-            jitter_s: 0.05,
-            latency_s: 0.25,
+            timing: SampleTimingSpec { rate_hz: Some(9.0), jitter_s: 0.05, latency_s: 0.25, phase_s: 0.0 },
             ..Default::default()
         }),
         ..Default::default()
     };
-    let mut s = SensorSuite::new(&spec, 10.0);
+    let mut s = SensorSuite::new(&spec.suite_spec(10.0));
     assert_eq!((s.gyro_channel.queue.cap(), s.attitude_channel.queue.cap()), (17, 7));
     drive(&mut s, 10.0, 100, 100_000, |t| state_at(t, Vec3::zeros()), |_, _, _, _| {});
     let (max_g, max_a) = (s.gyro_channel.queue.max_len, s.attitude_channel.queue.max_len);

@@ -178,7 +178,8 @@ pub(super) fn parse_error(text: &str, e: toml::de::Error) -> anyhow::Error {
         }
         t.remove(key);
         if reparse(probe).as_deref() != Some(baseline.as_str()) {
-            return anyhow!("invalid value for `{}.{key}`: {}", path.join("."), e.message());
+            let hint = did_you_mean(e.message()).unwrap_or_default();
+            return anyhow!("invalid value for `{}.{key}`: {}{hint}", path.join("."), e.message());
         }
     }
     whole
@@ -289,7 +290,7 @@ impl Scenario {
         if let Some(g) = &self.sensors.gyro {
             within("sensors.gyro.bias_rad_s", &g.bias_rad_s, w, gyro)?;
             // Per-sample 1σ of the white noise: ARW × √(sample rate).
-            let fs = g.rate_hz.unwrap_or(self.timing.control_rate_hz);
+            let fs = g.timing.rate_hz.unwrap_or(self.timing.control_rate_hz);
             let arw_limit = w * NOISE_FRACTION_OF_LIMIT / fs.sqrt();
             noise("sensors.gyro.arw_rad_sqrt_s", g.arw_rad_sqrt_s, arw_limit, "per-sample 1σ = ARW × √rate_hz")?;
             // The random-walk bias after the whole run: RRW × √duration.
@@ -476,6 +477,28 @@ mod tests {
         assert!(e.contains("line 5") && e.ends_with("did you mean `output_every`?"), "{e}");
         let e = Scenario::from_toml(&format!("{base}zzz = 2\n")).unwrap_err().to_string();
         assert!(e.contains("unknown field `zzz`") && !e.contains("did you mean"), "{e}");
+    }
+
+    /// In a sensor table (read in two halves: `scenario::sensors`'s `timed`) a misspelt key
+    /// is named with its table and the closest known key, a timing key among them; a
+    /// timing key of the wrong type is named too; a well-formed one arrives in `timing`.
+    #[test]
+    fn a_sensor_table_key_is_named_with_its_table() {
+        let text =
+            std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenarios/estimation/mekf-hold.toml"))
+                .unwrap();
+        let with = |line: &str| text.replacen("[sensors.gyro]\n", &format!("[sensors.gyro]\n{line}\n"), 1);
+        assert_ne!(with("x = 1"), text);
+        let e = Scenario::from_toml(&with("latncy_s = 0.1")).unwrap_err().to_string();
+        assert!(e.contains("`sensors.gyro.latncy_s`") && e.ends_with("did you mean `latency_s`?"), "{e}");
+        let e = Scenario::from_toml(&with("arw_rad_sqrt = 0.1")).unwrap_err().to_string();
+        assert!(e.contains("`sensors.gyro.arw_rad_sqrt`") && e.ends_with("did you mean `arw_rad_sqrt_s`?"), "{e}");
+        let e = Scenario::from_toml(&with("latency_s = \"x\"")).unwrap_err().to_string();
+        assert!(e.contains("`sensors.gyro.latency_s`") && e.contains("expected f64"), "{e}");
+        let s = Scenario::from_toml(&with("latency_s = 0.015\nphase_s = 0.002")).unwrap();
+        let g = s.sensors.gyro.unwrap();
+        assert_eq!((g.timing.latency_s, g.timing.phase_s, g.timing.rate_hz), (0.015, 0.002, None));
+        assert_eq!(g.arw_rad_sqrt_s, 1.0e-4);
     }
 
     /// A required key left out is named as missing, not blamed on the table's first key

@@ -15,8 +15,6 @@ use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-pub use crate::sensors::config::{GyroSensorSpec, MagnetometerSensorSpec, Sensors, StarTrackerSpec, SunSensorSpecToml};
-
 mod actuators;
 mod controller;
 mod environment;
@@ -52,6 +50,9 @@ pub use modes::{
     unused_detumble_rates_deg_s,
 };
 pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
+pub use sensors::{
+    CssSpec, GnssSpec, GyroSpec, MagnetometerSpec, SampleTimingSpec, Sensors, StarTrackerSpec, SunSensorSpec,
+};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;

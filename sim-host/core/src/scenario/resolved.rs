@@ -158,7 +158,7 @@ impl TryFrom<&Scenario> for Resolved {
             thrusters,
             n_thrusters,
             magnetorquers: sc.magnetorquer_set(),
-            sensors: SensorSuite::new(&sc.sensors, sc.timing.control_rate_hz),
+            sensors: SensorSuite::new(&sc.sensors.suite_spec(sc.timing.control_rate_hz)),
             target,
             truth,
             inertia_change: sc.spacecraft.inertia_change.clone(),

@@ -38,6 +38,34 @@ impl SampleTiming {
     }
 }
 
+/// Which sensor's sample clock (each has its own [`SampleTiming`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sampled {
+    Gyro,
+    StarTracker,
+    Magnetometer,
+    Sun,
+    Css,
+    Gnss,
+}
+
+impl Sampled {
+    pub const ALL: [Sampled; 6] =
+        [Sampled::Gyro, Sampled::StarTracker, Sampled::Magnetometer, Sampled::Sun, Sampled::Css, Sampled::Gnss];
+
+    /// The sensor's table key in a scenario (`sensors.<key>`).
+    pub fn key(self) -> &'static str {
+        match self {
+            Sampled::Gyro => "gyro",
+            Sampled::StarTracker => "star_tracker",
+            Sampled::Magnetometer => "magnetometer",
+            Sampled::Sun => "sun",
+            Sampled::Css => "css",
+            Sampled::Gnss => "gnss",
+        }
+    }
+}
+
 /// Sample clock: grid `phase + k / rate_hz (+ jitter)` from t = 0.
 #[derive(Clone, Debug)]
 pub(crate) struct Clock {

@@ -9,7 +9,6 @@
 //! head and sample, the sum floored at 0; see [`CoarseSunSensors`].
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::sensor_rng;
 use crate::attitude::{Quat, Vec3};
 use nalgebra::UnitQuaternion;
@@ -21,7 +20,7 @@ use serde::{Deserialize, Serialize};
 pub const MAX_CSS_HEADS: usize = acs_flight::types::MAX_CSS_HEADS;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CssSpec {
+pub struct CssModel {
     pub rate_hz: f64,
     /// Outward unit normals of the heads, body axes (1 … [`MAX_CSS_HEADS`]; normalised
     /// here); the order is the output index.
@@ -68,7 +67,7 @@ pub struct CssGeometry {
 /// The noise is added last and the sum floored at 0 (a photocell does not read negative).
 #[derive(Clone, Debug)]
 pub struct CoarseSunSensors {
-    pub spec: CssSpec,
+    pub spec: CssModel,
     normals: Vec<Vec3>,
     rng: ChaCha8Rng,
     /// The sample clock (the suite sets its phase and jitter and asks it whether a
@@ -78,7 +77,7 @@ pub struct CoarseSunSensors {
 }
 
 impl CoarseSunSensors {
-    pub fn new(spec: CssSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: CssModel, scenario_seed: u64, index: u32) -> Self {
         assert!(
             (1..=MAX_CSS_HEADS).contains(&spec.normals_body.len()),
             "coarse sun sensors need 1 to {MAX_CSS_HEADS} heads"
@@ -134,27 +133,14 @@ impl CoarseSunSensors {
     }
 }
 
-impl CssSpec {
-    /// The coarse sun sensors of a scenario's `[sensors]` table (`None` without
-    /// `[sensors.css]`). `control_rate_hz`: the sample rate when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Option<Self> {
-        s.css.as_ref().map(|c| CssSpec {
-            rate_hz: c.rate_hz.unwrap_or(control_rate_hz),
-            normals_body: c.normals_body.clone(),
-            noise: c.noise,
-            albedo: c.albedo,
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::super::noise::gauss3;
     use super::*;
     use nalgebra::Matrix3;
 
-    fn css_spec(noise: f64, albedo: f64) -> CssSpec {
-        CssSpec {
+    fn css_spec(noise: f64, albedo: f64) -> CssModel {
+        CssModel {
             rate_hz: 10.0,
             normals_body: vec![
                 [1.0, 0.0, 0.0],

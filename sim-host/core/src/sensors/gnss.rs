@@ -10,14 +10,13 @@
 //! ionospheric error model.
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::{gauss3, sensor_rng};
 use crate::attitude::Vec3;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GnssSpec {
+pub struct GnssModel {
     pub rate_hz: f64,
     /// 1σ white noise per axis of the position fix, m.
     pub position_noise_m: f64,
@@ -41,7 +40,7 @@ pub struct GnssFix {
 /// shift the later noise.
 #[derive(Clone, Debug)]
 pub struct GnssReceiver {
-    pub spec: GnssSpec,
+    pub spec: GnssModel,
     rng: ChaCha8Rng,
     /// The sample clock (the suite sets its phase and jitter and asks it whether a
     /// sample is due before it builds the truth the sample needs).
@@ -49,7 +48,7 @@ pub struct GnssReceiver {
 }
 
 impl GnssReceiver {
-    pub fn new(spec: GnssSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: GnssModel, scenario_seed: u64, index: u32) -> Self {
         Self { clock: Clock::new(spec.rate_hz), spec, rng: sensor_rng(scenario_seed, index) }
     }
 
@@ -71,27 +70,13 @@ impl GnssReceiver {
     }
 }
 
-impl GnssSpec {
-    /// The GNSS receiver of a scenario's `[sensors]` table (`None` without
-    /// `[sensors.gnss]`: the suite then gives the ideal state on every frame).
-    /// `control_rate_hz`: the sample rate when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Option<Self> {
-        s.gnss.as_ref().map(|g| GnssSpec {
-            rate_hz: g.rate_hz.unwrap_or(control_rate_hz),
-            position_noise_m: g.position_noise_m,
-            velocity_noise_m_s: g.velocity_noise_m_s,
-            outages_s: g.outages_s.clone(),
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn gnss_fix_noise_statistics_and_outages() {
-        let spec = GnssSpec { rate_hz: 1.0, position_noise_m: 5.0, velocity_noise_m_s: 0.05, outages_s: vec![] };
+        let spec = GnssModel { rate_hz: 1.0, position_noise_m: 5.0, velocity_noise_m_s: 0.05, outages_s: vec![] };
         let mut g = GnssReceiver::new(spec.clone(), 3, 6);
         let (r, v) = ([7.0e6, -1.0e5, 2.0e5], [10.0, 7500.0, -30.0]);
         let n = 20_000;
@@ -113,7 +98,7 @@ mod tests {
         assert!((sd_r / 5.0 - 1.0).abs() < 0.02 && (sd_v / 0.05 - 1.0).abs() < 0.02);
         assert!((sr / m).abs() < 4.0 * 5.0 / m.sqrt() && (sv / m).abs() < 4.0 * 0.05 / m.sqrt());
         // Outage: the same noise before and after it (draws continue inside).
-        let out = GnssSpec { outages_s: vec![[10.0, 19.5]], ..spec.clone() };
+        let out = GnssModel { outages_s: vec![[10.0, 19.5]], ..spec.clone() };
         let (mut a, mut b) = (GnssReceiver::new(spec, 4, 6), GnssReceiver::new(out, 4, 6));
         for k in 0..40 {
             let (fa, fb) = (a.update(k as f64, &r, &v), b.update(k as f64, &r, &v));

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 pub const INCREMENT_SUB_STREAM: u32 = 3;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GyroSpec {
+pub struct GyroModel {
     pub rate_hz: f64,
     /// Angle random walk N per axis, rad/s/√Hz (= rad/√s). Per-sample white noise σ =
     /// N √rate_hz; Allan deviation N / √τ.
@@ -73,7 +73,7 @@ pub struct GyroReading {
 /// own stream ([`sensor_sub_rng`] sub 1), so switching it on leaves ARW and RRW unchanged.
 #[derive(Clone, Debug)]
 pub struct Gyro {
-    pub spec: GyroSpec,
+    pub spec: GyroModel,
     rng: ChaCha8Rng,
     gm_rng: ChaCha8Rng,
     /// Angle random walk of the angle increments (sub-stream 3: the rate samples' white
@@ -89,7 +89,7 @@ pub struct Gyro {
 }
 
 impl Gyro {
-    pub fn new(spec: GyroSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: GyroModel, scenario_seed: u64, index: u32) -> Self {
         assert!(spec.saturation_rad_s.is_none_or(|s| s > 0.0), "gyro saturation must be > 0");
         assert!(spec.quantisation_rad_s >= 0.0 && spec.quantisation_rad_s.is_finite(), "gyro LSB must be >= 0");
         assert!(
@@ -205,7 +205,7 @@ impl Gyro {
 #[cfg(test)]
 #[allow(clippy::needless_range_loop)]
 mod tests {
-    use super::super::magnetometer::{Magnetometer, MagnetometerSpec};
+    use super::super::magnetometer::{Magnetometer, MagnetometerModel};
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
@@ -235,8 +235,8 @@ mod tests {
         l.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / l.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
     }
 
-    fn gyro_spec() -> GyroSpec {
-        GyroSpec {
+    fn gyro_spec() -> GyroModel {
+        GyroModel {
             rate_hz: 10.0,
             arw_rad_sqrt_s: [1e-3, 2e-3, 5e-4],
             rrw_rad_s_sqrt_s: [1e-4, 5e-5, 2e-4],
@@ -331,7 +331,7 @@ mod tests {
 
     #[test]
     fn gyro_scale_factor_bias_and_hold() {
-        let spec = GyroSpec {
+        let spec = GyroModel {
             rate_hz: 4.0,
             arw_rad_sqrt_s: [0.0; 3],
             rrw_rad_s_sqrt_s: [0.0; 3],
@@ -358,15 +358,15 @@ mod tests {
         assert_eq!(g.update(0.4, &[5.0; 3]), r2);
     }
 
-    fn noiseless_gyro() -> GyroSpec {
-        GyroSpec { arw_rad_sqrt_s: [0.0; 3], rrw_rad_s_sqrt_s: [0.0; 3], ..gyro_spec() }
+    fn noiseless_gyro() -> GyroModel {
+        GyroModel { arw_rad_sqrt_s: [0.0; 3], rrw_rad_s_sqrt_s: [0.0; 3], ..gyro_spec() }
     }
 
     #[test]
     fn gyro_misalignment_rotates_a_known_rate() {
         // Triad turned 90° about body z: its x axis is body y, its y axis is body −x, so a
         // body rate (1, 2, 3) reads (2, −1, 3).
-        let spec = GyroSpec { misalignment_rad: [0.0, 0.0, std::f64::consts::FRAC_PI_2], ..noiseless_gyro() };
+        let spec = GyroModel { misalignment_rad: [0.0, 0.0, std::f64::consts::FRAC_PI_2], ..noiseless_gyro() };
         let r = Gyro::new(spec, 1, 0).update(0.0, &[1.0, 2.0, 3.0]);
         let want = [2.0, -1.0, 3.0];
         for a in 0..3 {
@@ -374,7 +374,7 @@ mod tests {
         }
         // Small misalignment θ: reading ≈ ω − θ × ω to first order, error O(|θ|² |ω|).
         let th = [1e-3, -2e-3, 0.5e-3];
-        let spec = GyroSpec { misalignment_rad: th, ..noiseless_gyro() };
+        let spec = GyroModel { misalignment_rad: th, ..noiseless_gyro() };
         let w = Vec3::new(0.1, -0.05, 0.2);
         let r = Gyro::new(spec, 1, 0).update(0.0, &w.into());
         let lin = w - Vec3::from(th).cross(&w);
@@ -385,7 +385,7 @@ mod tests {
 
     #[test]
     fn gyro_saturation_clips_exactly() {
-        let spec = GyroSpec { saturation_rad_s: Some(0.5), bias_rad_s: [0.1, 0.0, 0.0], ..noiseless_gyro() };
+        let spec = GyroModel { saturation_rad_s: Some(0.5), bias_rad_s: [0.1, 0.0, 0.0], ..noiseless_gyro() };
         let mut g = Gyro::new(spec, 1, 0);
         // Axis x: 0.45 + bias 0.1 exceeds the range; y, z inside / below it.
         let r = g.update(0.0, &[0.45, 0.3, -7.0]);
@@ -401,7 +401,7 @@ mod tests {
         // fractional part of ω/LSB is equidistributed: the error q(ω) − ω must stay in ±LSB/2 with
         // mean 0 and variance LSB²/12 (uniform quantisation noise).
         let lsb = 1e-4;
-        let spec = GyroSpec { quantisation_rad_s: lsb, ..noiseless_gyro() };
+        let spec = GyroModel { quantisation_rad_s: lsb, ..noiseless_gyro() };
         let mut g = Gyro::new(spec, 1, 0);
         let n = 100_000;
         let step = 0.618_033_988_749_895 * lsb;
@@ -439,7 +439,7 @@ mod tests {
         // stationary first-order Gauss–Markov process has variance σ² and autocorrelation
         // e^{−|lag|/τ}, so e^{−1} at lag τ.
         let (sigma, tau, f) = (1e-4, 20.0, 10.0);
-        let spec = GyroSpec { bias_instability_rad_s: sigma, bias_correlation_s: tau, rate_hz: f, ..noiseless_gyro() };
+        let spec = GyroModel { bias_instability_rad_s: sigma, bias_correlation_s: tau, rate_hz: f, ..noiseless_gyro() };
         let (n, runs, lag) = (400_000usize, 8u32, (tau * f) as usize);
         let (mut s2, mut c_lag, mut m) = (0.0, 0.0, 0.0);
         let mut c_lag_n = 0.0;
@@ -483,7 +483,7 @@ mod tests {
         // Own stream: with the instability on, the reading is the same white noise and
         // random walk plus the Gauss–Markov state (to rounding).
         let base = gyro_spec();
-        let on = GyroSpec { bias_instability_rad_s: 3e-4, bias_correlation_s: 5.0, ..base };
+        let on = GyroModel { bias_instability_rad_s: 3e-4, bias_correlation_s: 5.0, ..base };
         let (mut a, mut b) = (Gyro::new(base, 5, 1), Gyro::new(on, 5, 1));
         for k in 0..1000 {
             let t = k as f64 / base.rate_hz;
@@ -502,7 +502,7 @@ mod tests {
         let run = |seed, idx, with_other: bool| {
             let mut g = Gyro::new(spec, seed, idx);
             let mut other = Magnetometer::new(
-                MagnetometerSpec {
+                MagnetometerModel {
                     rate_hz: 10.0,
                     noise_t: [1e-7; 3],
                     bias_t: [0.0; 3],

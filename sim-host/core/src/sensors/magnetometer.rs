@@ -10,7 +10,6 @@
 //! model of Markley & Crassidis 2014, ch. 4.
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::{gauss3, sensor_rng};
 use crate::attitude::Vec3;
 use nalgebra::{Matrix3, UnitQuaternion};
@@ -18,7 +17,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MagnetometerSpec {
+pub struct MagnetometerModel {
     pub rate_hz: f64,
     /// 1σ white noise per axis, T.
     pub noise_t: [f64; 3],
@@ -48,7 +47,7 @@ pub struct MagReading {
 /// bias and the noise.
 #[derive(Clone, Debug)]
 pub struct Magnetometer {
-    pub spec: MagnetometerSpec,
+    pub spec: MagnetometerModel,
     rng: ChaCha8Rng,
     /// The sample clock (the suite sets its phase and jitter and asks it whether a
     /// sample is due before it builds the truth the sample needs).
@@ -57,7 +56,7 @@ pub struct Magnetometer {
 }
 
 impl Magnetometer {
-    pub fn new(spec: MagnetometerSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: MagnetometerModel, scenario_seed: u64, index: u32) -> Self {
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
@@ -95,30 +94,6 @@ impl Magnetometer {
     }
 }
 
-impl MagnetometerSpec {
-    /// The magnetometer of a scenario's `[sensors]` table: `[sensors.magnetometer]` when
-    /// given, else the shortcut `magnetometer_noise_t`. `control_rate_hz`: the sample rate
-    /// when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Self {
-        match &s.magnetometer {
-            Some(m) => MagnetometerSpec {
-                rate_hz: m.rate_hz.unwrap_or(control_rate_hz),
-                noise_t: [m.noise_t; 3],
-                bias_t: m.bias_t,
-                coupling_t_per_am2: m.coupling_t_per_am2,
-                misalignment_rad: m.misalignment_deg.map(f64::to_radians),
-            },
-            None => MagnetometerSpec {
-                rate_hz: control_rate_hz,
-                noise_t: [s.magnetometer_noise_t; 3],
-                bias_t: [0.0; 3],
-                coupling_t_per_am2: [[0.0; 3]; 3],
-                misalignment_rad: [0.0; 3],
-            },
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,7 +101,7 @@ mod tests {
     #[test]
     fn magnetometer_sees_torquers_only_when_on() {
         use crate::plant::magnetorquers::MagnetorquerSet;
-        let spec = MagnetometerSpec {
+        let spec = MagnetometerModel {
             rate_hz: 10.0,
             noise_t: [0.0; 3],
             bias_t: [0.0; 3],
@@ -147,7 +122,7 @@ mod tests {
             assert!((r[a] - want[a]).abs() < 1e-18, "{r:?}");
         }
         // Noise and bias statistics.
-        let spec = MagnetometerSpec { noise_t: [1e-7, 2e-7, 5e-8], bias_t: [1e-6, 0.0, -1e-6], ..spec };
+        let spec = MagnetometerModel { noise_t: [1e-7, 2e-7, 5e-8], bias_t: [1e-6, 0.0, -1e-6], ..spec };
         let mut m = Magnetometer::new(spec, 9, 2);
         let n = 20_000;
         let (mut s1, mut s2) = (Vec3::zeros(), Vec3::zeros());
@@ -181,7 +156,7 @@ mod tests {
         let bn = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
         for th_deg in [[0.0, 0.0, 90.0], [1.0, -2.0, 0.5], [30.0, 20.0, -45.0]] {
             let th = th_deg.map(f64::to_radians);
-            let spec = MagnetometerSpec {
+            let spec = MagnetometerModel {
                 rate_hz: 10.0,
                 noise_t: [0.0; 3],
                 bias_t: [0.0; 3],
@@ -195,14 +170,14 @@ mod tests {
             assert!(err < 1e-15, "{th_deg:?}: {r:?} vs {want:?}");
             // Bias and coupling come after the rotation (in sensor axes), unrotated.
             let spec =
-                MagnetometerSpec { bias_t: [1e-6, 2e-6, -3e-6], coupling_t_per_am2: [[1e-6, 0.0, 0.0]; 3], ..spec };
+                MagnetometerModel { bias_t: [1e-6, 2e-6, -3e-6], coupling_t_per_am2: [[1e-6, 0.0, 0.0]; 3], ..spec };
             let r2 = Magnetometer::new(spec, 1, 3).update(0.0, &b, &[2.0, 0.0, 0.0]).b_body_t;
             for i in 0..3 {
                 assert!((r2[i] - (want[i] + spec.bias_t[i] + 2e-6)).abs() < 1e-15 * bn, "{r2:?}");
             }
         }
         // 90° about z: sensor x = body y, sensor y = body −x.
-        let spec = MagnetometerSpec {
+        let spec = MagnetometerModel {
             rate_hz: 1.0,
             noise_t: [0.0; 3],
             bias_t: [0.0; 3],

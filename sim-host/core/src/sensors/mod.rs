@@ -8,15 +8,15 @@
 //! without `[sensors.gnss]` the ideal orbit state on every frame), gimbal encoders and
 //! wheel tachometers (white noise).
 //!
-//! One file per sensor, each a small type built from its `[sensors]` table
-//! (`…Spec::from_config`) with one sample step `update(t, truth…)`: [`gyro`],
+//! One file per sensor, each a small type built from its model's specification
+//! (`…Model`, which the scenario's `[sensors]` table gives: `crate::scenario::Sensors`)
+//! with one sample step `update(t, truth…)`: [`gyro`],
 //! [`star_tracker`], [`magnetometer`], [`sun_sensor`], [`css`], [`gnss`], [`encoders`].
 //! Shared by them: the sample grid with its phase and jitter ([`clock`]), the noise streams
 //! ([`noise`]) and the transport delay in seconds ([`latency`]). [`suite`] offers them the
 //! truth at every dynamics substep, each samples on its own clock, time-tagged, and it
 //! assembles at each control step the frame of the newest samples that have arrived (with
-//! their times, and the gyro's integrated angle increment); [`config`] is the scenario's
-//! `[sensors]` table.
+//! their times, and the gyro's integrated angle increment).
 //!
 //! Each sensor has its own sample clock and its own noise stream derived from the scenario
 //! seed, so the same scenario and seed give the same bits and adding a sensor does not
@@ -30,7 +30,6 @@
 //! [`crate::attitude::Vec3`], SI units.
 
 pub mod clock;
-pub mod config;
 pub mod css;
 pub mod encoders;
 pub mod gnss;
@@ -42,4 +41,4 @@ pub mod star_tracker;
 pub mod suite;
 pub mod sun_sensor;
 
-pub use suite::{SensorSuite, j2000_days_seconds};
+pub use suite::{SensorSuite, SuiteSpec, j2000_days_seconds};

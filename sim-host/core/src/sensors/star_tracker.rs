@@ -13,7 +13,6 @@
 //! boresight.
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::{gauss3, sensor_rng};
 use crate::attitude::{Quat, Vec3};
 use nalgebra::UnitQuaternion;
@@ -26,7 +25,7 @@ fn small_rot(theta: &Vec3) -> Quat {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct AttitudeSensorSpec {
+pub struct AttitudeSensorModel {
     pub rate_hz: f64,
     /// 1σ small-rotation noise about each body axis, rad.
     pub noise_rad: [f64; 3],
@@ -82,7 +81,7 @@ pub struct AttitudeReading {
 /// Star tracker / AHRS: `q_m = q_ib ⊗ exp(b/2) ⊗ exp(n/2)`, body-frame perturbations.
 #[derive(Clone, Debug)]
 pub struct AttitudeSensor {
-    pub spec: AttitudeSensorSpec,
+    pub spec: AttitudeSensorModel,
     rng: ChaCha8Rng,
     /// The sample clock (the suite sets its phase and jitter and asks it whether a
     /// sample is due before it builds the truth the sample needs).
@@ -91,7 +90,7 @@ pub struct AttitudeSensor {
 }
 
 impl AttitudeSensor {
-    pub fn new(spec: AttitudeSensorSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: AttitudeSensorModel, scenario_seed: u64, index: u32) -> Self {
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
@@ -153,40 +152,7 @@ impl AttitudeSensor {
     }
 }
 
-impl AttitudeSensorSpec {
-    /// The attitude sensor of a scenario's `[sensors]` table: `[sensors.star_tracker]` when
-    /// given, else the shortcut `attitude_noise_deg` (isotropic, body axes).
-    /// `control_rate_hz`: the sample rate when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Self {
-        match &s.star_tracker {
-            Some(a) => {
-                let anisotropic = a.noise_cross_deg.is_some() || a.noise_about_deg.is_some();
-                let (cross, about) =
-                    (a.noise_cross_deg.unwrap_or(a.noise_deg), a.noise_about_deg.unwrap_or(a.noise_deg));
-                AttitudeSensorSpec {
-                    rate_hz: a.rate_hz.unwrap_or(control_rate_hz),
-                    noise_rad: [cross.to_radians(), cross.to_radians(), about.to_radians()],
-                    bias_rad: a.bias_deg.map(f64::to_radians),
-                    max_rate_rad_s: a.max_rate_deg_s.map(f64::to_radians),
-                    // Without a boresight or split noise the noise stays in body axes
-                    // (the isotropic shortcut, bit for bit as before).
-                    boresight_body: a.boresight_body.or(anisotropic.then_some([0.0, 0.0, 1.0])),
-                    sun_exclusion_rad: a.sun_exclusion_deg.map(f64::to_radians),
-                    earth_exclusion_rad: a.earth_exclusion_deg.map(f64::to_radians),
-                }
-            }
-            None => AttitudeSensorSpec {
-                rate_hz: control_rate_hz,
-                noise_rad: [s.attitude_noise_deg.to_radians(); 3],
-                bias_rad: [0.0; 3],
-                max_rate_rad_s: None,
-                boresight_body: None,
-                sun_exclusion_rad: None,
-                earth_exclusion_rad: None,
-            },
-        }
-    }
-
+impl AttitudeSensorModel {
     /// True when an exclusion rule needs the Sun and Earth geometry.
     pub fn has_exclusion(&self) -> bool {
         self.sun_exclusion_rad.is_some() || self.earth_exclusion_rad.is_some()
@@ -198,8 +164,8 @@ mod tests {
     use super::*;
     use nalgebra::Matrix3;
 
-    fn ideal_tracker() -> AttitudeSensorSpec {
-        AttitudeSensorSpec {
+    fn ideal_tracker() -> AttitudeSensorModel {
+        AttitudeSensorModel {
             rate_hz: 5.0,
             noise_rad: [0.0; 3],
             bias_rad: [0.0; 3],
@@ -217,7 +183,7 @@ mod tests {
         // model's own tracker axes), must be diag(cross², cross², about²).
         let (cross, about) = (2e-4, 1.5e-3);
         let b = Vec3::new(1.0, 1.0, 0.0).normalize();
-        let spec = AttitudeSensorSpec {
+        let spec = AttitudeSensorModel {
             noise_rad: [cross, cross, about],
             boresight_body: Some([1.0, 1.0, 0.0]),
             ..ideal_tracker()
@@ -263,10 +229,10 @@ mod tests {
             earth_lit: true,
         };
         let att = |deg: f64| UnitQuaternion::from_axis_angle(&Vec3::y_axis(), deg.to_radians()).into_inner();
-        let sun_only = AttitudeSensorSpec { sun_exclusion_rad: Some(30f64.to_radians()), ..ideal_tracker() };
-        let earth_only = AttitudeSensorSpec { earth_exclusion_rad: Some(20f64.to_radians()), ..ideal_tracker() };
+        let sun_only = AttitudeSensorModel { sun_exclusion_rad: Some(30f64.to_radians()), ..ideal_tracker() };
+        let earth_only = AttitudeSensorModel { earth_exclusion_rad: Some(20f64.to_radians()), ..ideal_tracker() };
         let mut k = 0.0;
-        let mut flag = |spec: AttitudeSensorSpec, a: f64, g: Option<&ExclusionGeometry>| {
+        let mut flag = |spec: AttitudeSensorModel, a: f64, g: Option<&ExclusionGeometry>| {
             let mut s = AttitudeSensor::new(spec, 1, 2);
             k += 1.0;
             s.update_with(k, &att(a), &Vec3::zeros(), g).valid
@@ -284,7 +250,7 @@ mod tests {
         assert!(flag(sun_only, 90.0, None));
         // Closed-form angles, also for a boresight off body z (body x, identity attitude):
         // Sun at 25° from x in the x-y plane; Earth centre along −x.
-        let s = AttitudeSensor::new(AttitudeSensorSpec { boresight_body: Some([2.0, 0.0, 0.0]), ..sun_only }, 1, 2);
+        let s = AttitudeSensor::new(AttitudeSensorModel { boresight_body: Some([2.0, 0.0, 0.0]), ..sun_only }, 1, 2);
         let g2 = ExclusionGeometry {
             sun_ref: Vec3::new(25f64.to_radians().cos(), 25f64.to_radians().sin(), 0.0),
             nadir_ref: -Vec3::x(),
@@ -302,7 +268,7 @@ mod tests {
         let q_true = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1).into_inner();
         // Bias only: exact.
         let bias = [0.01, -0.02, 0.005];
-        let spec = AttitudeSensorSpec {
+        let spec = AttitudeSensorModel {
             rate_hz: 5.0,
             noise_rad: [0.0; 3],
             bias_rad: bias,
@@ -319,7 +285,7 @@ mod tests {
         let sig = [1e-3, 2e-3, 4e-4];
         // Beyond its rate limit the tracker's reading is invalid.
         assert!(!s.update(1.0, &q_true, &Vec3::new(0.0, 0.02, 0.025)).valid);
-        let spec = AttitudeSensorSpec {
+        let spec = AttitudeSensorModel {
             rate_hz: 5.0,
             noise_rad: sig,
             bias_rad: [0.0; 3],

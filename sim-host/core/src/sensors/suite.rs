@@ -17,17 +17,16 @@
 //! Encoders, tachometers and the ideal GNSS fix (no `[sensors.gnss]`) are read at the frame
 //! time.
 
-use super::clock::SampleTiming;
-use super::config::{Sampled, Sensors as SensorSpec};
-use super::css::{CoarseSunSensors, CssGeometry, CssSpec, MAX_CSS_HEADS};
+use super::clock::{SampleTiming, Sampled};
+use super::css::{CoarseSunSensors, CssGeometry, CssModel, MAX_CSS_HEADS};
 use super::encoders::Encoders;
-use super::gnss::{GnssReceiver, GnssSpec};
-use super::gyro::Gyro;
+use super::gnss::{GnssModel, GnssReceiver};
+use super::gyro::{Gyro, GyroModel};
 use super::latency::SampleQueue;
-use super::magnetometer::{Magnetometer, MagnetometerSpec};
+use super::magnetometer::{Magnetometer, MagnetometerModel};
 use super::noise::sensor_sub_rng;
-use super::star_tracker::{AttitudeSensor, AttitudeSensorSpec, ExclusionGeometry};
-use super::sun_sensor::{SunSensor, SunSensorSpec};
+use super::star_tracker::{AttitudeSensor, AttitudeSensorModel, ExclusionGeometry};
+use super::sun_sensor::{SunSensor, SunSensorModel};
 use crate::attitude::{Quat, Vec3, rotate_ref_to_body, to_xyzw};
 use crate::environment::model::{EnvSnapshot, Environment};
 use crate::environment::orbit::R_E;
@@ -159,6 +158,36 @@ impl RateIntegral {
     }
 }
 
+/// Everything a [`SensorSuite`] is built from: the seed, each sensor model's
+/// specification and sample timing (the scenario's `[sensors]` table in SI units).
+#[derive(Clone, Debug)]
+pub struct SuiteSpec {
+    /// The scenario's sensor seed (every sensor's noise stream derives from it).
+    pub seed: u64,
+    /// 1σ gimbal-angle encoder noise, rad.
+    pub gimbal_noise_rad: f64,
+    /// 1σ wheel tachometer noise, rad/s.
+    pub wheel_speed_noise_rad_s: f64,
+    pub gyro: GyroModel,
+    pub attitude: AttitudeSensorModel,
+    pub magnetometer: MagnetometerModel,
+    pub sun: Option<SunSensorModel>,
+    pub css: Option<CssModel>,
+    /// `None`: the ideal fix on every frame.
+    pub gnss: Option<GnssModel>,
+    /// Each sensor's sample grid and delay, in [`Sampled::ALL`] order.
+    pub timings: [SampleTiming; 6],
+    /// Intervals [start, end] (s, closed) without a star-tracker solution.
+    pub tracker_outages_s: Vec<[f64; 2]>,
+}
+
+impl SuiteSpec {
+    /// The sample grid and delay of one sensor.
+    pub fn timing(&self, which: Sampled) -> SampleTiming {
+        self.timings[which as usize]
+    }
+}
+
 #[derive(Clone)]
 pub struct SensorSuite {
     /// Stream 0: encoders and tachometers.
@@ -195,20 +224,20 @@ impl SensorSuite {
         ]
     }
 
-    /// `control_rate_hz`: default sample rate of sensors that do not give one.
-    pub fn new(s: &SensorSpec, control_rate_hz: f64) -> Self {
-        let seed = s.seed;
-        let timing = |w: Sampled| s.timing(w, control_rate_hz);
+    /// The suite of `spec` (built from a scenario by `Sensors::suite_spec`).
+    pub fn new(spec: &SuiteSpec) -> Self {
+        let seed = spec.seed;
+        let timing = |w: Sampled| spec.timing(w);
         // Built in this order (the optional sensors first) so that a bad table fails on
         // the same check as before.
-        let sun = SunSensorSpec::from_config(s, control_rate_hz).map(|x| SunSensor::new(x, seed, SUN_STREAM));
-        let css = CssSpec::from_config(s, control_rate_hz).map(|c| CoarseSunSensors::new(c, seed, CSS_STREAM));
-        let gnss = GnssSpec::from_config(s, control_rate_hz).map(|g| GnssReceiver::new(g, seed, GNSS_STREAM));
+        let sun = spec.sun.map(|x| SunSensor::new(x, seed, SUN_STREAM));
+        let css = spec.css.clone().map(|c| CoarseSunSensors::new(c, seed, CSS_STREAM));
+        let gnss = spec.gnss.clone().map(|g| GnssReceiver::new(g, seed, GNSS_STREAM));
         let mut suite = Self {
-            encoders: Encoders::new(seed, s.gimbal_noise_deg.to_radians(), s.wheel_speed_noise_rad_s),
-            gyro: Gyro::new(s.gyro_model(control_rate_hz), seed, GYRO_STREAM),
-            attitude: AttitudeSensor::new(AttitudeSensorSpec::from_config(s, control_rate_hz), seed, ATTITUDE_STREAM),
-            mag: Magnetometer::new(MagnetometerSpec::from_config(s, control_rate_hz), seed, MAGNETOMETER_STREAM),
+            encoders: Encoders::new(seed, spec.gimbal_noise_rad, spec.wheel_speed_noise_rad_s),
+            gyro: Gyro::new(spec.gyro, seed, GYRO_STREAM),
+            attitude: AttitudeSensor::new(spec.attitude, seed, ATTITUDE_STREAM),
+            mag: Magnetometer::new(spec.magnetometer, seed, MAGNETOMETER_STREAM),
             sun,
             css,
             gnss,
@@ -219,14 +248,14 @@ impl SensorSuite {
             sun_channel: Channel::new(&timing(Sampled::Sun), newest),
             css_channel: Channel::new(&timing(Sampled::Css), newest),
             gnss_channel: Channel::new(&timing(Sampled::Gnss), newest),
-            tracker_outages: s.star_tracker.as_ref().map_or_else(Vec::new, |a| a.outages_s.clone()),
+            tracker_outages: spec.tracker_outages_s.clone(),
         };
-        suite.set_grids(s, control_rate_hz);
+        suite.set_grids(spec);
         suite
     }
 
     /// Each clock's phase and jitter (its jitter from the sensor's sub-stream 2).
-    fn set_grids(&mut self, s: &SensorSpec, control_rate_hz: f64) {
+    fn set_grids(&mut self, s: &SuiteSpec) {
         for (which, stream) in [
             (Sampled::Gyro, GYRO_STREAM),
             (Sampled::StarTracker, ATTITUDE_STREAM),
@@ -235,7 +264,7 @@ impl SensorSuite {
             (Sampled::Css, CSS_STREAM),
             (Sampled::Gnss, GNSS_STREAM),
         ] {
-            let t = s.timing(which, control_rate_hz);
+            let t = s.timing(which);
             let rng = sensor_sub_rng(s.seed, stream, JITTER_SUB_STREAM);
             let clock = match which {
                 Sampled::Gyro => Some(&mut self.gyro.clock),
@@ -515,7 +544,12 @@ mod tests {
     use crate::attitude::Quat;
     use crate::environment::frames::EarthRotation;
     use crate::plant::MAX_GIMBALS;
-    use crate::sensors::config;
+    use crate::scenario::{CssSpec, GnssSpec, SampleTimingSpec, Sensors as SensorSpec, StarTrackerSpec};
+
+    /// The suite of a scenario's `[sensors]` table.
+    fn suite(spec: &SensorSpec, control_rate_hz: f64) -> SensorSuite {
+        SensorSuite::new(&spec.suite_spec(control_rate_hz))
+    }
 
     fn state() -> State {
         State {
@@ -533,7 +567,7 @@ mod tests {
 
     #[test]
     fn ideal_sensors_return_the_truth() {
-        let mut s = SensorSuite::new(&SensorSpec::default(), 100.0);
+        let mut s = suite(&SensorSpec::default(), 100.0);
         let f = s.sample(3, 1.5, &state(), &craft(), None, &[0.0; 3]);
         assert_eq!(f.q_ib_xyzw, [0.0, 0.0, 0.0, 1.0]);
         assert_eq!(f.rate_rad_s, [0.01, 0.02, 0.03]);
@@ -545,7 +579,7 @@ mod tests {
     /// carries the rate of step k − `rate_lag` and the attitude of step k − `attitude_lag`
     /// (the first state before that), the timestamp staying the sample time.
     fn check_lags(spec: &SensorSpec, rate_lag: u32, attitude_lag: u32) {
-        let mut s = SensorSuite::new(spec, 100.0);
+        let mut s = suite(spec, 100.0);
         let c = craft();
         for k in 0..10u32 {
             let mut st = state();
@@ -570,7 +604,10 @@ mod tests {
         // Suite latency 0.01 s (1 step) plus tracker latency 0.02 s (2 steps).
         let spec = SensorSpec {
             latency_s: 0.01,
-            star_tracker: Some(config::StarTrackerSpec { latency_s: 0.02, ..Default::default() }),
+            star_tracker: Some(StarTrackerSpec {
+                timing: SampleTimingSpec { latency_s: 0.02, ..Default::default() },
+                ..Default::default()
+            }),
             ..Default::default()
         };
         check_lags(&spec, 1, 3);
@@ -585,7 +622,7 @@ mod tests {
             rate_bias_rad_s: [1e-4, 0.0, 0.0],
             ..Default::default()
         };
-        let (mut a, mut b) = (SensorSuite::new(&spec, 100.0), SensorSuite::new(&spec, 100.0));
+        let (mut a, mut b) = (suite(&spec, 100.0), suite(&spec, 100.0));
         let n = 20_000;
         let (mut sum_ang2, mut sum_w, mut sum_w2) = (0.0, 0.0, 0.0);
         let c = craft();
@@ -643,16 +680,13 @@ mod tests {
         // Control 10 Hz for 200 s (frames t = 0 … 199.9); receiver 1 Hz; no fix in
         // [50.5, 60.5] (t = 51 … 60). Truth: 1 Hz × 200 s − 10 = 190 fixes, each on a
         // whole second.
-        let gnss = config::GnssSpecToml {
-            rate_hz: Some(1.0),
-            phase_s: 0.0,
-            jitter_s: 0.0,
-            latency_s: 0.0,
+        let gnss = GnssSpec {
+            timing: SampleTimingSpec { rate_hz: Some(1.0), ..Default::default() },
             position_noise_m: 3.0,
             velocity_noise_m_s: 0.01,
             outages_s: vec![[50.5, 60.5]],
         };
-        let mut s = SensorSuite::new(&SensorSpec { seed: 5, gnss: Some(gnss), ..Default::default() }, 10.0);
+        let mut s = suite(&SensorSpec { seed: 5, gnss: Some(gnss), ..Default::default() }, 10.0);
         let mut fixes: Vec<(u32, SensorFrame)> = Vec::new();
         for k in 0..2000u32 {
             let t = k as f64 / 10.0;
@@ -690,7 +724,7 @@ mod tests {
         println!("gnss suite: position rms error {rms:.3} m (σ = 3 m)");
         assert!((rms / 3.0 - 1.0).abs() < 0.1, "{rms}");
         // Without the table: the ideal state on every frame.
-        let mut s = SensorSuite::new(&SensorSpec::default(), 10.0);
+        let mut s = suite(&SensorSpec::default(), 10.0);
         for k in 0..20u32 {
             let t = k as f64 / 10.0;
             let f = s.sample(k, t, &state(), &c, Some(&snap(t)), &[0.0; 3]);
@@ -706,18 +740,15 @@ mod tests {
         let t = 1000.0;
         // Independent Sun direction: the ephemeris at J2000 + t (the Simple epoch).
         let sun = sun_position_eci(2_451_545.0 + t / 86_400.0).normalize();
-        let css = config::CssSpecToml {
-            rate_hz: None,
-            phase_s: 0.0,
-            jitter_s: 0.0,
-            latency_s: 0.0,
+        let css = CssSpec {
+            timing: SampleTimingSpec::default(),
             normals_body: vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]],
             noise: 0.0,
             albedo: 0.0,
         };
         let spec = SensorSpec { css: Some(css), ..Default::default() };
         let frame = |r: Option<Vec3>| {
-            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut s = suite(&spec, 10.0);
             let e = EnvSnapshot { t_s: t, orbit: r.map(|r| (r, Vec3::zeros())), ..Default::default() };
             s.sample(0, t, &state(), &c, Some(&e), &[0.0; 3])
         };
@@ -740,7 +771,6 @@ mod tests {
 
     #[test]
     fn tracker_exclusion_uses_the_orbit_sun_and_earth() {
-        use config::StarTrackerSpec;
         use nalgebra::UnitQuaternion;
         let c = env_craft();
         // Over the subsolar point at 7000 km: the Earth below lit, the Sun not behind it.
@@ -752,7 +782,7 @@ mod tests {
         let point = |d: &Vec3| UnitQuaternion::rotation_between(&Vec3::z(), d).unwrap().into_inner();
         let run = |st: StarTrackerSpec, d: &Vec3, e: Option<&EnvSnapshot>| {
             let spec = SensorSpec { star_tracker: Some(st), ..Default::default() };
-            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut s = suite(&spec, 10.0);
             let mut x = state();
             x.q = point(d);
             s.sample(0, t, &x, &c, e, &[0.0; 3]).valid & valid::ATTITUDE != 0

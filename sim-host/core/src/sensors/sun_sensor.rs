@@ -10,7 +10,6 @@
 //! helpers: [`sun_in_body`], [`cylindrical_eclipse`].
 
 use super::clock::Clock;
-use super::config::Sensors;
 use super::noise::{gauss3, sensor_rng};
 use crate::attitude::{Quat, Vec3};
 use nalgebra::UnitQuaternion;
@@ -18,7 +17,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SunSensorSpec {
+pub struct SunSensorModel {
     pub rate_hz: f64,
     /// 1σ angular noise about each of the two axes normal to the sun line, rad
     /// (total angular error rms √2 σ).
@@ -55,7 +54,7 @@ pub fn cylindrical_eclipse(r_m: &[f64; 3], sun_inertial: &[f64; 3]) -> bool {
 
 #[derive(Clone, Debug)]
 pub struct SunSensor {
-    pub spec: SunSensorSpec,
+    pub spec: SunSensorModel,
     rng: ChaCha8Rng,
     /// The sample clock (the suite sets its phase and jitter and asks it whether a
     /// sample is due before it builds the truth the sample needs).
@@ -64,7 +63,7 @@ pub struct SunSensor {
 }
 
 impl SunSensor {
-    pub fn new(spec: SunSensorSpec, scenario_seed: u64, index: u32) -> Self {
+    pub fn new(spec: SunSensorModel, scenario_seed: u64, index: u32) -> Self {
         Self {
             clock: Clock::new(spec.rate_hz),
             spec,
@@ -94,19 +93,6 @@ impl SunSensor {
     }
 }
 
-impl SunSensorSpec {
-    /// The sun sensor of a scenario's `[sensors]` table (`None` without `[sensors.sun]`).
-    /// `control_rate_hz`: the sample rate when none is given.
-    pub fn from_config(s: &Sensors, control_rate_hz: f64) -> Option<Self> {
-        s.sun.as_ref().map(|x| SunSensorSpec {
-            rate_hz: x.rate_hz.unwrap_or(control_rate_hz),
-            noise_rad: x.noise_deg.to_radians(),
-            boresight_body: x.boresight_body,
-            fov_half_angle_rad: x.fov_half_angle_deg.to_radians(),
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -114,7 +100,7 @@ mod tests {
 
     #[test]
     fn sun_sensor_validity() {
-        let spec = SunSensorSpec {
+        let spec = SunSensorModel {
             rate_hz: 2.0,
             noise_rad: 1e-3,
             boresight_body: [0.0, 0.0, 1.0],

@@ -17,7 +17,7 @@ use crate::report::experiment::{
 };
 use anyhow::{Context as _, Result, bail};
 use sim_core::recorder::plots::{Figure, Panel, Series};
-use sim_core::scenario::{Controller, MagnetometerSensorSpec, RigSpec, Scenario};
+use sim_core::scenario::{Controller, MagnetometerSpec, RigSpec, Scenario};
 use std::collections::BTreeMap;
 
 /// Published lab RMS errors (paper 003, abstract and text): PD, LQR, deg.
@@ -120,7 +120,7 @@ pub fn variant(ctx: &Context, law: Law, rig: &Rig) -> Result<Scenario> {
     sc.spacecraft.residual_dipole_am2 = [0.0, rig.dipole_y_am2, 0.0];
     if rig.field_error_x_t != 0.0 {
         sc.sensors.magnetometer =
-            Some(MagnetometerSensorSpec { bias_t: [rig.field_error_x_t, 0.0, 0.0], ..Default::default() });
+            Some(MagnetometerSpec { bias_t: [rig.field_error_x_t, 0.0, 0.0], ..Default::default() });
     }
     Ok(sc)
 }

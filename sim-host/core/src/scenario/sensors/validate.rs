@@ -5,18 +5,16 @@
 //! that order (the first error is reported); and the sensors' timing against what the
 //! on-board estimator can fuse ([`Scenario::validate_estimator_timing`]).
 
-use super::{Scenario, bad, finite, non_negative, positive};
-use crate::sensors::clock::SampleTiming;
-use crate::sensors::config::{
-    CssSpecToml, GnssSpecToml, GyroSensorSpec, MagnetometerSensorSpec, Sampled, Sensors, StarTrackerSpec,
-};
+use super::super::{Scenario, bad, finite, non_negative, positive};
+use super::{CssSpec, GnssSpec, GyroSpec, MagnetometerSpec, Sensors, StarTrackerSpec};
+use crate::sensors::clock::{SampleTiming, Sampled};
 use crate::sensors::latency::MAX_SAMPLES_IN_FLIGHT;
 use acs_flight::estimation::waiting::WAITING_PER_SENSOR;
 use anyhow::{Result, anyhow};
 
 impl Scenario {
     /// `[sensors]`.
-    pub(super) fn validate_sensors(&self) -> Result<()> {
+    pub(in crate::scenario) fn validate_sensors(&self) -> Result<()> {
         let s = &self.sensors;
         validate_shortcuts(s)?;
         validate_rates(s)?;
@@ -64,16 +62,9 @@ fn validate_shortcuts(s: &Sensors) -> Result<()> {
 /// Every sensor's own sample rate (the sample clock needs a positive finite rate), and the
 /// star tracker's rate limit.
 fn validate_rates(s: &Sensors) -> Result<()> {
-    for (k, r) in [
-        ("sensors.gyro.rate_hz", s.gyro.as_ref().and_then(|g| g.rate_hz)),
-        ("sensors.star_tracker.rate_hz", s.star_tracker.as_ref().and_then(|t| t.rate_hz)),
-        ("sensors.magnetometer.rate_hz", s.magnetometer.as_ref().and_then(|m| m.rate_hz)),
-        ("sensors.sun.rate_hz", s.sun.as_ref().and_then(|m| m.rate_hz)),
-        ("sensors.css.rate_hz", s.css.as_ref().and_then(|c| c.rate_hz)),
-        ("sensors.gnss.rate_hz", s.gnss.as_ref().and_then(|g| g.rate_hz)),
-    ] {
-        if let Some(r) = r {
-            positive(k, r)?;
+    for which in Sampled::ALL {
+        if let Some(r) = s.timing_keys(which).and_then(|t| t.rate_hz) {
+            positive(&format!("sensors.{}.rate_hz", which.key()), r)?;
         }
     }
     if let Some(m) = s.star_tracker.as_ref().and_then(|t| t.max_rate_deg_s) {
@@ -87,7 +78,8 @@ fn validate_rates(s: &Sensors) -> Result<()> {
 /// (rates checked before: [`validate_rates`]).
 fn validate_timing(s: &Sensors, control_rate_hz: f64) -> Result<()> {
     for which in Sampled::ALL {
-        let Some((rate, phase, jitter, latency)) = s.timing_keys(which) else { continue };
+        let Some(t) = s.timing_keys(which) else { continue };
+        let (rate, phase, jitter, latency) = (t.rate_hz, t.phase_s, t.jitter_s, t.latency_s);
         let key = |k: &str| format!("sensors.{}.{k}", which.key());
         let period = 1.0 / rate.unwrap_or(control_rate_hz);
         if !(latency.is_finite() && (0.0..=10.0).contains(&latency)) {
@@ -119,7 +111,7 @@ fn latency_key(s: &Sensors, which: Sampled) -> String {
 /// The key of a sensor's sample rate: its table's `rate_hz`, else the control rate (the
 /// default).
 fn rate_key(s: &Sensors, which: Sampled) -> String {
-    if s.timing_keys(which).and_then(|k| k.0).is_some() {
+    if s.timing_keys(which).and_then(|k| k.rate_hz).is_some() {
         format!("sensors.{}.rate_hz", which.key())
     } else {
         "timing.control_rate_hz".into()
@@ -175,8 +167,9 @@ impl Scenario {
     ///   `⌈(L_gyro + 1/gyro rate + h − L) × f⌉` with `f` the sensor's rate (at most the
     ///   control rate, at most one per `coarse_update_interval_s` for the coarse sensors),
     ///   within the flight code's `WAITING_PER_SENSOR`.
-    pub(super) fn validate_estimator_timing(&self) -> Result<()> {
-        let Some(e) = self.estimation.as_ref().filter(|e| e.source == super::estimation::SourceSpec::Mekf) else {
+    pub(in crate::scenario) fn validate_estimator_timing(&self) -> Result<()> {
+        let Some(e) = self.estimation.as_ref().filter(|e| e.source == crate::scenario::estimation::SourceSpec::Mekf)
+        else {
             return Ok(());
         };
         let s = &self.sensors;
@@ -269,7 +262,7 @@ impl Scenario {
 }
 
 /// `[sensors.gyro]`.
-fn validate_gyro(g: &GyroSensorSpec) -> Result<()> {
+fn validate_gyro(g: &GyroSpec) -> Result<()> {
     finite("sensors.gyro.misalignment_deg", &g.misalignment_deg)?;
     if let Some(sat) = g.saturation_rad_s {
         positive("sensors.gyro.saturation_rad_s", sat)?;
@@ -289,7 +282,7 @@ fn validate_gyro(g: &GyroSensorSpec) -> Result<()> {
 }
 
 /// `[sensors.magnetometer]`.
-fn validate_magnetometer(m: &MagnetometerSensorSpec) -> Result<()> {
+fn validate_magnetometer(m: &MagnetometerSpec) -> Result<()> {
     finite("sensors.magnetometer.misalignment_deg", &m.misalignment_deg)?;
     let max = f64::from(acs_flight::params::momentum::MAX_MAG_COUPLING_T_PER_AM2);
     if !m.coupling_t_per_am2.iter().flatten().all(|c| c.is_finite() && c.abs() <= max) {
@@ -302,8 +295,8 @@ fn validate_magnetometer(m: &MagnetometerSensorSpec) -> Result<()> {
 }
 
 /// `[sensors.css]`.
-fn validate_css(c: &CssSpecToml) -> Result<()> {
-    if let Some(r) = c.rate_hz {
+fn validate_css(c: &CssSpec) -> Result<()> {
+    if let Some(r) = c.timing.rate_hz {
         positive("sensors.css.rate_hz", r)?;
     }
     let max = crate::sensors::css::MAX_CSS_HEADS;
@@ -324,8 +317,8 @@ fn validate_css(c: &CssSpecToml) -> Result<()> {
 }
 
 /// `[sensors.gnss]`.
-fn validate_gnss(g: &GnssSpecToml) -> Result<()> {
-    if let Some(r) = g.rate_hz {
+fn validate_gnss(g: &GnssSpec) -> Result<()> {
+    if let Some(r) = g.timing.rate_hz {
         positive("sensors.gnss.rate_hz", r)?;
     }
     non_negative("sensors.gnss.position_noise_m", g.position_noise_m)?;
@@ -352,7 +345,7 @@ fn validate_star_tracker(t: &StarTrackerSpec) -> Result<()> {
             return Err(bad("sensors.star_tracker.boresight_body", "must not be zero"));
         }
     }
-    if !(t.latency_s.is_finite() && (0.0..=10.0).contains(&t.latency_s)) {
+    if !(t.timing.latency_s.is_finite() && (0.0..=10.0).contains(&t.timing.latency_s)) {
         return Err(bad("sensors.star_tracker.latency_s", "must be in [0, 10]"));
     }
     Ok(())
