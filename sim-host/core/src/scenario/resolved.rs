@@ -248,6 +248,17 @@ fn has_environment(sc: &Scenario) -> bool {
         || sc.spacecraft.external_torque_nm != [0.0; 3]
 }
 
+/// A `[[manoeuvre.keepout]]` entry as the recorder's margin columns use it (f64, unit
+/// boresight, radians).
+fn cone_of(s: &super::KeepOutSpec) -> crate::recorder::keepout::Cone {
+    crate::recorder::keepout::Cone {
+        name: s.name.clone(),
+        boresight_body: crate::attitude::Vec3::from(s.boresight_body).normalize(),
+        sun_half_angle_rad: s.sun_half_angle_deg.map(f64::to_radians),
+        earth_margin_rad: s.earth_margin_deg.map(f64::to_radians),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -265,16 +276,5 @@ mod tests {
         assert!(!r.target.lvlh && r.inertia_change.is_none() && r.open_loop.is_empty());
         assert_eq!((r.name.as_str(), r.control_rate_hz, r.dynamics_rate_hz), ("t", 100.0, 100.0));
         assert!(r.commands.is_empty() && r.snap0.is_none() && r.initial.w == crate::attitude::Vec3::zeros());
-    }
-}
-
-/// A `[[manoeuvre.keepout]]` entry as the recorder's margin columns use it (f64, unit
-/// boresight, radians).
-fn cone_of(s: &super::KeepOutSpec) -> crate::recorder::keepout::Cone {
-    crate::recorder::keepout::Cone {
-        name: s.name.clone(),
-        boresight_body: crate::attitude::Vec3::from(s.boresight_body).normalize(),
-        sun_half_angle_rad: s.sun_half_angle_deg.map(f64::to_radians),
-        earth_margin_rad: s.earth_margin_deg.map(f64::to_radians),
     }
 }

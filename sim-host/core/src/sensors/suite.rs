@@ -809,7 +809,6 @@ mod tests {
 
     #[test]
     fn tracker_sees_only_a_lit_earth_and_an_unocculted_sun() {
-        use config::StarTrackerSpec;
         use nalgebra::UnitQuaternion;
         // The spacecraft at 7000 km, φ from the subsolar direction ŝ (Earth centre → Sun)
         // in a plane through it. Closed forms: some of the visible cap (half-angle
@@ -831,7 +830,7 @@ mod tests {
         let valid = |st: &StarTrackerSpec, r: Vec3, boresight: &Vec3| {
             let env = EnvSnapshot { t_s: t, orbit: Some((r, Vec3::zeros())), ..Default::default() };
             let spec = SensorSpec { star_tracker: Some(st.clone()), ..Default::default() };
-            let mut s = SensorSuite::new(&spec, 10.0);
+            let mut s = suite(&spec, 10.0);
             let mut x = state();
             x.q = point(boresight);
             s.sample(0, t, &x, &c, Some(&env), &[0.0; 3]).valid & valid::ATTITUDE != 0
