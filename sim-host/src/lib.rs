@@ -17,6 +17,7 @@
 pub mod analysis;
 pub mod campaign;
 pub mod cycles;
+pub mod fly;
 pub mod format;
 pub mod margins;
 pub mod report;

@@ -5,10 +5,10 @@ use clap::{Parser, Subcommand};
 use sim_core::link::{self, LinkKind, LinkOptions};
 use sim_core::recorder::output;
 use sim_core::recorder::parquet::RunMetadata;
-use sim_core::recorder::summary::{Failure, Summary};
-use sim_core::runner;
+use sim_core::recorder::summary::Summary;
 use sim_core::scenario::{Controller, Scenario};
 use sim_host::campaign::{Campaign, Shard};
+use sim_host::fly::{Flown, FlyOptions, Verdict, Watch};
 use sim_host::format;
 use sim_host::timing;
 use std::io::Write;
@@ -201,8 +201,8 @@ enum Cmd {
         #[arg(long, allow_negative_numbers = true, value_parser = parse_at)]
         at: Option<f64>,
         /// Where the loop is broken: input (actuator command) | output (attitude measurement).
-        #[arg(long = "loop", default_value = "input", value_parser = ["input", "output"])]
-        loop_point: String,
+        #[arg(long = "loop", default_value = "input")]
+        loop_point: sim_host::margins::LoopPoint,
         /// Print margins.json to stdout instead of the table.
         #[arg(long)]
         json: bool,
@@ -241,8 +241,8 @@ enum Cmd {
         no_plots: bool,
         /// closed | open (the loop broken at the actuator input, measures unstable loops)
         /// | auto (closed; open if the closed-loop experiment diverges or saturates).
-        #[arg(long, default_value = "auto", value_parser = ["closed", "open", "auto"])]
-        method: String,
+        #[arg(long, value_enum, default_value_t)]
+        method: sim_host::margins::MethodChoice,
         /// Refuse (exit 2) a sweep that would cost more plant (RK4) steps than this,
         /// counted before it runs (the report uses 1e7); default: no limit.
         #[arg(long, allow_negative_numbers = true, value_parser = parse_max_plant_steps)]
@@ -410,7 +410,7 @@ impl std::fmt::Display for ExitWith {
 impl std::error::Error for ExitWith {}
 
 /// Exit status of a run that completed but failed (diverged, every step refused).
-const EXIT_RUN_FAILED: u8 = 3;
+const EXIT_RUN_FAILED: u8 = sim_host::fly::EXIT_RUN_FAILED;
 
 /// Errors end the process with status 1 (3 for a failed run) and their cause chain on one
 /// line (no backtrace, whatever `RUST_BACKTRACE` says: a bad scenario is the user's input,
@@ -484,10 +484,9 @@ fn dispatch(cmd: Cmd) -> Result<()> {
             max_plant_steps,
             adapting,
         } => {
-            let (point, method) = margin_loop_and_method(&loop_point, &method)?;
             let opts = sim_host::margins::MarginOptions {
                 at_s: at,
-                point,
+                point: loop_point,
                 link,
                 link_options: LinkOptions { firmware, ..Default::default() },
                 grid_points,
@@ -496,7 +495,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
                 crossover_hint_rad_s: crossover_hint,
                 refine: !no_refine,
                 refly,
-                method,
+                method: method.method(),
                 max_plant_steps,
                 freeze_adaptation: !adapting,
             };
@@ -806,28 +805,22 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
         seed: sc.sensors.seed,
         scenario_toml: text,
     };
-    let open_loop = !sc.closed_loop();
-    let kind = match (link, &sc.link.kind) {
-        _ if open_loop => LinkKind::InProcess,
-        (Some(k), _) => k,
-        (None, Some(s)) => s.parse().context("scenario link.kind")?,
-        (None, None) => LinkKind::InProcess,
+    let opts = FlyOptions {
+        link,
+        link_options: LinkOptions { firmware, ..Default::default() },
+        margin_threads: FlyOptions::machine_threads(),
     };
-    let margin_base = sim_host::margins::MarginOptions {
-        link: kind.clone(),
-        link_options: LinkOptions { firmware: firmware.clone(), ..Default::default() },
-        threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
-        ..Default::default()
-    };
-    let mut l = link::open(&kind, &LinkOptions { firmware, ..Default::default() })?;
     let mut rec = output::RunOutput::new(out, !no_plots)
         .format(format)
         .metadata(metadata)
         .mode_thresholds(sc.modes.as_ref().map(|m| m.plot_thresholds()).unwrap_or_default())
         .assume_free_bytes(assumed_free_bytes()?);
-    let mut summary = runner::run_recorded(&sc, l.as_mut(), !quiet, &mut rec)?;
-    drop(l);
-    let margin_files = run_margins(&sc, &margin_base, &mut summary, out, no_plots)?;
+    let watch = if quiet { Watch::Quiet } else { Watch::Bar };
+    let Flown { summary, margins } = sim_host::fly::fly(&sc, &opts, &mut rec, watch)?;
+    let margin_files = match &margins {
+        Some(report) => write_margins(out, report, no_plots)?.1,
+        None => Vec::new(),
+    };
     let files = rec.finish(&summary)?;
     say!("{}", summary_line(&summary));
     if let Some(m) = &summary.margins {
@@ -851,60 +844,11 @@ fn run(scenario: &Path, out: &Path, link: Option<LinkKind>, firmware: Option<Pat
 
 /// The exit of a run that flew: its failure, else its `[margins]` verdict.
 fn run_verdict(summary: &Summary) -> Result<()> {
-    match &summary.failure {
-        Some(Failure::Diverged { t_s, quantity }) => Err(RunFailed(format!(
-            "{}: the run diverged: {quantity} is not finite at t = {t_s} s; the run was stopped there \
-             (summary.json: run_status \"diverged\")",
-            summary.scenario
-        ))
-        .into()),
-        Some(Failure::Refused { reason }) => Err(RunFailed(format!(
-            "{}: every control step was refused: {reason} (summary.json: run_status \"all_refused\")",
-            summary.scenario
-        ))
-        .into()),
-        Some(Failure::Link { reason }) => {
-            Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"link_anomaly\")", summary.scenario)).into())
-        }
-        Some(Failure::Sensors { reason }) => {
-            Err(RunFailed(format!("{}: {reason} (summary.json: run_status \"samples_dropped\")", summary.scenario))
-                .into())
-        }
-        Some(Failure::Control { reason }) => Err(RunFailed(format!(
-            "{}: the flight code could not control: {reason} (summary.json: run_status \"no_control\")",
-            summary.scenario
-        ))
-        .into()),
-        // `[margins]` not a stable loop at a steady hold: `sim-host margins`'s exit status.
-        Some(Failure::Margins { .. }) | None => {
-            match summary.margins.as_ref().map(sim_host::margins::summary::exit_code) {
-                None | Some(0) => Ok(()),
-                Some(code) => Err(ExitWith(
-                    code as u8,
-                    format!(
-                        "{}: [margins] not met (summary.json: run_status \"margins_failed\"): {}",
-                        summary.scenario,
-                        summary.margins.as_ref().map_or(String::new(), sim_host::margins::summary::line)
-                    ),
-                )
-                .into()),
-            }
-        }
+    match sim_host::fly::verdict(summary) {
+        Verdict::Ok => Ok(()),
+        Verdict::Failed(message) => Err(RunFailed(message).into()),
+        Verdict::Margins { exit_code, message } => Err(ExitWith(exit_code, message).into()),
     }
-}
-
-/// With `[margins]`: measures the margins after the run into `summary.margins` (a
-/// measurement that is not a stable loop at a steady hold fails the run), and writes
-/// margins.json (and its figures) beside the run's outputs. Returns the files written.
-fn run_margins(
-    sc: &Scenario,
-    base: &sim_host::margins::MarginOptions,
-    summary: &mut Summary,
-    out: &Path,
-    no_plots: bool,
-) -> Result<Vec<PathBuf>> {
-    let Some(report) = sim_host::margins::summary::record(sc, base, summary)? else { return Ok(Vec::new()) };
-    write_margins(out, &report, no_plots).map(|(_, files)| files)
 }
 
 /// `margins.json` and (unless `no_plots`) the figures of `report` in `out`, each written
@@ -1138,25 +1082,6 @@ fn warn_deprecated(sc: &Scenario) {
 
 /// `sim-host margins`: measure, write margins.json and the figures, print the table (or
 /// the JSON). A loop measured with a negative margin exits with status 3 after writing.
-/// `--loop` and `--method` of `sim-host margins`, parsed.
-fn margin_loop_and_method(
-    loop_point: &str,
-    method: &str,
-) -> Result<(sim_host::margins::LoopPoint, Option<sim_host::margins::Method>)> {
-    let point = match loop_point {
-        "input" => sim_host::margins::LoopPoint::Input,
-        "output" => sim_host::margins::LoopPoint::Output,
-        other => anyhow::bail!("--loop {other}: expected input or output"),
-    };
-    let method = match method {
-        "auto" => None,
-        "closed" => Some(sim_host::margins::Method::Closed),
-        "open" => Some(sim_host::margins::Method::Open),
-        other => anyhow::bail!("--method {other}: expected closed, open or auto"),
-    };
-    Ok((point, method))
-}
-
 fn margins(
     path: &Path,
     opts: &sim_host::margins::MarginOptions,

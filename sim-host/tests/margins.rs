@@ -183,11 +183,11 @@ fn wheels_saturating_during_the_experiments_refuse_the_measurement() {
 fn actuator_limits_are_checked_on_the_commands_the_plant_receives() {
     use sim_core::recorder::series::Discard;
     use sim_core::scenario::Resolved;
-    use sim_core::simulation::{LoopInjection, Simulation};
+    use sim_core::simulation::probe::{LoopInjection, Probe};
     use sim_host::margins::excite::{Family, actuator_limit};
     let limit_after = |sc: &Scenario, inj: LoopInjection| {
         let mut link = sim_core::link::open(&sim_core::link::LinkKind::InProcess, &Default::default()).unwrap();
-        let mut sim = Simulation::new(Resolved::try_from(sc).unwrap(), link.as_mut()).unwrap();
+        let mut sim = Probe::new(Resolved::try_from(sc).unwrap(), link.as_mut()).unwrap();
         while sim.steps_done() + 1 < sc.steps() {
             sim.step(&mut Discard).unwrap();
         }

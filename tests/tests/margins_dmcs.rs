@@ -95,7 +95,7 @@ fn closed_form(phi: &M6, gamma: &G6, g: &SMatrix<f64, 3, 6>, w: f64) -> SMatrix<
 /// The 3×3 `L` at `w` measured open loop from the frozen operating point `base`, and the
 /// gains the excited run reported at its last step.
 fn measure_at(
-    base: &sim_core::simulation::Simulation,
+    base: &sim_core::simulation::probe::Probe,
     eff: &Effectiveness,
     j: &nalgebra::Matrix3<f64>,
     w: f64,

@@ -11,7 +11,7 @@ use acs_tests::{build_qemu_firmware, qemu_available, repo};
 use sim_core::link::{LinkKind, LinkOptions};
 use sim_core::recorder::series::Discard;
 use sim_core::scenario::{Resolved, Scenario};
-use sim_core::simulation::Simulation;
+use sim_core::simulation::probe::Probe;
 use sim_host::margins::{MarginOptions, measure};
 
 /// `sim-host margins` of `rel` at t = 1 s on a small unrefined grid (11 frequencies 1.47×
@@ -75,7 +75,7 @@ fn magnetorquer_margins_over_qemu_equal_the_in_process_ones_bit_for_bit() {
 /// Δk_p and Δk_u reported at every step of a DMCS run frozen at step `freeze_at`.
 fn frozen_dmcs_run(link: &LinkKind, sc: &Scenario, freeze_at: u64) -> Vec<([[f32; 2]; 3], [f32; 3])> {
     let mut l = sim_core::link::open(link, &LinkOptions::default()).unwrap();
-    let mut sim = Simulation::new(Resolved::try_from(sc).unwrap(), l.as_mut()).unwrap();
+    let mut sim = Probe::new(Resolved::try_from(sc).unwrap(), l.as_mut()).unwrap();
     let mut gains = Vec::new();
     while !sim.finished() {
         if sim.steps_done() == freeze_at {

@@ -14,13 +14,13 @@
 //! - [`plant`]: rigid body and actuators (wheels, CMGs, torquers, thrusters, the rig);
 //! - [`sensors`]: what the flight computer is given (noise, quantisation, latency);
 //! - [`link`]: the flight computer behind one trait (in-process, QEMU, TCP, serial);
-//! - [`simulation`]: one control step of plant + sensors + flight code;
+//! - [`simulation`]: one control step of plant + sensors + flight code, and the
+//!   [`simulation::probe`] through which an analysis drives a run from outside;
 //! - [`runner`]: the run loop, and "fly one scenario" ([`runner::fly`]);
 //! - [`recorder`]: columns, series, decimation, summary, output files and figures;
 //! - [`estimation`]: estimation-error statistics of a run; [`attitude`]: f64 quaternion
 //!   helpers of the truth side; [`vec3`]: `[f64; 3]` dot, cross and norm (nalgebra's
-//!   arithmetic); [`files`]: atomic file writes; [`loop_break`]: where a stability-margin
-//!   measurement breaks the loop.
+//!   arithmetic); [`files`]: atomic file writes.
 
 // Index loops over parallel fixed-size arrays (gimbals, state slots) read better than zips.
 #![allow(clippy::needless_range_loop)]
@@ -31,7 +31,6 @@ pub mod environment;
 pub mod estimation;
 pub mod files;
 pub mod link;
-pub mod loop_break;
 pub mod plant;
 pub mod recorder;
 pub mod runner;

@@ -463,7 +463,7 @@ fn standing_current_at_zero_speed_is_the_held_speed_loop_error() {
         let mut sim = Simulation::new(Resolved::try_from(&sc).unwrap(), &mut link).unwrap();
         rec.columns = sim.columns().to_vec();
         while !sim.finished() {
-            let before = sim.plant_state().wheels[2];
+            let before = sim.state().wheels[2];
             let n = rec.rows.len();
             sim.step(&mut rec).unwrap();
             if rec.rows.len() > n {

@@ -1,4 +1,4 @@
-//! One run in memory (`acs.run`): the scenario flown by `sim_core::runner::run_observed`
+//! One run in memory (`acs.run`): the scenario flown by `sim_host::fly` (as `sim-host run`)
 //! into a `TimeSeries`, with the interpreter's lock released while it flies. At least
 //! every [`SIGNAL_POLL`] the run takes the lock back for a moment to check for Ctrl-C
 //! (`KeyboardInterrupt` ends the run), and every [`CHECK_EVERY`] control steps to call the
@@ -16,10 +16,11 @@ use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList, PyTuple};
 use sim_core::link::cancel::Cancel;
-use sim_core::link::{self, LinkKind, LinkOptions};
+use sim_core::link::{LinkKind, LinkOptions};
 use sim_core::recorder::series::TimeSeries;
-use sim_core::runner::{self, Summary};
+use sim_core::runner::Summary;
 use sim_core::scenario::Scenario;
+use sim_host::fly::{FlyOptions, Watch};
 use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::path::PathBuf;
 use std::sync::mpsc;
@@ -34,17 +35,6 @@ pub const SIGNAL_POLL: Duration = Duration::from_millis(50);
 /// Control steps between two readings of the clock within a run (a reading costs tens of
 /// nanoseconds; a step, microseconds).
 const CLOCK_EVERY: u64 = 16;
-
-/// The link a run uses: the caller's, else the scenario's `link.kind`, else in-process
-/// (open-loop scenarios always in-process) — as `sim-host run` chooses.
-pub fn link_kind(sc: &Scenario, link: Option<&str>) -> anyhow::Result<LinkKind> {
-    Ok(match (link, &sc.link.kind) {
-        _ if !sc.closed_loop() => LinkKind::InProcess,
-        (Some(k), _) => k.parse()?,
-        (None, Some(s)) => s.parse().map_err(|e: anyhow::Error| e.context("scenario link.kind"))?,
-        (None, None) => LinkKind::InProcess,
-    })
-}
 
 /// Runs `work` on a helper thread while this thread (which must not hold the interpreter's
 /// lock) looks for Ctrl-C every [`SIGNAL_POLL`]. On a signal's exception, `cancel` is
@@ -93,19 +83,16 @@ impl From<anyhow::Error> for Failed {
     }
 }
 
-/// Flies `sc` on `kind` without the interpreter's lock; the observer takes it to look for
-/// Ctrl-C (every [`SIGNAL_POLL`] at most) and to call the progress callback (every
-/// [`CHECK_EVERY`] steps). `[margins]`: measured after the run on the same link, as
-/// `sim-host run` does, on worker threads ([`interruptible`]).
+/// Flies `sc` as `sim-host run` does ([`sim_host::fly`]) without the interpreter's lock;
+/// the observer takes it to look for Ctrl-C (every [`SIGNAL_POLL`] at most) and to call
+/// the progress callback (every [`CHECK_EVERY`] steps). `[margins]`: measured after the
+/// run on the same link on worker threads ([`interruptible`]).
 fn fly(
     sc: &Scenario,
-    kind: &LinkKind,
-    firmware: Option<PathBuf>,
+    opts: &FlyOptions,
+    cancel: &Cancel,
     callback: Option<&Py<PyAny>>,
 ) -> Result<(Summary, TimeSeries), Failed> {
-    let cancel = Cancel::new();
-    let link_options = LinkOptions { firmware, cancel: Some(cancel.clone()) };
-    let mut l = link::open(kind, &link_options)?;
     let mut series = TimeSeries::default();
     let mut stop: Option<PyErr> = None;
     let mut last_look = Instant::now();
@@ -131,25 +118,13 @@ fn fly(
             anyhow::anyhow!("interrupted")
         })
     };
-    let r = runner::run_observed(sc, l.as_mut(), &mut series, &mut observe);
-    drop(l);
-    let mut summary = match (r, stop) {
+    let r = sim_host::fly::run(sc, opts, &mut series, Watch::Observer(&mut observe));
+    let ran = match (r, stop) {
         (_, Some(e)) => return Err(Failed::Python(e)),
         (r, None) => r?,
     };
-    let base = sim_host::margins::MarginOptions {
-        link: kind.clone(),
-        link_options,
-        threads: std::thread::available_parallelism().map_or(2, |n| n.get()),
-        ..Default::default()
-    };
-    let measured =
-        interruptible(&cancel, || sim_host::margins::summary::for_scenario(sc, &base)).map_err(Failed::Python)?;
-    // As `sim-host run` and campaigns: a loop that is not stable and steady fails the run.
-    if let Some((m, _)) = measured? {
-        summary.record_margins(m);
-    }
-    Ok((summary, series))
+    let flown = interruptible(cancel, || ran.with_margins()).map_err(Failed::Python)??;
+    Ok((flown.summary, series))
 }
 
 /// Runs `scenario` in memory; returns `(summary, column names, columns)` for the Python
@@ -172,8 +147,15 @@ pub fn run<'py>(
             sc.timing.output_every = n;
             sc.validate().map_err(|e| Kind::Scenario.chain(&e.context("output_every")))?;
         }
-        let kind = link_kind(&sc, link).map_err(|e| Kind::Run.chain(&e))?;
-        let flown = py.detach(|| fly(&sc, &kind, firmware, progress.as_ref()));
+        // The token every link of the run and of its margins measurement is opened with.
+        let cancel = Cancel::new();
+        let link = link.map(str::parse::<LinkKind>).transpose().map_err(|e| Kind::Run.chain(&e))?;
+        let opts = FlyOptions {
+            link,
+            link_options: LinkOptions { firmware, cancel: Some(cancel.clone()) },
+            margin_threads: FlyOptions::machine_threads(),
+        };
+        let flown = py.detach(|| fly(&sc, &opts, &cancel, progress.as_ref()));
         let (summary, series) = match flown {
             Ok(x) => x,
             Err(Failed::Python(e)) => return Err(e),

@@ -6,10 +6,11 @@ use super::lock::{Shard, ShardLock};
 use super::plan::{Manifest, PlannedRun};
 use super::spec::Requirement;
 use super::{flatten, write_atomic};
+use crate::fly::{FlyOptions, Watch, fly};
 use anyhow::{Result, anyhow};
 use serde::{Deserialize, Serialize};
 use sim_core::link::cancel::Cancel;
-use sim_core::link::{self, LinkKind, LinkOptions};
+use sim_core::link::{LinkKind, LinkOptions};
 use sim_core::recorder::series::Discard;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
@@ -92,14 +93,14 @@ fn panic_message(p: &(dyn std::any::Any + Send)) -> String {
 /// stable loop at a steady hold makes the run `margins_failed` (summary `run_status`).
 /// Once `cancel` is cancelled the run and its measurement stop at their next control step.
 fn fly_with_margins(sc: &Scenario, cancel: &Cancel) -> anyhow::Result<runner::Summary> {
-    let link_options = LinkOptions { cancel: Some(cancel.clone()), ..Default::default() };
-    let mut l = link::open(&LinkKind::InProcess, &link_options)?;
-    // `runner::fly`, with the token checked at every step (open-loop runs use no link).
-    let mut summary = runner::run_observed(sc, l.as_mut(), &mut Discard, &mut |_, _| cancel.check())?;
-    drop(l);
-    let base = crate::margins::MarginOptions { threads: 1, link_options, ..Default::default() };
-    crate::margins::summary::record(sc, &base, &mut summary)?;
-    Ok(summary)
+    let opts = FlyOptions {
+        link: Some(LinkKind::InProcess),
+        link_options: LinkOptions { cancel: Some(cancel.clone()), ..Default::default() },
+        margin_threads: 1,
+    };
+    // The token checked at every step (open-loop runs use no link).
+    let watch = Watch::Observer(&mut |_, _| cancel.check());
+    Ok(fly(sc, &opts, &mut Discard, watch)?.summary)
 }
 
 /// How a summary's run failed, if it did: its `run_status`, and a `margins.status` other

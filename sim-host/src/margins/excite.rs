@@ -15,7 +15,7 @@ use acs_flight::link::{ActuatorCommand, status};
 use sim_core::attitude::{Quat, Vec3};
 use sim_core::plant::wheel::Fidelity;
 use sim_core::recorder::series::Discard;
-use sim_core::simulation::{LoopInjection, Simulation};
+use sim_core::simulation::probe::{LoopInjection, Probe};
 
 pub use sim_core::scenario::LoopPoint;
 
@@ -32,6 +32,27 @@ pub enum Method {
     Open,
 }
 
+/// `sim-host margins --method`: a [`Method`], or `auto` (closed; open if the closed-loop
+/// experiment diverges or saturates), which is `MarginOptions::method` `None`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum MethodChoice {
+    #[default]
+    Auto,
+    Closed,
+    Open,
+}
+
+impl MethodChoice {
+    /// The method asked for (`None`: chosen by the measurement).
+    pub fn method(self) -> Option<Method> {
+        match self {
+            MethodChoice::Auto => None,
+            MethodChoice::Closed => Some(Method::Closed),
+            MethodChoice::Open => Some(Method::Open),
+        }
+    }
+}
+
 /// The actuator family whose commands carry the excitation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
@@ -45,7 +66,7 @@ pub enum Family {
 impl Family {
     /// The family whose commands a scenario's loop goes through (CMGs before wheels before
     /// magnetorquers, as the flight allocates); `None`: thrusters only, or no actuator.
-    pub fn of(sim: &Simulation) -> Option<Family> {
+    pub fn of(sim: &Probe) -> Option<Family> {
         let craft = sim.craft();
         if craft.cmg.is_some() {
             Some(Family::Cmg)
@@ -153,7 +174,7 @@ const NO_FAMILY: &str = "margins break the loop at the command of reaction wheel
 
 impl Effectiveness {
     /// At the simulation's current state. Thruster loops are out of scope.
-    pub fn at(sim: &Simulation) -> Result<Self, MarginError> {
+    pub fn at(sim: &Probe) -> Result<Self, MarginError> {
         let (craft, state) = (sim.craft(), sim.state());
         let family = Family::of(sim).ok_or_else(|| MarginError::Unsupported(NO_FAMILY.into()))?;
         let (columns, limits): (Vec<[f64; 3]>, Vec<f64>) = match family {
@@ -178,7 +199,7 @@ impl Effectiveness {
 
     /// Magnetorquers in the field at the operating point: rank 2, the loop measured on the
     /// two axes perpendicular to the field.
-    fn magnetorquers(sim: &Simulation) -> Result<Self, MarginError> {
+    fn magnetorquers(sim: &Probe) -> Result<Self, MarginError> {
         let not_steady = |reason: &str| MarginError::NotSteady { t_s: f64::NAN, reason: reason.into() };
         let b = sim.field_body_t().filter(|b| b.iter().all(|x| x.is_finite()) && b.norm() > 0.0);
         let b = b.ok_or_else(|| not_steady("no magnetic field at the operating point"))?;
@@ -309,7 +330,7 @@ const F32_LIMIT_TOLERANCE: f64 = 1e-6;
 const WHEEL_SPEED_FRACTION: f64 = 0.95;
 
 /// A wheel within 5 % of its speed limit, if any.
-fn wheel_speed_limit(sim: &Simulation) -> Option<String> {
+fn wheel_speed_limit(sim: &Probe) -> Option<String> {
     let (craft, s) = (sim.craft(), sim.state());
     craft.wheels.iter().zip(s.wheels.iter()).enumerate().find_map(|(i, (p, ws))| {
         let w = ws.h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&s.w);
@@ -322,7 +343,7 @@ fn wheel_speed_limit(sim: &Simulation) -> Option<String> {
 /// speed limit, or inside its Coulomb-friction band (relative speed below three times the
 /// friction model's sign-smoothing speed: stiction, where the friction torque flips with
 /// the sign of the speed).
-fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
+fn wheel_nonlinear(sim: &Probe) -> Option<String> {
     if let Some(r) = wheel_speed_limit(sim) {
         return Some(r);
     }
@@ -346,7 +367,7 @@ fn wheel_nonlinear(sim: &Simulation) -> Option<String> {
 /// limit, a gimbal's rate limit or a rod's dipole limit, a non-zero rod command inside its
 /// dead band, a gimbal at an angle stop, and any wheel within 5 % of its speed limit. The
 /// flight's status bits see only its own command, and within the limits it was given.
-pub fn actuator_limit(sim: &Simulation, family: Option<Family>) -> Option<String> {
+pub fn actuator_limit(sim: &Probe, family: Option<Family>) -> Option<String> {
     let (craft, c) = (sim.craft(), sim.plant_commands());
     let beyond = |what: &str, i: usize, x: f64, unit: &str, lim: f64| {
         format!("{what} {} command {x:.4e} {unit} beyond its {lim:.4e} {unit} limit", i + 1)
@@ -397,7 +418,7 @@ pub fn actuator_limit(sim: &Simulation, family: Option<Family>) -> Option<String
 /// ([`actuator_limit`]), and at the end the attitude error must be within
 /// `settle_bound_deg` (at `k_op = 0`, that of the initial state) and no wheel near its
 /// speed limit or in stiction.
-pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg: f64) -> Result<(), MarginError> {
+pub fn fly_to(sim: &mut Probe, k_op: u64, check_from: u64, settle_bound_deg: f64) -> Result<(), MarginError> {
     sim.extend_to(u64::MAX / 4);
     let family = Family::of(sim);
     let dt = sim.control_period_s();
@@ -429,7 +450,7 @@ pub fn fly_to(sim: &mut Simulation, k_op: u64, check_from: u64, settle_bound_deg
 /// A magnetic law at an orbit instant: the field frozen from the operating point on
 /// (docs/margins.md, "Magnetorquer loops"), so the loop is time-invariant over the
 /// experiments; nothing for the other families.
-pub fn freeze_field(sim: &mut Simulation) -> Result<(), MarginError> {
+pub fn freeze_field(sim: &mut Probe) -> Result<(), MarginError> {
     if Family::of(sim) == Some(Family::Magnetorquers) && sim.freeze_field().is_none() {
         return Err(MarginError::NotSteady { t_s: sim.sim_time_s(), reason: "no magnetic field to freeze".into() });
     }
@@ -573,8 +594,8 @@ fn injection(point: LoopPoint, eff: Option<&Effectiveness>, d: [f64; 3], method:
 /// Runs experiment `x` on `exc` and its twin `twin` (both at the same operating point),
 /// the loop closed or broken open (`method`, input loop only).
 pub fn run(
-    exc: &mut Simulation,
-    twin: &mut Simulation,
+    exc: &mut Probe,
+    twin: &mut Probe,
     point: LoopPoint,
     eff: Option<&Effectiveness>,
     method: Method,
@@ -661,8 +682,8 @@ fn grows(blocks: &[f64], amplitude: f64, t: f64) -> Result<(), MarginError> {
 /// ([`actuator_limit`]: else the operating point is not a steady hold), the excited run too
 /// (else the excitation is too large to stay linear).
 fn check_step(
-    exc: &Simulation,
-    twin: &Simulation,
+    exc: &Probe,
+    twin: &Probe,
     t: f64,
     family: Option<Family>,
 ) -> Result<(ActuatorCommand, ActuatorCommand), MarginError> {

@@ -8,7 +8,7 @@
 
 use super::MarginError;
 use serde::Serialize;
-use sim_core::simulation::Simulation;
+use sim_core::simulation::probe::Probe;
 
 /// What `margins.json` says of an adaptive law (`adaptation`; `null` for the others).
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -22,7 +22,7 @@ pub struct FrozenAdaptation {
 
 /// Freezes the adaptation of the flight law of `sim` (at its operating point); `None` when
 /// the law does not adapt (nothing changed).
-pub fn freeze(sim: &mut Simulation) -> Result<Option<FrozenAdaptation>, MarginError> {
+pub fn freeze(sim: &mut Probe) -> Result<Option<FrozenAdaptation>, MarginError> {
     if !sim.freeze_adaptation(true).map_err(MarginError::flight)? {
         return Ok(None);
     }

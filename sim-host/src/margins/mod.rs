@@ -23,7 +23,7 @@ pub mod report;
 pub mod response;
 pub mod summary;
 
-pub use excite::{LoopPoint, Method};
+pub use excite::{LoopPoint, Method, MethodChoice};
 pub use report::MarginReport;
 
 use analysis::{C64, Cmat};
@@ -350,7 +350,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
     // (an actuator family out of scope is said before flying).
     let mut link = sim_core::link::open(&opts.link, &opts.link_options).map_err(MarginError::flight)?;
     let resolved = Resolved::try_from(scenario).map_err(MarginError::flight)?;
-    let start_sim = sim_core::simulation::Simulation::new(resolved, link.as_mut()).map_err(MarginError::flight)?;
+    let start_sim = sim_core::simulation::probe::Probe::new(resolved, link.as_mut()).map_err(MarginError::flight)?;
     if let Err(e @ MarginError::Unsupported(_)) = Effectiveness::at(&start_sim) {
         return Err(e);
     }
@@ -390,7 +390,7 @@ pub fn measure(scenario: &Scenario, opts: &MarginOptions) -> Result<MarginReport
 }
 
 /// What the frozen field is (the magnetorquer loop's operating point).
-fn frozen_field_note(sim: &sim_core::simulation::Simulation) -> String {
+fn frozen_field_note(sim: &sim_core::simulation::probe::Probe) -> String {
     let b = sim.field_body_t().unwrap_or_default();
     let frame = match sim.frozen_field() {
         Some(FrozenField::Lvlh(_)) => "LVLH (the orbit, gravity gradient and LVLH rate go on)",

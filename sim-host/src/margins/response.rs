@@ -10,7 +10,7 @@ use super::excite::{self, Column, Effectiveness, Experiment, LoopPoint, Method};
 use super::grid::Freq;
 use sim_core::link::{self, FlightLink, LinkKind, LinkOptions};
 use sim_core::scenario::{Resolved, Scenario};
-use sim_core::simulation::Simulation;
+use sim_core::simulation::probe::Probe;
 use std::sync::{Mutex, mpsc};
 
 /// What every experiment needs to reach the operating point and break the loop there.
@@ -36,9 +36,9 @@ pub struct Setup<'a> {
 
 impl Setup<'_> {
     /// A new run flown to the operating point against `link`.
-    pub fn fly<'l>(&self, link: &'l mut dyn FlightLink) -> Result<Simulation<'l>, MarginError> {
+    pub fn fly<'l>(&self, link: &'l mut dyn FlightLink) -> Result<Probe<'l>, MarginError> {
         let resolved = Resolved::try_from(self.scenario).map_err(MarginError::flight)?;
-        let mut sim = Simulation::new(resolved, link).map_err(MarginError::flight)?;
+        let mut sim = Probe::new(resolved, link).map_err(MarginError::flight)?;
         excite::fly_to(&mut sim, self.k_op, self.check_from, self.settle_bound_deg)?;
         // What is frozen at the operating point for the experiments and their twins alike.
         excite::freeze_field(&mut sim)?;
@@ -52,7 +52,7 @@ impl Setup<'_> {
         link::open(&self.link, &self.link_options).map_err(MarginError::flight)
     }
 
-    fn run_forked(&self, base: &Simulation, x: &Experiment) -> Result<Column, MarginError> {
+    fn run_forked(&self, base: &Probe, x: &Experiment) -> Result<Column, MarginError> {
         let fork = || base.fork_link().ok_or_else(|| MarginError::Flight("the link cannot be forked".into()));
         let (mut le, mut lt) = (fork()?, fork()?);
         let (mut exc, mut twin) = (base.fork(le.as_mut()), base.fork(lt.as_mut()));

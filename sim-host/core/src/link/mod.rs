@@ -138,7 +138,7 @@ pub trait FlightLink {
     }
     /// A copy of this link whose flight side is in the same state, when the link can make
     /// one: only in-process (a flight computer on the far side of a wire cannot be copied).
-    /// It lets a run be forked at an operating point ([`crate::simulation::Simulation::fork`],
+    /// It lets a run be forked at an operating point ([`crate::simulation::probe::Probe::fork`],
     /// `sim-host margins`); `None` (the default) means "re-fly from t = 0 instead".
     fn fork(&self) -> Option<Box<dyn FlightLink>> {
         None

@@ -268,6 +268,44 @@ pub enum MarginStatus {
     Error,
 }
 
+/// Where a stability-margin measurement breaks the flight loop: `[margins] loop` (the
+/// scenario's request re-exports it: `crate::scenario::LoopPoint`), `sim-host margins
+/// --loop`, and the `loop` of the `summary.json` `margins` it fills (docs/margins.md).
+/// Defined here, beside the summary, because the scenario already depends on the recorder
+/// (it builds its column layout), not the other way round.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LoopPoint {
+    /// At the actuator command: body torque added to the flight's command through the
+    /// actuators' effectiveness.
+    #[default]
+    Input,
+    /// At the attitude measurement: a small rotation added to the attitude sample.
+    Output,
+}
+
+impl LoopPoint {
+    /// The spelling of the TOML key and of the command-line flag.
+    pub fn name(self) -> &'static str {
+        match self {
+            LoopPoint::Input => "input",
+            LoopPoint::Output => "output",
+        }
+    }
+}
+
+impl std::str::FromStr for LoopPoint {
+    type Err = String;
+
+    /// `input` or `output`, exactly (as `[margins] loop` spells them).
+    fn from_str(s: &str) -> Result<Self, String> {
+        [LoopPoint::Input, LoopPoint::Output]
+            .into_iter()
+            .find(|p| p.name() == s)
+            .ok_or_else(|| format!("{s:?}: expected input or output"))
+    }
+}
+
 /// `summary.json` `margins`: the scalars a campaign disperses over and requires, each the
 /// worst over the three axes (loop-at-a-time), plus the multiloop disk margin. A figure is
 /// a number only beside `status` `measured` (a stable loop), or `unstable` with `stable:
@@ -281,7 +319,7 @@ pub struct MarginSummary {
     /// Operating point, s, and where the loop was broken.
     pub at_s: f64,
     #[serde(rename = "loop")]
-    pub loop_point: crate::loop_break::LoopPoint,
+    pub loop_point: LoopPoint,
     /// `closed` (the excitation added to the flight's command) or `open` (the loop broken
     /// open: an unstable closed loop is measured that way); null when not measured.
     pub method: Option<String>,

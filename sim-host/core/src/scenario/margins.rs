@@ -19,7 +19,7 @@ use super::{Scenario, bad};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
-pub use crate::loop_break::LoopPoint;
+pub use crate::recorder::summary::LoopPoint;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -286,6 +286,21 @@ mod tests {
             assert!(e.contains(key), "{t}: {e}");
         }
         assert!(with("[margins]\nloop = \"sideways\"").is_err());
+    }
+
+    /// `--loop` parses as `[margins] loop` does: the same spellings accepted to the same
+    /// value, the same ones refused (the TOML parser is the independent reading).
+    #[test]
+    fn loop_flag_parses_as_the_toml_key() {
+        for word in ["input", "output", "INPUT", "Output", "sideways", ""] {
+            let toml = with(&format!("[margins]\nloop = \"{word}\"")).map(|r| r.map(|r| r.point));
+            let flag = word.parse::<LoopPoint>();
+            match (toml, flag) {
+                (Ok(Some(a)), Ok(b)) => assert_eq!((a, b.name()), (b, word)),
+                (Err(_), Err(e)) => assert!(e.contains("expected input or output"), "{word}: {e}"),
+                (t, f) => panic!("{word:?}: TOML {t:?}, flag {f:?}"),
+            }
+        }
     }
 
     /// The checks the command line and `measure` share: each bound refused on both sides,

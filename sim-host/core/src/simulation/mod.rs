@@ -7,35 +7,46 @@
 //! newest samples that have arrived by then and is answered with commands that the plant
 //! holds over `[t_k, t_k+1)` (zero-order hold, no added latency). Thruster valves are updated at
 //! every dynamics step (minimum on-time, delays, failures) with exact impulse.
+//!
+//! Files: this one, the run loop; [`actuation`]: command → plant input; [`metrics`]: the
+//! run's extremes and counters; [`row`]: the recorded row; [`probe`]: everything an
+//! analysis needs to drive a run from outside (`sim-host margins`).
 
-use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat, rotate_ref_to_body};
+use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat};
 use crate::environment::guidance::{PointingErrors, Sky, TruthGuidance, TruthSet, TruthStep};
-use crate::environment::model::{EnvSnapshot, FrozenField};
+use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::delay::DelayLine;
-use crate::plant::magnetorquers::MagnetorquerSet;
-use crate::plant::thrusters::{ThrusterSet, ThrusterState};
 use crate::plant::wheel::{WheelDeriv, WheelOutput};
-use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, TorqueReport};
+use crate::plant::{Input, MAX_WHEELS, Spacecraft, State};
 use crate::recorder::columns::Layout;
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
 use crate::recorder::segments::{SegmentKey, Segments};
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
-    CONTROL_STARTUP_FRACTION, CONTROL_STARTUP_MAX_S, ErrorStats, Failure, MAX_UNCONTROLLED_FRACTION, ModeTransition,
-    RunStatus, StatusCounts, Summary, nan_max, nan_min,
+    CONTROL_STARTUP_FRACTION, CONTROL_STARTUP_MAX_S, ErrorStats, Failure, MAX_UNCONTROLLED_FRACTION, RunStatus,
+    Summary, nan_max, nan_min,
 };
 use crate::scenario::{
     Clock, GroundCommand, InertiaChange, OpenLoopRow, Performance, Resolved, Scenario, TargetConfig, Upload, layout,
 };
 use crate::sensors::SensorSuite;
-use acs_flight::link::{ActuatorCommand, FswMsg, SensorFrame, status, valid};
+use acs_flight::link::{ActuatorCommand, FswMsg, status};
 use acs_flight::math::EulerSeq;
-use acs_flight::modes::Reason;
 use acs_flight::params::Mode;
 use anyhow::{Context, Result, bail};
+
+mod actuation;
+mod metrics;
+pub mod probe;
+mod row;
+
+use actuation::Actuation;
+use metrics::{Metrics, mode_name};
+use probe::LoopInjection;
+use row::StepView;
 
 /// Rows a run of `steps` control steps records with `output_every = every` (every
 /// `every`-th step and the last).
@@ -43,16 +54,11 @@ pub fn recorded_rows(steps: u64, every: u64) -> u64 {
     steps / every + 1 + u64::from(!steps.is_multiple_of(every))
 }
 
-fn mode_name(code: u8) -> String {
-    Mode::from_code(code).map_or("none", Mode::name).into()
-}
-
 /// The column names a scenario records.
 pub fn column_names(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Vec<String> {
     layout(sc, n_wheels, n_thrusters).names()
 }
 
-/// The open-loop row in force at `t`.
 /// The mission pointings in the order they take effect, as [`Simulation::retarget_truth`]
 /// numbers them: the scenario's, then each ground command with a pointing or a target
 /// (label and start, s).
@@ -65,6 +71,7 @@ fn mission_pointings(tg: &TruthGuidance, commands: &[GroundCommand]) -> Vec<(Str
     out
 }
 
+/// The open-loop row in force at `t`.
 fn open_loop_at(rows: &[OpenLoopRow], t: f64) -> Option<&OpenLoopRow> {
     rows.iter().take_while(|r| r.t_s <= t + 1e-12).last()
 }
@@ -163,255 +170,6 @@ impl Target {
             _ => Quat::identity(),
         }
     }
-}
-
-/// Magnetorquers and thrusters: command → what the plant receives.
-#[derive(Clone)]
-struct Actuation {
-    mtq: MagnetorquerSet,
-    thrusters: Option<ThrusterSet>,
-    thr_state: ThrusterState,
-    n_thr: usize,
-    rod_dipole: [f64; 3],
-    /// `[actuators.magnetorquers] delay_s` as whole control periods.
-    mtq_delay: DelayLine<3>,
-    /// `[actuators.wheels] torque_delay_s` as whole dynamics steps.
-    wheel_delay: DelayLine<MAX_WHEELS>,
-    /// `[actuators.cmg] rate_delay_s` as whole control periods.
-    gimbal_delay: DelayLine<MAX_GIMBALS>,
-    /// The wheel torque commands of this control period (before `wheel_delay`).
-    wheel_cmd: [f64; MAX_WHEELS],
-    /// The gimbal-rate and dipole commands of this control period as the plant receives
-    /// them (a loop injection added; before the delays and limits): what
-    /// [`Simulation::plant_commands`] reports.
-    gimbal_cmd: [f64; MAX_GIMBALS],
-    dipole_cmd: [f64; 3],
-}
-
-impl Actuation {
-    fn new(
-        mtq: MagnetorquerSet,
-        thrusters: Option<ThrusterSet>,
-        n_thr: usize,
-        wheel_delay: DelayLine<MAX_WHEELS>,
-        gimbal_delay: DelayLine<MAX_GIMBALS>,
-    ) -> Self {
-        Self {
-            mtq_delay: DelayLine::new(mtq.delay_steps),
-            mtq,
-            thrusters,
-            thr_state: ThrusterState::new(n_thr),
-            n_thr,
-            rod_dipole: [0.0; 3],
-            wheel_delay,
-            gimbal_delay,
-            wheel_cmd: [0.0; MAX_WHEELS],
-            gimbal_cmd: [0.0; MAX_GIMBALS],
-            dipole_cmd: [0.0; 3],
-        }
-    }
-
-    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
-    /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
-    /// A loop injection is added to the commands as the plant receives them (before the
-    /// wheels' torque delay and the gimbal-rate delay, which stay inside the loop).
-    fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
-        let mut input = Input::default();
-        for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
-            *d = s as f64;
-        }
-        for (d, s) in self.wheel_cmd.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
-            *d = s as f64;
-        }
-        if let Some(inj) = injection {
-            if inj.replace_commands {
-                self.wheel_cmd = [0.0; MAX_WHEELS];
-                input.gimbal_rate_cmd_rad_s = [0.0; MAX_GIMBALS];
-            }
-            inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
-        }
-        self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
-        input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
-        input.wheel_torque_cmd_nm = self.wheel_torques();
-        let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
-        if !self.mtq.rods.is_empty() {
-            let applied = match injection {
-                Some(inj) => inj.add_to_dipole(if inj.replace_commands { [0.0; 3] } else { dipole_cmd }),
-                None => dipole_cmd,
-            };
-            self.dipole_cmd = applied;
-            let acting = self.mtq_delay.push(applied);
-            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
-        }
-        input.dipole_am2 = self.rod_dipole.into();
-        input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
-        (input, dipole_cmd)
-    }
-
-    /// The wheel torque commands acting over the next dynamics step (after the delay).
-    fn wheel_torques(&mut self) -> [f64; MAX_WHEELS] {
-        self.wheel_delay.push(self.wheel_cmd)
-    }
-
-    /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
-    fn thruster_torque(&mut self, mask: u32, t0: f64, h: f64) -> Vec3 {
-        match &self.thrusters {
-            Some(set) => set.wrench(&set.step(&mut self.thr_state, mask, t0, h)).1.into(),
-            None => Vec3::zeros(),
-        }
-    }
-}
-
-/// Extremes and counters over the run.
-#[derive(Clone, Default)]
-struct Metrics {
-    counts: StatusCounts,
-    max_gimbal_rate: f64,
-    min_singularity: f64,
-    max_wheel_rpm: f64,
-    max_wheel_w: f64,
-    max_wheel_a: f64,
-    max_ticks: u32,
-    sum_ticks: f64,
-    n_ticks: u64,
-    frames_dropped_flight: u32,
-    /// Flight steps after the start-up allowance, and those of them uncontrolled
-    /// (`bad_input` or `no_estimate`): the no-control check.
-    steps_after_startup: u64,
-    uncontrolled_after_startup: u64,
-    mode_now: Option<u8>,
-    mode_transitions: Vec<ModeTransition>,
-}
-
-impl Metrics {
-    fn status(&mut self, s: u16) {
-        let c = &mut self.counts;
-        for (bit, n) in [
-            (status::TORQUE_LIMITED, &mut c.torque_limited),
-            (status::RATE_SCALED, &mut c.rate_scaled),
-            (status::ANGLE_LIMITED, &mut c.angle_limited),
-            (status::SINGULAR, &mut c.singular),
-            (status::BAD_INPUT, &mut c.bad_input),
-            (status::TORQUE_SHORTFALL, &mut c.torque_shortfall),
-            (status::ALLOC_FALLBACK, &mut c.alloc_fallback),
-            (status::UNREALISED, &mut c.unrealised),
-            (status::LAW_FAULT, &mut c.law_fault),
-            (status::NO_ESTIMATE, &mut c.no_estimate),
-        ] {
-            *n += u64::from(s & bit != 0);
-        }
-    }
-
-    fn ticks(&mut self, ticks: u32) {
-        if ticks > 0 {
-            self.max_ticks = self.max_ticks.max(ticks);
-            self.sum_ticks += ticks as f64;
-            self.n_ticks += 1;
-        }
-    }
-
-    fn wheels<'o>(&mut self, out: impl Iterator<Item = &'o WheelOutput>) {
-        for o in out {
-            self.max_wheel_rpm = nan_max(self.max_wheel_rpm, o.speed_rad_s.abs() * 30.0 / std::f64::consts::PI);
-            self.max_wheel_w = nan_max(self.max_wheel_w, o.power_w.abs());
-            self.max_wheel_a = nan_max(self.max_wheel_a, o.current_a.abs());
-        }
-    }
-
-    /// Logs a change of the flight mode reported at `t`.
-    fn mode(&mut self, t: f64, cmd: &ActuatorCommand) {
-        if self.mode_now == Some(cmd.mode) {
-            return;
-        }
-        if let Some(from) = self.mode_now {
-            self.mode_transitions.push(ModeTransition {
-                t_s: t,
-                from: mode_name(from),
-                to: mode_name(cmd.mode),
-                reason: Reason::from_code(cmd.mode_reason).map_or("unknown", Reason::name).into(),
-            });
-        }
-        self.mode_now = Some(cmd.mode);
-    }
-}
-
-/// Signals added to the loop at every control step while set
-/// ([`Simulation::set_injection`]): the loop broken for a frequency-response measurement
-/// (`sim-host margins`, docs/margins.md). A run without one is untouched: nothing is added,
-/// not even zeros.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LoopInjection {
-    /// Added to each wheel's motor-torque command the plant receives (on the rotor), N m.
-    pub wheel_torque_nm: [f64; MAX_WHEELS],
-    /// Added to each gimbal-rate command the plant receives, rad/s.
-    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
-    /// Added to each magnetorquer's dipole command (before the rods' delay, limits and dead
-    /// band), A m².
-    pub dipole_am2: [f64; 3],
-    /// A small rotation (rotation vector, body axes, rad) applied to the attitude sample
-    /// of the frame, `q_meas ⊗ exp(θ/2)`, when the frame carries one.
-    pub attitude_rad: [f64; 3],
-    /// The loop broken open at the actuator input: the plant's wheel-torque and
-    /// gimbal-rate commands are the injection alone; the flight's command is computed and
-    /// reported ([`Simulation::last_step`]) but not applied (docs/margins.md, "Open-loop
-    /// measurement"); the same for the dipole commands.
-    pub replace_commands: bool,
-}
-
-impl LoopInjection {
-    fn add_to_commands(&self, wheel_torque_nm: &mut [f64; MAX_WHEELS], gimbal_rate_rad_s: &mut [f64; MAX_GIMBALS]) {
-        for (u, d) in wheel_torque_nm.iter_mut().zip(self.wheel_torque_nm) {
-            *u += d;
-        }
-        for (u, d) in gimbal_rate_rad_s.iter_mut().zip(self.gimbal_rate_rad_s) {
-            *u += d;
-        }
-    }
-
-    fn add_to_dipole(&self, dipole_am2: [f64; 3]) -> [f64; 3] {
-        std::array::from_fn(|i| dipole_am2[i] + self.dipole_am2[i])
-    }
-
-    fn add_to_frame(&self, frame: &mut SensorFrame) {
-        if frame.valid & valid::ATTITUDE == 0 {
-            return;
-        }
-        let [x, y, z, w] = frame.q_ib_xyzw.map(f64::from);
-        let q = Quat::new(w, x, y, z) * Quat::from_imag(Vec3::from(self.attitude_rad) * 0.5).exp();
-        let q = q.normalize();
-        frame.q_ib_xyzw = [q.i, q.j, q.k, q.w].map(|c| c as f32);
-    }
-}
-
-/// The actuator commands of the last control step as the plant receives them: the flight's
-/// command with a loop injection added (or the injection alone, open loop), before the
-/// actuators' delays and limits ([`Simulation::plant_commands`]; `sim-host margins` checks
-/// them against the limits during its experiments).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PlantCommands {
-    /// Per wheel, motor torque, N m.
-    pub wheel_torque_nm: [f64; MAX_WHEELS],
-    /// Per gimbal, rate, rad/s.
-    pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
-    /// Per rod, dipole, A m² (zero without magnetorquers).
-    pub dipole_am2: [f64; 3],
-}
-
-/// What one control step saw, for the recorded row.
-struct StepView<'a> {
-    t: f64,
-    cmd: &'a ActuatorCommand,
-    ticks: u32,
-    err_deg: f64,
-    q_frame: Quat,
-    /// The target's Euler angles relative to `q_frame`, deg.
-    target_euler_deg: [f64; 3],
-    input: &'a Input,
-    dipole_cmd: [f64; 3],
-    /// The wheels evaluated at the step (their outputs are recorded, and they make the
-    /// applied torque).
-    wheels: &'a [(WheelDeriv, WheelOutput); MAX_WHEELS],
-    n_wheels: usize,
 }
 
 /// The truth of the pointing at one control step (with `[guidance]` or `[modes]`).
@@ -587,150 +345,9 @@ impl<'a> Simulation<'a> {
         })
     }
 
-    /// A copy of this run in its current state, flying against `link` (which must hold a
-    /// copy of this run's flight side: [`Simulation::fork_link`]). Stepping the copy does
-    /// not touch this run: `sim-host margins` flies to an operating point once and forks
-    /// an experiment and its unexcited twin from there.
-    pub fn fork<'b>(&self, link: &'b mut dyn FlightLink) -> Simulation<'b> {
-        Simulation {
-            name: self.name.clone(),
-            control_rate_hz: self.control_rate_hz,
-            dynamics_rate_hz: self.dynamics_rate_hz,
-            commands: self.commands.clone(),
-            link,
-            info: self.info.clone(),
-            craft: self.craft.clone(),
-            state: self.state,
-            snap: self.snap,
-            snap_ready: self.snap_ready,
-            sensors: self.sensors.clone(),
-            inertia_change: self.inertia_change.clone(),
-            open_loop: self.open_loop.clone(),
-            act: self.act.clone(),
-            target: self.target.clone(),
-            next_command: self.next_command,
-            metrics: self.metrics.clone(),
-            errors: self.errors.clone(),
-            pointing: self.pointing.clone(),
-            performance: self.performance,
-            estimation: self.estimation.clone(),
-            layout: self.layout.clone(),
-            momentum: self.momentum.clone(),
-            slow_fdir: self.slow_fdir,
-            keepout: self.keepout.clone(),
-            columns: self.columns.clone(),
-            row: self.row.clone(),
-            k: self.k,
-            clock: self.clock,
-            failure: self.failure.clone(),
-            t_end: self.t_end,
-            injection: self.injection,
-            last_step: self.last_step,
-            truth: self.truth.clone(),
-            truth_row: self.truth_row,
-            segments: self.segments.clone(),
-            pointing_id: self.pointing_id,
-        }
-    }
-
-    /// A copy of the link with the flight side in its current state ([`FlightLink::fork`]);
-    /// `None` when the link cannot be copied (QEMU, TCP, serial).
-    pub fn fork_link(&self) -> Option<Box<dyn FlightLink>> {
-        self.link.fork()
-    }
-
-    /// Fly on past the scenario's duration, to `steps` control steps in all (the plant,
-    /// the flight code and the ground commands as they are; nothing else changes).
-    pub fn extend_to(&mut self, steps: u64) {
-        self.clock.steps = self.clock.steps.max(steps);
-    }
-
-    /// Freezes the magnetic field from now on at its value now, constant in the frame the
-    /// target is given in (LVLH or inertial): the loop of a magnetic law at an orbit
-    /// instant (docs/margins.md, "Magnetorquer loops"). Between control steps only:
-    /// the field of the coming step is the one the sensors have already sampled.
-    /// `None` (nothing changed) without a field.
-    pub fn freeze_field(&mut self) -> Option<FrozenField> {
-        let snap = self.snap?;
-        let frozen = self.craft.env.as_mut()?.freeze_field(&snap, self.target.lvlh)?;
-        self.craft.clear_env_cache();
-        Some(frozen)
-    }
-
-    /// The field frozen by [`Self::freeze_field`], if it was.
-    pub fn frozen_field(&self) -> Option<FrozenField> {
-        match self.craft.env.as_ref().map(|e| &e.field) {
-            Some(crate::environment::model::FieldSource::Frozen(f)) => Some(*f),
-            _ => None,
-        }
-    }
-
-    /// The true attitude error of the state now against the target in the frame of the last
-    /// environment snapshot, deg: before the first step, exactly what step 0 records (an
-    /// operating point at t = 0 has no step to read it from).
-    pub fn attitude_error_now_deg(&self) -> f64 {
-        let q_cmd = self.target.frame(self.snap.as_ref()) * self.target.q_rel;
-        error_angle_and_vector(&self.state.q, &q_cmd).0.to_degrees()
-    }
-
-    /// The field in body axes now (at the next control step's time), T.
-    pub fn field_body_t(&self) -> Option<Vec3> {
-        self.snap.and_then(|s| s.b_ref_t).map(|b| rotate_ref_to_body(&self.state.q, &b))
-    }
-
-    /// Adds `injection` to the loop at every following control step (`None`: stop).
-    pub fn set_injection(&mut self, injection: Option<LoopInjection>) {
-        self.injection = injection;
-    }
-
-    /// Freezes (`true`) or resumes the flight law's adaptation through the link
-    /// (`FreezeAdaptation`: the law keeps its state, unlike a parameter upload); the same
-    /// message in-process and over QEMU. `Ok(true)`: the law in force adapts (DMCS) and
-    /// obeyed; `Ok(false)`: nothing adapts (the flight side refused with `NotAdaptive`, or
-    /// an open-loop run: no flight law), nothing changed; `Err` for any other reply.
-    pub fn freeze_adaptation(&mut self, frozen: bool) -> Result<bool> {
-        if self.info.is_none() {
-            return Ok(false);
-        }
-        match self.link.request(&acs_flight::link::HostMsg::FreezeAdaptation { frozen })? {
-            FswMsg::Ack => Ok(true),
-            FswMsg::Error(acs_flight::link::LinkError::NotAdaptive) => Ok(false),
-            other => bail!("FreezeAdaptation {{ frozen: {frozen} }} refused: {other:?}"),
-        }
-    }
-
-    /// The last control step's flight command and its true attitude error (deg).
-    /// The commands of the last control step as the plant received them ([`PlantCommands`]).
-    pub fn plant_commands(&self) -> PlantCommands {
-        PlantCommands {
-            wheel_torque_nm: self.act.wheel_cmd,
-            gimbal_rate_rad_s: self.act.gimbal_cmd,
-            dipole_am2: self.act.dipole_cmd,
-        }
-    }
-
-    pub fn last_step(&self) -> Option<&(ActuatorCommand, f64)> {
-        self.last_step.as_ref()
-    }
-
     /// The plant's state now (at the next control step's time).
     pub fn state(&self) -> &State {
         &self.state
-    }
-
-    /// The spacecraft model (inertia, actuators).
-    pub fn craft(&self) -> &Spacecraft {
-        &self.craft
-    }
-
-    /// The magnetorquer rods and their limits (empty: none).
-    pub fn magnetorquers(&self) -> &crate::plant::magnetorquers::MagnetorquerSet {
-        &self.act.mtq
-    }
-
-    /// The control period, s.
-    pub fn control_period_s(&self) -> f64 {
-        self.clock.dt
     }
 
     pub fn columns(&self) -> &[String] {
@@ -789,12 +406,6 @@ impl<'a> Simulation<'a> {
     /// The flight estimate against the truth so far (last step's error included).
     pub fn estimation(&self) -> &EstimationStats {
         &self.estimation
-    }
-
-    /// The true plant state at the next control step (read-only; for tests that check a
-    /// recorded row against the states behind it, e.g. a wheel's friction state and rotor angle).
-    pub fn plant_state(&self) -> &State {
-        &self.state
     }
 
     pub fn sim_time_s(&self) -> f64 {
@@ -1087,142 +698,6 @@ impl<'a> Simulation<'a> {
         };
         self.sensors.sample_due(t, &self.state, &self.craft, env.as_ref(), &self.act.rod_dipole);
         Ok(())
-    }
-
-    /// Builds the recorded row of one step (column order: [`Layout::names`]).
-    fn fill_row(&mut self, v: &StepView) {
-        let (state, cmd, l) = (&self.state, v.cmd, &self.layout);
-        let tq = self.craft.torques_with(v.t, state, v.input, self.snap.as_ref(), v.wheels);
-        let row = &mut self.row;
-        row.clear();
-        row.push(v.t);
-        row.extend([state.q.i, state.q.j, state.q.k, state.q.w]);
-        row.extend(euler_from_quat(&(v.q_frame.conjugate() * state.q), self.target.seq).map(f64::to_degrees));
-        row.extend(v.target_euler_deg);
-        row.extend(state.w.iter());
-        row.extend(cmd.torque_demand_nm.iter().map(|x| *x as f64));
-        row.extend(cmd.torque_realised_nm.iter().map(|x| *x as f64));
-        row.extend((tq.actuators_nm + tq.magnetic_nm + tq.thrusters_nm).iter());
-        row.push(v.err_deg);
-        row.push(cmd.status as f64);
-        let ipt = self.info.as_ref().and_then(|i| i.instructions_per_tick);
-        row.push(ipt.map_or(f64::NAN, |f| v.ticks as f64 * f));
-        if l.adaptive_gains {
-            row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
-        }
-        if l.mode {
-            row.push(cmd.mode as f64);
-        }
-        if l.flight_error {
-            row.push((cmd.attitude_error_rad as f64).to_degrees());
-        }
-        if l.cmg {
-            row.extend(state.gimbal_rad[..4].iter().map(|x| x.to_degrees()));
-            row.extend(cmd.gimbal_rate_cmd_rad_s.iter().map(|x| *x as f64));
-            row.push(self.craft.cmg.as_ref().map_or(f64::NAN, |c| c.singularity_measure(&state.gimbal_rad)));
-            row.push(cmd.steering_alpha as f64);
-        }
-        for (_, o) in &v.wheels[..v.n_wheels] {
-            let rpm = o.speed_rad_s * 30.0 / std::f64::consts::PI;
-            row.extend([rpm, o.current_a, o.voltage_v, o.power_w, o.friction_nm, o.delivered_torque_nm]);
-        }
-        self.fill_tail(v, &tq);
-        if self.layout.guidance {
-            self.fill_guidance(v.cmd);
-        }
-        if let Some(k) = self.keepout.as_mut() {
-            let g = crate::sensors::suite::exclusion_geometry(v.t, &self.craft, self.snap.as_ref());
-            k.row(&self.state.q, g.as_ref(), &v.cmd.guidance, &mut self.row);
-        }
-    }
-
-    /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
-    /// errors and view of the site, the flight's guidance telemetry, the true orbit state,
-    /// Sun direction and Earth angle.
-    fn fill_guidance(&mut self, cmd: &ActuatorCommand) {
-        let nan = f64::NAN;
-        let row = &mut self.row;
-        let tr = self.truth_row;
-        let e = tr.and_then(|r| r.errors);
-        row.push(e.map_or(nan, |e| e.primary_rad.to_degrees()));
-        row.push(e.map_or(nan, |e| e.secondary_rad.to_degrees()));
-        let g = &cmd.guidance;
-        let [x, y, z, w] = g.q_cmd_xyzw.map(f64::from);
-        let q_flight = Quat::new(w, x, y, z);
-        let guidance_error = match (tr, q_flight.norm()) {
-            (Some(r), n) if n > 0.5 => error_angle_and_vector(&(q_flight / n), &r.q_cmd).0.to_degrees(),
-            _ => nan,
-        };
-        row.push(guidance_error);
-        row.extend(e.map_or([nan; 3], |e| e.target_body.into()));
-        let step = tr.map(|r| r.step);
-        row.push(step.and_then(|s| s.elevation_rad).map_or(nan, f64::to_degrees));
-        row.push(step.and_then(|s| s.visible).map_or(nan, |v| f64::from(u8::from(v))));
-        row.push(self.segments.as_ref().and_then(Segments::current).map_or(nan, |i| i as f64));
-        let parallel = step.and_then(|s| s.ideal).and_then(|i| i.axes).map(|a| a.parallel);
-        row.push(parallel.map_or(nan, |p| f64::from(u8::from(p))));
-        row.extend([f64::from(g.flags), f64::from(g.switches), f64::from(g.parallel_events)]);
-        row.extend(g.rate_cmd_rad_s.map(f64::from));
-        row.extend(g.accel_cmd_rad_s2.map(f64::from));
-        let sky = tr.and_then(|r| r.sky);
-        row.extend(sky.map_or([nan; 3], |s| s.r_m.into()));
-        row.extend(sky.map_or([nan; 3], |s| s.v_m_s.into()));
-        let sun = sky.and_then(|s| (s.sun_m - s.r_m).try_normalize(0.0));
-        row.extend(sun.map_or([nan; 3], Into::into));
-        row.push(tr.map_or(nan, |r| r.earth_angle_rad));
-    }
-
-    /// The actuator-family and environment groups at the end of the row.
-    fn fill_tail(&mut self, v: &StepView, tq: &TorqueReport) {
-        let (state, l, act, row) = (&self.state, &self.layout, &self.act, &mut self.row);
-        if l.magnetorquers {
-            row.extend(v.dipole_cmd);
-            row.extend(act.rod_dipole);
-        }
-        if l.thrusters > 0 {
-            row.push(u32::from(v.cmd.thruster_on) as f64);
-            row.push(act.thr_state.total_propellant_kg());
-            row.push(act.thr_state.pulses.iter().sum::<u32>() as f64);
-            row.extend(v.cmd.thruster_level.iter().take(act.n_thr).map(|x| *x as f64));
-        }
-        if l.field {
-            let b =
-                self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::repeat(f64::NAN), |b| rotate_ref_to_body(&state.q, &b));
-            row.extend(b.iter());
-        }
-        if l.env_torques {
-            let e = &tq.env;
-            let external = e.external + self.craft.external_torque_nm;
-            for v in [e.gravity_gradient, e.drag, e.srp, tq.magnetic_nm, tq.rig_nm, external] {
-                row.extend(v.iter());
-            }
-        }
-        if l.estimation {
-            let nan = f64::NAN;
-            let e = self.estimation.last();
-            row.extend(e.map_or([nan; 5], |e| {
-                [e.error_deg, e.sigma_deg, e.bias_error_deg_h, e.bias_sigma_deg_h, e.nees.unwrap_or(nan)]
-            }));
-            let (rejected, resets) = self.estimation.counters();
-            row.extend([f64::from(rejected), f64::from(resets)]);
-            row.extend(self.estimation.sample_columns());
-        }
-        if l.momentum {
-            let h = self.craft.actuator_momentum(state);
-            row.extend(h.iter());
-            row.extend((crate::attitude::dcm_body_to_ref(&state.q) * h).iter());
-            row.push(h.norm());
-            let b = self.snap.and_then(|s| s.b_ref_t).map_or(Vec3::zeros(), |b| rotate_ref_to_body(&state.q, &b));
-            row.extend(Vec3::from(act.rod_dipole).cross(&b).iter());
-            row.push(f64::from(v.cmd.momentum_events));
-        }
-        if l.eclipse {
-            let shadow = match (self.snap.and_then(|s| s.orbit.map(|(r, _)| (s.t_s, r))), self.craft.env.as_ref()) {
-                (Some((t_s, r)), Some(env)) => f64::from(u8::from(env.in_eclipse(t_s, &r))),
-                _ => f64::NAN,
-            };
-            row.push(shadow);
-        }
     }
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the

@@ -1,0 +1,116 @@
+//! Magnetorquers, thrusters and the actuator delays between the flight's command and the
+//! plant's input (a loop injection, [`super::probe::LoopInjection`], added on the way).
+
+use super::probe::{LoopInjection, PlantCommands};
+use crate::attitude::Vec3;
+use crate::plant::delay::DelayLine;
+use crate::plant::magnetorquers::MagnetorquerSet;
+use crate::plant::thrusters::{ThrusterSet, ThrusterState};
+use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS};
+use acs_flight::link::ActuatorCommand;
+
+/// Magnetorquers and thrusters: command → what the plant receives.
+#[derive(Clone)]
+pub(super) struct Actuation {
+    pub(super) mtq: MagnetorquerSet,
+    pub(super) thrusters: Option<ThrusterSet>,
+    pub(super) thr_state: ThrusterState,
+    pub(super) n_thr: usize,
+    pub(super) rod_dipole: [f64; 3],
+    /// `[actuators.magnetorquers] delay_s` as whole control periods.
+    pub(super) mtq_delay: DelayLine<3>,
+    /// `[actuators.wheels] torque_delay_s` as whole dynamics steps.
+    pub(super) wheel_delay: DelayLine<MAX_WHEELS>,
+    /// `[actuators.cmg] rate_delay_s` as whole control periods.
+    pub(super) gimbal_delay: DelayLine<MAX_GIMBALS>,
+    /// The wheel torque commands of this control period (before `wheel_delay`).
+    pub(super) wheel_cmd: [f64; MAX_WHEELS],
+    /// The gimbal-rate and dipole commands of this control period as the plant receives
+    /// them (a loop injection added; before the delays and limits): what
+    /// [`super::probe::Probe::plant_commands`] reports.
+    pub(super) gimbal_cmd: [f64; MAX_GIMBALS],
+    pub(super) dipole_cmd: [f64; 3],
+}
+
+impl Actuation {
+    pub(super) fn new(
+        mtq: MagnetorquerSet,
+        thrusters: Option<ThrusterSet>,
+        n_thr: usize,
+        wheel_delay: DelayLine<MAX_WHEELS>,
+        gimbal_delay: DelayLine<MAX_GIMBALS>,
+    ) -> Self {
+        Self {
+            mtq_delay: DelayLine::new(mtq.delay_steps),
+            mtq,
+            thrusters,
+            thr_state: ThrusterState::new(n_thr),
+            n_thr,
+            rod_dipole: [0.0; 3],
+            wheel_delay,
+            gimbal_delay,
+            wheel_cmd: [0.0; MAX_WHEELS],
+            gimbal_cmd: [0.0; MAX_GIMBALS],
+            dipole_cmd: [0.0; 3],
+        }
+    }
+
+    /// The plant input held over the control period (thruster torque: see [`Self::thruster_torque`];
+    /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
+    /// A loop injection is added to the commands as the plant receives them (before the
+    /// wheels' torque delay and the gimbal-rate delay, which stay inside the loop).
+    pub(super) fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
+        let mut input = Input::default();
+        for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
+            *d = s as f64;
+        }
+        for (d, s) in self.wheel_cmd.iter_mut().zip(cmd.wheel_torque_cmd_nm).take(MAX_WHEELS) {
+            *d = s as f64;
+        }
+        if let Some(inj) = injection {
+            if inj.replace_commands {
+                self.wheel_cmd = [0.0; MAX_WHEELS];
+                input.gimbal_rate_cmd_rad_s = [0.0; MAX_GIMBALS];
+            }
+            inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
+        }
+        self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
+        input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
+        input.wheel_torque_cmd_nm = self.wheel_torques();
+        let dipole_cmd = cmd.dipole_cmd_am2.map(|x| x as f64);
+        if !self.mtq.rods.is_empty() {
+            let applied = match injection {
+                Some(inj) => inj.add_to_dipole(if inj.replace_commands { [0.0; 3] } else { dipole_cmd }),
+                None => dipole_cmd,
+            };
+            self.dipole_cmd = applied;
+            let acting = self.mtq_delay.push(applied);
+            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
+        }
+        input.dipole_am2 = self.rod_dipole.into();
+        input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);
+        (input, dipole_cmd)
+    }
+
+    /// The wheel torque commands acting over the next dynamics step (after the delay).
+    pub(super) fn wheel_torques(&mut self) -> [f64; MAX_WHEELS] {
+        self.wheel_delay.push(self.wheel_cmd)
+    }
+
+    /// Torque of the thrusters over the dynamics step `[t0, t0 + h)` (advances the valves).
+    pub(super) fn thruster_torque(&mut self, mask: u32, t0: f64, h: f64) -> Vec3 {
+        match &self.thrusters {
+            Some(set) => set.wrench(&set.step(&mut self.thr_state, mask, t0, h)).1.into(),
+            None => Vec3::zeros(),
+        }
+    }
+
+    /// The commands of this control period as the plant receives them.
+    pub(super) fn plant_commands(&self) -> PlantCommands {
+        PlantCommands {
+            wheel_torque_nm: self.wheel_cmd,
+            gimbal_rate_rad_s: self.gimbal_cmd,
+            dipole_am2: self.dipole_cmd,
+        }
+    }
+}
