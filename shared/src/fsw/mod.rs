@@ -15,8 +15,9 @@
 //! 5. control: the law → body-torque (or gimbal-rate) demand ([`crate::control::law`]);
 //! 6. allocate: the actuator family → commands, the torque they realise, saturation
 //!    ([`crate::allocation::family`]);
-//! 7. report: the wire command, and the saturation the laws use for anti-windup next
-//!    step ([`report`]).
+//! 7. report: the wire command (with the estimation stage's own
+//!    [`crate::estimation::status::EstimateStatus`] packed as `EstimateTelemetry`), and
+//!    the saturation the laws use for anti-windup next step ([`report`]).
 //!
 //! No heap, no panics, no loops without a fixed bound.
 
@@ -131,7 +132,7 @@ impl Fsw {
         // the ground uploads the laws).
         let est = self.determination.step(&sensor_samples(f));
         let mut cmd = self.step_active(f, &est);
-        cmd.estimate = est.telemetry;
+        cmd.estimate = report::estimate_telemetry(&est.status);
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
         }

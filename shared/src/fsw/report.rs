@@ -4,8 +4,9 @@
 use crate::allocation::AllocStatus;
 use crate::allocation::family::{Allocation, Commands};
 use crate::control::LawOutput;
-use crate::link::ActuatorCommand;
-use crate::math::{Vec3, norm};
+use crate::estimation::status::{EstimateStatus, FusionCounts, SampleAges};
+use crate::link::{self, ActuatorCommand, EstimateTelemetry};
+use crate::math::{Vec3, norm, quat_to_xyzw};
 use crate::modes::ModeManager;
 use crate::types::Status;
 
@@ -95,5 +96,134 @@ pub fn mode_telemetry(cmd: &mut ActuatorCommand, mgr: &ModeManager) {
     cmd.gimbal_events = mgr.gimbal_events;
     if mgr.momentum_alarm() || mgr.slow_alarm() {
         cmd.status |= Status::MOMENTUM_SATURATION.bits();
+    }
+}
+
+/// The estimation stage's report of the step as the wire carries it (zeros for what the
+/// stage does not have: no estimate, no running filter).
+pub fn estimate_telemetry(s: &EstimateStatus) -> EstimateTelemetry {
+    let mut t = EstimateTelemetry {
+        q_est_xyzw: s.q_est.map_or([0.0; 4], |q| quat_to_xyzw(&q)),
+        accepted: s.accepted,
+        rejected: s.rejected,
+        resets: s.resets,
+        flags: s.flags.bits(),
+        sample_age_s: sample_ages(&s.sample_age_s),
+        fusion: fusion_counters(&s.fusion),
+        ..Default::default()
+    };
+    if let Some(f) = &s.filter {
+        t.bias_est_rad_s = f.bias_rad_s.into();
+        t.covariance_upper = f.covariance_upper;
+        t.since_update_s = f.since_update_s;
+        t.last_nis = f.last_nis;
+    }
+    t
+}
+
+fn sample_ages(a: &SampleAges) -> link::SampleAges {
+    link::SampleAges { gyro: a.gyro, star_tracker: a.star_tracker, sun: a.sun, magnetometer: a.magnetometer }
+}
+
+fn fusion_counters(c: &FusionCounts) -> link::FusionCounters {
+    link::FusionCounters {
+        fused_now: c.fused_now,
+        fused_late: c.fused_late,
+        too_old: c.too_old,
+        from_the_future: c.from_the_future,
+        out_of_order: c.out_of_order,
+        bad_input: c.bad_input,
+        max_replayed_nodes: c.max_replayed_nodes,
+        fused_after_wait: c.fused_after_wait,
+        dropped_waiting: c.dropped_waiting,
+        waiting: c.waiting,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::estimation::status::{EstimateFlags, FilterStatus};
+    use crate::link::estimate_flags;
+
+    /// The stage's flags carry the wire's bits, one for one.
+    #[test]
+    fn estimate_flags_are_the_wire_bits() {
+        let pairs = [
+            (EstimateFlags::ATTITUDE, estimate_flags::ATTITUDE),
+            (EstimateFlags::MEKF, estimate_flags::MEKF),
+            (EstimateFlags::NAVIGATION, estimate_flags::NAVIGATION),
+            (EstimateFlags::ECLIPSE, estimate_flags::ECLIPSE),
+            (EstimateFlags::SUN_SEEN, estimate_flags::SUN_SEEN),
+        ];
+        for (mine, wire) in pairs {
+            assert_eq!(mine.bits(), wire);
+        }
+        assert_eq!(EstimateFlags::all().bits(), pairs.iter().fold(0, |a, p| a | p.1));
+    }
+
+    /// Every field lands in its wire field (distinct values, so a swap shows); without a
+    /// filter or an estimate the wire carries zeros.
+    #[test]
+    fn estimate_telemetry_packs_every_field() {
+        let q = crate::math::Quat::new(0.5, 0.5, -0.5, 0.5);
+        let mut cov = [0.0; 21];
+        for (k, c) in cov.iter_mut().enumerate() {
+            *c = k as f32 + 0.25;
+        }
+        let fusion = FusionCounts {
+            fused_now: 1,
+            fused_late: 2,
+            too_old: 3,
+            from_the_future: 4,
+            out_of_order: 5,
+            bad_input: 6,
+            max_replayed_nodes: 7,
+            fused_after_wait: 8,
+            dropped_waiting: 9,
+            waiting: 10,
+        };
+        let s = EstimateStatus {
+            q_est: Some(q),
+            filter: Some(FilterStatus {
+                bias_rad_s: Vec3::new(1e-3, -2e-3, 3e-3),
+                covariance_upper: cov,
+                since_update_s: 0.75,
+                last_nis: 2.5,
+            }),
+            accepted: 11,
+            rejected: 12,
+            resets: 13,
+            flags: EstimateFlags::MEKF | EstimateFlags::ECLIPSE,
+            sample_age_s: SampleAges { gyro: 0.1, star_tracker: 0.2, sun: -1.0, magnetometer: 0.4 },
+            fusion,
+        };
+        let t = estimate_telemetry(&s);
+        assert_eq!(t.q_est_xyzw, [0.5, -0.5, 0.5, 0.5]);
+        assert_eq!(t.bias_est_rad_s, [1e-3, -2e-3, 3e-3]);
+        assert_eq!(t.covariance_upper, cov);
+        assert_eq!((t.since_update_s, t.last_nis), (0.75, 2.5));
+        assert_eq!((t.accepted, t.rejected, t.resets), (11, 12, 13));
+        assert_eq!(t.flags, estimate_flags::MEKF | estimate_flags::ECLIPSE);
+        let a = t.sample_age_s;
+        assert_eq!([a.gyro, a.star_tracker, a.sun, a.magnetometer], [0.1, 0.2, -1.0, 0.4]);
+        let f = t.fusion;
+        let got = [
+            f.fused_now,
+            f.fused_late,
+            f.too_old,
+            f.from_the_future,
+            f.out_of_order,
+            f.bad_input,
+            u32::from(f.max_replayed_nodes),
+            f.fused_after_wait,
+            f.dropped_waiting,
+            u32::from(f.waiting),
+        ];
+        assert_eq!(got, [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]);
+        let empty = estimate_telemetry(&EstimateStatus { q_est: None, filter: None, ..s });
+        assert_eq!(empty.q_est_xyzw, [0.0; 4]);
+        assert_eq!((empty.bias_est_rad_s, empty.covariance_upper), ([0.0; 3], [0.0; 21]));
+        assert_eq!((empty.since_update_s, empty.last_nis), (0.0, 0.0));
     }
 }
