@@ -309,30 +309,11 @@ impl Determination {
         let mut flags = EstimateFlags::empty();
         flags.set(EstimateFlags::ATTITUDE, attitude.is_some());
         flags.set(EstimateFlags::MEKF, filter.is_some());
-        let filter = filter.map(|m| {
-            let p = m.covariance();
-            let mut covariance_upper = [0.0; 21];
-            // Row-major upper triangle: (0,0), (0,1), …, (0,5), (1,1), …, (5,5).
-            let upper = (0..6usize).flat_map(|i| (i..6usize).map(move |j| (i, j)));
-            for (dst, ij) in covariance_upper.iter_mut().zip(upper) {
-                if let Some(v) = p.get(ij) {
-                    *dst = *v;
-                }
-            }
-            let h = m.health();
-            let status = FilterStatus {
-                bias_rad_s: m.bias_rad_s(),
-                covariance_upper,
-                since_update_s: h.since_update_s,
-                last_nis: h.last_nis,
-            };
-            (m.attitude(), status)
-        });
         // ≤ MAX_WAITING (16).
         let waiting = u16::try_from(self.waiting.len()).unwrap_or(u16::MAX);
-        EstimateStatus {
-            q_est: filter.map(|f| f.0).or(attitude),
-            filter: filter.map(|f| f.1),
+        let mut st = EstimateStatus {
+            q_est: attitude,
+            filter: None,
             accepted: self.accepted,
             rejected: self.rejected,
             resets: self.resets,
@@ -344,7 +325,27 @@ impl Determination {
                 magnetometer: age_s(s.time_us, s.magnetometer.map(|x| x.time_us)),
             },
             fusion: FusionCounts { waiting, ..self.fusion },
+        };
+        if let Some(m) = filter {
+            st.q_est = Some(m.attitude());
+            let h = m.health();
+            // Filled in place (no copy of the 21 values on the step's hot path).
+            let f = st.filter.insert(FilterStatus {
+                bias_rad_s: m.bias_rad_s(),
+                covariance_upper: [0.0; 21],
+                since_update_s: h.since_update_s,
+                last_nis: h.last_nis,
+            });
+            let p = m.covariance();
+            // Row-major upper triangle: (0,0), (0,1), …, (0,5), (1,1), …, (5,5).
+            let upper = (0..6usize).flat_map(|i| (i..6usize).map(move |j| (i, j)));
+            for (dst, ij) in f.covariance_upper.iter_mut().zip(upper) {
+                if let Some(v) = p.get(ij) {
+                    *dst = *v;
+                }
+            }
         }
+        st
     }
 
     /// Stop the filter; the samples waiting for it can no longer be fused (counted).

@@ -132,7 +132,7 @@ impl Fsw {
         // the ground uploads the laws).
         let est = self.determination.step(&sensor_samples(f));
         let mut cmd = self.step_active(f, &est);
-        cmd.estimate = report::estimate_telemetry(&est.status);
+        report::pack_estimate(&mut cmd.estimate, &est.status);
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
         }

@@ -102,23 +102,35 @@ pub fn mode_telemetry(cmd: &mut ActuatorCommand, mgr: &ModeManager) {
 /// The estimation stage's report of the step as the wire carries it (zeros for what the
 /// stage does not have: no estimate, no running filter).
 pub fn estimate_telemetry(s: &EstimateStatus) -> EstimateTelemetry {
-    let mut t = EstimateTelemetry {
-        q_est_xyzw: s.q_est.map_or([0.0; 4], |q| quat_to_xyzw(&q)),
-        accepted: s.accepted,
-        rejected: s.rejected,
-        resets: s.resets,
-        flags: s.flags.bits(),
-        sample_age_s: sample_ages(&s.sample_age_s),
-        fusion: fusion_counters(&s.fusion),
-        ..Default::default()
-    };
-    if let Some(f) = &s.filter {
-        t.bias_est_rad_s = f.bias_rad_s.into();
-        t.covariance_upper = f.covariance_upper;
-        t.since_update_s = f.since_update_s;
-        t.last_nis = f.last_nis;
-    }
+    let mut t = EstimateTelemetry::default();
+    pack_estimate(&mut t, s);
     t
+}
+
+/// [`estimate_telemetry`] written over every field of `t` in place (the command's own
+/// field: no zeroing and copy of the 48-word struct on the step's hot path).
+pub fn pack_estimate(t: &mut EstimateTelemetry, s: &EstimateStatus) {
+    t.q_est_xyzw = s.q_est.map_or([0.0; 4], |q| quat_to_xyzw(&q));
+    t.accepted = s.accepted;
+    t.rejected = s.rejected;
+    t.resets = s.resets;
+    t.flags = s.flags.bits();
+    t.sample_age_s = sample_ages(&s.sample_age_s);
+    t.fusion = fusion_counters(&s.fusion);
+    match &s.filter {
+        Some(f) => {
+            t.bias_est_rad_s = f.bias_rad_s.into();
+            t.covariance_upper = f.covariance_upper;
+            t.since_update_s = f.since_update_s;
+            t.last_nis = f.last_nis;
+        }
+        None => {
+            t.bias_est_rad_s = [0.0; 3];
+            t.covariance_upper = [0.0; 21];
+            t.since_update_s = 0.0;
+            t.last_nis = 0.0;
+        }
+    }
 }
 
 fn sample_ages(a: &SampleAges) -> link::SampleAges {
@@ -225,5 +237,10 @@ mod tests {
         assert_eq!(empty.q_est_xyzw, [0.0; 4]);
         assert_eq!((empty.bias_est_rad_s, empty.covariance_upper), ([0.0; 3], [0.0; 21]));
         assert_eq!((empty.since_update_s, empty.last_nis), (0.0, 0.0));
+        // Written in place over a command that carried the full report: every field
+        // overwritten (a field left out would keep the old value here).
+        let mut over = t;
+        pack_estimate(&mut over, &EstimateStatus { q_est: None, filter: None, ..s });
+        assert_eq!(over, empty);
     }
 }
