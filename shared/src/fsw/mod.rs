@@ -207,7 +207,7 @@ impl Fsw {
         // Allocate.
         let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
         // Report.
-        let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
+        let r = report::Report::new(&out, &alloc, flags, cfg.law.status());
         self.torque_last = match &dump {
             Some(d) => r.torque_for_estimator() + d.pulse_nm,
             // Not `+ 0`: a -0.0 component stays -0.0 (same bits as before the dump existed).
@@ -215,7 +215,6 @@ impl Fsw {
         };
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
-        cmd.adaptive_proportional_gain = cfg.law.adaptive_proportional_gain();
         cmd.guidance = cfg.guidance.telemetry();
         if let Some(d) = dump {
             cmd.thruster_on = d.on;

@@ -3,9 +3,10 @@
 
 use crate::allocation::AllocStatus;
 use crate::allocation::family::{Allocation, Commands};
-use crate::control::LawOutput;
+use crate::control::sun_safe::SunSafePhase;
+use crate::control::{LawOutput, LawStatus};
 use crate::estimation::status::{EstimateStatus, FusionCounts, SampleAges};
-use crate::link::{self, ActuatorCommand, EstimateTelemetry};
+use crate::link::{self, ActuatorCommand, EstimateTelemetry, LAW_TELEMETRY_LEN, law_slots};
 use crate::math::{Vec3, norm, quat_to_xyzw};
 use crate::modes::ModeManager;
 use crate::types::Status;
@@ -16,7 +17,37 @@ pub struct Report<'a> {
     pub out: &'a LawOutput,
     pub alloc: &'a Allocation,
     pub status: Status,
-    pub law_telemetry: [f32; 3],
+    pub law: LawStatus,
+}
+
+/// The law's status in the wire's generic slot ([`law_slots`]).
+pub fn law_telemetry(law: &LawStatus) -> [f32; LAW_TELEMETRY_LEN] {
+    let mut t = [0.0; LAW_TELEMETRY_LEN];
+    match law {
+        LawStatus::Stateless => {}
+        LawStatus::Dmcs { feedforward_gain, proportional_gain } => {
+            put(&mut t, law_slots::DMCS_FEEDFORWARD_GAIN.start, feedforward_gain);
+            put(&mut t, law_slots::DMCS_PROPORTIONAL_GAIN.start, proportional_gain.as_flattened());
+        }
+        LawStatus::SunSafe { phase, memory_age_s } => {
+            let code = match phase {
+                SunSafePhase::Pointing => 0.0,
+                SunSafePhase::Searching => 1.0,
+                SunSafePhase::EclipseHold => 2.0,
+            };
+            put(&mut t, law_slots::SUN_SAFE_PHASE, &[code]);
+            put(&mut t, law_slots::SUN_SAFE_MEMORY_AGE_S, &[*memory_age_s]);
+        }
+    }
+    t
+}
+
+/// Copies `values` into `t` from `start` (what does not fit is dropped: the slot layout is
+/// a compile-time table, checked by the tests to fit).
+fn put(t: &mut [f32; LAW_TELEMETRY_LEN], start: usize, values: &[f32]) {
+    for (dst, v) in t.iter_mut().skip(start).zip(values) {
+        *dst = *v;
+    }
 }
 
 /// Status bits of an allocation outcome.
@@ -33,7 +64,7 @@ pub fn alloc_status(s: AllocStatus) -> Status {
 
 impl<'a> Report<'a> {
     /// `flags`: what the step found before allocating (`LAW_FAULT`).
-    pub fn new(out: &'a LawOutput, alloc: &'a Allocation, flags: Status, law_telemetry: [f32; 3]) -> Self {
+    pub fn new(out: &'a LawOutput, alloc: &'a Allocation, flags: Status, law: LawStatus) -> Self {
         let mut status = flags | alloc.flags | alloc_status(alloc.status);
         if out.limited {
             status |= Status::TORQUE_LIMITED;
@@ -46,7 +77,7 @@ impl<'a> Report<'a> {
         if norm(&(realised - demand)) > 0.01 * norm(&demand) + 1e-12 {
             status |= Status::TORQUE_SHORTFALL;
         }
-        Self { out, alloc, status, law_telemetry }
+        Self { out, alloc, status, law }
     }
 
     /// The realised torque the LQG estimator propagates next step (zero if not finite).
@@ -64,7 +95,7 @@ impl<'a> Report<'a> {
             torque_realised_nm: a.realised,
             attitude_error_rad: self.out.error_angle_rad,
             alloc_iterations: a.iterations,
-            law_telemetry: self.law_telemetry,
+            law_telemetry: law_telemetry(&self.law),
             saturated: a.sat_low | a.sat_high,
             status: self.status.bits(),
             ..Default::default()
@@ -157,6 +188,25 @@ mod tests {
     use super::*;
     use crate::estimation::status::{EstimateFlags, FilterStatus};
     use crate::link::estimate_flags;
+
+    /// Each law's values land in its slots and read back through the ground's readers
+    /// (that the slots fit and do not overlap is a compile-time check in `law_slots`).
+    #[test]
+    fn law_status_packs_into_its_slots() {
+        use law_slots::*;
+        let ff = [1.5, -2.5, 3.5];
+        let kp = [[4.0, 5.0], [6.0, 7.0], [8.0, 9.0]];
+        let t = law_telemetry(&LawStatus::Dmcs { feedforward_gain: ff, proportional_gain: kp });
+        assert_eq!(dmcs_feedforward_gain(&t), ff);
+        assert_eq!(dmcs_proportional_gain(&t), kp);
+        // The readers agree with the ranges (written apart: destructuring vs ranges).
+        assert_eq!(t.get(DMCS_FEEDFORWARD_GAIN), Some(&ff[..]));
+        assert_eq!(t.get(DMCS_PROPORTIONAL_GAIN), Some(kp.as_flattened()));
+        let s = law_telemetry(&LawStatus::SunSafe { phase: SunSafePhase::EclipseHold, memory_age_s: 12.25 });
+        assert_eq!((s[SUN_SAFE_PHASE], s[SUN_SAFE_MEMORY_AGE_S]), (2.0, 12.25));
+        assert_eq!(s.iter().filter(|x| **x != 0.0).count(), 2);
+        assert_eq!(law_telemetry(&LawStatus::Stateless), [0.0; LAW_TELEMETRY_LEN]);
+    }
 
     /// The stage's flags carry the wire's bits, one for one.
     #[test]
