@@ -336,7 +336,7 @@ mod tests {
         let p = FlightParams { controller: ControllerParams::Dmcs(dmcs), ..FlightParams::default() };
         assert!(matches!(up(&mut s, p), Some(FswMsg::ParamsAccepted { .. })));
         let gains = |r: Option<FswMsg>| match r {
-            Some(FswMsg::Step(r)) => r.cmd.adaptive_proportional_gain,
+            Some(FswMsg::Step(r)) => crate::link::law_slots::dmcs_proportional_gain(&r.cmd.law_telemetry),
             other => panic!("{other:?}"),
         };
         let mut last = [[0.0; 2]; 3];

@@ -12,6 +12,7 @@
 //! 0–3°/s. The same runs with the sample times hidden (every sample tagged with the frame
 //! time, what protocol ≤ 12 did) are shown inconsistent, so the check has power.
 use acs_flight::estimation::determination::Determination;
+use acs_flight::fsw::report::estimate_telemetry;
 use acs_flight::link::{EstimateTelemetry, SensorFrame, estimate_flags, valid};
 use acs_flight::params::{AttitudeSource, EstimationParams};
 use acs_flight::validation::sensor_samples;
@@ -194,7 +195,7 @@ fn run_observed(
         }
         let w_meas = truth.w + bias + rng.vec() * (ARW / DT_S.sqrt());
         let f = frame(k, &inc, &w_meas, delivered.as_ref(), hide_times);
-        let t_tel = est.step(&sensor_samples(&f)).telemetry;
+        let t_tel = estimate_telemetry(&est.step(&sensor_samples(&f)).status);
         observe(&f, &taken, &t_tel);
         if k >= WARMUP && t_tel.flags & estimate_flags::MEKF != 0 {
             let x = error_state(&truth.at(t), &bias, &t_tel);

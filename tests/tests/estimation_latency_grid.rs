@@ -30,6 +30,7 @@
 use acs_flight::estimation::determination::Determination;
 use acs_flight::estimation::history::Measurement;
 use acs_flight::estimation::mekf::{CHI2_2DOF_999, CHI2_3DOF_999, Mekf};
+use acs_flight::fsw::report::estimate_telemetry;
 use acs_flight::link::{EstimateTelemetry, FusionCounters, SensorFrame, valid};
 use acs_flight::math::Vec3;
 use acs_flight::validation::sensor_samples;
@@ -132,7 +133,7 @@ fn traced(sc: &Scenario) -> (Traced, runner::RunResult) {
     let r = {
         let mut link = Tap::new(InProcess::new(), |t: Tapped<'_>| {
             if let Tapped::Step(f, reply) = t {
-                let mine = twin.step(&sensor_samples(f)).telemetry;
+                let mine = estimate_telemetry(&twin.step(&sensor_samples(f)).status);
                 assert_eq!(mine, reply.cmd.estimate, "the twin answers as the flight code at frame {}", f.seq);
                 let k = tr.frames.len();
                 tr.scan(&twin, k);

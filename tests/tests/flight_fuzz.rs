@@ -28,7 +28,6 @@ fn finite(c: &ActuatorCommand) -> bool {
         .chain(&c.torque_demand_nm)
         .chain(&c.torque_realised_nm)
         .chain(&c.law_telemetry)
-        .chain(c.adaptive_proportional_gain.iter().flatten())
         .chain(&[c.attitude_error_rad, c.singularity_measure, c.steering_alpha])
         .all(|x| x.is_finite())
 }

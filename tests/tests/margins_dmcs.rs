@@ -34,6 +34,7 @@
 //! ("not linear and time-invariant", docs/margins.md): the response at the frequencies
 //! that do settle is what is compared.
 
+use acs_flight::link::law_slots;
 use acs_tests::repo;
 use nalgebra::{Complex, SMatrix};
 use sim_core::link::{FlightLink, LinkKind, LinkOptions};
@@ -126,7 +127,7 @@ fn measure_at(
             u[i][axis] = c.u[i];
             e[i][axis] = c.e[i];
         }
-        kp = exc.last_step().unwrap().0.adaptive_proportional_gain;
+        kp = law_slots::dmcs_proportional_gain(&exc.last_step().unwrap().0.law_telemetry);
     }
     (f.rad_s(T), loop_from_columns(&u, &e).unwrap(), converged, kp)
 }
@@ -157,7 +158,7 @@ fn frozen_dmcs_hold_matches_the_closed_form_of_its_frozen_gains() {
     let p = OperatingPoint {
         inertia: base.craft().inertia,
         momentum: base.craft().actuator_momentum(base.state()),
-        kp: base.last_step().unwrap().0.adaptive_proportional_gain,
+        kp: law_slots::dmcs_proportional_gain(&base.last_step().unwrap().0.law_telemetry),
     };
     assert_eq!(frozen.proportional_gain, p.kp);
     eprintln!(

@@ -7,6 +7,7 @@
 //! QEMU as in-process: the same Δk_p, bit for bit, constant once frozen. Where
 //! qemu-system-arm is not installed: fails under CI, skips loudly otherwise.
 
+use acs_flight::link::law_slots;
 use acs_tests::{build_qemu_firmware, qemu_available, repo};
 use sim_core::link::{LinkKind, LinkOptions};
 use sim_core::recorder::series::Discard;
@@ -83,7 +84,10 @@ fn frozen_dmcs_run(link: &LinkKind, sc: &Scenario, freeze_at: u64) -> Vec<([[f32
         }
         sim.step(&mut Discard).unwrap();
         let (cmd, _) = sim.last_step().unwrap();
-        gains.push((cmd.adaptive_proportional_gain, cmd.law_telemetry));
+        gains.push((
+            law_slots::dmcs_proportional_gain(&cmd.law_telemetry),
+            law_slots::dmcs_feedforward_gain(&cmd.law_telemetry),
+        ));
     }
     gains
 }

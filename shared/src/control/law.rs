@@ -49,11 +49,26 @@ pub trait AttitudeLaw {
     fn update(&mut self, x: &LawInputs<'_>) -> LawOutput;
     /// Fresh state (integrators, filters, adaptive gains, estimate).
     fn reset(&mut self);
-    /// Internal state worth plotting (DMCS: Δk_u per axis; sun-safe: phase, memory age;
-    /// others: 0).
-    fn telemetry(&self) -> [f32; 3] {
-        [0.0; 3]
+    /// Internal state worth reporting ([`LawStatus`]; `fsw::report` packs it into the
+    /// wire's generic slot).
+    fn status(&self) -> LawStatus {
+        LawStatus::Stateless
     }
+}
+
+/// What a law reports of its internal state. Each law speaks its own variant; the wire
+/// carries it in one generic slot (`ActuatorCommand::law_telemetry`, layout in
+/// [`crate::link::law_slots`]), so a new law adds a variant here and its slots there,
+/// with no change to the message.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LawStatus {
+    /// Nothing beyond the demand (PD laws, LQR, LQG, B-dot, rate damping).
+    Stateless,
+    /// DMCS adaptive gains (paper 001 eq 44, `u_p = Δk_p x_p + Δk_u u_m`): Δk_u per axis,
+    /// and Δk_p per axis `[on q_e, on ω]`.
+    Dmcs { feedforward_gain: [f32; 3], proportional_gain: [[f32; 2]; 3] },
+    /// Sun-safe: its phase and the age of the remembered Sun direction, s.
+    SunSafe { phase: SunSafePhase, memory_age_s: f32 },
 }
 
 /// The configured law: gains and, for laws with memory, their state.
@@ -155,15 +170,6 @@ impl Law {
         }
     }
 
-    /// The adaptive proportional gains of DMCS, `Δk_p` per axis `[on q_e, on ω]` (eq 44);
-    /// zeros for the other laws.
-    pub fn adaptive_proportional_gain(&self) -> [[f32; 2]; 3] {
-        match self {
-            Self::Dmcs(_, s) => s.dkp,
-            _ => [[0.0; 2]; 3],
-        }
-    }
-
     /// Detumbling and sun-safe need no attitude (star trackers lose lock while tumbling;
     /// sun-safe is what runs when the attitude is lost).
     pub fn needs_attitude(&self) -> bool {
@@ -216,21 +222,11 @@ impl AttitudeLaw for Law {
         }
     }
 
-    fn telemetry(&self) -> [f32; 3] {
+    fn status(&self) -> LawStatus {
         match self {
-            Self::Dmcs(_, s) => s.dku,
-            // Sun-safe: phase (0 pointing, 1 searching, 2 eclipse hold), age of the
-            // remembered Sun direction, s.
-            Self::SunSafe(s) => [
-                match s.phase() {
-                    SunSafePhase::Pointing => 0.0,
-                    SunSafePhase::Searching => 1.0,
-                    SunSafePhase::EclipseHold => 2.0,
-                },
-                s.memory_age_s(),
-                0.0,
-            ],
-            _ => [0.0; 3],
+            Self::Dmcs(_, s) => LawStatus::Dmcs { feedforward_gain: s.dku, proportional_gain: s.dkp },
+            Self::SunSafe(s) => LawStatus::SunSafe { phase: s.phase(), memory_age_s: s.memory_age_s() },
+            _ => LawStatus::Stateless,
         }
     }
 }

@@ -16,7 +16,7 @@ pub use bdot::{Bdot, BdotGains};
 pub use dcm_pd::{DcmPdGains, dcm_pd};
 pub use dmcs::{Dmcs, DmcsGains};
 pub use euler_pd::{EulerPdGains, euler_pd};
-pub use law::{AttitudeLaw, Law, LawInputs, LawOutput};
+pub use law::{AttitudeLaw, Law, LawInputs, LawOutput, LawStatus};
 pub use lqr::{LqrGains, lqr, lqr_from_state, lqr_state, state_feedback};
 pub use quaternion_feedback::{QuaternionFeedback, QuaternionFeedbackGains};
 pub use rate_damping::{RateDampingGains, rate_damping};

@@ -34,10 +34,10 @@ use super::history::{FuseOutcome, FuseRefusal, Measurement, MekfHistory, SensorT
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::references::References;
+use super::status::{EstimateFlags, EstimateStatus, FilterStatus, FusionCounts, SampleAges};
 use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
-use crate::link::{EstimateTelemetry, FusionCounters, SampleAges, estimate_flags};
-use crate::math::{Quat, Vec3, quat_to_xyzw};
+use crate::math::{Quat, Vec3};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
 use crate::types::{GyroRate, SensorSamples, StarTrackerAttitude, Valid};
@@ -65,7 +65,8 @@ pub struct Estimate {
     /// Sensors whose newest sample is older than `max_sample_age_s` (or from the future):
     /// lost, whatever their valid bit says.
     pub stale: Valid,
-    pub telemetry: EstimateTelemetry,
+    /// What the stage reports about the step (packed for the wire by `Fsw::step`).
+    pub status: EstimateStatus,
 }
 
 /// One sensor's bookkeeping: the time of the newest sample seen (a sample repeated with
@@ -113,7 +114,7 @@ pub struct Determination {
     /// Counters kept across filter restarts.
     accepted: u32,
     rejected: u32,
-    fusion: FusionCounters,
+    fusion: FusionCounts,
     /// `params.max_sample_age_s` in µs.
     max_sample_age_us: u64,
 }
@@ -168,18 +169,7 @@ impl Determination {
             // Validated: 0 < max_sample_age_s ≤ 3600, so the product fits.
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             max_sample_age_us: (params.max_sample_age_s * 1.0e6) as u64,
-            fusion: FusionCounters {
-                fused_now: 0,
-                fused_late: 0,
-                too_old: 0,
-                from_the_future: 0,
-                out_of_order: 0,
-                bad_input: 0,
-                max_replayed_nodes: 0,
-                fused_after_wait: 0,
-                dropped_waiting: 0,
-                waiting: 0,
-            },
+            fusion: FusionCounts::ZERO,
         }
     }
 
@@ -274,16 +264,10 @@ impl Determination {
             AttitudeSource::Mekf => self.mekf_step(s.time_us, gyro.as_ref(), s, &v),
         };
         let (attitude, rate) = (out.attitude, out.rate_rad_s);
-        let mut t = self.telemetry(s, attitude, out.filter.as_ref());
-        if nav.is_some() {
-            t.flags |= estimate_flags::NAVIGATION;
-        }
-        if eclipse {
-            t.flags |= estimate_flags::ECLIPSE;
-        }
-        if v.sun_body.is_some() {
-            t.flags |= estimate_flags::SUN_SEEN;
-        }
+        let mut status = self.status(s, attitude, out.filter.as_ref());
+        status.flags.set(EstimateFlags::NAVIGATION, nav.is_some());
+        status.flags.set(EstimateFlags::ECLIPSE, eclipse);
+        status.flags.set(EstimateFlags::SUN_SEEN, v.sun_body.is_some());
         Estimate {
             source: self.params.source,
             attitude,
@@ -292,7 +276,7 @@ impl Determination {
             sun_body: v.sun_body,
             eclipse,
             stale,
-            telemetry: t,
+            status,
         }
     }
 
@@ -319,43 +303,49 @@ impl Determination {
         }
     }
 
-    /// The step's telemetry: estimate and covariance (`filter`: the MEKF at the step's
+    /// The step's report: estimate and covariance (`filter`: the MEKF at the step's
     /// time), counters, sample ages.
-    fn telemetry(&self, s: &SensorSamples, attitude: Option<Quat>, filter: Option<&Mekf>) -> EstimateTelemetry {
-        let mut t = EstimateTelemetry::default();
-        if let Some(q) = attitude {
-            t.q_est_xyzw = quat_to_xyzw(&q);
-            t.flags |= estimate_flags::ATTITUDE;
-        }
+    fn status(&self, s: &SensorSamples, attitude: Option<Quat>, filter: Option<&Mekf>) -> EstimateStatus {
+        let mut flags = EstimateFlags::empty();
+        flags.set(EstimateFlags::ATTITUDE, attitude.is_some());
+        flags.set(EstimateFlags::MEKF, filter.is_some());
+        // ≤ MAX_WAITING (16).
+        let waiting = u16::try_from(self.waiting.len()).unwrap_or(u16::MAX);
+        let mut st = EstimateStatus {
+            q_est: attitude,
+            filter: None,
+            accepted: self.accepted,
+            rejected: self.rejected,
+            resets: self.resets,
+            flags,
+            sample_age_s: SampleAges {
+                gyro: age_s(s.time_us, s.gyro.map(|x| x.time_us)),
+                star_tracker: age_s(s.time_us, s.star_tracker.map(|x| x.time_us)),
+                sun: age_s(s.time_us, s.sun_sensor.map(|x| x.time_us).or(s.css.map(|x| x.time_us))),
+                magnetometer: age_s(s.time_us, s.magnetometer.map(|x| x.time_us)),
+            },
+            fusion: FusionCounts { waiting, ..self.fusion },
+        };
         if let Some(m) = filter {
-            t.flags |= estimate_flags::MEKF;
-            t.q_est_xyzw = quat_to_xyzw(&m.attitude());
-            t.bias_est_rad_s = m.bias_rad_s().into();
+            st.q_est = Some(m.attitude());
+            let h = m.health();
+            // Filled in place (no copy of the 21 values on the step's hot path).
+            let f = st.filter.insert(FilterStatus {
+                bias_rad_s: m.bias_rad_s(),
+                covariance_upper: [0.0; 21],
+                since_update_s: h.since_update_s,
+                last_nis: h.last_nis,
+            });
             let p = m.covariance();
             // Row-major upper triangle: (0,0), (0,1), …, (0,5), (1,1), …, (5,5).
             let upper = (0..6usize).flat_map(|i| (i..6usize).map(move |j| (i, j)));
-            for (dst, ij) in t.covariance_upper.iter_mut().zip(upper) {
+            for (dst, ij) in f.covariance_upper.iter_mut().zip(upper) {
                 if let Some(v) = p.get(ij) {
                     *dst = *v;
                 }
             }
-            let h = m.health();
-            t.since_update_s = h.since_update_s;
-            t.last_nis = h.last_nis;
         }
-        t.accepted = self.accepted;
-        t.rejected = self.rejected;
-        t.resets = self.resets;
-        t.sample_age_s = SampleAges {
-            gyro: age_s(s.time_us, s.gyro.map(|x| x.time_us)),
-            star_tracker: age_s(s.time_us, s.star_tracker.map(|x| x.time_us)),
-            sun: age_s(s.time_us, s.sun_sensor.map(|x| x.time_us).or(s.css.map(|x| x.time_us))),
-            magnetometer: age_s(s.time_us, s.magnetometer.map(|x| x.time_us)),
-        };
-        t.fusion = self.fusion;
-        // ≤ MAX_WAITING (16).
-        t.fusion.waiting = u16::try_from(self.waiting.len()).unwrap_or(u16::MAX);
-        t
+        st
     }
 
     /// Stop the filter; the samples waiting for it can no longer be fused (counted).
@@ -780,6 +770,7 @@ const fn css_heads(p: &EstimationParams) -> CssHeads {
 mod tests {
     use super::*;
     use crate::link::{SensorFrame, valid};
+    use crate::math::quat_to_xyzw;
     use crate::math::{EulerSeq, quat_from_euler};
     use crate::validation::sensor_samples;
 
@@ -813,12 +804,12 @@ mod tests {
         let hit = d.step(&frame(201, &bad));
         // Counted as rejected, and the estimate has not moved toward the outlier: still
         // within 1e-5 rad (f32 rounding of propagation at rest) of the truth.
-        assert_eq!(hit.telemetry.rejected, before.telemetry.rejected + 1);
+        assert_eq!(hit.status.rejected, before.status.rejected + 1);
         let e = crate::math::rotation_angle(&crate::math::attitude_error(&hit.attitude.unwrap(), &q));
         assert!(e < 1.0e-5, "{e}");
-        assert!(hit.telemetry.last_nis > crate::estimation::mekf::CHI2_3DOF_999);
+        assert!(hit.status.filter.map_or(0.0, |f| f.last_nis) > crate::estimation::mekf::CHI2_3DOF_999);
         // One outlier is not divergence: no restart.
-        assert_eq!(hit.telemetry.resets, 0);
+        assert_eq!(hit.status.resets, 0);
     }
 
     #[test]
@@ -837,7 +828,7 @@ mod tests {
             last = Some(d.step(&frame(k, &moved)));
         }
         let last = last.unwrap();
-        assert_eq!(last.telemetry.resets, 1);
+        assert_eq!(last.status.resets, 1);
         let e = crate::math::rotation_angle(&crate::math::attitude_error(&last.attitude.unwrap(), &moved));
         assert!(e < 1.0e-3, "{e}");
     }
@@ -859,8 +850,8 @@ mod tests {
             f.sampled_at.star_tracker_us = frozen_at_us;
             let e = d.step(&sensor_samples(&f));
             let age_s = (u64::from(k) * 100_000 - frozen_at_us) as f32 * 1e-6;
-            assert!((e.telemetry.sample_age_s.star_tracker - age_s).abs() < 1e-6);
-            assert_eq!(e.telemetry.sample_age_s.gyro, 0.0);
+            assert!((e.status.sample_age_s.star_tracker - age_s).abs() < 1e-6);
+            assert_eq!(e.status.sample_age_s.gyro, 0.0);
             let lost = age_s > 3.0;
             assert_eq!(e.stale.contains(Valid::ATTITUDE), lost, "k = {k}");
             assert_eq!(e.attitude.is_none(), lost, "k = {k}");
@@ -883,18 +874,18 @@ mod tests {
         };
         f.sampled_at.star_tracker_us = 2_000_001;
         let e = d.step(&sensor_samples(&f));
-        assert_eq!(e.telemetry.fusion.from_the_future, 1);
+        assert_eq!(e.status.fusion.from_the_future, 1);
         // Every tracker sample fused once (the first where it started the filter).
-        assert_eq!(e.telemetry.fusion.fused_now + e.telemetry.fusion.fused_late, 20);
+        assert_eq!(e.status.fusion.fused_now + e.status.fusion.fused_late, 20);
         // The same sample time again is the same (held) sample: fused once, not refused.
-        let before = e.telemetry.fusion;
+        let before = e.status.fusion;
         let mut g = SensorFrame { seq: 21, time_us: 2_100_000, ..f };
         g.sampled_at =
             crate::link::SampleTimes { star_tracker_us: 2_000_000, ..crate::link::SampleTimes::all(2_100_000) };
         let e1 = d.step(&sensor_samples(&g));
         let e2 = d.step(&sensor_samples(&SensorFrame { seq: 22, time_us: 2_200_000, ..g }));
-        assert_eq!(e1.telemetry.fusion.fused_late, before.fused_late + 1);
-        assert_eq!(e2.telemetry.fusion, e1.telemetry.fusion);
+        assert_eq!(e1.status.fusion.fused_late, before.fused_late + 1);
+        assert_eq!(e2.status.fusion, e1.status.fusion);
     }
 
     /// A slewing body (0.01 rad/s about x) seen by a gyro whose samples reach the frames
@@ -940,7 +931,7 @@ mod tests {
                 assert_eq!(lagging.mekf(), Some(&on_time_filters[k as usize - 1]), "frame {k}");
             }
         }
-        let f = e.unwrap().telemetry.fusion;
+        let f = e.unwrap().status.fusion;
         // Sample 0 started the filter (at the gyro's time); 1 … 48 waited and were fused;
         // 49 waits for the next gyro sample.
         assert_eq!((f.fused_now, f.fused_after_wait, f.waiting, f.fused_late), (49, 48, 1, 0), "{f:?}");
@@ -957,7 +948,7 @@ mod tests {
         for k in 0..40 {
             e = Some(d.step(&lagging_gyro_frame(k, 6, true)));
         }
-        let f = e.unwrap().telemetry.fusion;
+        let f = e.unwrap().status.fusion;
         assert_eq!(usize::from(f.waiting), super::super::waiting::WAITING_PER_SENSOR);
         // Every sample is accounted for: one started the filter, the others fused after a
         // wait, dropped from the full queue, or still waiting.
@@ -967,7 +958,7 @@ mod tests {
         // The filter stops (no gyro): the waiting samples can no longer be fused, counted.
         let mut none = lagging_gyro_frame(40, 6, true);
         none.gyro = None;
-        let f2 = d.step(&none).telemetry.fusion;
+        let f2 = d.step(&none).status.fusion;
         assert_eq!((f2.waiting, f2.dropped_waiting), (0, f.dropped_waiting + u32::from(f.waiting)));
     }
 
@@ -995,10 +986,10 @@ mod tests {
             d.step(&at(k, None));
         }
         let e = d.step(&at(40, Some(200_000)));
-        assert_eq!(e.telemetry.fusion.too_old, 1);
-        assert_eq!(e.telemetry.fusion.max_replayed_nodes, 0);
+        assert_eq!(e.status.fusion.too_old, 1);
+        assert_eq!(e.status.fusion.max_replayed_nodes, 0);
         let e = d.step(&at(41, Some(360_000)));
-        assert_eq!((e.telemetry.fusion.too_old, e.telemetry.fusion.fused_late), (1, 1));
-        assert_eq!(e.telemetry.fusion.max_replayed_nodes, 5);
+        assert_eq!((e.status.fusion.too_old, e.status.fusion.fused_late), (1, 1));
+        assert_eq!(e.status.fusion.max_replayed_nodes, 5);
     }
 }

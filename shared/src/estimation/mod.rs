@@ -12,7 +12,9 @@
 //!   field evaluated at nodes, spread over the steps, interpolated in between);
 //! - [`history`]: delayed fusion, each sample fused at its own time ([`history::MekfHistory`]);
 //! - [`waiting`]: samples newer than the gyro, waiting for it to catch up;
-//! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step.
+//! - [`determination`]: the estimation stage of `Fsw::step` that runs them every step;
+//! - [`status`]: what that stage reports per step ([`status::EstimateStatus`]; `Fsw::step`
+//!   packs it for the wire).
 
 pub mod css;
 pub mod determination;
@@ -23,6 +25,7 @@ pub mod mekf;
 pub mod navigation;
 pub mod quest;
 pub mod references;
+pub mod status;
 pub mod triad;
 pub mod waiting;
 pub use lqg::LqgEstimator;

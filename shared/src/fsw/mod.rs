@@ -15,8 +15,9 @@
 //! 5. control: the law → body-torque (or gimbal-rate) demand ([`crate::control::law`]);
 //! 6. allocate: the actuator family → commands, the torque they realise, saturation
 //!    ([`crate::allocation::family`]);
-//! 7. report: the wire command, and the saturation the laws use for anti-windup next
-//!    step ([`report`]).
+//! 7. report: the wire command (with the estimation stage's own
+//!    [`crate::estimation::status::EstimateStatus`] packed as `EstimateTelemetry`), and
+//!    the saturation the laws use for anti-windup next step ([`report`]).
 //!
 //! No heap, no panics, no loops without a fixed bound.
 
@@ -131,7 +132,7 @@ impl Fsw {
         // the ground uploads the laws).
         let est = self.determination.step(&sensor_samples(f));
         let mut cmd = self.step_active(f, &est);
-        cmd.estimate = est.telemetry;
+        report::pack_estimate(&mut cmd.estimate, &est.status);
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
         }
@@ -206,7 +207,7 @@ impl Fsw {
         // Allocate.
         let alloc = cfg.actuators.allocate(&out.demand, &m, &act, &sp, cfg.dt_s);
         // Report.
-        let r = report::Report::new(&out, &alloc, flags, cfg.law.telemetry());
+        let r = report::Report::new(&out, &alloc, flags, cfg.law.status());
         self.torque_last = match &dump {
             Some(d) => r.torque_for_estimator() + d.pulse_nm,
             // Not `+ 0`: a -0.0 component stays -0.0 (same bits as before the dump existed).
@@ -214,7 +215,6 @@ impl Fsw {
         };
         self.saturated_last = r.status.intersects(Status::SATURATING);
         let mut cmd = r.command(f.seq);
-        cmd.adaptive_proportional_gain = cfg.law.adaptive_proportional_gain();
         cmd.guidance = cfg.guidance.telemetry();
         if let Some(d) = dump {
             cmd.thruster_on = d.on;

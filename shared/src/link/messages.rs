@@ -21,7 +21,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 17;
+pub const PROTOCOL_VERSION: u16 = 18;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -192,12 +192,9 @@ pub struct ActuatorCommand {
     pub attitude_error_rad: f32,
     /// Allocation iterations (simplex pivots, wheel re-allocation passes).
     pub alloc_iterations: u16,
-    /// Internal state of the control law worth plotting (DMCS: the adaptive feed-forward
-    /// gains Δk_u per axis; other laws: 0).
-    pub law_telemetry: [f32; 3],
-    /// DMCS: the adaptive proportional gains Δk_p per axis, `[on q_e, on ω]` (paper 001
-    /// eq 44, `u_p = Δk_p x_p + Δk_u u_m`); other laws: 0 (protocol 14).
-    pub adaptive_proportional_gain: [[f32; 2]; 3],
+    /// Internal state of the law in force, one generic slot for every law: what each
+    /// value means depends on the law ([`law_slots`]); unused values 0 (protocol 18).
+    pub law_telemetry: [f32; LAW_TELEMETRY_LEN],
     /// Bit i: actuator i at a limit (either side).
     pub saturated: u32,
     /// [`status`] bits.
@@ -223,6 +220,43 @@ pub struct ActuatorCommand {
     pub gimbal_events: u16,
     /// What guidance commanded this step (protocol 16; zero on a safe command).
     pub guidance: GuidanceTelemetry,
+}
+
+/// Values in [`ActuatorCommand::law_telemetry`].
+pub const LAW_TELEMETRY_LEN: usize = 9;
+
+/// Where each law puts its state in [`ActuatorCommand::law_telemetry`] (the flight side
+/// fills it from [`crate::control::LawStatus`]; the ground reads it by the law it
+/// configured). A new law's slots go here, within [`LAW_TELEMETRY_LEN`].
+pub mod law_slots {
+    use super::LAW_TELEMETRY_LEN;
+    use core::ops::Range;
+
+    /// DMCS (paper 001 eq 44): the adaptive feed-forward gains Δk_u, x y z.
+    pub const DMCS_FEEDFORWARD_GAIN: Range<usize> = 0..3;
+    /// DMCS: the adaptive proportional gains Δk_p, per axis `[on q_e, on ω]`, row-major.
+    pub const DMCS_PROPORTIONAL_GAIN: Range<usize> = 3..9;
+    /// Sun-safe: phase code (0 pointing, 1 searching, 2 eclipse hold).
+    pub const SUN_SAFE_PHASE: usize = 0;
+    /// Sun-safe: age of the remembered Sun direction, s.
+    pub const SUN_SAFE_MEMORY_AGE_S: usize = 1;
+
+    // One law's slots do not overlap and every slot fits the message.
+    const _: () = assert!(DMCS_FEEDFORWARD_GAIN.end <= DMCS_PROPORTIONAL_GAIN.start);
+    const _: () = assert!(DMCS_PROPORTIONAL_GAIN.end <= LAW_TELEMETRY_LEN);
+    const _: () = assert!(SUN_SAFE_PHASE != SUN_SAFE_MEMORY_AGE_S && SUN_SAFE_MEMORY_AGE_S < LAW_TELEMETRY_LEN);
+
+    /// DMCS's Δk_u from a slot (zeros for another law's slot).
+    pub fn dmcs_feedforward_gain(t: &[f32; LAW_TELEMETRY_LEN]) -> [f32; 3] {
+        let [a, b, c, ..] = *t;
+        [a, b, c]
+    }
+
+    /// DMCS's Δk_p from a slot, per axis `[on q_e, on ω]`.
+    pub fn dmcs_proportional_gain(t: &[f32; LAW_TELEMETRY_LEN]) -> [[f32; 2]; 3] {
+        let [_, _, _, a, b, c, d, e, f] = *t;
+        [[a, b], [c, d], [e, f]]
+    }
 }
 
 /// Guidance telemetry of one step ([`crate::guidance`]).

@@ -7,6 +7,7 @@
 //! (QEMU): the same message and the same bits either way.
 
 use super::MarginError;
+use acs_flight::link::law_slots;
 use serde::Serialize;
 use sim_core::simulation::probe::Probe;
 
@@ -16,7 +17,7 @@ pub struct FrozenAdaptation {
     pub note: String,
     /// Δk_p per axis `[on q_e, on ω]` at the operating point, as the flight reported it.
     pub proportional_gain: [[f32; 2]; 3],
-    /// Δk_u per axis (`law_telemetry`).
+    /// Δk_u per axis.
     pub feedforward_gain: [f32; 3],
 }
 
@@ -34,8 +35,8 @@ pub fn freeze(sim: &mut Probe) -> Result<Option<FrozenAdaptation>, MarginError> 
              adapting loop at a hold; docs/margins.md)",
             sim.steps_done() as f64 * sim.control_period_s()
         ),
-        proportional_gain: cmd.adaptive_proportional_gain,
-        feedforward_gain: cmd.law_telemetry,
+        proportional_gain: law_slots::dmcs_proportional_gain(&cmd.law_telemetry),
+        feedforward_gain: law_slots::dmcs_feedforward_gain(&cmd.law_telemetry),
     }))
 }
 

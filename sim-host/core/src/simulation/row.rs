@@ -7,7 +7,7 @@ use crate::plant::{Input, MAX_WHEELS, TorqueReport};
 #[cfg(doc)]
 use crate::recorder::columns::Layout;
 use crate::recorder::segments::Segments;
-use acs_flight::link::ActuatorCommand;
+use acs_flight::link::{ActuatorCommand, law_slots};
 
 /// What one control step saw, for the recorded row.
 pub(super) struct StepView<'a> {
@@ -46,7 +46,7 @@ impl Simulation<'_> {
         let ipt = self.info.as_ref().and_then(|i| i.instructions_per_tick);
         row.push(ipt.map_or(f64::NAN, |f| v.ticks as f64 * f));
         if l.adaptive_gains {
-            row.extend(cmd.law_telemetry.iter().map(|x| *x as f64));
+            row.extend(law_slots::dmcs_feedforward_gain(&cmd.law_telemetry).map(f64::from));
         }
         if l.mode {
             row.push(cmd.mode as f64);
