@@ -152,6 +152,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         }
         Some(Failure::Link { reason }) => failed(format!("{reason} (summary.json: run_status \"link_anomaly\")")),
         Some(Failure::Sensors { reason }) => failed(format!("{reason} (summary.json: run_status \"samples_dropped\")")),
+        Some(Failure::KeepOut { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"keepout_violated\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
@@ -211,5 +214,9 @@ mod tests {
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         let Verdict::Failed(m) = v else { panic!("{v:?}") };
         assert!(m.starts_with(&sc.name) && m.contains("\"diverged\"") && m.contains("t = 1.5 s"), "{m}");
+        summary.failure = Some(Failure::KeepOut { reason: "a boresight entered its keep-out cone".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"keepout_violated\"")), "{v:?}");
     }
 }

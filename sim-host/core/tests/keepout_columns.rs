@@ -69,3 +69,51 @@ fn keepout_columns_and_summary_are_the_truth_margins() {
     assert!(k.slews_planned + refused >= 4, "{k:?}");
     assert!(col("slew_phase").iter().all(|p| (0.0..=5.0).contains(p)));
 }
+
+/// The EO cubesat pointing at the Sun from an arbitrary initial attitude: its first
+/// capture (not a planned slew) takes the +y boresight into its 35° Sun cone.
+fn captured_through_the_cone(enforced_from_s: f64) -> runner::RunResult {
+    use toml::{Table, Value};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/guidance/eo-cubesat.toml");
+    let t = |s: &str| s.parse::<Table>().unwrap();
+    let mut sc = t(&std::fs::read_to_string(path).unwrap());
+    sc.insert("duration_s".into(), Value::Float(300.0));
+    sc["orbit"].as_table_mut().unwrap().insert("arg_lat_deg".into(), Value::Float(180.0));
+    let sun = "label = \"Sun pointing\"\npointing = { primary_body = [1, 0, 0], primary = \"sun\", \
+               secondary_body = [0, 0, 1], secondary = \"nadir\" }\ntransition_s = 120.0\n";
+    sc.insert("guidance".into(), Value::Table(t(sun)));
+    sc.remove("commands");
+    let manoeuvre = format!(
+        "max_rate_deg_s = 1.0\nmax_accel_deg_s2 = 0.05\nplanning_margin_deg = 2.0\n\
+         keepout_enforced_from_s = {enforced_from_s:?}\n\
+         [[keepout]]\nname = \"st\"\nboresight_body = [0, 1, 0]\nsun_half_angle_deg = 35.0\n"
+    );
+    sc.insert("manoeuvre".into(), Value::Table(t(&manoeuvre)));
+    let sc = Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap();
+    runner::run(&sc, &mut InProcess::new(), false).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// A boresight inside its cone fails the run (`keepout_violated`) from
+/// `keepout_enforced_from_s` on; the violation the summary names is the first recorded row
+/// with a negative margin column (time and depth exact), and the count is the column's.
+#[test]
+fn a_keepout_violation_fails_the_run_from_its_enforcement_time() {
+    use sim_core::recorder::summary::{Failure, RunStatus};
+    let strict = captured_through_the_cone(0.0);
+    let (t, m) = (strict.series.col("t_s").unwrap(), strict.series.col("keepout_st_sun_margin_deg").unwrap());
+    let inside: Vec<(f64, f64)> = t.iter().zip(m).filter(|(_, m)| **m < 0.0).map(|(t, m)| (*t, *m)).collect();
+    let k = strict.summary.keepout.clone().expect("keepout summary");
+    println!("inside rows {}, first {:?}; summary {k:?}", inside.len(), inside.first());
+    assert!(!inside.is_empty(), "the capture should enter the cone");
+    assert_eq!(strict.summary.run_status, RunStatus::KeepOutViolated);
+    assert!(matches!(&strict.summary.failure, Some(Failure::KeepOut { reason }) if reason.contains("`st.sun`")));
+    let f = k.first_violation.clone().expect("first violation");
+    assert_eq!((f.t_s, f.margin_deg.to_bits(), f.cone.as_str()), (inside[0].0, inside[0].1.to_bits(), "st.sun"));
+    assert_eq!((k.violations, k.steps_inside), (inside.len() as u64, inside.len() as u64));
+    // Enforced after the capture: the same rows inside, none of them a violation.
+    let last_inside = inside.last().unwrap().0;
+    let lenient = captured_through_the_cone(last_inside + 1.0);
+    let k = lenient.summary.keepout.clone().expect("keepout summary");
+    assert_eq!((k.steps_inside, k.violations, k.first_violation), (inside.len() as u64, 0, None));
+    assert_eq!(lenient.summary.run_status, RunStatus::Ok, "{:?}", lenient.summary.failure);
+}

@@ -58,10 +58,22 @@ pub struct KeepOutSummary {
     pub min_margin_deg: BTreeMap<String, Option<f64>>,
     /// Steps with a boresight inside one of its cones (truth).
     pub steps_inside: u64,
+    /// Of those, the steps from `[manoeuvre] keepout_enforced_from_s` on (any fails the run).
+    pub violations: u64,
+    /// The first of them: when, which cone (`"<boresight>.sun"`), how deep, deg (negative).
+    pub first_violation: Option<KeepOutViolation>,
     pub slews_planned: u16,
     pub slews_with_waypoint: u16,
     /// Refused by reason: target in a cone, no path, no geometry.
     pub slews_refused: [u16; 3],
+}
+
+/// A boresight inside a cone at a recorded step.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct KeepOutViolation {
+    pub t_s: f64,
+    pub cone: String,
+    pub margin_deg: f64,
 }
 
 /// Online statistics of the group.
@@ -71,38 +83,65 @@ pub struct KeepOutStats {
     /// Per cone `(sun, earth)` smallest margin so far, rad.
     min: Vec<(f64, f64)>,
     steps_inside: u64,
+    enforced_from_s: f64,
+    violations: u64,
+    first_violation: Option<KeepOutViolation>,
     last: GuidanceTelemetry,
 }
 
 impl KeepOutStats {
-    pub fn new(cones: Vec<Cone>) -> Self {
+    /// `enforced_from_s`: a step inside a cone from then on is a violation.
+    pub fn new(cones: Vec<Cone>, enforced_from_s: f64) -> Self {
         let min = vec![(f64::INFINITY, f64::INFINITY); cones.len()];
-        Self { cones, min, steps_inside: 0, last: GuidanceTelemetry::default() }
+        Self {
+            cones,
+            min,
+            steps_inside: 0,
+            enforced_from_s,
+            violations: 0,
+            first_violation: None,
+            last: GuidanceTelemetry::default(),
+        }
     }
 
-    /// One recorded row's values (as [`column_names`]) at the true attitude.
+    /// One recorded row's values (as [`column_names`]) at the true attitude, time `t_s`.
     pub fn row(
         &mut self,
+        t_s: f64,
         q_ib: &Quat,
         g: Option<&ExclusionGeometry>,
         telemetry: &GuidanceTelemetry,
         out: &mut Vec<f64>,
     ) {
-        let mut inside = false;
-        for (c, m) in self.cones.iter().zip(self.min.iter_mut()) {
+        // The deepest cone entered this step: (margin, rad; cone index; Sun?).
+        let mut deepest: Option<(f64, usize, bool)> = None;
+        for (i, (c, m)) in self.cones.iter().zip(self.min.iter_mut()).enumerate() {
             let (sun, earth) = g.map_or((None, None), |g| c.margins_rad(q_ib, g));
-            for (has, x, min) in [(c.sun_half_angle_rad, sun, &mut m.0), (c.earth_margin_rad, earth, &mut m.1)] {
+            let pairs = [(c.sun_half_angle_rad, sun, &mut m.0, true), (c.earth_margin_rad, earth, &mut m.1, false)];
+            for (has, x, min, is_sun) in pairs {
                 if has.is_none() {
                     continue;
                 }
                 out.push(x.map_or(f64::NAN, f64::to_degrees));
                 if let Some(x) = x {
                     *min = min.min(x);
-                    inside |= x < 0.0;
+                    if x < 0.0 && deepest.is_none_or(|d| x < d.0) {
+                        deepest = Some((x, i, is_sun));
+                    }
                 }
             }
         }
-        self.steps_inside += u64::from(inside);
+        if let Some((x, i, is_sun)) = deepest {
+            self.steps_inside += 1;
+            if t_s >= self.enforced_from_s {
+                self.violations += 1;
+                if self.first_violation.is_none() {
+                    let name = self.cones.get(i).map_or("?", |c| c.name.as_str());
+                    let cone = format!("{name}.{}", if is_sun { "sun" } else { "earth" });
+                    self.first_violation = Some(KeepOutViolation { t_s, cone, margin_deg: x.to_degrees() });
+                }
+            }
+        }
         let t = telemetry;
         let refused: u16 = t.slews_refused.iter().fold(0, |a, b| a.saturating_add(*b));
         out.extend([f64::from(t.slew_phase), f64::from(t.slews_planned), f64::from(refused)]);
@@ -112,6 +151,17 @@ impl KeepOutStats {
             f64::NAN
         });
         self.last = *t;
+    }
+
+    /// Why the run fails: a boresight inside a cone from the enforcement time on (`None`:
+    /// no violation).
+    pub fn violation_reason(&self) -> Option<String> {
+        let f = self.first_violation.as_ref()?;
+        Some(format!(
+            "a boresight entered its keep-out cone: `{}` {:.3} deg inside at t = {:.3} s, {} recorded steps inside \
+             from t = {} s on (truth; summary.json keepout)",
+            f.cone, -f.margin_deg, f.t_s, self.violations, self.enforced_from_s
+        ))
     }
 
     pub fn summary(&self) -> KeepOutSummary {
@@ -128,6 +178,8 @@ impl KeepOutStats {
         KeepOutSummary {
             min_margin_deg,
             steps_inside: self.steps_inside,
+            violations: self.violations,
+            first_violation: self.first_violation.clone(),
             slews_planned: self.last.slews_planned,
             slews_with_waypoint: self.last.slews_with_waypoint,
             slews_refused: self.last.slews_refused,

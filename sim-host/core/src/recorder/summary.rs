@@ -56,6 +56,11 @@ pub enum RunStatus {
     /// (`status_counts.bad_input`: a sensor missing, lost or out of range; or
     /// `no_estimate`: the fine attitude estimate or the navigation solution).
     NoControl,
+    /// A boresight was inside one of its `[[manoeuvre.keepout]]` cones (truth: true
+    /// attitude, Sun and Earth) at a recorded step from `keepout_enforced_from_s` on
+    /// (`keepout.violations`): the planned attitude did not keep a sensor safe.
+    #[serde(rename = "keepout_violated")]
+    KeepOutViolated,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -84,6 +89,9 @@ pub enum Failure {
     Margins { reason: String },
     /// How many steps after the start-up allowance were uncontrolled, and why.
     Control { reason: String },
+    /// Which boresight entered which cone (truth), first when and how deep, and for how
+    /// many steps (`[manoeuvre] keepout_enforced_from_s` on).
+    KeepOut { reason: String },
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]

@@ -15,6 +15,8 @@
 //! sun_half_angle_deg = 35.0
 //! earth_margin_deg = 10.0
 //! ```
+//! A boresight inside a cone (truth) fails the run from `keepout_enforced_from_s` on
+//! (default 0).
 //! Every value is checked here naming its key; the flight's validation of the built
 //! [`ManoeuvreParams`] is the last line of defence.
 
@@ -40,6 +42,12 @@ pub struct ManoeuvreSpec {
     pub planning_margin_deg: f64,
     #[serde(default)]
     pub keepout: Vec<KeepOutSpec>,
+    /// From this time on, s, a boresight inside one of its cones (truth) fails the run
+    /// (`run_status` "keepout_violated", exit 3). Default 0: always. The flight code plans
+    /// the slews between pointings, not the first capture from the initial state, so a
+    /// scenario that starts pointing elsewhere sets the time its capture ends.
+    #[serde(default)]
+    pub keepout_enforced_from_s: f64,
 }
 
 /// One boresight and its cones.
@@ -92,6 +100,10 @@ impl ManoeuvreSpec {
             }
         }
         p.cone_count = self.keepout.len() as u8;
+        finite(&k("keepout_enforced_from_s"), &[self.keepout_enforced_from_s])?;
+        if self.keepout_enforced_from_s < 0.0 {
+            return Err(bad(&k("keepout_enforced_from_s"), format!("{} is negative", self.keepout_enforced_from_s)));
+        }
         p.validate().map_err(|e| bad(key, format!("refused by the flight code: {e:?}")))?;
         Ok(p)
     }
@@ -167,7 +179,7 @@ mod tests {
     #[test]
     fn bad_values_name_their_key() {
         type Edit = fn(&mut ManoeuvreSpec);
-        let cases: [(Edit, &str); 8] = [
+        let cases: [(Edit, &str); 10] = [
             (|s| s.max_rate_deg_s = 0.0, "manoeuvre.max_rate_deg_s"),
             (|s| s.max_accel_deg_s2 = f64::NAN, "manoeuvre.max_accel_deg_s2"),
             (|s| s.planning_margin_deg = 11.0, "manoeuvre.planning_margin_deg"),
@@ -176,6 +188,8 @@ mod tests {
             (|s| s.keepout[1].earth_margin_deg = Some(-1.0), "manoeuvre.keepout[1].earth_margin_deg"),
             (|s| s.keepout[1].name = "tracker".into(), "manoeuvre.keepout[1].name"),
             (|s| s.keepout = vec![s.keepout[0].clone(); 5], "manoeuvre.keepout"),
+            (|s| s.keepout_enforced_from_s = -1.0, "manoeuvre.keepout_enforced_from_s"),
+            (|s| s.keepout_enforced_from_s = f64::NAN, "manoeuvre.keepout_enforced_from_s"),
         ];
         for (edit, key) in cases {
             let mut s = spec();

@@ -97,6 +97,8 @@ pub struct Resolved {
     pub layout: Layout,
     /// `[manoeuvre]` keep-out cones, for the truth's margin columns (with an orbit).
     pub keepout: Vec<crate::recorder::keepout::Cone>,
+    /// `[manoeuvre] keepout_enforced_from_s`: a truth violation from then fails the run.
+    pub keepout_enforced_from_s: f64,
     /// Momentum FDIR trip (wheel speed fraction), for the summary (`None`: off).
     pub momentum_trip: Option<f64>,
     /// The keep-up and gimbal monitors are on (`[modes] slow_fdir_persistence_s` > 0).
@@ -152,6 +154,7 @@ impl TryFrom<&Scenario> for Resolved {
             estimation,
             layout: layout(sc, craft.wheels.len(), n_thrusters),
             keepout: keepout_cones(sc),
+            keepout_enforced_from_s: sc.manoeuvre.as_ref().map_or(0.0, |m| m.keepout_enforced_from_s),
             craft,
             snap0,
             initial,

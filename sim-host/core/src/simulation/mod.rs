@@ -271,6 +271,7 @@ impl<'a> Simulation<'a> {
             commands,
             layout,
             keepout,
+            keepout_enforced_from_s,
             momentum_trip,
             slow_fdir,
             performance,
@@ -333,7 +334,8 @@ impl<'a> Simulation<'a> {
             row: Vec::with_capacity(columns.len()),
             momentum: layout.momentum.then(|| MomentumStats::new(momentum_trip, clock.dt)),
             slow_fdir,
-            keepout: (!keepout.is_empty()).then(|| crate::recorder::keepout::KeepOutStats::new(keepout)),
+            keepout: (!keepout.is_empty())
+                .then(|| crate::recorder::keepout::KeepOutStats::new(keepout, keepout_enforced_from_s)),
             layout,
             columns,
             k: 0,
@@ -702,7 +704,7 @@ impl<'a> Simulation<'a> {
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
     /// control steps the flight code answered), a link anomaly, sensor samples dropped,
-    /// not controlled for a material part of the run, or ok.
+    /// not controlled for a material part of the run, a keep-out cone entered, or ok.
     fn outcome(&self) -> (RunStatus, Option<Failure>) {
         if let Some(f) = &self.failure {
             return (RunStatus::Diverged, Some(f.clone()));
@@ -727,6 +729,9 @@ impl<'a> Simulation<'a> {
         }
         if let Some(reason) = self.no_control_reason() {
             return (RunStatus::NoControl, Some(Failure::Control { reason }));
+        }
+        if let Some(reason) = self.keepout.as_ref().and_then(|k| k.violation_reason()) {
+            return (RunStatus::KeepOutViolated, Some(Failure::KeepOut { reason }));
         }
         (RunStatus::Ok, None)
     }

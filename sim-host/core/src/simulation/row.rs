@@ -70,7 +70,7 @@ impl Simulation<'_> {
         }
         if let Some(k) = self.keepout.as_mut() {
             let g = crate::sensors::suite::exclusion_geometry(v.t, &self.craft, self.snap.as_ref());
-            k.row(&self.state.q, g.as_ref(), &v.cmd.guidance, &mut self.row);
+            k.row(v.t, &self.state.q, g.as_ref(), &v.cmd.guidance, &mut self.row);
         }
     }
 
