@@ -259,6 +259,9 @@ pub struct Layout {
     /// With `[manoeuvre]` keep-out cones and an orbit: the columns of
     /// [`crate::recorder::keepout::column_names`] (empty: none).
     pub keepout: Vec<String>,
+    /// With `[[faults]]`: `fault_active`, the bitmask of the entries in force at the step
+    /// (bit i: `faults[i]`) (1).
+    pub faults: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -318,6 +321,9 @@ impl Layout {
             v.extend(GUIDANCE.iter().map(|s| s.to_string()));
         }
         v.extend(self.keepout.iter().cloned());
+        if self.faults {
+            v.push("fault_active".into());
+        }
         v
     }
 }
