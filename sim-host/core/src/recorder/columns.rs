@@ -150,7 +150,8 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 33] = [
+const DIMENSIONLESS: [&str; 34] = [
+    "fault_active",
     "slew_phase",
     "slews_planned",
     "slews_refused",
@@ -383,6 +384,7 @@ mod tests {
                 sun_half_angle_rad: Some(0.5),
                 earth_margin_rad: Some(0.1),
             }]),
+            faults: true,
         }
     }
 

@@ -90,7 +90,7 @@ impl SensorFaults {
                 TrackerFault::Flip => {
                     let flip =
                         UnitQuaternion::from_axis_angle(&Unit::new_normalize(*boresight_body), std::f64::consts::PI);
-                    *q_ib = *q_ib * flip.into_inner();
+                    *q_ib *= flip.into_inner();
                 }
                 TrackerFault::Frozen => {
                     let held = match e.held {
