@@ -551,3 +551,33 @@ fn the_thruster_failure_campaign_singles_out_the_authority_losing_pairs() {
     assert_eq!(failing, want);
     assert_eq!(group.rows.len(), 36, "every single and double mask drawn");
 }
+
+/// A `[[faults]]` entry's keys are dispersed like any key (issue 42): the planned runs
+/// carry the drawn onset, parsed into the typed fault.
+#[test]
+fn a_campaign_disperses_a_fault_onset() {
+    let t = tempfile::tempdir().unwrap();
+    let base = t.path().join("base.toml");
+    let text = std::fs::read_to_string(test3()).unwrap()
+        + "\n[[faults]]\nonset_s = 1.0\nunit = \"gyro.x\"\nkind = \"bias_step\"\nmagnitude = 0.001\n";
+    std::fs::write(&base, text).unwrap();
+    let d = "[[dispersion]]\nkey = \"faults[0].onset_s\"\ndist = { type = \"uniform\", low = 2.0, high = 8.0 }\n";
+    let m = campaign::plan(&Campaign::load(&campaign_file(t.path(), &base, 20, d)).unwrap(), t.path(), None).unwrap();
+    let mut onsets = Vec::new();
+    for run in &m.runs {
+        let sc = Scenario::load(&t.path().join(&run.scenario)).unwrap();
+        let f = sc.faults().unwrap();
+        let drawn = run.draws["faults[0].onset_s"].as_f64().unwrap();
+        assert_eq!(f[0].window.onset_s, drawn);
+        assert!((2.0..=8.0).contains(&drawn), "{drawn}");
+        assert_eq!(
+            (f[0].fault.unit(), f[0].fault.kind(), f[0].fault.magnitude()),
+            ("gyro.x".into(), "bias_step", Some(0.001))
+        );
+        onsets.push(drawn);
+    }
+    // Drawn, not copied: 20 distinct onsets.
+    onsets.sort_by(f64::total_cmp);
+    onsets.dedup();
+    assert_eq!(onsets.len(), 20);
+}

@@ -11,6 +11,8 @@
 //! - [`design`]: gain synthesis (Riccati, linear models, discretisation, steady-state
 //!   Kalman) used when a scenario's LQR/LQG gains are resolved;
 //! - [`environment`]: orbit, frames, field, disturbance torques;
+//! - [`faults`]: the typed faults of `[[faults]]` (issue 42) that plant, sensors and
+//!   actuation apply;
 //! - [`plant`]: rigid body and actuators (wheels, CMGs, torquers, thrusters, the rig);
 //! - [`sensors`]: what the flight computer is given (noise, quantisation, latency);
 //! - [`link`]: the flight computer behind one trait (in-process, QEMU, TCP, serial);
@@ -29,6 +31,7 @@ pub mod attitude;
 pub mod design;
 pub mod environment;
 pub mod estimation;
+pub mod faults;
 pub mod files;
 pub mod link;
 pub mod plant;

@@ -93,6 +93,8 @@ pub struct Spacecraft {
     pub external_torque_nm: Vec3,
     /// Snapshots of `env` at the latest stage times (valid for this `env` only).
     env_cache: SnapshotCache,
+    /// Wheels seized by an injected fault now ([`wheel::seized`]; set by the run loop).
+    pub seized: [bool; MAX_WHEELS],
 }
 
 impl Spacecraft {
@@ -107,6 +109,7 @@ impl Spacecraft {
             env: None,
             external_torque_nm: Vec3::zeros(),
             env_cache: SnapshotCache::default(),
+            seized: [false; MAX_WHEELS],
         })
     }
 
@@ -172,9 +175,15 @@ impl Spacecraft {
         let mut e = [(WheelDeriv::default(), WheelOutput::default()); MAX_WHEELS];
         let w: [f64; 3] = s.w.into();
         for (i, p) in self.wheels.iter().enumerate() {
-            e[i] = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
+            e[i] = self.wheel_at(i, p, s, u, &w);
         }
         e
+    }
+
+    /// Wheel `i` evaluated at `s` under `u`, seized when a fault says so.
+    fn wheel_at(&self, i: usize, p: &WheelParams, s: &State, u: &Input, w: &[f64; 3]) -> (WheelDeriv, WheelOutput) {
+        let e = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], w, &[0.0; 3]);
+        if self.seized[i] { wheel::seized(e) } else { e }
     }
 
     fn external(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> TorqueReport {
@@ -240,7 +249,7 @@ impl Spacecraft {
         let mut dwheel = [wheel::WheelDeriv::default(); MAX_WHEELS];
         let w: [f64; 3] = s.w.into();
         for (i, p) in self.wheels.iter().enumerate() {
-            let (d, o) = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], &w, &[0.0; 3]);
+            let (d, o) = self.wheel_at(i, p, s, u, &w);
             let a = Vec3::from(p.spin_axis);
             h_total += a * s.wheels[i].h_abs_nms;
             torque += -a * d.dh_abs_nm + Vec3::from(o.imbalance_torque_nm);

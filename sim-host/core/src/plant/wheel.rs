@@ -457,6 +457,22 @@ fn ideal_torque(p: &WheelParams, torque_cmd_nm: f64, w: f64, sgn: f64) -> f64 {
     t
 }
 
+/// A seized wheel (`[[faults]]` kind "stuck", issue 42): no axial torque between rotor and
+/// body, so `ḣ_a = 0` (absolute momentum frozen) while the rotor angle still follows the
+/// relative speed; friction, speed loop and lag states hold. The imbalance of the still
+/// spinning rotor stays; the motor draws nothing.
+pub fn seized((d, o): (WheelDeriv, WheelOutput)) -> (WheelDeriv, WheelOutput) {
+    let d = WheelDeriv { drotor_angle: d.drotor_angle, ..WheelDeriv::default() };
+    let o = WheelOutput {
+        speed_rad_s: o.speed_rad_s,
+        speed_error_rad_s: o.speed_error_rad_s,
+        imbalance_force_n: o.imbalance_force_n,
+        imbalance_torque_nm: o.imbalance_torque_nm,
+        ..WheelOutput::default()
+    };
+    (d, o)
+}
+
 /// Everything at one instant. `torque_cmd_nm`: commanded axial torque from the flight code (the
 /// T_cmd of eq 26: the wheel's share of the control torque, sign = torque on the wheel rotor, i.e.
 /// the body gets -torque). `body_rate`: ω in body axes. `body_accel` only feeds the

@@ -150,7 +150,8 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 33] = [
+const DIMENSIONLESS: [&str; 34] = [
+    "fault_active",
     "slew_phase",
     "slews_planned",
     "slews_refused",
@@ -259,6 +260,9 @@ pub struct Layout {
     /// With `[manoeuvre]` keep-out cones and an orbit: the columns of
     /// [`crate::recorder::keepout::column_names`] (empty: none).
     pub keepout: Vec<String>,
+    /// With `[[faults]]`: `fault_active`, the bitmask of the entries in force at the step
+    /// (bit i: `faults[i]`) (1).
+    pub faults: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -318,6 +322,9 @@ impl Layout {
             v.extend(GUIDANCE.iter().map(|s| s.to_string()));
         }
         v.extend(self.keepout.iter().cloned());
+        if self.faults {
+            v.push("fault_active".into());
+        }
         v
     }
 }
@@ -377,6 +384,7 @@ mod tests {
                 sun_half_angle_rad: Some(0.5),
                 earth_margin_rad: Some(0.1),
             }]),
+            faults: true,
         }
     }
 

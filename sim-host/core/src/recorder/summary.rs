@@ -228,6 +228,10 @@ pub struct Summary {
     /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub margins: Option<MarginSummary>,
+    /// With `[[faults]]`: each injected fault, when it acted, and (future work) when the
+    /// flight code detected it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub faults: Option<Vec<crate::faults::FaultRecord>>,
 }
 
 impl Summary {

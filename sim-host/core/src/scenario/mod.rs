@@ -19,6 +19,8 @@ mod actuators;
 mod controller;
 mod environment;
 pub mod estimation;
+mod faults;
+pub use faults::{FaultSpec, MAX_GYRO_BIAS_STEP_RAD_S};
 mod guidance;
 mod manoeuvre;
 pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
@@ -130,6 +132,9 @@ pub struct Scenario {
     /// docs/margins.md).
     #[serde(default)]
     pub margins: Option<MarginsSpec>,
+    /// Faults injected into the plant and the sensors (`[[faults]]`; absent: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub faults: Vec<FaultSpec>,
     /// Deprecated spellings the file used, each with its replacement (filled by
     /// [`Scenario::from_toml`]; the CLI prints them as warnings). Not part of the format.
     #[serde(skip)]
@@ -431,6 +436,7 @@ impl Scenario {
         self.validate_estimator_timing()?;
         self.performance()?;
         self.margin_request()?;
+        self.faults()?;
         Ok(())
     }
 

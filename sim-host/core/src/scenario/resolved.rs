@@ -105,6 +105,8 @@ pub struct Resolved {
     pub slow_fdir: bool,
     /// Settle bound and pointing-performance windows (`[performance]`).
     pub performance: super::Performance,
+    /// The injected faults (`[[faults]]`; empty: none).
+    pub faults: Vec<crate::faults::TimedFault>,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -170,6 +172,7 @@ impl TryFrom<&Scenario> for Resolved {
             momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
             slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
             performance: sc.performance()?,
+            faults: sc.faults()?,
         })
     }
 }
@@ -231,6 +234,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         eclipse: sc.orbit.is_some(),
         guidance: sc.guidance.is_some(),
         keepout: crate::recorder::keepout::column_names(&keepout_cones(sc)),
+        faults: !sc.faults.is_empty(),
     }
 }
 

@@ -32,6 +32,7 @@
 pub mod clock;
 pub mod css;
 pub mod encoders;
+pub mod faults;
 pub mod gnss;
 pub mod gyro;
 pub mod latency;

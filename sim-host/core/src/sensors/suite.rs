@@ -20,6 +20,7 @@
 use super::clock::{SampleTiming, Sampled};
 use super::css::{CoarseSunSensors, CssGeometry, CssModel, MAX_CSS_HEADS};
 use super::encoders::Encoders;
+use super::faults::SensorFaults;
 use super::gnss::{GnssModel, GnssReceiver};
 use super::gyro::{Gyro, GyroModel};
 use super::latency::SampleQueue;
@@ -208,6 +209,8 @@ pub struct SensorSuite {
     pub gnss_channel: Channel<FixSample>,
     /// `[sensors.star_tracker] outages_s`.
     tracker_outages: Vec<[f64; 2]>,
+    /// The sensor faults of `[[faults]]` (none: [`Self::set_faults`] not called).
+    faults: SensorFaults,
 }
 
 impl SensorSuite {
@@ -249,6 +252,7 @@ impl SensorSuite {
             css_channel: Channel::new(&timing(Sampled::Css), newest),
             gnss_channel: Channel::new(&timing(Sampled::Gnss), newest),
             tracker_outages: spec.tracker_outages_s.clone(),
+            faults: SensorFaults::default(),
         };
         suite.set_grids(spec);
         suite
@@ -280,10 +284,15 @@ impl SensorSuite {
         }
     }
 
-    /// The gyro's true additive bias now (constant + random walk), rad/s: the truth the
-    /// flight MEKF's bias estimate is scored against.
+    /// The gyro's true additive bias now (constant + random walk, and an injected bias
+    /// step in force), rad/s: the truth the flight MEKF's bias estimate is scored against.
     pub fn gyro_bias_rad_s(&self) -> Vec3 {
-        Vec3::from(self.gyro.bias_rad_s())
+        Vec3::from(self.gyro.bias_rad_s()) + Vec3::from(self.faults.bias_step_rad_s())
+    }
+
+    /// Injects the sensor faults among `list` (`[[faults]]`; the others are ignored here).
+    pub fn set_faults(&mut self, list: &[crate::faults::TimedFault]) {
+        self.faults = SensorFaults::new(list);
     }
 
     /// Whether a sensor that reads the environment (magnetometer, sun sensors, GNSS
@@ -347,14 +356,15 @@ impl SensorSuite {
 
     /// The gyro's rate sample and its angle increment since its previous sample.
     fn sample_gyro(&mut self, t_s: f64, w: &Vec3) {
-        let rate = self.gyro.update(t_s, &(*w).into()).rate_rad_s;
+        let mut rate = self.gyro.update(t_s, &(*w).into()).rate_rad_s;
         let ri = &mut self.rate_integral;
-        let angle_rad = match ri.last_sample_t_s {
-            Some(t0) => self.gyro.angle_increment(&ri.angle_rad.into(), t_s - t0),
-            None => [0.0; 3],
+        let (mut angle_rad, interval_s) = match ri.last_sample_t_s {
+            Some(t0) => (self.gyro.angle_increment(&ri.angle_rad.into(), t_s - t0), t_s - t0),
+            None => ([0.0; 3], 0.0),
         };
         ri.angle_rad = Vec3::zeros();
         ri.last_sample_t_s = Some(t_s);
+        self.faults.gyro(t_s, interval_s, &mut rate, &mut angle_rad);
         self.gyro_channel.push(micros(t_s), GyroSample { rate_rad_s: rate, angle_rad });
     }
 
@@ -364,7 +374,9 @@ impl SensorSuite {
         let geometry = self.exclusion_geometry(t_s, craft, env);
         let att = self.attitude.update_with(t_s, &s.q, &s.w, geometry.as_ref());
         let valid = att.valid && !self.tracker_outages.iter().any(|[a, b]| (*a..=*b).contains(&t_s));
-        self.attitude_channel.push(micros(t_s), (att.q_ib, valid));
+        let mut q_ib = att.q_ib;
+        self.faults.tracker(t_s, &self.attitude.boresight(), &mut q_ib);
+        self.attitude_channel.push(micros(t_s), (q_ib, valid));
     }
 
     /// Where the Sun and the Earth are for the tracker's exclusion rules: `None` without a
@@ -452,7 +464,7 @@ impl SensorSuite {
         }
         self.deliver_gnss(&mut f, now, t_s, craft, env);
         self.measure_gimbals(&mut f, s, craft);
-        self.measure_wheels(&mut f, s, craft);
+        self.measure_wheels(&mut f, t_s, s, craft);
         f
     }
 
@@ -507,12 +519,13 @@ impl SensorSuite {
 
     /// Wheel tachometers: each wheel's speed relative to the body, when the craft has
     /// wheels.
-    fn measure_wheels(&mut self, f: &mut SensorFrame, s: &State, craft: &Spacecraft) {
+    fn measure_wheels(&mut self, f: &mut SensorFrame, t_s: f64, s: &State, craft: &Spacecraft) {
         if !craft.wheels.is_empty() {
             let w: [f64; 3] = s.w.into();
             for (i, p) in craft.wheels.iter().enumerate().take(f.wheel_speed_rad_s.len()) {
                 let rel = s.wheels[i].h_abs_nms / p.inertia_kgm2 - Vec3::from(p.spin_axis).dot(&Vec3::from(w));
-                f.wheel_speed_rad_s[i] = self.encoders.wheel_speed(rel) as f32;
+                let read = self.encoders.wheel_speed(rel);
+                f.wheel_speed_rad_s[i] = self.faults.tach(t_s, i, read) as f32;
             }
             f.valid |= valid::WHEELS;
         }

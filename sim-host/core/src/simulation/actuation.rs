@@ -3,6 +3,7 @@
 
 use super::probe::{LoopInjection, PlantCommands};
 use crate::attitude::Vec3;
+use crate::faults::{Fault, RodFault, TimedFault, WheelFault};
 use crate::plant::delay::DelayLine;
 use crate::plant::magnetorquers::MagnetorquerSet;
 use crate::plant::thrusters::{ThrusterSet, ThrusterState};
@@ -30,6 +31,10 @@ pub(super) struct Actuation {
     /// [`super::probe::Probe::plant_commands`] reports.
     pub(super) gimbal_cmd: [f64; MAX_GIMBALS],
     pub(super) dipole_cmd: [f64; 3],
+    /// The actuator faults of `[[faults]]`: wheel torque gain and runaway, torquer rods.
+    faults: Vec<TimedFault>,
+    /// Each wheel's full torque (a runaway's), N m.
+    wheel_max_torque_nm: [f64; MAX_WHEELS],
 }
 
 impl Actuation {
@@ -52,6 +57,55 @@ impl Actuation {
             wheel_cmd: [0.0; MAX_WHEELS],
             gimbal_cmd: [0.0; MAX_GIMBALS],
             dipole_cmd: [0.0; 3],
+            faults: Vec::new(),
+            wheel_max_torque_nm: [0.0; MAX_WHEELS],
+        }
+    }
+
+    /// Injects the actuator faults among `list` (wheel torque gain and runaway, torquer
+    /// rods; a seized wheel is the plant's); `max_torque_nm`: each wheel's full torque.
+    pub(super) fn set_faults(&mut self, list: &[TimedFault], max_torque_nm: impl Iterator<Item = f64>) {
+        self.faults = list
+            .iter()
+            .filter(|f| match f.fault {
+                Fault::Wheel { kind, .. } => matches!(kind, WheelFault::TorqueGain(_) | WheelFault::Runaway { .. }),
+                Fault::Magnetorquer { .. } => true,
+                _ => false,
+            })
+            .copied()
+            .collect();
+        for (d, t) in self.wheel_max_torque_nm.iter_mut().zip(max_torque_nm) {
+            *d = t;
+        }
+    }
+
+    /// The wheel faults in force at `t_s` on the commands as the motors receive them (held
+    /// over the control period: the fault takes effect at the first control step at or
+    /// after its onset), in list order.
+    fn wheel_faults(&mut self, t_s: f64) {
+        for f in self.faults.iter().filter(|f| f.window.active(t_s)) {
+            let Fault::Wheel { index, kind } = f.fault else { continue };
+            let (Some(cmd), Some(max)) = (self.wheel_cmd.get_mut(index), self.wheel_max_torque_nm.get(index)) else {
+                continue;
+            };
+            match kind {
+                WheelFault::TorqueGain(g) => *cmd *= g,
+                WheelFault::Runaway { sign } => *cmd = sign * max,
+                WheelFault::Stuck | WheelFault::TachStuck => {}
+            }
+        }
+    }
+
+    /// The rods' realised dipoles at `t_s` with the rod faults in force.
+    fn rod_faults(&self, t_s: f64, realised: &mut [f64]) {
+        for f in self.faults.iter().filter(|f| f.window.active(t_s)) {
+            let Fault::Magnetorquer { index, kind } = f.fault else { continue };
+            if let Some(m) = realised.get_mut(index) {
+                *m = match kind {
+                    RodFault::Open => 0.0,
+                    RodFault::Reversed => -*m,
+                };
+            }
         }
     }
 
@@ -59,7 +113,13 @@ impl Actuation {
     /// wheel torques over its first dynamics step, the later ones: [`Self::wheel_torques`]).
     /// A loop injection is added to the commands as the plant receives them (before the
     /// wheels' torque delay and the gimbal-rate delay, which stay inside the loop).
-    pub(super) fn input(&mut self, cmd: &ActuatorCommand, injection: Option<&LoopInjection>) -> (Input, [f64; 3]) {
+    /// Injected faults in force at `t_s` act on the wheel commands and the rods' dipoles.
+    pub(super) fn input(
+        &mut self,
+        t_s: f64,
+        cmd: &ActuatorCommand,
+        injection: Option<&LoopInjection>,
+    ) -> (Input, [f64; 3]) {
         let mut input = Input::default();
         for (d, s) in input.gimbal_rate_cmd_rad_s.iter_mut().zip(cmd.gimbal_rate_cmd_rad_s) {
             *d = s as f64;
@@ -74,6 +134,7 @@ impl Actuation {
             }
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
+        self.wheel_faults(t_s);
         self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
         input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
         input.wheel_torque_cmd_nm = self.wheel_torques();
@@ -85,7 +146,9 @@ impl Actuation {
             };
             self.dipole_cmd = applied;
             let acting = self.mtq_delay.push(applied);
-            self.rod_dipole = self.mtq.rod_dipole_am2(&self.mtq.realised(&acting));
+            let mut realised = self.mtq.realised(&acting);
+            self.rod_faults(t_s, &mut realised);
+            self.rod_dipole = self.mtq.rod_dipole_am2(&realised);
         }
         input.dipole_am2 = self.rod_dipole.into();
         input.dipole_am2 += Vec3::from(self.mtq.residual_dipole_am2);

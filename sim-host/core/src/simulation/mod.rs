@@ -16,6 +16,7 @@ use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat};
 use crate::environment::guidance::{PointingErrors, Sky, TruthGuidance, TruthSet, TruthStep};
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
+use crate::faults::{Fault, FaultLog, WheelFault};
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::delay::DelayLine;
 use crate::plant::wheel::{WheelDeriv, WheelOutput};
@@ -244,6 +245,8 @@ pub struct Simulation<'a> {
     segments: Option<Segments>,
     /// Changes whenever a ground command replaces the mission's pointing.
     pointing_id: u32,
+    /// The injected faults (`[[faults]]`) and when each first acted.
+    pub(super) faults: FaultLog,
 }
 
 impl<'a> Simulation<'a> {
@@ -275,6 +278,7 @@ impl<'a> Simulation<'a> {
             momentum_trip,
             slow_fdir,
             performance,
+            faults,
         } = cfg;
         let info = match &upload {
             Some(up) => {
@@ -292,7 +296,10 @@ impl<'a> Simulation<'a> {
         };
         let wheel_delay = DelayLine::from_seconds(craft.wheels.first().map_or(0.0, |w| w.torque_delay_s), clock.h());
         let gimbal_delay = DelayLine::from_seconds(craft.cmg.as_ref().map_or(0.0, |c| c.rate_delay_s), clock.dt);
-        let act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay, gimbal_delay);
+        let mut act = Actuation::new(magnetorquers, thrusters, n_thr, wheel_delay, gimbal_delay);
+        act.set_faults(&faults, craft.wheels.iter().map(|w| w.max_torque_nm));
+        let mut sensors = sensors;
+        sensors.set_faults(&faults);
         let mut target = Target { q_rel: Quat::identity(), euler_deg: [0.0; 3], seq, lvlh };
         target.set(q_rel);
         let columns = layout.names();
@@ -344,6 +351,7 @@ impl<'a> Simulation<'a> {
             t_end: 0.0,
             injection: None,
             last_step: None,
+            faults: FaultLog::new(faults),
         })
     }
 
@@ -428,12 +436,14 @@ impl<'a> Simulation<'a> {
             return Ok(());
         }
         self.ground_commands(t)?;
+        self.faults.observe(t);
+        self.seize_wheels(t);
         let (cmd, ticks) = self.flight_command(k, t)?;
         if self.diverged_at(t, command_non_finite(&cmd)) {
             return Ok(());
         }
         self.t_end = t;
-        let (mut input, dipole_cmd) = self.act.input(&cmd, self.injection.as_ref());
+        let (mut input, dipole_cmd) = self.act.input(t, &cmd, self.injection.as_ref());
         let q_frame = self.target.frame(self.snap.as_ref());
         self.truth_row = self.truth_step(t, &cmd);
         // With [guidance] the truth's ideal attitude is the target; else the scenario's.
@@ -672,6 +682,7 @@ impl<'a> Simulation<'a> {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
                 input.wheel_torque_cmd_nm = self.act.wheel_torques();
             }
+            self.seize_wheels(tj);
             // The plant integrator (the only call): RK4 over [tj, tj + h) with the
             // environment evaluated at every stage's own time (issue 9).
             self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
@@ -683,6 +694,19 @@ impl<'a> Simulation<'a> {
             self.offer_truth(if last { (self.k + 1) as f64 * self.clock.dt } else { tj + h }, last)?;
         }
         Ok(())
+    }
+
+    /// The wheels seized by an injected fault at `t` (checked at every dynamics step).
+    fn seize_wheels(&mut self, t: f64) {
+        let mut seized = [false; MAX_WHEELS];
+        for f in self.faults.list.iter().filter(|f| f.window.active(t)) {
+            if let Fault::Wheel { index, kind: WheelFault::Stuck } = f.fault
+                && let Some(s) = seized.get_mut(index)
+            {
+                *s = true;
+            }
+        }
+        self.craft.seized = seized;
     }
 
     /// The true state at the substep boundary `t` to the sensors due there, with the
@@ -826,6 +850,7 @@ impl<'a> Simulation<'a> {
             pointing_segments_unlisted: unlisted,
             mission_pointings: mission,
             margins: None,
+            faults: self.faults.records(),
         }
     }
 }

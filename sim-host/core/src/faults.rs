@@ -1,0 +1,226 @@
+//! Injected faults (issue 42): the typed fault of one `[[faults]]` entry (one enum per unit
+//! kind), the time window it acts in, and its names in the summary. Parsed and checked
+//! against the spacecraft by `scenario::faults`; applied by the plant (a seized wheel), the
+//! sensors (gyro, star tracker, tachometers) and the actuation (wheel torque, torquer
+//! rods). docs/scenario.md `[[faults]]`.
+
+use serde::Serialize;
+
+/// Most `[[faults]]` entries of a scenario: the truth column `fault_active` is a bitmask of
+/// them, exact in an f64.
+pub const MAX_FAULTS: usize = 32;
+
+/// When a fault acts: from `onset_s` (inclusive) until `end_s` (exclusive; `None`: to the
+/// end of the run).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Window {
+    pub onset_s: f64,
+    pub end_s: Option<f64>,
+}
+
+impl Window {
+    pub fn active(&self, t_s: f64) -> bool {
+        t_s >= self.onset_s && self.end_s.is_none_or(|e| t_s < e)
+    }
+
+    /// Length of `[t0_s, t1_s]` inside the window, s.
+    pub fn overlap_s(&self, t0_s: f64, t1_s: f64) -> f64 {
+        let hi = self.end_s.map_or(t1_s, |e| t1_s.min(e));
+        (hi - t0_s.max(self.onset_s)).max(0.0)
+    }
+}
+
+/// A reaction wheel's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum WheelFault {
+    /// Rotor seized from the body's point of view: no axial torque between rotor and body
+    /// (motor, friction and speed loop all gone), so its absolute momentum is frozen.
+    Stuck,
+    /// The torque command reaches the motor multiplied by this gain, in [0, 1].
+    TorqueGain(f64),
+    /// The motor is commanded to its full torque, of this sign (±1), whatever the command.
+    Runaway { sign: f64 },
+    /// The tachometer repeats the reading of its first sample in the window.
+    TachStuck,
+}
+
+/// A gyro axis's fault (the axis of the triad).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GyroFault {
+    /// The axis repeats its first reading in the window (its angle increment is that rate
+    /// times the interval).
+    Stuck,
+    /// A bias step added to the axis's rate (and to its angle increment over the part of
+    /// the interval inside the window), rad/s.
+    BiasStep { rad_s: f64 },
+}
+
+/// The star tracker's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TrackerFault {
+    /// The reported attitude is turned 180° about the boresight: `q_meas ⊗ R(b, π)`.
+    Flip,
+    /// The reported attitude repeats the first sample in the window; the time tags stay
+    /// fresh (the validity is the current sample's).
+    Frozen,
+}
+
+/// A magnetorquer rod's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum RodFault {
+    /// The rod's circuit is open: it produces no dipole.
+    Open,
+    /// The rod's polarity is reversed: it produces the negative of the realised dipole.
+    Reversed,
+}
+
+/// One unit's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fault {
+    /// Wheel `index` (0-based, the order of `[actuators.wheels]`).
+    Wheel {
+        index: usize,
+        kind: WheelFault,
+    },
+    /// Gyro axis `axis` (0, 1, 2 = x, y, z).
+    Gyro {
+        axis: usize,
+        kind: GyroFault,
+    },
+    StarTracker(TrackerFault),
+    /// Torquer rod `index` (0-based, the order of `[actuators.magnetorquers]`).
+    Magnetorquer {
+        index: usize,
+        kind: RodFault,
+    },
+}
+
+/// A fault and its window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimedFault {
+    pub window: Window,
+    pub fault: Fault,
+}
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+impl Fault {
+    /// The unit as the scenario names it (`wheel.2`, `gyro.x`, `star_tracker`, …).
+    pub fn unit(&self) -> String {
+        match self {
+            Fault::Wheel { index, .. } => format!("wheel.{index}"),
+            Fault::Gyro { axis, .. } => format!("gyro.{}", AXES.get(*axis).copied().unwrap_or("?")),
+            Fault::StarTracker(_) => "star_tracker".into(),
+            Fault::Magnetorquer { index, .. } => format!("magnetorquer.{index}"),
+        }
+    }
+
+    /// The kind as the scenario names it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Fault::Wheel { kind: WheelFault::Stuck, .. } | Fault::Gyro { kind: GyroFault::Stuck, .. } => "stuck",
+            Fault::Wheel { kind: WheelFault::TorqueGain(_), .. } => "torque_gain",
+            Fault::Wheel { kind: WheelFault::Runaway { .. }, .. } => "runaway",
+            Fault::Wheel { kind: WheelFault::TachStuck, .. } => "tach_stuck",
+            Fault::Gyro { kind: GyroFault::BiasStep { .. }, .. } => "bias_step",
+            Fault::StarTracker(TrackerFault::Flip) => "flip",
+            Fault::StarTracker(TrackerFault::Frozen) => "frozen",
+            Fault::Magnetorquer { kind: RodFault::Open, .. } => "open",
+            Fault::Magnetorquer { kind: RodFault::Reversed, .. } => "reversed",
+        }
+    }
+
+    /// The magnitude the kind takes (`None`: the kind takes none).
+    pub fn magnitude(&self) -> Option<f64> {
+        match self {
+            Fault::Wheel { kind: WheelFault::TorqueGain(g), .. } => Some(*g),
+            Fault::Wheel { kind: WheelFault::Runaway { sign }, .. } => Some(*sign),
+            Fault::Gyro { kind: GyroFault::BiasStep { rad_s }, .. } => Some(*rad_s),
+            _ => None,
+        }
+    }
+}
+
+/// The faults of a run and when each first acted, for the truth column and the summary.
+#[derive(Clone, Debug, Default)]
+pub struct FaultLog {
+    pub list: Vec<TimedFault>,
+    /// The first control step (s) at which each entry was in force (`None`: not yet).
+    injected_at_s: Vec<Option<f64>>,
+}
+
+/// One injected fault in `summary.json` `faults`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FaultRecord {
+    pub unit: String,
+    pub kind: &'static str,
+    pub magnitude: Option<f64>,
+    /// `onset_s` of the entry, s.
+    pub onset_s: f64,
+    pub end_s: Option<f64>,
+    /// The first control step at which the fault was in force (`None`: the run ended
+    /// before its onset), s.
+    pub injected_at_s: Option<f64>,
+    /// When the flight code detected it: the flight side's detection is not wired yet
+    /// (issue 42), so always `None`.
+    pub detected_at_s: Option<f64>,
+}
+
+impl FaultLog {
+    pub fn new(list: Vec<TimedFault>) -> Self {
+        let n = list.len();
+        Self { list, injected_at_s: vec![None; n] }
+    }
+
+    /// Notes the entries in force at the control step at `t_s`.
+    pub fn observe(&mut self, t_s: f64) {
+        for (f, at) in self.list.iter().zip(self.injected_at_s.iter_mut()) {
+            if at.is_none() && f.window.active(t_s) {
+                *at = Some(t_s);
+            }
+        }
+    }
+
+    /// The summary's list (`None` without faults).
+    pub fn records(&self) -> Option<Vec<FaultRecord>> {
+        if self.list.is_empty() {
+            return None;
+        }
+        let rec = |(f, at): (&TimedFault, &Option<f64>)| FaultRecord {
+            unit: f.fault.unit(),
+            kind: f.fault.kind(),
+            magnitude: f.fault.magnitude(),
+            onset_s: f.window.onset_s,
+            end_s: f.window.end_s,
+            injected_at_s: *at,
+            detected_at_s: None,
+        };
+        Some(self.list.iter().zip(self.injected_at_s.iter()).map(rec).collect())
+    }
+}
+
+/// The bitmask of the faults of `list` active at `t_s` (bit i: entry i).
+pub fn active_mask(list: &[TimedFault], t_s: f64) -> u32 {
+    list.iter().take(MAX_FAULTS).enumerate().filter(|(_, f)| f.window.active(t_s)).fold(0, |m, (i, _)| m | (1 << i))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_window_is_half_open_and_its_overlap_is_clipped() {
+        let w = Window { onset_s: 2.0, end_s: Some(5.0) };
+        assert!(!w.active(1.999) && w.active(2.0) && w.active(4.999) && !w.active(5.0));
+        assert_eq!(w.overlap_s(1.0, 3.0), 1.0);
+        assert_eq!(w.overlap_s(4.0, 6.0), 1.0);
+        assert_eq!(w.overlap_s(0.0, 1.0), 0.0);
+        let open = Window { onset_s: 2.0, end_s: None };
+        assert!(open.active(1e9) && open.overlap_s(3.0, 4.5) == 1.5);
+        let f = |o| TimedFault {
+            window: Window { onset_s: o, end_s: None },
+            fault: Fault::StarTracker(TrackerFault::Flip),
+        };
+        assert_eq!(active_mask(&[f(1.0), f(3.0), f(0.0)], 2.0), 0b101);
+    }
+}

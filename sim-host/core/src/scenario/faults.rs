@@ -1,0 +1,178 @@
+//! `[[faults]]`: time-tagged faults injected into the plant and the sensors (issue 42),
+//! parsed into the typed [`crate::faults::TimedFault`] once, against the scenario's
+//! spacecraft (a unit it does not have is refused), every refusal naming the key
+//! (`faults[i].unit`, `faults[i].magnitude`, …, the campaign's key-path spelling).
+
+use super::{Scenario, bad};
+use crate::faults::{Fault, GyroFault, MAX_FAULTS, RodFault, TimedFault, TrackerFault, WheelFault, Window};
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+
+/// Largest gyro bias step, rad/s (57 deg/s: beyond it the fault is a saturation, not a bias).
+pub const MAX_GYRO_BIAS_STEP_RAD_S: f64 = 1.0;
+
+/// One `[[faults]]` entry as written.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FaultSpec {
+    /// When the fault starts, s (>= 0).
+    pub onset_s: f64,
+    /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N" (N 0-based).
+    pub unit: String,
+    /// The fault, among those the unit's kind has.
+    pub kind: String,
+    /// The kind's size, for the kinds that take one.
+    #[serde(default)]
+    pub magnitude: Option<f64>,
+    /// When the fault ends, s (> onset_s; absent: never).
+    #[serde(default)]
+    pub end_s: Option<f64>,
+}
+
+/// The units the format names that no fault kind is modelled for yet (refused, not
+/// ignored).
+const UNMODELLED: [&str; 5] = ["magnetometer", "css", "gnss", "cmg", "thruster"];
+
+impl Scenario {
+    /// The `[[faults]]` list, typed and checked against this spacecraft.
+    pub fn faults(&self) -> Result<Vec<TimedFault>> {
+        if self.faults.len() > MAX_FAULTS {
+            return Err(bad("faults", format!("{} entries: at most {MAX_FAULTS}", self.faults.len())));
+        }
+        self.faults.iter().enumerate().map(|(i, f)| self.fault(f, &format!("faults[{i}]"))).collect()
+    }
+
+    fn fault(&self, f: &FaultSpec, key: &str) -> Result<TimedFault> {
+        if !(f.onset_s.is_finite() && f.onset_s >= 0.0) {
+            return Err(bad(&format!("{key}.onset_s"), format!("must be finite and >= 0 (got {})", f.onset_s)));
+        }
+        if let Some(e) = f.end_s
+            && !(e.is_finite() && e > f.onset_s)
+        {
+            return Err(bad(
+                &format!("{key}.end_s"),
+                format!("must be finite and > onset_s = {} (got {e})", f.onset_s),
+            ));
+        }
+        let fault = self.fault_of(f, key)?;
+        Ok(TimedFault { window: Window { onset_s: f.onset_s, end_s: f.end_s }, fault })
+    }
+
+    /// The typed fault of an entry: its unit (present on this spacecraft), its kind (one
+    /// the unit has) and its magnitude (where the kind takes one, in range).
+    fn fault_of(&self, f: &FaultSpec, key: &str) -> Result<Fault> {
+        let unit_key = format!("{key}.unit");
+        let (name, index) = match f.unit.split_once('.') {
+            Some((n, i)) => (n, Some(i)),
+            None => (f.unit.as_str(), None),
+        };
+        let kind_err = |known: &str| {
+            bad(&format!("{key}.kind"), format!("{:?} is not a fault of {} (known: {known})", f.kind, f.unit))
+        };
+        let m = Magnitude { value: f.magnitude, key: format!("{key}.magnitude"), kind: &f.kind };
+        match name {
+            "wheel" => {
+                let n = self.wheel_params()?.len();
+                let index = self.unit_index(index, n, &unit_key, "wheel", "[actuators.wheels]")?;
+                let kind = match f.kind.as_str() {
+                    "stuck" => m.none(WheelFault::Stuck)?,
+                    "tach_stuck" => m.none(WheelFault::TachStuck)?,
+                    "torque_gain" => WheelFault::TorqueGain(m.within(0.0, 1.0, "a gain in [0, 1]")?),
+                    "runaway" => WheelFault::Runaway { sign: m.sign()? },
+                    _ => return Err(kind_err("\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\"")),
+                };
+                Ok(Fault::Wheel { index, kind })
+            }
+            "gyro" => {
+                let axis = match index {
+                    Some("x") => 0,
+                    Some("y") => 1,
+                    Some("z") => 2,
+                    _ => return Err(bad(&unit_key, format!("{:?}: a gyro axis is gyro.x, gyro.y or gyro.z", f.unit))),
+                };
+                let kind = match f.kind.as_str() {
+                    "stuck" => m.none(GyroFault::Stuck)?,
+                    "bias_step" => GyroFault::BiasStep {
+                        rad_s: m.within(-MAX_GYRO_BIAS_STEP_RAD_S, MAX_GYRO_BIAS_STEP_RAD_S, "a rate step in rad/s")?,
+                    },
+                    _ => return Err(kind_err("\"stuck\", \"bias_step\"")),
+                };
+                Ok(Fault::Gyro { axis, kind })
+            }
+            "star_tracker" if index.is_none() => Ok(Fault::StarTracker(match f.kind.as_str() {
+                "flip" => m.none(TrackerFault::Flip)?,
+                "frozen" => m.none(TrackerFault::Frozen)?,
+                _ => return Err(kind_err("\"flip\", \"frozen\"")),
+            })),
+            "magnetorquer" => {
+                let n = self.actuators.magnetorquers.as_ref().map_or(0, |_| self.magnetorquer_set().rods.len());
+                let index = self.unit_index(index, n, &unit_key, "magnetorquer", "[actuators.magnetorquers]")?;
+                let kind = match f.kind.as_str() {
+                    "open" => m.none(RodFault::Open)?,
+                    "reversed" => m.none(RodFault::Reversed)?,
+                    _ => return Err(kind_err("\"open\", \"reversed\"")),
+                };
+                Ok(Fault::Magnetorquer { index, kind })
+            }
+            n if UNMODELLED.contains(&n) => {
+                Err(bad(&unit_key, format!("{:?}: no fault of a {n} is modelled yet (issue 42)", f.unit)))
+            }
+            _ => Err(bad(
+                &unit_key,
+                format!(
+                    "unknown unit {:?} (known: \"wheel.N\", \"gyro.x|y|z\", \"star_tracker\", \"magnetorquer.N\")",
+                    f.unit
+                ),
+            )),
+        }
+    }
+
+    /// The 0-based index of a numbered unit, below the `n` the spacecraft has.
+    fn unit_index(&self, index: Option<&str>, n: usize, key: &str, what: &str, table: &str) -> Result<usize> {
+        if n == 0 {
+            return Err(bad(key, format!("the spacecraft has no {what} (no {table})")));
+        }
+        let i: usize = index
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| bad(key, format!("a {what} is {what}.N, N in 0..{n} (0-based)")))?;
+        if i >= n {
+            return Err(bad(key, format!("{what}.{i}: the spacecraft has {n} ({what}.0 to {what}.{})", n - 1)));
+        }
+        Ok(i)
+    }
+}
+
+/// An entry's `magnitude`, checked for its kind.
+struct Magnitude<'a> {
+    value: Option<f64>,
+    key: String,
+    kind: &'a str,
+}
+
+impl Magnitude<'_> {
+    /// A kind that takes no magnitude: refused when one is given.
+    fn none<T>(&self, t: T) -> Result<T> {
+        match self.value {
+            None => Ok(t),
+            Some(_) => Err(bad(&self.key, format!("kind {:?} takes no magnitude", self.kind))),
+        }
+    }
+
+    fn within(&self, lo: f64, hi: f64, what: &str) -> Result<f64> {
+        match self.value {
+            Some(x) if x.is_finite() && (lo..=hi).contains(&x) => Ok(x),
+            Some(x) => {
+                Err(bad(&self.key, format!("{x} is out of range: kind {:?} takes {what} in [{lo}, {hi}]", self.kind)))
+            }
+            None => Err(bad(&self.key, format!("required by kind {:?} ({what})", self.kind))),
+        }
+    }
+
+    fn sign(&self) -> Result<f64> {
+        match self.value {
+            Some(x) if x == 1.0 || x == -1.0 => Ok(x),
+            Some(x) => Err(bad(&self.key, format!("{x}: kind {:?} takes the torque's sign, 1 or -1", self.kind))),
+            None => Err(bad(&self.key, format!("required by kind {:?} (the torque's sign, 1 or -1)", self.kind))),
+        }
+    }
+}

@@ -1,0 +1,128 @@
+//! Sensor faults of `[[faults]]` (issue 42) applied to the readings as they are sampled:
+//! gyro axis stuck or bias step, star tracker flipped about its boresight or frozen,
+//! wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
+//! in its window; a frozen value is the first reading in the window. The models still
+//! draw their noise as without the fault, so every other reading keeps its bits.
+
+use crate::attitude::{Quat, Vec3};
+use crate::faults::{Fault, GyroFault, TimedFault, TrackerFault, WheelFault};
+use nalgebra::{Unit, UnitQuaternion};
+
+/// One sensor fault and the value it froze (while its window is open).
+#[derive(Clone, Debug)]
+struct Entry {
+    fault: TimedFault,
+    held: Option<Held>,
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Held {
+    Rate(f64),
+    Attitude(Quat),
+    Speed(f64),
+}
+
+/// The sensor faults of a run.
+#[derive(Clone, Debug, Default)]
+pub struct SensorFaults {
+    entries: Vec<Entry>,
+    /// The sum of the gyro bias steps in force at the last gyro sample, triad axes, rad/s
+    /// (part of the true bias the estimator is scored against).
+    bias_step_rad_s: [f64; 3],
+}
+
+impl SensorFaults {
+    /// The sensor faults among `list` (the others are the plant's and the actuation's).
+    pub fn new(list: &[TimedFault]) -> Self {
+        let sensor = |f: &&TimedFault| {
+            matches!(
+                f.fault,
+                Fault::Gyro { .. } | Fault::StarTracker(_) | Fault::Wheel { kind: WheelFault::TachStuck, .. }
+            )
+        };
+        let entries = list.iter().filter(sensor).map(|f| Entry { fault: *f, held: None }).collect();
+        Self { entries, bias_step_rad_s: [0.0; 3] }
+    }
+
+    /// The gyro bias steps in force at the last gyro sample, rad/s.
+    pub fn bias_step_rad_s(&self) -> [f64; 3] {
+        self.bias_step_rad_s
+    }
+
+    /// A gyro sample at `t_s`: its rate and its angle increment over `[t_s - interval_s, t_s]`.
+    pub fn gyro(&mut self, t_s: f64, interval_s: f64, rate: &mut [f64; 3], angle: &mut [f64; 3]) {
+        self.bias_step_rad_s = [0.0; 3];
+        for e in &mut self.entries {
+            let Fault::Gyro { axis, kind } = e.fault.fault else { continue };
+            let (Some(r), Some(a)) = (rate.get_mut(axis), angle.get_mut(axis)) else { continue };
+            let w = e.fault.window;
+            match kind {
+                GyroFault::BiasStep { rad_s } => {
+                    *a += rad_s * w.overlap_s(t_s - interval_s, t_s);
+                    if w.active(t_s) {
+                        *r += rad_s;
+                        self.bias_step_rad_s[axis] += rad_s;
+                    }
+                }
+                GyroFault::Stuck if w.active(t_s) => {
+                    let held = match e.held {
+                        Some(Held::Rate(x)) => x,
+                        _ => *r,
+                    };
+                    e.held = Some(Held::Rate(held));
+                    *r = held;
+                    *a = held * interval_s;
+                }
+                GyroFault::Stuck => e.held = None,
+            }
+        }
+    }
+
+    /// A star-tracker sample at `t_s` (`q_ib` as measured, body → inertial).
+    pub fn tracker(&mut self, t_s: f64, boresight_body: &Vec3, q_ib: &mut Quat) {
+        for e in &mut self.entries {
+            let Fault::StarTracker(kind) = e.fault.fault else { continue };
+            if !e.fault.window.active(t_s) {
+                e.held = None;
+                continue;
+            }
+            match kind {
+                TrackerFault::Flip => {
+                    let flip =
+                        UnitQuaternion::from_axis_angle(&Unit::new_normalize(*boresight_body), std::f64::consts::PI);
+                    *q_ib *= flip.into_inner();
+                }
+                TrackerFault::Frozen => {
+                    let held = match e.held {
+                        Some(Held::Attitude(q)) => q,
+                        _ => *q_ib,
+                    };
+                    e.held = Some(Held::Attitude(held));
+                    *q_ib = held;
+                }
+            }
+        }
+    }
+
+    /// Wheel `wheel`'s tachometer reading at `t_s`.
+    pub fn tach(&mut self, t_s: f64, wheel: usize, speed_rad_s: f64) -> f64 {
+        let mut out = speed_rad_s;
+        for e in &mut self.entries {
+            match e.fault.fault {
+                Fault::Wheel { index, kind: WheelFault::TachStuck } if index == wheel => {}
+                _ => continue,
+            }
+            if !e.fault.window.active(t_s) {
+                e.held = None;
+                continue;
+            }
+            let held = match e.held {
+                Some(Held::Speed(x)) => x,
+                _ => out,
+            };
+            e.held = Some(Held::Speed(held));
+            out = held;
+        }
+        out
+    }
+}

@@ -1,0 +1,425 @@
+//! `[[faults]]` (issue 42): each injected fault against its closed form.
+//!
+//! Actuators fly through the whole run loop (`Simulation`, open loop, free space: no
+//! external torque), so the injection path of a run is the one tested. Sensors are driven
+//! through the suite the run builds (`Resolved::sensors` with `set_faults`, the call the
+//! run makes) on a truth given in closed form (a constant-rate rotation), so measured and
+//! true are compared sample by sample.
+
+use nalgebra::{Unit, UnitQuaternion};
+use sim_core::attitude::{Quat, Vec3, from_xyzw};
+use sim_core::faults::MAX_FAULTS;
+use sim_core::link::in_process::InProcess;
+use sim_core::plant::wheel::WheelState;
+use sim_core::plant::{MAX_GIMBALS, MAX_WHEELS, State};
+use sim_core::recorder::series::Discard;
+use sim_core::scenario::{Resolved, Scenario};
+use sim_core::simulation::Simulation;
+
+const BASE: &str = r#"
+name = "faults"
+duration_s = 6.0
+[timing]
+control_rate_hz = 10.0
+dynamics_substeps = 4
+[spacecraft]
+inertia_kgm2 = [[0.5, 0, 0], [0, 0.6, 0], [0, 0, 0.4]]
+[initial]
+euler_deg = [10, -20, 30]
+rate_rad_s = [0.01, -0.02, 0.015]
+[target]
+euler_deg = [0, 0, 0]
+[actuators.wheels]
+layout = "pyramid4"
+model = "ideal"
+max_torque_nm = 0.01
+max_speed_rpm = 6000.0
+inertia_kgm2 = 1e-4
+initial_speed_rpm = [1500.0, -500.0, 1000.0, 300.0]
+[actuators.magnetorquers]
+max_dipole_am2 = [0.2, 0.2, 0.2]
+[environment]
+lab_field_t = [2e-5, -1e-5, 3e-5]
+[controller]
+type = "none"
+[open_loop]
+commands = [{ t_s = 0.0, wheel_torque_nm = [0.004, -0.003, 0.002, 0.001] }]
+[sensors]
+seed = 42
+wheel_speed_noise_rad_s = 0.01
+[sensors.gyro]
+rate_hz = 10.0
+arw_rad_sqrt_s = 1e-4
+[sensors.star_tracker]
+rate_hz = 10.0
+noise_cross_deg = 0.01
+noise_about_deg = 0.05
+boresight_body = [0.6, 0.0, 0.8]
+"#;
+
+/// Commanded wheel torques of `BASE`, N m, as the f32 of the wire carries them.
+const CMD_NM: [f64; 4] = [0.004f32 as f64, -0.003f32 as f64, 0.002f32 as f64, 0.001f32 as f64];
+const I_W: f64 = 1e-4;
+const MAX_TORQUE_NM: f64 = 0.01;
+const DT: f64 = 0.1;
+
+/// `BASE` with the torquers commanded to [0.1, -0.05, 0.08] A m² (the others fly with the
+/// rods off: no external torque).
+fn with_dipole(faults: &str) -> Scenario {
+    let text = BASE.replace("0.002, 0.001] }", "0.002, 0.001], dipole_am2 = [0.1, -0.05, 0.08] }");
+    Scenario::from_toml(&format!("{text}{faults}")).unwrap()
+}
+
+fn scenario(faults: &str) -> Scenario {
+    Scenario::from_toml(&format!("{BASE}{faults}")).unwrap()
+}
+
+fn err_of(faults: &str) -> String {
+    format!("{:#}", Scenario::from_toml(&format!("{BASE}{faults}")).unwrap_err())
+}
+
+/// The plant state at every control step (t = k DT) and the summary.
+fn fly(sc: &Scenario) -> (Vec<State>, sim_core::recorder::summary::Summary) {
+    let mut link = InProcess::new();
+    let mut sim = Simulation::new(Resolved::try_from(sc).unwrap(), &mut link).unwrap();
+    let mut states = Vec::new();
+    while !sim.finished() {
+        states.push(*sim.state());
+        sim.step(&mut Discard).unwrap();
+    }
+    (states, sim.summary(1.0))
+}
+
+/// Absolute (inertial axial) speed of each wheel, `h_a / I_w`, rad/s.
+fn abs_speed(s: &State, i: usize) -> f64 {
+    s.wheels[i].h_abs_nms / I_W
+}
+
+#[test]
+fn absent_faults_add_nothing_and_entries_are_typed() {
+    let sc = scenario("");
+    assert!(sc.faults().unwrap().is_empty());
+    let names = sim_core::simulation::column_names(&sc, 4, 0);
+    assert!(!names.iter().any(|n| n == "fault_active"));
+    let (_, s) = fly(&sc);
+    assert!(s.faults.is_none());
+    let sc = scenario("[[faults]]\nonset_s = 1.0\nunit = \"wheel.3\"\nkind = \"torque_gain\"\nmagnitude = 0.5\n");
+    let f = sc.faults().unwrap();
+    assert_eq!(
+        (f[0].fault.unit(), f[0].fault.kind(), f[0].fault.magnitude()),
+        ("wheel.3".into(), "torque_gain", Some(0.5))
+    );
+}
+
+#[test]
+fn invalid_entries_are_refused_naming_the_key() {
+    let entry = |unit: &str, kind: &str, more: &str| {
+        format!("[[faults]]\nonset_s = 1.0\nunit = \"{unit}\"\nkind = \"{kind}\"\n{more}\n")
+    };
+    let cases = [
+        (entry("wheel.4", "stuck", ""), "faults[0].unit", "wheel.0 to wheel.3"),
+        (entry("wheel.x", "stuck", ""), "faults[0].unit", "0-based"),
+        (entry("reactor.1", "stuck", ""), "faults[0].unit", "unknown unit"),
+        (entry("gyro.w", "stuck", ""), "faults[0].unit", "gyro.x"),
+        (entry("cmg.0", "stuck", ""), "faults[0].unit", "modelled yet"),
+        (entry("magnetorquer.3", "open", ""), "faults[0].unit", "magnetorquer.0 to magnetorquer.2"),
+        (entry("wheel.1", "flip", ""), "faults[0].kind", "not a fault of wheel.1"),
+        (entry("star_tracker", "stuck", ""), "faults[0].kind", "\"flip\", \"frozen\""),
+        (entry("wheel.1", "torque_gain", "magnitude = 1.5"), "faults[0].magnitude", "out of range"),
+        (entry("wheel.1", "torque_gain", ""), "faults[0].magnitude", "required"),
+        (entry("wheel.1", "runaway", "magnitude = 0.5"), "faults[0].magnitude", "1 or -1"),
+        (entry("gyro.z", "bias_step", "magnitude = 2.0"), "faults[0].magnitude", "out of range"),
+        (entry("wheel.1", "stuck", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
+        (entry("wheel.1", "stuck", "end_s = 0.5"), "faults[0].end_s", "> onset_s"),
+        (entry("wheel.1", "stuck", "typo = 1"), "typo", "unknown field"),
+    ];
+    for (text, key, why) in &cases {
+        let e = err_of(text);
+        assert!(e.contains(key) && e.contains(why), "expected {key} / {why} in: {e}");
+    }
+    let e = err_of("[[faults]]\nonset_s = -1.0\nunit = \"wheel.1\"\nkind = \"stuck\"\n");
+    assert!(e.contains("faults[0].onset_s") && e.contains(">= 0"), "{e}");
+    // The second entry is named by its own index.
+    let e = err_of(&(entry("wheel.1", "stuck", "") + &entry("gyro.q", "stuck", "")));
+    assert!(e.contains("faults[1].unit"), "{e}");
+    // A spacecraft without torquers has no magnetorquer to fail.
+    let text = BASE.replace("[actuators.magnetorquers]\nmax_dipole_am2 = [0.2, 0.2, 0.2]\n", "")
+        + &entry("magnetorquer.0", "open", "");
+    let e = format!("{:#}", Scenario::from_toml(&text).unwrap_err());
+    assert!(e.contains("faults[0].unit") && e.contains("no magnetorquer"), "{e}");
+    let many: String = (0..=MAX_FAULTS).map(|_| entry("wheel.0", "stuck", "")).collect();
+    assert!(err_of(&many).contains("at most 32"), "{}", err_of(&many));
+}
+
+#[test]
+fn a_campaign_can_disperse_a_fault_onset_by_key_path() {
+    // What the campaign planner does (docs/campaigns.md): parse the base, write every field
+    // back, set the dispersed key by path, parse the drawn scenario again.
+    let sc = scenario("[[faults]]\nonset_s = 1.0\nunit = \"gyro.y\"\nkind = \"stuck\"\n");
+    let mut v = toml::Value::try_from(&sc).unwrap();
+    let set = |v: &mut toml::Value, x: f64| {
+        let entry = v.get_mut("faults").and_then(|f| f.get_mut(0)).and_then(|e| e.as_table_mut()).unwrap();
+        entry.insert("onset_s".into(), toml::Value::Float(x));
+    };
+    set(&mut v, 3.25);
+    let drawn = Scenario::from_toml(&toml::to_string(&v).unwrap()).unwrap();
+    assert_eq!(drawn.faults().unwrap()[0].window.onset_s, 3.25);
+    set(&mut v, -0.5);
+    let e = format!("{:#}", Scenario::from_toml(&toml::to_string(&v).unwrap()).unwrap_err());
+    assert!(e.contains("faults[0].onset_s"), "{e}");
+}
+
+#[test]
+fn a_stuck_wheel_holds_its_speed_and_the_total_momentum_is_conserved() {
+    // Onset between control steps: the plant seizes the wheel from the first dynamics step
+    // at or after it (2.025 s, a substep boundary at 40 Hz).
+    let sc = scenario("[[faults]]\nonset_s = 2.02\nunit = \"wheel.1\"\nkind = \"stuck\"\n");
+    let craft = sc.spacecraft().unwrap();
+    let (states, summary) = fly(&sc);
+    let h0 = craft.angular_momentum_inertial(&states[0]);
+    let k_on = 21; // t = 2.1 s: the wheel has been seized since 2.025 s
+    let h_stuck = states[k_on].wheels[1].h_abs_nms;
+    let mut worst_h = 0.0f64;
+    for s in &states[k_on..] {
+        // Seized: no axial torque, so its absolute momentum (and inertial speed) stays, to
+        // the bit (RK4 adds zeros).
+        assert_eq!(s.wheels[1].h_abs_nms, h_stuck);
+        worst_h = worst_h.max((craft.angular_momentum_inertial(s) - h0).norm() / h0.norm());
+    }
+    // The other wheels go on exchanging momentum with the body: ΔH = 0 (free space, no
+    // external torque) to RK4 truncation and round-off.
+    eprintln!("stuck wheel: largest relative drift of the total angular momentum {worst_h:e}");
+    assert!(worst_h < 1e-10, "momentum drift {worst_h:e}");
+    let (a, b) = (abs_speed(&states[30], 0), abs_speed(&states[50], 0));
+    assert!(((b - a) / 2.0 - CMD_NM[0] / I_W).abs() < 1e-9 * (CMD_NM[0] / I_W));
+    // Before the onset the wheel was accelerating at its command.
+    let (a, b) = (abs_speed(&states[0], 1), abs_speed(&states[20], 1));
+    assert!(((b - a) / 2.0 - CMD_NM[1] / I_W).abs() < 1e-9 * (CMD_NM[1] / I_W).abs());
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!(
+        (rec.unit.as_str(), rec.kind, rec.injected_at_s, rec.detected_at_s),
+        ("wheel.1", "stuck", Some(2.1), None)
+    );
+}
+
+#[test]
+fn torque_gain_and_runaway_set_the_wheel_acceleration() {
+    let g = 0.4;
+    let sc = scenario(&format!(
+        "[[faults]]\nonset_s = 2.0\nunit = \"wheel.0\"\nkind = \"torque_gain\"\nmagnitude = {g}\n\
+         [[faults]]\nonset_s = 2.0\nunit = \"wheel.2\"\nkind = \"runaway\"\nmagnitude = -1.0\nend_s = 4.0\n"
+    ));
+    let (states, summary) = fly(&sc);
+    // dω/dt of the absolute speed = ḣ_a / I_w = the torque the motor delivers / I_w (ideal
+    // wheel far below its speed band: no fade), per control step.
+    let accel = |i: usize, k: usize| (abs_speed(&states[k + 1], i) - abs_speed(&states[k], i)) / DT;
+    let close = |x: f64, want: f64| (x - want).abs() < 1e-9 * want.abs();
+    for k in 0..states.len() - 1 {
+        let t = k as f64 * DT;
+        let want0 = if t >= 2.0 - 1e-9 { g * CMD_NM[0] } else { CMD_NM[0] } / I_W;
+        assert!(close(accel(0, k), want0), "wheel 0 at {t}: {} vs {want0}", accel(0, k));
+        let runaway = (2.0 - 1e-9..4.0 - 1e-9).contains(&t);
+        let want2 = if runaway { -MAX_TORQUE_NM } else { CMD_NM[2] } / I_W;
+        assert!(close(accel(2, k), want2), "wheel 2 at {t}: {} vs {want2}", accel(2, k));
+        assert!(close(accel(3, k), CMD_NM[3] / I_W), "healthy wheel 3 at {t}");
+    }
+    let recs = summary.faults.unwrap();
+    assert_eq!((recs[1].kind, recs[1].magnitude, recs[1].end_s), ("runaway", Some(-1.0), Some(4.0)));
+}
+
+#[test]
+fn fault_active_is_the_bitmask_of_the_entries_in_force() {
+    let sc = scenario(
+        "[[faults]]\nonset_s = 1.0\nunit = \"wheel.0\"\nkind = \"tach_stuck\"\nend_s = 3.0\n\
+         [[faults]]\nonset_s = 2.0\nunit = \"gyro.x\"\nkind = \"stuck\"\n",
+    );
+    let r = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
+    let (t, m) = (r.series.col("t_s").unwrap(), r.series.col("fault_active").unwrap());
+    for (t, m) in t.iter().zip(m) {
+        let want = u32::from((1.0..3.0).contains(&(t + 1e-9))) | (u32::from(*t >= 2.0 - 1e-9) << 1);
+        assert_eq!(*m, f64::from(want), "t = {t}");
+    }
+    let recs = r.summary.faults.unwrap();
+    assert_eq!((recs[0].injected_at_s, recs[1].injected_at_s), (Some(1.0), Some(2.0)));
+}
+
+#[test]
+fn an_open_rod_gives_no_dipole_and_a_reversed_rod_the_negative() {
+    let sc = with_dipole(
+        "[[faults]]\nonset_s = 1.0\nunit = \"magnetorquer.0\"\nkind = \"open\"\n\
+         [[faults]]\nonset_s = 2.0\nunit = \"magnetorquer.1\"\nkind = \"reversed\"\n",
+    );
+    let r = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
+    let c = |n: &str| r.series.col(n).unwrap();
+    let (t, x, y, z) = (c("t_s"), c("dipole_x_am2"), c("dipole_y_am2"), c("dipole_z_am2"));
+    for k in 0..t.len() {
+        // Commanded [0.1, -0.05, 0.08] A m² (f32 on the wire), inside the rods' ±0.2:
+        // realised as commanded.
+        let cmd = [0.1f32, -0.05, 0.08].map(f64::from);
+        assert_eq!(x[k], if t[k] >= 1.0 - 1e-9 { 0.0 } else { cmd[0] }, "t = {}", t[k]);
+        assert_eq!(y[k], if t[k] >= 2.0 - 1e-9 { -cmd[1] } else { cmd[1] }, "t = {}", t[k]);
+        assert_eq!(z[k], cmd[2]);
+        assert_eq!(c("dipole_cmd_x_am2")[k], cmd[0]);
+    }
+}
+
+// --- sensors, on a closed-form truth ---
+
+/// Body rate of the closed-form truth, rad/s, and its attitude at `t`:
+/// `q(t) = q0 ⊗ exp(ω t / 2)` (constant body rate).
+const W_TRUE: [f64; 3] = [0.02, -0.03, 0.05];
+
+fn truth_q(t: f64) -> Quat {
+    let q0 = UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1);
+    (q0 * UnitQuaternion::from_scaled_axis(Vec3::from(W_TRUE) * t)).into_inner()
+}
+
+/// The truth at `t`: attitude, rate and wheels whose relative speed ramps at 50 rad/s².
+fn truth(t: f64, craft: &sim_core::plant::Spacecraft) -> State {
+    let w = Vec3::from(W_TRUE);
+    let mut wheels = [WheelState::default(); MAX_WHEELS];
+    for (i, p) in craft.wheels.iter().enumerate() {
+        let rel = 100.0 + 50.0 * t + 10.0 * i as f64;
+        wheels[i].h_abs_nms = p.inertia_kgm2 * (rel + Vec3::from(p.spin_axis).dot(&w));
+    }
+    State { q: truth_q(t), w, gimbal_rad: [0.0; MAX_GIMBALS], gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels }
+}
+
+/// The frames of 10 s of samples at 10 Hz on the truth, with the scenario's faults.
+fn frames(sc: &Scenario) -> Vec<(f64, State, acs_flight::link::SensorFrame)> {
+    let r = Resolved::try_from(sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    (0..=100)
+        .map(|k| {
+            let t = k as f64 * DT;
+            let s = truth(t, &craft);
+            let f = suite.sample(k, t, &s, &craft, None, &[0.0; 3]);
+            (t, s, f)
+        })
+        .collect()
+}
+
+/// Per-sample 1σ of the gyro: ARW × √rate.
+const GYRO_SIGMA: f64 = 1e-4 * 3.1622776601683795;
+
+#[test]
+fn a_stuck_gyro_axis_repeats_itself_and_the_others_follow_the_truth() {
+    let sc = scenario("[[faults]]\nonset_s = 4.0\nunit = \"gyro.y\"\nkind = \"stuck\"\n");
+    let fr = frames(&sc);
+    let held = fr.iter().find(|(t, ..)| *t >= 4.0 - 1e-9).unwrap().2.rate_rad_s[1];
+    let mut y_moved = 0;
+    for (t, s, f) in &fr {
+        for a in [0, 2] {
+            // 5σ per sample (plus f32 rounding of the wire).
+            assert!((f.rate_rad_s[a] as f64 - s.w[a]).abs() < 5.0 * GYRO_SIGMA + 1e-7, "axis {a} at {t}");
+        }
+        if *t >= 4.0 - 1e-9 {
+            assert_eq!(f.rate_rad_s[1], held, "at {t}");
+            // Its increment is the held rate over the interval (0.1 s).
+            assert!((f.gyro_angle_rad[1] as f64 - held as f64 * DT).abs() < 1e-9, "at {t}");
+        } else {
+            assert!((f.rate_rad_s[1] as f64 - s.w[1]).abs() < 5.0 * GYRO_SIGMA + 1e-7);
+            y_moved += usize::from(f.rate_rad_s[1] != held);
+        }
+    }
+    // Healthy, the axis's noise made every reading differ from the later held one.
+    assert!(y_moved >= 39, "{y_moved}");
+}
+
+#[test]
+fn a_gyro_bias_step_shifts_the_mean_error_by_the_step() {
+    let step = 2e-3;
+    let sc =
+        scenario(&format!("[[faults]]\nonset_s = 5.0\nunit = \"gyro.z\"\nkind = \"bias_step\"\nmagnitude = {step}\n"));
+    let fr = frames(&sc);
+    let mean = |after: bool| {
+        let e: Vec<f64> = fr
+            .iter()
+            .filter(|(t, ..)| (*t >= 5.0 - 1e-9) == after)
+            .map(|(_, s, f)| f.rate_rad_s[2] as f64 - s.w[2])
+            .collect();
+        (e.iter().sum::<f64>() / e.len() as f64, e.len())
+    };
+    let ((before, n0), (after, n1)) = (mean(false), mean(true));
+    // The jump's standard error is σ √(1/n0 + 1/n1); 5 of them.
+    let tol = 5.0 * GYRO_SIGMA * (1.0 / n0 as f64 + 1.0 / n1 as f64).sqrt();
+    eprintln!("bias step: mean error {before:e} -> {after:e} rad/s (step {step:e}, tol {tol:e})");
+    assert!((after - before - step).abs() < tol, "{} vs {step}", after - before);
+    // The other axes see no step.
+    let x_after: f64 =
+        fr.iter().filter(|(t, ..)| *t >= 5.0).map(|(_, s, f)| f.rate_rad_s[0] as f64 - s.w[0]).sum::<f64>() / n1 as f64;
+    assert!(x_after.abs() < 5.0 * GYRO_SIGMA / (n1 as f64).sqrt(), "{x_after}");
+}
+
+/// Rotation angle between two attitudes, rad.
+fn angle_between(a: &Quat, b: &Quat) -> f64 {
+    let d = (a.conjugate() * b).normalize();
+    2.0 * d.imag().norm().atan2(d.w.abs())
+}
+
+fn measured_q(f: &acs_flight::link::SensorFrame) -> Quat {
+    from_xyzw(f.q_ib_xyzw.map(f64::from)).normalize()
+}
+
+#[test]
+fn a_flipped_tracker_reports_the_truth_turned_half_a_turn_about_its_boresight() {
+    let sc = scenario("[[faults]]\nonset_s = 3.0\nunit = \"star_tracker\"\nkind = \"flip\"\n");
+    let fr = frames(&sc);
+    let b = Unit::new_normalize(Vec3::new(0.6, 0.0, 0.8));
+    let flip = UnitQuaternion::from_axis_angle(&b, std::f64::consts::PI).into_inner();
+    // Noise: 0.05° about the boresight, 0.01° across; 5σ of the largest, plus f32 rounding.
+    let tol = 5.0 * 0.05f64.to_radians() + 1e-6;
+    for (t, s, f) in &fr {
+        let q = measured_q(f);
+        if *t >= 3.0 - 1e-9 {
+            assert!(angle_between(&(s.q * flip), &q) < tol, "at {t}");
+            assert!((angle_between(&s.q, &q) - std::f64::consts::PI).abs() < tol, "at {t}");
+        } else {
+            assert!(angle_between(&s.q, &q) < tol, "at {t}");
+        }
+    }
+}
+
+#[test]
+fn a_frozen_tracker_repeats_its_attitude_with_fresh_time_tags() {
+    let sc = scenario("[[faults]]\nonset_s = 3.0\nunit = \"star_tracker\"\nkind = \"frozen\"\nend_s = 7.0\n");
+    let fr = frames(&sc);
+    let held = fr.iter().find(|(t, ..)| *t >= 3.0 - 1e-9).unwrap().2.q_ib_xyzw;
+    let tol = 5.0 * 0.05f64.to_radians() + 1e-6;
+    for (t, s, f) in &fr {
+        // Fresh: every frame's tracker sample is this step's.
+        assert_eq!(f.sampled_at.star_tracker_us, (t * 1e6).round() as u64);
+        if (3.0 - 1e-9..7.0 - 1e-9).contains(t) {
+            assert_eq!(f.q_ib_xyzw, held, "at {t}");
+        } else {
+            assert!(angle_between(&s.q, &measured_q(f)) < tol, "at {t}");
+        }
+    }
+    // Meanwhile the truth turned |ω| × 4 s = 0.24 rad away from the held attitude.
+    let (s7, q3) = (&fr[69].1, from_xyzw(held.map(f64::from)).normalize());
+    assert!(angle_between(&s7.q, &q3) > 0.2);
+}
+
+#[test]
+fn a_stuck_tachometer_repeats_its_reading_while_the_wheel_speeds_up() {
+    let sc = scenario("[[faults]]\nonset_s = 2.0\nunit = \"wheel.2\"\nkind = \"tach_stuck\"\n");
+    let fr = frames(&sc);
+    let held = fr[20].2.wheel_speed_rad_s[2];
+    let rel = |s: &State, i: usize, craft_axis: Vec3| s.wheels[i].h_abs_nms / I_W - craft_axis.dot(&s.w);
+    let craft = sc.spacecraft().unwrap();
+    let axis = |i: usize| Vec3::from(craft.wheels[i].spin_axis);
+    for (t, s, f) in &fr {
+        // Tachometer noise 0.01 rad/s: 5σ, plus f32 rounding at ~600 rad/s.
+        let tol = 0.05 + 1e-4;
+        assert!((f.wheel_speed_rad_s[1] as f64 - rel(s, 1, axis(1))).abs() < tol, "healthy tach at {t}");
+        if *t >= 2.0 - 1e-9 {
+            assert_eq!(f.wheel_speed_rad_s[2], held, "at {t}");
+        } else {
+            assert!((f.wheel_speed_rad_s[2] as f64 - rel(s, 2, axis(2))).abs() < tol, "at {t}");
+        }
+    }
+    // The true speed went on: 50 rad/s² for 8 s.
+    let (s2, s10) = (&fr[20].1, &fr[100].1);
+    assert!((rel(s10, 2, axis(2)) - rel(s2, 2, axis(2)) - 400.0).abs() < 1e-6);
+}
