@@ -50,6 +50,8 @@ pub enum TimelineFault {
     /// The slew into it (from the previous segment's pointing at its start, within the
     /// slew limits, plus planning) does not fit after the previous segment's start.
     Unreachable,
+    /// The start time is not a finite time (NaN, infinite, or days out of range).
+    BadStart,
 }
 
 /// A refused timeline: the first offending segment and why.
