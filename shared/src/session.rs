@@ -153,6 +153,20 @@ impl Session {
             }),
             // The hang itself is the firmware's (feature `debug-hang`); shared code never hangs.
             HostMsg::DebugHang => Some(FswMsg::Error(LinkError::DebugDisabled)),
+            HostMsg::UploadTimelineSegment { index, segment } => {
+                Some(match self.fsw.stage_timeline_segment(*index, segment) {
+                    Ok(()) => FswMsg::Ack,
+                    Err(e) => FswMsg::ParamsRejected(e),
+                })
+            }
+            HostMsg::ArmTimeline { count, crc32 } => Some(match self.fsw.arm_timeline(*count, *crc32) {
+                Ok(checksum) => FswMsg::TimelineArmed { checksum },
+                Err(e) => FswMsg::TimelineRejected(e),
+            }),
+            HostMsg::ClearTimeline => {
+                self.fsw.clear_timeline();
+                Some(FswMsg::Ack)
+            }
         }
     }
 
@@ -191,6 +205,18 @@ impl Session {
             deadline_misses: self.deadline_misses,
             frames_dropped,
             seq_refused: self.seq_refused,
+            timeline: self.timeline_telemetry(),
+        }
+    }
+
+    /// The timeline counters of a step report.
+    fn timeline_telemetry(&self) -> crate::link::TimelineTelemetry {
+        let c = self.fsw.timeline_counters();
+        crate::link::TimelineTelemetry {
+            segments: u8::try_from(self.fsw.timeline().count()).unwrap_or(u8::MAX),
+            in_force: c.in_force,
+            met: c.met,
+            missed: c.missed,
         }
     }
 }

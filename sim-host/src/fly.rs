@@ -152,6 +152,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         }
         Some(Failure::Link { reason }) => failed(format!("{reason} (summary.json: run_status \"link_anomaly\")")),
         Some(Failure::Sensors { reason }) => failed(format!("{reason} (summary.json: run_status \"samples_dropped\")")),
+        Some(Failure::Timeline { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"timeline_missed\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }

@@ -122,6 +122,11 @@ impl Timeline {
         self.armed.is_some()
     }
 
+    /// Segments of the armed timeline (0: none armed).
+    pub fn count(&self) -> usize {
+        self.armed.map_or(0, |a| a.count)
+    }
+
     /// Arm staged segments `0..count` after checking them (module docs); returns the
     /// checksum. `now`: the latest navigation solution; `from`: the command in force. On
     /// refusal the timeline already armed (if any) keeps executing. The staged segments

@@ -150,7 +150,8 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 33] = [
+const DIMENSIONLESS: [&str; 34] = [
+    "timeline_segment",
     "slew_phase",
     "slews_planned",
     "slews_refused",
@@ -259,6 +260,9 @@ pub struct Layout {
     /// With `[manoeuvre]` keep-out cones and an orbit: the columns of
     /// [`crate::recorder::keepout::column_names`] (empty: none).
     pub keepout: Vec<String>,
+    /// With `[[timeline]]`: the flight's timeline segment in force, index + 1 (0: none
+    /// yet) (1).
+    pub timeline: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -318,6 +322,9 @@ impl Layout {
             v.extend(GUIDANCE.iter().map(|s| s.to_string()));
         }
         v.extend(self.keepout.iter().cloned());
+        if self.timeline {
+            v.push("timeline_segment".into());
+        }
         v
     }
 }

@@ -103,6 +103,9 @@ pub struct Resolved {
     pub slow_fdir: bool,
     /// Settle bound and pointing-performance windows (`[performance]`).
     pub performance: super::Performance,
+    /// `[[timeline]]`, checked (empty: none), and whether a missed segment is allowed.
+    pub timeline: Vec<super::TimelineEntry>,
+    pub allow_missed_segments: bool,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -167,6 +170,8 @@ impl TryFrom<&Scenario> for Resolved {
             momentum_trip: sc.modes.as_ref().map(|m| m.momentum_trip_speed_fraction).filter(|f| *f > 0.0),
             slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
             performance: sc.performance()?,
+            timeline: sc.timeline_entries()?,
+            allow_missed_segments: sc.performance.allow_missed_segments,
         })
     }
 }
@@ -228,6 +233,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         eclipse: sc.orbit.is_some(),
         guidance: sc.guidance.is_some(),
         keepout: crate::recorder::keepout::column_names(&keepout_cones(sc)),
+        timeline: sc.timeline.is_some(),
     }
 }
 

@@ -42,6 +42,7 @@ mod actuation;
 mod metrics;
 pub mod probe;
 mod row;
+mod timeline;
 
 use actuation::Actuation;
 use metrics::{Metrics, mode_name};
@@ -244,6 +245,8 @@ pub struct Simulation<'a> {
     segments: Option<Segments>,
     /// Changes whenever a ground command replaces the mission's pointing.
     pointing_id: u32,
+    /// The scenario's `[[timeline]]` and the flight code's counters of it.
+    timeline: timeline::TimelineRun,
 }
 
 impl<'a> Simulation<'a> {
@@ -274,7 +277,11 @@ impl<'a> Simulation<'a> {
             momentum_trip,
             slow_fdir,
             performance,
+            timeline,
+            allow_missed_segments,
         } = cfg;
+        let timeline =
+            timeline::TimelineRun { entries: timeline, allow_missed: allow_missed_segments, ..Default::default() };
         let info = match &upload {
             Some(up) => {
                 let info = link.hello().context("hello")?;
@@ -285,6 +292,7 @@ impl<'a> Simulation<'a> {
                 if let Some(e) = &estimation {
                     link.configure_estimation(e).context("estimation parameters")?;
                 }
+                timeline.stage(link).context("timeline upload")?;
                 Some(info)
             }
             None => None,
@@ -342,6 +350,7 @@ impl<'a> Simulation<'a> {
             t_end: 0.0,
             injection: None,
             last_step: None,
+            timeline,
         })
     }
 
@@ -572,6 +581,7 @@ impl<'a> Simulation<'a> {
         if self.layout.mode {
             self.metrics.mode(t, &report.cmd);
         }
+        self.timeline_after_step(t, report.timeline)?;
         Ok((report.cmd, report.step_cost_ticks))
     }
 
@@ -728,6 +738,9 @@ impl<'a> Simulation<'a> {
         if let Some(reason) = self.no_control_reason() {
             return (RunStatus::NoControl, Some(Failure::Control { reason }));
         }
+        if let Some(reason) = self.timeline.failure_reason() {
+            return (RunStatus::TimelineMissed, Some(Failure::Timeline { reason }));
+        }
         (RunStatus::Ok, None)
     }
 
@@ -820,6 +833,7 @@ impl<'a> Simulation<'a> {
             pointing_segments: segments,
             pointing_segments_unlisted: unlisted,
             mission_pointings: mission,
+            timeline: self.timeline.summary(),
             margins: None,
         }
     }

@@ -167,6 +167,7 @@ impl<'a> Probe<'a> {
             truth_row: s.truth_row,
             segments: s.segments.clone(),
             pointing_id: s.pointing_id,
+            timeline: s.timeline.clone(),
         })
     }
 

@@ -72,6 +72,9 @@ impl Simulation<'_> {
             let g = crate::sensors::suite::exclusion_geometry(v.t, &self.craft, self.snap.as_ref());
             k.row(&self.state.q, g.as_ref(), &v.cmd.guidance, &mut self.row);
         }
+        if self.layout.timeline {
+            self.row.push(f64::from(self.timeline.report.in_force));
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing

@@ -116,8 +116,8 @@ class RunResult:
     @property
     def status(self) -> str:
         """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"``,
-        ``"samples_dropped"``, ``"no_control"`` or ``"margins_failed"`` (a ``[margins]`` loop not
-        stable and steady)."""
+        ``"samples_dropped"``, ``"no_control"``, ``"timeline_missed"`` (a ``[[timeline]]`` segment
+        missed) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
