@@ -153,19 +153,8 @@ impl Session {
             }),
             // The hang itself is the firmware's (feature `debug-hang`); shared code never hangs.
             HostMsg::DebugHang => Some(FswMsg::Error(LinkError::DebugDisabled)),
-            HostMsg::UploadTimelineSegment { index, segment } => {
-                Some(match self.fsw.stage_timeline_segment(*index, segment) {
-                    Ok(()) => FswMsg::Ack,
-                    Err(e) => FswMsg::ParamsRejected(e),
-                })
-            }
-            HostMsg::ArmTimeline { count, crc32 } => Some(match self.fsw.arm_timeline(*count, *crc32) {
-                Ok(checksum) => FswMsg::TimelineArmed { checksum },
-                Err(e) => FswMsg::TimelineRejected(e),
-            }),
-            HostMsg::ClearTimeline => {
-                self.fsw.clear_timeline();
-                Some(FswMsg::Ack)
+            HostMsg::UploadTimelineSegment { .. } | HostMsg::ArmTimeline { .. } | HostMsg::ClearTimeline => {
+                Some(self.timeline_message(msg))
             }
         }
     }
@@ -209,6 +198,27 @@ impl Session {
         }
     }
 
+    /// The reply to a pointing-timeline message (protocol 18).
+    fn timeline_message(&mut self, msg: &HostMsg) -> FswMsg {
+        match msg {
+            HostMsg::UploadTimelineSegment { index, segment } => {
+                match self.fsw.stage_timeline_segment(*index, segment) {
+                    Ok(()) => FswMsg::Ack,
+                    Err(e) => FswMsg::ParamsRejected(e),
+                }
+            }
+            HostMsg::ArmTimeline { count, crc32 } => match self.fsw.arm_timeline(*count, *crc32) {
+                Ok(checksum) => FswMsg::TimelineArmed { checksum },
+                Err(e) => FswMsg::TimelineRejected(e),
+            },
+            HostMsg::ClearTimeline => {
+                self.fsw.clear_timeline();
+                FswMsg::Ack
+            }
+            _ => FswMsg::Error(LinkError::UnexpectedMessage),
+        }
+    }
+
     /// The timeline counters of a step report.
     fn timeline_telemetry(&self) -> crate::link::TimelineTelemetry {
         let c = self.fsw.timeline_counters();
@@ -226,6 +236,30 @@ mod tests {
     use super::*;
     use crate::link::{SensorFrame, status, valid};
     use crate::params::FlightParams;
+
+    /// Timeline messages get one reply each: a segment beyond the table is refused naming
+    /// the pointing, arming without a mission set says so, clearing is acknowledged.
+    #[test]
+    fn timeline_messages_are_answered() {
+        use crate::params::{GuidanceParams, MAX_TIMELINE_SEGMENTS, TargetFrame, TimelineFault, TimelineSegment};
+        let mut s = Session::new(board::HOST, 0);
+        let mut c = || 0u32;
+        let segment = TimelineSegment {
+            start_j2000_days: 9_600,
+            start_j2000_s: 100.0,
+            guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial),
+        };
+        let up = |index| HostMsg::UploadTimelineSegment { index, segment };
+        assert_eq!(s.handle(&up(0), 0, &mut c), Some(FswMsg::Ack));
+        let over = s.handle(&up(MAX_TIMELINE_SEGMENTS as u8), 0, &mut c);
+        assert!(matches!(over, Some(FswMsg::ParamsRejected(_))), "{over:?}");
+        let arm = s.handle(&HostMsg::ArmTimeline { count: 1, crc32: 0 }, 0, &mut c);
+        assert!(
+            matches!(arm, Some(FswMsg::TimelineRejected(e)) if e.fault == TimelineFault::NoMissionMode && e.index == 0),
+            "{arm:?}"
+        );
+        assert_eq!(s.handle(&HostMsg::ClearTimeline, 0, &mut c), Some(FswMsg::Ack));
+    }
 
     #[test]
     fn hello_checks_version_and_schema() {

@@ -384,6 +384,7 @@ mod tests {
                 sun_half_angle_rad: Some(0.5),
                 earth_margin_rad: Some(0.1),
             }]),
+            timeline: true,
         }
     }
 
