@@ -153,6 +153,9 @@ impl Session {
             }),
             // The hang itself is the firmware's (feature `debug-hang`); shared code never hangs.
             HostMsg::DebugHang => Some(FswMsg::Error(LinkError::DebugDisabled)),
+            HostMsg::UploadTimelineSegment { .. } | HostMsg::ArmTimeline { .. } | HostMsg::ClearTimeline => {
+                Some(self.timeline_message(msg))
+            }
         }
     }
 
@@ -191,6 +194,39 @@ impl Session {
             deadline_misses: self.deadline_misses,
             frames_dropped,
             seq_refused: self.seq_refused,
+            timeline: self.timeline_telemetry(),
+        }
+    }
+
+    /// The reply to a pointing-timeline message (protocol 19).
+    fn timeline_message(&mut self, msg: &HostMsg) -> FswMsg {
+        match msg {
+            HostMsg::UploadTimelineSegment { index, segment } => {
+                match self.fsw.stage_timeline_segment(*index, segment) {
+                    Ok(()) => FswMsg::Ack,
+                    Err(e) => FswMsg::ParamsRejected(e),
+                }
+            }
+            HostMsg::ArmTimeline { count, crc32 } => match self.fsw.arm_timeline(*count, *crc32) {
+                Ok(checksum) => FswMsg::TimelineArmed { checksum },
+                Err(e) => FswMsg::TimelineRejected(e),
+            },
+            HostMsg::ClearTimeline => {
+                self.fsw.clear_timeline();
+                FswMsg::Ack
+            }
+            _ => FswMsg::Error(LinkError::UnexpectedMessage),
+        }
+    }
+
+    /// The timeline counters of a step report.
+    fn timeline_telemetry(&self) -> crate::link::TimelineTelemetry {
+        let c = self.fsw.timeline_counters();
+        crate::link::TimelineTelemetry {
+            segments: u8::try_from(self.fsw.timeline().count()).unwrap_or(u8::MAX),
+            in_force: c.in_force,
+            met: c.met,
+            missed: c.missed,
         }
     }
 }
@@ -200,6 +236,30 @@ mod tests {
     use super::*;
     use crate::link::{SensorFrame, status, valid};
     use crate::params::FlightParams;
+
+    /// Timeline messages get one reply each: a segment beyond the table is refused naming
+    /// the pointing, arming without a mission set says so, clearing is acknowledged.
+    #[test]
+    fn timeline_messages_are_answered() {
+        use crate::params::{GuidanceParams, MAX_TIMELINE_SEGMENTS, TargetFrame, TimelineFault, TimelineSegment};
+        let mut s = Session::new(board::HOST, 0);
+        let mut c = || 0u32;
+        let segment = TimelineSegment {
+            start_j2000_days: 9_600,
+            start_j2000_s: 100.0,
+            guidance: GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial),
+        };
+        let up = |index| HostMsg::UploadTimelineSegment { index, segment };
+        assert_eq!(s.handle(&up(0), 0, &mut c), Some(FswMsg::Ack));
+        let over = s.handle(&up(MAX_TIMELINE_SEGMENTS as u8), 0, &mut c);
+        assert!(matches!(over, Some(FswMsg::ParamsRejected(_))), "{over:?}");
+        let arm = s.handle(&HostMsg::ArmTimeline { count: 1, crc32: 0 }, 0, &mut c);
+        assert!(
+            matches!(arm, Some(FswMsg::TimelineRejected(e)) if e.fault == TimelineFault::NoMissionMode && e.index == 0),
+            "{arm:?}"
+        );
+        assert_eq!(s.handle(&HostMsg::ClearTimeline, 0, &mut c), Some(FswMsg::Ack));
+    }
 
     #[test]
     fn hello_checks_version_and_schema() {

@@ -155,6 +155,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         Some(Failure::KeepOut { reason }) => {
             failed(format!("{reason} (summary.json: run_status \"keepout_violated\")"))
         }
+        Some(Failure::Timeline { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"timeline_missed\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }

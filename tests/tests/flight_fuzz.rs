@@ -7,12 +7,18 @@
 //! frame (its `seq` possibly corrupted) is stepped exactly when its `seq` is above the last
 //! stepped one since the last `Hello` or accepted configuration (a model kept here), and
 //! refused with `StaleSequence` otherwise. Frames carry protocol 13's sample times
-//! (late, beyond the history, from the future, absurd) and gyro increments.
+//! (late, beyond the history, from the future, absurd) and gyro increments. Pointing
+//! timelines (protocol 19): random segments (times near the latest fix, in the past, far
+//! ahead, out of order, NaN; fixed, Sun and ground pointings), armed with the checksum of
+//! what was sent (corruption makes some differ), cleared; every arming gets `TimelineArmed`
+//! or `TimelineRejected`, and every step report's timeline counters stay consistent.
 
+use acs_flight::guidance::timeline::checksum;
 use acs_flight::link::{
     ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SampleTimes, SensorFrame, schema_hash, status, valid,
 };
-use acs_flight::params::{AttitudeSource, EstimationParams};
+use acs_flight::params::{AttitudeSource, Direction, EstimationParams, GuidanceParams, Pointing, TargetFrame};
+use acs_flight::params::{MAX_TIMELINE_SEGMENTS, TimelineSegment};
 use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::session::{Session, board};
 use acs_tests::scenario;
@@ -81,6 +87,36 @@ fn sample_time(rng: &mut ChaCha8Rng, seq: u32) -> u64 {
     }
 }
 
+/// A random segment `index`: mostly in order, 60 s apart from 60 s after the fix time
+/// `(days, s)`; some anywhere in the next 2 h, in the past, beyond the 1-day horizon or
+/// NaN; a fixed, Sun or ground pointing.
+fn segment(rng: &mut ChaCha8Rng, index: u8, days: i32, s: f32) -> TimelineSegment {
+    let start_s = match rng.random_range(0..10) {
+        0 => s - rng.random_range(1.0..5_000.0),
+        1 => s + rng.random_range(86_400.0..400_000.0),
+        2 => f32::NAN,
+        3 => s + rng.random_range(10.0..7_200.0),
+        _ => s + 60.0 * f32::from(index + 1) + rng.random_range(0.0..30.0),
+    };
+    let align = |primary| Pointing::Align {
+        primary_body: [0.0, 0.0, 1.0],
+        primary,
+        secondary_body: [1.0, 0.0, 0.0],
+        secondary: Direction::OrbitNormal,
+    };
+    let pointing = match rng.random_range(0..3) {
+        0 => Pointing::Fixed { q_xyzw: frame(rng, 0).q_ib_xyzw, frame: TargetFrame::Inertial },
+        1 => align(Direction::Sun),
+        _ => align(Direction::Ground {
+            lat_rad: rng.random_range(-1.5..1.5),
+            lon_rad: rng.random_range(-3.0..3.0),
+            alt_m: 0.0,
+        }),
+    };
+    let guidance = GuidanceParams { pointing, ..GuidanceParams::fixed([0.0, 0.0, 0.0, 1.0], TargetFrame::Inertial) };
+    TimelineSegment { start_j2000_days: days, start_j2000_s: start_s, guidance }
+}
+
 #[test]
 fn random_message_sequences_never_break_the_flight_side() {
     // More seeds for a longer local campaign: ACS_FUZZ_SEEDS=1000 cargo test ...
@@ -101,6 +137,11 @@ fn fuzz(seed: u64) {
     let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) =
         (0u32, 0u32, 0u32, 0u32, [0u32; 1 + Mode::ALL.len()]);
     let (mut model_last, mut seq_refused, mut refused_total) = (None::<u32>, 0u32, 0u32);
+    // Timeline: what was sent per index (the arming's checksum), the latest fix's time.
+    let mut staged: Vec<Option<TimelineSegment>> = vec![None; MAX_TIMELINE_SEGMENTS];
+    let (mut fix_days, mut fix_s) = (9_500i32, 1_000.0f32);
+    let (mut tl_armed, mut tl_rejected, mut tl_msgs) = (0u32, 0u32, 0u32);
+    let mut tl_faults = std::collections::BTreeMap::new();
     for k in 0..30_000u32 {
         let msg = match rng.random_range(0..100) {
             0 => HostMsg::Hello { protocol_version: PROTOCOL_VERSION, schema_hash: schema_hash() },
@@ -130,7 +171,25 @@ fn fuzz(seed: u64) {
                 magnetometer_sigma_rad: 0.05,
                 ..EstimationParams::default()
             }),
-            _ => HostMsg::Sensor(frame(&mut rng, k)),
+            27..=29 => {
+                let index = rng.random_range(0..MAX_TIMELINE_SEGMENTS as u8 + 2);
+                HostMsg::UploadTimelineSegment { index, segment: segment(&mut rng, index, fix_days, fix_s) }
+            }
+            30 => {
+                // Mostly the staged prefix; sometimes any count (missing segments, too many).
+                let prefix = staged.iter().take_while(|s| s.is_some()).count() as u8;
+                let count =
+                    if rng.random_bool(0.7) { prefix } else { rng.random_range(0..MAX_TIMELINE_SEGMENTS as u8 + 2) };
+                let sent: Option<Vec<_>> = staged.iter().take(usize::from(count)).copied().collect();
+                let crc32 = sent.and_then(|v| checksum(&v)).unwrap_or_else(|| rng.random());
+                HostMsg::ArmTimeline { count, crc32 }
+            }
+            31 => HostMsg::ClearTimeline,
+            _ => {
+                let f = frame(&mut rng, k);
+                (fix_days, fix_s) = (f.gnss_j2000_days, f.gnss_j2000_s);
+                HostMsg::Sensor(f)
+            }
         };
         let mut bytes = postcard::to_allocvec(&msg).unwrap();
         if rng.random_bool(0.3) {
@@ -145,6 +204,26 @@ fn fuzz(seed: u64) {
         corrupted += u32::from(decoded != msg);
         let msg = decoded;
         let reply = s.handle(&msg, 0, &mut counter);
+        match (&msg, &reply) {
+            (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineArmed { .. })) => tl_armed += 1,
+            (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineRejected(e))) => {
+                tl_rejected += 1;
+                *tl_faults.entry(format!("{:?}", e.fault)).or_insert(0u32) += 1;
+            }
+            (HostMsg::ArmTimeline { .. }, other) => panic!("ArmTimeline got {other:?}"),
+            // The model stages what the flight side accepted (after any corruption).
+            (HostMsg::UploadTimelineSegment { index, segment }, Some(FswMsg::Ack)) => {
+                tl_msgs += 1;
+                staged[usize::from(*index)] = Some(*segment);
+            }
+            (HostMsg::UploadTimelineSegment { .. }, Some(FswMsg::ParamsRejected(_))) => tl_msgs += 1,
+            (HostMsg::ClearTimeline, Some(FswMsg::Ack)) => {
+                tl_msgs += 1;
+                staged.iter_mut().for_each(|s| *s = None);
+            }
+            (HostMsg::UploadTimelineSegment { .. } | HostMsg::ClearTimeline, other) => panic!("{msg:?} got {other:?}"),
+            _ => {}
+        }
         // The sequence model: Hello and accepted configurations start a new sequence.
         match (&msg, &reply) {
             (_, Some(FswMsg::HelloAck { .. })) => (model_last, seq_refused) = (None, 0),
@@ -164,6 +243,8 @@ fn fuzz(seed: u64) {
                 model_last = Some(f.seq);
                 assert_eq!(r.seq_refused, seq_refused);
                 steps += 1;
+                let tl = r.timeline;
+                assert!(usize::from(tl.segments) <= MAX_TIMELINE_SEGMENTS && tl.in_force <= tl.segments, "{tl:?}");
                 let c = r.cmd;
                 assert_eq!(c.seq, f.seq);
                 assert!(finite(&c), "non-finite command for {f:?}: {c:?}");
@@ -194,8 +275,9 @@ fn fuzz(seed: u64) {
         }
     }
     eprintln!(
-        "seed {seed}: {steps} steps, {corrupted} corrupted messages decoded, {rejected} rejected, armed {armed} times, modes seen {mode_seen:?}, {refused_total} frames refused (seq)"
+        "seed {seed}: {steps} steps, {corrupted} corrupted messages decoded, {rejected} rejected, armed {armed} times, modes seen {mode_seen:?}, {refused_total} frames refused (seq); timeline armed {tl_armed}, refused {tl_rejected} {tl_faults:?}, {tl_msgs} uploads/clears"
     );
+    assert!(tl_rejected > 50 && tl_msgs > 500, "timeline messages exercised");
     assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100 && refused_total > 10);
     assert!(mode_seen.iter().all(|n| *n > 0), "every mode (and none) was exercised: {mode_seen:?}");
 }

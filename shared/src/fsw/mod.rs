@@ -11,7 +11,8 @@
 //!    actuators idle: gimbals stop, wheel torques, dipoles and thrusters zero) with
 //!    `BAD_INPUT` (a sensor) or `NO_ESTIMATE` (attitude estimate, navigation); then
 //!    actuator momentum and geometry (the LQG law runs its own estimator);
-//! 4. guide: commanded attitude and rate ([`crate::guidance`]);
+//! 4. guide: commanded attitude and rate ([`crate::guidance`]), the mission pointing
+//!    replaced by the ground's timeline when one of its segments takes over ([`timeline`]);
 //! 5. control: the law → body-torque (or gimbal-rate) demand ([`crate::control::law`]);
 //! 6. allocate: the actuator family → commands, the torque they realise, saturation
 //!    ([`crate::allocation::family`]);
@@ -25,11 +26,14 @@ pub mod check;
 mod config;
 mod mode;
 pub mod report;
+mod timeline;
 
 use crate::allocation::family::{ActuatorFamily, Actuators, Commands, ThrusterSet};
 use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
 use crate::estimation::determination::{Determination, Estimate};
+use crate::estimation::navigation::NavSolution;
 use crate::guidance::Guidance;
+use crate::guidance::timeline::Timeline;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
 use crate::modes::ModeManager;
@@ -91,6 +95,10 @@ pub struct Fsw {
     dipole_last_am2: Vec3,
     /// A thruster momentum dump is under way (hysteresis state).
     dumping: bool,
+    /// The ground's pointing timeline ([`timeline`]) and the latest navigation solution
+    /// (what arming checks the segments against).
+    timeline: Timeline,
+    nav_last: Option<NavSolution>,
 }
 
 impl Default for Fsw {
@@ -111,6 +119,8 @@ impl Fsw {
             determination: Determination::sensor_only(),
             dipole_last_am2: nalgebra::Vector3::new(0.0, 0.0, 0.0),
             dumping: false,
+            timeline: Timeline::new(),
+            nav_last: None,
         }
     }
 
@@ -161,6 +171,8 @@ impl Fsw {
         }
         // Mode: may switch the slot in force (and reset the law taking over).
         self.update_mode(f, est);
+        // Timeline: a segment taking over replaces the mission pointing before guidance.
+        self.step_timeline(est);
         let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
             return Self::safe(f.seq, Status::NOT_CONFIGURED);
         };

@@ -54,10 +54,12 @@ struct Armed {
     switched: bool,
 }
 
-/// Staged segments and the armed timeline.
+/// Staged segments and the armed timeline. The armed segments are a copy: staging a new
+/// timeline while one executes does not change the one executing until it is armed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Timeline {
     staged: [Option<TimelineSegment>; MAX_TIMELINE_SEGMENTS],
+    segments: [TimelineSegment; MAX_TIMELINE_SEGMENTS],
     armed: Option<Armed>,
     pub counters: TimelineCounters,
 }
@@ -68,26 +70,37 @@ impl Default for Timeline {
     }
 }
 
-/// The CRC-32 the ground computes over segments `0..count` (postcard of each, in order).
+/// The CRC-32 the ground computes over segments `0..count` (postcard of each, in order);
+/// `None` when a segment does not encode.
 pub fn checksum(segments: &[TimelineSegment]) -> Option<u32> {
+    checksum_of(segments.iter().map(Some))
+}
+
+/// The CRC-32 over segments that must all be present (`None` if one is missing).
+fn checksum_of<'a>(segments: impl Iterator<Item = Option<&'a TimelineSegment>>) -> Option<u32> {
     let mut digest = CRC32.digest();
+    let mut buf = [0u8; SEGMENT_BUF];
     for s in segments {
-        let mut buf = [0u8; 256];
-        digest.update(postcard::to_slice(s, &mut buf).ok()?);
+        digest.update(postcard::to_slice(s?, &mut buf).ok()?);
     }
     Some(digest.finalize())
 }
+
+/// Postcard buffer of one segment (the largest encodes to well under this; a test checks).
+pub const SEGMENT_BUF: usize = 256;
 
 impl Timeline {
     pub const fn new() -> Self {
         Self {
             staged: [None; MAX_TIMELINE_SEGMENTS],
+            segments: [PLACEHOLDER; MAX_TIMELINE_SEGMENTS],
             armed: None,
             counters: TimelineCounters { met: 0, missed: 0, in_force: 0 },
         }
     }
 
-    /// Stage segment `index` (its pointing validated; a bad index is out of range).
+    /// Stage segment `index` (its pointing validated; a bad index is out of range). The
+    /// armed timeline, if any, keeps executing.
     pub fn stage(&mut self, index: u8, segment: &TimelineSegment) -> Result<(), crate::params::ParamError> {
         segment.guidance.validate()?;
         let slot = self.staged.get_mut(usize::from(index)).ok_or(crate::params::ParamError {
@@ -98,17 +111,26 @@ impl Timeline {
         Ok(())
     }
 
-    /// Drop the timeline (staged and armed); the pointing in force stays.
+    /// Drop the timeline (staged and armed) and its counters; the pointing in force stays.
     pub fn clear(&mut self) {
-        *self = Self::new();
+        self.staged = [None; MAX_TIMELINE_SEGMENTS];
+        self.armed = None;
+        self.counters = TimelineCounters::default();
     }
 
     pub fn is_armed(&self) -> bool {
         self.armed.is_some()
     }
 
-    /// Arm segments `0..count` after checking them (module docs); returns the checksum.
-    /// `now`: the latest navigation solution; `from`: the command in force.
+    /// Segments of the armed timeline (0: none armed).
+    pub fn count(&self) -> usize {
+        self.armed.map_or(0, |a| a.count)
+    }
+
+    /// Arm staged segments `0..count` after checking them (module docs); returns the
+    /// checksum. `now`: the latest navigation solution; `from`: the command in force. On
+    /// refusal the timeline already armed (if any) keeps executing. The staged segments
+    /// stay staged either way (a new arming needs no new upload).
     pub fn arm(
         &mut self,
         count: u8,
@@ -123,58 +145,89 @@ impl Timeline {
         if n == 0 || n > MAX_TIMELINE_SEGMENTS {
             return Err(fail(0, TimelineFault::BadCount));
         }
-        let mut segs = [None; MAX_TIMELINE_SEGMENTS];
-        for (i, (dst, src)) in segs.iter_mut().zip(self.staged.iter()).take(n).enumerate() {
-            *dst = Some(src.ok_or(fail(i, TimelineFault::NotUploaded))?);
+        let staged = self.staged.get(..n).unwrap_or(&[]);
+        if let Some(i) = staged.iter().position(Option::is_none) {
+            return Err(fail(i, TimelineFault::NotUploaded));
         }
-        let list: [TimelineSegment; MAX_TIMELINE_SEGMENTS] = segs.map(|s| s.unwrap_or(PLACEHOLDER));
-        let used = list.get(..n).unwrap_or(&[]);
-        let sum = checksum(used).ok_or(fail(0, TimelineFault::Checksum))?;
+        let sum = checksum_of(staged.iter().map(Option::as_ref)).ok_or(fail(0, TimelineFault::Checksum))?;
         if sum != checksum_ground {
             return Err(fail(0, TimelineFault::Checksum));
         }
         let nav = now.ok_or(fail(0, TimelineFault::NoNavigation))?;
         let mut leads_s = [0.0f32; MAX_TIMELINE_SEGMENTS];
         let mut previous: Option<(f32, Quat)> = None; // (start offset, its command)
-        for (i, seg) in used.iter().enumerate() {
-            let check = Check { nav, manoeuvre, dt_s, from: from.map(|g| g.q) };
-            let (offset, lead) = check.segment(seg, previous).map_err(|f| fail(i, f))?;
-            if let Some(l) = leads_s.get_mut(i) {
-                *l = lead.0;
-            }
-            previous = Some((offset, lead.1));
+        let check = Check { nav, manoeuvre, dt_s, from: from.map(|g| g.q) };
+        for (i, (seg, lead_out)) in staged.iter().flatten().zip(leads_s.iter_mut()).enumerate() {
+            let (offset, (lead, q)) = check.segment(seg, previous).map_err(|f| fail(i, f))?;
+            *lead_out = lead;
+            previous = Some((offset, q));
+        }
+        for (dst, src) in self.segments.iter_mut().zip(self.staged.iter().take(n).flatten()) {
+            *dst = *src;
         }
         self.armed = Some(Armed { count: n, leads_s, next: 0, switched: false });
         self.counters = TimelineCounters::default();
         Ok(sum)
     }
 
+    /// Segment `i` of the armed timeline.
+    pub fn segment(&self, i: usize) -> Option<&TimelineSegment> {
+        self.armed.filter(|a| i < a.count).and_then(|_| self.segments.get(i))
+    }
+
+    /// How long before its start segment `i`'s pointing takes over, s (armed timeline).
+    pub fn lead_s(&self, i: usize) -> Option<f32> {
+        self.armed.filter(|a| i < a.count).and_then(|a| a.leads_s.get(i).copied())
+    }
+
     /// One step at navigation time `now`: the pointing that takes over now, if any.
-    /// `slewing`: a slew is planned or flown this step.
-    pub fn step(&mut self, now: &J2000Time, slewing: bool) -> Option<GuidanceParams> {
-        let a = self.armed.as_mut()?;
-        if a.next >= a.count {
-            return None;
-        }
-        let seg = self.staged.get(a.next).copied().flatten()?;
-        let start = J2000Time::new(seg.start_j2000_days, seg.start_j2000_s)?;
-        let to_start = seconds_between(now, &start);
-        let lead = a.leads_s.get(a.next).copied().unwrap_or(0.0);
-        if !a.switched {
-            if to_start <= lead {
+    /// `on_target`: the command in force has arrived (no slew planned or flying, none
+    /// refused). A segment is met when it is on target at its start, else missed; a
+    /// segment whose successor already takes over before it did (the flight software did
+    /// not step the timeline for a while) is skipped and counted missed. At most
+    /// 2 × [`MAX_TIMELINE_SEGMENTS`] passes of one comparison each.
+    pub fn step(&mut self, now: &J2000Time, on_target: bool) -> Option<GuidanceParams> {
+        let mut a = self.armed?;
+        let mut out = None;
+        for _ in 0..2 * MAX_TIMELINE_SEGMENTS {
+            let Some(until_switch) = self.until_switch(&a, a.next, now) else { break };
+            if !a.switched {
+                if until_switch.0 > 0.0 {
+                    break;
+                }
+                let following = a.next.saturating_add(1);
+                if self.until_switch(&a, following, now).is_some_and(|(t, _)| t <= 0.0) {
+                    self.counters.missed = self.counters.missed.saturating_add(1);
+                    a.next = following;
+                    continue;
+                }
                 a.switched = true;
-                self.counters.in_force = u8::try_from(a.next.saturating_add(1)).unwrap_or(u8::MAX);
-                return Some(seg.guidance);
+                self.counters.in_force = u8::try_from(following).unwrap_or(u8::MAX);
+                out = self.segments.get(a.next).map(|s| s.guidance);
+                break;
             }
-            return None;
-        }
-        if to_start <= 0.0 {
-            let c = if slewing { &mut self.counters.missed } else { &mut self.counters.met };
+            if until_switch.1 > 0.0 {
+                break;
+            }
+            let c = if on_target { &mut self.counters.met } else { &mut self.counters.missed };
             *c = c.saturating_add(1);
             a.next = a.next.saturating_add(1);
             a.switched = false;
         }
-        None
+        self.armed = Some(a);
+        out
+    }
+
+    /// For segment `i`: (s until its pointing takes over, s until its start); `None` past
+    /// the last segment.
+    fn until_switch(&self, a: &Armed, i: usize, now: &J2000Time) -> Option<(f32, f32)> {
+        if i >= a.count {
+            return None;
+        }
+        let seg = self.segments.get(i)?;
+        let start = J2000Time::new(seg.start_j2000_days, seg.start_j2000_s)?;
+        let to_start = seconds_between(now, &start);
+        Some((to_start - a.leads_s.get(i).copied().unwrap_or(0.0), to_start))
     }
 }
 
@@ -201,7 +254,7 @@ impl Check<'_> {
         previous: Option<(f32, Quat)>,
     ) -> Result<(f32, (f32, Quat)), TimelineFault> {
         seg.guidance.validate().map_err(TimelineFault::Pointing)?;
-        let start = J2000Time::new(seg.start_j2000_days, seg.start_j2000_s).ok_or(TimelineFault::InThePast)?;
+        let start = J2000Time::new(seg.start_j2000_days, seg.start_j2000_s).ok_or(TimelineFault::BadStart)?;
         let offset = seconds_between(&self.nav.time, &start);
         if !(offset > 0.0) {
             return Err(if previous.is_some_and(|(p, _)| offset <= p) {

@@ -324,6 +324,7 @@ mod tests {
             deadline_misses: u32::MAX,
             frames_dropped: u32::MAX,
             seq_refused: u32::MAX,
+            timeline: TimelineTelemetry { segments: u8::MAX, in_force: u8::MAX, met: u16::MAX, missed: u16::MAX },
         });
         assert!(postcard::to_slice(&step, &mut raw).unwrap().len() <= MAX_PAYLOAD);
     }

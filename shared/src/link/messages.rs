@@ -15,13 +15,14 @@ use crate::checksum::CRC32;
 use crate::params::{
     EstimationParams, FlightParams, GuidanceParams, MAX_THRUSTERS, Mode, ModeManagerParams, ModeRequest, ParamError,
 };
+use crate::params::{TimelineError, TimelineSegment};
 #[allow(unused_imports)] // doc links
 use crate::types::{MAX_CSS_HEADS, MAX_WHEELS, Status, Valid};
 use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 18;
+pub const PROTOCOL_VERSION: u16 = 19;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -387,6 +388,22 @@ pub struct StepReport {
     /// above the last stepped one (a repeated or out-of-order frame; each got an
     /// `Error(StaleSequence)` reply and was not stepped). Protocol 12.
     pub seq_refused: u32,
+    /// The pointing timeline after this step (protocol 19).
+    pub timeline: TimelineTelemetry,
+}
+
+/// Pointing-timeline counters of a step report ([`crate::guidance::timeline`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TimelineTelemetry {
+    /// Segments of the armed timeline (0: none armed).
+    pub segments: u8,
+    /// Index + 1 of the segment whose pointing is in force (0: none yet).
+    pub in_force: u8,
+    /// Segments on target at their start, and not (late, refused, or skipped while the
+    /// timeline was not stepped); saturating, reset at each arming.
+    pub met: u16,
+    pub missed: u16,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Schema)]
@@ -490,6 +507,23 @@ pub enum HostMsg {
     /// force otherwise), blended in over its `transition_s` (protocol 16). Reply: `Ack`, or
     /// `ParamsRejected` naming the field (nothing changed).
     SetPointing(GuidanceParams),
+    /// Stage segment `index` (0-based, < `MAX_TIMELINE_SEGMENTS`) of a pointing timeline
+    /// (protocol 19, docs/guidance.md "Timeline"). Reply: `Ack`, or `ParamsRejected` (its
+    /// pointing invalid, or the index out of range). A timeline already armed keeps running.
+    UploadTimelineSegment {
+        index: u8,
+        segment: TimelineSegment,
+    },
+    /// Arm staged segments `0..count` whose CRC-32 (postcard of each, in order) is `crc32`
+    /// (protocol 19). Reply: `TimelineArmed`, or `TimelineRejected` naming the first bad
+    /// segment and why (the timeline in force, if any, unchanged).
+    ArmTimeline {
+        count: u8,
+        crc32: u32,
+    },
+    /// Drop the timeline, staged and armed; the pointing in force stays (protocol 19).
+    /// Reply: `Ack`.
+    ClearTimeline,
 }
 
 /// Flight computer → host.
@@ -526,6 +560,12 @@ pub enum FswMsg {
     Ack,
     Step(StepReport),
     Error(LinkError),
+    /// `ArmTimeline` accepted: the timeline's checksum (protocol 19).
+    TimelineArmed {
+        checksum: u32,
+    },
+    /// `ArmTimeline` refused: the first offending segment and why (protocol 19).
+    TimelineRejected(TimelineError),
 }
 
 /// A `postcard::ser_flavors::Flavor` that only feeds a CRC digest.

@@ -1,4 +1,4 @@
-//! Pointing timeline parameters (protocol 15): a bounded, time-tagged list of pointing
+//! Pointing timeline parameters (protocol 19): a bounded, time-tagged list of pointing
 //! segments the ground uploads one segment per message, then arms with its count and
 //! checksum ([`crate::guidance::timeline`], docs/guidance.md "Timeline").
 
@@ -50,6 +50,11 @@ pub enum TimelineFault {
     /// The slew into it (from the previous segment's pointing at its start, within the
     /// slew limits, plus planning) does not fit after the previous segment's start.
     Unreachable,
+    /// The start time is not a finite time (NaN, infinite, or days out of range).
+    BadStart,
+    /// No parameter set of a mission mode (manoeuvre, hold; a single set) is in force or
+    /// armed: nothing to execute the timeline with.
+    NoMissionMode,
 }
 
 /// A refused timeline: the first offending segment and why.

@@ -150,8 +150,9 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 34] = [
+const DIMENSIONLESS: [&str; 35] = [
     "fault_active",
+    "timeline_segment",
     "slew_phase",
     "slews_planned",
     "slews_refused",
@@ -263,6 +264,9 @@ pub struct Layout {
     /// With `[[faults]]`: `fault_active`, the bitmask of the entries in force at the step
     /// (bit i: `faults[i]`) (1).
     pub faults: bool,
+    /// With `[[timeline]]`: the flight's timeline segment in force, index + 1 (0: none
+    /// yet) (1).
+    pub timeline: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -325,6 +329,9 @@ impl Layout {
         if self.faults {
             v.push("fault_active".into());
         }
+        if self.timeline {
+            v.push("timeline_segment".into());
+        }
         v
     }
 }
@@ -385,6 +392,7 @@ mod tests {
                 earth_margin_rad: Some(0.1),
             }]),
             faults: true,
+            timeline: true,
         }
     }
 

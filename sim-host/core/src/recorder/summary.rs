@@ -61,6 +61,9 @@ pub enum RunStatus {
     /// (`keepout.violations`): the planned attitude did not keep a sensor safe.
     #[serde(rename = "keepout_violated")]
     KeepOutViolated,
+    /// `[[timeline]]` segments were missed (not on target at their start) and the
+    /// scenario does not allow it (`[performance] allow_missed_segments`).
+    TimelineMissed,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -92,6 +95,23 @@ pub enum Failure {
     /// Which boresight entered which cone (truth), first when and how deep, and for how
     /// many steps (`[manoeuvre] keepout_enforced_from_s` on).
     KeepOut { reason: String },
+    /// How many timeline segments were missed.
+    Timeline { reason: String },
+}
+
+/// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct TimelineSummary {
+    pub segments: usize,
+    /// On target at their start / not (late, refused, skipped).
+    pub met: u16,
+    pub missed: u16,
+    /// Not started by the end of the run.
+    pub pending: u32,
+    /// When the flight code armed it, s (after the first step with navigation).
+    pub armed_at_s: Option<f64>,
+    /// `[performance] allow_missed_segments`: a missed segment does not fail the run.
+    pub allow_missed: bool,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -224,6 +244,9 @@ pub struct Summary {
     /// mission pointing").
     #[serde(skip_serializing_if = "Option::is_none")]
     pub mission_pointings: Option<crate::recorder::segments::MissionPointings>,
+    /// With `[[timeline]]`: segments met, missed and pending (docs/scenario.md).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timeline: Option<TimelineSummary>,
     /// With `[margins]`: the stability margins measured through the flight step at the
     /// operating point (`sim-host margins`, docs/margins.md), worst over the axes.
     #[serde(skip_serializing_if = "Option::is_none")]

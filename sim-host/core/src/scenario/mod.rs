@@ -38,6 +38,7 @@ mod performance;
 pub use performance::{Performance, PerformanceSpec};
 mod resolved;
 mod sensors;
+mod timeline;
 pub use actuators::{
     Actuators, Alpha, CmgConfig, CmgSpec, Family, GsrSpec, MAX_GIMBAL_MISALIGNMENT_DEG, MagnetorquersSpec, Steering,
     ThrusterFailureSpec, ThrustersSpec, WheelsSpec,
@@ -55,6 +56,7 @@ pub use resolved::{GroundCommand, Resolved, TargetConfig, Upload, layout};
 pub use sensors::{
     CssSpec, GnssSpec, GyroSpec, MagnetometerSpec, SampleTimingSpec, Sensors, StarTrackerSpec, SunSensorSpec,
 };
+pub use timeline::{TimelineEntry, TimelineSpec};
 
 /// Most control steps of a run: the sensor frame numbers them with a `u32`.
 pub const MAX_STEPS: u64 = u32::MAX as u64;
@@ -99,6 +101,9 @@ pub struct Scenario {
     /// Timed ground commands sent over the link (new target, mode commands).
     #[serde(default)]
     pub commands: Vec<CommandSpec>,
+    /// `[[timeline]]`: a pointing timeline uploaded at the start (docs/scenario.md).
+    #[serde(default)]
+    pub timeline: Option<Vec<TimelineSpec>>,
     /// CMG steering law (required with a CMG cluster under closed-loop control).
     #[serde(default)]
     pub steering: Option<Steering>,
@@ -617,6 +622,7 @@ impl Scenario {
             (None, Some(m)) => self.validate_modes(m)?,
         }
         self.validate_commands()?;
+        self.timeline_entries()?;
         Ok(())
     }
 

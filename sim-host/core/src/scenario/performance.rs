@@ -43,6 +43,9 @@ pub struct PerformanceSpec {
     /// left out of its indices (`crate::recorder::segments`).
     #[serde(default)]
     pub segment_settle_s: f64,
+    /// A `[[timeline]]` segment missed (not on target at its start) does not fail the run.
+    #[serde(default)]
+    pub allow_missed_segments: bool,
 }
 
 fn settle_bound() -> f64 {
@@ -72,6 +75,7 @@ impl Default for PerformanceSpec {
             drift_separation_s: drift_separation(),
             stability_window_s: stability_window(),
             segment_settle_s: 0.0,
+            allow_missed_segments: false,
         }
     }
 }

@@ -107,6 +107,9 @@ pub struct Resolved {
     pub performance: super::Performance,
     /// The injected faults (`[[faults]]`; empty: none).
     pub faults: Vec<crate::faults::TimedFault>,
+    /// `[[timeline]]`, checked (empty: none), and whether a missed segment is allowed.
+    pub timeline: Vec<super::TimelineEntry>,
+    pub allow_missed_segments: bool,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -173,6 +176,8 @@ impl TryFrom<&Scenario> for Resolved {
             slow_fdir: sc.modes.as_ref().is_some_and(|m| m.slow_fdir_persistence_s > 0.0),
             performance: sc.performance()?,
             faults: sc.faults()?,
+            timeline: sc.timeline_entries()?,
+            allow_missed_segments: sc.performance.allow_missed_segments,
         })
     }
 }
@@ -235,6 +240,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         guidance: sc.guidance.is_some(),
         keepout: crate::recorder::keepout::column_names(&keepout_cones(sc)),
         faults: !sc.faults.is_empty(),
+        timeline: sc.timeline.is_some(),
     }
 }
 

@@ -43,6 +43,7 @@ mod actuation;
 mod metrics;
 pub mod probe;
 mod row;
+mod timeline;
 
 use actuation::Actuation;
 use metrics::{Metrics, mode_name};
@@ -247,6 +248,8 @@ pub struct Simulation<'a> {
     pointing_id: u32,
     /// The injected faults (`[[faults]]`) and when each first acted.
     pub(super) faults: FaultLog,
+    /// The scenario's `[[timeline]]` and the flight code's counters of it.
+    timeline: timeline::TimelineRun,
 }
 
 impl<'a> Simulation<'a> {
@@ -279,7 +282,11 @@ impl<'a> Simulation<'a> {
             slow_fdir,
             performance,
             faults,
+            timeline,
+            allow_missed_segments,
         } = cfg;
+        let timeline =
+            timeline::TimelineRun { entries: timeline, allow_missed: allow_missed_segments, ..Default::default() };
         let info = match &upload {
             Some(up) => {
                 let info = link.hello().context("hello")?;
@@ -290,6 +297,7 @@ impl<'a> Simulation<'a> {
                 if let Some(e) = &estimation {
                     link.configure_estimation(e).context("estimation parameters")?;
                 }
+                timeline.stage(link).context("timeline upload")?;
                 Some(info)
             }
             None => None,
@@ -352,6 +360,7 @@ impl<'a> Simulation<'a> {
             injection: None,
             last_step: None,
             faults: FaultLog::new(faults),
+            timeline,
         })
     }
 
@@ -584,6 +593,7 @@ impl<'a> Simulation<'a> {
         if self.layout.mode {
             self.metrics.mode(t, &report.cmd);
         }
+        self.timeline_after_step(t, report.timeline)?;
         Ok((report.cmd, report.step_cost_ticks))
     }
 
@@ -757,6 +767,9 @@ impl<'a> Simulation<'a> {
         if let Some(reason) = self.keepout.as_ref().and_then(|k| k.violation_reason()) {
             return (RunStatus::KeepOutViolated, Some(Failure::KeepOut { reason }));
         }
+        if let Some(reason) = self.timeline.failure_reason() {
+            return (RunStatus::TimelineMissed, Some(Failure::Timeline { reason }));
+        }
         (RunStatus::Ok, None)
     }
 
@@ -849,6 +862,7 @@ impl<'a> Simulation<'a> {
             pointing_segments: segments,
             pointing_segments_unlisted: unlisted,
             mission_pointings: mission,
+            timeline: self.timeline.summary(),
             margins: None,
             faults: self.faults.records(),
         }

@@ -75,6 +75,9 @@ impl Simulation<'_> {
         if self.layout.faults {
             self.row.push(f64::from(crate::faults::active_mask(&self.faults.list, v.t)));
         }
+        if self.layout.timeline {
+            self.row.push(f64::from(self.timeline.report.in_force));
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
