@@ -17,6 +17,7 @@
 
 #[path = "support/shipped_scenario.rs"]
 mod shipped_scenario;
+use acs_test_support::vec3::rotate_xyzw;
 use shipped_scenario::scenario;
 #[path = "support/require_tool.rs"]
 mod require_tool;
@@ -100,16 +101,6 @@ fn angle_deg(a: &[f64], b: &[f64]) -> f64 {
     let dot: f64 = a.iter().zip(b).map(|(x, y)| x * y).sum();
     let cross = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
     cross.iter().map(|c| c * c).sum::<f64>().sqrt().atan2(dot).to_degrees()
-}
-
-/// `v` rotated by the unit quaternion `[x, y, z, w]` (body → ECI): v + 2w (u × v) + 2 u × (u × v).
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let (u, w) = ([q[0], q[1], q[2]], q[3]);
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let t = cross(u, v).map(|x| 2.0 * x);
-    let ut = cross(u, t);
-    [0, 1, 2].map(|k| v[k] + w * t[k] + ut[k])
 }
 
 fn unit(v: [f64; 3]) -> [f64; 3] {
@@ -210,7 +201,7 @@ fn sun_and_earth_are_where_the_run_says() {
         let tb = [col("target_body_x")[i], col("target_body_y")[i], col("target_body_z")[i]];
         if tb.iter().all(|x| x.is_finite()) {
             let q = [col("q_x")[i], col("q_y")[i], col("q_z")[i], col("q_w")[i]];
-            let want = rotate(q, unit(tb));
+            let want = rotate_xyzw(&q, &unit(tb));
             let e_target = angle_deg(&vec_of(&s["targetEci"]), &want);
             assert!(e_target < 0.01, "t = {} s, {}: target ray off by {e_target}°", t[i], s["camera"]);
             assert_eq!(s["targetVisible"], json!(col("target_visible")[i] == 1.0), "{s}");

@@ -5,6 +5,7 @@
 //! (1e-9 deg); the summary's smallest margin equals the column's minimum (exact); the
 //! flight planned or refused a slew for every pointing change it was commanded.
 
+use acs_test_support::vec3::rotate_xyzw;
 use sim_core::link::in_process::InProcess;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
@@ -25,17 +26,6 @@ boresight_body = [0, 1, 0]
 earth_margin_deg = 5.0
 "#;
 
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let [x, y, z, w] = q;
-    let n = (x * x + y * y + z * z + w * w).sqrt();
-    let (w, u) = (w / n, [x / n, y / n, z / n]);
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    [v[0] + w * t[0] + ut[0], v[1] + w * t[1] + ut[1], v[2] + w * t[2] + ut[2]]
-}
-
 #[test]
 fn keepout_columns_and_summary_are_the_truth_margins() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/guidance/eo-cubesat.toml");
@@ -51,7 +41,7 @@ fn keepout_columns_and_summary_are_the_truth_margins() {
     let margins = col("keepout_st_sun_margin_deg");
     let mut worst = 0.0f64;
     for ((q, sun), m) in q.iter().zip(sun).zip(margins) {
-        let b = rotate(*q, [0.0, -1.0, 0.0]);
+        let b = rotate_xyzw(q, &[0.0, -1.0, 0.0]);
         let dot = (b[0] * sun[0] + b[1] * sun[1] + b[2] * sun[2]).clamp(-1.0, 1.0);
         let expect = dot.acos().to_degrees() - 30.0;
         worst = worst.max((expect - m).abs());

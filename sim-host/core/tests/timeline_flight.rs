@@ -13,6 +13,7 @@
 //! force (`timeline_segment`), and must stay under 0.1°; the flight code must report
 //! 3 segments met, 0 missed.
 
+use acs_test_support::vec3::rotate_xyzw;
 use sim_core::link::in_process::InProcess;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
@@ -52,17 +53,6 @@ start_s = 2950.0
 guidance = { label = "Windorah", pointing = { primary_body = [0, 0, 1], primary = { ground = { lat_deg = -25.42, lon_deg = 142.65, alt_m = 140.0 } }, secondary_body = [1, 0, 0], secondary = "sun" }, min_elevation_deg = 20.0, otherwise = { primary_body = [0, 0, 1], primary = "nadir", secondary_body = [1, 0, 0], secondary = "sun" }, ut1_minus_clock_s = 0.05, feedforward = true }
 "#;
 
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let [x, y, z, w] = q;
-    let n = (x * x + y * y + z * z + w * w).sqrt();
-    let (w, u) = (w / n, [x / n, y / n, z / n]);
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    [v[0] + w * t[0] + ut[0], v[1] + w * t[1] + ut[1], v[2] + w * t[2] + ut[2]]
-}
-
 fn angle_deg(a: [f64; 3], b: [f64; 3]) -> f64 {
     let dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let n = (a.iter().map(|x| x * x).sum::<f64>() * b.iter().map(|x| x * x).sum::<f64>()).sqrt();
@@ -87,9 +77,12 @@ fn a_three_segment_timeline_is_flown_and_every_segment_met() {
         }
         let q = [col("q_x")[i], col("q_y")[i], col("q_z")[i], col("q_w")[i]];
         let err = match k {
-            1 => angle_deg(rotate(q, [1.0, 0.0, 0.0]), [col("sun_eci_x")[i], col("sun_eci_y")[i], col("sun_eci_z")[i]]),
+            1 => angle_deg(
+                rotate_xyzw(&q, &[1.0, 0.0, 0.0]),
+                [col("sun_eci_x")[i], col("sun_eci_y")[i], col("sun_eci_z")[i]],
+            ),
             2 => angle_deg(
-                rotate(q, [0.0, 0.0, 1.0]),
+                rotate_xyzw(&q, &[0.0, 0.0, 1.0]),
                 [-col("r_eci_x_m")[i], -col("r_eci_y_m")[i], -col("r_eci_z_m")[i]],
             ),
             // The target while the site is above 20° and has been for SETTLE_S.

@@ -15,6 +15,7 @@
 //! samples at 4 Hz, so a live tracker keeps it at 0.25 s at most, checked against 1 s; no
 //! sample held at all is NaN, counted as lost).
 
+use acs_test_support::vec3::rotate_xyzw;
 use sim_core::link::in_process::InProcess;
 use sim_core::runner;
 use sim_core::scenario::Scenario;
@@ -58,17 +59,6 @@ guidance = { label = "turned", pointing = { primary_body = [-0.8660254037844386,
     Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
-fn rotate(q: [f64; 4], v: [f64; 3]) -> [f64; 3] {
-    let [x, y, z, w] = q;
-    let n = (x * x + y * y + z * z + w * w).sqrt();
-    let (w, u) = (w / n, [x / n, y / n, z / n]);
-    let cross =
-        |a: [f64; 3], b: [f64; 3]| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
-    let t = cross(u, v).map(|c| 2.0 * c);
-    let ut = cross(u, t);
-    [v[0] + w * t[0] + ut[0], v[1] + w * t[1] + ut[1], v[2] + w * t[2] + ut[2]]
-}
-
 /// After the command: (rows with the Sun inside the tracker's cone, smallest Sun angle
 /// deg, rows without a tracker sample younger than 1 s, largest estimation error deg), and
 /// the slews planned.
@@ -82,7 +72,7 @@ fn fly(keepout: bool) -> (usize, f64, usize, f64, u32) {
     for i in (0..s.len()).filter(|&i| t[i] >= COMMAND_S) {
         let q = [col("q_x")[i], col("q_y")[i], col("q_z")[i], col("q_w")[i]];
         let sun = [col("sun_eci_x")[i], col("sun_eci_y")[i], col("sun_eci_z")[i]];
-        let b = rotate(q, [0.0, 1.0, 0.0]);
+        let b = rotate_xyzw(&q, &[0.0, 1.0, 0.0]);
         let norm = (sun[0] * sun[0] + sun[1] * sun[1] + sun[2] * sun[2]).sqrt();
         let deg = ((b[0] * sun[0] + b[1] * sun[1] + b[2] * sun[2]) / norm).clamp(-1.0, 1.0).acos().to_degrees();
         min_deg = min_deg.min(deg);

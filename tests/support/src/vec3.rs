@@ -40,3 +40,16 @@ pub fn sphere(n: usize) -> Vec<V3> {
         })
         .collect()
 }
+
+/// `v` rotated by the quaternion `q = [x, y, z, w]` (scalar last, normalised here; body →
+/// reference for the simulator's attitude): `v + 2w (u × v) + 2 u × (u × v)`, written apart
+/// from nalgebra's quaternion product so that a test checks the simulator against it.
+pub fn rotate_xyzw(q: &[f64; 4], v: &V3) -> V3 {
+    let [x, y, z, w] = *q;
+    let n = (x * x + y * y + z * z + w * w).sqrt();
+    let (w, u) = (w / n, [x / n, y / n, z / n]);
+    let c = |a: &V3, b: &V3| [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+    let t = c(&u, v).map(|e| 2.0 * e);
+    let ut = c(&u, &t);
+    [v[0] + w * t[0] + ut[0], v[1] + w * t[1] + ut[1], v[2] + w * t[2] + ut[2]]
+}
