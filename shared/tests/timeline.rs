@@ -309,6 +309,35 @@ fn a_gap_in_stepping_skips_overdue_segments_as_missed() {
     assert_eq!((t.counters.met, t.counters.missed), (1, 2));
 }
 
+/// Out of the mission modes (`skip_overdue`) nothing takes over and each segment is
+/// counted missed once its start has passed, not before; back in a mission mode the next
+/// segment is flown as usual.
+#[test]
+fn out_of_the_mission_modes_passed_segments_are_missed() {
+    let m = manoeuvre(&[]);
+    let (segs, q) = three();
+    let mut t = Timeline::new();
+    stage_all(&mut t, &segs);
+    arm(&mut t, &segs, Some(&q[0]), &m).unwrap();
+    let (s0, s1, s2) = (100.0, 200.0, 300.0); // three()'s starts
+    t.skip_overdue(&time_at(s0 - 0.05));
+    assert_eq!((t.counters.met, t.counters.missed, t.counters.in_force), (0, 0, 0));
+    t.skip_overdue(&time_at(s0 + 0.05));
+    assert_eq!(t.counters.missed, 1);
+    t.skip_overdue(&time_at(s1 + 0.05));
+    assert_eq!((t.counters.missed, t.counters.in_force), (2, 0));
+    // Back in a mission mode before segment 2's start: it takes over and is met.
+    let mut took_over = None;
+    let mut k = 0;
+    while took_over.is_none() && k < 10_000 {
+        took_over = t.step(&time_at(s1 + 0.1 * f64::from(k)), true);
+        k += 1;
+    }
+    assert_eq!(took_over, Some(segs[2].guidance));
+    assert_eq!(t.step(&time_at(s2 + 0.05), true), None);
+    assert_eq!((t.counters.met, t.counters.missed, t.counters.in_force), (1, 2, 3));
+}
+
 /// Staging a new timeline does not change the one executing; clearing drops both.
 #[test]
 fn staging_does_not_alter_the_armed_timeline_and_clear_drops_it() {

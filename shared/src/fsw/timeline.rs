@@ -58,14 +58,19 @@ impl Fsw {
 
     /// One timeline step (before guidance): in a mission mode with a navigation solution,
     /// a segment that takes over replaces the mission modes' pointing. Out of the mission
-    /// modes or without navigation the timeline waits; segments overdue by then are
-    /// skipped as missed ([`Timeline::step`]).
+    /// modes no segment takes over and each one whose start passes is counted missed then
+    /// ([`Timeline::skip_overdue`]); without navigation the timeline waits, and segments
+    /// overdue by then are skipped as missed ([`Timeline::step`]).
     pub(super) fn step_timeline(&mut self, est: &Estimate) {
         if let Some(nav) = &est.nav {
             self.nav_last = Some(*nav);
         }
         let Some(nav) = est.nav.as_ref() else { return };
-        if !self.timeline.is_armed() || !self.is_mission_slot(self.active) {
+        if !self.timeline.is_armed() {
+            return;
+        }
+        if !self.is_mission_slot(self.active) {
+            self.timeline.skip_overdue(&nav.time);
             return;
         }
         let on_target = self.active_cfg().is_some_and(|c| c.guidance.report().flags & NOT_ON_TARGET == 0);

@@ -218,6 +218,25 @@ impl Timeline {
         out
     }
 
+    /// Out of the mission modes: every segment whose start has passed is counted missed
+    /// (its pointing did not take over, or was not flown to its start) and none takes
+    /// over; the timeline goes on from the first segment still ahead. At most
+    /// [`MAX_TIMELINE_SEGMENTS`] iterations.
+    pub fn skip_overdue(&mut self, now: &J2000Time) {
+        let Some(mut a) = self.armed else { return };
+        for _ in 0..MAX_TIMELINE_SEGMENTS {
+            match self.until_switch(&a, a.next, now) {
+                Some((_, to_start)) if to_start <= 0.0 => {
+                    self.counters.missed = self.counters.missed.saturating_add(1);
+                    a.next = a.next.saturating_add(1);
+                    a.switched = false;
+                }
+                _ => break,
+            }
+        }
+        self.armed = Some(a);
+    }
+
     /// For segment `i`: (s until its pointing takes over, s until its start); `None` past
     /// the last segment.
     fn until_switch(&self, a: &Armed, i: usize, now: &J2000Time) -> Option<(f32, f32)> {

@@ -28,6 +28,14 @@ fn table(text: &str) -> Table {
 }
 
 fn scenario(timeline: &str) -> Scenario {
+    scenario_from(scenario_table(timeline))
+}
+
+fn scenario_from(sc: Table) -> Scenario {
+    Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+fn scenario_table(timeline: &str) -> Table {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/guidance/eo-cubesat.toml");
     let mut sc = table(&std::fs::read_to_string(path).unwrap());
     sc.insert("duration_s".into(), Value::Float(3450.0));
@@ -38,7 +46,7 @@ fn scenario(timeline: &str) -> Scenario {
     );
     let tl = table(timeline);
     sc.insert("timeline".into(), tl["timeline"].clone());
-    Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap_or_else(|e| panic!("{e:#}"))
+    sc
 }
 
 const THREE: &str = r#"
@@ -151,4 +159,34 @@ fn a_timeline_the_flight_code_refuses_fails_the_run_with_the_reason() {
     let msg = format!("{e:#}");
     println!("{msg}");
     assert!(msg.contains("timeline[1]") && msg.contains("Unreachable"), "{msg}");
+}
+
+/// Segments due while the flight code is out of its mission modes are missed, counted, and
+/// fail the run (`timeline_missed`) unless the scenario allows it. A ground command locks
+/// detumble at 1300 s: the Sun segment (600 s) is met, nadir (1500 s) and the target
+/// (2950 s) fall in the locked detumble and are missed.
+#[test]
+fn segments_due_out_of_the_mission_modes_are_missed_and_fail_the_run() {
+    use sim_core::recorder::summary::{Failure, RunStatus};
+    let fly = |allow: bool| {
+        let mut t = scenario_table(THREE);
+        let lock = table("at_s = 1300.0\nmode = \"detumble\"\nlock = true\n");
+        t.insert("commands".into(), Value::Array(vec![Value::Table(lock)]));
+        let mut sc = scenario_from(t);
+        sc.performance.allow_missed_segments = allow;
+        runner::run(&sc, &mut InProcess::new(), false).unwrap_or_else(|e| panic!("{e:#}"))
+    };
+    let strict = fly(false);
+    let tl = strict.summary.timeline.clone().expect("timeline summary");
+    println!("{tl:?}; {:?}", strict.summary.failure);
+    assert_eq!((tl.met, tl.missed, tl.pending), (1, 2, 0), "{tl:?}");
+    assert_eq!(strict.summary.run_status, RunStatus::TimelineMissed);
+    assert!(matches!(&strict.summary.failure, Some(Failure::Timeline { .. })));
+    // The column never shows a segment after the first while detumble is locked.
+    let (t, seg) = (strict.series.col("t_s").unwrap(), strict.series.col("timeline_segment").unwrap());
+    assert!(t.iter().zip(seg).filter(|(t, _)| **t > 1300.0).all(|(_, s)| *s <= 1.0));
+    let lenient = fly(true);
+    let tl = lenient.summary.timeline.clone().expect("timeline summary");
+    assert_eq!((tl.met, tl.missed), (1, 2));
+    assert_eq!(lenient.summary.run_status, RunStatus::Ok, "{:?}", lenient.summary.failure);
 }

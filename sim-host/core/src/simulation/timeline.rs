@@ -22,7 +22,14 @@ pub(super) struct TimelineRun {
     pub(super) armed_at_s: Option<f64>,
     /// The latest step report's counters.
     pub(super) report: TimelineTelemetry,
+    /// Time of the latest flight step, s.
+    pub(super) last_step_s: f64,
 }
+
+/// A segment that started this long before the last flight step must have been counted
+/// met or missed by the flight code (one control step, and the on-board f32 time's
+/// rounding, well inside it), s.
+const ACCOUNTING_SLACK_S: f64 = 1.0;
 
 impl TimelineRun {
     /// Stage every segment; a refusal fails the run with the segment and why.
@@ -86,13 +93,26 @@ impl TimelineRun {
     }
 
     /// Why the run fails for its timeline, if it does.
+    /// A segment the flight code never accounted for (started before the last step, yet
+    /// neither met nor missed: e.g. no navigation since) fails the run whatever
+    /// `allow_missed_segments` says: the timeline was not executed as reported.
     pub(super) fn failure_reason(&self) -> Option<String> {
-        let missed = self.report.missed;
-        (!self.entries.is_empty() && missed > 0 && !self.allow_missed).then(|| {
+        let (n, missed) = (self.entries.len(), self.report.missed);
+        let accounted = usize::from(self.report.met) + usize::from(missed);
+        let started = self.entries.iter().filter(|e| e.start_s + ACCOUNTING_SLACK_S < self.last_step_s).count();
+        if started > accounted {
+            return Some(format!(
+                "{} of {n} timeline segments started before the last flight step (t = {:.3} s) but the flight \
+                 code counted them neither met nor missed (met {}, missed {missed})",
+                started - accounted,
+                self.last_step_s,
+                self.report.met
+            ));
+        }
+        (n > 0 && missed > 0 && !self.allow_missed).then(|| {
             format!(
-                "{missed} of {} timeline segments missed (not on target at their start; \
-                 [performance] allow_missed_segments = true accepts that)",
-                self.entries.len()
+                "{missed} of {n} timeline segments missed (not on target at their start; \
+                 [performance] allow_missed_segments = true accepts that)"
             )
         })
     }
@@ -106,6 +126,7 @@ impl Simulation<'_> {
         }
         let before = self.timeline.report.in_force;
         self.timeline.report = report;
+        self.timeline.last_step_s = t;
         if report.in_force != before
             && let Some(e) = usize::from(report.in_force).checked_sub(1).and_then(|i| self.timeline.entries.get(i))
         {
