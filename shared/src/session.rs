@@ -156,6 +156,10 @@ impl Session {
             HostMsg::UploadTimelineSegment { .. } | HostMsg::ArmTimeline { .. } | HostMsg::ClearTimeline => {
                 Some(self.timeline_message(msg))
             }
+            HostMsg::ClearWheelFault { wheel } => Some(match self.fsw.clear_wheel_fault(*wheel) {
+                Ok(()) => FswMsg::Ack,
+                Err(_) => FswMsg::Error(LinkError::NoSuchUnit),
+            }),
         }
     }
 

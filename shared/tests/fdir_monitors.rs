@@ -89,6 +89,7 @@ fn healthy_residuals(p: &WheelMonitorParams, dt_s: f64, steps: usize, seed: u64)
             speed_rad_s: [0.0; MAX_WHEELS],
             axial_body_rate_change_rad_s: [0.0; MAX_WHEELS],
             dt_s: dt_s as f32,
+            not_judged: 0,
         };
         step.speed_rad_s[0] = tach(w, &mut rng);
         step.axial_body_rate_change_rad_s[0] = (gyro - gyro_prev) as f32;
@@ -172,6 +173,7 @@ fn seized_weak_and_runaway_wheels_are_declared_after_exactly_k_steps() {
                 speed_rad_s: [0.0; MAX_WHEELS],
                 axial_body_rate_change_rad_s: [0.0; MAX_WHEELS],
                 dt_s: dt,
+                not_judged: 0,
             };
             s.applied_command_nm[1] = cmd;
             s.speed_rad_s[1] = w;
@@ -195,6 +197,7 @@ fn a_repeated_frame_is_not_judged_and_absurd_inputs_never_pass() {
         speed_rad_s: [10.0; MAX_WHEELS],
         axial_body_rate_change_rad_s: [0.0; MAX_WHEELS],
         dt_s: 0.1,
+        not_judged: 0,
     };
     assert!(!mon.step(&p, 4, &s).judged);
     for dt in [0.0, -0.1, f32::NAN, f32::INFINITY] {

@@ -158,6 +158,7 @@ pub fn verdict(summary: &Summary) -> Verdict {
         Some(Failure::Timeline { reason }) => {
             failed(format!("{reason} (summary.json: run_status \"timeline_missed\")"))
         }
+        Some(Failure::Fdir { reason }) => failed(format!("{reason} (summary.json: run_status \"fdir_false_alarm\")")),
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }

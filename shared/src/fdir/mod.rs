@@ -13,9 +13,12 @@
 //! - [`wheel`]: a reaction wheel's torque residual, commanded against measured by its
 //!   tachometer, normalised by its σ from tachometer noise and quantisation;
 //! - [`isolate`]: whether a fired wheel residual names the rotor or its tachometer, from
-//!   the body's reaction seen by the gyro.
+//!   the body's reaction seen by the gyro;
+//! - [`wheel_chain`]: the three wired together for the flight step, with the recovery
+//!   (the wheel dropped from the allocation) and the telemetry.
 
 pub mod isolate;
 pub mod repeat;
 pub mod wheel;
+pub mod wheel_chain;
 pub mod window;

@@ -47,6 +47,9 @@ pub struct WheelStep {
     pub axial_body_rate_change_rad_s: [f32; MAX_WHEELS],
     /// The step, s.
     pub dt_s: f32,
+    /// Wheels not judged this step (bit `i`: wheel `i`; e.g. at the speed limit, where
+    /// the drive itself withholds torque): no residual, no exceedance, window unchanged.
+    pub not_judged: u8,
 }
 
 /// What the monitor concluded this step.
@@ -62,6 +65,11 @@ pub struct WheelVerdict {
     pub judged: bool,
 }
 
+impl WheelVerdict {
+    /// No verdict (the step was not judged).
+    pub const NONE: Self = Self { residual_nm: [0.0; MAX_WHEELS], threshold_nm: f32::NAN, failed: 0, judged: false };
+}
+
 /// Residual monitors of up to [`MAX_WHEELS`] wheels.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WheelMonitor {
@@ -70,6 +78,20 @@ pub struct WheelMonitor {
 }
 
 impl WheelMonitor {
+    pub const fn new() -> Self {
+        Self { last_speed_rad_s: None, persistence: [Persistence::new(); MAX_WHEELS] }
+    }
+
+    /// The speeds of the last judged step (zeros before the first).
+    pub fn last_speed(&self) -> [f32; MAX_WHEELS] {
+        self.last_speed_rad_s.unwrap_or([0.0; MAX_WHEELS])
+    }
+
+    /// Forgets the last speeds (the next step is a first one), keeping the exceedances.
+    pub fn restart(&mut self) {
+        self.last_speed_rad_s = None;
+    }
+
     /// One step over the first `count` wheels. A non-finite residual (a non-finite speed
     /// or command) is an exceedance; a step with a non-positive or non-finite `dt_s` is not
     /// judged (a repeated frame carries no new difference) and keeps the last speeds.
@@ -91,6 +113,9 @@ impl WheelMonitor {
             .zip(self.persistence.iter_mut().zip(v.residual_nm.iter_mut()))
             .take(count.min(MAX_WHEELS));
         for (i, (((u, (w, w0)), dw_body), (persist, r))) in wheels.enumerate() {
+            if s.not_judged & u8::try_from(i).ok().and_then(|i| 1u8.checked_shl(u32::from(i))).unwrap_or(0) != 0 {
+                continue;
+            }
             *r = u - p.inertia_kgm2 * ((w - w0) + dw_body) / s.dt_s;
             // `!(≤)`: NaN counts as an exceedance.
             let exceeded = !(r.abs() <= threshold_nm);

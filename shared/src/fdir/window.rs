@@ -25,6 +25,10 @@ pub struct Persistence {
 }
 
 impl Persistence {
+    pub const fn new() -> Self {
+        Self { bits: 0 }
+    }
+
     /// Records one outcome (`true`: the sample exceeded its threshold) and returns whether
     /// at least `k` of the last `n` exceeded. An invalid window never fires (documented
     /// fallback; it cannot fly, the parameter-set check refuses it).

@@ -32,17 +32,22 @@ use crate::allocation::family::{ActuatorFamily, Actuators, Commands, ThrusterSet
 use crate::control::{AttitudeLaw, Law, LawInputs, momentum};
 use crate::estimation::determination::{Determination, Estimate};
 use crate::estimation::navigation::NavSolution;
+use crate::fdir::wheel_chain::WheelFdir;
 use crate::guidance::Guidance;
 use crate::guidance::timeline::Timeline;
 use crate::link::{ActuatorCommand, SensorFrame};
 use crate::math::{Mat3, Vec3};
 use crate::modes::ModeManager;
-use crate::params::{FlightParams, MODE_COUNT};
+use crate::params::{ActuatorParams, FlightParams, MODE_COUNT};
 use crate::types::{Demand, Status, Valid};
 use crate::validation::sensor_samples;
 
 use check::Missing;
 pub use config::{FreezeError, ModeError};
+
+/// A ground command named a unit the flight code does not have.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NoSuchUnit;
 
 /// One validated parameter set, ready to run.
 #[derive(Clone, Debug)]
@@ -99,6 +104,8 @@ pub struct Fsw {
     /// (what arming checks the segments against).
     timeline: Timeline,
     nav_last: Option<NavSolution>,
+    /// Wheel fault detection, isolation and recovery ([`crate::fdir::wheel_chain`]).
+    wheel_fdir: WheelFdir,
 }
 
 impl Default for Fsw {
@@ -121,6 +128,7 @@ impl Fsw {
             dumping: false,
             timeline: Timeline::new(),
             nav_last: None,
+            wheel_fdir: WheelFdir::new(),
         }
     }
 
@@ -141,7 +149,10 @@ impl Fsw {
         // Estimate: runs whatever the mode (and unconfigured: the filter converges while
         // the ground uploads the laws).
         let est = self.determination.step(&sensor_samples(f));
+        self.step_fdir(f);
         let mut cmd = self.step_active(f, &est);
+        self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
+        cmd.fdir = self.wheel_fdir.telemetry();
         report::pack_estimate(&mut cmd.estimate, &est.status);
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);
@@ -149,6 +160,30 @@ impl Fsw {
         let dipole = Vec3::from(cmd.dipole_cmd_am2);
         self.dipole_last_am2 = if dipole.iter().all(|x| x.is_finite()) { dipole } else { Vec3::zeros() };
         cmd
+    }
+
+    /// The ground re-enables wheel `wheel` (0-based; [`crate::link::ALL_UNITS`]: every
+    /// wheel) that FDIR dropped, forgetting its exceedances. `Err` for an index beyond
+    /// `MAX_WHEELS` (nothing changed). The failure stays counted in the events.
+    pub fn clear_wheel_fault(&mut self, wheel: u8) -> Result<(), NoSuchUnit> {
+        match usize::from(wheel) {
+            _ if wheel == crate::link::ALL_UNITS => self.wheel_fdir.clear(None),
+            i if i < crate::types::MAX_WHEELS => self.wheel_fdir.clear(Some(i)),
+            _ => return Err(NoSuchUnit),
+        }
+        Ok(())
+    }
+
+    /// FDIR: the wheel monitor of the set in force (when it has one and flies wheels)
+    /// judges the commands of the last step against the frame (docs/fdir.md "Wiring").
+    fn step_fdir(&mut self, f: &SensorFrame) {
+        match self.slots.get(self.active).and_then(Option::as_ref) {
+            Some(Configured { params: p, inertia, .. }) => match (&p.fdir.wheel, &p.actuator) {
+                (Some(fp), ActuatorParams::Wheels(w)) => self.wheel_fdir.step(fp, w, inertia, f),
+                _ => self.wheel_fdir.skip(),
+            },
+            None => self.wheel_fdir.skip(),
+        }
     }
 
     /// The frame with the torquers' field at the magnetometer removed (the calibrated
@@ -176,6 +211,10 @@ impl Fsw {
         let Some(Some(cfg)) = self.slots.get_mut(self.active) else {
             return Self::safe(f.seq, Status::NOT_CONFIGURED);
         };
+        // Recovery: the wheels FDIR dropped are out of the allocation, whatever the set.
+        if let (Actuators::Wheels(w), ActuatorParams::Wheels(base)) = (&mut cfg.actuators, &cfg.params.actuator) {
+            w.failed_mask = base.failed_mask | self.wheel_fdir.failed_mask();
+        }
         // Validate.
         let m = match check::check_frame(f, cfg.required, cfg.needs_navigation, est) {
             Ok(m) => m,

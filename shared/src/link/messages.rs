@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 19;
+pub const PROTOCOL_VERSION: u16 = 20;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -221,6 +221,30 @@ pub struct ActuatorCommand {
     pub gimbal_events: u16,
     /// What guidance commanded this step (protocol 16; zero on a safe command).
     pub guidance: GuidanceTelemetry,
+    /// What fault detection concluded (protocol 20; docs/fdir.md).
+    pub fdir: FdirTelemetry,
+}
+
+/// Fault detection, isolation and recovery telemetry of one step ([`crate::fdir`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FdirTelemetry {
+    /// Units declared failed since boot (saturating; a ground clear does not lower it).
+    pub events: u16,
+    /// Bit i: wheel i declared failed and dropped from the allocation.
+    pub failed_wheels: u8,
+    /// Bit i: wheel i's failure was isolated to its tachometer (otherwise its rotor).
+    pub tachometer_wheels: u8,
+    /// Bit i: the isolation of wheel i could not decide (treated as a rotor fault).
+    pub ambiguous_wheels: u8,
+    /// The wheel monitor judged this step (false: off, first step, a repeated frame or a
+    /// wheel or gyro sample missing).
+    pub wheel_judged: bool,
+    /// Wheel torque residuals `u − I_w (Δω_w + aᵀΔω)/Δt` this step, N m (0 when not
+    /// judged).
+    pub wheel_residual_nm: [f32; MAX_WHEELS],
+    /// The threshold they were held against, N m (0 when not judged).
+    pub wheel_threshold_nm: f32,
 }
 
 /// Values in [`ActuatorCommand::law_telemetry`].
@@ -441,6 +465,8 @@ pub enum LinkError {
     /// `FreezeAdaptation` while the law in force does not adapt (only DMCS does): nothing
     /// changed. Protocol 14.
     NotAdaptive,
+    /// A fault clear named a unit the flight code does not have (protocol 20).
+    NoSuchUnit,
 }
 
 /// Why the flight computer last started (`HelloAck::reset_cause`).
@@ -524,7 +550,16 @@ pub enum HostMsg {
     /// Drop the timeline, staged and armed; the pointing in force stays (protocol 19).
     /// Reply: `Ack`.
     ClearTimeline,
+    /// Re-enable wheel `wheel` (0-based) that fault detection dropped, forgetting its
+    /// exceedances; `ALL_UNITS` re-enables every wheel (protocol 20, docs/fdir.md). Reply:
+    /// `Ack`, or `Error(NoSuchUnit)` for an index beyond the wheels (nothing changed).
+    ClearWheelFault {
+        wheel: u8,
+    },
 }
+
+/// [`HostMsg::ClearWheelFault`]'s "every unit".
+pub const ALL_UNITS: u8 = u8::MAX;
 
 /// Flight computer → host.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Schema)]

@@ -58,6 +58,8 @@ pub enum FdirParamError {
     WheelInertia,
     WheelThreshold,
     WheelWindow,
+    /// The isolation's ratio or body-torque noise.
+    Isolation,
 }
 
 impl WheelMonitorParams {
@@ -78,4 +80,59 @@ impl WheelMonitorParams {
         }
         Ok(())
     }
+}
+
+/// The wheel FDIR of a parameter set (params version 13): detection by the torque
+/// residual ([`crate::fdir::wheel`]; the rotor inertia comes from the wheel parameters),
+/// isolation rotor/tachometer ([`crate::fdir::isolate`]), recovery by dropping the wheel
+/// from the allocation (docs/fdir.md "Wiring").
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct WheelFdirParams {
+    pub noise: WheelResidualNoise,
+    /// Threshold on |residual| / σ (> 0; see [`WheelMonitorParams::threshold_sigma`]).
+    pub threshold_sigma: f32,
+    /// Floor on the threshold, N m (≥ 0).
+    pub floor_nm: f32,
+    pub window: KOfN,
+    /// Isolation decides only when |residual| ≥ this many σ of the body mismatch (> 0).
+    pub isolation_min_ratio: f32,
+    /// Unmodelled body torque (disturbances) added in quadrature to the body mismatch's
+    /// noise, N m (≥ 0).
+    pub body_torque_sigma_nm: f32,
+}
+
+impl WheelFdirParams {
+    /// The monitor's parameters for rotors of `inertia_kgm2`.
+    pub fn monitor(&self, inertia_kgm2: f32) -> WheelMonitorParams {
+        WheelMonitorParams {
+            noise: self.noise,
+            inertia_kgm2,
+            threshold_sigma: self.threshold_sigma,
+            floor_nm: self.floor_nm,
+            window: self.window,
+        }
+    }
+
+    pub fn validate(&self, inertia_kgm2: f32) -> Result<(), FdirParamError> {
+        self.monitor(inertia_kgm2).validate()?;
+        let ok = self.isolation_min_ratio.is_finite()
+            && self.isolation_min_ratio > 0.0
+            && self.body_torque_sigma_nm.is_finite()
+            && self.body_torque_sigma_nm >= 0.0;
+        if ok { Ok(()) } else { Err(FdirParamError::Isolation) }
+    }
+}
+
+/// Fault detection, isolation and recovery of a parameter set (params version 13). Every
+/// monitor is optional: `None` is off.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FdirParams {
+    /// The wheel monitor (only on a wheel family).
+    pub wheel: Option<WheelFdirParams>,
+}
+
+impl FdirParams {
+    pub const OFF: Self = Self { wheel: None };
 }

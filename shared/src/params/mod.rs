@@ -36,7 +36,7 @@ pub use sun_safe::{SunSafeError, SunSafeParams};
 pub use timeline::{MAX_TIMELINE_SEGMENTS, TimelineError, TimelineFault, TimelineSegment};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 12;
+pub const PARAMS_VERSION: u16 = 13;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1280;
@@ -68,6 +68,8 @@ pub struct FlightParams {
     /// Momentum management: magnetic unloading and the magnetometer's torquer-field
     /// correction (params version 10).
     pub momentum: MomentumParams,
+    /// Fault detection, isolation and recovery (params version 13; docs/fdir.md).
+    pub fdir: fdir::FdirParams,
 }
 
 /// The frame the target attitude is given in.
@@ -131,6 +133,9 @@ pub enum ParamField {
     PointingAxes,
     /// Planned slews and keep-out cones ([`ManoeuvreParams`]).
     Manoeuvre,
+    /// Fault detection ([`fdir::FdirParams`], params version 13), or a wheel monitor on
+    /// a family without wheels.
+    Fdir,
 }
 
 /// Why it was rejected.
@@ -288,6 +293,12 @@ impl FlightParams {
         if self.momentum.enabled && !stores_momentum {
             return Err(err(F::Momentum, R::OutOfRange));
         }
+        if let Some(w) = &self.fdir.wheel {
+            let ActuatorParams::Wheels(wheels) = &self.actuator else {
+                return Err(err(F::Fdir, R::OutOfRange));
+            };
+            w.validate(wheels.inertia_kgm2).map_err(|_| err(F::Fdir, R::OutOfRange))?;
+        }
         Ok(())
     }
 
@@ -366,6 +377,7 @@ impl Default for FlightParams {
             manoeuvre: ManoeuvreParams::OFF,
             hold_after_missed_frames: 10,
             momentum: MomentumParams::OFF,
+            fdir: fdir::FdirParams::OFF,
         }
     }
 }

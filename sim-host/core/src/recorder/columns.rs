@@ -150,7 +150,8 @@ pub const GUIDANCE: [&str; 29] = [
 /// Columns without a unit ("1"): quaternion components, codes, counts, gains, ratios.
 /// Checked before the suffixes ([`UNIT_SUFFIXES`]), which they could otherwise match
 /// (`q_w` is not in watts, `singularity_m` not in metres).
-const DIMENSIONLESS: [&str; 35] = [
+const DIMENSIONLESS: [&str; 36] = [
+    "fdir_failed_wheels",
     "fault_active",
     "timeline_segment",
     "slew_phase",
@@ -267,6 +268,9 @@ pub struct Layout {
     /// With `[[timeline]]`: the flight's timeline segment in force, index + 1 (0: none
     /// yet) (1).
     pub timeline: bool,
+    /// With `[fdir.wheels]`, the wheel count: the wheels the flight's FDIR dropped (bit
+    /// mask), each wheel's torque residual and their threshold (n + 2; 0 = none).
+    pub fdir_wheels: usize,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -332,6 +336,11 @@ impl Layout {
         if self.timeline {
             v.push("timeline_segment".into());
         }
+        if self.fdir_wheels > 0 {
+            v.push("fdir_failed_wheels".into());
+            v.extend((1..=self.fdir_wheels).map(|i| format!("wheel{i}_residual_nm")));
+            v.push("wheel_residual_threshold_nm".into());
+        }
         v
     }
 }
@@ -393,6 +402,7 @@ mod tests {
             }]),
             faults: true,
             timeline: true,
+            fdir_wheels: 4,
         }
     }
 

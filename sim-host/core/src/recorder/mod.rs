@@ -16,6 +16,7 @@
 pub mod columns;
 pub mod csv;
 pub mod decimate;
+pub mod fdir;
 pub mod keepout;
 pub mod momentum;
 pub mod output;

@@ -64,6 +64,8 @@ pub enum RunStatus {
     /// `[[timeline]]` segments were missed (not on target at their start) and the
     /// scenario does not allow it (`[performance] allow_missed_segments`).
     TimelineMissed,
+    /// `[fdir]` declared a unit failed that had no injected fault (`fdir.false_alarms`).
+    FdirFalseAlarm,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -97,6 +99,8 @@ pub enum Failure {
     KeepOut { reason: String },
     /// How many timeline segments were missed.
     Timeline { reason: String },
+    /// Which healthy unit FDIR declared failed, when and by which test.
+    Fdir { reason: String },
 }
 
 /// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.
@@ -255,6 +259,9 @@ pub struct Summary {
     /// flight code detected it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub faults: Option<Vec<crate::faults::FaultRecord>>,
+    /// With `[fdir]`: the flight's FDIR events (docs/fdir.md "Wiring").
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fdir: Option<crate::recorder::fdir::FdirSummary>,
 }
 
 impl Summary {

@@ -435,6 +435,7 @@ impl Scenario {
             F::ModeTable => "modes".into(),
             F::Estimation => "estimation".into(),
             F::Momentum => "momentum".into(),
+            F::Fdir => "fdir".into(),
             F::MomentumDump => "momentum.dump_*".into(),
             F::Pointing => "guidance".into(),
             F::PointingAxes => "guidance.pointing (primary_body, secondary_body)".into(),

@@ -21,6 +21,8 @@ mod environment;
 pub mod estimation;
 mod faults;
 pub use faults::{FaultSpec, MAX_GYRO_BIAS_STEP_RAD_S};
+mod fdir;
+pub use fdir::{FdirSpec, WheelFdirSpec};
 mod guidance;
 mod manoeuvre;
 pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
@@ -140,6 +142,9 @@ pub struct Scenario {
     /// Faults injected into the plant and the sensors (`[[faults]]`; absent: none).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub faults: Vec<FaultSpec>,
+    /// The flight code's fault detection, isolation and recovery (`[fdir]`; absent: off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fdir: Option<FdirSpec>,
     /// Deprecated spellings the file used, each with its replacement (filled by
     /// [`Scenario::from_toml`]; the CLI prints them as warnings). Not part of the format.
     #[serde(skip)]
@@ -442,6 +447,7 @@ impl Scenario {
         self.performance()?;
         self.margin_request()?;
         self.faults()?;
+        self.validate_fdir()?;
         Ok(())
     }
 
@@ -721,12 +727,14 @@ impl Scenario {
         let inertia = self.inertia();
         let f = f32_rows;
         let controller = self.controller_params(c, "controller")?;
+        let actuator = self.actuator_params(family)?;
         Ok(FlightParams {
             version: PARAMS_VERSION,
             control_rate_hz: self.timing.control_rate_hz as f32,
             inertia_kgm2: f(&inertia),
             controller,
-            actuator: self.actuator_params(family)?,
+            fdir: self.fdir_params(&actuator)?,
+            actuator,
             guidance,
             manoeuvre: self.manoeuvre_params()?,
             hold_after_missed_frames: 10,

@@ -110,6 +110,8 @@ pub struct Resolved {
     /// `[[timeline]]`, checked (empty: none), and whether a missed segment is allowed.
     pub timeline: Vec<super::TimelineEntry>,
     pub allow_missed_segments: bool,
+    /// `[fdir]` is on: the flight's FDIR events are recorded and a false alarm fails the run.
+    pub fdir: bool,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -178,6 +180,7 @@ impl TryFrom<&Scenario> for Resolved {
             faults: sc.faults()?,
             timeline: sc.timeline_entries()?,
             allow_missed_segments: sc.performance.allow_missed_segments,
+            fdir: sc.fdir.is_some(),
         })
     }
 }
@@ -241,6 +244,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         keepout: crate::recorder::keepout::column_names(&keepout_cones(sc)),
         faults: !sc.faults.is_empty(),
         timeline: sc.timeline.is_some(),
+        fdir_wheels: if sc.fdir.as_ref().is_some_and(|f| f.wheels.is_some()) { n_wheels } else { 0 },
     }
 }
 

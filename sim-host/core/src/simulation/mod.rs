@@ -44,6 +44,7 @@ mod metrics;
 pub mod probe;
 mod row;
 mod timeline;
+use crate::recorder::fdir::FdirLog;
 
 use actuation::Actuation;
 use metrics::{Metrics, mode_name};
@@ -248,6 +249,8 @@ pub struct Simulation<'a> {
     pointing_id: u32,
     /// The injected faults (`[[faults]]`) and when each first acted.
     pub(super) faults: FaultLog,
+    /// With `[fdir]`: the flight's FDIR events, matched to the faults.
+    pub(super) fdir: Option<FdirLog>,
     /// The scenario's `[[timeline]]` and the flight code's counters of it.
     timeline: timeline::TimelineRun,
 }
@@ -284,6 +287,7 @@ impl<'a> Simulation<'a> {
             faults,
             timeline,
             allow_missed_segments,
+            fdir,
         } = cfg;
         let timeline =
             timeline::TimelineRun { entries: timeline, allow_missed: allow_missed_segments, ..Default::default() };
@@ -360,6 +364,7 @@ impl<'a> Simulation<'a> {
             injection: None,
             last_step: None,
             faults: FaultLog::new(faults),
+            fdir: fdir.then(FdirLog::default),
             timeline,
         })
     }
@@ -594,6 +599,9 @@ impl<'a> Simulation<'a> {
             self.metrics.mode(t, &report.cmd);
         }
         self.timeline_after_step(t, report.timeline)?;
+        if let Some(log) = &mut self.fdir {
+            log.observe(t, &report.cmd.fdir, &self.faults.list);
+        }
         Ok((report.cmd, report.step_cost_ticks))
     }
 
@@ -770,6 +778,9 @@ impl<'a> Simulation<'a> {
         if let Some(reason) = self.timeline.failure_reason() {
             return (RunStatus::TimelineMissed, Some(Failure::Timeline { reason }));
         }
+        if let Some(reason) = self.fdir.as_ref().and_then(FdirLog::failure_reason) {
+            return (RunStatus::FdirFalseAlarm, Some(Failure::Fdir { reason }));
+        }
         (RunStatus::Ok, None)
     }
 
@@ -864,7 +875,13 @@ impl<'a> Simulation<'a> {
             mission_pointings: mission,
             timeline: self.timeline.summary(),
             margins: None,
-            faults: self.faults.records(),
+            faults: self.faults.records().map(|mut r| {
+                if let Some(log) = &self.fdir {
+                    log.mark_detections(&mut r);
+                }
+                r
+            }),
+            fdir: self.fdir.as_ref().map(FdirLog::summary),
         }
     }
 }

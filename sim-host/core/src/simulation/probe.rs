@@ -168,6 +168,7 @@ impl<'a> Probe<'a> {
             segments: s.segments.clone(),
             pointing_id: s.pointing_id,
             faults: s.faults.clone(),
+            fdir: s.fdir.clone(),
             timeline: s.timeline.clone(),
         })
     }

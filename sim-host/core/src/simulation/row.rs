@@ -78,6 +78,13 @@ impl Simulation<'_> {
         if self.layout.timeline {
             self.row.push(f64::from(self.timeline.report.in_force));
         }
+        if self.layout.fdir_wheels > 0 {
+            let f = &v.cmd.fdir;
+            self.row.push(f64::from(f.failed_wheels));
+            let residuals = f.wheel_residual_nm.iter().take(self.layout.fdir_wheels);
+            self.row.extend(residuals.map(|r| if f.wheel_judged { f64::from(*r) } else { f64::NAN }));
+            self.row.push(if f.wheel_judged { f64::from(f.wheel_threshold_nm) } else { f64::NAN });
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing

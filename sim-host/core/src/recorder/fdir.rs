@@ -1,0 +1,101 @@
+//! The flight code's FDIR as the simulator sees it (issue 42; docs/fdir.md "Wiring"):
+//! each step's [`FdirTelemetry`] turned into events (a wheel newly declared failed), matched
+//! to the injected `[[faults]]` — an event on a unit with no fault in force is a false
+//! alarm and fails the run (`run_status` "fdir_false_alarm", exit 3).
+
+use crate::faults::{FaultRecord, TimedFault};
+use acs_flight::link::FdirTelemetry;
+use serde::Serialize;
+
+/// One FDIR event in `summary.json` `fdir.events`.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FdirEvent {
+    /// The unit declared failed, as `[[faults]]` names it (`wheel.2`).
+    pub unit: String,
+    /// The test that fired.
+    pub test: &'static str,
+    /// The control step whose report first carried it, s.
+    pub detected_at_s: f64,
+    /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor).
+    pub isolated_as: &'static str,
+    /// What the flight code did.
+    pub recovery: &'static str,
+    /// The `[[faults]]` entry in force on this unit at detection (index), `None`: a false
+    /// alarm.
+    pub fault: Option<usize>,
+}
+
+/// `summary.json` `fdir` (with `[fdir]`).
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
+pub struct FdirSummary {
+    pub events: Vec<FdirEvent>,
+    /// Events on a unit without an injected fault in force.
+    pub false_alarms: usize,
+    /// The flight's own event counter at the end (equals `events.len()` unless a unit was
+    /// declared twice after a clear).
+    pub flight_events: u16,
+}
+
+/// The FDIR events of a run.
+#[derive(Clone, Debug, Default)]
+pub struct FdirLog {
+    last: FdirTelemetry,
+    summary: FdirSummary,
+}
+
+fn bit(i: usize) -> u8 {
+    u32::try_from(i).ok().and_then(|i| 1u8.checked_shl(i)).unwrap_or(0)
+}
+
+impl FdirLog {
+    /// The report of the step at `t_s`; `faults`: the scenario's list.
+    pub fn observe(&mut self, t_s: f64, f: &FdirTelemetry, faults: &[TimedFault]) {
+        let new = f.failed_wheels & !self.last.failed_wheels;
+        for i in (0..8).filter(|i| new & bit(*i) != 0) {
+            let unit = format!("wheel.{i}");
+            let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
+            let isolated_as = if f.ambiguous_wheels & bit(i) != 0 {
+                "ambiguous"
+            } else if f.tachometer_wheels & bit(i) != 0 {
+                "tachometer"
+            } else {
+                "rotor"
+            };
+            self.summary.false_alarms += usize::from(fault.is_none());
+            self.summary.events.push(FdirEvent {
+                unit,
+                test: "wheel_torque_residual",
+                detected_at_s: t_s,
+                isolated_as,
+                recovery: "dropped_from_allocation",
+                fault,
+            });
+        }
+        self.summary.flight_events = f.events;
+        self.last = *f;
+    }
+
+    /// Fills `detected_at_s` of each injected fault: its first event.
+    pub fn mark_detections(&self, records: &mut [FaultRecord]) {
+        for e in &self.summary.events {
+            if let Some(r) = e.fault.and_then(|i| records.get_mut(i))
+                && r.detected_at_s.is_none()
+            {
+                r.detected_at_s = Some(e.detected_at_s);
+            }
+        }
+    }
+
+    /// Why the run fails: FDIR declared a healthy unit failed.
+    pub fn failure_reason(&self) -> Option<String> {
+        let first = self.summary.events.iter().find(|e| e.fault.is_none())?;
+        Some(format!(
+            "FDIR declared {} healthy unit(s) failed (false alarm): first {} at t = {} s by {}",
+            self.summary.false_alarms, first.unit, first.detected_at_s, first.test
+        ))
+    }
+
+    pub fn summary(&self) -> FdirSummary {
+        self.summary.clone()
+    }
+}
