@@ -148,8 +148,8 @@ impl Truth {
                 self.speed[i] -= axial; // seized: the rotor holds its absolute speed
             }
         }
-        for k in 0..3 {
-            self.rate[k] += dw[k];
+        for (r, d) in self.rate.iter_mut().zip(dw) {
+            *r += d;
         }
         self.time_us += (DT_S * 1e6) as u64;
         self.seq += 1;
@@ -161,10 +161,10 @@ fn fly(fsw: &mut Fsw, truth: &mut Truth, steps: usize, onset: usize, fault: Faul
     (0..steps)
         .map(|k| {
             let f = if k >= onset { fault } else { Fault::None };
-            if f != Fault::None && truth.tach_frozen_at.is_none() {
-                if let Fault::TachFrozen(j) = f {
-                    truth.tach_frozen_at = Some(truth.speed[j]);
-                }
+            if let Fault::TachFrozen(j) = f
+                && truth.tach_frozen_at.is_none()
+            {
+                truth.tach_frozen_at = Some(truth.speed[j]);
             }
             let cmd = fsw.step(&truth.frame(f));
             truth.advance(&cmd, f);
