@@ -173,8 +173,29 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
-    .chain([estimation_figure(), environment_figure(), pointing_figure()])
+    .chain([estimation_figure(), environment_figure(), pointing_figure(), fdir_figure()])
     .collect()
+}
+
+/// `fdir.png` (runs with `[fdir.wheels]`): each wheel's torque residual against the
+/// threshold (±), the wheels FDIR dropped and the faults in force, `faults[0]`'s window
+/// shaded.
+fn fdir_figure() -> Figure {
+    let mut residuals = per_unit("wheel", "residual_nm", "r", 6);
+    residuals.push(line("wheel_residual_threshold_nm", "threshold", true));
+    let masks = vec![line("fdir_failed_wheels", "dropped by FDIR", false), line("fault_active", "injected", true)];
+    Figure {
+        requires: Some("wheel_residual_threshold_nm".into()),
+        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        ..figure(
+            "fdir.png",
+            "Wheel FDIR: torque residual r = u − I_w (Δω_w + aᵀΔω)/Δt against its threshold",
+            vec![
+                panel("wheel torque residuals", "N m", residuals),
+                panel("wheels dropped (bit i: wheel i+1) and faults in force (bit i: faults[i])", "(bit mask)", masks),
+            ],
+        )
+    }
 }
 
 /// `pointing.png` (runs with `[guidance]`): the truth's primary (boresight) and secondary
