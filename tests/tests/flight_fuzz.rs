@@ -281,3 +281,237 @@ fn fuzz(seed: u64) {
     assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100 && refused_total > 10);
     assert!(mode_seen.iter().all(|n| *n > 0), "every mode (and none) was exercised: {mode_seen:?}");
 }
+
+/// Records every message the simulator sends on its way to an in-process flight side:
+/// the set-up (parameters, mode table, estimation), the timeline's uploads and arming, and
+/// every sensor frame, so a fuzz can start from a flight that really is configured,
+/// navigating and armed.
+struct Recording {
+    inner: sim_core::link::in_process::InProcess,
+    sent: Vec<HostMsg>,
+}
+
+impl sim_core::link::FlightLink for Recording {
+    fn name(&self) -> String {
+        self.inner.name()
+    }
+    fn hello(&mut self) -> anyhow::Result<sim_core::link::LinkInfo> {
+        self.inner.hello()
+    }
+    fn request(&mut self, msg: &HostMsg) -> anyhow::Result<FswMsg> {
+        self.sent.push(msg.clone());
+        self.inner.request(msg)
+    }
+    fn step(&mut self, frame: &SensorFrame) -> anyhow::Result<acs_flight::link::StepReport> {
+        self.sent.push(HostMsg::Sensor(*frame));
+        self.inner.step(frame)
+    }
+}
+
+/// The messages of the shipped day in the life's first 2000 s (its segments at 900 s
+/// Sun, 1250 s nadir, 1520 s Cape Schmidt and 1900 s nadir), flown in-process.
+fn day_in_the_life_messages() -> Vec<HostMsg> {
+    use toml::{Table, Value};
+    const CUT_S: f64 = 2000.0;
+    let path = acs_tests::repo().join("scenarios/guidance/eo-day-in-the-life.toml");
+    let mut sc: Table = std::fs::read_to_string(path).unwrap().parse().unwrap();
+    sc.insert("duration_s".into(), Value::Float(CUT_S));
+    let kept: Vec<Value> = sc["timeline"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|s| s["start_s"].as_float().unwrap() < CUT_S)
+        .cloned()
+        .collect();
+    assert_eq!(kept.len(), 4);
+    sc.insert("timeline".into(), Value::Array(kept));
+    let sc = sim_core::scenario::Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap();
+    let mut link = Recording { inner: sim_core::link::in_process::InProcess::new(), sent: Vec::new() };
+    let run = sim_core::runner::run(&sc, &mut link, false).unwrap();
+    assert_eq!(run.summary.timeline.map(|t| (t.met, t.missed)), Some((4, 0)), "the recorded run meets its segments");
+    link.sent
+}
+
+/// An armed timeline under random input. Each seed replays the recorded set-up of the
+/// day in the life (mission modes, MEKF, GNSS navigation) up to its arming, which must
+/// answer `TimelineArmed` with the checksum of the 4 segments sent; then the recorded
+/// frames go on (one in 500 with a corrupted byte, its `seq` kept), with random timeline
+/// messages among them (about one batch in 300 frames): random segment uploads (the
+/// generator above, times near the latest fix), armings (mostly the staged prefix with its
+/// checksum), clears, recorded segments, and the recorded pointings re-planned from the
+/// latest fix and armed. Every other message is corrupted one time in twenty. Asserts: no
+/// panic, one reply each (a frame: a step with finite commands, or a sequence refusal),
+/// every arming armed or refused, the counters consistent; and that armed timelines do
+/// step: segments switched (the segment in force moving on within one arming) and
+/// segments met or missed are counted, each > 0 over the seeds, and some random armings
+/// succeed.
+#[test]
+fn an_armed_timeline_steps_under_random_input() {
+    let recorded = day_in_the_life_messages();
+    let arm_at = recorded.iter().position(|m| matches!(m, HostMsg::ArmTimeline { .. })).expect("the run arms");
+    let timeline: Vec<HostMsg> =
+        recorded.iter().filter(|m| matches!(m, HostMsg::UploadTimelineSegment { .. })).cloned().collect();
+    let seeds: u64 = std::env::var("ACS_FUZZ_SEEDS").ok().and_then(|s| s.parse().ok()).unwrap_or(8);
+    let (mut switched, mut judged, mut armings) = (0u32, 0u32, 0u32);
+    for seed in 0..seeds {
+        let r = fuzz_armed(seed, &recorded[..=arm_at], &recorded[arm_at + 1..], &timeline);
+        eprintln!(
+            "seed {seed}: {} steps, {} refused frames, armed {} / refused {} {:?}, {} segments switched, {} met, {} missed",
+            r.steps, r.stale, r.armed, r.rejected, r.faults, r.switched, r.met, r.missed
+        );
+        switched += r.switched;
+        judged += r.met + r.missed;
+        armings += r.armed;
+    }
+    eprintln!("over {seeds} seeds: {armings} armings, {switched} segments switched, {judged} met or missed");
+    assert!(switched > 0 && judged > 0, "armed timelines must step: {switched} switched, {judged} judged");
+    assert!(armings > 0, "some random armings succeed");
+}
+
+/// What one seed of [`an_armed_timeline_steps_under_random_input`] saw.
+#[derive(Default)]
+struct ArmedFuzz {
+    steps: u32,
+    stale: u32,
+    armed: u32,
+    rejected: u32,
+    faults: std::collections::BTreeMap<String, u32>,
+    switched: u32,
+    met: u32,
+    missed: u32,
+}
+
+fn fuzz_armed(seed: u64, setup: &[HostMsg], frames: &[HostMsg], timeline: &[HostMsg]) -> ArmedFuzz {
+    let mut rng = ChaCha8Rng::seed_from_u64(0xA4E0 + seed);
+    let mut s = Session::new(board::HOST, 1);
+    let mut counter = || 0u32;
+    let mut out = ArmedFuzz::default();
+    for m in setup {
+        let reply = s.handle(m, 0, &mut counter);
+        if let HostMsg::ArmTimeline { crc32, .. } = m {
+            assert_eq!(reply, Some(FswMsg::TimelineArmed { checksum: *crc32 }), "seed {seed}: the set-up arms");
+        }
+    }
+    let (mut staged, mut fix) = (vec![None::<TimelineSegment>; MAX_TIMELINE_SEGMENTS], (9_500i32, 0.0f32));
+    let mut last = acs_flight::link::TimelineTelemetry::default();
+    for m in frames {
+        if let HostMsg::Sensor(f) = m {
+            fix = (f.gnss_j2000_days, f.gnss_j2000_s);
+        }
+        let mut batch = vec![m.clone()];
+        if rng.random_range(0..300) == 0 {
+            batch.splice(0..0, random_timeline_messages(&mut rng, &staged, fix, timeline));
+        }
+        for msg in batch {
+            // Frames rarely: a corrupted GNSS time moves the on-board clock, and the
+            // segments it passes are (rightly) counted missed, ending the timeline early.
+            let msg = corrupt_sometimes(&mut rng, msg, if matches!(m, HostMsg::Sensor(_)) { 0.002 } else { 0.05 });
+            let reply = s.handle(&msg, 0, &mut counter);
+            match (&msg, reply) {
+                (HostMsg::Sensor(f), Some(FswMsg::Step(r))) => {
+                    out.steps += 1;
+                    assert!(finite(&r.cmd), "seed {seed}: non-finite command for {f:?}");
+                    let tl = r.timeline;
+                    assert!(usize::from(tl.segments) <= MAX_TIMELINE_SEGMENTS && tl.in_force <= tl.segments, "{tl:?}");
+                    // Within one arming (counters not reset), count the hand-overs and judgements.
+                    if tl.segments == last.segments && tl.met >= last.met && tl.missed >= last.missed {
+                        out.switched += u32::from(tl.in_force > last.in_force && last.in_force > 0);
+                        out.met += u32::from(tl.met - last.met);
+                        out.missed += u32::from(tl.missed - last.missed);
+                    }
+                    last = tl;
+                }
+                (HostMsg::Sensor(_), Some(FswMsg::Error(LinkError::StaleSequence { .. }))) => out.stale += 1,
+                (HostMsg::Sensor(_), other) => panic!("seed {seed}: a sensor frame got {other:?}"),
+                (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineArmed { .. })) => {
+                    out.armed += 1;
+                    last = acs_flight::link::TimelineTelemetry::default();
+                }
+                (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineRejected(e))) => {
+                    out.rejected += 1;
+                    *out.faults.entry(format!("{:?}", e.fault)).or_insert(0) += 1;
+                }
+                (HostMsg::UploadTimelineSegment { index, segment }, Some(FswMsg::Ack)) => {
+                    staged[usize::from(*index)] = Some(*segment)
+                }
+                (HostMsg::ClearTimeline, Some(FswMsg::Ack)) => staged.iter_mut().for_each(|s| *s = None),
+                (HostMsg::UploadTimelineSegment { .. }, Some(FswMsg::ParamsRejected(_))) => {}
+                (m, other) => panic!("seed {seed}: {m:?} got {other:?}"),
+            }
+        }
+    }
+    out
+}
+
+/// Random timeline messages: a random segment (12 in 30), an arming (8 in 30; mostly of
+/// the staged prefix with its checksum), a clear (1 in 30), one segment of the recorded
+/// timeline (6 in 30), or the recorded timeline's pointings re-planned 300 s apart from
+/// the latest fix, uploaded and armed with their checksum (3 in 30).
+fn random_timeline_messages(
+    rng: &mut ChaCha8Rng,
+    staged: &[Option<TimelineSegment>],
+    (days, s): (i32, f32),
+    timeline: &[HostMsg],
+) -> Vec<HostMsg> {
+    let one = match rng.random_range(0..30) {
+        0..=11 => {
+            let index = rng.random_range(0..MAX_TIMELINE_SEGMENTS as u8 + 2);
+            HostMsg::UploadTimelineSegment { index, segment: segment(rng, index, days, s) }
+        }
+        12..=19 => {
+            let prefix = staged.iter().take_while(|s| s.is_some()).count() as u8;
+            let count =
+                if rng.random_bool(0.8) { prefix } else { rng.random_range(0..MAX_TIMELINE_SEGMENTS as u8 + 2) };
+            let sent: Option<Vec<_>> = staged.iter().take(usize::from(count)).copied().collect();
+            HostMsg::ArmTimeline { count, crc32: sent.and_then(|v| checksum(&v)).unwrap_or_else(|| rng.random()) }
+        }
+        // Rare: a clear ends the executing timeline, and this fuzz is of armed ones.
+        20 => HostMsg::ClearTimeline,
+        21..=26 => timeline[rng.random_range(0..timeline.len())].clone(),
+        _ => return replanned(timeline, days, s),
+    };
+    vec![one]
+}
+
+/// The recorded timeline's segments moved to 300 s apart from `s` (the latest fix),
+/// uploaded, then armed with their checksum.
+fn replanned(timeline: &[HostMsg], days: i32, s: f32) -> Vec<HostMsg> {
+    let segments: Vec<TimelineSegment> = timeline
+        .iter()
+        .enumerate()
+        .filter_map(|(k, m)| match m {
+            HostMsg::UploadTimelineSegment { segment, .. } => {
+                Some(TimelineSegment { start_j2000_days: days, start_j2000_s: s + 300.0 * (k + 1) as f32, ..*segment })
+            }
+            _ => None,
+        })
+        .collect();
+    let mut out: Vec<HostMsg> = segments
+        .iter()
+        .enumerate()
+        .map(|(i, segment)| HostMsg::UploadTimelineSegment { index: i as u8, segment: *segment })
+        .collect();
+    out.push(HostMsg::ArmTimeline { count: segments.len() as u8, crc32: checksum(&segments).unwrap() });
+    out
+}
+
+/// `msg`, with probability `p` with a random byte that still decodes (a frame's `seq`
+/// kept).
+fn corrupt_sometimes(rng: &mut ChaCha8Rng, msg: HostMsg, p: f64) -> HostMsg {
+    if !rng.random_bool(p) {
+        return msg;
+    }
+    let mut bytes = postcard::to_allocvec(&msg).unwrap();
+    let i = rng.random_range(0..bytes.len());
+    bytes[i] = rng.random();
+    match (postcard::from_bytes::<HostMsg>(&bytes), &msg) {
+        // A frame keeps its sequence number: one corrupted upwards would have every later
+        // frame refused as stale (the main fuzz covers that).
+        (Ok(HostMsg::Sensor(mut f)), HostMsg::Sensor(original)) => {
+            f.seq = original.seq;
+            HostMsg::Sensor(f)
+        }
+        (Ok(decoded), _) => decoded,
+        (Err(_), _) => msg,
+    }
+}

@@ -229,6 +229,66 @@ fn planned_slew_round_a_keepout_gives_the_same_bits_on_the_firmware() {
     assert_eq!(s.run_status, sil.summary.run_status);
 }
 
+/// Issue 41: a pointing timeline on the firmware gives the same bits as in-process. The EO
+/// cubesat on the sunlit half of its orbit, planned slews and a 35° Sun keep-out on body
+/// −y, starts in nadir and is given a 2-segment `[[timeline]]` (uploaded and armed over the
+/// link): Sun pointing from 400 s, nadir from 800 s, each reached by a planned slew that
+/// takes over before its start. Every recorded cell but the firmware's cost column is
+/// compared bit for bit (`timeline_segment` and `slew_phase` among them), and the two runs'
+/// timeline summaries are equal: 2 met, 0 missed.
+#[test]
+fn a_timeline_with_planned_slews_gives_the_same_bits_on_the_firmware() {
+    use toml::{Table, Value};
+    if !qemu_available("PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    let path = acs_tests::repo().join("scenarios/guidance/eo-cubesat.toml");
+    let t = |s: &str| s.parse::<Table>().unwrap();
+    let mut sc = t(&std::fs::read_to_string(path).unwrap());
+    sc.insert("duration_s".into(), Value::Float(1000.0));
+    sc["orbit"].as_table_mut().unwrap().insert("arg_lat_deg".into(), Value::Float(180.0));
+    sc.remove("commands");
+    let manoeuvre = "max_rate_deg_s = 1.0\nmax_accel_deg_s2 = 0.05\nplanning_margin_deg = 2.0\n\
+                     [[keepout]]\nname = \"st\"\nboresight_body = [0, -1, 0]\nsun_half_angle_deg = 35.0\n";
+    sc.insert("manoeuvre".into(), Value::Table(t(manoeuvre)));
+    let timeline = "[[timeline]]\nstart_s = 400.0\nguidance = { label = \"Sun\", pointing = { primary_body = \
+                    [1, 0, 0], primary = \"sun\", secondary_body = [0, 0, 1], secondary = \"nadir\" } }\n\
+                    [[timeline]]\nstart_s = 800.0\nguidance = { label = \"nadir\", pointing = { primary_body = \
+                    [0, 0, 1], primary = \"nadir\", secondary_body = [1, 0, 0], secondary = \"sun\" } }\n";
+    sc.insert("timeline".into(), t(timeline)["timeline"].clone());
+    let sc = sim_core::scenario::Scenario::from_toml(&toml::to_string(&sc).unwrap()).unwrap();
+    let sil = run_in_process(&sc);
+    let mut link = QemuLink::start(None).unwrap();
+    let pil = runner::run(&sc, &mut link, false).unwrap();
+    assert_eq!(sil.series.names, pil.series.names);
+    let mut cells = 0usize;
+    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
+        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+        assert_eq!(a.len(), b.len(), "{name}");
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
+        }
+        cells += a.len();
+    }
+    let s = &pil.summary;
+    let tl = s.timeline.clone().expect("timeline summary");
+    eprintln!(
+        "SIL = PIL over {cells} cells; {tl:?}; {:?}; Fsw::step mean {:.0}, max {} instructions",
+        s.keepout,
+        s.mean_step_instructions.unwrap(),
+        s.max_step_instructions.unwrap()
+    );
+    assert_eq!(Some(&tl), sil.summary.timeline.as_ref());
+    assert_eq!((tl.segments, tl.met, tl.missed, tl.pending), (2, 2, 0, 0));
+    assert!(s.keepout.as_ref().is_some_and(|k| k.slews_planned >= 2), "{:?}", s.keepout);
+    let segment = pil.series.col("timeline_segment").unwrap();
+    assert_eq!(segment.iter().copied().fold(0.0f64, f64::max), 2.0);
+    assert!(cells > 50_000, "{cells} cells compared");
+    assert_eq!(s.frames_dropped_flight + s.frames_dropped_host, 0);
+    assert_eq!(s.run_status, sil.summary.run_status);
+}
+
 /// Issue 41: the planner's cost on the Cortex-M4F. The EO cubesat in Sun pointing with the
 /// largest boresight set (4 boresights, 6 cones) is commanded every 40 s from 250 s to a new
 /// Sun-relative target (11 targets: direct slews, waypoint searches, refusals with the

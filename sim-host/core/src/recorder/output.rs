@@ -246,6 +246,71 @@ fn pointing_figure() -> Figure {
     }
 }
 
+/// The file of [`keepout_figure`] (drawn only for runs with keep-out cones).
+pub const KEEPOUT_FIGURE: &str = "keepout.png";
+
+/// The names `slew_phase` takes (docs/guidance.md, telemetry), for `keepout.png`.
+const SLEW_PHASES: [&str; 6] = ["idle", "planning", "accelerating", "coasting", "decelerating", "refused"];
+
+/// The legend label of a keep-out margin column (`keepout_<name>_<cone>_margin_deg`:
+/// "name · Sun"), `None` for any other column.
+fn keepout_label(column: &str) -> Option<String> {
+    let rest = column.strip_prefix("keepout_")?;
+    let (name, cone) = if let Some(n) = rest.strip_suffix("_sun_margin_deg") {
+        (n, "Sun")
+    } else {
+        (rest.strip_suffix("_earth_margin_deg")?, "Earth")
+    };
+    Some(format!("{name} · {cone}"))
+}
+
+/// `keepout.png` (runs with `[[manoeuvre.keepout]]` cones; `None` otherwise): each
+/// boresight's margin to each of its cones (truth, deg; negative inside) with the cone edge
+/// at 0 and the flight's own margin of its command dashed, the slew phase, and the timeline
+/// segment in force as a strip (with a `timeline_segment` column); eclipses shaded and the
+/// mode ribbon as on every time figure. Built from the run's columns: the margin columns
+/// are named by the scenario's boresights.
+pub fn keepout_figure(ts: &TimeSeries) -> Option<Figure> {
+    let mut margins: Vec<Series> =
+        ts.names.iter().filter_map(|c| keepout_label(c).map(|l| line(c, &l, false))).collect();
+    if margins.is_empty() {
+        return None;
+    }
+    margins.push(line("keepout_margin_flight_deg", "flight: its command, smallest (on-board models)", true));
+    let margin = Panel {
+        thresholds: vec![(0.0, "cone edge (inside below)".into())],
+        ..panel("margin of each boresight to each keep-out cone (truth): angle to the cone's edge", "deg", margins)
+    };
+    let phases = SLEW_PHASES.iter().enumerate().map(|(i, n)| (i as f64, n.to_string())).collect();
+    let phase = Panel {
+        categories: phases,
+        ..panel("planned slew (flight)", "phase", vec![line("slew_phase", "phase", false)])
+    };
+    let mut panels = vec![margin, phase];
+    // One category per segment the run reached (0: none yet); the recorded values are
+    // whole numbers, at most the 16 segments a timeline holds.
+    let last = ts.col("timeline_segment").map(|c| c.iter().filter(|v| v.is_finite()).fold(0.0f64, |m, v| m.max(*v)));
+    if let Some(last) = last {
+        let names = (0..=(last.clamp(0.0, 16.0) as usize))
+            .map(|k| (k as f64, if k == 0 { "none".to_string() } else { format!("{k}") }))
+            .collect();
+        panels.push(Panel {
+            categories: names,
+            ..panel(
+                "timeline segment in force (flight; [[timeline]] index + 1)",
+                "segment",
+                vec![line("timeline_segment", "segment", false)],
+            )
+        });
+    }
+    Some(figure(KEEPOUT_FIGURE, "Keep-out cones: boresight margins (truth), slews and the timeline", panels))
+}
+
+/// The figures of a run with these columns: [`figures_with`] and [`keepout_figure`].
+pub fn figures_for(ts: &TimeSeries, thresholds: &ModeThresholds) -> Vec<Figure> {
+    figures_with(thresholds).into_iter().chain(keepout_figure(ts)).collect()
+}
+
 /// `modes.png` (runs with a mode manager only): the mode as named levels, the errors and
 /// the rate norm with the thresholds the mode manager compares them with.
 fn modes_figure(t: &ModeThresholds) -> Figure {
@@ -514,16 +579,15 @@ fn is_stale_temporary<'a>(name: &str, mut outputs: impl Iterator<Item = &'a str>
         .is_some_and(|(output, _)| outputs.any(|o| o == output))
 }
 
-/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`], [`MARGIN_FILES`] and
-/// every figure of [`figures`]), and the temporaries of those files that a killed run left
+/// Removes the files a previous run wrote into `dir` ([`RUN_FILES`], [`MARGIN_FILES`],
+/// every figure of [`figures`] and [`KEEPOUT_FIGURE`]), and the temporaries of those files that a killed run left
 /// (`.timeseries.parquet.tmp-…`: a run killed by SIGINT or SIGKILL never renames its
 /// temporary); nothing else, and nothing when `dir` does not exist. Two runs into one
 /// directory at once are not supported (each clears the other's outputs).
 pub fn clear_previous(dir: &Path) -> Result<()> {
     let figures = figures();
-    let names: Vec<&str> =
-        RUN_FILES.iter().chain(&MARGIN_FILES).copied().chain(figures.iter().map(|f| f.file_name.as_str())).collect();
-    clear_files(dir, &names)
+    let names = RUN_FILES.iter().chain(&MARGIN_FILES).copied().chain(figures.iter().map(|f| f.file_name.as_str()));
+    clear_files(dir, &names.chain([KEEPOUT_FIGURE]).collect::<Vec<_>>())
 }
 
 /// Removes `names` from `dir`, and their temporaries (see [`clear_previous`]); each error
@@ -749,7 +813,7 @@ impl RunOutput {
             return Vec::new();
         }
         let (ts, ctx) = (self.plot.series(), self.figure_context());
-        figures_with(&self.thresholds).iter().filter_map(|f| plots::plan(&ts, f, &ctx)).collect()
+        figures_for(&ts, &self.thresholds).iter().filter_map(|f| plots::plan(&ts, f, &ctx)).collect()
     }
 
     /// Closes the time series, writes the summary and the figures; returns the files
@@ -769,8 +833,9 @@ impl RunOutput {
         let mut files = vec![series, json];
         if self.with_plots {
             let ctx = self.figure_context();
-            let figs = figures_with(&self.thresholds);
-            files.extend(plots::render(&self.dir, &self.plot.series(), &figs, &ctx).context("rendering plots")?);
+            let ts = self.plot.series();
+            let figs = figures_for(&ts, &self.thresholds);
+            files.extend(plots::render(&self.dir, &ts, &figs, &ctx).context("rendering plots")?);
         }
         Ok(files)
     }
@@ -847,6 +912,35 @@ impl Recorder for RunOutput {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `keepout.png` exists only with margin columns; its lines are the margin columns
+    /// (named "boresight · cone") and the flight's, with the cone edge at 0; the timeline
+    /// strip has one category per segment reached and "none".
+    #[test]
+    fn the_keepout_figure_draws_every_margin_column_and_the_segments_reached() {
+        let names = ["t_s", "keepout_st_sun_margin_deg", "keepout_rad_earth_margin_deg", "keepout_margin_flight_deg"];
+        let mut ts = TimeSeries::with_columns(names.iter().map(|n| n.to_string()).collect(), 3);
+        for (t, m) in [(0.0, 10.0), (1.0, -2.0), (2.0, 5.0)] {
+            ts.push_row(&[t, m, m + 20.0, m + 1.0]);
+        }
+        let mut without = ts.clone();
+        without.names[1] = "st_sun_margin".into();
+        without.names[2] = "keepout_rad_margin_deg".into();
+        assert!(keepout_figure(&without).is_none(), "no margin column, no figure");
+        assert!(keepout_figure(&ts).is_some_and(|f| f.panels.len() == 2), "no timeline column, no strip");
+        ts.names.push("timeline_segment".into());
+        ts.cols.push(vec![0.0, 2.0, 3.0]);
+        let fig = keepout_figure(&ts).expect("a figure");
+        let plan = plots::plan(&ts, &fig, &FigureContext::new("test")).expect("a plan");
+        assert_eq!(plan.file_name, KEEPOUT_FIGURE);
+        let margin = &plan.panels[0];
+        let labels: Vec<&str> = margin.lines.iter().map(|l| l.label.as_str()).collect();
+        assert_eq!(labels[..2], ["st · Sun", "rad · Earth"], "{labels:?}");
+        assert_eq!(margin.lines.len(), 3, "{labels:?}");
+        assert_eq!(margin.thresholds.first().map(|t| t.0), Some(0.0));
+        let strip = plan.panels.iter().find(|p| p.title.starts_with("timeline segment")).expect("strip");
+        assert_eq!(strip.categories, ["none", "1", "2", "3"]);
+    }
 
     fn one(x: f64) -> TimeSeries {
         TimeSeries { names: vec!["v".into()], cols: vec![vec![x]] }
