@@ -375,3 +375,46 @@ fn planner_steps_on_the_firmware_stay_within_the_instruction_bound() {
     }
     eprintln!("planning's extra worst-step cost: {:.0} instructions", worst[0] - worst[1]);
 }
+
+/// Issue 42: the wheel FDIR gives the same bits on the firmware. The shipped
+/// `scenarios/fdir/wheel-seized-6u.toml` shortened to 200 s with wheel 3 seizing at 100 s
+/// (during the acquisition, when the law commands each wheel ~10⁻⁴ N m): every recorded cell
+/// but the cost column (the residual, threshold and dropped-wheel columns among them) and the
+/// FDIR summary are equal; the wheel is declared within k = 4 steps (1.0 s at 4 Hz).
+#[test]
+fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
+    if !qemu_available("PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    let path = acs_tests::repo().join("scenarios/fdir/wheel-seized-6u.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let text = text.replace("duration_s = 6000.0", "duration_s = 200.0").replace("onset_s = 3000.0", "onset_s = 100.0");
+    let sc = sim_core::scenario::Scenario::from_toml(&text).unwrap();
+    assert_eq!(sc.duration_s, 200.0);
+    let sil = run_in_process(&sc);
+    let mut link = QemuLink::start(None).unwrap();
+    let pil = runner::run(&sc, &mut link, false).unwrap();
+    assert_eq!(sil.series.names, pil.series.names);
+    assert!(sil.series.names.iter().any(|n| n == "wheel3_residual_nm"));
+    let mut cells = 0usize;
+    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
+        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+        assert_eq!(a.len(), b.len(), "{name}");
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
+        }
+        cells += a.len();
+    }
+    let (s, f) = (&pil.summary, pil.summary.fdir.clone().expect("fdir summary"));
+    eprintln!(
+        "SIL = PIL over {cells} cells; {f:?}; Fsw::step mean {:.0}, max {} instructions",
+        s.mean_step_instructions.unwrap(),
+        s.max_step_instructions.unwrap()
+    );
+    assert_eq!(Some(&f), sil.summary.fdir.as_ref());
+    assert_eq!(f.events.len(), 1, "{f:?}");
+    let t = f.events[0].detected_at_s;
+    assert!(f.events[0].unit == "wheel.2" && t > 100.0 && t <= 101.0, "{f:?}");
+    assert_eq!(s.run_status, sil.summary.run_status);
+}
