@@ -184,8 +184,21 @@ fn clamped(path: &Path) -> Value {
     let mut doc: Value = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     let rate = doc["timing"]["control_rate_hz"].as_float().unwrap();
     let d = doc["duration_s"].as_float().unwrap();
-    doc["duration_s"] = Value::Float(d.min((5.0 / rate).max(1.0)));
+    shorten(&mut doc, d.min((5.0 / rate).max(1.0)));
     doc
+}
+
+/// Sets the run's `duration_s`, dropping the `[[timeline]]` segments that no longer start
+/// inside it (a segment must start before the end; the shortening is not a mutation).
+fn shorten(doc: &mut Value, duration_s: f64) {
+    doc["duration_s"] = Value::Float(duration_s);
+    let table = doc.as_table_mut().unwrap();
+    if let Some(Value::Array(segments)) = table.get_mut("timeline") {
+        segments.retain(|s| s.get("start_s").and_then(Value::as_float).is_some_and(|t| t < duration_s));
+        if segments.is_empty() {
+            table.remove("timeline");
+        }
+    }
 }
 
 struct Case {
@@ -227,7 +240,13 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
     let status = s.get("run_status").and_then(Json::as_str);
     if code == 3 {
         return match status {
-            Some(st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped")) => Verdict::Failed(st.into()),
+            // A failed run that says why (docs/scenario.md "Run status"): a mutation may make a
+            // keep-out, a timeline or the FDIR's noise model (e.g. a gyro sampled so fast
+            // that its per-sample noise swamps the wheel residual) fail, never exit 0.
+            Some(
+                st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped" | "keepout_violated"
+                | "timeline_missed" | "fdir_false_alarm"),
+            ) => Verdict::Failed(st.into()),
             other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
         };
     }
@@ -459,7 +478,7 @@ fn timing_bases() -> Vec<(String, Value)> {
             let mut doc: Value = toml::from_str(&std::fs::read_to_string(p).unwrap()).unwrap();
             let mekf = doc.get("estimation").and_then(|e| e.get("source")).and_then(Value::as_str) == Some("mekf");
             mekf.then(|| {
-                doc["duration_s"] = Value::Float(TIMING_DURATION_S);
+                shorten(&mut doc, TIMING_DURATION_S);
                 doc["timing"].as_table_mut().unwrap().insert("output_every".into(), Value::Integer(1));
                 (p.strip_prefix(repo()).unwrap().display().to_string(), doc)
             })
