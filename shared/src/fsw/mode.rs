@@ -10,6 +10,25 @@ use crate::modes::ModeInputs;
 use crate::params::{ActuatorParams, MODE_COUNT, WheelParams};
 use crate::types::Valid;
 
+/// Relative determinant of `C Cᵀ` (to its trace³/27) below which the wheels left do not
+/// span three axes (the allocation's own rank test, `allocation::wheels`).
+const SPAN_TOL: f32 = 1e-6;
+
+/// Whether a set flying wheels still has three axes of torque with the wheels FDIR dropped
+/// (`lost`) and its own failed ones out: a wheel mode without them lacks an input, and the
+/// mode manager falls back as for a lost sensor (docs/fdir.md "Wiring"). True for other
+/// families and when FDIR dropped nothing (no cost on the healthy path).
+fn wheels_span(p: &crate::params::FlightParams, lost: u8) -> bool {
+    let ActuatorParams::Wheels(w) = &p.actuator else { return true };
+    if lost == 0 {
+        return true;
+    }
+    let healthy = !u32::from(w.failed_mask | lost);
+    let m = crate::allocation::effectiveness::wheels::axes_gram(w, usize::from(w.count), healthy);
+    let scale = (m.trace() / 3.0).max(1e-30);
+    m.determinant() >= SPAN_TOL * scale * scale * scale
+}
+
 impl Fsw {
     /// Mode logic on the active mode's view of the measurements; switches `active`. The
     /// rate trigger needs only the gyro: a tumble that blinds the star tracker must still
@@ -33,9 +52,12 @@ impl Fsw {
                 }
                 Err(_) => (f32::NAN, f32::NAN),
             };
+        let lost = self.wheel_fdir.failed_mask();
         let mut inputs_ok = [false; MODE_COUNT];
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
-            *ok = slot.as_ref().is_some_and(|c| check::check_frame(f, c.required, c.needs_navigation, est).is_ok());
+            *ok = slot.as_ref().is_some_and(|c| {
+                check::check_frame(f, c.required, c.needs_navigation, est).is_ok() && wheels_span(&c.params, lost)
+            });
         }
         let inputs = ModeInputs {
             rate_rad_s: norm(&w),

@@ -140,3 +140,36 @@ fn a_threshold_inside_the_noise_fails_the_run_as_a_false_alarm() {
     assert!(s["fdir"]["false_alarms"].as_u64().unwrap() >= 1);
     assert!(s["failure"]["reason"].as_str().unwrap().contains("false alarm"));
 }
+
+/// The 3U mission (`scenarios/modes/cubesat-mission.toml`: three wheels on the body axes, a
+/// mode table from detumble to hold) with `[fdir.wheels]`: flown whole (detumble, sun-safe,
+/// stabilise, slews, hold, ground commands) it raises nothing; with wheel 1 seized in hold
+/// at 6000 s the two left cannot span three axes, so the wheel modes lack an input and the
+/// mode manager falls back to detumble on the magnetorquers (safe mode) within the
+/// detection (k = 4 steps at 2 Hz after the first step in force) and its 5 s persistence.
+#[test]
+fn a_three_wheel_mission_losing_a_wheel_falls_back_to_detumble() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/modes/cubesat-mission.toml");
+    let base = std::fs::read_to_string(path).unwrap()
+        + "\n[fdir.wheels]\nfloor_nm = 5.0e-8\nthreshold_sigma = 6.0\ngyro_sigma_rad_s = 1.4e-5\n";
+    let (n, _) = fly(&base);
+    assert_eq!((n["run_status"].as_str(), n["fdir"]["events"].as_array().map(Vec::len)), (Some("ok"), Some(0)));
+    let faulty = base + "\n[[faults]]\nonset_s = 6000.0\nunit = \"wheel.0\"\nkind = \"stuck\"\n";
+    let (s, _) = fly(&faulty);
+    let events = s["fdir"]["events"].as_array().unwrap();
+    assert_eq!(events.len(), 1, "{events:?}");
+    let detected = events[0]["detected_at_s"].as_f64().unwrap();
+    assert!(events[0]["unit"] == "wheel.0" && detected > 6000.0 && detected <= 6000.5 + 4.0 * 0.5, "{detected}");
+    let fallback = s["mode_transitions"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["t_s"].as_f64().unwrap() > 6000.0)
+        .expect("a transition after the fault")
+        .clone();
+    eprintln!("detected at {detected} s; then {fallback}");
+    assert_eq!((fallback["from"].as_str(), fallback["to"].as_str()), (Some("hold"), Some("detumble")));
+    assert_eq!(fallback["reason"], "input_lost");
+    let t = fallback["t_s"].as_f64().unwrap();
+    assert!(t > detected && t <= detected + 5.0 + 0.5, "{t}");
+}
