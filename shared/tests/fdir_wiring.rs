@@ -7,8 +7,8 @@
 //! for a steady torque.
 //! (a) healthy: no event over 200 steps; every residual below 10⁻⁹ N m (f32 rounding);
 //! (b) a seized rotor (τ = 0) is declared after exactly k steps, isolated to its rotor, and
-//!     from the next step its command is 0 while the realised torque still equals the
-//!     demand (three wheels span the body);
+//!     from that step its command is 0 and its drive switched off while the realised torque
+//!     still equals the demand (three wheels span the body);
 //! (c) a frozen tachometer (rotor healthy) is declared after k steps and isolated to the
 //!     tachometer;
 //! (d) a repeated frame (same time) or a frame without wheel speeds is not judged;
@@ -208,8 +208,10 @@ fn a_seized_rotor_is_declared_after_k_steps_isolated_and_dropped() {
     assert_eq!((c.fdir.failed_wheels, c.fdir.events), (0b0100, 1));
     assert_eq!(c.fdir.tachometer_wheels, 0, "a seized rotor is not its tachometer");
     assert_eq!(c.fdir.ambiguous_wheels, 0, "|r| ~ 1e-5 N m is far above the body noise (σ_m ~ 1e-7 N m)");
+    assert!(cmds[..first].iter().all(|c| c.wheel_power_off == 0));
     for c in &cmds[first..] {
         assert_eq!(c.wheel_torque_cmd_nm[2], 0.0, "the dropped wheel is not commanded");
+        assert_eq!(c.wheel_power_off, 0b0100, "and its drive is switched off");
         let (d, r) = (c.torque_demand_nm, c.torque_realised_nm);
         let err = (0..3).map(|k| (d[k] - r[k]).abs()).fold(0.0f32, f32::max);
         assert!(err < 1e-9, "three wheels realise the demand: {d:?} vs {r:?}");

@@ -153,6 +153,8 @@ impl Fsw {
         let mut cmd = self.step_active(f, &est);
         self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
         cmd.fdir = self.wheel_fdir.telemetry();
+        // A dropped wheel's drive is switched off: a runaway drive stops pushing.
+        cmd.wheel_power_off = self.wheel_fdir.failed_mask();
         report::pack_estimate(&mut cmd.estimate, &est.status);
         if let Some(mgr) = &self.manager {
             report::mode_telemetry(&mut cmd, mgr);

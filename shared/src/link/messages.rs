@@ -223,6 +223,9 @@ pub struct ActuatorCommand {
     pub guidance: GuidanceTelemetry,
     /// What fault detection concluded (protocol 20; docs/fdir.md).
     pub fdir: FdirTelemetry,
+    /// Bit i: wheel i's drive is switched off (FDIR dropped it; protocol 20): its motor
+    /// applies no torque whatever its command or its electronics' fault.
+    pub wheel_power_off: u8,
 }
 
 /// Fault detection, isolation and recovery telemetry of one step ([`crate::fdir`]).

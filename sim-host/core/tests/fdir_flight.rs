@@ -9,8 +9,9 @@
 //!     named, matched to its `[[faults]]` entry (`detected_at_s`), dropped; no other event;
 //!     the hold after the fault keeps the nominal twin's pointing (95 % error within 10 %);
 //! (c) the nominal twin (no fault) raises nothing: zero events;
-//! (d) every wheel fault kind is declared within k steps; a runaway (2 mN m, far above the
-//!     body's noise) is isolated to its rotor;
+//! (d) every wheel fault kind is declared within k steps and the hold recovered by the end
+//!     (final error < 0.01°); a runaway (2 mN m, far above the body's noise) is isolated to
+//!     its rotor, and its drive switched off;
 //! (e) a threshold that noise crosses (0.5 σ, no floor) raises events on healthy wheels:
 //!     the run fails (`fdir_false_alarm`), never ok.
 
@@ -129,6 +130,9 @@ fn every_wheel_fault_kind_is_declared_within_k_steps() {
         if let Some(iso) = isolation {
             assert_eq!(events[0]["isolated_as"], iso, "{kind}");
         }
+        // Recovered by the end (a runaway drive is switched off with the wheel dropped).
+        let fin = s["final_error_deg"].as_f64().unwrap();
+        assert!(fin < 0.01, "{kind}: final error {fin} deg");
     }
 }
 

@@ -135,6 +135,12 @@ impl Actuation {
             inj.add_to_commands(&mut self.wheel_cmd, &mut input.gimbal_rate_cmd_rad_s);
         }
         self.wheel_faults(t_s);
+        // A drive the flight switched off applies no torque, whatever its fault.
+        for (i, c) in self.wheel_cmd.iter_mut().enumerate() {
+            if cmd.wheel_power_off & (1u8.checked_shl(i as u32).unwrap_or(0)) != 0 {
+                *c = 0.0;
+            }
+        }
         self.gimbal_cmd = input.gimbal_rate_cmd_rad_s;
         input.gimbal_rate_cmd_rad_s = self.gimbal_delay.push(input.gimbal_rate_cmd_rad_s);
         input.wheel_torque_cmd_nm = self.wheel_torques();
