@@ -139,16 +139,7 @@ fn guidance_pointings_on_the_firmware_give_the_same_bits_as_in_process() {
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
-    assert_eq!(sil.series.names, pil.series.names);
-    let mut cells = 0usize;
-    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
-        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
-        assert_eq!(a.len(), b.len(), "{name}");
-        for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
-        }
-        cells += a.len();
-    }
+    let cells = same_bits_but_the_cost(&sil, &pil);
     let s = &pil.summary;
     eprintln!(
         "SIL = PIL over {cells} cells; Fsw::step mean {:.0}, max {} instructions; {} pointing switches",
@@ -175,11 +166,8 @@ fn planned_slew_round_a_keepout_gives_the_same_bits_on_the_firmware() {
         return;
     }
     build_qemu_firmware();
-    let path = acs_tests::repo().join("scenarios/guidance/eo-cubesat.toml");
     let t = |s: &str| s.parse::<Table>().unwrap();
-    let mut sc = t(&std::fs::read_to_string(path).unwrap());
-    sc.insert("duration_s".into(), Value::Float(1000.0));
-    sc["orbit"].as_table_mut().unwrap().insert("arg_lat_deg".into(), Value::Float(180.0));
+    let mut sc = eo_cubesat_sunlit_1000_s();
     let sun = "label = \"Sun pointing\"\npointing = { primary_body = [1, 0, 0], primary = \"sun\", \
                secondary_body = [0, 0, 1], secondary = \"nadir\" }\ntransition_s = 120.0\n";
     sc.insert("guidance".into(), Value::Table(t(sun)));
@@ -194,16 +182,7 @@ fn planned_slew_round_a_keepout_gives_the_same_bits_on_the_firmware() {
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
-    assert_eq!(sil.series.names, pil.series.names);
-    let mut cells = 0usize;
-    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
-        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
-        assert_eq!(a.len(), b.len(), "{name}");
-        for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
-        }
-        cells += a.len();
-    }
+    let cells = same_bits_but_the_cost(&sil, &pil);
     let (s, k) = (&pil.summary, pil.summary.keepout.clone().expect("keep-out summary"));
     let cost = pil.series.col("step_cost_insns").unwrap();
     let phase = pil.series.col("slew_phase").unwrap();
@@ -243,11 +222,8 @@ fn a_timeline_with_planned_slews_gives_the_same_bits_on_the_firmware() {
         return;
     }
     build_qemu_firmware();
-    let path = acs_tests::repo().join("scenarios/guidance/eo-cubesat.toml");
     let t = |s: &str| s.parse::<Table>().unwrap();
-    let mut sc = t(&std::fs::read_to_string(path).unwrap());
-    sc.insert("duration_s".into(), Value::Float(1000.0));
-    sc["orbit"].as_table_mut().unwrap().insert("arg_lat_deg".into(), Value::Float(180.0));
+    let mut sc = eo_cubesat_sunlit_1000_s();
     sc.remove("commands");
     let manoeuvre = "max_rate_deg_s = 1.0\nmax_accel_deg_s2 = 0.05\nplanning_margin_deg = 2.0\n\
                      [[keepout]]\nname = \"st\"\nboresight_body = [0, -1, 0]\nsun_half_angle_deg = 35.0\n";
@@ -261,16 +237,7 @@ fn a_timeline_with_planned_slews_gives_the_same_bits_on_the_firmware() {
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
-    assert_eq!(sil.series.names, pil.series.names);
-    let mut cells = 0usize;
-    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
-        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
-        assert_eq!(a.len(), b.len(), "{name}");
-        for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
-        }
-        cells += a.len();
-    }
+    let cells = same_bits_but_the_cost(&sil, &pil);
     let s = &pil.summary;
     let tl = s.timeline.clone().expect("timeline summary");
     eprintln!(
@@ -395,17 +362,8 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
-    assert_eq!(sil.series.names, pil.series.names);
     assert!(sil.series.names.iter().any(|n| n == "wheel3_residual_nm"));
-    let mut cells = 0usize;
-    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
-        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
-        assert_eq!(a.len(), b.len(), "{name}");
-        for (i, (x, y)) in a.iter().zip(b).enumerate() {
-            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
-        }
-        cells += a.len();
-    }
+    let cells = same_bits_but_the_cost(&sil, &pil);
     let (s, f) = (&pil.summary, pil.summary.fdir.clone().expect("fdir summary"));
     eprintln!(
         "SIL = PIL over {cells} cells; {f:?}; Fsw::step mean {:.0}, max {} instructions",
@@ -417,4 +375,30 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
     let t = f.events[0].detected_at_s;
     assert!(f.events[0].unit == "wheel.2" && t > 100.0 && t <= 101.0, "{f:?}");
     assert_eq!(s.run_status, sil.summary.run_status);
+}
+
+/// Every recorded cell of the two runs equal bit for bit (NaN = NaN) but the firmware's
+/// cost column (NaN in-process by design); returns the cells compared.
+fn same_bits_but_the_cost(sil: &runner::RunResult, pil: &runner::RunResult) -> usize {
+    assert_eq!(sil.series.names, pil.series.names);
+    let mut cells = 0usize;
+    for name in sil.series.names.iter().filter(|n| *n != "step_cost_insns") {
+        let (a, b) = (sil.series.col(name).unwrap(), pil.series.col(name).unwrap());
+        assert_eq!(a.len(), b.len(), "{name}");
+        for (i, (x, y)) in a.iter().zip(b).enumerate() {
+            assert!(x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()), "{name} row {i}: {x:e} vs {y:e}");
+        }
+        cells += a.len();
+    }
+    cells
+}
+
+/// The EO cubesat for 1000 s from the sunlit half of its orbit (argument of latitude 180°),
+/// as a TOML table to edit.
+fn eo_cubesat_sunlit_1000_s() -> toml::Table {
+    let path = acs_tests::repo().join("scenarios/guidance/eo-cubesat.toml");
+    let mut sc: toml::Table = std::fs::read_to_string(path).unwrap().parse().unwrap();
+    sc.insert("duration_s".into(), toml::Value::Float(1000.0));
+    sc["orbit"].as_table_mut().unwrap().insert("arg_lat_deg".into(), toml::Value::Float(180.0));
+    sc
 }
