@@ -127,6 +127,9 @@ pub enum Actuators {
 
 impl Actuators {
     /// The family of a validated parameter set (`dt_s`: control period, for PWPF).
+    // Not inlined into `Configured::build`: its temporaries would sum into the build's
+    // frame on the firmware's deepest stack chain (docs/firmware.md "Stack").
+    #[inline(never)]
     pub fn from_params(p: &ActuatorParams, dt_s: f32) -> Result<Self, ParamError> {
         Ok(match p {
             ActuatorParams::Cmg { cmg, steering } => Self::Cmg(CmgCluster {

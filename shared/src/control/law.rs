@@ -89,6 +89,9 @@ pub enum Law {
 
 impl Law {
     /// The law of a validated parameter set, with fresh state.
+    // Not inlined into `Configured::build`: its temporaries would sum into the build's
+    // frame on the firmware's deepest stack chain (docs/firmware.md "Stack").
+    #[inline(never)]
     pub fn from_params(c: &ControllerParams) -> Result<Self, ParamError> {
         Ok(match c {
             ControllerParams::QuaternionFeedback(c) => Self::QuaternionFeedback(

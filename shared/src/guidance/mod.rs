@@ -135,6 +135,9 @@ pub struct Guidance {
 
 impl Guidance {
     /// Guidance for validated parameters.
+    // Not inlined into `Configured::build`: its temporaries would sum into the build's
+    // frame on the firmware's deepest stack chain (docs/firmware.md "Stack").
+    #[inline(never)]
     pub fn new(params: &GuidanceParams, manoeuvre: &ManoeuvreParams) -> Self {
         let gate_site = params
             .min_elevation_rad
