@@ -160,6 +160,10 @@ impl Session {
                 Ok(()) => FswMsg::Ack,
                 Err(_) => FswMsg::Error(LinkError::NoSuchUnit),
             }),
+            HostMsg::ClearTrackerFault => {
+                self.fsw.clear_tracker_fault();
+                Some(FswMsg::Ack)
+            }
         }
     }
 

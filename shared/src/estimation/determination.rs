@@ -10,7 +10,9 @@
 //!    only with the MEKF) evaluated at nodes `FIELD_NODE_INTERVAL_S` apart, spread over
 //!    the steps, and interpolated in between;
 //! 3. measured Sun: the fine sun sensor if valid, else the coarse sun sensors
-//!    ([`super::css`]);
+//!    ([`super::css`]); with `tracker_fdir`, the star-tracker monitor
+//!    ([`crate::fdir::tracker`]) judges a fresh tracker sample against the Sun and the
+//!    field, and a tracker it declared failed is not used from then on;
 //! 4. attitude:
 //!    - `AttitudeSource::Sensor`: the attitude sensor's quaternion and the gyro as measured;
 //!    - `AttitudeSource::Mekf` ([`super::mekf`]): propagate the history
@@ -37,6 +39,7 @@ use super::references::References;
 use super::status::{EstimateFlags, EstimateStatus, FilterStatus, FusionCounts, SampleAges};
 use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
+use crate::fdir::tracker::{TrackerMonitor, Witness, witness_angle_rad};
 use crate::math::{Quat, Vec3};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
@@ -117,6 +120,8 @@ pub struct Determination {
     fusion: FusionCounts,
     /// `params.max_sample_age_s` in µs.
     max_sample_age_us: u64,
+    /// The star-tracker monitor (with `params.tracker_fdir`).
+    tracker_monitor: TrackerMonitor,
 }
 
 impl Default for Determination {
@@ -170,6 +175,7 @@ impl Determination {
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             max_sample_age_us: (params.max_sample_age_s * 1.0e6) as u64,
             fusion: FusionCounts::ZERO,
+            tracker_monitor: TrackerMonitor::new(),
         }
     }
 
@@ -255,6 +261,8 @@ impl Determination {
             }
         };
         let v = self.vectors(s, sun_eci, field_eci);
+        let without_tracker = self.monitor_tracker(s, &v, eclipse);
+        let s = without_tracker.as_ref().unwrap_or(s);
         let out = match self.params.source {
             AttitudeSource::Sensor => MekfOutput {
                 attitude: s.star_tracker.map(|x| x.q_ib).filter(|_| !stale.contains(Valid::ATTITUDE)),
@@ -278,6 +286,48 @@ impl Determination {
             stale,
             status,
         }
+    }
+
+    /// The star-tracker monitor (with `tracker_fdir`; [`crate::fdir::tracker`]): judges a
+    /// fresh tracker sample against the Sun (outside eclipse) and the field before it is
+    /// fused. Once the tracker is declared failed its samples are dropped (the returned
+    /// copy; `None`: use the samples as they are), and when it is declared, a filter the
+    /// witnesses contradict (it re-started from the bad tracker) is stopped, to restart
+    /// from TRIAD on the Sun and the field (docs/fdir.md "Star tracker").
+    fn monitor_tracker(&mut self, s: &SensorSamples, v: &Vectors, eclipse: bool) -> Option<SensorSamples> {
+        let p = self.params.tracker_fdir?;
+        let sun = match (v.sun_body, v.sun_eci.as_ref().and_then(unit)) {
+            (Some(body), Some(reference)) if !eclipse => Some(Witness { body, reference }),
+            _ => None,
+        };
+        let field = match (v.mag_body, v.field_eci.as_ref().and_then(unit)) {
+            (Some((body, _)), Some(reference)) => Some(Witness { body, reference }),
+            _ => None,
+        };
+        let witnesses = [sun, field];
+        let filter = self.history.as_ref().map(|h| h.filter().attitude());
+        if let Some(x) = s.star_tracker
+            && self.tracker_monitor.judge(&p, x.time_us, &x.q_ib, &witnesses, filter.as_ref())
+        {
+            let max = p.witness_max_rad;
+            let contradicted =
+                filter.is_some_and(|f| witnesses.iter().flatten().any(|w| !(witness_angle_rad(&f, w) <= max)));
+            if contradicted {
+                self.lose();
+            }
+        }
+        self.tracker_monitor.failed()?;
+        Some(SensorSamples { star_tracker: None, ..*s })
+    }
+
+    /// The star-tracker monitor's state (telemetry).
+    pub fn tracker_monitor(&self) -> &TrackerMonitor {
+        &self.tracker_monitor
+    }
+
+    /// The ground re-enables the star tracker the monitor declared failed.
+    pub fn clear_tracker_fault(&mut self) {
+        self.tracker_monitor.clear();
     }
 
     /// The measured vectors of the step and their reference directions.

@@ -24,11 +24,14 @@ pub struct Repeats<const N: usize> {
 
 impl<const N: usize> Default for Repeats<N> {
     fn default() -> Self {
-        Self { last: [0.0; N], run: [0; N], primed: false }
+        Self::EMPTY
     }
 }
 
 impl<const N: usize> Repeats<N> {
+    /// No sample seen yet.
+    pub const EMPTY: Self = Self { last: [0.0; N], run: [0; N], primed: false };
+
     /// Records one fresh sample (call only for a sample with a new time tag) and returns
     /// the components that have now repeated their value more than `max_repeats` times in
     /// a row (bit `i`: component `i`).

@@ -153,6 +153,7 @@ impl Fsw {
         let mut cmd = self.step_active(f, &est);
         self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
         cmd.fdir = self.wheel_fdir.telemetry();
+        report::tracker_fdir(&mut cmd.fdir, self.determination.tracker_monitor());
         // A dropped wheel's drive is switched off: a runaway drive stops pushing.
         cmd.wheel_power_off = self.wheel_fdir.failed_mask();
         report::pack_estimate(&mut cmd.estimate, &est.status);
@@ -174,6 +175,12 @@ impl Fsw {
             _ => return Err(NoSuchUnit),
         }
         Ok(())
+    }
+
+    /// The ground re-enables the star tracker the estimation stage's monitor declared
+    /// failed (fused again from its next sample; the failure stays counted).
+    pub fn clear_tracker_fault(&mut self) {
+        self.determination.clear_tracker_fault();
     }
 
     /// FDIR: the wheel monitor of the set in force (when it has one and flies wheels)

@@ -183,6 +183,17 @@ fn fusion_counters(c: &FusionCounts) -> link::FusionCounters {
     }
 }
 
+/// The star-tracker monitor's part of the FDIR telemetry (nothing without the monitor:
+/// its state stays empty).
+pub(super) fn tracker_fdir(t: &mut crate::link::FdirTelemetry, m: &crate::fdir::tracker::TrackerMonitor) {
+    use crate::fdir::tracker::TrackerFault;
+    let failed = m.failed();
+    t.events = t.events.saturating_add(m.events());
+    t.failed_sensors = if failed.is_some() { crate::link::FAILED_STAR_TRACKER } else { 0 };
+    t.tracker_frozen = failed == Some(TrackerFault::Frozen);
+    t.tracker_witness_rad = m.last_witness_rad();
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

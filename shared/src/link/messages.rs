@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 20;
+pub const PROTOCOL_VERSION: u16 = 21;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -232,7 +232,8 @@ pub struct ActuatorCommand {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, Schema)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FdirTelemetry {
-    /// Units declared failed since boot (saturating; a ground clear does not lower it).
+    /// Units declared failed since boot, wheels and sensors (saturating; a ground clear
+    /// does not lower it).
     pub events: u16,
     /// Bit i: wheel i declared failed and dropped from the allocation.
     pub failed_wheels: u8,
@@ -248,7 +249,19 @@ pub struct FdirTelemetry {
     pub wheel_residual_nm: [f32; MAX_WHEELS],
     /// The threshold they were held against, N m (0 when not judged).
     pub wheel_threshold_nm: f32,
+    /// Bit 0 ([`FAILED_STAR_TRACKER`]): the star tracker declared failed and no longer
+    /// fused (protocol 21).
+    pub failed_sensors: u8,
+    /// The star tracker's failure was the frozen-output test (otherwise its attitude was
+    /// contradicted by the Sun or the field).
+    pub tracker_frozen: bool,
+    /// The largest angle between a witness (measured Sun, measured field) and where the
+    /// tracker's last judged attitude puts it, rad (0 without the monitor or a witness).
+    pub tracker_witness_rad: f32,
 }
+
+/// [`FdirTelemetry::failed_sensors`]: the star tracker.
+pub const FAILED_STAR_TRACKER: u8 = 1;
 
 /// Values in [`ActuatorCommand::law_telemetry`].
 pub const LAW_TELEMETRY_LEN: usize = 9;
@@ -559,6 +572,10 @@ pub enum HostMsg {
     ClearWheelFault {
         wheel: u8,
     },
+    /// Re-enable the star tracker the estimation stage's monitor declared failed (it is
+    /// fused again from its next sample; protocol 21, docs/fdir.md "Star tracker").
+    /// Reply: `Ack`.
+    ClearTrackerFault,
 }
 
 /// [`HostMsg::ClearWheelFault`]'s "every unit".

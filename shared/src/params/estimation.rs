@@ -93,6 +93,9 @@ pub struct EstimationParams {
     /// node on the Cortex-M4F); it must cover the control steps within the latency plus
     /// the samples fused in it.
     pub max_replayed_nodes: u8,
+    /// The star-tracker monitor (protocol 21; `None`: off): a tracker it declares failed
+    /// is no longer fused (docs/fdir.md "Star tracker").
+    pub tracker_fdir: Option<super::fdir::TrackerFdirParams>,
 }
 
 /// Largest `max_replayed_nodes`: every node of the flight history but the one a late
@@ -132,6 +135,7 @@ impl EstimationParams {
         coarse_update_interval_s: 0.0,
         max_sample_latency_s: 0.5,
         max_replayed_nodes: 8,
+        tracker_fdir: None,
     };
 }
 
@@ -175,6 +179,9 @@ impl EstimationParams {
             return bad(ParamReason::OutOfRange);
         }
         if self.max_replayed_nodes == 0 || self.max_replayed_nodes > MAX_REPLAYED_NODES_LIMIT {
+            return bad(ParamReason::OutOfRange);
+        }
+        if self.tracker_fdir.is_some_and(|t| t.validate().is_err()) {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {

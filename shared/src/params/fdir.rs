@@ -60,6 +60,8 @@ pub enum FdirParamError {
     WheelWindow,
     /// The isolation's ratio or body-torque noise.
     Isolation,
+    /// The star-tracker monitor's witness angle, window or repeat count.
+    Tracker,
 }
 
 impl WheelMonitorParams {
@@ -135,4 +137,34 @@ pub struct FdirParams {
 
 impl FdirParams {
     pub const OFF: Self = Self { wheel: None };
+}
+
+/// The star-tracker monitor of the estimation stage (estimation parameters, protocol
+/// 21; [`crate::fdir::tracker`]): a frozen output, or an attitude the other vector
+/// sensors contradict.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct TrackerFdirParams {
+    /// A measured Sun or field direction more than this from where the tracker's attitude
+    /// puts it is an exceedance, rad (in (0, π)); well above the witnesses' own errors
+    /// (coarse sun sensors, field model), well below what a wrong attitude does (a 180°
+    /// flip about the boresight moves a direction θ off the boresight by 2θ).
+    pub witness_max_rad: f32,
+    /// k-of-n persistence over the fresh tracker samples judged.
+    pub window: KOfN,
+    /// Frozen: every quaternion component repeats more than this many times in a row
+    /// (≥ 1; a live tracker's noise makes even one exact repeat of all four rare).
+    pub max_repeats: u16,
+}
+
+impl TrackerFdirParams {
+    pub fn validate(&self) -> Result<(), FdirParamError> {
+        let angle_ok = self.witness_max_rad.is_finite()
+            && self.witness_max_rad > 0.0
+            && self.witness_max_rad < core::f32::consts::PI;
+        if !angle_ok || !self.window.valid() || self.max_repeats == 0 {
+            return Err(FdirParamError::Tracker);
+        }
+        Ok(())
+    }
 }

@@ -1,5 +1,6 @@
 //! The flight code's FDIR as the simulator sees it (issue 42; docs/fdir.md "Wiring"):
-//! each step's [`FdirTelemetry`] turned into events (a wheel newly declared failed), matched
+//! each step's [`FdirTelemetry`] turned into events (a wheel or the star tracker newly
+//! declared failed), matched
 //! to the injected `[[faults]]` — an event on a unit with no fault in force is a false
 //! alarm and fails the run (`run_status` "fdir_false_alarm", exit 3).
 
@@ -16,7 +17,8 @@ pub struct FdirEvent {
     pub test: &'static str,
     /// The control step whose report first carried it, s.
     pub detected_at_s: f64,
-    /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor).
+    /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor) for a
+    /// wheel; `star_tracker` for the tracker.
     pub isolated_as: &'static str,
     /// What the flight code did.
     pub recovery: &'static str,
@@ -68,6 +70,19 @@ impl FdirLog {
                 detected_at_s: t_s,
                 isolated_as,
                 recovery: "dropped_from_allocation",
+                fault,
+            });
+        }
+        let tracker = acs_flight::link::FAILED_STAR_TRACKER;
+        if f.failed_sensors & tracker != 0 && self.last.failed_sensors & tracker == 0 {
+            let fault = faults.iter().position(|x| x.fault.unit() == "star_tracker" && x.window.onset_s <= t_s);
+            self.summary.false_alarms += usize::from(fault.is_none());
+            self.summary.events.push(FdirEvent {
+                unit: "star_tracker".into(),
+                test: if f.tracker_frozen { "tracker_frozen" } else { "tracker_witness" },
+                detected_at_s: t_s,
+                isolated_as: "star_tracker",
+                recovery: "dropped_from_estimation",
                 fault,
             });
         }

@@ -1,6 +1,8 @@
 //! `[fdir]`: the flight code's fault detection, isolation and recovery (docs/scenario.md
 //! "[fdir]", docs/fdir.md). Today one monitor, `[fdir.wheels]`: the reaction-wheel torque
-//! residual with isolation rotor/tachometer and the wheel dropped from the allocation.
+//! residual with isolation rotor/tachometer and the wheel dropped from the allocation;
+//! `[fdir.star_tracker]`: the estimation stage's tracker monitor (frozen, or contradicted
+//! by the Sun and the field) and the tracker dropped from the estimation.
 //!
 //! ```toml
 //! [fdir.wheels]
@@ -12,9 +14,11 @@
 //! The set goes into every parameter set that flies wheels (the mission's and each
 //! wheel mode's); a scenario with `[fdir.wheels]` but no wheels is refused naming the key.
 
+use super::estimation::EstimationSpec;
 use super::{Scenario, bad, finite};
 use acs_flight::params::ActuatorParams;
-use acs_flight::params::fdir::{FdirParams, KOfN, WheelFdirParams, WheelResidualNoise};
+use acs_flight::params::EstimationParams;
+use acs_flight::params::fdir::{FdirParams, KOfN, TrackerFdirParams, WheelFdirParams, WheelResidualNoise};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
@@ -23,6 +27,57 @@ use serde::{Deserialize, Serialize};
 pub struct FdirSpec {
     #[serde(default)]
     pub wheels: Option<WheelFdirSpec>,
+    #[serde(default)]
+    pub star_tracker: Option<TrackerFdirSpec>,
+}
+
+/// `[fdir.star_tracker]`: the estimation stage's tracker monitor (docs/fdir.md "Star
+/// tracker"): frozen output, or an attitude the Sun and the field contradict.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct TrackerFdirSpec {
+    /// A witness (measured Sun, measured field) farther than this from where the
+    /// tracker's attitude puts it is an exceedance, deg, in (0, 180).
+    #[serde(default = "default_witness_max_deg")]
+    pub witness_max_deg: f64,
+    #[serde(default = "default_tracker_k")]
+    pub k: u8,
+    #[serde(default = "default_tracker_n")]
+    pub n: u8,
+    /// Frozen: all four quaternion components repeated more than this many times (≥ 1).
+    #[serde(default = "default_max_repeats")]
+    pub max_repeats: u16,
+}
+
+fn default_witness_max_deg() -> f64 {
+    20.0
+}
+fn default_tracker_k() -> u8 {
+    3
+}
+fn default_tracker_n() -> u8 {
+    4
+}
+fn default_max_repeats() -> u16 {
+    3
+}
+
+impl TrackerFdirSpec {
+    fn params(&self) -> Result<TrackerFdirParams> {
+        let k = "fdir.star_tracker";
+        let w = self.witness_max_deg;
+        if !(w.is_finite() && w > 0.0 && w < 180.0) {
+            return Err(bad(&format!("{k}.witness_max_deg"), format!("{w}: must be in (0, 180)")));
+        }
+        let window = KOfN { k: self.k, n: self.n };
+        if !window.valid() {
+            return Err(bad(&format!("{k}.k"), "need 1 ≤ k ≤ n ≤ 32"));
+        }
+        if self.max_repeats == 0 {
+            return Err(bad(&format!("{k}.max_repeats"), "must be ≥ 1"));
+        }
+        Ok(TrackerFdirParams { witness_max_rad: w.to_radians() as f32, window, max_repeats: self.max_repeats })
+    }
 }
 
 fn default_threshold_sigma() -> f64 {
@@ -77,8 +132,27 @@ impl Scenario {
         Ok(FdirParams { wheel: Some(p) })
     }
 
+    /// The estimation stage's parameters of `[estimation]` `e`, with `[fdir.star_tracker]`.
+    pub fn estimation_params(&self, e: &EstimationSpec) -> Result<EstimationParams> {
+        let mut p = e.params(self.sensors.css.as_ref().map(|c| &c.normals_body[..]))?;
+        p.tracker_fdir = match self.fdir.as_ref().and_then(|f| f.star_tracker.as_ref()) {
+            Some(t) => Some(t.params()?),
+            None => None,
+        };
+        Ok(p)
+    }
+
     /// `[fdir]` checked naming the key.
     pub fn validate_fdir(&self) -> Result<()> {
+        if let Some(t) = self.fdir.as_ref().and_then(|f| f.star_tracker.as_ref()) {
+            t.params()?;
+            if self.estimation.is_none() || self.sensors.star_tracker.is_none() {
+                return Err(bad(
+                    "fdir.star_tracker",
+                    "the monitor runs in the estimation stage: needs [estimation] and [sensors.star_tracker]",
+                ));
+            }
+        }
         let Some(spec) = self.fdir.as_ref().and_then(|f| f.wheels.as_ref()) else { return Ok(()) };
         if self.actuators.wheels.is_none() {
             return Err(bad("fdir.wheels", "the spacecraft has no [actuators.wheels]"));

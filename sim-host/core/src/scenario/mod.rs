@@ -22,7 +22,7 @@ pub mod estimation;
 mod faults;
 pub use faults::{FaultSpec, MAX_GYRO_BIAS_STEP_RAD_S};
 mod fdir;
-pub use fdir::{FdirSpec, WheelFdirSpec};
+pub use fdir::{FdirSpec, TrackerFdirSpec, WheelFdirSpec};
 mod guidance;
 mod manoeuvre;
 pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
@@ -454,7 +454,7 @@ impl Scenario {
     /// `[estimation]`: the flight code's validation of the set, refusals naming the key.
     fn validate_estimation(&self) -> Result<()> {
         if let Some(e) = &self.estimation {
-            e.params(self.sensors.css.as_ref().map(|c| &c.normals_body[..]))?;
+            self.estimation_params(e)?;
         }
         Ok(())
     }

@@ -127,7 +127,7 @@ impl TryFrom<&Scenario> for Resolved {
             None
         };
         let estimation = match &sc.estimation {
-            Some(e) if sc.closed_loop() => Some(e.params(sc.sensors.css.as_ref().map(|c| &c.normals_body[..]))?),
+            Some(e) if sc.closed_loop() => Some(sc.estimation_params(e)?),
             _ => None,
         };
         let mut craft = sc.spacecraft()?;
