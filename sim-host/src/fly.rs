@@ -159,6 +159,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
             failed(format!("{reason} (summary.json: run_status \"timeline_missed\")"))
         }
         Some(Failure::Fdir { reason }) => failed(format!("{reason} (summary.json: run_status \"fdir_false_alarm\")")),
+        Some(Failure::ControlLost { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"control_lost\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
