@@ -225,5 +225,9 @@ mod tests {
         let v = verdict(&summary);
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"keepout_violated\"")), "{v:?}");
+        summary.failure = Some(Failure::ControlLost { reason: "control lost with no FDIR event".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"control_lost\"")), "{v:?}");
     }
 }
