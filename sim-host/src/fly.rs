@@ -159,6 +159,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
             failed(format!("{reason} (summary.json: run_status \"timeline_missed\")"))
         }
         Some(Failure::Fdir { reason }) => failed(format!("{reason} (summary.json: run_status \"fdir_false_alarm\")")),
+        Some(Failure::ControlLost { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"control_lost\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
@@ -222,5 +225,9 @@ mod tests {
         let v = verdict(&summary);
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"keepout_violated\"")), "{v:?}");
+        summary.failure = Some(Failure::ControlLost { reason: "control lost with no FDIR event".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"control_lost\"")), "{v:?}");
     }
 }

@@ -670,7 +670,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
-                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} errors",
+                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -683,6 +683,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.all_refused,
                 r.margins_failed,
                 r.no_control,
+                r.control_lost,
                 r.errors
             );
         }
@@ -691,7 +692,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = &m.result;
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
-                 {} margins failed, {} not controlled, {} errors)",
+                 {} margins failed, {} not controlled, {} control lost unnoticed, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -701,6 +702,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.all_refused.len(),
                 r.margins_failed.len(),
                 r.no_control.len(),
+                r.control_lost.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
@@ -712,6 +714,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 ("all steps refused", &r.all_refused),
                 ("margins failed", &r.margins_failed),
                 ("not controlled", &r.no_control),
+                ("control lost unnoticed", &r.control_lost),
             ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();

@@ -211,6 +211,34 @@ fn runs_the_flight_code_cannot_control_fail_the_campaign() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("2 not controlled"));
 }
 
+/// A run whose injected fault loses control with no FDIR event (the 3U mission, `gyro.x`
+/// stuck in hold; docs/scenario.md "Control lost") has `run_status` `control_lost`: a
+/// campaign lists it as such, it fails every requirement whatever its figures, and the
+/// merge fails (exit 1).
+#[test]
+fn runs_that_lose_control_unnoticed_fail_the_campaign() {
+    let t = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("scenarios/modes/cubesat-mission.toml")).unwrap()
+        + "\n[[faults]]\nonset_s = 6000.0\nunit = \"gyro.x\"\nkind = \"stuck\"\n";
+    let base = t.path().join("gyro-stuck.toml");
+    std::fs::write(&base, text).unwrap();
+    let extra = "[[dispersion]]\nkey = \"faults[0].onset_s\"\ndist = { type = \"uniform\", low = 5900.0, high = 6100.0 }\n\
+                 [[requirement]]\nname = \"error\"\nkey = \"final_error_deg\"\nop = \"<\"\nvalue = 1000.0\n";
+    let f = campaign_file(t.path(), &base, 2, extra);
+    let dir = t.path().join("c");
+    assert!(sim_host().args(["campaign", "plan"]).arg(&f).arg("--out").arg(&dir).status().unwrap().success());
+    assert!(sim_host().args(["campaign", "run", "-q"]).arg(&dir).status().unwrap().success());
+    let o = sim_host().args(["campaign", "merge", "--no-plots"]).arg(&dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stdout));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("campaign.json")).unwrap()).unwrap();
+    assert_eq!(c["control_lost"], serde_json::json!([0, 1]), "{c}");
+    assert_eq!(c["requirements"][0]["failed_runs"], serde_json::json!([0, 1]), "{}", c["requirements"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 control lost unnoticed"));
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(report.contains("2 lost control with no FDIR event"), "{report}");
+}
+
 /// The re-run commands `report.md` lists (here the worst runs of a requirement) work as
 /// written from the directory the campaign was run in (issue 38: they used to hold only
 /// inside the campaign directory), and give the run's own summary.

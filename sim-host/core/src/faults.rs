@@ -181,6 +181,11 @@ impl FaultLog {
         }
     }
 
+    /// Whether any entry has been in force at a control step so far.
+    pub fn any_injected(&self) -> bool {
+        self.injected_at_s.iter().any(Option::is_some)
+    }
+
     /// The summary's list (`None` without faults).
     pub fn records(&self) -> Option<Vec<FaultRecord>> {
         if self.list.is_empty() {

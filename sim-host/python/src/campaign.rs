@@ -56,6 +56,9 @@ pub fn campaign_run<'py>(
             ("errors", r.errors),
             ("diverged", r.diverged),
             ("all_refused", r.all_refused),
+            ("margins_failed", r.margins_failed),
+            ("no_control", r.no_control),
+            ("control_lost", r.control_lost),
         ] {
             d.set_item(k, v)?;
         }

@@ -42,6 +42,9 @@ pub enum RunStatus {
     /// `run_status` `no_control`: no estimate or a refused input after the start-up
     /// allowance): misses every requirement.
     NoControl,
+    /// Flew with `[[faults]]`, and the truth lost control through the end of the run with
+    /// no FDIR event (summary `run_status` `control_lost`): misses every requirement.
+    ControlLost,
 }
 
 impl RunStatus {
@@ -112,6 +115,7 @@ fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
         Some("all_refused") => Some(RunStatus::AllRefused),
         Some("margins_failed") => Some(RunStatus::MarginsFailed),
         Some("no_control") => Some(RunStatus::NoControl),
+        Some("control_lost") => Some(RunStatus::ControlLost),
         Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
             Some(RunStatus::MarginsFailed)
         }
@@ -178,6 +182,7 @@ pub struct ShardReport {
     /// Runs whose `[margins]` measurement is not a stable loop at a steady hold.
     pub margins_failed: usize,
     pub no_control: usize,
+    pub control_lost: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -236,6 +241,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::AllRefused => r.all_refused += 1,
                         RunStatus::MarginsFailed => r.margins_failed += 1,
                         RunStatus::NoControl => r.no_control += 1,
+                        RunStatus::ControlLost => r.control_lost += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

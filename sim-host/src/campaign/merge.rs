@@ -165,6 +165,9 @@ pub struct CampaignResult {
     /// Runs the flight code could not control for a material part of (summary
     /// `run_status` `no_control`): each misses every requirement and fails the campaign.
     pub no_control: Vec<u32>,
+    /// Runs with `[[faults]]` that lost control with no FDIR event (summary `run_status`
+    /// `control_lost`): each misses every requirement and fails the campaign.
+    pub control_lost: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -181,6 +184,7 @@ impl CampaignResult {
             && self.all_refused.is_empty()
             && self.margins_failed.is_empty()
             && self.no_control.is_empty()
+            && self.control_lost.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -346,7 +350,11 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
             }
             if matches!(
                 rec.status,
-                RunStatus::Diverged | RunStatus::AllRefused | RunStatus::MarginsFailed | RunStatus::NoControl
+                RunStatus::Diverged
+                    | RunStatus::AllRefused
+                    | RunStatus::MarginsFailed
+                    | RunStatus::NoControl
+                    | RunStatus::ControlLost
             ) {
                 row.failed_runs += 1;
             }
@@ -404,6 +412,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         all_refused: runs_of(RunStatus::AllRefused),
         margins_failed: runs_of(RunStatus::MarginsFailed),
         no_control: runs_of(RunStatus::NoControl),
+        control_lost: runs_of(RunStatus::ControlLost),
         requirements,
         groups,
         statistics,
@@ -584,7 +593,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
          {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
-         part of the run, {} ended in error.\n",
+         part of the run, {} lost control with no FDIR event, {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -595,6 +604,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         r.all_refused.len(),
         r.margins_failed.len(),
         r.no_control.len(),
+        r.control_lost.len(),
         r.errors.len()
     );
     for (what, runs) in [
@@ -602,6 +612,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         ("Runs with every step refused", &r.all_refused),
         ("Runs whose margins are not a stable loop at a steady hold (`margins.status`)", &r.margins_failed),
         ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
+        ("Runs that lost control with no FDIR event (`run_status` `control_lost`)", &r.control_lost),
     ] {
         if !runs.is_empty() {
             let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_from(dir, *i))).collect();

@@ -5,6 +5,7 @@
 //! - [`series`]: the [`series::Recorder`] trait and the in-memory [`series::TimeSeries`];
 //! - [`decimate`]: bounded-memory row decimation of long runs;
 //! - [`summary`]: `summary.json` and the statistics it is built from;
+//! - [`control_lost`]: the verdict of a run with faults that lost control unnoticed;
 //! - [`momentum`]: stored-momentum statistics (every control step);
 //! - [`csv`]: `timeseries.csv`, written with a fast shortest round-trip float formatter;
 //! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;
@@ -14,6 +15,7 @@
 //! - [`segments`]: the APE and RPE of each pointing segment (mode × pointing × branch).
 
 pub mod columns;
+pub mod control_lost;
 pub mod csv;
 pub mod decimate;
 pub mod fdir;

@@ -66,6 +66,11 @@ pub enum RunStatus {
     TimelineMissed,
     /// `[fdir]` declared a unit failed that had no injected fault (`fdir.false_alarms`).
     FdirFalseAlarm,
+    /// With `[[faults]]`: the truth lost control through the last
+    /// [`CONTROL_LOST_WINDOW_S`](crate::recorder::control_lost::CONTROL_LOST_WINDOW_S) of the
+    /// run after a fault was injected, and the FDIR raised no event
+    /// (`crate::recorder::control_lost`).
+    ControlLost,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -101,6 +106,8 @@ pub enum Failure {
     Timeline { reason: String },
     /// Which healthy unit FDIR declared failed, when and by which test.
     Fdir { reason: String },
+    /// Since when control was lost (truth), and how far at the end.
+    ControlLost { reason: String },
 }
 
 /// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.

@@ -112,6 +112,9 @@ pub struct Resolved {
     pub allow_missed_segments: bool,
     /// `[fdir]` is on: the flight's FDIR events are recorded and a false alarm fails the run.
     pub fdir: bool,
+    /// The body rate the `control_lost` verdict calls a tumble, deg/s (`[modes]
+    /// detumble_enter_rate_deg_s`, else `recorder::control_lost::CONTROL_LOST_RATE_DEG_S`).
+    pub tumble_rate_deg_s: f64,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -181,6 +184,11 @@ impl TryFrom<&Scenario> for Resolved {
             timeline: sc.timeline_entries()?,
             allow_missed_segments: sc.performance.allow_missed_segments,
             fdir: sc.fdir.is_some(),
+            tumble_rate_deg_s: sc
+                .modes
+                .as_ref()
+                .and_then(|m| m.detumble_enter_rate_deg_s)
+                .unwrap_or(crate::recorder::control_lost::CONTROL_LOST_RATE_DEG_S),
         })
     }
 }

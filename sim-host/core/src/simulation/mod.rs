@@ -22,6 +22,7 @@ use crate::plant::delay::DelayLine;
 use crate::plant::wheel::{WheelDeriv, WheelOutput};
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State};
 use crate::recorder::columns::Layout;
+use crate::recorder::control_lost::ControlWatch;
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
 use crate::recorder::segments::{SegmentKey, Segments};
@@ -251,6 +252,8 @@ pub struct Simulation<'a> {
     pub(super) faults: FaultLog,
     /// With `[fdir]`: the flight's FDIR events, matched to the faults.
     pub(super) fdir: Option<FdirLog>,
+    /// With `[[faults]]`: whether the truth lost control (the `control_lost` verdict).
+    pub(super) control: Option<ControlWatch>,
     /// The scenario's `[[timeline]]` and the flight code's counters of it.
     timeline: timeline::TimelineRun,
 }
@@ -288,6 +291,7 @@ impl<'a> Simulation<'a> {
             timeline,
             allow_missed_segments,
             fdir,
+            tumble_rate_deg_s,
         } = cfg;
         let timeline =
             timeline::TimelineRun { entries: timeline, allow_missed: allow_missed_segments, ..Default::default() };
@@ -363,6 +367,7 @@ impl<'a> Simulation<'a> {
             t_end: 0.0,
             injection: None,
             last_step: None,
+            control: (!faults.is_empty()).then(|| ControlWatch::new(tumble_rate_deg_s)),
             faults: FaultLog::new(faults),
             fdir: fdir.then(FdirLog::default),
             timeline,
@@ -474,6 +479,9 @@ impl<'a> Simulation<'a> {
         self.push_segment(t, &cmd);
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
+        if let Some(c) = &mut self.control {
+            c.push(t, self.faults.any_injected(), err_deg, self.state.w.into());
+        }
 
         // Thruster valves over the first dynamics step decide what is recorded as applied.
         let thr_mask = u32::from(cmd.thruster_on);
@@ -780,6 +788,10 @@ impl<'a> Simulation<'a> {
         }
         if let Some(reason) = self.fdir.as_ref().and_then(FdirLog::failure_reason) {
             return (RunStatus::FdirFalseAlarm, Some(Failure::Fdir { reason }));
+        }
+        let fdir_events = self.fdir.as_ref().map_or(0, |f| f.summary().events.len());
+        if let Some(reason) = self.control.as_ref().and_then(|c| c.failure_reason(fdir_events)) {
+            return (RunStatus::ControlLost, Some(Failure::ControlLost { reason }));
         }
         (RunStatus::Ok, None)
     }

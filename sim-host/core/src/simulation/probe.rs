@@ -169,6 +169,7 @@ impl<'a> Probe<'a> {
             pointing_id: s.pointing_id,
             faults: s.faults.clone(),
             fdir: s.fdir.clone(),
+            control: s.control.clone(),
             timeline: s.timeline.clone(),
         })
     }

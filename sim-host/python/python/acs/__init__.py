@@ -118,7 +118,8 @@ class RunResult:
         """``summary["run_status"]``: ``"ok"``, ``"diverged"``, ``"all_refused"``, ``"link_anomaly"``,
         ``"samples_dropped"``, ``"no_control"``, ``"keepout_violated"``, ``"timeline_missed"`` (a
         ``[[timeline]]`` segment missed), ``"fdir_false_alarm"`` (``[fdir]`` declared a healthy
-        unit failed) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
+        unit failed), ``"control_lost"`` (with ``[[faults]]``: control lost through the end of the
+        run with no FDIR event) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
