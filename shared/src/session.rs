@@ -160,8 +160,8 @@ impl Session {
                 Ok(()) => FswMsg::Ack,
                 Err(_) => FswMsg::Error(LinkError::NoSuchUnit),
             }),
-            HostMsg::ClearTrackerFault => {
-                self.fsw.clear_tracker_fault();
+            HostMsg::ClearSensorFaults => {
+                self.fsw.clear_sensor_faults();
                 Some(FswMsg::Ack)
             }
         }

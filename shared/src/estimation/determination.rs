@@ -12,7 +12,9 @@
 //! 3. measured Sun: the fine sun sensor if valid, else the coarse sun sensors
 //!    ([`super::css`]); with `tracker_fdir`, the star-tracker monitor
 //!    ([`crate::fdir::tracker`]) judges a fresh tracker sample against the Sun and the
-//!    field, and a tracker it declared failed is not used from then on;
+//!    field, and a tracker it declared failed is not used from then on (before all
+//!    this, with `gyro_fdir`, the gyro monitor ([`crate::fdir::gyro`]) reads a stuck axis
+//!    as 0);
 //! 4. attitude:
 //!    - `AttitudeSource::Sensor`: the attitude sensor's quaternion and the gyro as measured;
 //!    - `AttitudeSource::Mekf` ([`super::mekf`]): propagate the history
@@ -39,6 +41,7 @@ use super::references::References;
 use super::status::{EstimateFlags, EstimateStatus, FilterStatus, FusionCounts, SampleAges};
 use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
+use crate::fdir::gyro::GyroMonitor;
 use crate::fdir::tracker::{TrackerMonitor, Witness, witness_angle_rad};
 use crate::math::{Quat, Vec3};
 use crate::models::sun::in_eclipse;
@@ -122,6 +125,8 @@ pub struct Determination {
     max_sample_age_us: u64,
     /// The star-tracker monitor (with `params.tracker_fdir`).
     tracker_monitor: TrackerMonitor,
+    /// The gyro monitor (with `params.gyro_fdir`).
+    gyro_monitor: GyroMonitor,
 }
 
 impl Default for Determination {
@@ -176,6 +181,7 @@ impl Determination {
             max_sample_age_us: (params.max_sample_age_s * 1.0e6) as u64,
             fusion: FusionCounts::ZERO,
             tracker_monitor: TrackerMonitor::new(),
+            gyro_monitor: GyroMonitor::new(),
         }
     }
 
@@ -241,6 +247,8 @@ impl Determination {
     /// One step of the stage on the step's typed samples.
     pub fn step(&mut self, samples: &SensorSamples) -> Estimate {
         let s = &self.drop_future(samples);
+        let gyro_checked = self.monitor_gyro(s);
+        let s = gyro_checked.as_ref().unwrap_or(s);
         let stale = self.stale(s);
         let gyro = s.gyro.filter(|_| !stale.contains(Valid::RATE));
         let nav = self.nav.update(s.time_us, s.gnss.as_ref());
@@ -320,14 +328,30 @@ impl Determination {
         Some(SensorSamples { star_tracker: None, ..*s })
     }
 
+    /// The gyro monitor (with `gyro_fdir`; [`crate::fdir::gyro`]): judges a fresh gyro
+    /// sample; once an axis is declared stuck, the returned copy reads it as 0 (`None`:
+    /// use the samples as they are).
+    fn monitor_gyro(&mut self, s: &SensorSamples) -> Option<SensorSamples> {
+        let (p, g) = (self.params.gyro_fdir?, s.gyro?);
+        let checked = self.gyro_monitor.judge(&p, &g);
+        (self.gyro_monitor.failed_axes() != 0).then_some(SensorSamples { gyro: Some(checked), ..*s })
+    }
+
     /// The star-tracker monitor's state (telemetry).
     pub fn tracker_monitor(&self) -> &TrackerMonitor {
         &self.tracker_monitor
     }
 
-    /// The ground re-enables the star tracker the monitor declared failed.
-    pub fn clear_tracker_fault(&mut self) {
+    /// The gyro monitor's state (telemetry, the mode inputs).
+    pub fn gyro_monitor(&self) -> &GyroMonitor {
+        &self.gyro_monitor
+    }
+
+    /// The ground re-enables the star tracker and the gyro axes the monitors declared
+    /// failed.
+    pub fn clear_sensor_faults(&mut self) {
         self.tracker_monitor.clear();
+        self.gyro_monitor.clear();
     }
 
     /// The measured vectors of the step and their reference directions.

@@ -153,7 +153,7 @@ impl Fsw {
         let mut cmd = self.step_active(f, &est);
         self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
         cmd.fdir = self.wheel_fdir.telemetry();
-        report::tracker_fdir(&mut cmd.fdir, self.determination.tracker_monitor());
+        report::sensor_fdir(&mut cmd.fdir, self.determination.tracker_monitor(), self.determination.gyro_monitor());
         // A dropped wheel's drive is switched off: a runaway drive stops pushing.
         cmd.wheel_power_off = self.wheel_fdir.failed_mask();
         report::pack_estimate(&mut cmd.estimate, &est.status);
@@ -177,15 +177,21 @@ impl Fsw {
         Ok(())
     }
 
-    /// The ground re-enables the star tracker the estimation stage's monitor declared
-    /// failed (fused again from its next sample; the failure stays counted).
-    pub fn clear_tracker_fault(&mut self) {
-        self.determination.clear_tracker_fault();
+    /// The ground re-enables the star tracker and the gyro axes the estimation stage's
+    /// monitors declared failed (used again from their next sample; the failures stay
+    /// counted).
+    pub fn clear_sensor_faults(&mut self) {
+        self.determination.clear_sensor_faults();
     }
 
     /// FDIR: the wheel monitor of the set in force (when it has one and flies wheels)
     /// judges the commands of the last step against the frame (docs/fdir.md "Wiring").
     fn step_fdir(&mut self, f: &SensorFrame) {
+        // The residual uses the gyro: not judged once an axis is declared stuck.
+        if self.determination.gyro_monitor().failed_axes() != 0 {
+            self.wheel_fdir.skip();
+            return;
+        }
         match self.slots.get(self.active).and_then(Option::as_ref) {
             Some(Configured { params: p, inertia, .. }) => match (&p.fdir.wheel, &p.actuator) {
                 (Some(fp), ActuatorParams::Wheels(w)) => self.wheel_fdir.step(fp, w, inertia, f),

@@ -53,10 +53,15 @@ impl Fsw {
                 Err(_) => (f32::NAN, f32::NAN),
             };
         let lost = self.wheel_fdir.failed_mask();
+        // A stuck gyro axis (read as 0) cannot carry a fine attitude: the pointing laws lack
+        // their input; the rate-only laws (B-dot, rate damping, sun-safe) go on.
+        let gyro_failed = self.determination.gyro_monitor().failed_axes() != 0;
         let mut inputs_ok = [false; MODE_COUNT];
         for (ok, slot) in inputs_ok.iter_mut().zip(self.slots.iter()) {
             *ok = slot.as_ref().is_some_and(|c| {
-                check::check_frame(f, c.required, c.needs_navigation, est).is_ok() && wheels_span(&c.params, lost)
+                check::check_frame(f, c.required, c.needs_navigation, est).is_ok()
+                    && wheels_span(&c.params, lost)
+                    && !(gyro_failed && c.required.contains(Valid::ATTITUDE))
             });
         }
         let inputs = ModeInputs {

@@ -183,15 +183,21 @@ fn fusion_counters(c: &FusionCounts) -> link::FusionCounters {
     }
 }
 
-/// The star-tracker monitor's part of the FDIR telemetry (nothing without the monitor:
-/// its state stays empty).
-pub(super) fn tracker_fdir(t: &mut crate::link::FdirTelemetry, m: &crate::fdir::tracker::TrackerMonitor) {
+/// The estimation stage's monitors' part of the FDIR telemetry (nothing without them:
+/// their state stays empty).
+pub(super) fn sensor_fdir(
+    t: &mut crate::link::FdirTelemetry,
+    tracker: &crate::fdir::tracker::TrackerMonitor,
+    gyro: &crate::fdir::gyro::GyroMonitor,
+) {
     use crate::fdir::tracker::TrackerFault;
-    let failed = m.failed();
-    t.events = t.events.saturating_add(m.events());
-    t.failed_sensors = if failed.is_some() { crate::link::FAILED_STAR_TRACKER } else { 0 };
+    let failed = tracker.failed();
+    t.events = t.events.saturating_add(tracker.events()).saturating_add(gyro.events());
+    let tracker_bit = if failed.is_some() { crate::link::FAILED_STAR_TRACKER } else { 0 };
+    // Three axis bits above the tracker's: fits a u8.
+    t.failed_sensors = tracker_bit | (gyro.failed_axes() & 0b111) << 1;
     t.tracker_frozen = failed == Some(TrackerFault::Frozen);
-    t.tracker_witness_rad = m.last_witness_rad();
+    t.tracker_witness_rad = tracker.last_witness_rad();
 }
 
 #[cfg(test)]

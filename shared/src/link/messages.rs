@@ -250,7 +250,8 @@ pub struct FdirTelemetry {
     /// The threshold they were held against, N m (0 when not judged).
     pub wheel_threshold_nm: f32,
     /// Bit 0 ([`FAILED_STAR_TRACKER`]): the star tracker declared failed and no longer
-    /// fused (protocol 21).
+    /// fused; bits 1–3 ([`FAILED_GYRO_X`] …): gyro axis x, y, z declared stuck and read as
+    /// 0 (protocol 21).
     pub failed_sensors: u8,
     /// The star tracker's failure was the frozen-output test (otherwise its attitude was
     /// contradicted by the Sun or the field).
@@ -262,6 +263,8 @@ pub struct FdirTelemetry {
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.
 pub const FAILED_STAR_TRACKER: u8 = 1;
+/// [`FdirTelemetry::failed_sensors`]: gyro axis x (y, z: the next two bits).
+pub const FAILED_GYRO_X: u8 = 2;
 
 /// Values in [`ActuatorCommand::law_telemetry`].
 pub const LAW_TELEMETRY_LEN: usize = 9;
@@ -572,10 +575,10 @@ pub enum HostMsg {
     ClearWheelFault {
         wheel: u8,
     },
-    /// Re-enable the star tracker the estimation stage's monitor declared failed (it is
-    /// fused again from its next sample; protocol 21, docs/fdir.md "Star tracker").
-    /// Reply: `Ack`.
-    ClearTrackerFault,
+    /// Re-enable the star tracker and the gyro axes the estimation stage's monitors
+    /// declared failed (used again from their next sample; protocol 21, docs/fdir.md
+    /// "Star tracker", "Gyro"). Reply: `Ack`.
+    ClearSensorFaults,
 }
 
 /// [`HostMsg::ClearWheelFault`]'s "every unit".

@@ -96,6 +96,9 @@ pub struct EstimationParams {
     /// The star-tracker monitor (protocol 21; `None`: off): a tracker it declares failed
     /// is no longer fused (docs/fdir.md "Star tracker").
     pub tracker_fdir: Option<super::fdir::TrackerFdirParams>,
+    /// The gyro monitor (protocol 21; `None`: off): a stuck axis reads 0 from then on
+    /// (docs/fdir.md "Gyro").
+    pub gyro_fdir: Option<super::fdir::GyroFdirParams>,
 }
 
 /// Largest `max_replayed_nodes`: every node of the flight history but the one a late
@@ -136,6 +139,7 @@ impl EstimationParams {
         max_sample_latency_s: 0.5,
         max_replayed_nodes: 8,
         tracker_fdir: None,
+        gyro_fdir: None,
     };
 }
 
@@ -181,7 +185,9 @@ impl EstimationParams {
         if self.max_replayed_nodes == 0 || self.max_replayed_nodes > MAX_REPLAYED_NODES_LIMIT {
             return bad(ParamReason::OutOfRange);
         }
-        if self.tracker_fdir.is_some_and(|t| t.validate().is_err()) {
+        if self.tracker_fdir.is_some_and(|t| t.validate().is_err())
+            || self.gyro_fdir.is_some_and(|g| g.max_repeats == 0)
+        {
             return bad(ParamReason::OutOfRange);
         }
         if !(self.coarse_update_interval_s.is_finite() && (0.0..=86_400.0).contains(&self.coarse_update_interval_s)) {

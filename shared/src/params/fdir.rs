@@ -168,3 +168,11 @@ impl TrackerFdirParams {
         Ok(())
     }
 }
+
+/// The gyro monitor of the estimation stage (protocol 21; [`crate::fdir::gyro`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GyroFdirParams {
+    /// An axis whose rate repeats more than this many times in a row is stuck (≥ 1).
+    pub max_repeats: u16,
+}

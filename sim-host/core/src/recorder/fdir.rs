@@ -18,7 +18,7 @@ pub struct FdirEvent {
     /// The control step whose report first carried it, s.
     pub detected_at_s: f64,
     /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor) for a
-    /// wheel; `star_tracker` for the tracker.
+    /// wheel; `star_tracker` for the tracker; the axis (`gyro.y`) for the gyro.
     pub isolated_as: &'static str,
     /// What the flight code did.
     pub recovery: &'static str,
@@ -83,6 +83,20 @@ impl FdirLog {
                 detected_at_s: t_s,
                 isolated_as: "star_tracker",
                 recovery: "dropped_from_estimation",
+                fault,
+            });
+        }
+        let new_axes = (f.failed_sensors & !self.last.failed_sensors) >> 1;
+        for (i, axis) in ["x", "y", "z"].iter().enumerate().filter(|(i, _)| new_axes & bit(*i) != 0) {
+            let unit = format!("gyro.{axis}");
+            let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
+            self.summary.false_alarms += usize::from(fault.is_none());
+            self.summary.events.push(FdirEvent {
+                unit,
+                test: "gyro_stuck",
+                detected_at_s: t_s,
+                isolated_as: ["gyro.x", "gyro.y", "gyro.z"].get(i).copied().unwrap_or("gyro"),
+                recovery: "axis_read_as_zero",
                 fault,
             });
         }

@@ -275,8 +275,9 @@ impl EstimationSpec {
             coarse_update_interval_s: self.coarse_update_interval_s as f32,
             max_sample_latency_s: self.max_sample_latency_s as f32,
             max_replayed_nodes: self.max_replayed_nodes,
-            // `[fdir.star_tracker]`'s (`Scenario::estimation_params`).
+            // `[fdir.star_tracker]`'s and `[fdir.gyro]`'s (`Scenario::estimation_params`).
             tracker_fdir: None,
+            gyro_fdir: None,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {

@@ -2,7 +2,8 @@
 //! "[fdir]", docs/fdir.md). Today one monitor, `[fdir.wheels]`: the reaction-wheel torque
 //! residual with isolation rotor/tachometer and the wheel dropped from the allocation;
 //! `[fdir.star_tracker]`: the estimation stage's tracker monitor (frozen, or contradicted
-//! by the Sun and the field) and the tracker dropped from the estimation.
+//! by the Sun and the field) and the tracker dropped from the estimation; `[fdir.gyro]`:
+//! a stuck gyro axis, read as 0 from then on.
 //!
 //! ```toml
 //! [fdir.wheels]
@@ -18,7 +19,9 @@ use super::estimation::EstimationSpec;
 use super::{Scenario, bad, finite};
 use acs_flight::params::ActuatorParams;
 use acs_flight::params::EstimationParams;
-use acs_flight::params::fdir::{FdirParams, KOfN, TrackerFdirParams, WheelFdirParams, WheelResidualNoise};
+use acs_flight::params::fdir::{
+    FdirParams, GyroFdirParams, KOfN, TrackerFdirParams, WheelFdirParams, WheelResidualNoise,
+};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +32,26 @@ pub struct FdirSpec {
     pub wheels: Option<WheelFdirSpec>,
     #[serde(default)]
     pub star_tracker: Option<TrackerFdirSpec>,
+    #[serde(default)]
+    pub gyro: Option<GyroFdirSpec>,
+}
+
+/// `[fdir.gyro]`: the estimation stage's stuck-axis monitor (docs/fdir.md "Gyro").
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GyroFdirSpec {
+    /// An axis repeating its rate more than this many times in a row is stuck (≥ 1).
+    #[serde(default = "default_max_repeats")]
+    pub max_repeats: u16,
+}
+
+impl GyroFdirSpec {
+    fn params(&self) -> Result<GyroFdirParams> {
+        if self.max_repeats == 0 {
+            return Err(bad("fdir.gyro.max_repeats", "must be ≥ 1"));
+        }
+        Ok(GyroFdirParams { max_repeats: self.max_repeats })
+    }
 }
 
 /// `[fdir.star_tracker]`: the estimation stage's tracker monitor (docs/fdir.md "Star
@@ -139,6 +162,10 @@ impl Scenario {
             Some(t) => Some(t.params()?),
             None => None,
         };
+        p.gyro_fdir = match self.fdir.as_ref().and_then(|f| f.gyro.as_ref()) {
+            Some(g) => Some(g.params()?),
+            None => None,
+        };
         Ok(p)
     }
 
@@ -151,6 +178,12 @@ impl Scenario {
                     "fdir.star_tracker",
                     "the monitor runs in the estimation stage: needs [estimation] and [sensors.star_tracker]",
                 ));
+            }
+        }
+        if let Some(g) = self.fdir.as_ref().and_then(|f| f.gyro.as_ref()) {
+            g.params()?;
+            if self.estimation.is_none() {
+                return Err(bad("fdir.gyro", "the monitor runs in the estimation stage: needs [estimation]"));
             }
         }
         let Some(spec) = self.fdir.as_ref().and_then(|f| f.wheels.as_ref()) else { return Ok(()) };

@@ -22,7 +22,7 @@ pub mod estimation;
 mod faults;
 pub use faults::{FaultSpec, MAX_GYRO_BIAS_STEP_RAD_S};
 mod fdir;
-pub use fdir::{FdirSpec, TrackerFdirSpec, WheelFdirSpec};
+pub use fdir::{FdirSpec, GyroFdirSpec, TrackerFdirSpec, WheelFdirSpec};
 mod guidance;
 mod manoeuvre;
 pub use guidance::{DirectionSpec, GuidanceSet, GuidanceSpec, PointingKind, PointingSpec};
