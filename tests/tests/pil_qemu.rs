@@ -377,6 +377,41 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
     assert_eq!(s.run_status, sil.summary.run_status);
 }
 
+/// The estimation stage's sensor monitors on the firmware (issue 42): the 6U shortened to
+/// 200 s with `[fdir.star_tracker]` and `[fdir.gyro]`, the tracker flipped at 60 s and the
+/// gyro's z axis stuck at 130 s. Every recorded cell equal bit for bit, the same two
+/// events (the flip from the Sun and the field, the axis from its repeats).
+#[test]
+fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
+    if !qemu_available("PIL") {
+        return;
+    }
+    build_qemu_firmware();
+    let path = acs_tests::repo().join("scenarios/fdir/wheel-seized-6u.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let base = text.replace("duration_s = 6000.0", "duration_s = 200.0");
+    let base = &base[..base.find("\n[[faults]]").unwrap()];
+    let text = format!(
+        "{base}\n[fdir.star_tracker]\n\n[fdir.gyro]\n\n[[faults]]\nonset_s = 60.0\nunit = \"star_tracker\"\nkind = \"flip\"\n\n[[faults]]\nonset_s = 130.0\nunit = \"gyro.z\"\nkind = \"stuck\"\n"
+    );
+    let sc = sim_core::scenario::Scenario::from_toml(&text).unwrap();
+    let sil = run_in_process(&sc);
+    let mut link = QemuLink::start(None).unwrap();
+    let pil = runner::run(&sc, &mut link, false).unwrap();
+    let cells = same_bits_but_the_cost(&sil, &pil);
+    let (s, f) = (&pil.summary, pil.summary.fdir.clone().expect("fdir summary"));
+    eprintln!(
+        "SIL = PIL over {cells} cells; {f:?}; Fsw::step mean {:.0}, max {} instructions",
+        s.mean_step_instructions.unwrap(),
+        s.max_step_instructions.unwrap()
+    );
+    assert_eq!(Some(&f), sil.summary.fdir.as_ref());
+    let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
+    assert_eq!(units, ["star_tracker", "gyro.z"], "{f:?}");
+    assert_eq!(f.false_alarms, 0);
+    assert_eq!(s.run_status, sil.summary.run_status);
+}
+
 /// Every recorded cell of the two runs equal bit for bit (NaN = NaN) but the firmware's
 /// cost column (NaN in-process by design); returns the cells compared.
 fn same_bits_but_the_cost(sil: &runner::RunResult, pil: &runner::RunResult) -> usize {
