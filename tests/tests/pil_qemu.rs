@@ -350,31 +350,15 @@ fn planner_steps_on_the_firmware_stay_within_the_instruction_bound() {
 /// FDIR summary are equal; the wheel is declared within k = 4 steps (1.0 s at 4 Hz).
 #[test]
 fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
-    if !qemu_available("PIL") {
+    let Some((sil, f)) = fdir_6u_sil_equals_pil(|text| {
+        text.replace("duration_s = 6000.0", "duration_s = 200.0").replace("onset_s = 3000.0", "onset_s = 100.0")
+    }) else {
         return;
-    }
-    build_qemu_firmware();
-    let path = acs_tests::repo().join("scenarios/fdir/wheel-seized-6u.toml");
-    let text = std::fs::read_to_string(path).unwrap();
-    let text = text.replace("duration_s = 6000.0", "duration_s = 200.0").replace("onset_s = 3000.0", "onset_s = 100.0");
-    let sc = sim_core::scenario::Scenario::from_toml(&text).unwrap();
-    assert_eq!(sc.duration_s, 200.0);
-    let sil = run_in_process(&sc);
-    let mut link = QemuLink::start(None).unwrap();
-    let pil = runner::run(&sc, &mut link, false).unwrap();
+    };
     assert!(sil.series.names.iter().any(|n| n == "wheel3_residual_nm"));
-    let cells = same_bits_but_the_cost(&sil, &pil);
-    let (s, f) = (&pil.summary, pil.summary.fdir.clone().expect("fdir summary"));
-    eprintln!(
-        "SIL = PIL over {cells} cells; {f:?}; Fsw::step mean {:.0}, max {} instructions",
-        s.mean_step_instructions.unwrap(),
-        s.max_step_instructions.unwrap()
-    );
-    assert_eq!(Some(&f), sil.summary.fdir.as_ref());
     assert_eq!(f.events.len(), 1, "{f:?}");
     let t = f.events[0].detected_at_s;
     assert!(f.events[0].unit == "wheel.2" && t > 100.0 && t <= 101.0, "{f:?}");
-    assert_eq!(s.run_status, sil.summary.run_status);
 }
 
 /// The estimation stage's sensor monitors on the firmware (issue 42): the 6U shortened to
@@ -383,18 +367,33 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
 /// events (the flip from the Sun and the field, the axis from its repeats).
 #[test]
 fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
-    if !qemu_available("PIL") {
+    let Some((_, f)) = fdir_6u_sil_equals_pil(|text| {
+        let base = text.replace("duration_s = 6000.0", "duration_s = 200.0");
+        let base = &base[..base.find("\n[[faults]]").unwrap()];
+        format!(
+            "{base}\n[fdir.star_tracker]\n\n[fdir.gyro]\n\n[[faults]]\nonset_s = 60.0\nunit = \"star_tracker\"\nkind = \"flip\"\n\n[[faults]]\nonset_s = 130.0\nunit = \"gyro.z\"\nkind = \"stuck\"\n"
+        )
+    }) else {
         return;
+    };
+    let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
+    assert_eq!(units, ["star_tracker", "gyro.z"], "{f:?}");
+    assert_eq!(f.false_alarms, 0);
+}
+
+/// `scenarios/fdir/wheel-seized-6u.toml` changed by `edit`, flown in-process and on the
+/// firmware: every recorded cell but the cost equal bit for bit, the same FDIR summary and
+/// run status. Returns the in-process run and the FDIR summary (`None`: no QEMU, not CI).
+fn fdir_6u_sil_equals_pil(
+    edit: impl Fn(&str) -> String,
+) -> Option<(runner::RunResult, sim_core::recorder::fdir::FdirSummary)> {
+    if !qemu_available("PIL") {
+        return None;
     }
     build_qemu_firmware();
-    let path = acs_tests::repo().join("scenarios/fdir/wheel-seized-6u.toml");
-    let text = std::fs::read_to_string(path).unwrap();
-    let base = text.replace("duration_s = 6000.0", "duration_s = 200.0");
-    let base = &base[..base.find("\n[[faults]]").unwrap()];
-    let text = format!(
-        "{base}\n[fdir.star_tracker]\n\n[fdir.gyro]\n\n[[faults]]\nonset_s = 60.0\nunit = \"star_tracker\"\nkind = \"flip\"\n\n[[faults]]\nonset_s = 130.0\nunit = \"gyro.z\"\nkind = \"stuck\"\n"
-    );
-    let sc = sim_core::scenario::Scenario::from_toml(&text).unwrap();
+    let text = std::fs::read_to_string(acs_tests::repo().join("scenarios/fdir/wheel-seized-6u.toml")).unwrap();
+    let sc = sim_core::scenario::Scenario::from_toml(&edit(&text)).unwrap();
+    assert_eq!(sc.duration_s, 200.0);
     let sil = run_in_process(&sc);
     let mut link = QemuLink::start(None).unwrap();
     let pil = runner::run(&sc, &mut link, false).unwrap();
@@ -406,10 +405,8 @@ fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
         s.max_step_instructions.unwrap()
     );
     assert_eq!(Some(&f), sil.summary.fdir.as_ref());
-    let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
-    assert_eq!(units, ["star_tracker", "gyro.z"], "{f:?}");
-    assert_eq!(f.false_alarms, 0);
     assert_eq!(s.run_status, sil.summary.run_status);
+    Some((sil, f))
 }
 
 /// Every recorded cell of the two runs equal bit for bit (NaN = NaN) but the firmware's
