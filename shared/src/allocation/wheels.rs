@@ -15,15 +15,11 @@
 //! wheels in general position still give full three-axis torque. Finally the whole
 //! command is scaled so that `|u_i| <= max_torque` (direction of the body torque kept).
 
-use super::effectiveness::wheels::{axes_gram, torque_on_body_nm};
+use super::effectiveness::wheels::{axes_gram, spans_three_axes, torque_on_body_nm};
 use super::{AllocResult, AllocStatus};
 use crate::math::{Mat3, Vec3};
 use crate::params::WheelParams;
 use crate::types::MAX_WHEELS;
-
-/// Relative determinant of `C Cᵀ` (to its trace³/27) below which the healthy wheels are
-/// declared unable to span three axes.
-const RANK_TOL: f32 = 1e-6;
 
 /// Allocate the body torque demand `torque_nm` to the wheels.
 /// `speed_rad_s`: measured wheel speeds relative to the body.
@@ -47,7 +43,7 @@ pub fn allocate(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS], torque_nm: &Ve
         r.outcome.iterations = u16::try_from(pass).unwrap_or(u16::MAX).saturating_add(1);
         let m = axes_gram(p, n, active);
         let scale = (m.trace() / 3.0).max(1e-30);
-        let singular = m.determinant() < RANK_TOL * scale * scale * scale;
+        let singular = !spans_three_axes(&m);
         // Damped inverse when the healthy wheels do not span 3 axes (best effort).
         let inv = if singular { (m + Mat3::identity() * (1e-3 * scale)).try_inverse() } else { m.try_inverse() };
         let Some(inv) = inv else {

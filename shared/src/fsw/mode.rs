@@ -10,10 +10,6 @@ use crate::modes::ModeInputs;
 use crate::params::{ActuatorParams, MODE_COUNT, WheelParams};
 use crate::types::Valid;
 
-/// Relative determinant of `C Cᵀ` (to its trace³/27) below which the wheels left do not
-/// span three axes (the allocation's own rank test, `allocation::wheels`).
-const SPAN_TOL: f32 = 1e-6;
-
 /// Whether a set flying wheels still has three axes of torque with the wheels FDIR dropped
 /// (`lost`) and its own failed ones out: a wheel mode without them lacks an input, and the
 /// mode manager falls back as for a lost sensor (docs/fdir.md "Wiring"). True for other
@@ -25,8 +21,7 @@ fn wheels_span(p: &crate::params::FlightParams, lost: u8) -> bool {
     }
     let healthy = !u32::from(w.failed_mask | lost);
     let m = crate::allocation::effectiveness::wheels::axes_gram(w, usize::from(w.count), healthy);
-    let scale = (m.trace() / 3.0).max(1e-30);
-    m.determinant() >= SPAN_TOL * scale * scale * scale
+    crate::allocation::effectiveness::wheels::spans_three_axes(&m)
 }
 
 impl Fsw {

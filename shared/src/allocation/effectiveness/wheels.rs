@@ -19,6 +19,18 @@ pub fn stored_momentum_nms(p: &WheelParams, speed_rad_s: &[f32; MAX_WHEELS]) -> 
     h
 }
 
+/// Relative determinant of `C Cᵀ` (to its trace³/27) below which wheels do not span three
+/// axes.
+pub const RANK_TOL: f32 = 1e-6;
+
+/// Whether the wheels of Gram matrix `m` ([`axes_gram`]) span three axes: one test for the
+/// allocation (damped inverse below it) and the mode manager (a wheel mode without three
+/// axes lacks an input).
+pub fn spans_three_axes(m: &Mat3) -> bool {
+    let scale = (m.trace() / 3.0).max(1e-30);
+    m.determinant() >= RANK_TOL * scale * scale * scale
+}
+
 /// `C Cᵀ = Σ a_i a_iᵀ` over the wheels of the first `n` whose bit is set in `active`.
 pub fn axes_gram(p: &WheelParams, n: usize, active: u32) -> Mat3 {
     let mut m = Mat3::zeros();
