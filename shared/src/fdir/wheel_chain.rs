@@ -182,7 +182,7 @@ impl WheelFdir {
             wheel_judged: self.verdict.judged,
             wheel_residual_nm: self.verdict.residual_nm,
             wheel_threshold_nm: if self.verdict.judged { self.verdict.threshold_nm } else { 0.0 },
-            // The sensors' part is the estimation stage's (`fsw::report::tracker_fdir`).
+            // The sensors' part is the estimation stage's (`fsw::report::sensor_fdir`).
             ..FdirTelemetry::default()
         }
     }

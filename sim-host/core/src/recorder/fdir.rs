@@ -54,8 +54,6 @@ impl FdirLog {
     pub fn observe(&mut self, t_s: f64, f: &FdirTelemetry, faults: &[TimedFault]) {
         let new = f.failed_wheels & !self.last.failed_wheels;
         for i in (0..8).filter(|i| new & bit(*i) != 0) {
-            let unit = format!("wheel.{i}");
-            let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
             let isolated_as = if f.ambiguous_wheels & bit(i) != 0 {
                 "ambiguous"
             } else if f.tachometer_wheels & bit(i) != 0 {
@@ -63,45 +61,38 @@ impl FdirLog {
             } else {
                 "rotor"
             };
-            self.summary.false_alarms += usize::from(fault.is_none());
-            self.summary.events.push(FdirEvent {
-                unit,
-                test: "wheel_torque_residual",
-                detected_at_s: t_s,
-                isolated_as,
-                recovery: "dropped_from_allocation",
-                fault,
-            });
+            let test = "wheel_torque_residual";
+            self.record(t_s, faults, format!("wheel.{i}"), test, isolated_as, "dropped_from_allocation");
         }
-        let tracker = acs_flight::link::FAILED_STAR_TRACKER;
-        if f.failed_sensors & tracker != 0 && self.last.failed_sensors & tracker == 0 {
-            let fault = faults.iter().position(|x| x.fault.unit() == "star_tracker" && x.window.onset_s <= t_s);
-            self.summary.false_alarms += usize::from(fault.is_none());
-            self.summary.events.push(FdirEvent {
-                unit: "star_tracker".into(),
-                test: if f.tracker_frozen { "tracker_frozen" } else { "tracker_witness" },
-                detected_at_s: t_s,
-                isolated_as: "star_tracker",
-                recovery: "dropped_from_estimation",
-                fault,
-            });
+        let new_sensors = f.failed_sensors & !self.last.failed_sensors;
+        if new_sensors & acs_flight::link::FAILED_STAR_TRACKER != 0 {
+            let test = if f.tracker_frozen { "tracker_frozen" } else { "tracker_witness" };
+            self.record(t_s, faults, "star_tracker".into(), test, "star_tracker", "dropped_from_estimation");
         }
-        let new_axes = (f.failed_sensors & !self.last.failed_sensors) >> 1;
-        for (i, axis) in ["x", "y", "z"].iter().enumerate().filter(|(i, _)| new_axes & bit(*i) != 0) {
-            let unit = format!("gyro.{axis}");
-            let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
-            self.summary.false_alarms += usize::from(fault.is_none());
-            self.summary.events.push(FdirEvent {
-                unit,
-                test: "gyro_stuck",
-                detected_at_s: t_s,
-                isolated_as: ["gyro.x", "gyro.y", "gyro.z"].get(i).copied().unwrap_or("gyro"),
-                recovery: "axis_read_as_zero",
-                fault,
-            });
+        let stuck_axes = new_sensors >> 1;
+        for (i, unit) in ["gyro.x", "gyro.y", "gyro.z"].into_iter().enumerate() {
+            if stuck_axes & bit(i) != 0 {
+                self.record(t_s, faults, unit.into(), "gyro_stuck", unit, "axis_read_as_zero");
+            }
         }
         self.summary.flight_events = f.events;
         self.last = *f;
+    }
+
+    /// One event on `unit`, matched to the `[[faults]]` entry on it in force by `t_s` (none:
+    /// a false alarm).
+    fn record(
+        &mut self,
+        t_s: f64,
+        faults: &[TimedFault],
+        unit: String,
+        test: &'static str,
+        isolated_as: &'static str,
+        recovery: &'static str,
+    ) {
+        let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
+        self.summary.false_alarms += usize::from(fault.is_none());
+        self.summary.events.push(FdirEvent { unit, test, detected_at_s: t_s, isolated_as, recovery, fault });
     }
 
     /// Fills `detected_at_s` of each injected fault: its first event.
