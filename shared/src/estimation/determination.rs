@@ -41,9 +41,10 @@ use super::references::References;
 use super::status::{EstimateFlags, EstimateStatus, FilterStatus, FusionCounts, SampleAges};
 use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
+use crate::fdir::bias::{BiasStep, BiasStepMonitor};
 use crate::fdir::gyro::GyroMonitor;
 use crate::fdir::tracker::{TrackerMonitor, Witness, witness_angle_rad};
-use crate::math::{Quat, Vec3};
+use crate::math::{Quat, Vec3, f32m};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
 use crate::types::{GyroRate, SensorSamples, StarTrackerAttitude, Valid};
@@ -127,6 +128,8 @@ pub struct Determination {
     tracker_monitor: TrackerMonitor,
     /// The gyro monitor (with `params.gyro_fdir`).
     gyro_monitor: GyroMonitor,
+    /// The gyro bias-step monitor (with `params.gyro_fdir.bias_step`).
+    bias_monitor: BiasStepMonitor,
 }
 
 impl Default for Determination {
@@ -182,6 +185,7 @@ impl Determination {
             fusion: FusionCounts::ZERO,
             tracker_monitor: TrackerMonitor::new(),
             gyro_monitor: GyroMonitor::new(),
+            bias_monitor: BiasStepMonitor::new(),
         }
     }
 
@@ -337,6 +341,11 @@ impl Determination {
         (self.gyro_monitor.failed_axes() != 0).then_some(SensorSamples { gyro: Some(checked), ..*s })
     }
 
+    /// The gyro bias-step monitor's state (telemetry).
+    pub fn bias_monitor(&self) -> &BiasStepMonitor {
+        &self.bias_monitor
+    }
+
     /// The star-tracker monitor's state (telemetry).
     pub fn tracker_monitor(&self) -> &TrackerMonitor {
         &self.tracker_monitor
@@ -352,6 +361,7 @@ impl Determination {
     pub fn clear_sensor_faults(&mut self) {
         self.tracker_monitor.clear();
         self.gyro_monitor.clear();
+        self.bias_monitor.clear();
     }
 
     /// The measured vectors of the step and their reference directions.
@@ -461,7 +471,9 @@ impl Determination {
             self.initialise_mekf(g, s, v);
         }
         self.propagate_history(g);
-        self.fuse_new(s, v);
+        if let Some((x, step)) = self.fuse_new(s, v) {
+            self.restart_on_bias_step(&x, &step);
+        }
         if self.consecutive_rejections >= self.params.max_consecutive_rejections {
             self.lose();
         }
@@ -605,7 +617,8 @@ impl Determination {
         self.tracks = Tracks::default();
         if let Some(x) = at_its_time {
             self.history = Some(MekfHistory::new(m, x.time_us));
-            self.fuse_tracker(x);
+            // A filter started on this sample agrees with it: no bias step to judge.
+            let _ = self.fuse_tracker(x);
             return;
         }
         self.history = Some(MekfHistory::new(m, gyro_us));
@@ -634,14 +647,11 @@ impl Determination {
         if fine { &mut self.tracks.sun_sensor } else { &mut self.tracks.css }
     }
 
-    /// Fuse every sample first seen this step at its own time: tracker, Sun, field.
-    fn fuse_new(&mut self, s: &SensorSamples, v: &Vectors) {
-        if self.history.is_none() {
-            return;
-        }
-        if let Some(x) = s.star_tracker {
-            self.fuse_tracker(x);
-        }
+    /// Fuse every sample first seen this step at its own time: tracker, Sun, field. A
+    /// bias step the tracker's sample declared comes back with the sample.
+    fn fuse_new(&mut self, s: &SensorSamples, v: &Vectors) -> Option<(StarTrackerAttitude, BiasStep)> {
+        self.history.as_ref()?;
+        let bias_step = s.star_tracker.and_then(|x| self.fuse_tracker(x).map(|b| (x, b)));
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
             && self.sun_track(v.sun_is_fine).fresh(v.sun_time_us)
@@ -659,20 +669,88 @@ impl Determination {
             let m = Measurement::Vector { body: b, reference: r, sigma_rad: self.params.magnetometer_sigma_rad };
             self.fuse(Sensor::Magnetometer, t, &m);
         }
+        bias_step
     }
 
-    /// Fuse a tracker sample at its time if it is new.
-    fn fuse_tracker(&mut self, x: StarTrackerAttitude) {
+    /// Fuse a tracker sample at its time if it is new; with the bias-step test, judge it
+    /// and return a step it declares.
+    fn fuse_tracker(&mut self, x: StarTrackerAttitude) -> Option<BiasStep> {
         if !self.tracks.star_tracker.fresh(x.time_us) {
-            return;
+            return None;
         }
+        let r_rad2 = self.tracker_noise_rad2();
+        let before = self.history.as_ref().map(|h| {
+            let f = h.filter();
+            (f.attitude(), f.covariance().fixed_view::<3, 3>(0, 0).into_owned())
+        });
+        let r = self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 });
+        self.judge_bias(&x, before, r)
+    }
+
+    /// The tracker's noise covariance in body axes, rad²: `c² I + (a² − c²) b bᵀ`
+    /// (`c`, `a`: its 1σ across and about its boresight `b`).
+    fn tracker_noise_rad2(&self) -> Matrix3<f32> {
         let b = Vec3::from(self.params.tracker_boresight_body);
         let (c2, a2) = (
             self.params.tracker_sigma_cross_rad * self.params.tracker_sigma_cross_rad,
             self.params.tracker_sigma_about_rad * self.params.tracker_sigma_about_rad,
         );
-        let r_rad2 = Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2);
-        self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 });
+        Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2)
+    }
+
+    /// The bias-step test ([`crate::fdir::bias`]) on a tracker sample the filter judged
+    /// (`before`: its attitude before the update, at the history's now — a sample fused in
+    /// the past adds the rate times its age, the same for every sample at a steady rate, so
+    /// the slope keeps it out), the star-tracker monitor's witnesses corroborate, and no
+    /// gyro axis is declared stuck.
+    fn judge_bias(
+        &mut self,
+        x: &StarTrackerAttitude,
+        before: Option<(Quat, Matrix3<f32>)>,
+        r: Option<Result<f32, MekfError>>,
+    ) -> Option<BiasStep> {
+        let window = self.params.gyro_fdir.and_then(|g| g.bias_step)?;
+        let rejected = match r? {
+            Ok(_) => false,
+            Err(MekfError::Rejected { .. }) => true,
+            Err(_) => return None,
+        };
+        // A gyro axis declared stuck reads 0: its innovations are the body's rate, not a
+        // bias step (the axis is already declared and handled).
+        if !self.tracker_monitor.corroborates(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
+            return None;
+        }
+        let (q, p) = before?;
+        let y = attitude_innovation_rad(&q, &x.q_ib);
+        // The innovation's 1σ per body axis: the filter's attitude σ and the tracker's.
+        let r = self.tracker_noise_rad2();
+        let var = |m: &Matrix3<f32>, i: usize| m.get((i, i)).copied().unwrap_or(0.0);
+        let noise = Vec3::from_fn(|i, _| f32m::sqrt(var(&p, i) + var(&r, i)));
+        self.bias_monitor.judge(&window, x.time_us, &y, &noise, rejected)
+    }
+
+    /// The bias-step recovery ([`crate::fdir::bias`]): a new filter on the tracker's
+    /// attitude with the bias estimate plus the step, its bias σ raised to 3σ of the
+    /// step's error (the slope's, from the tracker's larger noise), instead of waiting for
+    /// `max_consecutive_rejections` and restarting with a zero bias. The sample is fused
+    /// by the start when it is at the history's now, else consumed by it.
+    fn restart_on_bias_step(&mut self, x: &StarTrackerAttitude, step: &BiasStep) {
+        let Some(h) = self.history.as_ref() else { return };
+        let (now, bias) = (h.now_us(), h.filter().bias_rad_s() + step.rate_rad_s);
+        let noise_rad = self.params.tracker_sigma_cross_rad.max(self.params.tracker_sigma_about_rad);
+        let mut cfg = self.mekf_cfg;
+        let slope_3sigma = 3.0 * noise_rad * step.slope_sigma_per_rad;
+        cfg.initial_bias_sigma_rad_s = cfg.initial_bias_sigma_rad_s.max(slope_3sigma);
+        let Ok(m) = Mekf::new(cfg, x.q_ib, bias) else { return };
+        self.lose();
+        self.tracks = Tracks::default();
+        self.history = Some(MekfHistory::new(m, now));
+        if x.time_us == now {
+            // Judged already: the monitor skips a repeated time tag.
+            let _ = self.fuse_tracker(*x);
+        } else {
+            self.tracks.star_tracker.fresh(x.time_us);
+        }
     }
 
     /// Fuse one sample at `t_us` through the history; counts the outcome. A sample taken
@@ -752,6 +830,14 @@ impl Determination {
         }
         Some(result)
     }
+}
+
+/// The star tracker's innovation against the attitude `q_est`: `2 vec(q̂⁻¹ ⊗ q_meas)` on
+/// the short way round (the MEKF's own, [`super::mekf`]), rad, body axes.
+fn attitude_innovation_rad(q_est: &Quat, q_meas: &Quat) -> Vec3 {
+    let e = q_est.conjugate() * q_meas;
+    let v = e.imag() * 2.0;
+    if e.w < 0.0 { -v } else { v }
 }
 
 /// What the MEKF path gives the step: the attitude the laws may use, the corrected rate

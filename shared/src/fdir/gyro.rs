@@ -86,7 +86,7 @@ mod tests {
 
     #[test]
     fn a_stuck_axis_is_declared_after_max_repeats_and_then_reads_zero() {
-        let p = GyroFdirParams { max_repeats: 3 };
+        let p = GyroFdirParams { max_repeats: 3, bias_step: None };
         let mut m = GyroMonitor::new();
         let mut declared_at = None;
         for i in 0..10u64 {

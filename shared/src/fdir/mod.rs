@@ -14,12 +14,16 @@
 //!   tachometer, normalised by its σ from tachometer noise and quantisation;
 //! - [`isolate`]: whether a fired wheel residual names the rotor or its tachometer, from
 //!   the body's reaction seen by the gyro;
+//! - [`bias`]: a gyro bias step, from the star tracker's innovations the filter's gate
+//!   rejects while the Sun or the field corroborate the tracker (the filter restarts with
+//!   the step added to its bias);
 //! - [`gyro`]: a stuck gyro axis (run by the estimation stage, which reads it as 0);
 //! - [`tracker`]: the star tracker frozen, or contradicted by the Sun and the field
 //!   (run by the estimation stage, which drops a failed tracker);
 //! - [`wheel_chain`]: the three wired together for the flight step, with the recovery
 //!   (the wheel dropped from the allocation) and the telemetry.
 
+pub mod bias;
 pub mod gyro;
 pub mod isolate;
 pub mod repeat;

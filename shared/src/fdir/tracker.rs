@@ -57,6 +57,8 @@ pub struct TrackerMonitor {
     events: u16,
     /// Largest witness angle of the last judged sample, rad (telemetry).
     last_witness_rad: f32,
+    /// The last judged sample had a witness and every witness agreed with it.
+    last_corroborated: bool,
 }
 
 impl TrackerMonitor {
@@ -68,6 +70,7 @@ impl TrackerMonitor {
             failed: None,
             events: 0,
             last_witness_rad: 0.0,
+            last_corroborated: false,
         }
     }
 
@@ -123,7 +126,18 @@ impl TrackerMonitor {
             isolated |= off && filter_agrees;
         }
         self.last_witness_rad = largest;
+        self.last_corroborated = seen >= 1 && against == 0;
         isolated || (seen >= 2 && against == seen)
+    }
+
+    /// Whether the sample at `time_us` was judged and the Sun or the field corroborate it:
+    /// at least one witness, none against it, and no exceedance in the window (the
+    /// bias-step monitor's isolation, [`super::bias`]).
+    pub fn corroborates(&self, time_us: u64) -> bool {
+        self.failed.is_none()
+            && self.last_time_us == Some(time_us)
+            && self.last_corroborated
+            && self.persistence.count() == 0
     }
 
     /// Whether the tracker is declared failed (and by which test).

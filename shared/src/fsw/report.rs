@@ -189,10 +189,16 @@ pub(super) fn sensor_fdir(
     t: &mut crate::link::FdirTelemetry,
     tracker: &crate::fdir::tracker::TrackerMonitor,
     gyro: &crate::fdir::gyro::GyroMonitor,
+    bias: &crate::fdir::bias::BiasStepMonitor,
 ) {
     use crate::fdir::tracker::TrackerFault;
     let failed = tracker.failed();
-    t.events = t.events.saturating_add(tracker.events()).saturating_add(gyro.events());
+    t.events = t.events.saturating_add(tracker.events()).saturating_add(gyro.events()).saturating_add(bias.events());
+    t.gyro_bias_steps = bias.events();
+    if let Some(step) = bias.last() {
+        t.gyro_bias_step_rad_s = step.rate_rad_s.into();
+        t.gyro_bias_axes = step.axis.map_or(0, |i| 1u8.checked_shl(u32::from(i)).unwrap_or(0));
+    }
     let tracker_bit = if failed.is_some() { crate::link::FAILED_STAR_TRACKER } else { 0 };
     // Three axis bits above the tracker's: fits a u8.
     t.failed_sensors = tracker_bit | (gyro.failed_axes() & 0b111) << 1;

@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 21;
+pub const PROTOCOL_VERSION: u16 = 22;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -259,6 +259,14 @@ pub struct FdirTelemetry {
     /// The largest angle between a witness (measured Sun, measured field) and where the
     /// tracker's last judged attitude puts it, rad (0 without the monitor or a witness).
     pub tracker_witness_rad: f32,
+    /// Gyro bias steps declared since boot (protocol 22; [`crate::fdir::bias`]; also in
+    /// `events`). Each restarted the filter with the step added to its bias.
+    pub gyro_bias_steps: u16,
+    /// The last declared step, rad/s (body axes; 0 before the first).
+    pub gyro_bias_step_rad_s: [f32; 3],
+    /// Bit i: the last step was isolated to axis i (x, y, z); 0 with steps declared: it
+    /// was ambiguous (several axes).
+    pub gyro_bias_axes: u8,
 }
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.

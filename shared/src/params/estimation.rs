@@ -186,7 +186,7 @@ impl EstimationParams {
             return bad(ParamReason::OutOfRange);
         }
         if self.tracker_fdir.is_some_and(|t| t.validate().is_err())
-            || self.gyro_fdir.is_some_and(|g| g.max_repeats == 0)
+            || self.gyro_fdir.is_some_and(|g| !g.valid(self.tracker_fdir.is_some()))
         {
             return bad(ParamReason::OutOfRange);
         }

@@ -175,4 +175,17 @@ impl TrackerFdirParams {
 pub struct GyroFdirParams {
     /// An axis whose rate repeats more than this many times in a row is stuck (≥ 1).
     pub max_repeats: u16,
+    /// The bias-step test ([`crate::fdir::bias`], protocol 22): `k` of the last `n`
+    /// corroborated tracker samples rejected by the filter's gate (χ²₃ at 0.999) declare a
+    /// step (`k ≥ 2`: the step is a slope). `None`: off. Needs the star-tracker monitor
+    /// (its witnesses isolate the gyro from the tracker).
+    pub bias_step: Option<KOfN>,
+}
+
+impl GyroFdirParams {
+    /// Whether the parameters can fly (`tracker_monitor`: the star-tracker monitor is on).
+    pub fn valid(&self, tracker_monitor: bool) -> bool {
+        let bias_ok = self.bias_step.is_none_or(|w| w.valid() && w.k >= 2 && tracker_monitor);
+        self.max_repeats >= 1 && bias_ok
+    }
 }

@@ -18,7 +18,8 @@ pub struct FdirEvent {
     /// The control step whose report first carried it, s.
     pub detected_at_s: f64,
     /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor) for a
-    /// wheel; `star_tracker` for the tracker; the axis (`gyro.y`) for the gyro.
+    /// wheel; `star_tracker` for the tracker; the axis (`gyro.y`) for a stuck gyro axis;
+    /// the axis or `ambiguous` (unit `gyro`) for a gyro bias step.
     pub isolated_as: &'static str,
     /// What the flight code did.
     pub recovery: &'static str,
@@ -75,6 +76,15 @@ impl FdirLog {
                 self.record(t_s, faults, unit.into(), "gyro_stuck", unit, "axis_read_as_zero");
             }
         }
+        if f.gyro_bias_steps > self.last.gyro_bias_steps {
+            let axis = (0..3).find(|i| f.gyro_bias_axes == bit(*i));
+            let (unit, isolated_as) = match axis.and_then(|i| ["gyro.x", "gyro.y", "gyro.z"].get(i).copied()) {
+                Some(axis) => (axis, axis),
+                None => ("gyro", "ambiguous"),
+            };
+            let test = "gyro_bias_innovation";
+            self.record(t_s, faults, unit.into(), test, isolated_as, "filter_restarted_with_the_step");
+        }
         self.summary.flight_events = f.events;
         self.last = *f;
     }
@@ -90,7 +100,9 @@ impl FdirLog {
         isolated_as: &'static str,
         recovery: &'static str,
     ) {
-        let fault = faults.iter().position(|x| x.fault.unit() == unit && x.window.onset_s <= t_s);
+        // An ambiguous gyro event ("gyro") matches a fault on any of its axes.
+        let on_unit = |u: &str| u == unit || (unit == "gyro" && u.starts_with("gyro."));
+        let fault = faults.iter().position(|x| on_unit(&x.fault.unit()) && x.window.onset_s <= t_s);
         self.summary.false_alarms += usize::from(fault.is_none());
         self.summary.events.push(FdirEvent { unit, test, detected_at_s: t_s, isolated_as, recovery, fault });
     }

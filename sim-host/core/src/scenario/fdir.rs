@@ -3,7 +3,8 @@
 //! residual with isolation rotor/tachometer and the wheel dropped from the allocation;
 //! `[fdir.star_tracker]`: the estimation stage's tracker monitor (frozen, or contradicted
 //! by the Sun and the field) and the tracker dropped from the estimation; `[fdir.gyro]`:
-//! a stuck gyro axis, read as 0 from then on.
+//! a stuck gyro axis, read as 0 from then on, and (`bias_step`) a gyro bias step, after
+//! which the filter restarts with the step added to its bias.
 //!
 //! ```toml
 //! [fdir.wheels]
@@ -43,6 +44,19 @@ pub struct GyroFdirSpec {
     /// An axis repeating its rate more than this many times in a row is stuck (≥ 1).
     #[serde(default = "default_max_repeats")]
     pub max_repeats: u16,
+    /// The bias-step test (docs/fdir.md "Gyro bias step"): `k` of the last `n`
+    /// corroborated tracker samples rejected by the filter's gate declare a step
+    /// (2 ≤ k ≤ n ≤ 32); needs `[fdir.star_tracker]`. Absent: off.
+    #[serde(default)]
+    pub bias_step: Option<BiasStepSpec>,
+}
+
+/// `[fdir.gyro] bias_step = { k = 3, n = 4 }`.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct BiasStepSpec {
+    pub k: u8,
+    pub n: u8,
 }
 
 impl GyroFdirSpec {
@@ -50,7 +64,11 @@ impl GyroFdirSpec {
         if self.max_repeats == 0 {
             return Err(bad("fdir.gyro.max_repeats", "must be ≥ 1"));
         }
-        Ok(GyroFdirParams { max_repeats: self.max_repeats })
+        let bias_step = self.bias_step.map(|b| KOfN { k: b.k, n: b.n });
+        if bias_step.is_some_and(|w| !(w.valid() && w.k >= 2)) {
+            return Err(bad("fdir.gyro.bias_step", "need 2 ≤ k ≤ n ≤ 32 (the step is a slope: two samples at least)"));
+        }
+        Ok(GyroFdirParams { max_repeats: self.max_repeats, bias_step })
     }
 }
 
@@ -184,6 +202,13 @@ impl Scenario {
             g.params()?;
             if self.estimation.is_none() {
                 return Err(bad("fdir.gyro", "the monitor runs in the estimation stage: needs [estimation]"));
+            }
+            let tracker_monitor = self.fdir.as_ref().is_some_and(|f| f.star_tracker.is_some());
+            if g.bias_step.is_some() && !tracker_monitor {
+                return Err(bad(
+                    "fdir.gyro.bias_step",
+                    "needs [fdir.star_tracker]: its witnesses tell a gyro step from a wrong tracker",
+                ));
             }
         }
         let Some(spec) = self.fdir.as_ref().and_then(|f| f.wheels.as_ref()) else { return Ok(()) };
