@@ -1,0 +1,272 @@
+#!/usr/bin/env python3
+"""One table row of an FDIR campaign (issue 42; docs/fdir.md "Campaigns").
+
+Reads a merged or run campaign directory (runs/*/result.json, each with its run's summary)
+and prints: runs, detected, the 95 % one-sided Clopper-Pearson lower bound on the detection
+probability, the latency from the fault's first step in force to its detection
+(median / p95 / max), the isolated-as counts, the wrong-unit count, the false alarms, the
+mode at the onset, and the outcome figures of the class. Standard library only.
+
+    scripts/fdir-campaign.py DIR --class tracker|gyro|wheel|nominal [--refly SIM_HOST]
+    scripts/fdir-campaign.py --self-test
+
+Exit status 1 when a run errored, a fault was missed or isolated as another unit, a false
+alarm was raised (any event in a nominal run), or a run missed the class's outcome (below).
+The summary's estimation_error_max_deg covers the whole run (the MEKF's start in the
+detumble too), an upper bound on the error after the onset; with --refly, each tracker run
+whose whole-run maximum is not below the bound is flown again (SIM_HOST run, CSV) and judged
+on its est_error_deg from the fault's first step in force on.
+Quantiles are nearest-rank (the ceil(q n)-th smallest value).
+"""
+import argparse
+import glob
+import json
+import math
+import csv
+import os
+import subprocess
+import sys
+import tempfile
+
+ALPHA = 0.05
+EST_MAX_DEG = 5.0  # tracker: the estimate never follows the bad tracker
+# tracker: a run ending in hold goes on on the Sun and the field until the estimate's largest
+# per-axis 1 sigma passes lost_attitude_sigma_deg = 0.1, i.e. a total-angle RMS up to
+# sqrt(3) 0.1 deg: within 3 of those of its target
+HOLD_DEG = 3.0 * math.sqrt(3.0) * 0.1
+SAFE_WITHIN_S = 30.0  # gyro: sun-safe within this of the detection
+AT_REST_RAD_S = math.radians(0.5)  # sun-safe "at rest": |w| below the search rate
+
+
+def binom_tail_ge(k, n, p):
+    """P(X >= k), X ~ B(n, p), summed in logs (exact up to rounding)."""
+    if k <= 0:
+        return 1.0
+    if p <= 0.0:
+        return 0.0
+    if p >= 1.0:
+        return 1.0
+    lp, lq = math.log(p), math.log1p(-p)
+    terms = [
+        math.lgamma(n + 1) - math.lgamma(j + 1) - math.lgamma(n - j + 1) + j * lp + (n - j) * lq
+        for j in range(k, n + 1)
+    ]
+    top = max(terms)
+    return min(1.0, math.exp(top) * sum(math.exp(t - top) for t in terms))
+
+
+def cp_lower(k, n, alpha=ALPHA):
+    """One-sided Clopper-Pearson lower bound: the p with P(X >= k | p) = alpha (bisection)."""
+    if k == 0:
+        return 0.0
+    lo, hi = 0.0, 1.0
+    for _ in range(200):  # the tail increases with p
+        mid = 0.5 * (lo + hi)
+        if binom_tail_ge(k, n, mid) < alpha:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def self_test():
+    """The bound against its closed forms: k = n gives alpha^(1/n), k = 1 gives 1-(1-alpha)^(1/n)."""
+    cases = [(300, 300, ALPHA ** (1 / 300)), (20, 20, ALPHA ** (1 / 20))]
+    cases += [(1, 300, 1 - (1 - ALPHA) ** (1 / 300)), (1, 10, 1 - (1 - ALPHA) ** (1 / 10))]
+    ok = True
+    for k, n, want in cases:
+        got = cp_lower(k, n)
+        good = abs(got - want) <= 1e-9 * max(want, 1e-3)
+        ok &= good
+        print(f"k={k} n={n}: {got:.9f} closed form {want:.9f} {'ok' if good else 'FAIL'}")
+    good = f"{cp_lower(300, 300):.5f}" == "0.99006"
+    ok &= good
+    print(f"n=300, alpha=0.05: {cp_lower(300, 300):.5f} (0.99006) {'ok' if good else 'FAIL'}")
+    return 0 if ok else 1
+
+
+def quantile(xs, q):
+    xs = sorted(xs)
+    return xs[max(0, math.ceil(q * len(xs)) - 1)] if xs else None
+
+
+def spread(xs, fmt="{:.2f}"):
+    if not xs:
+        return "-"
+    vals = (quantile(xs, 0.5), quantile(xs, 0.95), max(xs))
+    return " / ".join(fmt.format(v) for v in vals)
+
+
+def load(dirname):
+    out = []
+    for path in sorted(glob.glob(os.path.join(dirname, "runs", "*", "result.json"))):
+        with open(path) as f:
+            r = json.load(f)
+        out.append((path, r.get("status"), r.get("summary") or {}))
+    return out
+
+
+def mode_at(summary, t_s):
+    mode = None
+    for m in summary.get("mode_transitions") or []:
+        if m["t_s"] <= t_s:
+            mode = m["to"]
+    return mode or "initial"
+
+
+def first_entry_after(summary, mode, t_s):
+    for m in summary.get("mode_transitions") or []:
+        if m["t_s"] >= t_s and m["to"] == mode:
+            return m["t_s"]
+    return None
+
+
+def post_onset_est_max(sim_host, result_path, t0_s):
+    """Re-fly one run (its scenario.toml beside result.json) and take the largest
+    est_error_deg from t0_s on (a NaN row, the filter restarting, is skipped)."""
+    scen = os.path.join(os.path.dirname(result_path), "scenario.toml")
+    with tempfile.TemporaryDirectory() as out:
+        cmd = [sim_host, "run", scen, "--out", out, "--format", "csv", "--no-plots", "-q"]
+        subprocess.run(cmd, check=False, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        with open(os.path.join(out, "timeseries.csv")) as f:
+            rows = [r for r in csv.DictReader(f) if float(r["t_s"]) >= t0_s]
+    # an empty field is a non-finite value (docs/outputs.md): the filter not running
+    vals = [float(r["est_error_deg"]) for r in rows if r["est_error_deg"] not in ("", "NaN")]
+    vals = [v for v in vals if not math.isnan(v)]
+    return max(vals) if vals else None
+
+
+def count(d, key):
+    d[key] = d.get(key, 0) + 1
+
+
+def outcome(cls, s, det_s, bad, refly=None):
+    """The class's outcome for one run: (passed, figures); refly() gives the estimate's
+    largest error after the onset (None: not available)."""
+    rate = math.sqrt(sum(w * w for w in s.get("final_rate_rad_s") or [math.nan] * 3))
+    fig = {"final_mode": s.get("final_mode"), "final_rate_rad_s": rate, "final_error_deg": s.get("final_error_deg")}
+    safe = first_entry_after(s, "sun_safe", det_s) if det_s is not None else None
+    fig["to_safe_s"] = None if safe is None else safe - det_s
+    if cls == "tracker":
+        fig["est_max_deg"] = s.get("estimation_error_max_deg")
+        fig["final_error_deg"] = s.get("final_error_deg")
+        est_ok = fig["est_max_deg"] is not None and fig["est_max_deg"] < EST_MAX_DEG
+        if not est_ok and refly is not None:
+            fig["est_post_onset_max_deg"] = refly()
+            est_ok = fig["est_post_onset_max_deg"] is not None and fig["est_post_onset_max_deg"] < EST_MAX_DEG
+        end_ok = (fig["final_mode"] == "hold" and s.get("final_error_deg", math.inf) < HOLD_DEG) or (
+            fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
+        )
+        return est_ok and end_ok, fig
+    if cls == "gyro":
+        ok = fig["to_safe_s"] is not None and fig["to_safe_s"] <= SAFE_WITHIN_S
+        return ok and fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S, fig
+    if cls == "wheel":
+        fig["ape_deg"] = s.get("ape_after_settle_deg")
+        fig["final_error_deg"] = s.get("final_error_deg")
+        return True, fig  # the campaign's own requirements judge it
+    return not bad, fig
+
+
+def analyse(dirname, cls, sim_host=None):
+    runs = load(dirname)
+    if not runs:
+        print(f"no runs/*/result.json under {dirname}", file=sys.stderr)
+        return 1
+    n = len(runs)
+    errored, detected, wrong, false_alarms, events, failed_outcome = [], 0, [], 0, 0, []
+    latency, isolated, onset_mode, figs = [], {}, {}, []
+    for path, status, s in runs:
+        run = os.path.basename(os.path.dirname(path))
+        if status not in ("ok", "requirement_failed") or s.get("run_status") != "ok":
+            errored.append(f"{run}:{status}/{s.get('run_status')}")
+        fd = s.get("fdir") or {}
+        false_alarms += fd.get("false_alarms", 0)
+        evs = fd.get("events") or []
+        events += len(evs)
+        faults = s.get("faults") or []
+        det_s = None
+        if faults:
+            f0 = faults[0]
+            count(onset_mode, mode_at(s, f0["injected_at_s"] if f0.get("injected_at_s") is not None else f0["onset_s"]))
+            det_s = f0.get("detected_at_s")
+            if det_s is not None and f0.get("injected_at_s") is not None:
+                detected += 1
+                latency.append(det_s - f0["injected_at_s"])
+            for e in evs:
+                if e.get("fault") == 0:
+                    count(isolated, e.get("isolated_as"))
+                    # a wheel's isolation names the part (rotor, tachometer, ambiguous), a
+                    # sensor's the unit: either way the event's unit must be the fault's
+                    named = e.get("isolated_as") in (f0["unit"], "ambiguous", "rotor", "tachometer")
+                    if e.get("unit") != f0["unit"] or not named:
+                        wrong.append(f"{run}:{e.get('unit')}/{e.get('isolated_as')}!={f0['unit']}")
+        refly = None
+        if sim_host and faults and faults[0].get("injected_at_s") is not None:
+            t0 = faults[0]["injected_at_s"]
+            refly = lambda p=path, t0=t0: post_onset_est_max(sim_host, p, t0)  # noqa: E731
+        ok, fig = outcome(cls, s, det_s, bool(evs), refly)
+        fig["run"] = run
+        figs.append(fig)
+        if not ok:
+            failed_outcome.append(run)
+    print(f"campaign: {dirname}  class: {cls}  runs: {n}")
+    if cls != "nominal":
+        print(f"detected: {detected} / {n}  P_D >= {cp_lower(detected, n):.5f} (95 % one-sided Clopper-Pearson)")
+        print(f"latency from the first step in force (s), median / p95 / max: {spread(latency)}")
+        print(f"isolated as: {isolated}  wrong unit: {len(wrong)} {wrong[:10]}")
+        print(f"mode at the onset: {onset_mode}")
+    print(f"false alarms: {false_alarms}  FDIR events: {events}  errored runs: {len(errored)} {errored[:10]}")
+    if cls == "nominal":
+        days = sum(s.get("sim_time_s") or 0.0 for _, _, s in runs) / 86400.0
+        bound = f"<= {-math.log(ALPHA) / days:.4f} per day (95 %, Poisson)" if events == 0 else ""
+        print(f"flown: {days:.2f} days  {bound}")
+    report_outcome(cls, figs)
+    print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
+    missed = cls != "nominal" and detected < n
+    bad = errored or missed or wrong or false_alarms or failed_outcome
+    return 1 if bad else 0
+
+
+def report_outcome(cls, figs):
+    modes = {}
+    for f in figs:
+        count(modes, f["final_mode"])
+    print(f"final mode: {modes}")
+    rates = [math.degrees(f["final_rate_rad_s"]) for f in figs if not math.isnan(f["final_rate_rad_s"])]
+    print(f"final |w| (deg/s), median / p95 / max: {spread(rates, '{:.4f}')}")
+    if cls == "tracker":
+        est = [f["est_max_deg"] for f in figs if f["est_max_deg"] is not None]
+        print(f"estimate's max error over the run (deg), median / p95 / max: {spread(est, '{:.3f}')}")
+        re = [(f["run"], f["est_post_onset_max_deg"]) for f in figs if "est_post_onset_max_deg" in f]
+        print(f"over {EST_MAX_DEG} deg, re-flown, max error from the onset on (deg): {re}")
+        hold = [f["final_error_deg"] for f in figs if f["final_mode"] == "hold"]
+        print(f"runs ending in hold: {len(hold)}, final error (deg) median / p95 / max: {spread(hold, '{:.4f}')}")
+    if cls in ("gyro", "tracker"):
+        safe = [f["to_safe_s"] for f in figs if f["to_safe_s"] is not None]
+        print(f"detection -> sun-safe (s), {len(safe)} runs, median / p95 / max: {spread(safe)}")
+    if cls in ("wheel", "nominal"):
+        ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
+        if ape:
+            print(f"APE after settle (deg), median / p95 / max: {spread(ape, '{:.5f}')}")
+        fin = [f["final_error_deg"] for f in figs if f.get("final_error_deg") is not None]
+        if fin:
+            print(f"final error (deg), median / p95 / max: {spread(fin, '{:.5f}')}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("dir", nargs="?")
+    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "wheel", "nominal"])
+    ap.add_argument("--self-test", action="store_true")
+    ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound (CSV)")
+    a = ap.parse_args()
+    if a.self_test:
+        return self_test()
+    if not a.dir or not a.cls:
+        ap.error("DIR and --class are needed (or --self-test)")
+    return analyse(a.dir, a.cls, a.refly)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
