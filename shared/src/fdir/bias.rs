@@ -29,7 +29,6 @@
 //! waiting for `max_consecutive_rejections` and restarting with a zero bias.
 
 use super::window::Persistence;
-use crate::estimation::history::span_s;
 use crate::math::{Vec3, f32m};
 use crate::params::fdir::{KOfN, MAX_WINDOW};
 
@@ -149,7 +148,10 @@ impl BiasStepMonitor {
     fn slope(&self, noise_rad: &Vec3) -> Option<BiasStep> {
         let kept = self.rejected.get(..self.kept)?;
         let (_, t0, _) = *kept.first()?;
-        let t = |u: u64| span_s(t0, u);
+        // Kept in time order (fresh tags only), so u ≥ t0; a window spans seconds, so the
+        // µs difference is exact enough in f32.
+        #[allow(clippy::cast_precision_loss)]
+        let t = |u: u64| u.checked_sub(t0).map(|us| us as f32 * 1.0e-6);
         // ≤ 32 samples: exact in f32.
         #[allow(clippy::cast_precision_loss)]
         let count = kept.len() as f32;
