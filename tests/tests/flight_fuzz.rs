@@ -191,7 +191,7 @@ fn wheel_fdir_refusable(p: &FlightParams) -> bool {
     match (&p.fdir.wheel, &p.actuator) {
         (None, _) => false,
         (Some(w), ActuatorParams::Wheels(wh)) => {
-            !wheel_fdir_valid(w) || !(wh.inertia_kgm2.is_finite() && wh.inertia_kgm2 > 0.0)
+            !(wheel_fdir_valid(w) && wh.inertia_kgm2.is_finite() && wh.inertia_kgm2 > 0.0)
         }
         (Some(_), _) => true,
     }
