@@ -162,6 +162,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         Some(Failure::ControlLost { reason }) => {
             failed(format!("{reason} (summary.json: run_status \"control_lost\")"))
         }
+        Some(Failure::RecoveryFailed { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"recovery_failed\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
@@ -229,5 +232,9 @@ mod tests {
         let v = verdict(&summary);
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"control_lost\"")), "{v:?}");
+        summary.failure = Some(Failure::RecoveryFailed { reason: "recovery failed".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"recovery_failed\"")), "{v:?}");
     }
 }

@@ -670,7 +670,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
-                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} errors",
+                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -684,6 +684,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.margins_failed,
                 r.no_control,
                 r.control_lost,
+                r.recovery_failed,
                 r.errors
             );
         }
@@ -692,7 +693,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = &m.result;
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
-                 {} margins failed, {} not controlled, {} control lost unnoticed, {} errors)",
+                 {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -703,6 +704,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.margins_failed.len(),
                 r.no_control.len(),
                 r.control_lost.len(),
+                r.recovery_failed.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
@@ -715,6 +717,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 ("margins failed", &r.margins_failed),
                 ("not controlled", &r.no_control),
                 ("control lost unnoticed", &r.control_lost),
+                ("recovery failed", &r.recovery_failed),
             ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();

@@ -239,6 +239,36 @@ fn runs_that_lose_control_unnoticed_fail_the_campaign() {
     assert!(report.contains("2 lost control with no FDIR event"), "{report}");
 }
 
+/// A run whose FDIR declares the fault but that still loses control and does not end in a
+/// safe mode (the 6U, no mode table, `gyro.y` stuck and declared; docs/scenario.md
+/// "Recovery failed") has `run_status` `recovery_failed`: a campaign lists it as such, it
+/// fails every requirement whatever its figures, and the merge fails (exit 1).
+#[test]
+fn runs_whose_recovery_fails_fail_the_campaign() {
+    let t = tempfile::tempdir().unwrap();
+    let six = std::fs::read_to_string(repo().join("scenarios/fdir/wheel-seized-6u.toml")).unwrap();
+    let text = six[..six.find("\n[[faults]]").unwrap()].replace("duration_s = 6000.0", "duration_s = 1000.0")
+        + "\n[fdir.gyro]\n\n[[faults]]\nonset_s = 846.0\nunit = \"gyro.y\"\nkind = \"stuck\"\n";
+    let base = t.path().join("gyro-stuck-6u.toml");
+    std::fs::write(&base, text).unwrap();
+    let extra = "[[dispersion]]\nkey = \"faults[0].onset_s\"\ndist = { type = \"uniform\", low = 840.0, high = 850.0 }\n\
+                 [[requirement]]\nname = \"error\"\nkey = \"final_error_deg\"\nop = \"<\"\nvalue = 1000.0\n";
+    let f = campaign_file(t.path(), &base, 2, extra);
+    let dir = t.path().join("c");
+    assert!(sim_host().args(["campaign", "plan"]).arg(&f).arg("--out").arg(&dir).status().unwrap().success());
+    assert!(sim_host().args(["campaign", "run", "-q"]).arg(&dir).status().unwrap().success());
+    let o = sim_host().args(["campaign", "merge", "--no-plots"]).arg(&dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stdout));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("campaign.json")).unwrap()).unwrap();
+    assert_eq!(c["recovery_failed"], serde_json::json!([0, 1]), "{c}");
+    assert_eq!(c["control_lost"], serde_json::json!([]), "{c}");
+    assert_eq!(c["requirements"][0]["failed_runs"], serde_json::json!([0, 1]), "{}", c["requirements"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 recovery failed"));
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(report.contains("2 lost control after an FDIR event"), "{report}");
+}
+
 /// The re-run commands `report.md` lists (here the worst runs of a requirement) work as
 /// written from the directory the campaign was run in (issue 38: they used to hold only
 /// inside the campaign directory), and give the run's own summary.

@@ -13,19 +13,21 @@
 //! - run: exit 0, predicted valid, and from the time series (every step recorded) control
 //!   was not lost — not every step of the last 60 s after the first injection with the true
 //!   error above 10° or the body rate above 3°/s (docs/scenario.md "Run status") — or
-//!   `summary.json` lists FDIR events;
+//!   `summary.json` lists FDIR events and the last row's `mode` is a safe mode (detumble 1,
+//!   sun-safe 5: the recovery fell back to survival);
 //! - failed run: exit 3 with a failed `run_status`; a `control_lost` verdict must be what the
-//!   series shows (lost, no FDIR event).
+//!   series shows (lost, no FDIR event), a `recovery_failed` one too (lost, FDIR events, the
+//!   last row not in a safe mode).
 //!
 //! Anything else (a panic, a signal, a hang beyond 60 s, exit 0 with control lost and no
-//! event, an invalid entry accepted or a valid one refused) fails, listing the cases.
+//! event or with events but not in a safe mode, an invalid entry accepted or a valid one
+//! refused) fails, listing the cases.
 
+use acs_test_support::cases::run_cases;
 use acs_test_support::rng::SplitMix64;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 use toml::Value;
 
@@ -39,9 +41,11 @@ const CASE_LIMIT: Duration = Duration::from_secs(60);
 const ERROR_BOUND_DEG: f64 = 10.0;
 const RATE_BOUND_DEG_S: f64 = 3.0; // the mission's detumble_enter_rate_deg_s and the default
 const WINDOW_S: f64 = 60.0;
+/// The safe modes' telemetry codes (docs/outputs.md `mode`: detumble 1, sun-safe 5).
+const SAFE_MODE_CODES: [f64; 2] = [1.0, 5.0];
 
 /// The failed statuses a run may end in (docs/scenario.md "Run status").
-const FAILED: [&str; 8] = [
+const FAILED: [&str; 9] = [
     "diverged",
     "all_refused",
     "no_control",
@@ -50,6 +54,7 @@ const FAILED: [&str; 8] = [
     "timeline_missed",
     "fdir_false_alarm",
     "control_lost",
+    "recovery_failed",
 ];
 
 const FDIR_WHEELS: &str = "floor_nm = 5.0e-8\nthreshold_sigma = 6.0\ngyro_sigma_rad_s = 1.4e-5\n";
@@ -252,7 +257,7 @@ fn cases(bases: &[Base]) -> Vec<Case> {
 #[derive(Debug, PartialEq)]
 enum Verdict {
     Refused,
-    /// Exit 0: not lost, or lost with FDIR events (the flag).
+    /// Exit 0: not lost, or lost with FDIR events and ending in a safe mode (the flag).
     Ok {
         lost_reported: bool,
     },
@@ -261,8 +266,9 @@ enum Verdict {
 }
 
 /// From `timeseries.csv`: whether every row of the last `WINDOW_S` is lost and at or after
-/// the first row with a fault in force.
-fn lost_by_the_series(csv: &Path) -> Result<bool, String> {
+/// the first row with a fault in force; whether the last row's `mode` is a safe mode (false
+/// without a `mode` column: no mode manager).
+fn lost_by_the_series(csv: &Path) -> Result<(bool, bool), String> {
     let text = std::fs::read_to_string(csv).map_err(|e| format!("{}: {e}", csv.display()))?;
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().ok_or("empty time series")?.split(',').collect();
@@ -270,22 +276,25 @@ fn lost_by_the_series(csv: &Path) -> Result<bool, String> {
     let cols = [col("t_s")?, col("error_deg")?, col("rate_x_rad_s")?, col("rate_y_rad_s")?, col("rate_z_rad_s")?];
     // Without faults there is no `fault_active` column: nothing was ever injected.
     let active = col("fault_active").ok();
+    let mode = col("mode").ok();
     // Empty fields (NaN, ±inf) read as NaN: beyond any bound, as in the verdict.
     let num = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
-    let rows: Vec<([f64; 5], f64)> = lines
+    let rows: Vec<([f64; 5], f64, f64)> = lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
-            (cols.map(|c| num(f[c])), active.map_or(0.0, |a| num(f[a])))
+            (cols.map(|c| num(f[c])), active.map_or(0.0, |a| num(f[a])), mode.map_or(f64::NAN, |m| num(f[m])))
         })
         .collect();
-    let Some(end) = rows.last().map(|r| r.0[0]) else { return Ok(false) };
+    let Some(&(last, _, last_mode)) = rows.last() else { return Ok((false, false)) };
+    let end = last[0];
+    let safe = SAFE_MODE_CODES.contains(&last_mode);
     let injected = rows.iter().find(|r| r.1 != 0.0).map_or(f64::INFINITY, |r| r.0[0]);
     let lost_row = |r: &[f64; 5]| {
         let w = (r[2] * r[2] + r[3] * r[3] + r[4] * r[4]).sqrt().to_degrees();
         !(r[1] <= ERROR_BOUND_DEG) || !(w <= RATE_BOUND_DEG_S)
     };
-    let window: Vec<&([f64; 5], f64)> = rows.iter().filter(|r| r.0[0] >= end - WINDOW_S - 1e-9).collect();
-    Ok(injected <= end - WINDOW_S + 1e-9 && window.iter().all(|r| lost_row(&r.0)))
+    let window: Vec<&([f64; 5], f64, f64)> = rows.iter().filter(|r| r.0[0] >= end - WINDOW_S - 1e-9).collect();
+    Ok((injected <= end - WINDOW_S + 1e-9 && window.iter().all(|r| lost_row(&r.0)), safe))
 }
 
 fn judge(c: &Case, dir: &Path) -> Verdict {
@@ -331,44 +340,31 @@ fn judge_run(out: &Path, code: i32) -> Verdict {
     let s: Json = serde_json::from_str(&text).unwrap();
     let status = s["run_status"].as_str().unwrap_or("(none)").to_string();
     let events = s["fdir"]["events"].as_array().map_or(0, Vec::len);
-    let lost = match lost_by_the_series(&out.join("timeseries.csv")) {
+    let (lost, safe) = match lost_by_the_series(&out.join("timeseries.csv")) {
         Ok(l) => l,
         Err(e) => return Verdict::Bad(e),
     };
     match code {
         0 if status != "ok" => Verdict::Bad(format!("exit 0 with run_status {status}")),
         0 if lost && events == 0 => Verdict::Bad("exit 0 with control lost and no FDIR event".into()),
+        0 if lost && !safe => {
+            Verdict::Bad(format!("exit 0 with control lost after {events} FDIR events, not in a safe mode"))
+        }
         0 => Verdict::Ok { lost_reported: lost },
         _ if !FAILED.contains(&status.as_str()) => Verdict::Bad(format!("exit 3 with run_status {status}")),
         _ if status == "control_lost" && !(lost && events == 0) => {
             Verdict::Bad(format!("control_lost, but the series says lost {lost} with {events} FDIR events"))
         }
+        _ if status == "recovery_failed" && !(lost && events > 0 && !safe) => Verdict::Bad(format!(
+            "recovery_failed, but the series says lost {lost}, safe mode at the end {safe}, with {events} FDIR events"
+        )),
         _ => Verdict::Failed(status),
     }
 }
 
 fn run_all(all: &[Case]) -> Vec<(usize, Verdict)> {
     let tmp = tempfile::tempdir().unwrap();
-    let next = AtomicUsize::new(0);
-    let verdicts = Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..WORKERS {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(c) = all.get(i) else { break };
-                    let dir = tmp.path().join(format!("case{i}"));
-                    std::fs::create_dir_all(&dir).unwrap();
-                    let v = judge(c, &dir);
-                    std::fs::remove_dir_all(&dir).ok();
-                    verdicts.lock().unwrap().push((i, v));
-                }
-            });
-        }
-    });
-    let mut v = verdicts.into_inner().unwrap();
-    v.sort_by_key(|(i, _)| *i);
-    v
+    run_cases(all, WORKERS, tmp.path(), judge)
 }
 
 fn describe(c: &Case) -> String {

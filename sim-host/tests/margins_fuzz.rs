@@ -27,12 +27,11 @@
 //! bounds a measurement's cost, and a valid hint of 1e-5 rad/s would otherwise ask for an
 //! hours-long one); the `[margins]` cases draw `grid_points` up to 30 when valid, for time.
 
+use acs_test_support::cases::run_cases;
 use acs_test_support::rng::SplitMix64;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 const SEED: u64 = 0x37_0005;
@@ -353,25 +352,16 @@ fn margins_flags_and_keys_are_refused_measured_or_failed_never_nonsense() {
     let mut cases: Vec<(bool, Vec<String>)> =
         (0..env_or("MARGINS_FUZZ_CLI_CASES", CLI_CASES)).map(|_| (true, cli_case(&mut rng))).collect();
     cases.extend((0..env_or("MARGINS_FUZZ_TABLE_CASES", TABLE_CASES)).map(|_| (false, vec![table_case(&mut rng)])));
-    let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Judged>> = Mutex::new(Vec::new());
     let start = Instant::now();
-    std::thread::scope(|s| {
-        for _ in 0..WORKERS {
-            s.spawn(|| {
-                let dir = tempfile::tempdir().unwrap();
-                loop {
-                    let i = next.fetch_add(1, Ordering::Relaxed);
-                    let Some((cli, case)) = cases.get(i) else { break };
-                    let t0 = Instant::now();
-                    let r = if *cli { judge_cli(dir.path(), case) } else { judge_table(dir.path(), &case[0]) };
-                    results.lock().unwrap().push((i, r, t0.elapsed().as_secs_f64()));
-                }
-            });
-        }
-    });
-    let mut results = results.into_inner().unwrap();
-    results.sort_by_key(|r| r.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let results: Vec<Judged> = run_cases(&cases, WORKERS, tmp.path(), |(cli, case), dir| {
+        let t0 = Instant::now();
+        let r = if *cli { judge_cli(dir, case) } else { judge_table(dir, &case[0]) };
+        (r, t0.elapsed().as_secs_f64())
+    })
+    .into_iter()
+    .map(|(i, (r, secs))| (i, r, secs))
+    .collect();
     let mut bad = Vec::new();
     let mut counts = [0usize; 3];
     for (i, r, secs) in &results {

@@ -21,12 +21,11 @@
 //! `no_control` verdict checked against the same count). None exits 0 with no control.
 
 // SplitMix64 (Steele, Lea & Flood 2014): the test's only source of randomness.
+use acs_test_support::cases::run_cases;
 use acs_test_support::rng::SplitMix64;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 use toml::Value;
 
@@ -245,7 +244,7 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
             // that its per-sample noise swamps the wheel residual) fail, never exit 0.
             Some(
                 st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped" | "keepout_violated"
-                | "timeline_missed" | "fdir_false_alarm" | "control_lost"),
+                | "timeline_missed" | "fdir_false_alarm" | "control_lost" | "recovery_failed"),
             ) => Verdict::Failed(st.into()),
             other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
         };
@@ -394,26 +393,7 @@ fn mutated_scenarios_are_refused_naming_the_key_or_run_to_a_finite_or_failed_sum
 /// verdicts in case order.
 fn run_all<C: Sync>(all: &[C], judge: impl Fn(&C, &Path) -> Verdict + Sync) -> Vec<(usize, Verdict)> {
     let tmp = tempfile::tempdir().unwrap();
-    let next = AtomicUsize::new(0);
-    let verdicts = Mutex::new(Vec::new());
-    std::thread::scope(|s| {
-        for _ in 0..WORKERS {
-            s.spawn(|| {
-                loop {
-                    let i = next.fetch_add(1, Ordering::SeqCst);
-                    let Some(c) = all.get(i) else { break };
-                    let dir = tmp.path().join(format!("case{i}"));
-                    std::fs::create_dir_all(&dir).unwrap();
-                    let v = judge(c, &dir);
-                    std::fs::remove_dir_all(&dir).ok();
-                    verdicts.lock().unwrap().push((i, v));
-                }
-            });
-        }
-    });
-    let mut v = verdicts.into_inner().unwrap();
-    v.sort_by_key(|(i, _)| *i);
-    v
+    run_cases(all, WORKERS, tmp.path(), judge)
 }
 
 /// Cases of the timing fuzz; `TIMING_FUZZ_CASES` overrides.

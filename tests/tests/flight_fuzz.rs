@@ -12,14 +12,26 @@
 //! ahead, out of order, NaN; fixed, Sun and ground pointings), armed with the checksum of
 //! what was sent (corruption makes some differ), cleared; every arming gets `TimelineArmed`
 //! or `TimelineRejected`, and every step report's timeline counters stay consistent.
+//! FDIR (protocols 20, 21): `ClearWheelFault` (every index: the wheels, beyond them, beyond
+//! `MAX_WHEELS`, `ALL_UNITS`), `ClearSensorFaults`, parameter sets with a wheel monitor
+//! (`fdir.wheel`, on the 6U's wheel set and on the mission's mode slots, some of them
+//! without wheels) and estimation sets with `tracker_fdir` and `gyro_fdir`, every field
+//! drawn from a pool of sane and absurd values (NaN, ±inf, negative, 0, huge, k > n, k = 0,
+//! n beyond the 32-sample window). Asserts, besides the above: `ClearWheelFault` is `Ack`
+//! exactly for an index below `MAX_WHEELS` or `ALL_UNITS` and `Error(NoSuchUnit)` otherwise;
+//! a set whose monitor parameters break their documented ranges (restated here) is refused
+//! (`ParamsRejected`, naming `Fdir` when nothing else was corrupted); and every refused or
+//! errored message leaves the flight side as it was: a copy of the session taken before it
+//! and the session after it answer the next three frames identically.
 
 use acs_flight::guidance::timeline::checksum;
 use acs_flight::link::{
     ActuatorCommand, FswMsg, HostMsg, LinkError, PROTOCOL_VERSION, SampleTimes, SensorFrame, schema_hash, status, valid,
 };
+use acs_flight::params::fdir::{GyroFdirParams, KOfN, TrackerFdirParams, WheelFdirParams, WheelResidualNoise};
+use acs_flight::params::{ActuatorParams, FlightParams, Mode, ModeRequest, ParamField};
 use acs_flight::params::{AttitudeSource, Direction, EstimationParams, GuidanceParams, Pointing, TargetFrame};
 use acs_flight::params::{MAX_TIMELINE_SEGMENTS, TimelineSegment};
-use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::session::{Session, board};
 use acs_tests::scenario;
 use rand::{RngExt, SeedableRng};
@@ -117,6 +129,111 @@ fn segment(rng: &mut ChaCha8Rng, index: u8, days: i32, s: f32) -> TimelineSegmen
     TimelineSegment { start_j2000_days: days, start_j2000_s: start_s, guidance }
 }
 
+/// A value from a pool of sane and absurd ones around `sane`.
+fn absurd_f32(rng: &mut ChaCha8Rng, sane: f32) -> f32 {
+    let pool = [sane, sane, sane, f32::NAN, f32::INFINITY, f32::NEG_INFINITY, -sane, 0.0, -0.0, 1e30, f32::MAX, 1e-30];
+    pool[rng.random_range(0..pool.len())]
+}
+
+/// k-of-n from a pool: valid windows, k = 0, k > n, n beyond the 32-sample window.
+fn absurd_window(rng: &mut ChaCha8Rng) -> KOfN {
+    let pool = [0u8, 1, 4, 6, 32, 33, 255];
+    if rng.random_bool(0.5) {
+        KOfN { k: 4, n: 6 }
+    } else {
+        KOfN { k: pool[rng.random_range(0..pool.len())], n: pool[rng.random_range(0..pool.len())] }
+    }
+}
+
+fn absurd_repeats(rng: &mut ChaCha8Rng) -> u16 {
+    [0u16, 1, 3, 4, u16::MAX][rng.random_range(0..5)]
+}
+
+fn wheel_fdir(rng: &mut ChaCha8Rng) -> WheelFdirParams {
+    WheelFdirParams {
+        noise: WheelResidualNoise {
+            tach_sigma_rad_s: absurd_f32(rng, 1e-4),
+            tach_lsb_rad_s: absurd_f32(rng, 6.1e-5),
+            gyro_sigma_rad_s: absurd_f32(rng, 1e-5),
+        },
+        threshold_sigma: absurd_f32(rng, 6.0),
+        floor_nm: absurd_f32(rng, 5e-8),
+        window: absurd_window(rng),
+        isolation_min_ratio: absurd_f32(rng, 3.0),
+        body_torque_sigma_nm: absurd_f32(rng, 1e-6),
+    }
+}
+
+/// The wheel monitor's documented ranges (docs/fdir.md; `params::fdir`), restated: noise
+/// figures and the floor finite and ≥ 0, the threshold and the isolation ratio finite and
+/// > 0, the body-torque noise finite and ≥ 0, 1 ≤ k ≤ n ≤ 32.
+fn wheel_fdir_valid(w: &WheelFdirParams) -> bool {
+    let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+    let positive = |x: f32| x.is_finite() && x > 0.0;
+    let n = &w.noise;
+    nonneg(n.tach_sigma_rad_s)
+        && nonneg(n.tach_lsb_rad_s)
+        && nonneg(n.gyro_sigma_rad_s)
+        && positive(w.threshold_sigma)
+        && nonneg(w.floor_nm)
+        && window_valid(w.window)
+        && positive(w.isolation_min_ratio)
+        && nonneg(w.body_torque_sigma_nm)
+}
+
+fn window_valid(w: KOfN) -> bool {
+    w.k >= 1 && w.k <= w.n && w.n <= 32
+}
+
+/// Whether a set's wheel monitor is out of its ranges, or on a family without wheels (or
+/// wheels of no valid inertia) — a set the flight side must refuse.
+fn wheel_fdir_refusable(p: &FlightParams) -> bool {
+    match (&p.fdir.wheel, &p.actuator) {
+        (None, _) => false,
+        (Some(w), ActuatorParams::Wheels(wh)) => {
+            !(wheel_fdir_valid(w) && wh.inertia_kgm2.is_finite() && wh.inertia_kgm2 > 0.0)
+        }
+        (Some(_), _) => true,
+    }
+}
+
+/// The estimation stage's monitors (protocol 21), each off, sane or absurd.
+fn sensor_fdir(rng: &mut ChaCha8Rng) -> (Option<TrackerFdirParams>, Option<GyroFdirParams>) {
+    let tracker = rng.random_bool(0.7).then(|| TrackerFdirParams {
+        witness_max_rad: [0.35, 0.35, f32::NAN, f32::INFINITY, -0.35, 0.0, std::f32::consts::PI, 4.0, 1e-30, 1e30]
+            [rng.random_range(0..10)],
+        window: absurd_window(rng),
+        max_repeats: absurd_repeats(rng),
+    });
+    let gyro = rng.random_bool(0.7).then(|| GyroFdirParams { max_repeats: absurd_repeats(rng) });
+    (tracker, gyro)
+}
+
+/// The monitors' documented ranges, restated: the witness angle finite in (0, π), 1 ≤ k ≤ n
+/// ≤ 32, every repeat count ≥ 1.
+fn sensor_fdir_valid(e: &EstimationParams) -> bool {
+    let tracker_ok = e.tracker_fdir.is_none_or(|t| {
+        t.witness_max_rad.is_finite()
+            && t.witness_max_rad > 0.0
+            && t.witness_max_rad < std::f32::consts::PI
+            && window_valid(t.window)
+            && t.max_repeats >= 1
+    });
+    tracker_ok && e.gyro_fdir.is_none_or(|g| g.max_repeats >= 1)
+}
+
+/// Whether a refused or errored message left the flight side as it was: `before` (a copy
+/// taken before the message) and `after` answer the same three frames (from `probe`, with
+/// sequence numbers far above any the fuzz sends) identically.
+fn unchanged_by_refusal(before: &Session, after: &Session, probe: &mut ChaCha8Rng, k: u32) -> bool {
+    let (mut a, mut b) = (before.clone(), after.clone());
+    let mut counter = || 0u32;
+    (0..3).all(|i| {
+        let f = HostMsg::Sensor(frame(probe, 1_000_000 + 3 * k + i));
+        a.handle(&f, 0, &mut counter) == b.handle(&f, 0, &mut counter)
+    })
+}
+
 #[test]
 fn random_message_sequences_never_break_the_flight_side() {
     // More seeds for a longer local campaign: ACS_FUZZ_SEEDS=1000 cargo test ...
@@ -131,7 +248,12 @@ fn fuzz(seed: u64) {
     let cmg = scenario("paper002/lqg.toml").flight_params().unwrap();
     let thr = scenario("paper004/dp-nominal.toml").flight_params().unwrap();
     let dmcs = scenario("paper001/dmcs-m1.toml").flight_params().unwrap();
+    let six = scenario("fdir/wheel-seized-6u.toml").flight_params().unwrap();
+    assert!(six.fdir.wheel.is_some(), "the 6U flies a wheel monitor");
     let mut rng = ChaCha8Rng::seed_from_u64(0xF100 + seed);
+    // Frames for the refusal check, apart from `rng` so the fuzz's sequence stays its own.
+    let mut probe = ChaCha8Rng::seed_from_u64(0xF1D0 + seed);
+    let mut fdir = FdirFuzz::default();
     let mut s = Session::new(board::HOST, 1);
     let mut counter = || 0u32;
     let (mut steps, mut corrupted, mut rejected, mut armed, mut mode_seen) =
@@ -185,6 +307,36 @@ fn fuzz(seed: u64) {
                 HostMsg::ArmTimeline { count, crc32 }
             }
             31 => HostMsg::ClearTimeline,
+            // FDIR (protocols 20, 21): ground clears, monitors' parameters.
+            32..=33 => {
+                HostMsg::ClearWheelFault { wheel: [0u8, 2, 3, 4, 5, 6, 7, 200, 254, 255][rng.random_range(0..10)] }
+            }
+            34 => HostMsg::ClearSensorFaults,
+            35..=36 => HostMsg::UploadParams(FlightParams {
+                fdir: acs_flight::params::fdir::FdirParams { wheel: Some(wheel_fdir(&mut rng)) },
+                ..six
+            }),
+            37 => {
+                let (mode, params) = mission.slots[rng.random_range(0..mission.slots.len())];
+                let wheel = Some(wheel_fdir(&mut rng));
+                HostMsg::UploadModeParams {
+                    mode,
+                    params: FlightParams { fdir: acs_flight::params::fdir::FdirParams { wheel }, ..params },
+                }
+            }
+            38..=39 => {
+                let (tracker_fdir, gyro_fdir) = sensor_fdir(&mut rng);
+                HostMsg::ConfigureEstimation(EstimationParams {
+                    source: AttitudeSource::Mekf,
+                    sun_sensor_sigma_rad: 0.01,
+                    css_count: 6,
+                    css_sigma_rad: 0.1,
+                    magnetometer_sigma_rad: 0.05,
+                    tracker_fdir,
+                    gyro_fdir,
+                    ..EstimationParams::default()
+                })
+            }
             _ => {
                 let f = frame(&mut rng, k);
                 (fix_days, fix_s) = (f.gnss_j2000_days, f.gnss_j2000_s);
@@ -201,9 +353,19 @@ fn fuzz(seed: u64) {
         let Ok(decoded) = postcard::from_bytes::<HostMsg>(&bytes) else {
             continue;
         };
-        corrupted += u32::from(decoded != msg);
+        let intact = decoded == msg;
+        corrupted += u32::from(!intact);
         let msg = decoded;
+        let before = (!matches!(msg, HostMsg::Sensor(_))).then(|| s.clone());
         let reply = s.handle(&msg, 0, &mut counter);
+        fdir.check(&msg, reply.as_ref(), intact);
+        if let (Some(b), Some(FswMsg::ParamsRejected(_) | FswMsg::Error(_))) = (&before, &reply) {
+            assert!(
+                unchanged_by_refusal(b, &s, &mut probe, k),
+                "seed {seed}: {msg:?} refused ({reply:?}) but changed the flight side"
+            );
+            fdir.refusals_unchanged += 1;
+        }
         match (&msg, &reply) {
             (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineArmed { .. })) => tl_armed += 1,
             (HostMsg::ArmTimeline { .. }, Some(FswMsg::TimelineRejected(e))) => {
@@ -252,9 +414,13 @@ fn fuzz(seed: u64) {
                 mode_seen[c.mode as usize] += 1;
                 assert!(c.estimate.covariance_upper.iter().chain(&c.estimate.q_est_xyzw).all(|x| x.is_finite()));
                 if c.status & (status::NOT_CONFIGURED | status::BAD_INPUT | status::NO_ESTIMATE) != 0 {
-                    // All idle; the mode and estimation telemetry still report.
+                    // All idle; the mode and estimation telemetry still report (the FDIR's
+                    // too), and the drives of exactly the wheels FDIR declared failed stay
+                    // off.
                     let idle = ActuatorCommand {
                         estimate: c.estimate,
+                        fdir: c.fdir,
+                        wheel_power_off: c.fdir.failed_wheels,
                         mode: c.mode,
                         mode_reason: c.mode_reason,
                         mode_transitions: c.mode_transitions,
@@ -280,6 +446,88 @@ fn fuzz(seed: u64) {
     assert!(tl_rejected > 50 && tl_msgs > 500, "timeline messages exercised");
     assert!(steps > 15_000 && corrupted > 3_000 && rejected > 100 && armed > 100 && refused_total > 10);
     assert!(mode_seen.iter().all(|n| *n > 0), "every mode (and none) was exercised: {mode_seen:?}");
+    eprintln!("seed {seed}: FDIR {fdir:?}");
+    fdir.assert_exercised();
+}
+
+/// The FDIR messages of one seed of [`fuzz`]: what was sent and answered.
+#[derive(Debug, Default)]
+struct FdirFuzz {
+    clears_acked: u32,
+    clears_no_unit: u32,
+    sensor_clears: u32,
+    /// Sets with a wheel monitor (UploadParams, UploadModeParams) accepted / refused, and
+    /// those refused because of the monitor (by the restated ranges).
+    wheel_sets_accepted: u32,
+    wheel_sets_refused: u32,
+    wheel_sets_out_of_range: u32,
+    /// Estimation sets with a sensor monitor accepted / refused / out of range.
+    sensor_sets_accepted: u32,
+    sensor_sets_refused: u32,
+    sensor_sets_out_of_range: u32,
+    /// Refused or errored messages checked to leave the flight side unchanged.
+    refusals_unchanged: u32,
+}
+
+impl FdirFuzz {
+    /// Checks one FDIR message's reply (`intact`: not corrupted on the way).
+    fn check(&mut self, msg: &HostMsg, reply: Option<&FswMsg>, intact: bool) {
+        let refused = |r: Option<&FswMsg>| matches!(r, Some(FswMsg::ParamsRejected(_)));
+        let accepted = |r: Option<&FswMsg>| matches!(r, Some(FswMsg::ParamsAccepted { .. } | FswMsg::Ack));
+        match msg {
+            HostMsg::ClearWheelFault { wheel } => {
+                let exists =
+                    usize::from(*wheel) < acs_flight::types::MAX_WHEELS || *wheel == acs_flight::link::ALL_UNITS;
+                match reply {
+                    Some(FswMsg::Ack) if exists => self.clears_acked += 1,
+                    Some(FswMsg::Error(LinkError::NoSuchUnit)) if !exists => self.clears_no_unit += 1,
+                    other => panic!("ClearWheelFault {{ wheel: {wheel} }} got {other:?}"),
+                }
+            }
+            HostMsg::ClearSensorFaults => {
+                assert_eq!(reply, Some(&FswMsg::Ack), "ClearSensorFaults");
+                self.sensor_clears += 1;
+            }
+            HostMsg::UploadParams(p) | HostMsg::UploadModeParams { params: p, .. } if p.fdir.wheel.is_some() => {
+                if wheel_fdir_refusable(p) {
+                    self.wheel_sets_out_of_range += 1;
+                    assert!(refused(reply), "a wheel monitor out of range accepted: {:?} -> {reply:?}", p.fdir.wheel);
+                    if intact {
+                        assert!(
+                            matches!(reply, Some(FswMsg::ParamsRejected(e)) if e.field == ParamField::Fdir),
+                            "{reply:?} for {:?}",
+                            p.fdir.wheel
+                        );
+                    }
+                }
+                match reply {
+                    r if refused(r) => self.wheel_sets_refused += 1,
+                    r if accepted(r) => self.wheel_sets_accepted += 1,
+                    other => panic!("a parameter set got {other:?}"),
+                }
+            }
+            HostMsg::ConfigureEstimation(e) if e.tracker_fdir.is_some() || e.gyro_fdir.is_some() => {
+                if !sensor_fdir_valid(e) {
+                    self.sensor_sets_out_of_range += 1;
+                    assert!(refused(reply), "a sensor monitor out of range accepted: {e:?} -> {reply:?}");
+                }
+                match reply {
+                    r if refused(r) => self.sensor_sets_refused += 1,
+                    r if accepted(r) => self.sensor_sets_accepted += 1,
+                    other => panic!("an estimation set got {other:?}"),
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Every branch was reached (else the pools are too tame or too wild).
+    fn assert_exercised(&self) {
+        assert!(self.clears_acked > 20 && self.clears_no_unit > 20 && self.sensor_clears > 20, "{self:?}");
+        assert!(self.wheel_sets_accepted > 5 && self.wheel_sets_out_of_range > 50, "{self:?}");
+        assert!(self.sensor_sets_accepted > 5 && self.sensor_sets_out_of_range > 20, "{self:?}");
+        assert!(self.refusals_unchanged > 100, "{self:?}");
+    }
 }
 
 /// Records every message the simulator sends on its way to an in-process flight side:

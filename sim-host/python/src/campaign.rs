@@ -59,6 +59,7 @@ pub fn campaign_run<'py>(
             ("margins_failed", r.margins_failed),
             ("no_control", r.no_control),
             ("control_lost", r.control_lost),
+            ("recovery_failed", r.recovery_failed),
         ] {
             d.set_item(k, v)?;
         }

@@ -45,6 +45,10 @@ pub enum RunStatus {
     /// Flew with `[[faults]]`, and the truth lost control through the end of the run with
     /// no FDIR event (summary `run_status` `control_lost`): misses every requirement.
     ControlLost,
+    /// Flew with `[[faults]]`, the FDIR raised an event, but the truth lost control through
+    /// the end of the run and the flight did not end in a safe mode (summary `run_status`
+    /// `recovery_failed`): misses every requirement.
+    RecoveryFailed,
 }
 
 impl RunStatus {
@@ -116,6 +120,7 @@ fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
         Some("margins_failed") => Some(RunStatus::MarginsFailed),
         Some("no_control") => Some(RunStatus::NoControl),
         Some("control_lost") => Some(RunStatus::ControlLost),
+        Some("recovery_failed") => Some(RunStatus::RecoveryFailed),
         Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
             Some(RunStatus::MarginsFailed)
         }
@@ -183,6 +188,7 @@ pub struct ShardReport {
     pub margins_failed: usize,
     pub no_control: usize,
     pub control_lost: usize,
+    pub recovery_failed: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -242,6 +248,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::MarginsFailed => r.margins_failed += 1,
                         RunStatus::NoControl => r.no_control += 1,
                         RunStatus::ControlLost => r.control_lost += 1,
+                        RunStatus::RecoveryFailed => r.recovery_failed += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

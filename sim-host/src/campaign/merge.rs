@@ -168,6 +168,10 @@ pub struct CampaignResult {
     /// Runs with `[[faults]]` that lost control with no FDIR event (summary `run_status`
     /// `control_lost`): each misses every requirement and fails the campaign.
     pub control_lost: Vec<u32>,
+    /// Runs with `[[faults]]` whose FDIR raised an event but that lost control through the
+    /// end anyway, not in a safe mode (summary `run_status` `recovery_failed`): each misses
+    /// every requirement and fails the campaign.
+    pub recovery_failed: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -185,6 +189,7 @@ impl CampaignResult {
             && self.margins_failed.is_empty()
             && self.no_control.is_empty()
             && self.control_lost.is_empty()
+            && self.recovery_failed.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -355,6 +360,7 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
                     | RunStatus::MarginsFailed
                     | RunStatus::NoControl
                     | RunStatus::ControlLost
+                    | RunStatus::RecoveryFailed
             ) {
                 row.failed_runs += 1;
             }
@@ -413,6 +419,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         margins_failed: runs_of(RunStatus::MarginsFailed),
         no_control: runs_of(RunStatus::NoControl),
         control_lost: runs_of(RunStatus::ControlLost),
+        recovery_failed: runs_of(RunStatus::RecoveryFailed),
         requirements,
         groups,
         statistics,
@@ -593,7 +600,8 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         "Base scenario `{}`, master seed {}. {} of {} runs completed: {} met every requirement, {} missed one, \
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
          {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
-         part of the run, {} lost control with no FDIR event, {} ended in error.\n",
+         part of the run, {} lost control with no FDIR event, {} lost control after an FDIR event and not in a safe mode \
+         (recovery failed), {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -605,6 +613,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         r.margins_failed.len(),
         r.no_control.len(),
         r.control_lost.len(),
+        r.recovery_failed.len(),
         r.errors.len()
     );
     for (what, runs) in [
@@ -613,6 +622,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         ("Runs whose margins are not a stable loop at a steady hold (`margins.status`)", &r.margins_failed),
         ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
         ("Runs that lost control with no FDIR event (`run_status` `control_lost`)", &r.control_lost),
+        ("Runs whose recovery from a declared fault failed (`run_status` `recovery_failed`)", &r.recovery_failed),
     ] {
         if !runs.is_empty() {
             let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_from(dir, *i))).collect();

@@ -13,6 +13,18 @@
 //! detumble) is not an FDIR event: it names no unit, isolates nothing, and the failed unit
 //! stays in use — a run left off its mission pointing by an unnamed fault is what the
 //! verdict exists for.
+//!
+//! Recovery failed (`run_status` "recovery_failed", exit 3): the same loss of control, the
+//! FDIR *did* raise an event, and the flight did not end in a safe mode ([`is_safe_mode`]:
+//! its last control step's mode is detumble or sun-safe). The issue asks the recovery to
+//! "keep pointing, or fall back to a safe mode": a declared fault whose recovery neither
+//! holds the pointing in force nor ends in survival is no recovery. A safe mode is not
+//! judged by the attitude error: `error_deg` is against the mission's target (or, with
+//! `[guidance]`, the safe mode's own pointing, which sun-safe on a degraded sensor set keeps
+//! only coarsely), not what the safe mode is for; its rate is the mode manager's own
+//! business (a tumble in sun-safe hands it to detumble).
+
+use acs_flight::params::Mode;
 
 /// The true attitude error beyond which a control step counts as lost, deg: over three times
 /// the coarsest hold tolerance of the shipped scenarios (the mission's `hold_exit_error_deg`,
@@ -26,6 +38,22 @@ pub const CONTROL_LOST_RATE_DEG_S: f64 = 3.0;
 /// is still acting on does not count.
 pub const CONTROL_LOST_WINDOW_S: f64 = 60.0;
 
+/// Whether `mode` is a safe mode: one whose job is survival, not pointing — detumble (rate
+/// damping by B-dot) and sun-safe (power: a panel on the Sun). Stabilise, manoeuvre and
+/// hold point to a target (LVLH or the mission's) and are not.
+pub fn is_safe_mode(mode: Mode) -> bool {
+    matches!(mode, Mode::Detumble | Mode::SunSafe)
+}
+
+/// How a run that lost control fails (see the module's documentation).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LostVerdict {
+    /// Lost, and the FDIR raised no event.
+    ControlLost(String),
+    /// Lost, the FDIR raised an event, and the flight did not end in a safe mode.
+    RecoveryFailed(String),
+}
+
 /// The watch over one run (every control step).
 #[derive(Clone, Debug)]
 pub struct ControlWatch {
@@ -34,23 +62,27 @@ pub struct ControlWatch {
     lost_since_s: Option<f64>,
     /// The last step's time, error and rate.
     last: Option<(f64, f64, f64)>,
+    /// The last step's flight mode (None: no mode manager, or a code it does not name).
+    last_mode: Option<Mode>,
 }
 
 impl ControlWatch {
     /// `rate_bound_deg_s`: the tumble rate (`[modes] detumble_enter_rate_deg_s`, else
     /// [`CONTROL_LOST_RATE_DEG_S`]).
     pub fn new(rate_bound_deg_s: f64) -> Self {
-        Self { rate_bound_rad_s: rate_bound_deg_s.to_radians(), lost_since_s: None, last: None }
+        Self { rate_bound_rad_s: rate_bound_deg_s.to_radians(), lost_since_s: None, last: None, last_mode: None }
     }
 
     /// The control step at `t_s`: `injected`, a fault has been in force at or before it;
-    /// `err_deg`, the true attitude error; `rate_rad_s`, the true body rate.
-    pub fn push(&mut self, t_s: f64, injected: bool, err_deg: f64, rate_rad_s: [f64; 3]) {
+    /// `err_deg`, the true attitude error; `rate_rad_s`, the true body rate; `mode`, the
+    /// flight's reported mode (None without a mode manager).
+    pub fn push(&mut self, t_s: f64, injected: bool, err_deg: f64, rate_rad_s: [f64; 3], mode: Option<Mode>) {
         let rate = rate_rad_s.iter().map(|w| w * w).sum::<f64>().sqrt();
         // `!(x <= bound)`: a NaN counts as lost.
         let lost = injected && (!(err_deg <= CONTROL_LOST_ERROR_DEG) || !(rate <= self.rate_bound_rad_s));
         self.lost_since_s = if lost { self.lost_since_s.or(Some(t_s)) } else { None };
         self.last = Some((t_s, err_deg, rate));
+        self.last_mode = mode;
     }
 
     /// Whether every step of the last [`CONTROL_LOST_WINDOW_S`] was lost (1e-9 s: the float
@@ -62,16 +94,32 @@ impl ControlWatch {
         }
     }
 
-    /// Why the run fails, if it lost control and the FDIR raised none of its `fdir_events`.
-    pub fn failure_reason(&self, fdir_events: usize) -> Option<String> {
-        let (since, (t, err, rate)) = self.lost_since_s.zip(self.last).filter(|_| self.lost() && fdir_events == 0)?;
-        Some(format!(
-            "control lost with no FDIR event: from t = {since} s to the end ({t} s) the true attitude error exceeded \
-             {CONTROL_LOST_ERROR_DEG} deg or the body rate {:.3} deg/s at every control step (at the end: {err:.2} deg, \
-             {:.3} deg/s)",
+    /// Whether the last step was in a safe mode ([`is_safe_mode`]).
+    pub fn ended_safe(&self) -> bool {
+        self.last_mode.is_some_and(is_safe_mode)
+    }
+
+    /// Why the run fails, if it lost control: with none of `fdir_events`, control lost; with
+    /// some, recovery failed unless the flight ended in a safe mode.
+    pub fn verdict(&self, fdir_events: usize) -> Option<LostVerdict> {
+        let (since, (t, err, rate)) = self.lost_since_s.zip(self.last).filter(|_| self.lost())?;
+        let span = format!(
+            "from t = {since} s to the end ({t} s) the true attitude error exceeded {CONTROL_LOST_ERROR_DEG} deg \
+             or the body rate {:.3} deg/s at every control step (at the end: {err:.2} deg, {:.3} deg/s)",
             self.rate_bound_rad_s.to_degrees(),
             rate.to_degrees()
-        ))
+        );
+        if fdir_events == 0 {
+            return Some(LostVerdict::ControlLost(format!("control lost with no FDIR event: {span}")));
+        }
+        if self.ended_safe() {
+            return None;
+        }
+        let mode = self.last_mode.map_or("none (no mode manager)", Mode::name);
+        Some(LostVerdict::RecoveryFailed(format!(
+            "recovery failed: the FDIR raised {fdir_events} event(s), yet {span}, and the flight ended in mode \
+             {mode}, not a safe mode (detumble, sun_safe)"
+        )))
     }
 }
 
@@ -85,7 +133,7 @@ mod tests {
         let mut c = ControlWatch::new(3.0);
         for k in 0..=(end / 0.5) as u64 {
             let t = k as f64 * 0.5;
-            c.push(t, t >= inj, e(t), [w(t).to_radians(), 0.0, 0.0]);
+            c.push(t, t >= inj, e(t), [w(t).to_radians(), 0.0, 0.0], Some(Mode::Hold));
         }
         c
     }
@@ -95,9 +143,8 @@ mod tests {
         // 20 deg from 100 s to the end (200 s): lost, reason given; with an FDIR event: not.
         let c = watch(200.0, 50.0, |t| if t >= 100.0 { 20.0 } else { 1.0 }, |_| 0.0);
         assert!(c.lost());
-        let r = c.failure_reason(0).unwrap();
+        let Some(LostVerdict::ControlLost(r)) = c.verdict(0) else { panic!("{:?}", c.verdict(0)) };
         assert!(r.contains("from t = 100 s") && r.contains("20.00 deg"), "{r}");
-        assert!(c.failure_reason(1).is_none());
         // Exactly the window (from 140 s): lost; from 140.5 s: not (one step short).
         assert!(watch(200.0, 0.0, |t| if t >= 140.0 { 20.0 } else { 1.0 }, |_| 0.0).lost());
         assert!(!watch(200.0, 0.0, |t| if t >= 140.5 { 20.0 } else { 1.0 }, |_| 0.0).lost());
@@ -113,5 +160,36 @@ mod tests {
         assert!(!watch(200.0, 170.0, |_| 90.0, |_| 0.0).lost());
         // No fault ever in force: never.
         assert!(!watch(200.0, f64::INFINITY, |_| 90.0, |_| 10.0).lost());
+    }
+
+    /// The same steps, the last one's mode `last` (the others in hold).
+    fn ending_in(last: Option<Mode>, e: f64) -> ControlWatch {
+        let mut c = ControlWatch::new(3.0);
+        for k in 0..=400u64 {
+            let t = k as f64 * 0.5;
+            c.push(t, t >= 10.0, e, [0.0; 3], if k == 400 { last } else { Some(Mode::Hold) });
+        }
+        c
+    }
+
+    #[test]
+    fn with_an_fdir_event_a_loss_fails_unless_the_flight_ended_in_a_safe_mode() {
+        assert!(is_safe_mode(Mode::Detumble) && is_safe_mode(Mode::SunSafe));
+        assert!(![Mode::Stabilise, Mode::Manoeuvre, Mode::Hold].into_iter().any(is_safe_mode));
+        for last in [Some(Mode::Hold), Some(Mode::Stabilise), Some(Mode::Manoeuvre), None] {
+            let c = ending_in(last, 20.0);
+            let Some(LostVerdict::RecoveryFailed(r)) = c.verdict(2) else { panic!("{last:?}: {:?}", c.verdict(2)) };
+            assert!(r.contains("2 event(s)") && r.contains("from t = 10 s") && r.contains("ended in mode"), "{r}");
+            // Without an event the same run is control_lost.
+            assert!(matches!(c.verdict(0), Some(LostVerdict::ControlLost(_))));
+        }
+        assert!(ending_in(None, 20.0).verdict(1).is_some_and(|v| format!("{v:?}").contains("no mode manager")));
+        for safe in [Mode::Detumble, Mode::SunSafe] {
+            let c = ending_in(Some(safe), 20.0);
+            assert!(c.ended_safe() && c.verdict(1).is_none(), "{safe:?}");
+            assert!(matches!(c.verdict(0), Some(LostVerdict::ControlLost(_))), "{safe:?}");
+        }
+        // Not lost (on target at 9.9 deg): no verdict in any mode.
+        assert!(ending_in(Some(Mode::Hold), 9.9).verdict(1).is_none());
     }
 }

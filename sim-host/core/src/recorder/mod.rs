@@ -5,7 +5,8 @@
 //! - [`series`]: the [`series::Recorder`] trait and the in-memory [`series::TimeSeries`];
 //! - [`decimate`]: bounded-memory row decimation of long runs;
 //! - [`summary`]: `summary.json` and the statistics it is built from;
-//! - [`control_lost`]: the verdict of a run with faults that lost control unnoticed;
+//! - [`control_lost`]: the verdicts of a run with faults that lost control (unnoticed, or
+//!   after a declared fault whose recovery failed);
 //! - [`momentum`]: stored-momentum statistics (every control step);
 //! - [`csv`]: `timeseries.csv`, written with a fast shortest round-trip float formatter;
 //! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;

@@ -71,6 +71,11 @@ pub enum RunStatus {
     /// run after a fault was injected, and the FDIR raised no event
     /// (`crate::recorder::control_lost`).
     ControlLost,
+    /// With `[[faults]]`: the truth lost control the same way, the FDIR raised an event, and
+    /// the flight did not end in a safe mode (detumble, sun-safe): the declared fault's
+    /// recovery neither kept the pointing nor fell back to survival
+    /// (`crate::recorder::control_lost`).
+    RecoveryFailed,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -108,6 +113,9 @@ pub enum Failure {
     Fdir { reason: String },
     /// Since when control was lost (truth), and how far at the end.
     ControlLost { reason: String },
+    /// Which FDIR events were raised, since when control was lost (truth), and the mode the
+    /// flight ended in.
+    RecoveryFailed { reason: String },
 }
 
 /// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.

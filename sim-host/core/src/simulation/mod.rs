@@ -22,7 +22,7 @@ use crate::plant::delay::DelayLine;
 use crate::plant::wheel::{WheelDeriv, WheelOutput};
 use crate::plant::{Input, MAX_WHEELS, Spacecraft, State};
 use crate::recorder::columns::Layout;
-use crate::recorder::control_lost::ControlWatch;
+use crate::recorder::control_lost::{ControlWatch, LostVerdict};
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
 use crate::recorder::segments::{SegmentKey, Segments};
@@ -480,7 +480,8 @@ impl<'a> Simulation<'a> {
         let wheels = self.observe(t, &cmd, ticks, &input, err_deg);
         self.observe_momentum(t, &cmd, err_deg);
         if let Some(c) = &mut self.control {
-            c.push(t, self.faults.any_injected(), err_deg, self.state.w.into());
+            let mode = self.layout.mode.then_some(cmd.mode).and_then(Mode::from_code);
+            c.push(t, self.faults.any_injected(), err_deg, self.state.w.into(), mode);
         }
 
         // Thruster valves over the first dynamics step decide what is recorded as applied.
@@ -754,7 +755,8 @@ impl<'a> Simulation<'a> {
 
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
     /// control steps the flight code answered), a link anomaly, sensor samples dropped,
-    /// not controlled for a material part of the run, a keep-out cone entered, or ok.
+    /// not controlled for a material part of the run, a keep-out cone entered, a timeline
+    /// missed, an FDIR false alarm, control lost unnoticed, a recovery failed, or ok.
     fn outcome(&self) -> (RunStatus, Option<Failure>) {
         if let Some(f) = &self.failure {
             return (RunStatus::Diverged, Some(f.clone()));
@@ -790,10 +792,13 @@ impl<'a> Simulation<'a> {
             return (RunStatus::FdirFalseAlarm, Some(Failure::Fdir { reason }));
         }
         let fdir_events = self.fdir.as_ref().map_or(0, |f| f.summary().events.len());
-        if let Some(reason) = self.control.as_ref().and_then(|c| c.failure_reason(fdir_events)) {
-            return (RunStatus::ControlLost, Some(Failure::ControlLost { reason }));
+        match self.control.as_ref().and_then(|c| c.verdict(fdir_events)) {
+            Some(LostVerdict::ControlLost(reason)) => (RunStatus::ControlLost, Some(Failure::ControlLost { reason })),
+            Some(LostVerdict::RecoveryFailed(reason)) => {
+                (RunStatus::RecoveryFailed, Some(Failure::RecoveryFailed { reason }))
+            }
+            None => (RunStatus::Ok, None),
         }
-        (RunStatus::Ok, None)
     }
 
     /// The summary of the finished run; `wall_s` is the wall time of the loop.

@@ -119,7 +119,8 @@ class RunResult:
         ``"samples_dropped"``, ``"no_control"``, ``"keepout_violated"``, ``"timeline_missed"`` (a
         ``[[timeline]]`` segment missed), ``"fdir_false_alarm"`` (``[fdir]`` declared a healthy
         unit failed), ``"control_lost"`` (with ``[[faults]]``: control lost through the end of the
-        run with no FDIR event) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
+        run with no FDIR event), ``"recovery_failed"`` (with ``[[faults]]``: an FDIR event, yet
+        control lost through the end and the flight not in a safe mode) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
