@@ -197,7 +197,7 @@ fn wheel_fdir_refusable(p: &FlightParams) -> bool {
     }
 }
 
-/// The estimation stage's monitors (protocol 21), each off, sane or absurd.
+/// The estimation stage's monitors (protocols 21, 22), each off, sane or absurd.
 fn sensor_fdir(rng: &mut ChaCha8Rng) -> (Option<TrackerFdirParams>, Option<GyroFdirParams>) {
     let tracker = rng.random_bool(0.7).then(|| TrackerFdirParams {
         witness_max_rad: [0.35, 0.35, f32::NAN, f32::INFINITY, -0.35, 0.0, std::f32::consts::PI, 4.0, 1e-30, 1e30]
@@ -205,12 +205,16 @@ fn sensor_fdir(rng: &mut ChaCha8Rng) -> (Option<TrackerFdirParams>, Option<GyroF
         window: absurd_window(rng),
         max_repeats: absurd_repeats(rng),
     });
-    let gyro = rng.random_bool(0.7).then(|| GyroFdirParams { max_repeats: absurd_repeats(rng) });
+    let gyro = rng.random_bool(0.7).then(|| GyroFdirParams {
+        max_repeats: absurd_repeats(rng),
+        bias_step: rng.random_bool(0.6).then(|| absurd_window(rng)),
+    });
     (tracker, gyro)
 }
 
 /// The monitors' documented ranges, restated: the witness angle finite in (0, π), 1 ≤ k ≤ n
-/// ≤ 32, every repeat count ≥ 1.
+/// ≤ 32, every repeat count ≥ 1; the gyro's bias-step window 2 ≤ k ≤ n ≤ 32 and only with
+/// the star-tracker monitor (protocol 22).
 fn sensor_fdir_valid(e: &EstimationParams) -> bool {
     let tracker_ok = e.tracker_fdir.is_none_or(|t| {
         t.witness_max_rad.is_finite()
@@ -219,7 +223,8 @@ fn sensor_fdir_valid(e: &EstimationParams) -> bool {
             && window_valid(t.window)
             && t.max_repeats >= 1
     });
-    tracker_ok && e.gyro_fdir.is_none_or(|g| g.max_repeats >= 1)
+    let bias_ok = |w: Option<KOfN>| w.is_none_or(|w| window_valid(w) && w.k >= 2 && e.tracker_fdir.is_some());
+    tracker_ok && e.gyro_fdir.is_none_or(|g| g.max_repeats >= 1 && bias_ok(g.bias_step))
 }
 
 /// Whether a refused or errored message left the flight side as it was: `before` (a copy
