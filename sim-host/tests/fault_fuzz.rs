@@ -42,7 +42,8 @@ const ERROR_BOUND_DEG: f64 = 10.0;
 const RATE_BOUND_DEG_S: f64 = 3.0; // the mission's detumble_enter_rate_deg_s and the default
 const WINDOW_S: f64 = 60.0;
 /// The safe modes' telemetry codes (docs/outputs.md `mode`: detumble 1, sun-safe 5).
-const SAFE_MODE_CODES: [f64; 2] = [1.0, 5.0];
+const DETUMBLE_CODE: f64 = 1.0;
+const SUN_SAFE_CODE: f64 = 5.0;
 
 /// The failed statuses a run may end in (docs/scenario.md "Run status").
 const FAILED: [&str; 9] = [
@@ -287,14 +288,16 @@ fn lost_by_the_series(csv: &Path) -> Result<(bool, bool), String> {
         .collect();
     let Some(&(last, _, last_mode)) = rows.last() else { return Ok((false, false)) };
     let end = last[0];
-    let safe = SAFE_MODE_CODES.contains(&last_mode);
     let injected = rows.iter().find(|r| r.1 != 0.0).map_or(f64::INFINITY, |r| r.0[0]);
-    let lost_row = |r: &[f64; 5]| {
-        let w = (r[2] * r[2] + r[3] * r[3] + r[4] * r[4]).sqrt().to_degrees();
-        !(r[1] <= ERROR_BOUND_DEG) || !(w <= RATE_BOUND_DEG_S)
-    };
+    let tumbling_row =
+        |r: &[f64; 5]| !((r[2] * r[2] + r[3] * r[3] + r[4] * r[4]).sqrt().to_degrees() <= RATE_BOUND_DEG_S);
+    let lost_row = |r: &[f64; 5]| !(r[1] <= ERROR_BOUND_DEG) || tumbling_row(r);
     let window: Vec<&([f64; 5], f64, f64)> = rows.iter().filter(|r| r.0[0] >= end - WINDOW_S - 1e-9).collect();
-    Ok((injected <= end - WINDOW_S + 1e-9 && window.iter().all(|r| lost_row(&r.0)), safe))
+    let judged = injected <= end - WINDOW_S + 1e-9;
+    // Sun-safe tumbling over the whole window (the mode manager blind to it) is no survival.
+    let tumbling = judged && window.iter().all(|r| tumbling_row(&r.0));
+    let safe = last_mode == DETUMBLE_CODE || (last_mode == SUN_SAFE_CODE && !tumbling);
+    Ok((judged && window.iter().all(|r| lost_row(&r.0)), safe))
 }
 
 fn judge(c: &Case, dir: &Path) -> Verdict {

@@ -362,22 +362,31 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
 }
 
 /// The estimation stage's sensor monitors on the firmware (issue 42): the 6U shortened to
-/// 200 s with `[fdir.star_tracker]` and `[fdir.gyro]`, the tracker flipped at 60 s and the
-/// gyro's z axis stuck at 130 s. Every recorded cell equal bit for bit, the same two
-/// events (the flip from the Sun and the field, the axis from its repeats).
+/// 200 s with `[fdir.star_tracker]` and `[fdir.gyro]` (with its bias-step test), a
+/// 0.01 rad/s bias step on gyro x at 30 s, the tracker flipped at 60 s and the gyro's z axis
+/// stuck at 130 s. Every recorded cell equal bit for bit (the filter's restart with the step
+/// among them), the same three events (the step from the tracker's innovations, the flip
+/// from the Sun and the field, the axis from its repeats).
 #[test]
 fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
     let Some((_, f)) = fdir_6u_sil_equals_pil(|text| {
         let base = text.replace("duration_s = 6000.0", "duration_s = 200.0");
         let base = &base[..base.find("\n[[faults]]").unwrap()];
+        let fault = |at: f64, unit: &str, kind: &str| {
+            format!("\n[[faults]]\nonset_s = {at:?}\nunit = \"{unit}\"\nkind = \"{kind}\"\n")
+        };
         format!(
-            "{base}\n[fdir.star_tracker]\n\n[fdir.gyro]\n\n[[faults]]\nonset_s = 60.0\nunit = \"star_tracker\"\nkind = \"flip\"\n\n[[faults]]\nonset_s = 130.0\nunit = \"gyro.z\"\nkind = \"stuck\"\n"
+            "{base}\n[fdir.star_tracker]\n\n[fdir.gyro]\nbias_step = {{ k = 3, n = 4 }}\n{}magnitude = 0.01\n{}{}",
+            fault(30.0, "gyro.x", "bias_step"),
+            fault(60.0, "star_tracker", "flip"),
+            fault(130.0, "gyro.z", "stuck")
         )
     }) else {
         return;
     };
     let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
-    assert_eq!(units, ["star_tracker", "gyro.z"], "{f:?}");
+    assert_eq!(units, ["gyro.x", "star_tracker", "gyro.z"], "{f:?}");
+    assert_eq!(f.events[0].test, "gyro_bias_innovation");
     assert_eq!(f.false_alarms, 0);
 }
 

@@ -117,3 +117,21 @@ fn a_seized_wheel_recovered_on_three_wheels_is_ok() {
     assert!(ev.iter().any(|e| e["unit"] == "wheel.2"), "{ev:?}");
     assert_eq!(s["run_status"], "ok", "{}", s["failure"]);
 }
+
+#[test]
+fn sun_safe_spinning_about_a_stuck_axis_it_cannot_see_fails() {
+    let file = "sim-host/core/tests/data/sun-safe-blind-spin-3u.toml";
+    let (s, r) = fly(&every_step(&read(file), "4"));
+    let (lost, final_err, mode) = judged_by_the_series(&r);
+    let col = |n: &str| r.series.col(n).unwrap();
+    let (t, wx, wy, wz) = (col("t_s"), col("rate_x_rad_s"), col("rate_y_rad_s"), col("rate_z_rad_s"));
+    let end = *t.last().unwrap();
+    let spinning = (0..t.len())
+        .filter(|i| t[*i] >= end - WINDOW_S - 1e-9)
+        .all(|i| (wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i]).sqrt().to_degrees() > RATE_BOUND_DEG_S);
+    eprintln!("3U gyro.z stuck, sun-safe: {}, final error {final_err:.1} deg, mode {mode:?}", s["run_status"]);
+    assert!(lost && spinning, "the series shows no spin above {RATE_BOUND_DEG_S} deg/s over the last {WINDOW_S} s");
+    assert_eq!(s["final_mode"], "sun_safe");
+    assert!(events(&s).iter().any(|e| e["unit"] == "gyro.z"));
+    assert_eq!(s["run_status"], "recovery_failed", "{}", s["failure"]);
+}

@@ -21,8 +21,12 @@
 //! holds the pointing in force nor ends in survival is no recovery. A safe mode is not
 //! judged by the attitude error: `error_deg` is against the mission's target (or, with
 //! `[guidance]`, the safe mode's own pointing, which sun-safe on a degraded sensor set keeps
-//! only coarsely), not what the safe mode is for; its rate is the mode manager's own
-//! business (a tumble in sun-safe hands it to detumble).
+//! only coarsely), not what the safe mode is for. Its rate is, in sun-safe: the mode
+//! manager hands a tumble to detumble, unless it cannot see it — a gyro axis declared stuck
+//! reads 0 — so a run ending in sun-safe with the body rate above the tumble bound at every
+//! step of the window is no survival and fails too (found by the sensor campaigns: a stuck
+//! z axis left the 3U spinning at up to 33°/s in sun-safe, exit 0). Detumble is exempt: its
+//! job is to bring that rate down.
 
 use acs_flight::params::Mode;
 
@@ -60,6 +64,8 @@ pub struct ControlWatch {
     rate_bound_rad_s: f64,
     /// Start of the current unbroken run of lost steps, all at or after an injection.
     lost_since_s: Option<f64>,
+    /// The same for the rate alone above the bound (tumbling).
+    tumbling_since_s: Option<f64>,
     /// The last step's time, error and rate.
     last: Option<(f64, f64, f64)>,
     /// The last step's flight mode (None: no mode manager, or a code it does not name).
@@ -70,7 +76,13 @@ impl ControlWatch {
     /// `rate_bound_deg_s`: the tumble rate (`[modes] detumble_enter_rate_deg_s`, else
     /// [`CONTROL_LOST_RATE_DEG_S`]).
     pub fn new(rate_bound_deg_s: f64) -> Self {
-        Self { rate_bound_rad_s: rate_bound_deg_s.to_radians(), lost_since_s: None, last: None, last_mode: None }
+        Self {
+            rate_bound_rad_s: rate_bound_deg_s.to_radians(),
+            lost_since_s: None,
+            tumbling_since_s: None,
+            last: None,
+            last_mode: None,
+        }
     }
 
     /// The control step at `t_s`: `injected`, a fault has been in force at or before it;
@@ -79,8 +91,10 @@ impl ControlWatch {
     pub fn push(&mut self, t_s: f64, injected: bool, err_deg: f64, rate_rad_s: [f64; 3], mode: Option<Mode>) {
         let rate = rate_rad_s.iter().map(|w| w * w).sum::<f64>().sqrt();
         // `!(x <= bound)`: a NaN counts as lost.
-        let lost = injected && (!(err_deg <= CONTROL_LOST_ERROR_DEG) || !(rate <= self.rate_bound_rad_s));
+        let tumbling = injected && !(rate <= self.rate_bound_rad_s);
+        let lost = tumbling || (injected && !(err_deg <= CONTROL_LOST_ERROR_DEG));
         self.lost_since_s = if lost { self.lost_since_s.or(Some(t_s)) } else { None };
+        self.tumbling_since_s = if tumbling { self.tumbling_since_s.or(Some(t_s)) } else { None };
         self.last = Some((t_s, err_deg, rate));
         self.last_mode = mode;
     }
@@ -88,15 +102,24 @@ impl ControlWatch {
     /// Whether every step of the last [`CONTROL_LOST_WINDOW_S`] was lost (1e-9 s: the float
     /// of a step time).
     pub fn lost(&self) -> bool {
-        match (self.lost_since_s, self.last) {
+        self.whole_window(self.lost_since_s)
+    }
+
+    fn whole_window(&self, since_s: Option<f64>) -> bool {
+        match (since_s, self.last) {
             (Some(since), Some((t, _, _))) => since <= t - CONTROL_LOST_WINDOW_S + 1e-9,
             _ => false,
         }
     }
 
-    /// Whether the last step was in a safe mode ([`is_safe_mode`]).
+    /// Whether the run ended in survival: its last step in detumble, or in sun-safe
+    /// without tumbling over the whole window (module doc).
     pub fn ended_safe(&self) -> bool {
-        self.last_mode.is_some_and(is_safe_mode)
+        match self.last_mode {
+            Some(Mode::SunSafe) => !self.whole_window(self.tumbling_since_s),
+            Some(m) => is_safe_mode(m),
+            None => false,
+        }
     }
 
     /// Why the run fails, if it lost control: with none of `fdir_events`, control lost; with
@@ -118,7 +141,7 @@ impl ControlWatch {
         let mode = self.last_mode.map_or("none (no mode manager)", Mode::name);
         Some(LostVerdict::RecoveryFailed(format!(
             "recovery failed: the FDIR raised {fdir_events} event(s), yet {span}, and the flight ended in mode \
-             {mode}, not a safe mode (detumble, sun_safe)"
+             {mode}, not a safe mode (detumble, or sun_safe without tumbling)"
         )))
     }
 }
