@@ -43,7 +43,7 @@ use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
 use crate::fdir::bias::{BiasStep, BiasStepMonitor};
 use crate::fdir::gyro::GyroMonitor;
-use crate::fdir::tracker::{TrackerMonitor, Witness, witness_angle_rad};
+use crate::fdir::tracker::{TrackerMonitor, Witness, flip_shift_rad, witness_angle_rad};
 use crate::math::{Quat, Vec3, f32m};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
@@ -130,6 +130,8 @@ pub struct Determination {
     gyro_monitor: GyroMonitor,
     /// The gyro bias-step monitor (with `params.gyro_fdir.bias_step`).
     bias_monitor: BiasStepMonitor,
+    /// The time of the last tracker sample a witness vouched for ([`Self::monitor_tracker`]).
+    tracker_vouched_us: Option<u64>,
 }
 
 impl Default for Determination {
@@ -186,6 +188,7 @@ impl Determination {
             tracker_monitor: TrackerMonitor::new(),
             gyro_monitor: GyroMonitor::new(),
             bias_monitor: BiasStepMonitor::new(),
+            tracker_vouched_us: None,
         }
     }
 
@@ -318,9 +321,20 @@ impl Determination {
         };
         let witnesses = [sun, field];
         let filter = self.history.as_ref().map(|h| h.filter().attitude());
-        if let Some(x) = s.star_tracker
-            && self.tracker_monitor.judge(&p, x.time_us, &x.q_ib, &witnesses, filter.as_ref())
-        {
+        let declared = s.star_tracker.is_some_and(|x| {
+            let declared = self.tracker_monitor.judge(&p, x.time_us, &x.q_ib, &witnesses, filter.as_ref());
+            // Vouched for: the witnesses agree with it, and one of them would have shown a
+            // flip by twice the threshold (a witness's own error cannot hide it; docs/fdir.md
+            // "Star tracker").
+            let b = Vec3::from(self.params.tracker_boresight_body);
+            let shows_a_flip = |w: &Witness| flip_shift_rad(&b, &w.body) > 2.0 * p.witness_max_rad;
+            let sensitive = witnesses.iter().flatten().any(shows_a_flip);
+            if sensitive && self.tracker_monitor.corroborates(x.time_us) {
+                self.tracker_vouched_us = Some(x.time_us);
+            }
+            declared
+        });
+        if declared {
             let max = p.witness_max_rad;
             let contradicted =
                 filter.is_some_and(|f| witnesses.iter().flatten().any(|w| !(witness_angle_rad(&f, w) <= max)));
@@ -344,6 +358,15 @@ impl Determination {
     /// The gyro bias-step monitor's state (telemetry).
     pub fn bias_monitor(&self) -> &BiasStepMonitor {
         &self.bias_monitor
+    }
+
+    /// The filter's divergence rule restarts it on the tracker (`max_consecutive_rejections`
+    /// rejections in a row): without the star-tracker monitor always; with it, only when a
+    /// witness vouches for this tracker sample — a flip no witness can see (eclipse, the field
+    /// near the boresight) must not become the filter's attitude. Otherwise the filter goes
+    /// on with the gyro, its σ grows, and the pointing modes lose their input.
+    fn may_restart_on_tracker(&self, s: &SensorSamples) -> bool {
+        self.params.tracker_fdir.is_none() || s.star_tracker.is_some_and(|x| self.tracker_vouched_us == Some(x.time_us))
     }
 
     /// The star-tracker monitor's state (telemetry).
@@ -474,7 +497,7 @@ impl Determination {
         if let Some((x, step)) = self.fuse_new(s, v) {
             self.restart_on_bias_step(&x, &step);
         }
-        if self.consecutive_rejections >= self.params.max_consecutive_rejections {
+        if self.consecutive_rejections >= self.params.max_consecutive_rejections && self.may_restart_on_tracker(s) {
             self.lose();
         }
         let Some(h) = self.history.as_ref() else {
@@ -717,7 +740,7 @@ impl Determination {
         };
         // A gyro axis declared stuck reads 0: its innovations are the body's rate, not a
         // bias step (the axis is already declared and handled).
-        if !self.tracker_monitor.corroborates(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
+        if self.tracker_vouched_us != Some(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
             return None;
         }
         let (q, p) = before?;

@@ -31,6 +31,15 @@ pub struct Witness {
     pub reference: Vec3,
 }
 
+/// How far a turn of 180° about the boresight `boresight` (body, unit) moves a measured
+/// direction `body` (unit), rad: `2 min(θ, π − θ)`, θ its angle from the boresight. A
+/// witness this shift does not carry past `witness_max_rad` cannot tell a flipped tracker
+/// from a good one (a field 4.6° off the boresight moves only 9.2°).
+pub fn flip_shift_rad(boresight: &Vec3, body: &Vec3) -> f32 {
+    let theta = f32m::atan2(norm(&boresight.cross(body)), boresight.dot(body));
+    2.0 * theta.min(core::f32::consts::PI - theta)
+}
+
 /// Angle between a measured direction and where attitude `q` puts its reference, rad.
 pub fn witness_angle_rad(q: &Quat, w: &Witness) -> f32 {
     let predicted = rotate_ref_to_body(q, &w.reference);
@@ -248,5 +257,16 @@ mod tests {
             (0..5u64).map(|i| m.judge(&params(), 100 + i, &truth, &[None, None], None)).collect();
         assert_eq!(fired.as_slice(), &[false, false, false, false, true]);
         assert_eq!(m.failed(), Some(TrackerFault::Frozen));
+    }
+
+    #[test]
+    fn a_flip_moves_a_direction_by_twice_its_angle_from_the_boresight() {
+        let b = Vec3::z();
+        for deg in [0.0f32, 4.6, 10.0, 45.0, 90.0, 135.0, 175.4, 180.0] {
+            let t = deg.to_radians();
+            let d = Vec3::new(f32m::sin(t), 0.0, f32m::cos(t));
+            let expected = 2.0 * t.min(core::f32::consts::PI - t);
+            assert!((flip_shift_rad(&b, &d) - expected).abs() < 1e-5, "{deg} deg");
+        }
     }
 }

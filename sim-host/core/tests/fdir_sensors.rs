@@ -222,3 +222,23 @@ fn a_stuck_gyro_axis_does_not_make_the_wheel_monitor_drop_wheels() {
     assert_eq!(events[0]["unit"], "gyro.y");
     assert_eq!(s["fdir"]["false_alarms"], 0);
 }
+
+/// (g) A flip no witness can see: in eclipse, the field (the only witness) 4.6° from the
+/// boresight moves by ~9°, under the 20° threshold (the campaign's run 99). The filter's
+/// divergence rule must not restart on that tracker (a witness must vouch for it: agree
+/// with it and be far enough from the boresight that a flip would move it by twice the
+/// threshold); the estimate never follows the flip (truth), and the flip is declared once
+/// the field has moved off the boresight. Before: restarted on the flip at 6642 s, the
+/// estimate 114.6° off, declared only at the eclipse's end (7797.5 s).
+#[test]
+fn a_flip_no_witness_can_see_is_never_the_filters_attitude() {
+    let (s, r) = fly(&read("sim-host/core/tests/data/flip-in-eclipse-3u.toml"));
+    let onset = 6630.9;
+    let e = the_one_event(&s);
+    assert_eq!((e["unit"].as_str(), e["fault"].as_u64()), (Some("star_tracker"), Some(0)));
+    let at = e["detected_at_s"].as_f64().unwrap();
+    assert!(at > onset && at < 7000.0, "declared at {at} s");
+    let worst = max_from(&r, "est_error_deg", onset);
+    assert!(worst < 5.0, "the estimate's error after the onset reached {worst} deg");
+    assert_eq!(s["run_status"], "ok");
+}
