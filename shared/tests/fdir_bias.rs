@@ -92,6 +92,7 @@ fn run(seed: u64, seconds: f64, settle_s: f64, step: V64, step_at_s: f64) -> Run
         let noise = V64::new(rng.normal() * SIGMA_CROSS, rng.normal() * SIGMA_CROSS, rng.normal() * SIGMA_ABOUT);
         let qm = q * qexp(&noise);
         let (before, p) = (f.attitude(), f.covariance().fixed_view::<3, 3>(0, 0).map(f64::from));
+        // (A rejected update leaves the filter as it was: the stage forms this after it.)
         let result = f.update_attitude(&f32q(&qm), &r32);
         if time <= settle_s {
             continue;
@@ -106,7 +107,7 @@ fn run(seed: u64, seconds: f64, settle_s: f64, step: V64, step_at_s: f64) -> Run
         }
         let sigma = V64::from_fn(|i, _| (p[(i, i)] + r[(i, i)]).sqrt());
         let t_us = (time * 1e6) as u64;
-        if let Some(s) = monitor.judge(&WINDOW, t_us, &(e.imag() * 2.0), &f32v(&sigma), rejected)
+        if let Some(s) = monitor.judge(&WINDOW, t_us, rejected.then(|| (e.imag() * 2.0, f32v(&sigma))))
             && out.step.is_none()
         {
             out.step = Some((time, s, sigma));

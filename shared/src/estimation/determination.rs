@@ -43,7 +43,7 @@ use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
 use crate::fdir::bias::{BiasStep, BiasStepMonitor};
 use crate::fdir::gyro::GyroMonitor;
-use crate::fdir::tracker::{TrackerMonitor, Witness, flip_shift_rad, witness_angle_rad};
+use crate::fdir::tracker::{TrackerMonitor, Witness, flip_visible, witness_angle_rad};
 use crate::math::{Quat, Vec3, f32m};
 use crate::models::sun::in_eclipse;
 use crate::params::{AttitudeSource, EstimationParams, ParamError};
@@ -327,9 +327,9 @@ impl Determination {
             // flip by twice the threshold (a witness's own error cannot hide it; docs/fdir.md
             // "Star tracker").
             let b = Vec3::from(self.params.tracker_boresight_body);
-            let shows_a_flip = |w: &Witness| flip_shift_rad(&b, &w.body) > 2.0 * p.witness_max_rad;
-            let sensitive = witnesses.iter().flatten().any(shows_a_flip);
-            if sensitive && self.tracker_monitor.corroborates(x.time_us) {
+            if self.tracker_monitor.corroborates(x.time_us)
+                && witnesses.iter().flatten().any(|w| flip_visible(&b, &w.body, p.witness_max_rad))
+            {
                 self.tracker_vouched_us = Some(x.time_us);
             }
             declared
@@ -702,12 +702,8 @@ impl Determination {
             return None;
         }
         let r_rad2 = self.tracker_noise_rad2();
-        let before = self.history.as_ref().map(|h| {
-            let f = h.filter();
-            (f.attitude(), f.covariance().fixed_view::<3, 3>(0, 0).into_owned())
-        });
         let r = self.fuse(Sensor::StarTracker, x.time_us, &Measurement::Attitude { q_meas: x.q_ib, r_rad2 });
-        self.judge_bias(&x, before, r)
+        self.judge_bias(&x, r)
     }
 
     /// The tracker's noise covariance in body axes, rad²: `c² I + (a² − c²) b bᵀ`
@@ -721,17 +717,12 @@ impl Determination {
         Matrix3::identity() * c2 + b * b.transpose() * (a2 - c2)
     }
 
-    /// The bias-step test ([`crate::fdir::bias`]) on a tracker sample the filter judged
-    /// (`before`: its attitude before the update, at the history's now — a sample fused in
-    /// the past adds the rate times its age, the same for every sample at a steady rate, so
-    /// the slope keeps it out), the star-tracker monitor's witnesses corroborate, and no
-    /// gyro axis is declared stuck.
-    fn judge_bias(
-        &mut self,
-        x: &StarTrackerAttitude,
-        before: Option<(Quat, Matrix3<f32>)>,
-        r: Option<Result<f32, MekfError>>,
-    ) -> Option<BiasStep> {
+    /// The bias-step test ([`crate::fdir::bias`]) on a tracker sample the filter judged,
+    /// a witness vouched for, and with no gyro axis declared stuck. A rejected update leaves
+    /// the filter as it was, so its innovation is formed from the filter at the history's now
+    /// (a sample fused in the past adds the rate times its age, the same for every sample at
+    /// a steady rate, so the slope keeps it out), and only then.
+    fn judge_bias(&mut self, x: &StarTrackerAttitude, r: Option<Result<f32, MekfError>>) -> Option<BiasStep> {
         let window = self.params.gyro_fdir.and_then(|g| g.bias_step)?;
         let rejected = match r? {
             Ok(_) => false,
@@ -743,13 +734,19 @@ impl Determination {
         if self.tracker_vouched_us != Some(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
             return None;
         }
-        let (q, p) = before?;
-        let y = attitude_innovation_rad(&q, &x.q_ib);
-        // The innovation's 1σ per body axis: the filter's attitude σ and the tracker's.
-        let r = self.tracker_noise_rad2();
-        let var = |m: &Matrix3<f32>, i: usize| m.get((i, i)).copied().unwrap_or(0.0);
-        let noise = Vec3::from_fn(|i, _| f32m::sqrt(var(&p, i) + var(&r, i)));
-        self.bias_monitor.judge(&window, x.time_us, &y, &noise, rejected)
+        let innovation = match (rejected, self.history.as_ref()) {
+            (false, _) => None,
+            (true, None) => return None,
+            (true, Some(h)) => {
+                let f = h.filter();
+                let y = attitude_innovation_rad(&f.attitude(), &x.q_ib);
+                // Its 1σ per body axis: the filter's attitude σ and the tracker's.
+                let (p, r) = (f.covariance(), self.tracker_noise_rad2());
+                let var = |v: Option<&f32>| v.copied().unwrap_or(0.0);
+                Some((y, Vec3::from_fn(|i, _| f32m::sqrt(var(p.get((i, i))) + var(r.get((i, i)))))))
+            }
+        };
+        self.bias_monitor.judge(&window, x.time_us, innovation)
     }
 
     /// The bias-step recovery ([`crate::fdir::bias`]): a new filter on the tracker's

@@ -86,20 +86,16 @@ impl BiasStepMonitor {
         }
     }
 
-    /// Judges one tracker sample at `time_us` (a repeated tag is not judged): its
-    /// innovation against the filter before the update, the innovation's 1σ per body axis
-    /// (`noise_rad`, for the isolation), and whether the filter's gate rejected it. Returns the step when this sample declares one; the window then starts
+    /// Judges one tracker sample at `time_us` (a repeated tag is not judged): `rejected`,
+    /// `None` when the filter's gate accepted it, else its innovation against the filter
+    /// and the innovation's 1σ per body axis (for the isolation) — formed by the caller
+    /// only for a rejection (a rejected update leaves the filter as it was), so an accepted
+    /// sample costs a shift and a popcount. Only a rejected sample can declare. Returns the step when this sample declares one; the window then starts
     /// again (a later step is a new event). A non-finite innovation is not judged (the
     /// star-tracker monitor owns a non-finite tracker).
-    pub fn judge(
-        &mut self,
-        window: &KOfN,
-        time_us: u64,
-        innovation_rad: &Vec3,
-        noise_rad: &Vec3,
-        rejected: bool,
-    ) -> Option<BiasStep> {
-        if self.last_time_us == Some(time_us) || !innovation_rad.iter().all(|x| x.is_finite()) {
+    pub fn judge(&mut self, window: &KOfN, time_us: u64, rejected: Option<(Vec3, Vec3)>) -> Option<BiasStep> {
+        let finite = rejected.is_none_or(|(y, _)| y.iter().all(|x| x.is_finite()));
+        if self.last_time_us == Some(time_us) || !finite {
             return None;
         }
         self.last_time_us = Some(time_us);
@@ -108,13 +104,15 @@ impl BiasStepMonitor {
         let n = u32::from(window.n);
         let judged = self.judged;
         self.forget(|seq| judged.wrapping_sub(seq) >= n);
-        if rejected {
-            self.keep(time_us, innovation_rad);
-        }
-        if !self.persistence.push(window, rejected) {
+        let Some((innovation_rad, noise_rad)) = rejected else {
+            self.persistence.push(window, false);
+            return None;
+        };
+        self.keep(time_us, &innovation_rad);
+        if !self.persistence.push(window, true) {
             return None;
         }
-        let step = self.slope(noise_rad);
+        let step = self.slope(&noise_rad);
         if step.is_some() {
             self.events = self.events.saturating_add(1);
             self.last = step;
@@ -220,7 +218,7 @@ mod tests {
         (1..=10u32).find_map(|i| {
             let t = t0_us + u64::from(i) * 500_000;
             let y = -step * (i as f32 * 0.5);
-            m.judge(&W, t, &y, &NOISE, true).map(|s| (i, s))
+            m.judge(&W, t, Some((y, NOISE))).map(|s| (i, s))
         })
     }
 
@@ -262,7 +260,7 @@ mod tests {
         assert_eq!(drift(&mut m, 0, Vec3::new(0.0, 0.0, 1e-3)), None);
         let mut m = BiasStepMonitor::new();
         let jump = Vec3::new(2e-3, 0.0, 0.0);
-        assert!((1..50u64).all(|i| m.judge(&W, i * 500_000, &jump, &NOISE, true).is_none()));
+        assert!((1..50u64).all(|i| m.judge(&W, i * 500_000, Some((jump, NOISE))).is_none()));
         assert_eq!(m.events(), 0);
     }
 
@@ -273,10 +271,10 @@ mod tests {
         // Two rejections, n accepted, two rejections: never 3 of the last 4.
         let pattern = [true, true, false, false, false, false, true, true, false, false];
         for (i, r) in pattern.iter().enumerate() {
-            assert_eq!(m.judge(&W, i as u64 * 500_000, &y, &NOISE, *r), None, "sample {i}");
+            assert_eq!(m.judge(&W, i as u64 * 500_000, r.then_some((y, NOISE))), None, "sample {i}");
         }
         for i in 20..200u64 {
-            assert_eq!(m.judge(&W, i * 500_000, &(y * i as f32), &NOISE, false), None);
+            assert_eq!(m.judge(&W, i * 500_000, None), None);
         }
         assert_eq!(m.events(), 0);
     }
@@ -286,19 +284,19 @@ mod tests {
         let mut m = BiasStepMonitor::new();
         let y = Vec3::new(1e-3, 0.0, 0.0);
         for _ in 0..10 {
-            assert_eq!(m.judge(&W, 7, &y, &NOISE, true), None);
+            assert_eq!(m.judge(&W, 7, Some((y, NOISE))), None);
         }
         for bad in [f32::NAN, f32::INFINITY] {
-            assert_eq!(m.judge(&W, 8, &Vec3::new(bad, 0.0, 0.0), &NOISE, true), None);
+            assert_eq!(m.judge(&W, 8, Some((Vec3::new(bad, 0.0, 0.0), NOISE))), None);
         }
         // One judged rejection so far (the first at t = 7): two more declare.
-        assert_eq!(m.judge(&W, 9, &(y * 2.0), &NOISE, true), None);
-        let s = m.judge(&W, 10, &(y * 3.0), &NOISE, true).expect("declared");
+        assert_eq!(m.judge(&W, 9, Some((y * 2.0, NOISE))), None);
+        let s = m.judge(&W, 10, Some((y * 3.0, NOISE))).expect("declared");
         assert!(s.rate_rad_s.iter().all(|x| x.is_finite()));
         // A zero noise (absurd parameters) names no axis rather than dividing by zero.
         let mut z = BiasStepMonitor::new();
         let zero = Vec3::zeros();
-        let declared = (1..=3u64).find_map(|i| z.judge(&W, i, &(y * i as f32), &zero, true));
+        let declared = (1..=3u64).find_map(|i| z.judge(&W, i, Some((y * i as f32, zero))));
         assert_eq!(declared.map(|s| s.axis), Some(None));
     }
 }

@@ -31,13 +31,14 @@ pub struct Witness {
     pub reference: Vec3,
 }
 
-/// How far a turn of 180° about the boresight `boresight` (body, unit) moves a measured
-/// direction `body` (unit), rad: `2 min(θ, π − θ)`, θ its angle from the boresight. A
-/// witness this shift does not carry past `witness_max_rad` cannot tell a flipped tracker
-/// from a good one (a field 4.6° off the boresight moves only 9.2°).
-pub fn flip_shift_rad(boresight: &Vec3, body: &Vec3) -> f32 {
-    let theta = f32m::atan2(norm(&boresight.cross(body)), boresight.dot(body));
-    2.0 * theta.min(core::f32::consts::PI - theta)
+/// Whether a turn of 180° about the boresight `boresight` (body, unit) would move the
+/// measured direction `body` (unit) by more than twice `witness_max_rad`: the move is
+/// `2 min(θ, π − θ)`, θ its angle from the boresight, so this is `min(θ, π − θ) > max`,
+/// i.e. `|b · d| < cos(max)` (no arc tangent on the step's path). A witness that fails it
+/// cannot tell a flipped tracker from a good one with margin (a field 4.6° off the
+/// boresight moves only 9.2°).
+pub fn flip_visible(boresight: &Vec3, body: &Vec3, witness_max_rad: f32) -> bool {
+    libm::fabsf(boresight.dot(body)) < f32m::cos(witness_max_rad)
 }
 
 /// Angle between a measured direction and where attitude `q` puts its reference, rad.
@@ -260,13 +261,17 @@ mod tests {
     }
 
     #[test]
-    fn a_flip_moves_a_direction_by_twice_its_angle_from_the_boresight() {
+    fn a_flip_is_visible_when_it_moves_a_witness_by_twice_the_threshold() {
+        // The move of a direction θ from the boresight under a flip, measured: the angle
+        // between it and its image turned 180° about the boresight (z).
         let b = Vec3::z();
-        for deg in [0.0f32, 4.6, 10.0, 45.0, 90.0, 135.0, 175.4, 180.0] {
+        let max = 20.0f32.to_radians();
+        for deg in [0.0f32, 4.6, 15.0, 19.0, 21.0, 45.0, 90.0, 135.0, 159.0, 161.0, 175.4, 180.0] {
             let t = deg.to_radians();
             let d = Vec3::new(f32m::sin(t), 0.0, f32m::cos(t));
-            let expected = 2.0 * t.min(core::f32::consts::PI - t);
-            assert!((flip_shift_rad(&b, &d) - expected).abs() < 1e-5, "{deg} deg");
+            let flipped = Vec3::new(-d.x, -d.y, d.z);
+            let moved = f32m::atan2(norm(&d.cross(&flipped)), d.dot(&flipped));
+            assert_eq!(flip_visible(&b, &d, max), moved > 2.0 * max, "{deg} deg: moved {moved} rad");
         }
     }
 }
