@@ -290,6 +290,11 @@ def decade(m):
     return 10.0 ** math.floor(math.log10(abs(m)) + 1e-9)
 
 
+def held(fig):
+    """A run whose step came in hold with its pointing error after the onset measured."""
+    return fig["err_post_onset_max_deg"] is not None and fig["mode_at_onset"] == "hold"
+
+
 def report_bias_step(figs):
     by_mag, by_dec = {}, {}
     for f in figs:
@@ -301,7 +306,7 @@ def report_bias_step(figs):
             det = [f for f in fs if f["detected"]]
             lat = [f["latency_s"] for f in det]
             # an onset in a slew measures the slew's own error: the hold's only here
-            err = [f["err_post_onset_max_deg"] for f in fs if f["err_post_onset_max_deg"] is not None and f["mode_at_onset"] == "hold"]
+            err = [f["err_post_onset_max_deg"] for f in fs if held(f)]
             fin = [f["final_error_deg"] for f in fs if f["final_error_deg"] is not None]
             print(
                 f"{label} {key:.0e} rad/s: detected {len(det)} / {len(fs)}"
@@ -327,7 +332,7 @@ def report_bias_step(figs):
                 f"  onset in {f['mode_at_onset']}: run {f['run']}, step {f['magnitude']:+.0e} rad/s,"
                 f" detected {f['detected']}, ends in {f['final_mode']} {f['final_error_deg']:.4f} deg"
             )
-    err = [f["err_post_onset_max_deg"] for f in figs if f["err_post_onset_max_deg"] is not None and f["mode_at_onset"] == "hold"]
+    err = [f["err_post_onset_max_deg"] for f in figs if held(f)]
     print(f"max error after an onset in hold (deg), median / p95 / max: {spread(err, '{:.4f}')}")
     fin = [f["final_error_deg"] for f in figs if f["final_error_deg"] is not None]
     print(f"final error, all runs (deg), median / p95 / max: {spread(fin, '{:.4f}')}")
