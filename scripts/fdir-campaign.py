@@ -7,7 +7,7 @@ probability, the latency from the fault's first step in force to its detection
 (median / p95 / max), the isolated-as counts, the wrong-unit count, the false alarms, the
 mode at the onset, and the outcome figures of the class. Standard library only.
 
-    scripts/fdir-campaign.py DIR --class tracker|gyro|wheel|nominal [--refly SIM_HOST]
+    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|wheel|nominal [--refly SIM_HOST]
     scripts/fdir-campaign.py --self-test
 
 Exit status 1 when a run errored, a fault was missed or isolated as another unit, a false
@@ -15,7 +15,12 @@ alarm was raised (any event in a nominal run), or a run missed the class's outco
 The summary's estimation_error_max_deg covers the whole run (the MEKF's start in the
 detumble too), an upper bound on the error after the onset; with --refly, each tracker run
 whose whole-run maximum is not below the bound is flown again (SIM_HOST run, CSV) and judged
-on its est_error_deg from the fault's first step in force on.
+on its est_error_deg from the fault's first step in force on. For gyro-bias-step, --refly
+flies every run again for its pointing error (error_deg) from the fault's first step in force
+on; the class prints the latency per magnitude decade, the isolation (the injected axis,
+ambiguous, another axis) and the missed steps with their magnitudes and pointing cost.
+A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
+absorbed by the filter's bias random walk: docs/fdir.md "Gyro bias step").
 Quantiles are nearest-rank (the ceil(q n)-th smallest value).
 """
 import argparse
@@ -36,6 +41,9 @@ EST_MAX_DEG = 5.0  # tracker: the estimate never follows the bad tracker
 HOLD_DEG = 3.0 * math.sqrt(3.0) * 0.1
 SAFE_WITHIN_S = 30.0  # gyro: sun-safe within this of the detection
 AT_REST_RAD_S = math.radians(0.5)  # sun-safe "at rest": |w| below the search rate
+# gyro-bias-step: a missed step at or above this is a failure (the shipped test declares
+# 1e-4 rad/s in 5 s; smaller ones may be absorbed by the filter), below it a reported miss
+BIAS_MUST_DETECT_RAD_S = 1.0e-3
 
 
 def binom_tail_ge(k, n, p):
@@ -121,9 +129,10 @@ def first_entry_after(summary, mode, t_s):
     return None
 
 
-def post_onset_est_max(sim_host, result_path, t0_s):
+def post_onset_est_max(sim_host, result_path, t0_s, column="est_error_deg"):
     """Re-fly one run (its scenario.toml beside result.json) and take the largest
-    est_error_deg from t0_s on (a NaN row, the filter restarting, is skipped)."""
+    value of column (est_error_deg, error_deg) from t0_s on (a NaN row, the filter
+    restarting, is skipped)."""
     scen = os.path.join(os.path.dirname(result_path), "scenario.toml")
     with tempfile.TemporaryDirectory() as out:
         cmd = [sim_host, "run", scen, "--out", out, "--format", "csv", "--no-plots", "-q"]
@@ -131,7 +140,7 @@ def post_onset_est_max(sim_host, result_path, t0_s):
         with open(os.path.join(out, "timeseries.csv")) as f:
             rows = [r for r in csv.DictReader(f) if float(r["t_s"]) >= t0_s]
     # an empty field is a non-finite value (docs/outputs.md): the filter not running
-    vals = [float(r["est_error_deg"]) for r in rows if r["est_error_deg"] not in ("", "NaN")]
+    vals = [float(r[column]) for r in rows if r[column] not in ("", "NaN")]
     vals = [v for v in vals if not math.isnan(v)]
     return max(vals) if vals else None
 
@@ -161,6 +170,16 @@ def outcome(cls, s, det_s, bad, refly=None):
     if cls == "gyro":
         ok = fig["to_safe_s"] is not None and fig["to_safe_s"] <= SAFE_WITHIN_S
         return ok and fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S, fig
+    if cls == "gyro-bias-step":
+        f0 = (s.get("faults") or [{}])[0]
+        fig["magnitude"] = f0.get("magnitude")
+        fig["detected"] = det_s is not None
+        fig["latency_s"] = None if det_s is None else det_s - f0.get("injected_at_s")
+        fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
+        fig["estimator_resets"] = s.get("estimator_resets")
+        fig["err_post_onset_max_deg"] = refly() if refly is not None else None
+        must = abs(fig["magnitude"] or 0.0) >= BIAS_MUST_DETECT_RAD_S
+        return (fig["detected"] or not must) and not bad, fig
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
@@ -175,7 +194,7 @@ def analyse(dirname, cls, sim_host=None):
         return 1
     n = len(runs)
     errored, detected, wrong, false_alarms, events, failed_outcome = [], 0, [], 0, 0, []
-    latency, isolated, onset_mode, figs = [], {}, {}, []
+    latency, isolated, onset_mode, figs, iso_kind = [], {}, {}, [], {}
     for path, status, s in runs:
         run = os.path.basename(os.path.dirname(path))
         if status not in ("ok", "requirement_failed") or s.get("run_status") != "ok":
@@ -196,16 +215,24 @@ def analyse(dirname, cls, sim_host=None):
             for e in evs:
                 if e.get("fault") == 0:
                     count(isolated, e.get("isolated_as"))
+                    kind = "injected" if e.get("isolated_as") == f0["unit"] else e.get("isolated_as")
+                    count(iso_kind, kind if kind in ("injected", "ambiguous") else "other")
                     # a wheel's isolation names the part (rotor, tachometer, ambiguous), a
                     # sensor's the unit: either way the event's unit must be the fault's
                     named = e.get("isolated_as") in (f0["unit"], "ambiguous", "rotor", "tachometer")
-                    if e.get("unit") != f0["unit"] or not named:
+                    # a bias step the monitor cannot place on one axis names the gyro
+                    unit_ok = e.get("unit") == f0["unit"] or (
+                        cls == "gyro-bias-step" and e.get("unit") == "gyro" and e.get("isolated_as") == "ambiguous"
+                    )
+                    if not unit_ok or not named:
                         wrong.append(f"{run}:{e.get('unit')}/{e.get('isolated_as')}!={f0['unit']}")
         refly = None
         if sim_host and faults and faults[0].get("injected_at_s") is not None:
             t0 = faults[0]["injected_at_s"]
-            refly = lambda p=path, t0=t0: post_onset_est_max(sim_host, p, t0)  # noqa: E731
-        ok, fig = outcome(cls, s, det_s, bool(evs), refly)
+            col = "error_deg" if cls == "gyro-bias-step" else "est_error_deg"
+            refly = lambda p=path, t0=t0, c=col: post_onset_est_max(sim_host, p, t0, c)  # noqa: E731
+        bad_run = bool(evs) if cls == "nominal" else fd.get("false_alarms", 0) > 0
+        ok, fig = outcome(cls, s, det_s, bad_run, refly)
         fig["run"] = run
         figs.append(fig)
         if not ok:
@@ -215,6 +242,7 @@ def analyse(dirname, cls, sim_host=None):
         print(f"detected: {detected} / {n}  P_D >= {cp_lower(detected, n):.5f} (95 % one-sided Clopper-Pearson)")
         print(f"latency from the first step in force (s), median / p95 / max: {spread(latency)}")
         print(f"isolated as: {isolated}  wrong unit: {len(wrong)} {wrong[:10]}")
+        print(f"isolated as the injected unit / ambiguous / other: {iso_kind}")
         print(f"mode at the onset: {onset_mode}")
     print(f"false alarms: {false_alarms}  FDIR events: {events}  errored runs: {len(errored)} {errored[:10]}")
     if cls == "nominal":
@@ -223,7 +251,8 @@ def analyse(dirname, cls, sim_host=None):
         print(f"flown: {days:.2f} days  {bound}")
     report_outcome(cls, figs)
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
-    missed = cls != "nominal" and detected < n
+    # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
+    missed = cls not in ("nominal", "gyro-bias-step") and detected < n
     bad = errored or missed or wrong or false_alarms or failed_outcome
     return 1 if bad else 0
 
@@ -245,6 +274,8 @@ def report_outcome(cls, figs):
     if cls in ("gyro", "tracker"):
         safe = [f["to_safe_s"] for f in figs if f["to_safe_s"] is not None]
         print(f"detection -> sun-safe (s), {len(safe)} runs, median / p95 / max: {spread(safe)}")
+    if cls == "gyro-bias-step":
+        report_bias_step(figs)
     if cls in ("wheel", "nominal"):
         ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
         if ape:
@@ -254,12 +285,65 @@ def report_outcome(cls, figs):
             print(f"final error (deg), median / p95 / max: {spread(fin, '{:.5f}')}")
 
 
+def decade(m):
+    """The magnitude's decade [10^e, 10^(e+1)) as its lower end."""
+    return 10.0 ** math.floor(math.log10(abs(m)) + 1e-9)
+
+
+def held(fig):
+    """A run whose step came in hold with its pointing error after the onset measured."""
+    return fig["err_post_onset_max_deg"] is not None and fig["mode_at_onset"] == "hold"
+
+
+def report_bias_step(figs):
+    by_mag, by_dec = {}, {}
+    for f in figs:
+        by_mag.setdefault(abs(f["magnitude"]), []).append(f)
+        by_dec.setdefault(decade(f["magnitude"]), []).append(f)
+    for label, groups in (("|step|", by_mag), ("decade", by_dec)):
+        for key in sorted(groups):
+            fs = groups[key]
+            det = [f for f in fs if f["detected"]]
+            lat = [f["latency_s"] for f in det]
+            # an onset in a slew measures the slew's own error: the hold's only here
+            err = [f["err_post_onset_max_deg"] for f in fs if held(f)]
+            fin = [f["final_error_deg"] for f in fs if f["final_error_deg"] is not None]
+            print(
+                f"{label} {key:.0e} rad/s: detected {len(det)} / {len(fs)}"
+                f" (P_D >= {cp_lower(len(det), len(fs)):.4f}); latency (s) median / p95 / max: {spread(lat)};"
+                f" max error after an onset in hold (deg) {spread(err, '{:.4f}')}; final error (deg) {spread(fin, '{:.4f}')}"
+            )
+    onset = {}
+    for f in figs:
+        count(onset, f["mode_at_onset"])
+    print(f"mode at the onset: {onset}")
+    missed = [f for f in figs if not f["detected"]]
+    print(f"missed: {len(missed)}")
+    for f in missed:
+        err = f["err_post_onset_max_deg"]
+        err = "-" if err is None else f"{err:.4f}"
+        print(
+            f"  run {f['run']}: step {f['magnitude']:+.0e} rad/s, max error after the onset {err} deg,"
+            f" final {f['final_error_deg']:.4f} deg in {f['final_mode']}, estimator resets {f['estimator_resets']}"
+        )
+    for f in figs:
+        if f["mode_at_onset"] != "hold":
+            print(
+                f"  onset in {f['mode_at_onset']}: run {f['run']}, step {f['magnitude']:+.0e} rad/s,"
+                f" detected {f['detected']}, ends in {f['final_mode']} {f['final_error_deg']:.4f} deg"
+            )
+    err = [f["err_post_onset_max_deg"] for f in figs if held(f)]
+    print(f"max error after an onset in hold (deg), median / p95 / max: {spread(err, '{:.4f}')}")
+    fin = [f["final_error_deg"] for f in figs if f["final_error_deg"] is not None]
+    print(f"final error, all runs (deg), median / p95 / max: {spread(fin, '{:.4f}')}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dir", nargs="?")
-    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "wheel", "nominal"])
+    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "wheel", "nominal"])
     ap.add_argument("--self-test", action="store_true")
-    ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound (CSV)")
+    ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound, every gyro-bias-step run (CSV)")
     a = ap.parse_args()
     if a.self_test:
         return self_test()
