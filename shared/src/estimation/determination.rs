@@ -362,11 +362,21 @@ impl Determination {
 
     /// The filter's divergence rule restarts it on the tracker (`max_consecutive_rejections`
     /// rejections in a row): without the star-tracker monitor always; with it, only when a
-    /// witness vouches for this tracker sample — a flip no witness can see (eclipse, the field
-    /// near the boresight) must not become the filter's attitude. Otherwise the filter goes
-    /// on with the gyro, its σ grows, and the pointing modes lose their input.
+    /// witness vouches for this tracker sample, or the witnesses agree with it and it is
+    /// within `witness_max_rad` of the filter (a drift, e.g. an undeclared gyro bias step; a
+    /// flip is 180° away) — a flip no witness can see (eclipse, the field near the
+    /// boresight) must not become the filter's attitude. Otherwise the filter goes on with
+    /// the gyro, its σ grows, and the pointing modes lose their input.
     fn may_restart_on_tracker(&self, s: &SensorSamples) -> bool {
-        self.params.tracker_fdir.is_none() || s.star_tracker.is_some_and(|x| self.tracker_vouched_us == Some(x.time_us))
+        let Some(p) = self.params.tracker_fdir else { return true };
+        let Some(x) = s.star_tracker else { return false };
+        let near_the_filter = || {
+            let f = self.history.as_ref().map(|h| h.filter().attitude());
+            // |q_f · q_t| = cos(angle / 2): the angle between the two attitudes.
+            f.is_some_and(|f| libm::fabsf(f.coords.dot(&x.q_ib.coords)) >= f32m::cos(0.5 * p.witness_max_rad))
+        };
+        self.tracker_vouched_us == Some(x.time_us)
+            || (self.tracker_monitor.corroborates(x.time_us) && near_the_filter())
     }
 
     /// The star-tracker monitor's state (telemetry).
@@ -731,7 +741,9 @@ impl Determination {
         };
         // A gyro axis declared stuck reads 0: its innovations are the body's rate, not a
         // bias step (the axis is already declared and handled).
-        if self.tracker_vouched_us != Some(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
+        // Agreement is enough here (no flip-visibility): a flip's innovation is constant, so
+        // its slope is no step (bias.rs).
+        if !self.tracker_monitor.corroborates(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
             return None;
         }
         let innovation = match (rejected, self.history.as_ref()) {
