@@ -135,10 +135,18 @@ impl BiasStepMonitor {
     fn forget(&mut self, old: impl Fn(u32) -> bool) {
         let kept = self.rejected.get(..self.kept).unwrap_or(&[]);
         let drop = kept.iter().take_while(|(seq, _, _)| old(*seq)).count();
-        if drop > 0 {
-            self.rejected.copy_within(drop.min(self.kept)..self.kept, 0);
-            self.kept = self.kept.saturating_sub(drop);
+        if drop == 0 {
+            return;
         }
+        // Shifted by hand, not `copy_within` (its range check is a panic path on the
+        // target); at most `KEPT` rounds.
+        for i in 0..self.kept {
+            let moved = i.checked_add(drop).and_then(|j| self.rejected.get(j).copied());
+            if let (Some(v), Some(slot)) = (moved, self.rejected.get_mut(i)) {
+                *slot = v;
+            }
+        }
+        self.kept = self.kept.saturating_sub(drop);
     }
 
     /// The least-squares slope of the kept innovations (module doc); `None` with fewer
