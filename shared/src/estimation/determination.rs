@@ -34,7 +34,7 @@
 //! No heap, no panics; every loop is bounded by a constant.
 
 use super::css::{CssHeads, sun_vector};
-use super::history::{FuseOutcome, FuseRefusal, Measurement, MekfHistory, SensorTrack, span_s};
+use super::history::{FuseOutcome, FuseRefusal, Measurement, MekfHistory, MekfHistorySlot, SensorTrack, span_s};
 use super::mekf::{Mekf, MekfConfig, MekfError};
 use super::navigation::{NavSolution, Navigation};
 use super::references::References;
@@ -101,14 +101,27 @@ struct Tracks {
     magnetometer: Track,
 }
 
+impl Tracks {
+    const EMPTY: Self =
+        Self { star_tracker: Track::EMPTY, sun_sensor: Track::EMPTY, css: Track::EMPTY, magnetometer: Track::EMPTY };
+}
+
+/// `params.max_sample_age_s` in µs.
+const fn sample_age_us(params: &EstimationParams) -> u64 {
+    // Validated: 0 < max_sample_age_s ≤ 3600, so the product fits.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let us = (params.max_sample_age_s * 1.0e6) as u64;
+    us
+}
+
 /// The estimation stage's state.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Determination {
     params: EstimationParams,
     mekf_cfg: MekfConfig,
     css: CssHeads,
-    /// The MEKF and its short history of past states (delayed fusion).
-    history: Option<MekfHistory>,
+    /// The MEKF and its short history of past states (delayed fusion), started in place.
+    history: MekfHistorySlot,
     /// Samples newer than the history's now, waiting for the gyro ([`super::waiting`]).
     waiting: WaitQueue,
     nav: Navigation,
@@ -166,24 +179,17 @@ impl Determination {
             params,
             mekf_cfg: mekf_config(&params),
             css: css_heads(&params),
-            history: None,
+            history: MekfHistorySlot::idle(mekf_config(&params)),
             waiting: WaitQueue::EMPTY,
             nav: Navigation::new(),
             references: References::new(),
             last_gyro: None,
-            tracks: Tracks {
-                star_tracker: Track::EMPTY,
-                sun_sensor: Track::EMPTY,
-                css: Track::EMPTY,
-                magnetometer: Track::EMPTY,
-            },
+            tracks: Tracks::EMPTY,
             consecutive_rejections: 0,
             resets: 0,
             accepted: 0,
             rejected: 0,
-            // Validated: 0 < max_sample_age_s ≤ 3600, so the product fits.
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            max_sample_age_us: (params.max_sample_age_s * 1.0e6) as u64,
+            max_sample_age_us: sample_age_us(&params),
             fusion: FusionCounts::ZERO,
             tracker_monitor: TrackerMonitor::new(),
             gyro_monitor: GyroMonitor::new(),
@@ -198,18 +204,65 @@ impl Determination {
         Ok(Self::bare(*params))
     }
 
+    /// In place, the stage [`new`](Self::new) gives for `params` (validated; on refusal
+    /// nothing changes). The history's storage (about 10 kB) is kept, not rebuilt: a new
+    /// stage by value cost the firmware's link task 28 kB of stack in temporaries (elf-check
+    /// stm32). Every field is named, so a new one cannot be forgotten; the test
+    /// `reconfiguring_in_place_is_a_new_stage` holds it equal to [`bare`](Self::bare).
+    pub fn reconfigure(&mut self, params: &EstimationParams) -> Result<(), ParamError> {
+        params.validate()?;
+        let Self {
+            params: p,
+            mekf_cfg,
+            css,
+            history,
+            waiting,
+            nav,
+            references,
+            last_gyro,
+            tracks,
+            consecutive_rejections,
+            resets,
+            accepted,
+            rejected,
+            fusion,
+            max_sample_age_us,
+            tracker_monitor,
+            gyro_monitor,
+            bias_monitor,
+            tracker_vouched_us,
+        } = self;
+        *p = *params;
+        *mekf_cfg = mekf_config(params);
+        *css = css_heads(params);
+        history.stop();
+        *waiting = WaitQueue::EMPTY;
+        *nav = Navigation::new();
+        *references = References::new();
+        *last_gyro = None;
+        *tracks = Tracks::EMPTY;
+        (*consecutive_rejections, *resets, *accepted, *rejected) = (0, 0, 0, 0);
+        *fusion = FusionCounts::ZERO;
+        *max_sample_age_us = sample_age_us(params);
+        *tracker_monitor = TrackerMonitor::new();
+        *gyro_monitor = GyroMonitor::new();
+        *bias_monitor = BiasStepMonitor::new();
+        *tracker_vouched_us = None;
+        Ok(())
+    }
+
     pub fn params(&self) -> &EstimationParams {
         &self.params
     }
 
     /// The running filter (at the newest gyro time), if any.
     pub fn mekf(&self) -> Option<&Mekf> {
-        self.history.as_ref().map(|h| h.filter())
+        self.history.get().map(|h| h.filter())
     }
 
     /// The running filter's history (its nodes: test oracles), if any.
     pub fn history(&self) -> Option<&MekfHistory> {
-        self.history.as_ref()
+        self.history.get()
     }
 
     /// Restart everything (a new configuration).
@@ -320,7 +373,7 @@ impl Determination {
             _ => None,
         };
         let witnesses = [sun, field];
-        let filter = self.history.as_ref().map(|h| h.filter().attitude());
+        let filter = self.history.get().map(|h| h.filter().attitude());
         let declared = s.star_tracker.is_some_and(|x| {
             let declared = self.tracker_monitor.judge(&p, x.time_us, &x.q_ib, &witnesses, filter.as_ref());
             // Vouched for: the witnesses agree with it, and one of them would have shown a
@@ -371,7 +424,7 @@ impl Determination {
         let Some(p) = self.params.tracker_fdir else { return true };
         let Some(x) = s.star_tracker else { return false };
         let near_the_filter = || {
-            let f = self.history.as_ref().map(|h| h.filter().attitude());
+            let f = self.history.get().map(|h| h.filter().attitude());
             // |q_f · q_t| = cos(angle / 2): the angle between the two attitudes.
             f.is_some_and(|f| libm::fabsf(f.coords.dot(&x.q_ib.coords)) >= f32m::cos(0.5 * p.witness_max_rad))
         };
@@ -467,7 +520,7 @@ impl Determination {
 
     /// Stop the filter; the samples waiting for it can no longer be fused (counted).
     fn lose(&mut self) {
-        if self.history.take().is_some() {
+        if self.history.stop() {
             self.resets = self.resets.saturating_add(1);
         }
         self.consecutive_rejections = 0;
@@ -500,7 +553,7 @@ impl Determination {
             self.lose();
             return MekfOutput { attitude: None, rate_rad_s: None, filter: None };
         };
-        if self.history.is_none() {
+        if !self.history.is_running() {
             self.initialise_mekf(g, s, v);
         }
         self.propagate_history(g);
@@ -510,7 +563,7 @@ impl Determination {
         if self.consecutive_rejections >= self.params.max_consecutive_rejections && self.may_restart_on_tracker(s) {
             self.lose();
         }
-        let Some(h) = self.history.as_ref() else {
+        let Some(h) = self.history.get() else {
             return MekfOutput { attitude: None, rate_rad_s: Some(g.rate_rad_s), filter: None };
         };
         let mut m = *h.filter();
@@ -556,7 +609,7 @@ impl Determination {
             (None, Some(a)) => (a + g.rate_rad_s) * 0.5,
             (None, None) => g.rate_rad_s,
         };
-        let Some(h) = self.history.as_ref() else {
+        let Some(h) = self.history.get() else {
             self.last_gyro = Some(g.rate_rad_s);
             return;
         };
@@ -592,7 +645,7 @@ impl Determination {
     /// last piece ends at that waiting sample, which is fused there. False: a propagation
     /// failed.
     fn propagate_to(&mut self, rate: &Vec3, stop_us: u64, due: Option<(usize, Waiting)>) -> bool {
-        let Some(h) = self.history.as_mut() else { return false };
+        let Some(h) = self.history.get_mut() else { return false };
         let now = h.now_us();
         let span_us = stop_us.saturating_sub(now);
         if span_us > 0 || due.is_none() {
@@ -649,12 +702,12 @@ impl Determination {
         // Samples seen before this start are history: only later ones are fused.
         self.tracks = Tracks::default();
         if let Some(x) = at_its_time {
-            self.history = Some(MekfHistory::new(m, x.time_us));
+            self.history.start(m, x.time_us);
             // A filter started on this sample agrees with it: no bias step to judge.
             let _ = self.fuse_tracker(x);
             return;
         }
-        self.history = Some(MekfHistory::new(m, gyro_us));
+        self.history.start(m, gyro_us);
         if let Some(x) = tracker {
             self.tracks.star_tracker.fresh(x.time_us);
             return;
@@ -683,7 +736,7 @@ impl Determination {
     /// Fuse every sample first seen this step at its own time: tracker, Sun, field. A
     /// bias step the tracker's sample declared comes back with the sample.
     fn fuse_new(&mut self, s: &SensorSamples, v: &Vectors) -> Option<(StarTrackerAttitude, BiasStep)> {
-        self.history.as_ref()?;
+        self.history.get()?;
         let bias_step = s.star_tracker.and_then(|x| self.fuse_tracker(x).map(|b| (x, b)));
         if let (Some(b), Some(r)) = (v.sun_body, v.sun_eci)
             && v.sun_sigma > 0.0
@@ -746,7 +799,7 @@ impl Determination {
         if !self.tracker_monitor.corroborates(x.time_us) || self.gyro_monitor.failed_axes() != 0 {
             return None;
         }
-        let innovation = match (rejected, self.history.as_ref()) {
+        let innovation = match (rejected, self.history.get()) {
             (false, _) => None,
             (true, None) => return None,
             (true, Some(h)) => {
@@ -767,7 +820,7 @@ impl Determination {
     /// `max_consecutive_rejections` and restarting with a zero bias. The sample is fused
     /// by the start when it is at the history's now, else consumed by it.
     fn restart_on_bias_step(&mut self, x: &StarTrackerAttitude, step: &BiasStep) {
-        let Some(h) = self.history.as_ref() else { return };
+        let Some(h) = self.history.get() else { return };
         let (now, bias) = (h.now_us(), h.filter().bias_rad_s() + step.rate_rad_s);
         let noise_rad = self.params.tracker_sigma_cross_rad.max(self.params.tracker_sigma_about_rad);
         let mut cfg = self.mekf_cfg;
@@ -776,7 +829,7 @@ impl Determination {
         let Ok(m) = Mekf::new(cfg, x.q_ib, bias) else { return };
         self.lose();
         self.tracks = Tracks::default();
-        self.history = Some(MekfHistory::new(m, now));
+        self.history.start(m, now);
         if x.time_us == now {
             // Judged already: the monitor skips a repeated time tag.
             let _ = self.fuse_tracker(*x);
@@ -789,7 +842,7 @@ impl Determination {
     /// after the history's now (the gyro lags it) waits for the gyro instead. `None`:
     /// refused, or waiting.
     fn fuse(&mut self, sensor: Sensor, t_us: u64, m: &Measurement) -> Option<Result<f32, MekfError>> {
-        let h = self.history.as_mut()?;
+        let h = self.history.get_mut()?;
         let now = h.now_us();
         if t_us > now {
             self.wait(sensor, t_us, m);
@@ -1002,6 +1055,35 @@ mod tests {
         assert!(hit.status.filter.map_or(0.0, |f| f.last_nis) > crate::estimation::mekf::CHI2_3DOF_999);
         // One outlier is not divergence: no restart.
         assert_eq!(hit.status.resets, 0);
+    }
+
+    /// A stage used hard (filter restarted, history full, counters up) and reconfigured
+    /// in place is the stage `new` builds, and stays the same to the bit (Debug prints
+    /// each f32 exactly) through restarts that reuse the old nodes' storage; a refused set
+    /// changes nothing.
+    #[test]
+    fn reconfiguring_in_place_is_a_new_stage() {
+        let q = quat_from_euler([0.3, -0.2, 0.1], EulerSeq::Zyx321);
+        let moved = q * quat_from_euler([0.0, 10f32.to_radians(), 0.0], EulerSeq::Zyx321);
+        let script = |d: &mut Determination, k0: u32| -> Vec<String> {
+            (k0..k0 + 120)
+                .map(|k| format!("{:?}", d.step(&frame(k, if (k / 20) % 2 == 0 { &q } else { &moved }))))
+                .collect()
+        };
+        let mut used =
+            Determination::new(&EstimationParams { max_consecutive_rejections: 5, ..mekf_params() }).unwrap();
+        script(&mut used, 0);
+        assert!(used.resets >= 2 && used.history().is_some_and(|h| h.len() > 1), "resets {}", used.resets);
+        let p = EstimationParams { max_consecutive_rejections: 3, tracker_sigma_cross_rad: 2.0e-4, ..mekf_params() };
+        let refused = EstimationParams { max_sample_age_s: -1.0, ..p };
+        let before = used.clone();
+        assert!(used.reconfigure(&refused).is_err());
+        assert_eq!(used, before);
+        used.reconfigure(&p).unwrap();
+        let mut fresh = Determination::new(&p).unwrap();
+        assert_eq!(used, fresh);
+        assert_eq!(script(&mut used, 1000), script(&mut fresh, 1000));
+        assert!(fresh.resets >= 2, "the script restarts the filter on the reused storage");
     }
 
     #[test]

@@ -38,7 +38,7 @@
 //! robot_localization rather than PX4 EKF2's delayed horizon (docs/estimation-timing.md);
 //! the MEKF is Markley & Crassidis 2014 §6.2.4.
 
-use super::mekf::{Mekf, MekfError};
+use super::mekf::{Mekf, MekfConfig, MekfError};
 use crate::math::{Mat3, Quat, Vec3};
 
 /// Nodes in the flight history. Propagation steps and samples share them: at a 5 Hz control
@@ -49,6 +49,9 @@ pub const HISTORY_DEPTH: usize = 32;
 
 /// The flight history.
 pub type MekfHistory = History<HISTORY_DEPTH>;
+
+/// The flight history's storage, with or without a running filter.
+pub type MekfHistorySlot = HistorySlot<HISTORY_DEPTH>;
 
 // The RAM it costs, bounded on every target at compile time (10,016 B on the M4F, 10,024 B
 // on the x86-64 host: 32 nodes of 312/313 B and the mirror of now).
@@ -159,6 +162,21 @@ pub struct HistoryCounters {
 }
 
 impl HistoryCounters {
+    /// No step, fusion or refusal yet.
+    pub const ZERO: Self = Self {
+        steps: 0,
+        steps_refused: 0,
+        fused_now: 0,
+        fused_late: 0,
+        replayed_nodes: 0,
+        max_replayed_nodes: 0,
+        too_old: 0,
+        from_the_future: 0,
+        repeated: 0,
+        non_finite: 0,
+        replay_failed: 0,
+    };
+
     fn count_refusal(&mut self, reason: FuseRefusal) {
         let c = match reason {
             FuseRefusal::TooOld => &mut self.too_old,
@@ -216,7 +234,8 @@ struct Node {
 }
 
 /// The history: a ring of `N` nodes (`N ≥ 2`, checked at compile time), never empty.
-#[derive(Clone, Debug, PartialEq)]
+/// Equality is of what it holds (its nodes in use, oldest first), not of its storage.
+#[derive(Clone, Debug)]
 pub struct History<const N: usize> {
     nodes: [Node; N],
     /// Ring index of the oldest node; `len` nodes in use.
@@ -231,11 +250,26 @@ pub struct History<const N: usize> {
 impl<const N: usize> History<N> {
     const DEPTH_AT_LEAST_TWO: () = assert!(N >= 2, "a history needs at least two nodes");
 
-    /// A history holding `filter` at `t0_us`.
-    pub fn new(filter: Mekf, t0_us: u64) -> Self {
+    /// A history holding `filter` at `t0_us`. It is `N` nodes (32 filters, about 9 kB):
+    /// build it once, at configuration, and [`restart`](Self::restart) it in a step.
+    pub const fn new(filter: Mekf, t0_us: u64) -> Self {
         let () = Self::DEPTH_AT_LEAST_TWO;
-        let node = Node { time_us: t0_us, rate_rad_s: Vec3::zeros(), filter, measurement: None };
-        Self { nodes: [node; N], head: 0, len: 1, now: filter, now_us: t0_us, counters: HistoryCounters::default() }
+        let node = Node { time_us: t0_us, rate_rad_s: Vec3::new(0.0, 0.0, 0.0), filter, measurement: None };
+        Self { nodes: [node; N], head: 0, len: 1, now: filter, now_us: t0_us, counters: HistoryCounters::ZERO }
+    }
+
+    /// In place, the history [`new`](Self::new) gives: only the one node in use is
+    /// written (the others are past `len`, never read). Building a new one in the step
+    /// copied its `N` nodes: about 10,000 instructions on the Cortex-M4 (docs/timing.md).
+    pub fn restart(&mut self, filter: Mekf, t0_us: u64) {
+        if let Some(n) = self.nodes.get_mut(0) {
+            *n = Node { time_us: t0_us, rate_rad_s: Vec3::zeros(), filter, measurement: None };
+        }
+        self.head = 0;
+        self.len = 1;
+        self.now = filter;
+        self.now_us = t0_us;
+        self.counters = HistoryCounters::ZERO;
     }
 
     /// The filter at now.
@@ -514,6 +548,64 @@ impl<const N: usize> History<N> {
     }
 }
 
+impl<const N: usize> PartialEq for History<N> {
+    fn eq(&self, other: &Self) -> bool {
+        self.len == other.len
+            && (0..self.len).all(|k| self.at(k) == other.at(k))
+            && self.now == other.now
+            && self.now_us == other.now_us
+            && self.counters == other.counters
+    }
+}
+
+/// One history's storage, running a filter or not. A filter starts in place
+/// ([`History::restart`]): the `N` nodes are built once, at configuration, never in a
+/// step (an `Option<History>` rebuilt on each start cost the step ~10,000 instructions).
+#[derive(Clone, Debug)]
+pub struct HistorySlot<const N: usize> {
+    history: History<N>,
+    running: bool,
+}
+
+impl<const N: usize> HistorySlot<N> {
+    /// No filter running; `cfg` only fills the storage.
+    pub const fn idle(cfg: MekfConfig) -> Self {
+        Self { history: History::new(Mekf::placeholder(cfg), 0), running: false }
+    }
+
+    /// The running filter's history.
+    pub fn get(&self) -> Option<&History<N>> {
+        if self.running { Some(&self.history) } else { None }
+    }
+
+    pub fn get_mut(&mut self) -> Option<&mut History<N>> {
+        if self.running { Some(&mut self.history) } else { None }
+    }
+
+    pub fn is_running(&self) -> bool {
+        self.running
+    }
+
+    /// Start (or start again) with `filter` at `t0_us`.
+    pub fn start(&mut self, filter: Mekf, t0_us: u64) {
+        self.history.restart(filter, t0_us);
+        self.running = true;
+    }
+
+    /// Stop the filter; true when one was running.
+    pub fn stop(&mut self) -> bool {
+        core::mem::replace(&mut self.running, false)
+    }
+}
+
+/// Equal when neither runs, or both run equal histories (the storage of a stopped one is
+/// not state).
+impl<const N: usize> PartialEq for HistorySlot<N> {
+    fn eq(&self, other: &Self) -> bool {
+        self.get() == other.get()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -621,5 +713,46 @@ mod tests {
             assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
             assert_eq!(*times.last().unwrap(), h.now_us());
         }
+    }
+
+    /// Propagations (one wrapping the ring), samples at now, late ones (replays over the
+    /// nodes a previous use left behind) and refusals: every outcome, in order.
+    fn exercise(h: &mut History<4>, t0_us: u64) -> Vec<String> {
+        let mut seen = Vec::new();
+        let mut sensor = SensorTrack::default();
+        let v = Measurement::Vector { body: Vec3::new(0.6, 0.8, 0.0), reference: Vec3::x(), sigma_rad: 0.01 };
+        let q = Measurement::Attitude { q_meas: Quat::new(0.999, 0.02, -0.01, 0.03), r_rad2: Mat3::identity() * 1e-6 };
+        for k in 1..=7u64 {
+            let t = t0_us + k * 100_000;
+            seen.push(format!("{:?}", h.propagate(&Vec3::new(1e-3 * k as f32, -2e-3, 5e-4), 0.1, t)));
+            seen.push(format!("{:?}", h.fuse_at(&mut sensor, t - 30_000 * (k % 3), if k % 2 == 0 { &v } else { &q })));
+        }
+        seen.push(format!("{:?}", h.fuse_at(&mut sensor, t0_us, &v)));
+        seen.extend(h.nodes().map(|n| format!("{} {:?} {:?} {:?}", n.time_us, n.rate_rad_s, n.measurement, n.filter)));
+        seen.push(format!("{:?} {:?} {}", h.counters(), sensor, h.now_us()));
+        seen
+    }
+
+    /// A restart in place is the history `new` builds: equal, and every later outcome
+    /// the same to the bit (Debug prints each f32 exactly), though the old nodes stay in
+    /// the storage past `len`.
+    #[test]
+    fn a_restarted_history_is_a_new_one() {
+        let mut used = history();
+        let before = exercise(&mut used, 0);
+        assert_eq!(used.len(), 4, "the first use fills the ring");
+        let f = Mekf::new(*used.filter().config(), Quat::new(0.8, 0.0, 0.6, 0.0), Vec3::new(1e-4, 0.0, -2e-4)).unwrap();
+        used.restart(f, 5_000_000);
+        let mut fresh = History::new(f, 5_000_000);
+        assert_eq!(used, fresh);
+        assert_eq!(exercise(&mut used, 5_000_000), exercise(&mut fresh, 5_000_000));
+        assert_ne!(before, exercise(&mut history(), 5_000_000), "the script's outcomes depend on its start");
+        assert_eq!(used, fresh);
+        // A slot: no history until started; stopped, it compares as never started.
+        let mut slot = HistorySlot::<4>::idle(*f.config());
+        assert!(slot.get().is_none() && !slot.stop());
+        slot.start(f, 7);
+        assert_eq!((slot.get().map(History::now_us), slot.stop()), (Some(7), true));
+        assert_eq!(slot, HistorySlot::idle(*f.config()));
     }
 }

@@ -165,6 +165,27 @@ fn transition(omega: &Vec3, dt: f32) -> (Matrix3<f32>, Matrix3<f32>) {
 }
 
 impl Mekf {
+    /// A placeholder that never ran (zero attitude, zero covariance), for storage that
+    /// holds no running filter yet ([`super::determination`]'s history before a start):
+    /// not a filter to read or update.
+    pub(crate) const fn placeholder(cfg: MekfConfig) -> Self {
+        let zero = MekfHealth {
+            attitude_variance_rad2: 0.0,
+            bias_variance_rad2_s2: 0.0,
+            accepted: 0,
+            rejected: 0,
+            since_update_s: 0.0,
+            last_nis: 0.0,
+        };
+        Self {
+            cfg,
+            q: Quat::new(0.0, 0.0, 0.0, 0.0),
+            bias: Vec3::new(0.0, 0.0, 0.0),
+            p: Mat6::from_array_storage(nalgebra::ArrayStorage([[0.0; 6]; 6])),
+            health: zero,
+        }
+    }
+
     /// A filter at attitude `q0` and bias `bias0` with the configured initial covariance.
     pub fn new(cfg: MekfConfig, q0: Quat, bias0: Vec3) -> Result<Self, MekfError> {
         if !cfg.valid() {

@@ -191,7 +191,7 @@ impl Fsw {
     /// estimation stage restarts. On rejection the previous set stays in force.
     pub fn configure_estimation(&mut self, p: &EstimationParams) -> Result<u32, ParamError> {
         let checksum = p.checksum()?;
-        self.determination = Determination::new(p)?;
+        self.determination.reconfigure(p)?;
         Ok(checksum)
     }
 

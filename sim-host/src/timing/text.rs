@@ -115,12 +115,17 @@ pub fn write_replayed(
                 out!(
                     w,
                     "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}], \
-                     replayed {}; {}",
+                     step {} status {:#06x}, MEKF updates accepted/rejected/restarts {}/{}/{}, history nodes replayed {}; {}",
                     r.label,
                     m.instructions,
                     r.recorded,
                     m.instructions as i64 - r.recorded as i64,
                     estimate_names(m.estimate_flags),
+                    m.step,
+                    m.status,
+                    m.mekf_accepted,
+                    m.mekf_rejected,
+                    m.mekf_resets,
                     m.replayed_nodes,
                     budget_verdict(budget, scenario, mode, m.instructions, dt_s, failed)
                 );
