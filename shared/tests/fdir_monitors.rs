@@ -9,18 +9,23 @@
 //! (d) a fired wheel residual is named rotor or tachometer from the body's mismatch: the
 //!     mismatch of a rigid body integrated here (RK4, f64) is zero with honest tachometers
 //!     and `−r aⱼ` with a lying one; with noise the unit is misnamed at `Φ(−|r|/(2σ_m))`.
+//! (e) the magnetometer's field-magnitude residual `|B + n| − |B_model|` has σ = σ_m (the
+//!     noise along the field) and exceeds `γ σ` at the two-sided Gaussian tail; a bias
+//!     along the field is declared after exactly `k` samples, one across it never.
 //! Noise from a seeded SplitMix64 (acs-test-support); f64 oracles written here.
 
 #![allow(clippy::disallowed_methods)] // test-side oracles may use nalgebra's own sqrt
 
 use acs_flight::fdir::isolate::{WheelIsolation, body_mismatch_nm, isolate_wheel};
+use acs_flight::fdir::magnetometer::MagnetometerMonitor;
 use acs_flight::fdir::repeat::Repeats;
 use acs_flight::fdir::wheel::{WheelMonitor, WheelStep, residual_sigma_nm};
 use acs_flight::fdir::window::{KOfN, Persistence};
 use acs_flight::math::{Mat3, Vec3};
-use acs_flight::params::fdir::{WheelMonitorParams, WheelResidualNoise};
+use acs_flight::params::fdir::{MagnetometerFdirParams, WheelMonitorParams, WheelResidualNoise};
 use acs_flight::types::MAX_WHEELS;
 use acs_test_support::rng::SplitMix64;
+use nalgebra::Vector3;
 
 fn binomial_tail(n: u32, k: u32, p: f64) -> f64 {
     let mut c = 1.0f64; // C(n, j)
@@ -352,4 +357,78 @@ fn wheel_isolation_misnames_at_the_closed_form_rate_and_does_not_guess_below_its
     assert_eq!(isolate_wheel(f32::NAN, &axis, &Vec3::zeros(), 1e-4, 3.0), WheelIsolation::Ambiguous);
     assert_eq!(isolate_wheel(1.0, &axis, &Vec3::repeat(f32::NAN), 1e-4, 3.0), WheelIsolation::Ambiguous);
     assert_eq!(isolate_wheel(0.0, &axis, &Vec3::zeros(), 0.0, 0.0), WheelIsolation::Ambiguous);
+}
+
+fn magnetometer_params(threshold_sigma: f32) -> MagnetometerFdirParams {
+    MagnetometerFdirParams {
+        noise_t: 1.0e-7,
+        model_sigma_t: 0.0,
+        threshold_sigma,
+        window: acs_flight::params::fdir::KOfN { k: 3, n: 4 },
+        max_repeats: 3,
+    }
+}
+
+/// A field of LEO strength (20-50 µT) in a random direction, with white noise σ_m per
+/// axis (f64 truth, the reading rounded to f32 as the link carries it); the model knows
+/// the truth's magnitude. Returns the monitor's residual and threshold per sample.
+fn magnetometer_residuals(p: &MagnetometerFdirParams, samples: u64, seed: u64) -> Vec<(f64, f64)> {
+    let mut rng = SplitMix64(seed);
+    let mut m = MagnetometerMonitor::new();
+    let sigma = f64::from(p.noise_t);
+    (0..samples)
+        .map(|i| {
+            let b = rng.unit() * rng.range(2.0e-5, 5.0e-5);
+            let read = b + Vector3::new(rng.normal(), rng.normal(), rng.normal()) * sigma;
+            let field = Vec3::new(read.x as f32, read.y as f32, read.z as f32);
+            m.judge(p, i, &field, Some(b.norm() as f32));
+            let (r, t) = m.last_residual_t();
+            (f64::from(r), f64::from(t))
+        })
+        .collect()
+}
+
+#[test]
+fn the_field_magnitude_residual_has_the_magnetometers_sigma_and_its_gaussian_tail() {
+    // σ: 100,000 samples estimate it within 0.5 % (4.5 standard errors of a sample σ);
+    // f32 rounding of a 50 µT reading (≈ 4e-12 T) is far below.
+    let n = 100_000;
+    let r = magnetometer_residuals(&magnetometer_params(5.0), n, 7);
+    let mean = r.iter().map(|x| x.0).sum::<f64>() / n as f64;
+    let sd = (r.iter().map(|x| (x.0 - mean).powi(2)).sum::<f64>() / (n as f64 - 1.0)).sqrt();
+    println!("magnitude residual: mean {mean:.3e}, sigma {sd:.4e} (sigma_m 1e-7)");
+    assert!((sd / 1.0e-7 - 1.0).abs() < 0.005, "{sd}");
+    assert!(mean.abs() < 4.0 * 1.0e-7 / (n as f64).sqrt(), "{mean}");
+    // The per-sample exceedance rate at γ = 2 against 2 (1 − Φ(2)) = 0.0455, within 4σ of
+    // the binomial.
+    let r = magnetometer_residuals(&magnetometer_params(2.0), n, 8);
+    let got = r.iter().filter(|(x, t)| x.abs() > *t).count() as f64 / n as f64;
+    let want = 2.0 * (1.0 - phi(2.0));
+    let se = (want * (1.0 - want) / n as f64).sqrt();
+    println!("exceedance rate at 2 sigma: {got:.5}, Gaussian tail {want:.5} (se {se:.1e})");
+    assert!((got - want).abs() < 4.0 * se, "{got} vs {want}");
+}
+
+#[test]
+fn a_bias_along_the_field_is_declared_after_k_samples_and_one_across_it_never() {
+    // Threshold 5σ = 0.5 µT; a 2 µT bias along the field moves |B| by 2 µT (40σ), across
+    // it by |B|(√(1 + (2/30)²) − 1) = 0.067 µT (0.7σ): never, whatever the noise does
+    // in 200 samples (5σ − 0.7σ = 4.3σ per sample: P ≈ 1.7e-5 each, k = 3 of 4 needed).
+    let p = magnetometer_params(5.0);
+    let mut rng = SplitMix64(9);
+    let b = Vector3::new(0.0, 1.8e-5, 2.4e-5); // 30 µT
+    let across = Vector3::new(2.0e-6, 0.0, 0.0);
+    let along = b.normalize() * 2.0e-6;
+    for (bias, declared_at) in [(along, Some(2u64)), (across, None)] {
+        let mut m = MagnetometerMonitor::new();
+        let mut first = None;
+        for i in 0..200u64 {
+            let read = b + bias + Vector3::new(rng.normal(), rng.normal(), rng.normal()) * 1.0e-7;
+            m.judge(&p, i, &Vec3::new(read.x as f32, read.y as f32, read.z as f32), Some(b.norm() as f32));
+            if m.failed() && first.is_none() {
+                first = Some(i);
+            }
+        }
+        assert_eq!(first, declared_at, "bias {bias:?}");
+    }
 }

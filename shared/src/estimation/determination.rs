@@ -43,6 +43,7 @@ use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
 use crate::fdir::bias::{BiasStep, BiasStepMonitor};
 use crate::fdir::gyro::GyroMonitor;
+use crate::fdir::magnetometer::MagnetometerMonitor;
 use crate::fdir::tracker::{TrackerMonitor, Witness, flip_visible, witness_angle_rad};
 use crate::math::{Quat, Vec3, f32m};
 use crate::models::sun::in_eclipse;
@@ -145,6 +146,8 @@ pub struct Determination {
     bias_monitor: BiasStepMonitor,
     /// The time of the last tracker sample a witness vouched for ([`Self::monitor_tracker`]).
     tracker_vouched_us: Option<u64>,
+    /// The magnetometer monitor (with `params.magnetometer_fdir`).
+    mag_monitor: MagnetometerMonitor,
 }
 
 impl Default for Determination {
@@ -195,6 +198,7 @@ impl Determination {
             gyro_monitor: GyroMonitor::new(),
             bias_monitor: BiasStepMonitor::new(),
             tracker_vouched_us: None,
+            mag_monitor: MagnetometerMonitor::new(),
         }
     }
 
@@ -231,6 +235,7 @@ impl Determination {
             gyro_monitor,
             bias_monitor,
             tracker_vouched_us,
+            mag_monitor,
         } = self;
         *p = *params;
         *mekf_cfg = mekf_config(params);
@@ -248,6 +253,7 @@ impl Determination {
         *gyro_monitor = GyroMonitor::new();
         *bias_monitor = BiasStepMonitor::new();
         *tracker_vouched_us = None;
+        *mag_monitor = MagnetometerMonitor::new();
         Ok(())
     }
 
@@ -328,6 +334,9 @@ impl Determination {
                 None
             }
         };
+        let without_magnetometer =
+            self.monitor_magnetometer(s, field_eci.and(self.references.field_magnitude_t(s.time_us)));
+        let s = without_magnetometer.as_ref().unwrap_or(s);
         let v = self.vectors(s, sun_eci, field_eci);
         let without_tracker = self.monitor_tracker(s, &v, eclipse);
         let s = without_tracker.as_ref().unwrap_or(s);
@@ -408,6 +417,24 @@ impl Determination {
         (self.gyro_monitor.failed_axes() != 0).then_some(SensorSamples { gyro: Some(checked), ..*s })
     }
 
+    /// The magnetometer monitor (with `magnetometer_fdir`; [`crate::fdir::magnetometer`]):
+    /// judges a fresh sample against the model's field magnitude `model_t` (T, at the
+    /// step; the field moves nanotesla in a sample's latency); once it is declared failed,
+    /// the magnetometer is dropped from the estimation (the returned copy; `None`: use the
+    /// samples as they are).
+    fn monitor_magnetometer(&mut self, s: &SensorSamples, model_t: Option<f32>) -> Option<SensorSamples> {
+        let p = self.params.magnetometer_fdir?;
+        if let Some(x) = s.magnetometer {
+            self.mag_monitor.judge(&p, x.time_us, &x.field_body_t, model_t);
+        }
+        self.mag_monitor.failed().then_some(SensorSamples { magnetometer: None, ..*s })
+    }
+
+    /// The magnetometer monitor's state (telemetry).
+    pub fn magnetometer_monitor(&self) -> &MagnetometerMonitor {
+        &self.mag_monitor
+    }
+
     /// The gyro bias-step monitor's state (telemetry).
     pub fn bias_monitor(&self) -> &BiasStepMonitor {
         &self.bias_monitor
@@ -448,6 +475,7 @@ impl Determination {
         self.tracker_monitor.clear();
         self.gyro_monitor.clear();
         self.bias_monitor.clear();
+        self.mag_monitor.clear();
     }
 
     /// The measured vectors of the step and their reference directions.

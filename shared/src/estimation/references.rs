@@ -37,7 +37,7 @@
 //! No heap, no panics; every step does at most one slice of bounded work.
 
 use super::navigation::{NavSolution, Navigation};
-use crate::math::Vec3;
+use crate::math::{Vec3, f32m};
 use crate::models::magnetic::{FieldEvaluation, field_terms};
 use crate::models::orbit::MU_EARTH_M3_S2;
 use crate::models::sun::sun_direction_eci;
@@ -71,6 +71,8 @@ struct Node {
     time: J2000Time,
     r_m: Vec3,
     field_eci: Vec3,
+    /// The field's magnitude there, T (the magnetometer monitor's reference).
+    field_t: f32,
 }
 
 /// A node being evaluated.
@@ -179,12 +181,14 @@ impl References {
             if p.eval.advance(FIELD_TERMS_PER_STEP) {
                 self.pending = None;
                 let field = p.eval.field_ecef_t().and_then(Result::ok);
-                self.ready = field.and_then(|b| unit(&ecef_to_eci(&p.time, &b))).map(|field_eci| Node {
-                    time_us: p.time_us,
-                    time: p.time,
-                    r_m: p.r_m,
-                    field_eci,
-                });
+                self.ready =
+                    field.and_then(|b| unit(&ecef_to_eci(&p.time, &b)).map(|d| (d, b))).map(|(field_eci, b)| Node {
+                        time_us: p.time_us,
+                        time: p.time,
+                        r_m: p.r_m,
+                        field_eci,
+                        field_t: f32m::sqrt(b.norm_squared()),
+                    });
             } else {
                 self.pending = Some(p);
             }
@@ -268,6 +272,15 @@ impl References {
         let tolerance = FIELD_JUMP_TOLERANCE_M + gravity * span * span * 0.125;
         let chord = a.r_m + (b.r_m - a.r_m) * s;
         (now.r_m - chord).norm_squared() <= tolerance * tolerance
+    }
+
+    /// The field's magnitude at `time_us`, T: the bracket's two nodes interpolated
+    /// linearly (`None` outside a bracket). Call after [`Self::field_eci`] of the step.
+    /// The magnitude changes by about a factor 2 over half an orbit, smoothly: the chord's
+    /// error over a 10 s bracket is ≈ |d²|B|/dt²| T²/8, nanotesla at most.
+    pub fn field_magnitude_t(&self, time_us: u64) -> Option<f32> {
+        let (a, b, s) = self.fraction(time_us)?;
+        Some(a.field_t * (1.0 - s) + b.field_t * s)
     }
 
     /// The field direction at the step: `a` and `b` interpolated linearly, normalised.

@@ -17,6 +17,8 @@
 //! - [`bias`]: a gyro bias step, from the star tracker's innovations the filter's gate
 //!   rejects while the Sun or the field corroborate the tracker (the filter restarts with
 //!   the step added to its bias);
+//! - [`magnetometer`]: the measured field's magnitude against the on-board model, and a
+//!   stuck axis (run by the estimation stage, which drops a failed magnetometer);
 //! - [`gyro`]: a stuck gyro axis (run by the estimation stage, which reads it as 0);
 //! - [`tracker`]: the star tracker frozen, or contradicted by the Sun and the field
 //!   (run by the estimation stage, which drops a failed tracker);
@@ -26,6 +28,7 @@
 pub mod bias;
 pub mod gyro;
 pub mod isolate;
+pub mod magnetometer;
 pub mod repeat;
 pub mod tracker;
 pub mod wheel;

@@ -154,7 +154,7 @@ impl Fsw {
         self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
         cmd.fdir = self.wheel_fdir.telemetry();
         let d = &self.determination;
-        report::sensor_fdir(&mut cmd.fdir, d.tracker_monitor(), d.gyro_monitor(), d.bias_monitor());
+        report::sensor_fdir(&mut cmd.fdir, d);
         // A dropped wheel's drive is switched off: a runaway drive stops pushing.
         cmd.wheel_power_off = self.wheel_fdir.failed_mask();
         report::pack_estimate(&mut cmd.estimate, &est.status);

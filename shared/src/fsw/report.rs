@@ -185,25 +185,30 @@ fn fusion_counters(c: &FusionCounts) -> link::FusionCounters {
 
 /// The estimation stage's monitors' part of the FDIR telemetry (nothing without them:
 /// their state stays empty).
-pub(super) fn sensor_fdir(
-    t: &mut crate::link::FdirTelemetry,
-    tracker: &crate::fdir::tracker::TrackerMonitor,
-    gyro: &crate::fdir::gyro::GyroMonitor,
-    bias: &crate::fdir::bias::BiasStepMonitor,
-) {
+pub(super) fn sensor_fdir(t: &mut crate::link::FdirTelemetry, d: &crate::estimation::determination::Determination) {
     use crate::fdir::tracker::TrackerFault;
+    let (tracker, gyro, bias, mag) =
+        (d.tracker_monitor(), d.gyro_monitor(), d.bias_monitor(), d.magnetometer_monitor());
     let failed = tracker.failed();
-    t.events = t.events.saturating_add(tracker.events()).saturating_add(gyro.events()).saturating_add(bias.events());
+    t.events = t
+        .events
+        .saturating_add(tracker.events())
+        .saturating_add(gyro.events())
+        .saturating_add(bias.events())
+        .saturating_add(mag.events());
     t.gyro_bias_steps = bias.events();
     if let Some(step) = bias.last() {
         t.gyro_bias_step_rad_s = step.rate_rad_s.into();
         t.gyro_bias_axes = step.axis.map_or(0, |i| 1u8.checked_shl(u32::from(i)).unwrap_or(0));
     }
     let tracker_bit = if failed.is_some() { crate::link::FAILED_STAR_TRACKER } else { 0 };
-    // Three axis bits above the tracker's: fits a u8.
-    t.failed_sensors = tracker_bit | (gyro.failed_axes() & 0b111) << 1;
+    let mag_bit = if mag.magnitude_failed() { crate::link::FAILED_MAGNETOMETER } else { 0 };
+    // Bit 0 the tracker, bits 1-3 the gyro axes, 4-6 the magnetometer axes, 7 its
+    // magnitude test: a u8.
+    t.failed_sensors = tracker_bit | (gyro.failed_axes() & 0b111) << 1 | (mag.stuck_axes() & 0b111) << 4 | mag_bit;
     t.tracker_frozen = failed == Some(TrackerFault::Frozen);
     t.tracker_witness_rad = tracker.last_witness_rad();
+    (t.mag_residual_t, t.mag_threshold_t) = mag.last_residual_t();
 }
 
 #[cfg(test)]

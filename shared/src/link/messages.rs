@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 22;
+pub const PROTOCOL_VERSION: u16 = 23;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -251,7 +251,9 @@ pub struct FdirTelemetry {
     pub wheel_threshold_nm: f32,
     /// Bit 0 ([`FAILED_STAR_TRACKER`]): the star tracker declared failed and no longer
     /// fused; bits 1–3 ([`FAILED_GYRO_X`] …): gyro axis x, y, z declared stuck and read as
-    /// 0 (protocol 21).
+    /// 0 (protocol 21); bits 4–6 ([`FAILED_MAG_X`] …): magnetometer axis x, y, z declared
+    /// stuck, bit 7 ([`FAILED_MAGNETOMETER`]): its field magnitude contradicts the model;
+    /// either drops the magnetometer from the estimation (protocol 23).
     pub failed_sensors: u8,
     /// The star tracker's failure was the frozen-output test (otherwise its attitude was
     /// contradicted by the Sun or the field).
@@ -267,12 +269,21 @@ pub struct FdirTelemetry {
     /// Bit i: the last step was isolated to axis i (x, y, z); 0 with steps declared: it
     /// was ambiguous (several axes).
     pub gyro_bias_axes: u8,
+    /// The magnetometer monitor's last residual `|B_meas| − |B_model|` and its threshold,
+    /// T (protocol 23; 0 when not judged).
+    pub mag_residual_t: f32,
+    pub mag_threshold_t: f32,
 }
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.
 pub const FAILED_STAR_TRACKER: u8 = 1;
 /// [`FdirTelemetry::failed_sensors`]: gyro axis x (y, z: the next two bits).
 pub const FAILED_GYRO_X: u8 = 2;
+/// [`FdirTelemetry::failed_sensors`]: magnetometer axis x stuck (y, z: the next two bits).
+pub const FAILED_MAG_X: u8 = 0x10;
+/// [`FdirTelemetry::failed_sensors`]: the magnetometer's field magnitude contradicts the
+/// on-board model.
+pub const FAILED_MAGNETOMETER: u8 = 0x80;
 
 /// Values in [`ActuatorCommand::law_telemetry`].
 pub const LAW_TELEMETRY_LEN: usize = 9;
@@ -583,9 +594,10 @@ pub enum HostMsg {
     ClearWheelFault {
         wheel: u8,
     },
-    /// Re-enable the star tracker and the gyro axes the estimation stage's monitors
-    /// declared failed (used again from their next sample; protocol 21, docs/fdir.md
-    /// "Star tracker", "Gyro"). Reply: `Ack`.
+    /// Re-enable the star tracker, the gyro axes and the magnetometer the estimation
+    /// stage's monitors declared failed (used again from their next sample; protocol 21,
+    /// the magnetometer 23; docs/fdir.md "Star tracker", "Gyro", "Magnetometer"). Reply:
+    /// `Ack`.
     ClearSensorFaults,
 }
 

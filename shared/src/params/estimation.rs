@@ -99,6 +99,9 @@ pub struct EstimationParams {
     /// The gyro monitor (protocol 21; `None`: off): a stuck axis reads 0 from then on
     /// (docs/fdir.md "Gyro").
     pub gyro_fdir: Option<super::fdir::GyroFdirParams>,
+    /// The magnetometer monitor (protocol 23; `None`: off; needs the MEKF source): a
+    /// magnetometer it declares failed is no longer used (docs/fdir.md "Magnetometer").
+    pub magnetometer_fdir: Option<super::fdir::MagnetometerFdirParams>,
 }
 
 /// Largest `max_replayed_nodes`: every node of the flight history but the one a late
@@ -140,6 +143,7 @@ impl EstimationParams {
         max_replayed_nodes: 8,
         tracker_fdir: None,
         gyro_fdir: None,
+        magnetometer_fdir: None,
     };
 }
 
@@ -187,6 +191,7 @@ impl EstimationParams {
         }
         if self.tracker_fdir.is_some_and(|t| t.validate().is_err())
             || self.gyro_fdir.is_some_and(|g| !g.valid(self.tracker_fdir.is_some()))
+            || self.magnetometer_fdir.is_some_and(|m| m.validate().is_err() || self.source != AttitudeSource::Mekf)
         {
             return bad(ParamReason::OutOfRange);
         }

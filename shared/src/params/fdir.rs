@@ -62,6 +62,8 @@ pub enum FdirParamError {
     Isolation,
     /// The star-tracker monitor's witness angle, window or repeat count.
     Tracker,
+    /// The magnetometer monitor's noise, threshold, window or repeat count.
+    Magnetometer,
 }
 
 impl WheelMonitorParams {
@@ -187,5 +189,39 @@ impl GyroFdirParams {
     pub fn valid(&self, tracker_monitor: bool) -> bool {
         let bias_ok = self.bias_step.is_none_or(|w| w.valid() && w.k >= 2 && tracker_monitor);
         self.max_repeats >= 1 && bias_ok
+    }
+}
+
+/// The magnetometer monitor of the estimation stage (estimation parameters, protocol 23;
+/// [`crate::fdir::magnetometer`]): the measured field's magnitude against the on-board
+/// model, and a stuck axis. Needs the MEKF source (the field model runs only there).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagnetometerFdirParams {
+    /// White noise of one magnetometer axis, T (1σ, ≥ 0).
+    pub noise_t: f32,
+    /// 1σ error of the on-board model's field magnitude, T (≥ 0; its degree, the
+    /// navigation's position error, secular variation).
+    pub model_sigma_t: f32,
+    /// Threshold on |residual| / σ (> 0): two-sided Gaussian tail per sample 4 → 6.3e-5,
+    /// 5 → 5.7e-7.
+    pub threshold_sigma: f32,
+    /// k-of-n persistence over the fresh samples judged.
+    pub window: KOfN,
+    /// Stuck: an axis repeating more than this many times in a row (≥ 1).
+    pub max_repeats: u16,
+}
+
+impl MagnetometerFdirParams {
+    pub fn validate(&self) -> Result<(), FdirParamError> {
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        // σ > 0 overall: a zero threshold would declare on any noise.
+        let sigma_ok = nonneg(self.noise_t) && nonneg(self.model_sigma_t) && self.noise_t + self.model_sigma_t > 0.0;
+        let threshold_ok = self.threshold_sigma.is_finite() && self.threshold_sigma > 0.0;
+        if sigma_ok && threshold_ok && self.window.valid() && self.max_repeats >= 1 {
+            Ok(())
+        } else {
+            Err(FdirParamError::Magnetometer)
+        }
     }
 }

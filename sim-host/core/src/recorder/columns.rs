@@ -271,6 +271,9 @@ pub struct Layout {
     /// With `[fdir.wheels]`, the wheel count: the wheels the flight's FDIR dropped (bit
     /// mask), each wheel's torque residual and their threshold (n + 2; 0 = none).
     pub fdir_wheels: usize,
+    /// With `[fdir.magnetometer]`: the monitor's residual `|B_meas| − |B_model|` and its
+    /// threshold, T (2).
+    pub fdir_magnetometer: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -341,6 +344,9 @@ impl Layout {
             v.extend((1..=self.fdir_wheels).map(|i| format!("wheel{i}_residual_nm")));
             v.push("wheel_residual_threshold_nm".into());
         }
+        if self.fdir_magnetometer {
+            v.extend(["mag_residual_t".into(), "mag_residual_threshold_t".into()]);
+        }
         v
     }
 }
@@ -403,6 +409,7 @@ mod tests {
             faults: true,
             timeline: true,
             fdir_wheels: 4,
+            fdir_magnetometer: true,
         }
     }
 

@@ -19,7 +19,9 @@ pub struct FdirEvent {
     pub detected_at_s: f64,
     /// What isolation named: `rotor`, `tachometer` or `ambiguous` (treated as rotor) for a
     /// wheel; `star_tracker` for the tracker; the axis (`gyro.y`) for a stuck gyro axis;
-    /// the axis or `ambiguous` (unit `gyro`) for a gyro bias step.
+    /// the axis or `ambiguous` (unit `gyro`) for a gyro bias step; the axis
+    /// (`magnetometer.x`) for a stuck magnetometer axis, `ambiguous` (unit `magnetometer`)
+    /// for its field-magnitude test.
     pub isolated_as: &'static str,
     /// What the flight code did.
     pub recovery: &'static str,
@@ -76,6 +78,7 @@ impl FdirLog {
                 self.record(t_s, faults, unit.into(), "gyro_stuck", unit, "axis_read_as_zero");
             }
         }
+        self.observe_magnetometer(t_s, new_sensors, faults);
         if f.gyro_bias_steps > self.last.gyro_bias_steps {
             let axis = (0..3).find(|i| f.gyro_bias_axes == bit(*i));
             let (unit, isolated_as) = match axis.and_then(|i| ["gyro.x", "gyro.y", "gyro.z"].get(i).copied()) {
@@ -89,6 +92,21 @@ impl FdirLog {
         self.last = *f;
     }
 
+    /// The magnetometer monitor's new verdicts (`failed_sensors` bits 4-7): a stuck axis
+    /// names it; the magnitude test names the magnetometer, its axis ambiguous.
+    fn observe_magnetometer(&mut self, t_s: f64, new_sensors: u8, faults: &[TimedFault]) {
+        let stuck = new_sensors >> 4;
+        for (i, unit) in ["magnetometer.x", "magnetometer.y", "magnetometer.z"].into_iter().enumerate() {
+            if stuck & bit(i) != 0 {
+                self.record(t_s, faults, unit.into(), "magnetometer_stuck", unit, "dropped_from_estimation");
+            }
+        }
+        if new_sensors & acs_flight::link::FAILED_MAGNETOMETER != 0 {
+            let test = "field_magnitude";
+            self.record(t_s, faults, "magnetometer".into(), test, "ambiguous", "dropped_from_estimation");
+        }
+    }
+
     /// One event on `unit`, matched to the `[[faults]]` entry on it in force by `t_s` (none:
     /// a false alarm).
     fn record(
@@ -100,8 +118,12 @@ impl FdirLog {
         isolated_as: &'static str,
         recovery: &'static str,
     ) {
-        // An ambiguous gyro event ("gyro") matches a fault on any of its axes.
-        let on_unit = |u: &str| u == unit || (unit == "gyro" && u.starts_with("gyro."));
+        // An ambiguous event ("gyro", "magnetometer") matches a fault on any of its axes.
+        let on_unit = |u: &str| {
+            u == unit
+                || (unit == "gyro" && u.starts_with("gyro."))
+                || (unit == "magnetometer" && u.starts_with("magnetometer."))
+        };
         let fault = faults.iter().position(|x| on_unit(&x.fault.unit()) && x.window.onset_s <= t_s);
         self.summary.false_alarms += usize::from(fault.is_none());
         self.summary.events.push(FdirEvent { unit, test, detected_at_s: t_s, isolated_as, recovery, fault });

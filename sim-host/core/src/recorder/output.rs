@@ -173,7 +173,7 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
-    .chain([estimation_figure(), environment_figure(), pointing_figure(), fdir_figure()])
+    .chain([estimation_figure(), environment_figure(), pointing_figure(), fdir_figure(), magnetometer_fdir_figure()])
     .collect()
 }
 
@@ -193,6 +193,28 @@ fn fdir_figure() -> Figure {
             vec![
                 panel("wheel torque residuals", "N m", residuals),
                 panel("wheels dropped (bit i: wheel i+1) and faults in force (bit i: faults[i])", "(bit mask)", masks),
+            ],
+        )
+    }
+}
+
+/// `fdir-magnetometer.png` (runs with `[fdir.magnetometer]`): the field-magnitude residual
+/// and its threshold (the test is on the absolute value), and the faults in force.
+fn magnetometer_fdir_figure() -> Figure {
+    let residual = vec![
+        line("mag_residual_t", "|B_meas| − |B_model|", false),
+        line("mag_residual_threshold_t", "threshold", true),
+    ];
+    let masks = vec![line("fault_active", "injected", true)];
+    Figure {
+        requires: Some("mag_residual_threshold_t".into()),
+        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        ..figure(
+            "fdir-magnetometer.png",
+            "Magnetometer FDIR: measured field magnitude against the on-board model",
+            vec![
+                panel("field magnitude residual", "T", residual),
+                panel("faults in force (bit i: faults[i])", "(bit mask)", masks),
             ],
         )
     }

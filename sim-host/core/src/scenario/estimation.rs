@@ -278,6 +278,7 @@ impl EstimationSpec {
             // `[fdir.star_tracker]`'s and `[fdir.gyro]`'s (`Scenario::estimation_params`).
             tracker_fdir: None,
             gyro_fdir: None,
+            magnetometer_fdir: None,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {

@@ -21,7 +21,7 @@ use super::{Scenario, bad, finite};
 use acs_flight::params::ActuatorParams;
 use acs_flight::params::EstimationParams;
 use acs_flight::params::fdir::{
-    FdirParams, GyroFdirParams, KOfN, TrackerFdirParams, WheelFdirParams, WheelResidualNoise,
+    FdirParams, GyroFdirParams, KOfN, MagnetometerFdirParams, TrackerFdirParams, WheelFdirParams, WheelResidualNoise,
 };
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
@@ -35,6 +35,67 @@ pub struct FdirSpec {
     pub star_tracker: Option<TrackerFdirSpec>,
     #[serde(default)]
     pub gyro: Option<GyroFdirSpec>,
+    #[serde(default)]
+    pub magnetometer: Option<MagnetometerFdirSpec>,
+}
+
+/// `[fdir.magnetometer]`: the estimation stage's magnetometer monitor (docs/fdir.md
+/// "Magnetometer"): the measured field's magnitude against the on-board model (σ from
+/// `[sensors.magnetometer] noise_t` and `model_sigma_t`), and a stuck axis.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MagnetometerFdirSpec {
+    /// 1σ error of the on-board model's field magnitude against the truth, T.
+    #[serde(default = "default_model_sigma_t")]
+    pub model_sigma_t: f64,
+    /// |residual| / σ per sample (two-sided tail: 5 → 5.7e-7).
+    #[serde(default = "default_mag_threshold_sigma")]
+    pub threshold_sigma: f64,
+    #[serde(default = "default_tracker_k")]
+    pub k: u8,
+    #[serde(default = "default_tracker_n")]
+    pub n: u8,
+    /// Stuck: an axis repeating more than this many times in a row (≥ 1).
+    #[serde(default = "default_max_repeats")]
+    pub max_repeats: u16,
+}
+
+fn default_model_sigma_t() -> f64 {
+    2.0e-7
+}
+fn default_mag_threshold_sigma() -> f64 {
+    5.0
+}
+
+impl MagnetometerFdirSpec {
+    /// The flight's parameters, with the simulated magnetometer's noise `noise_t`.
+    fn params(&self, noise_t: f64) -> Result<MagnetometerFdirParams> {
+        let k = "fdir.magnetometer";
+        finite(&format!("{k}.model_sigma_t"), &[self.model_sigma_t])?;
+        if self.model_sigma_t < 0.0 || self.model_sigma_t + noise_t <= 0.0 {
+            return Err(bad(&format!("{k}.model_sigma_t"), "must be ≥ 0, and with the sensor's noise_t > 0"));
+        }
+        let t = self.threshold_sigma;
+        if !(t.is_finite() && t > 0.0) {
+            return Err(bad(&format!("{k}.threshold_sigma"), format!("{t}: must be > 0")));
+        }
+        let window = KOfN { k: self.k, n: self.n };
+        if !window.valid() {
+            return Err(bad(&format!("{k}.k"), "need 1 ≤ k ≤ n ≤ 32"));
+        }
+        if self.max_repeats == 0 {
+            return Err(bad(&format!("{k}.max_repeats"), "must be ≥ 1"));
+        }
+        let p = MagnetometerFdirParams {
+            noise_t: noise_t as f32,
+            model_sigma_t: self.model_sigma_t as f32,
+            threshold_sigma: t as f32,
+            window,
+            max_repeats: self.max_repeats,
+        };
+        p.validate().map_err(|e| bad(k, format!("refused by the flight code: {e:?}")))?;
+        Ok(p)
+    }
 }
 
 /// `[fdir.gyro]`: the estimation stage's stuck-axis monitor (docs/fdir.md "Gyro").
@@ -184,7 +245,16 @@ impl Scenario {
             Some(g) => Some(g.params()?),
             None => None,
         };
+        p.magnetometer_fdir = match self.fdir.as_ref().and_then(|f| f.magnetometer.as_ref()) {
+            Some(m) => Some(m.params(self.magnetometer_noise_t())?),
+            None => None,
+        };
         Ok(p)
+    }
+
+    /// The simulated magnetometer's noise per axis, T (0 without one).
+    fn magnetometer_noise_t(&self) -> f64 {
+        self.sensors.magnetometer.as_ref().map_or(0.0, |m| m.noise_t)
     }
 
     /// `[fdir]` checked naming the key.
@@ -210,6 +280,16 @@ impl Scenario {
                     "needs [fdir.star_tracker]: its witnesses tell a gyro step from a wrong tracker",
                 ));
             }
+        }
+        if let Some(m) = self.fdir.as_ref().and_then(|f| f.magnetometer.as_ref()) {
+            let mekf = self.estimation.as_ref().is_some_and(|e| e.source == super::estimation::SourceSpec::Mekf);
+            if !mekf || self.sensors.magnetometer.is_none() {
+                return Err(bad(
+                    "fdir.magnetometer",
+                    "the monitor runs in the estimation stage against its field model: needs [estimation] source = \"mekf\" and [sensors.magnetometer]",
+                ));
+            }
+            m.params(self.magnetometer_noise_t())?;
         }
         let Some(spec) = self.fdir.as_ref().and_then(|f| f.wheels.as_ref()) else { return Ok(()) };
         if self.actuators.wheels.is_none() {

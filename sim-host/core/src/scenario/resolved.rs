@@ -253,6 +253,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         faults: !sc.faults.is_empty(),
         timeline: sc.timeline.is_some(),
         fdir_wheels: if sc.fdir.as_ref().is_some_and(|f| f.wheels.is_some()) { n_wheels } else { 0 },
+        fdir_magnetometer: sc.fdir.as_ref().is_some_and(|f| f.magnetometer.is_some()),
     }
 }
 

@@ -85,6 +85,13 @@ impl Simulation<'_> {
             self.row.extend(residuals.map(|r| if f.wheel_judged { f64::from(*r) } else { f64::NAN }));
             self.row.push(if f.wheel_judged { f64::from(f.wheel_threshold_nm) } else { f64::NAN });
         }
+        if self.layout.fdir_magnetometer {
+            // Not judged (no model magnitude yet, a repeated sample): NaN, not a zero residual.
+            let f = &v.cmd.fdir;
+            let judged = f.mag_threshold_t > 0.0;
+            let value = |x: f32| if judged { f64::from(x) } else { f64::NAN };
+            self.row.extend([value(f.mag_residual_t), value(f.mag_threshold_t)]);
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
