@@ -4,7 +4,7 @@
 //! `[fdir.wheels]`, its own fault removed) — random lists of 1 to 33 entries: every fault
 //! class at random onsets and magnitudes (in range, and NaN, ±inf, negative, huge), units the
 //! spacecraft does not have (`wheel.7` on four wheels, `magnetorquer.5`, `cmg.0`,
-//! `thruster.0`, unmodelled units, `gyro.w`), kinds a unit does not have, `end_s` ≤ `onset_s`.
+//! `thruster.0`, unmodelled units, `gyro.w`, `magnetometer` without an axis), kinds a unit does not have, `end_s` ≤ `onset_s`.
 //! The test predicts each entry's validity itself (docs/scenario.md `[[faults]]`), and every
 //! case must end in exactly one of:
 //!
@@ -110,8 +110,23 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 10] =
-    ["stuck", "torque_gain", "runaway", "tach_stuck", "bias_step", "flip", "frozen", "open", "reversed", "explode"];
+const ALL_KINDS: [&str; 11] = [
+    "stuck",
+    "torque_gain",
+    "runaway",
+    "tach_stuck",
+    "bias_step",
+    "flip",
+    "frozen",
+    "open",
+    "reversed",
+    "bias",
+    "explode",
+];
+
+/// The largest magnetometer bias the format takes, T (the flight code's f32 field limit).
+const MAX_MAG_BIAS_T: f64 = 1e-2f32 as f64;
+const MAGNETOMETER_AXES: [&str; 3] = ["magnetometer.x", "magnetometer.y", "magnetometer.z"];
 
 fn kinds_of(unit: &str) -> &'static [&'static str] {
     match unit.split('.').next() {
@@ -119,6 +134,7 @@ fn kinds_of(unit: &str) -> &'static [&'static str] {
         Some("gyro") => &["stuck", "bias_step"],
         Some("star_tracker") => &["flip", "frozen"],
         Some("magnetorquer") => &["open", "reversed"],
+        Some("magnetometer") => &["stuck", "bias"],
         _ => &["stuck"],
     }
 }
@@ -133,6 +149,7 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
     let mut valid_units: Vec<String> = (0..b.wheels).map(|i| format!("wheel.{i}")).collect();
     valid_units.extend(["gyro.x", "gyro.y", "gyro.z", "star_tracker"].map(String::from));
     valid_units.extend((0..3).map(|i| format!("magnetorquer.{i}")));
+    valid_units.extend(MAGNETOMETER_AXES.map(String::from));
     let unit = if bad(rng, 0.06) {
         let wrong = [
             format!("wheel.{}", b.wheels),
@@ -141,6 +158,8 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
             "cmg.0".into(),
             "thruster.0".into(),
             "magnetometer".into(),
+            "magnetometer.w".into(),
+            "magnetometer.0".into(),
             "css.2".into(),
             "gnss".into(),
             "gyro.w".into(),
@@ -161,6 +180,8 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
         "runaway" => Some(*pick(rng, &[1.0, -1.0])),
         // 1e-6 to 1 rad/s (the largest step the format takes), either sign.
         "bias_step" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(-6.0 * rng.uniform())),
+        // 1e-9 to 1e-2 T (the largest bias the format takes), either sign.
+        "bias" => Some(*pick(rng, &[1.0, -1.0]) * MAX_MAG_BIAS_T * 10f64.powf(-7.0 * rng.uniform())),
         _ => None,
     };
     let onset_s = if bad(rng, 0.03) {
@@ -191,13 +212,15 @@ fn valid(e: &Entry, wheels: usize) -> bool {
     };
     let unit_ok = index_below("wheel.", wheels)
         || index_below("magnetorquer.", 3)
-        || ["gyro.x", "gyro.y", "gyro.z", "star_tracker"].contains(&e.unit.as_str());
+        || ["gyro.x", "gyro.y", "gyro.z", "star_tracker"].contains(&e.unit.as_str())
+        || MAGNETOMETER_AXES.contains(&e.unit.as_str());
     let kind_ok = unit_ok && kinds_of(&e.unit).contains(&e.kind.as_str());
     let m = e.magnitude;
     let magnitude_ok = match e.kind.as_str() {
         "torque_gain" => m.is_some_and(|g| (0.0..=1.0).contains(&g)),
         "runaway" => m.is_some_and(|s| s == 1.0 || s == -1.0),
         "bias_step" => m.is_some_and(|x| x.is_finite() && x.abs() <= 1.0),
+        "bias" => m.is_some_and(|x| x.is_finite() && x.abs() <= MAX_MAG_BIAS_T),
         _ => m.is_none(),
     };
     in_range && onset_ok && end_ok && unit_ok && kind_ok && magnitude_ok

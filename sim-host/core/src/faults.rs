@@ -1,7 +1,7 @@
 //! Injected faults (issue 42): the typed fault of one `[[faults]]` entry (one enum per unit
 //! kind), the time window it acts in, and its names in the summary. Parsed and checked
 //! against the spacecraft by `scenario::faults`; applied by the plant (a seized wheel), the
-//! sensors (gyro, star tracker, tachometers) and the actuation (wheel torque, torquer
+//! sensors (gyro, star tracker, magnetometer, tachometers) and the actuation (wheel torque, torquer
 //! rods). docs/scenario.md `[[faults]]`.
 
 use serde::Serialize;
@@ -65,6 +65,15 @@ pub enum TrackerFault {
     Frozen,
 }
 
+/// A magnetometer axis's fault (the axis of the sensor).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MagFault {
+    /// The axis repeats its first reading in the window.
+    Stuck,
+    /// A constant field added to the axis's reading, T.
+    Bias { t: f64 },
+}
+
 /// A magnetorquer rod's fault.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RodFault {
@@ -88,6 +97,11 @@ pub enum Fault {
         kind: GyroFault,
     },
     StarTracker(TrackerFault),
+    /// Magnetometer axis `axis` (0, 1, 2 = x, y, z, the sensor's axes).
+    Magnetometer {
+        axis: usize,
+        kind: MagFault,
+    },
     /// Torquer rod `index` (0-based, the order of `[actuators.magnetorquers]`).
     Magnetorquer {
         index: usize,
@@ -111,6 +125,9 @@ impl Fault {
             Fault::Wheel { index, .. } => format!("wheel.{index}"),
             Fault::Gyro { axis, .. } => format!("gyro.{}", AXES.get(*axis).copied().unwrap_or("?")),
             Fault::StarTracker(_) => "star_tracker".into(),
+            Fault::Magnetometer { axis, .. } => {
+                format!("magnetometer.{}", AXES.get(*axis).copied().unwrap_or("?"))
+            }
             Fault::Magnetorquer { index, .. } => format!("magnetorquer.{index}"),
         }
     }
@@ -118,11 +135,14 @@ impl Fault {
     /// The kind as the scenario names it.
     pub fn kind(&self) -> &'static str {
         match self {
-            Fault::Wheel { kind: WheelFault::Stuck, .. } | Fault::Gyro { kind: GyroFault::Stuck, .. } => "stuck",
+            Fault::Wheel { kind: WheelFault::Stuck, .. }
+            | Fault::Gyro { kind: GyroFault::Stuck, .. }
+            | Fault::Magnetometer { kind: MagFault::Stuck, .. } => "stuck",
             Fault::Wheel { kind: WheelFault::TorqueGain(_), .. } => "torque_gain",
             Fault::Wheel { kind: WheelFault::Runaway { .. }, .. } => "runaway",
             Fault::Wheel { kind: WheelFault::TachStuck, .. } => "tach_stuck",
             Fault::Gyro { kind: GyroFault::BiasStep { .. }, .. } => "bias_step",
+            Fault::Magnetometer { kind: MagFault::Bias { .. }, .. } => "bias",
             Fault::StarTracker(TrackerFault::Flip) => "flip",
             Fault::StarTracker(TrackerFault::Frozen) => "frozen",
             Fault::Magnetorquer { kind: RodFault::Open, .. } => "open",
@@ -136,6 +156,7 @@ impl Fault {
             Fault::Wheel { kind: WheelFault::TorqueGain(g), .. } => Some(*g),
             Fault::Wheel { kind: WheelFault::Runaway { sign }, .. } => Some(*sign),
             Fault::Gyro { kind: GyroFault::BiasStep { rad_s }, .. } => Some(*rad_s),
+            Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),
             _ => None,
         }
     }

@@ -132,6 +132,13 @@ fn invalid_entries_are_refused_naming_the_key() {
         (entry("wheel.1", "stuck", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
         (entry("wheel.1", "stuck", "end_s = 0.5"), "faults[0].end_s", "> onset_s"),
         (entry("wheel.1", "stuck", "typo = 1"), "typo", "unknown field"),
+        (entry("magnetometer", "stuck", ""), "faults[0].unit", "magnetometer.x, magnetometer.y or magnetometer.z"),
+        (entry("magnetometer.w", "bias", "magnitude = 1e-6"), "faults[0].unit", "magnetometer.x"),
+        (entry("magnetometer.x", "flip", ""), "faults[0].kind", "\"stuck\", \"bias\""),
+        (entry("magnetometer.y", "bias", "magnitude = 0.02"), "faults[0].magnitude", "out of range"),
+        (entry("magnetometer.y", "bias", "magnitude = nan"), "faults[0].magnitude", "must be finite"),
+        (entry("magnetometer.y", "bias", ""), "faults[0].magnitude", "required"),
+        (entry("magnetometer.z", "stuck", "magnitude = 1e-6"), "faults[0].magnitude", "takes no magnitude"),
     ];
     for (text, key, why) in &cases {
         let e = err_of(text);
@@ -422,4 +429,89 @@ fn a_stuck_tachometer_repeats_its_reading_while_the_wheel_speeds_up() {
     // The true speed went on: 50 rad/s² for 8 s.
     let (s2, s10) = (&fr[20].1, &fr[100].1);
     assert!((rel(s10, 2, axis(2)) - rel(s2, 2, axis(2)) - 400.0).abs() < 1e-6);
+}
+
+// --- magnetometer ---
+
+/// The reference (lab) field the magnetometer tests measure, T.
+const B_REF_T: [f64; 3] = [2e-5, -1e-5, 3e-5];
+/// The magnetometer's per-sample 1σ in those tests, T.
+const MAG_SIGMA_T: f64 = 1e-8;
+
+/// `BASE` with a noisy magnetometer and `faults`.
+fn mag_scenario(faults: &str) -> Scenario {
+    let text = BASE.replace("seed = 42\n", &format!("seed = 42\nmagnetometer_noise_t = {MAG_SIGMA_T:e}\n"));
+    Scenario::from_toml(&format!("{text}{faults}")).unwrap()
+}
+
+/// The frames of 10 s of samples at 10 Hz on the closed-form truth in the field `B_REF_T`,
+/// and the true body field of each, T.
+fn mag_frames(sc: &Scenario) -> Vec<(f64, Vec3, acs_flight::link::SensorFrame)> {
+    use sim_core::environment::model::EnvSnapshot;
+    let r = Resolved::try_from(sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    let b_ref = Vec3::from(B_REF_T);
+    (0..=100)
+        .map(|k| {
+            let t = k as f64 * DT;
+            let s = truth(t, &craft);
+            let env = EnvSnapshot { t_s: t, b_ref_t: Some(b_ref), ..Default::default() };
+            let f = suite.sample(k, t, &s, &craft, Some(&env), &[0.0; 3]);
+            (t, sim_core::attitude::rotate_ref_to_body(&s.q, &b_ref), f)
+        })
+        .collect()
+}
+
+#[test]
+fn a_stuck_magnetometer_axis_repeats_itself_in_its_window_and_the_others_follow_the_truth() {
+    let sc = mag_scenario("[[faults]]\nonset_s = 3.0\nunit = \"magnetometer.y\"\nkind = \"stuck\"\nend_s = 7.0\n");
+    let fr = mag_frames(&sc);
+    let held = fr[30].2.mag_field_t[1];
+    // 5σ per sample, plus the f32 of the wire (~4e-12 T at 4e-5 T).
+    let tol = 5.0 * MAG_SIGMA_T + 1e-11;
+    let mut moved = 0.0f64;
+    for (t, b, f) in &fr {
+        assert!(f.valid & acs_flight::link::valid::MAG != 0, "at {t}");
+        for a in [0, 2] {
+            assert!((f.mag_field_t[a] as f64 - b[a]).abs() < tol, "axis {a} at {t}");
+        }
+        if (3.0 - 1e-9..7.0 - 1e-9).contains(t) {
+            assert_eq!(f.mag_field_t[1], held, "at {t}");
+            moved = moved.max((b[1] - f64::from(held)).abs());
+        } else {
+            assert!((f.mag_field_t[1] as f64 - b[1]).abs() < tol, "axis y at {t}");
+        }
+    }
+    // Meanwhile the true y field moved far beyond the noise (the body turned 0.24 rad).
+    eprintln!("stuck magnetometer: true y field moved {moved:e} T from the held reading in the window");
+    assert!(moved > 100.0 * MAG_SIGMA_T, "{moved:e}");
+}
+
+#[test]
+fn a_magnetometer_bias_adds_exactly_its_field_to_its_axis_in_its_window() {
+    let bias_t = 2e-6;
+    let faulty = mag_scenario(&format!(
+        "[[faults]]\nonset_s = 4.0\nunit = \"magnetometer.z\"\nkind = \"bias\"\nmagnitude = {bias_t:e}\nend_s = 8.0\n"
+    ));
+    // Second method: the same run without the fault (the noise draws are the same).
+    let (with, without) = (mag_frames(&faulty), mag_frames(&mag_scenario("")));
+    for ((t, b, f), (_, _, g)) in with.iter().zip(&without) {
+        let d = |a: usize| f64::from(f.mag_field_t[a]) - f64::from(g.mag_field_t[a]);
+        assert_eq!((d(0), d(1)), (0.0, 0.0), "other axes at {t}");
+        if (4.0 - 1e-9..8.0 - 1e-9).contains(t) {
+            // The f32 of the wire: half an ulp of each reading (~4e-12 T at 4e-5 T).
+            assert!((d(2) - bias_t).abs() < 1e-11, "at {t}: {:e}", d(2));
+            // And against the truth: bias plus noise.
+            assert!((f64::from(f.mag_field_t[2]) - b[2] - bias_t).abs() < 5.0 * MAG_SIGMA_T + 1e-11, "at {t}");
+        } else {
+            assert_eq!(d(2), 0.0, "at {t}");
+        }
+    }
+    let (_, summary) = fly(&faulty);
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!(
+        (rec.unit.as_str(), rec.kind, rec.magnitude, rec.injected_at_s, rec.end_s),
+        ("magnetometer.z", "bias", Some(bias_t), Some(4.0), Some(8.0))
+    );
 }

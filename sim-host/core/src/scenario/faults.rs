@@ -4,12 +4,16 @@
 //! (`faults[i].unit`, `faults[i].magnitude`, …, the campaign's key-path spelling).
 
 use super::{Scenario, bad};
-use crate::faults::{Fault, GyroFault, MAX_FAULTS, RodFault, TimedFault, TrackerFault, WheelFault, Window};
+use crate::faults::{Fault, GyroFault, MAX_FAULTS, MagFault, RodFault, TimedFault, TrackerFault, WheelFault, Window};
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
 /// Largest gyro bias step, rad/s (57 deg/s: beyond it the fault is a saturation, not a bias).
 pub const MAX_GYRO_BIAS_STEP_RAD_S: f64 = 1.0;
+
+/// Largest magnetometer bias, T: the flight code's field limit (`MAX_FIELD_T`, as
+/// `sensors.magnetometer.bias_t`); beyond it every reading is refused on board anyway.
+pub const MAX_MAG_BIAS_T: f64 = acs_flight::validation::MAX_FIELD_T as f64;
 
 /// One `[[faults]]` entry as written.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
@@ -17,7 +21,8 @@ pub const MAX_GYRO_BIAS_STEP_RAD_S: f64 = 1.0;
 pub struct FaultSpec {
     /// When the fault starts, s (>= 0).
     pub onset_s: f64,
-    /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N" (N 0-based).
+    /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N", "magnetometer.x|y|z"
+    /// (N 0-based).
     pub unit: String,
     /// The fault, among those the unit's kind has.
     pub kind: String,
@@ -31,7 +36,7 @@ pub struct FaultSpec {
 
 /// The units the format names that no fault kind is modelled for yet (refused, not
 /// ignored).
-const UNMODELLED: [&str; 5] = ["magnetometer", "css", "gnss", "cmg", "thruster"];
+const UNMODELLED: [&str; 4] = ["css", "gnss", "cmg", "thruster"];
 
 impl Scenario {
     /// The `[[faults]]` list, typed and checked against this spacecraft.
@@ -84,12 +89,7 @@ impl Scenario {
                 Ok(Fault::Wheel { index, kind })
             }
             "gyro" => {
-                let axis = match index {
-                    Some("x") => 0,
-                    Some("y") => 1,
-                    Some("z") => 2,
-                    _ => return Err(bad(&unit_key, format!("{:?}: a gyro axis is gyro.x, gyro.y or gyro.z", f.unit))),
-                };
+                let axis = axis_of(index, &unit_key, &f.unit, "gyro")?;
                 let kind = match f.kind.as_str() {
                     "stuck" => m.none(GyroFault::Stuck)?,
                     "bias_step" => GyroFault::BiasStep {
@@ -104,6 +104,16 @@ impl Scenario {
                 "frozen" => m.none(TrackerFault::Frozen)?,
                 _ => return Err(kind_err("\"flip\", \"frozen\"")),
             })),
+            "magnetometer" => {
+                // Every spacecraft flies one (`[sensors.magnetometer]` or the ideal default).
+                let axis = axis_of(index, &unit_key, &f.unit, "magnetometer")?;
+                let kind = match f.kind.as_str() {
+                    "stuck" => m.none(MagFault::Stuck)?,
+                    "bias" => MagFault::Bias { t: m.within(-MAX_MAG_BIAS_T, MAX_MAG_BIAS_T, "a field in T")? },
+                    _ => return Err(kind_err("\"stuck\", \"bias\"")),
+                };
+                Ok(Fault::Magnetometer { axis, kind })
+            }
             "magnetorquer" => {
                 let n = self.actuators.magnetorquers.as_ref().map_or(0, |_| self.magnetorquer_set().rods.len());
                 let index = self.unit_index(index, n, &unit_key, "magnetorquer", "[actuators.magnetorquers]")?;
@@ -120,7 +130,8 @@ impl Scenario {
             _ => Err(bad(
                 &unit_key,
                 format!(
-                    "unknown unit {:?} (known: \"wheel.N\", \"gyro.x|y|z\", \"star_tracker\", \"magnetorquer.N\")",
+                    "unknown unit {:?} (known: \"wheel.N\", \"gyro.x|y|z\", \"star_tracker\", \"magnetorquer.N\", \
+                     \"magnetometer.x|y|z\")",
                     f.unit
                 ),
             )),
@@ -139,6 +150,16 @@ impl Scenario {
             return Err(bad(key, format!("{what}.{i}: the spacecraft has {n} ({what}.0 to {what}.{})", n - 1)));
         }
         Ok(i)
+    }
+}
+
+/// The axis (0, 1, 2) of a `what.x|y|z` unit.
+fn axis_of(index: Option<&str>, key: &str, unit: &str, what: &str) -> Result<usize> {
+    match index {
+        Some("x") => Ok(0),
+        Some("y") => Ok(1),
+        Some("z") => Ok(2),
+        _ => Err(bad(key, format!("{unit:?}: a {what} axis is {what}.x, {what}.y or {what}.z"))),
     }
 }
 

@@ -1,11 +1,11 @@
 //! Sensor faults of `[[faults]]` (issue 42) applied to the readings as they are sampled:
 //! gyro axis stuck or bias step, star tracker flipped about its boresight or frozen,
-//! wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
+//! magnetometer axis stuck or biased, wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
 //! in its window; a frozen value is the first reading in the window. The models still
 //! draw their noise as without the fault, so every other reading keeps its bits.
 
 use crate::attitude::{Quat, Vec3};
-use crate::faults::{Fault, GyroFault, TimedFault, TrackerFault, WheelFault};
+use crate::faults::{Fault, GyroFault, MagFault, TimedFault, TrackerFault, WheelFault};
 use nalgebra::{Unit, UnitQuaternion};
 
 /// One sensor fault and the value it froze (while its window is open).
@@ -20,6 +20,7 @@ enum Held {
     Rate(f64),
     Attitude(Quat),
     Speed(f64),
+    Field(f64),
 }
 
 /// The sensor faults of a run.
@@ -37,7 +38,10 @@ impl SensorFaults {
         let sensor = |f: &&TimedFault| {
             matches!(
                 f.fault,
-                Fault::Gyro { .. } | Fault::StarTracker(_) | Fault::Wheel { kind: WheelFault::TachStuck, .. }
+                Fault::Gyro { .. }
+                    | Fault::StarTracker(_)
+                    | Fault::Magnetometer { .. }
+                    | Fault::Wheel { kind: WheelFault::TachStuck, .. }
             )
         };
         let entries = list.iter().filter(sensor).map(|f| Entry { fault: *f, held: None }).collect();
@@ -99,6 +103,29 @@ impl SensorFaults {
                     };
                     e.held = Some(Held::Attitude(held));
                     *q_ib = held;
+                }
+            }
+        }
+    }
+
+    /// A magnetometer sample at `t_s` (`b_t`: the reading in the sensor's axes, T).
+    pub fn magnetometer(&mut self, t_s: f64, b_t: &mut [f64; 3]) {
+        for e in &mut self.entries {
+            let Fault::Magnetometer { axis, kind } = e.fault.fault else { continue };
+            let Some(b) = b_t.get_mut(axis) else { continue };
+            if !e.fault.window.active(t_s) {
+                e.held = None;
+                continue;
+            }
+            match kind {
+                MagFault::Bias { t } => *b += t,
+                MagFault::Stuck => {
+                    let held = match e.held {
+                        Some(Held::Field(x)) => x,
+                        _ => *b,
+                    };
+                    e.held = Some(Held::Field(held));
+                    *b = held;
                 }
             }
         }

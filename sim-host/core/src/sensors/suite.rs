@@ -328,8 +328,9 @@ impl SensorSuite {
         if self.mag.clock.is_due(t_s) {
             match env.and_then(|e| e.b_ref_t) {
                 Some(b) => {
-                    let m = self.mag.update(t_s, &rotate_ref_to_body(&s.q, &b).into(), rod_dipole_am2);
-                    self.mag_channel.push(micros(t_s), m.b_body_t);
+                    let mut m = self.mag.update(t_s, &rotate_ref_to_body(&s.q, &b).into(), rod_dipole_am2).b_body_t;
+                    self.faults.magnetometer(t_s, &mut m);
+                    self.mag_channel.push(micros(t_s), m);
                 }
                 // No field to measure: the grid point passes without a sample.
                 None => _ = self.mag.clock.due(t_s),
