@@ -7,7 +7,7 @@ probability, the latency from the fault's first step in force to its detection
 (median / p95 / max), the isolated-as counts, the wrong-unit count, the false alarms, the
 mode at the onset, and the outcome figures of the class. Standard library only.
 
-    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|wheel|nominal [--refly SIM_HOST]
+    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|magnetometer|wheel|nominal [--refly SIM_HOST]
     scripts/fdir-campaign.py --self-test
 
 Exit status 1 when a run errored, a fault was missed or isolated as another unit, a false
@@ -19,7 +19,10 @@ on its est_error_deg from the fault's first step in force on. For gyro-bias-step
 flies every run again for its pointing error (error_deg) from the fault's first step in force
 on; the class prints the latency per magnitude decade, the isolation (the injected axis,
 ambiguous, another axis) and the missed steps with their magnitudes and pointing cost.
-A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
+For magnetometer, a stuck axis and a bias of at least MAG_MUST_DETECT_T must be detected
+(a smaller bias across the field may not show in its magnitude before the run ends: reported)
+and the run must end in hold within HOLD_DEG; the event names the injected axis or the
+magnetometer (ambiguous). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
 absorbed by the filter's bias random walk: docs/fdir.md "Gyro bias step").
 Quantiles are nearest-rank (the ceil(q n)-th smallest value).
 """
@@ -44,6 +47,9 @@ AT_REST_RAD_S = math.radians(0.5)  # sun-safe "at rest": |w| below the search ra
 # gyro-bias-step: a missed step at or above this is a failure (the shipped test declares
 # 1e-4 rad/s in 5 s; smaller ones may be absorbed by the filter), below it a reported miss
 BIAS_MUST_DETECT_RAD_S = 1.0e-3
+# magnetometer: a bias at or above this must be detected (5x the test's 1.12 uT threshold
+# on the field magnitude: seen unless nearly perpendicular to the field for the whole run)
+MAG_MUST_DETECT_T = 5.0e-6
 
 
 def binom_tail_ge(k, n, p):
@@ -180,6 +186,14 @@ def outcome(cls, s, det_s, bad, refly=None):
         fig["err_post_onset_max_deg"] = refly() if refly is not None else None
         must = abs(fig["magnitude"] or 0.0) >= BIAS_MUST_DETECT_RAD_S
         return (fig["detected"] or not must) and not bad, fig
+    if cls == "magnetometer":
+        f0 = (s.get("faults") or [{}])[0]
+        fig["kind"], fig["magnitude"] = f0.get("kind"), f0.get("magnitude")
+        fig["detected"] = det_s is not None
+        fig["latency_s"] = None if det_s is None else det_s - f0.get("injected_at_s")
+        must = fig["kind"] == "stuck" or abs(fig["magnitude"] or 0.0) >= MAG_MUST_DETECT_T
+        kept = fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG
+        return (fig["detected"] or not must) and kept and not bad, fig
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
@@ -223,7 +237,7 @@ def analyse(dirname, cls, sim_host=None):
                     # a bias step the monitor cannot place on one axis names the gyro
                     unit_ok = e.get("unit") == f0["unit"] or (
                         cls == "gyro-bias-step" and e.get("unit") == "gyro" and e.get("isolated_as") == "ambiguous"
-                    )
+                    ) or (cls == "magnetometer" and e.get("unit") == "magnetometer" and e.get("isolated_as") == "ambiguous")
                     if not unit_ok or not named:
                         wrong.append(f"{run}:{e.get('unit')}/{e.get('isolated_as')}!={f0['unit']}")
         refly = None
@@ -252,7 +266,7 @@ def analyse(dirname, cls, sim_host=None):
     report_outcome(cls, figs)
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
-    missed = cls not in ("nominal", "gyro-bias-step") and detected < n
+    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer") and detected < n
     bad = errored or missed or wrong or false_alarms or failed_outcome
     return 1 if bad else 0
 
@@ -276,6 +290,8 @@ def report_outcome(cls, figs):
         print(f"detection -> sun-safe (s), {len(safe)} runs, median / p95 / max: {spread(safe)}")
     if cls == "gyro-bias-step":
         report_bias_step(figs)
+    if cls == "magnetometer":
+        report_magnetometer(figs)
     if cls in ("wheel", "nominal"):
         ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
         if ape:
@@ -338,10 +354,29 @@ def report_bias_step(figs):
     print(f"final error, all runs (deg), median / p95 / max: {spread(fin, '{:.4f}')}")
 
 
+def report_magnetometer(figs):
+    groups = {}
+    for f in figs:
+        key = "stuck" if f["kind"] == "stuck" else f"{abs(f['magnitude']):.0e} T"
+        groups.setdefault(key, []).append(f)
+    for key in sorted(groups):
+        fs = groups[key]
+        det = [f for f in fs if f["detected"]]
+        lat = [f["latency_s"] for f in det]
+        fin = [f["final_error_deg"] for f in fs if f["final_error_deg"] is not None]
+        print(
+            f"{key}: detected {len(det)} / {len(fs)} (P_D >= {cp_lower(len(det), len(fs)):.4f});"
+            f" latency (s) median / p95 / max: {spread(lat)}; final error (deg) {spread(fin, '{:.4f}')}"
+        )
+    for f in figs:
+        if not f["detected"]:
+            print(f"  missed: run {f['run']}, {f['kind']} {f['magnitude']}, ends {f['final_mode']} {f['final_error_deg']:.4f} deg")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dir", nargs="?")
-    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "wheel", "nominal"])
+    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "magnetometer", "wheel", "nominal"])
     ap.add_argument("--self-test", action="store_true")
     ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound, every gyro-bias-step run (CSV)")
     a = ap.parse_args()

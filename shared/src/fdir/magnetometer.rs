@@ -63,10 +63,11 @@ impl MagnetometerMonitor {
             return;
         }
         self.last_time_us = Some(time_us);
-        let was_failed = self.failed();
+        let was_magnitude = self.magnitude_failed;
         // Bits 0..=2 of a u32 mask of three components: fits a u8.
         let stuck = u8::try_from(self.repeats.push(p.max_repeats, &[field_t.x, field_t.y, field_t.z]) & 0b111);
-        self.stuck_axes |= stuck.unwrap_or(0);
+        let new_stuck = stuck.unwrap_or(0) & !self.stuck_axes;
+        self.stuck_axes |= new_stuck;
         (self.last_residual_t, self.last_threshold_t) = (0.0, 0.0);
         if let Some(model) = model_t {
             let threshold = p.threshold_sigma * f32m::sqrt(p.noise_t * p.noise_t + p.model_sigma_t * p.model_sigma_t);
@@ -76,7 +77,9 @@ impl MagnetometerMonitor {
             self.magnitude_failed |= self.persistence.push(&p.window, exceeded);
             (self.last_residual_t, self.last_threshold_t) = (residual, threshold);
         }
-        self.events = self.events.saturating_add(u16::from(!was_failed && self.failed()));
+        // One event per verdict: newly stuck axes (one step), the magnitude test.
+        let new_verdicts = u16::from(new_stuck != 0) + u16::from(!was_magnitude && self.magnitude_failed);
+        self.events = self.events.saturating_add(new_verdicts);
     }
 
     /// Either test has fired: the magnetometer is no longer used by the estimation.
@@ -99,8 +102,8 @@ impl MagnetometerMonitor {
         (self.last_residual_t, self.last_threshold_t)
     }
 
-    /// Times the magnetometer was declared failed since boot (saturating; a clear does not
-    /// lower it).
+    /// Verdicts since boot: each step that declared axes stuck, each magnitude declaration
+    /// (saturating; a clear does not lower it).
     pub fn events(&self) -> u16 {
         self.events
     }
@@ -136,7 +139,8 @@ mod tests {
         for i in 0..20u64 {
             // Healthy (noise-like wiggle well inside the threshold), then 2 µT off from 10 on.
             let off = if i >= 10 { 2.0e-6 } else { 1.0e-7 * (i as f32).sin() };
-            let b = Vec3::new(0.6, 0.0, 0.8) * (model + off);
+            // The direction turns (no axis repeats: that would be the stuck test).
+            let b = Vec3::new(0.6, 1e-3 * (i + 1) as f32, 0.8).normalize() * (model + off);
             m.judge(&p, i * 500_000, &b, Some(model));
             m.judge(&p, i * 500_000, &b, Some(model)); // a repeated tag is not judged
             assert_eq!(m.failed(), i >= 12, "sample {i}");
