@@ -133,6 +133,18 @@ enum TimingCmd {
         #[arg(long)]
         firmware: Option<PathBuf>,
     },
+    /// Evaluate the hand-made FDIR seeds of a scenario with monitors on the QEMU firmware
+    /// (docs/timing.md "FDIR seeds"): each seed's costliest step, what FDIR declared and
+    /// the costliest declaration step.
+    Seeds {
+        /// Scenario file (TOML) with an [fdir] monitor.
+        scenario: PathBuf,
+        /// Budget file (default: timing/budget.toml when it exists).
+        #[arg(long)]
+        budget: Option<PathBuf>,
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+    },
     /// Replay corpus files on the QEMU firmware, print the costs and check them against
     /// the budget file. Exit status 1 when one exceeds its budget.
     Replay {
@@ -610,9 +622,34 @@ fn timing_replay(corpus: &[PathBuf], budget: Option<PathBuf>, firmware: Option<P
     Ok(())
 }
 
+/// `sim-host timing seeds`: every FDIR seed of the scenario measured once.
+fn timing_seeds(scenario: &Path, budget: Option<PathBuf>, firmware: Option<PathBuf>) -> Result<()> {
+    let budget = budget_file(budget)?;
+    let target = timing::Target::load(scenario)?;
+    let seeds = timing::search::fdir_inputs(&target);
+    if seeds.is_empty() {
+        anyhow::bail!("{}: no FDIR monitor in the scenario, no FDIR seeds", target.name);
+    }
+    let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+    let mut ev = timing::Evaluator::new(target, &mut l)?;
+    let (name, dt) = (ev.target.name.clone(), ev.target.dt_s);
+    say!("{name} ({}): monitors {:?}", scenario.display(), ev.target.monitors());
+    let mut failed = false;
+    for (label, x) in seeds {
+        let measured = ev.evaluate(&x)?;
+        let r = timing::corpus::Replayed { label, recorded: 0, measured };
+        timing::text::write_replayed(&mut std::io::stdout(), &name, &[r], dt, budget.as_ref(), &mut failed);
+    }
+    if failed {
+        anyhow::bail!("an FDIR seed's step exceeds its budget");
+    }
+    Ok(())
+}
+
 /// `sim-host timing …`.
 fn timing(what: TimingCmd) -> Result<()> {
     match what {
+        TimingCmd::Seeds { scenario, budget, firmware } => timing_seeds(&scenario, budget, firmware),
         TimingCmd::Replay { corpus, budget, firmware } => timing_replay(&corpus, budget, firmware),
         search @ TimingCmd::Search { .. } => timing_search(search),
     }
