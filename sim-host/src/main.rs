@@ -133,6 +133,21 @@ enum TimingCmd {
         #[arg(long)]
         firmware: Option<PathBuf>,
     },
+    /// Evaluate the hand-made FDIR seeds of a scenario with monitors on the QEMU firmware
+    /// (docs/timing.md "FDIR seeds"): each seed's costliest step, what FDIR declared and
+    /// the costliest declaration step.
+    Seeds {
+        /// Scenario file (TOML) with an [fdir] monitor.
+        scenario: PathBuf,
+        /// Write the seeds and their costs as a corpus file (for `timing replay`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Budget file (default: timing/budget.toml when it exists).
+        #[arg(long)]
+        budget: Option<PathBuf>,
+        #[arg(long)]
+        firmware: Option<PathBuf>,
+    },
     /// Replay corpus files on the QEMU firmware, print the costs and check them against
     /// the budget file. Exit status 1 when one exceeds its budget.
     Replay {
@@ -610,9 +625,61 @@ fn timing_replay(corpus: &[PathBuf], budget: Option<PathBuf>, firmware: Option<P
     Ok(())
 }
 
+/// `sim-host timing seeds`: every FDIR seed of the scenario measured once.
+fn timing_seeds(
+    scenario: &Path,
+    out: Option<PathBuf>,
+    budget: Option<PathBuf>,
+    firmware: Option<PathBuf>,
+) -> Result<()> {
+    let budget = budget_file(budget)?;
+    let target = timing::Target::load(scenario)?;
+    let seeds = timing::search::fdir_inputs(&target);
+    if seeds.is_empty() {
+        anyhow::bail!("{}: no FDIR monitor in the scenario, no FDIR seeds", target.name);
+    }
+    let mut l = link::qemu::QemuLink::start(firmware.as_deref())?;
+    let mut ev = timing::Evaluator::new(target, &mut l)?;
+    let (name, dt) = (ev.target.name.clone(), ev.target.dt_s);
+    say!("{name} ({}): monitors {:?}", scenario.display(), ev.target.monitors());
+    let mut failed = false;
+    let mut entries = Vec::new();
+    for (label, x) in seeds {
+        let measured = ev.evaluate(&x)?;
+        if let Some(cost) = measured {
+            entries.push(timing::corpus::Entry::new(label.clone(), &timing::search::Found { input: x, cost }));
+        }
+        let r = timing::corpus::Replayed { label, recorded: 0, measured };
+        timing::text::write_replayed(&mut std::io::stdout(), &name, &[r], dt, budget.as_ref(), &mut failed);
+    }
+    if let Some(out) = out {
+        let worst = entries.iter().map(|e| e.instructions).max().unwrap_or(0);
+        let c = timing::corpus::Corpus {
+            scenario: name.clone(),
+            scenario_file: scenario.display().to_string(),
+            seed: 0,
+            budget_seconds: 0.0,
+            evaluations: ev.evaluations,
+            generations: 0,
+            worst_instructions: worst,
+            mean_instructions: entries.iter().map(|e| e.instructions as f64).sum::<f64>() / entries.len().max(1) as f64,
+            population_mean_instructions: 0.0,
+            nominal_instructions: None,
+            entries,
+        };
+        c.save(&out)?;
+        say!("  wrote {}", out.display());
+    }
+    if failed {
+        anyhow::bail!("an FDIR seed's step exceeds its budget");
+    }
+    Ok(())
+}
+
 /// `sim-host timing …`.
 fn timing(what: TimingCmd) -> Result<()> {
     match what {
+        TimingCmd::Seeds { scenario, out, budget, firmware } => timing_seeds(&scenario, out, budget, firmware),
         TimingCmd::Replay { corpus, budget, firmware } => timing_replay(&corpus, budget, firmware),
         search @ TimingCmd::Search { .. } => timing_search(search),
     }

@@ -28,6 +28,14 @@ pub struct Entry {
     /// recorded before protocol 13).
     #[serde(default)]
     pub replayed_nodes: u16,
+    /// What FDIR had declared after the sequence's last step ("tracker(contradicted) gyro-x wheel-0
+    /// bias-step×1"; absent: nothing, or an entry recorded before this field).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub fdir: String,
+    /// The costliest step of the sequence in which FDIR declared something: [step,
+    /// instructions] (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub declaration: Option<(usize, u64)>,
     pub input: InputJson,
 }
 
@@ -41,6 +49,8 @@ impl Entry {
             estimate: super::search::estimate_names(f.cost.estimate_flags),
             mekf_updates: [f.cost.mekf_accepted, f.cost.mekf_rejected, u32::from(f.cost.mekf_resets)],
             replayed_nodes: f.cost.replayed_nodes,
+            fdir: f.cost.fdir.names(),
+            declaration: f.cost.declaration,
             input: InputJson::from(&f.input),
         }
     }

@@ -24,7 +24,7 @@ pub use corpus::{StepCost, step_cost};
 use acs_flight::estimation::history::HISTORY_DEPTH;
 #[allow(unused_imports)] // doc links
 use acs_flight::link::estimate_flags;
-use acs_flight::link::{FswMsg, HostMsg, SampleTimes, SensorFrame};
+use acs_flight::link::{ALL_UNITS, FswMsg, HostMsg, SampleTimes, SensorFrame};
 use acs_flight::params::{ActuatorParams, EstimationParams, FlightParams};
 use acs_flight::params::{Mode, ModeRequest};
 use acs_flight::types::{MAX_CSS_HEADS, MAX_WHEELS};
@@ -373,6 +373,34 @@ impl Target {
         })
     }
 
+    /// The most wheels a parameter set of the scenario flies (any slot of a mode table).
+    pub fn wheel_count(&self) -> usize {
+        let wheels = |p: &FlightParams| match &p.actuator {
+            ActuatorParams::Wheels(w) => w.count as usize,
+            _ => 0,
+        };
+        match &self.upload {
+            Upload::Params(p) => wheels(p),
+            Upload::Modes(t) => t.slots.iter().map(|(_, p)| wheels(p)).max().unwrap_or(0),
+        }
+    }
+
+    /// The FDIR monitors the evaluations upload (flight and estimation parameters).
+    pub fn monitors(&self) -> Monitors {
+        let wheels = match &self.upload {
+            Upload::Params(p) => p.fdir.wheel.is_some(),
+            Upload::Modes(t) => t.slots.iter().any(|(_, p)| p.fdir.wheel.is_some()),
+        };
+        let e = self.estimation.as_ref();
+        let gyro = e.and_then(|e| e.gyro_fdir);
+        Monitors {
+            wheels,
+            tracker: e.is_some_and(|e| e.tracker_fdir.is_some()),
+            gyro: gyro.is_some(),
+            bias_step: gyro.is_some_and(|g| g.bias_step.is_some()),
+        }
+    }
+
     /// The nominal input: the initial state's frame, no prefix, the scenario's own
     /// parameters and initial mode.
     pub fn nominal_input(&self) -> Input {
@@ -399,6 +427,77 @@ pub struct Cost {
     pub mekf_resets: u16,
     /// Most history nodes one late sample re-ran since the upload (`FusionCounters`).
     pub replayed_nodes: u16,
+    /// FDIR after the sequence's last step (telemetry `FdirTelemetry`): wheels and sensors
+    /// declared failed, gyro bias steps declared.
+    pub fdir: FdirSeen,
+    /// The costliest step in which FDIR declared something (its `events` rose over the
+    /// step before): (step index, instructions). `None`: nothing declared in the sequence.
+    pub declaration: Option<(usize, u64)>,
+}
+
+/// What FDIR had declared after a step ([`acs_flight::link::FdirTelemetry`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FdirSeen {
+    /// Bit i: wheel i declared failed.
+    pub failed_wheels: u8,
+    /// `FAILED_STAR_TRACKER`, `FAILED_GYRO_X` << axis.
+    pub failed_sensors: u8,
+    /// The tracker's failure was the frozen-output test.
+    pub tracker_frozen: bool,
+    /// Gyro bias steps declared.
+    pub bias_steps: u16,
+}
+
+impl FdirSeen {
+    fn of(t: &acs_flight::link::FdirTelemetry) -> Self {
+        Self {
+            failed_wheels: t.failed_wheels,
+            failed_sensors: t.failed_sensors,
+            tracker_frozen: t.tracker_frozen,
+            bias_steps: t.gyro_bias_steps,
+        }
+    }
+
+    /// "tracker(flip) gyro-x wheel-0 bias-step×1", or "" when nothing is declared.
+    pub fn names(&self) -> String {
+        use acs_flight::link::{FAILED_GYRO_X, FAILED_STAR_TRACKER};
+        let mut v = Vec::new();
+        if self.failed_sensors & FAILED_STAR_TRACKER != 0 {
+            v.push(format!("tracker({})", if self.tracker_frozen { "frozen" } else { "contradicted" }));
+        }
+        for (a, name) in ["x", "y", "z"].iter().enumerate() {
+            if self.failed_sensors & (FAILED_GYRO_X << a) != 0 {
+                v.push(format!("gyro-{name}"));
+            }
+        }
+        for i in 0..8 {
+            if self.failed_wheels & (1 << i) != 0 {
+                v.push(format!("wheel-{i}"));
+            }
+        }
+        if self.bias_steps > 0 {
+            v.push(format!("bias-step×{}", self.bias_steps));
+        }
+        v.join(" ")
+    }
+}
+
+/// The FDIR monitors a scenario turns on (what every evaluation uploads).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Monitors {
+    /// `[fdir.wheels]`: the wheel monitor in the flight parameters (any slot of a table).
+    pub wheels: bool,
+    /// `[fdir.star_tracker]`: `tracker_fdir` in the estimation parameters.
+    pub tracker: bool,
+    /// `[fdir.gyro]`: the stuck-axis test, and its bias-step test.
+    pub gyro: bool,
+    pub bias_step: bool,
+}
+
+impl Monitors {
+    pub fn any(&self) -> bool {
+        self.wheels || self.tracker || self.gyro
+    }
 }
 
 /// Evaluates inputs of one scenario on a link that reports instructions (QEMU lockstep).
@@ -447,6 +546,14 @@ impl<'a> Evaluator<'a> {
                 ok && matches!(self.link.request(&HostMsg::ArmModes(t.manager))?, FswMsg::ModesArmed { .. })
             }
         };
+        // The wheel monitor keeps its declarations across parameter uploads (a failed wheel
+        // stays failed until the ground clears it): cleared, so that one input's
+        // declarations do not drop wheels in the next.
+        if self.target.monitors().wheels
+            && !matches!(self.link.request(&HostMsg::ClearWheelFault { wheel: ALL_UNITS })?, FswMsg::Ack)
+        {
+            bail!("{}: the flight code refuses to clear the wheel faults", self.target.name);
+        }
         // The estimation stage keeps its state (navigation fix, MEKF) across parameter
         // uploads: a fresh one every evaluation, the scenario's or the default.
         let est = self.target.estimation.unwrap_or(EstimationParams::SENSOR);
@@ -475,6 +582,7 @@ impl<'a> Evaluator<'a> {
             }
         }
         let mut worst: Option<Cost> = None;
+        let (mut declaration, mut events, mut last) = (None::<(usize, u64)>, None::<u16>, FdirSeen::default());
         for (k, f) in input.prefix.iter().chain(std::iter::once(&input.frame)).enumerate() {
             // Sequence numbers increase along the sequence whatever the genome says (the
             // link matches replies by seq); the genome's seq of the first frame is kept.
@@ -482,6 +590,12 @@ impl<'a> Evaluator<'a> {
             f.seq = input.prefix.first().map_or(input.frame.seq, |p| p.seq).wrapping_add(k as u32);
             let r = self.link.step(&f)?;
             let instructions = (r.step_cost_ticks as f64 * self.ipt).round() as u64;
+            // `events` counts since boot: a rise over the previous step is a declaration.
+            let ev = r.cmd.fdir.events;
+            if events.is_some_and(|e| ev > e) && declaration.is_none_or(|(_, c)| instructions > c) {
+                declaration = Some((k, instructions));
+            }
+            events = Some(ev);
             if worst.is_none_or(|w| instructions > w.instructions) {
                 let e = &r.cmd.estimate;
                 worst = Some(Cost {
@@ -494,10 +608,13 @@ impl<'a> Evaluator<'a> {
                     mekf_rejected: e.rejected,
                     mekf_resets: e.resets,
                     replayed_nodes: e.fusion.max_replayed_nodes,
+                    fdir: FdirSeen::default(),
+                    declaration: None,
                 });
             }
+            last = FdirSeen::of(&r.cmd.fdir);
         }
-        Ok(worst)
+        Ok(worst.map(|w| Cost { fdir: last, declaration, ..w }))
     }
 
     /// Instructions per cost tick of the link.
@@ -555,6 +672,41 @@ mod tests {
         assert_eq!(f.sampled_at, SampleTimes::all(250_000));
         assert_eq!((f.gyro_angle_rad, f.gyro_interval_us), (empty.gyro_angle_rad, empty.gyro_interval_us));
         assert_eq!(f.rate_rad_s, [0.1, 0.0, 0.0]);
+    }
+
+    /// What the evaluations upload carries the scenario's FDIR: the wheel monitor in the
+    /// flight parameters (every slot of the mode table that flies the wheels) and the tracker and gyro monitors
+    /// in the estimation parameters, as the scenario file states them (read here from the
+    /// TOML text, independently of the scenario loader); a scenario without `[fdir]` has
+    /// none. Without them the search would time steps in which no monitor runs.
+    #[test]
+    fn the_upload_carries_the_scenarios_fdir_monitors() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let every = root.join("campaigns/base-3u-every-monitor.toml");
+        let text = std::fs::read_to_string(&every).unwrap();
+        let toml: toml::Value = toml::from_str(&text).unwrap();
+        let fdir = &toml["fdir"];
+        let t = Target::load(&every).unwrap();
+        let m = t.monitors();
+        assert_eq!(m.wheels, fdir.get("wheels").is_some());
+        assert_eq!(m.tracker, fdir.get("star_tracker").is_some());
+        assert_eq!(m.gyro, fdir.get("gyro").is_some());
+        assert_eq!(m.bias_step, fdir["gyro"].get("bias_step").is_some());
+        assert!(m.wheels && m.tracker && m.gyro && m.bias_step, "every monitor: {m:?}");
+        let Upload::Modes(table) = &t.upload else { panic!("the 3U mission flies a mode table") };
+        // The monitor rides with the wheels: every slot flying them (detumble flies the
+        // magnetorquers).
+        let wheel_slots: Vec<_> =
+            table.slots.iter().filter(|(_, p)| matches!(p.actuator, ActuatorParams::Wheels(_))).collect();
+        assert!(wheel_slots.len() >= 2);
+        assert!(wheel_slots.iter().all(|(_, p)| p.fdir.wheel.is_some()));
+        let e = t.estimation.unwrap();
+        let k = fdir["star_tracker"]["k"].as_integer().unwrap();
+        assert_eq!(e.tracker_fdir.map(|f| i64::from(f.window.k)), Some(k));
+        let max_repeats = fdir["gyro"]["max_repeats"].as_integer().unwrap();
+        assert_eq!(e.gyro_fdir.map(|g| i64::from(g.max_repeats)), Some(max_repeats));
+        let plain = Target::load(&root.join("scenarios/modes/cubesat-mission.toml")).unwrap();
+        assert_eq!(plain.monitors(), Monitors::default());
     }
 
     /// Failure bits beyond the family's actuator count are dropped, the scenario's own

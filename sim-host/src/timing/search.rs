@@ -478,7 +478,147 @@ pub fn sweep_inputs(t: &Target) -> Vec<Input> {
         v.push(x);
     }
     v.extend(history_inputs(t));
+    v.extend(fdir_inputs(t).into_iter().map(|(_, x)| x));
     v
+}
+
+/// A fault a hand-made FDIR seed injects from its onset frame on ([`fdir_inputs`]).
+#[derive(Clone, Copy, Debug)]
+enum SeedFault {
+    None,
+    /// The tracker's attitude turned 180° about its boresight; Sun and field stay true.
+    TrackerFlip,
+    /// The tracker repeats its onset quaternion (fresh time tags).
+    TrackerFrozen,
+    /// Gyro axis `0` repeats its onset rate.
+    GyroStuck(usize),
+    /// Gyro axis `0` reads `1` rad/s more: the tracker's innovations grow linearly.
+    GyroBias(usize, f64),
+    /// Wheel `0`'s speed runs away by `1` rad/s per frame from the first frame on, whatever
+    /// its torque command.
+    WheelRunaway(usize, f32),
+}
+
+/// Frames before the measured one at which [`fdir_inputs`] start their faults: room for
+/// the k-of-n windows (tracker 3 of 4, stuck after 3 repeats, bias 3 of 4 in the shipped
+/// scenarios) and the steps after the declaration (restart, fallback) in the sequence.
+const FDIR_ONSET_BEFORE_END: usize = 8;
+
+/// Hand-made FDIR seeds (scenarios with a monitor only): `MAX_PREFIX` frames and the
+/// measured one, one control period apart, of a live spacecraft — the true attitude turns
+/// slowly (2.7e-3 rad/s) plus a small dither per axis, so no sensor repeats a value; the tracker reads the true attitude, the
+/// Sun and the field turn with it in body axes, the gyro increment matches the rate — and
+/// one fault from frame `MAX_PREFIX − FDIR_ONSET_BEFORE_END` on that drives one monitor to
+/// its declaration within the sequence: tracker flipped or frozen (star-tracker monitor),
+/// a gyro axis stuck (stuck test), a gyro bias step of 0.01 and 0.002 rad/s (bias-step
+/// test), a wheel running away from its command (wheel residual). The wheel speeds are
+/// static inputs, not following the commands: every wheel the flight code commands is
+/// declared within the window (the live sequence included). Named, for
+/// `sim-host timing seeds`.
+pub fn fdir_inputs(t: &Target) -> Vec<(String, Input)> {
+    let m = t.monitors();
+    if !m.any() {
+        return Vec::new();
+    }
+    let mut faults = vec![("live".to_string(), SeedFault::None)];
+    if m.tracker {
+        faults.push(("tracker-flip".into(), SeedFault::TrackerFlip));
+        faults.push(("tracker-frozen".into(), SeedFault::TrackerFrozen));
+    }
+    for a in 0..3 {
+        if m.gyro {
+            faults.push((format!("gyro-stuck-{a}"), SeedFault::GyroStuck(a)));
+        }
+        if m.bias_step {
+            for b in [0.01, 0.002] {
+                faults.push((format!("gyro-bias-{a}-{b}"), SeedFault::GyroBias(a, b)));
+            }
+        }
+    }
+    if m.wheels {
+        for i in 0..t.wheel_count().min(acs_flight::types::MAX_WHEELS) {
+            faults.push((format!("wheel-runaway-{i}"), SeedFault::WheelRunaway(i, 5.0)));
+        }
+    }
+    // With a mode table, each also entered in hold (not locked): the wheels fly there (the
+    // wheel monitor judges only them) and a declaration can make the manager fall back.
+    let hold = t.modes.contains(&Mode::Hold).then_some((Mode::Hold, false));
+    let mut v = Vec::new();
+    for (name, f) in faults {
+        let x = fdir_sequence(t, f);
+        if let Some(mode) = hold {
+            v.push((format!("{name}@hold"), Input { mode: Some(mode), ..x.clone() }));
+        }
+        v.push((name, x));
+    }
+    v
+}
+
+/// The live sequence of [`fdir_inputs`] with `fault` from its onset frame on.
+fn fdir_sequence(t: &Target, fault: SeedFault) -> Input {
+    use nalgebra::{Unit, UnitQuaternion, Vector3};
+    let n = MAX_PREFIX;
+    let onset = n - FDIR_ONSET_BEFORE_END;
+    let base = t.nominal;
+    let dt_s = t.dt_s;
+    let dt_us = ((dt_s * 1e6).round() as u64).max(1);
+    let [x, y, z, w] = base.q_ib_xyzw.map(f64::from);
+    let q0 = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+    let q0 = if q0.coords.iter().all(|c| c.is_finite()) { q0 } else { UnitQuaternion::identity() };
+    // Slow (0.05 rad over the sequence): the CSS outputs, kept at the nominal frame's,
+    // stay within a few degrees of the Sun, well inside the tracker monitor's witness limit.
+    let w0 = Vector3::new(2e-3, -1.5e-3, 1e-3);
+    // Inertial Sun and field: the nominal frame's, carried by the nominal attitude.
+    let sun_i = q0 * Vector3::from(base.sun_dir.map(f64::from));
+    let mag_i = q0 * Vector3::from(base.mag_field_t.map(f64::from));
+    let boresight = t.estimation.map_or([0.0, 0.0, 1.0], |e| e.tracker_boresight_body).map(f64::from);
+    let flip = UnitQuaternion::from_axis_angle(&Unit::new_normalize(Vector3::from(boresight)), std::f64::consts::PI);
+    let (mut q, mut frames) = (q0, Vec::with_capacity(n + 1));
+    let (mut q_onset, mut rate_onset) = (q0, w0);
+    for k in 0..=n {
+        // A dither of distinct consecutive values per axis (k·(a+3) mod 7, a+3 coprime to
+        // 7): no gyro axis repeats.
+        let rate = w0 + Vector3::from_fn(|a, _| 2e-5 * (((k * (a + 3)) % 7) as f64 - 3.0));
+        if k > 0 {
+            q *= UnitQuaternion::from_scaled_axis(rate * dt_s);
+        }
+        if k == onset {
+            (q_onset, rate_onset) = (q, rate);
+        }
+        let on = k >= onset;
+        let mut f = base;
+        retime(&mut f, base.time_us + k as u64 * dt_us);
+        f.valid |= valid::ATTITUDE | valid::RATE;
+        let q_meas = match fault {
+            SeedFault::TrackerFlip if on => q * flip,
+            SeedFault::TrackerFrozen if on => q_onset,
+            _ => q,
+        };
+        let c = q_meas.coords;
+        f.q_ib_xyzw = [c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32];
+        let mut gyro = rate;
+        match fault {
+            SeedFault::GyroStuck(a) if on => gyro[a] = rate_onset[a],
+            SeedFault::GyroBias(a, b) if on => gyro[a] += b,
+            _ => {}
+        }
+        f.rate_rad_s = gyro.map(|r| r as f32).into();
+        f.gyro_angle_rad = (gyro * dt_s).map(|r| r as f32).into();
+        f.gyro_interval_us = u32::try_from(dt_us).unwrap_or(u32::MAX);
+        let body = |v: Vector3<f64>| -> [f32; 3] { (q.inverse() * v).map(|c| c as f32).into() };
+        f.sun_dir = body(sun_i);
+        f.mag_field_t = body(mag_i);
+        // From the first frame on: the other wheels, held at the nominal speeds whatever
+        // their commands, are declared within a few steps too.
+        if let SeedFault::WheelRunaway(i, step) = fault
+            && let Some(s) = f.wheel_speed_rad_s.get_mut(i)
+        {
+            *s += step * k as f32;
+        }
+        frames.push(f);
+    }
+    let frame = frames.pop().unwrap_or(base);
+    Input { mode: None, failed_mask: 0, prefix: frames, frame }
 }
 
 /// Hand-made worst cases of the MEKF's state history (`estimation::history`, scenarios on
@@ -772,6 +912,59 @@ mod tests {
             let i = super::super::floats(&f).iter().position(|x| *x == 123.0).unwrap();
             assert_eq!(gene_scale(i), scale, "gene {i}");
         }
+    }
+
+    /// The FDIR seeds of the 3U mission with every monitor: the live sequence repeats no
+    /// gyro axis and no quaternion between frames (the repeat tests stay quiet), and the
+    /// tracker's attitude carries every frame's field and Sun to the same inertial ones; the flip seed's tracker differs from the live one by exactly a
+    /// half turn about the boresight from its onset on (checked through the rotation
+    /// matrix: the boresight kept, a perpendicular axis reversed), the stuck seed repeats
+    /// one axis, the bias seed's gyro reads the live rate plus the step.
+    #[test]
+    fn fdir_seeds_inject_one_fault_on_a_live_sequence() {
+        use nalgebra::{UnitQuaternion, Vector3};
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let t = Target::load(&root.join("campaigns/base-3u-every-monitor.toml")).unwrap();
+        let seeds: BTreeMap<String, Input> = fdir_inputs(&t).into_iter().collect();
+        let frames = |x: &Input| x.prefix.iter().chain([&x.frame]).copied().collect::<Vec<_>>();
+        let quat = |f: &SensorFrame| {
+            let [x, y, z, w] = f.q_ib_xyzw.map(f64::from);
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+        };
+        let live = frames(&seeds["live"]);
+        assert_eq!(live.len(), MAX_PREFIX + 1);
+        for p in live.windows(2) {
+            assert!((0..3).all(|a| p[0].rate_rad_s[a] != p[1].rate_rad_s[a]), "a gyro axis repeats");
+            assert!((0..4).any(|i| p[0].q_ib_xyzw[i] != p[1].q_ib_xyzw[i]), "the tracker repeats");
+        }
+        let v = |a: [f32; 3]| Vector3::from(a.map(f64::from));
+        for f in &live {
+            // The tracker's attitude puts the inertial field and Sun where the frame
+            // measures them (relative to the magnitude, f32 rounding).
+            for (b, b0) in [(f.mag_field_t, live[0].mag_field_t), (f.sun_dir, live[0].sun_dir)] {
+                let scale = v(b0).norm().max(1e-30);
+                assert!((quat(f) * v(b) - quat(&live[0]) * v(b0)).norm() / scale < 1e-5);
+            }
+        }
+        let onset = MAX_PREFIX - FDIR_ONSET_BEFORE_END;
+        let b = Vector3::from(t.estimation.unwrap().tracker_boresight_body.map(f64::from));
+        let perp = b.cross(&Vector3::x()).try_normalize(1e-6).unwrap_or_else(|| b.cross(&Vector3::y()).normalize());
+        for (k, (f, l)) in frames(&seeds["tracker-flip"]).iter().zip(&live).enumerate() {
+            let d = (quat(l).inverse() * quat(f)).to_rotation_matrix();
+            let flipped = k >= onset;
+            assert!((d * b - b).norm() < 1e-5, "frame {k}: boresight moved");
+            let want = if flipped { -perp } else { perp };
+            assert!((d * perp - want).norm() < 1e-5, "frame {k}: flipped {flipped}");
+        }
+        let stuck = frames(&seeds["gyro-stuck-1"]);
+        assert!(stuck[onset..].iter().all(|f| f.rate_rad_s[1] == stuck[onset].rate_rad_s[1]));
+        assert!(stuck[..onset].iter().zip(&live).all(|(f, l)| f.rate_rad_s == l.rate_rad_s));
+        let bias = frames(&seeds["gyro-bias-2-0.01"]);
+        for (k, (f, l)) in bias.iter().zip(&live).enumerate() {
+            let step = if k >= onset { 0.01 } else { 0.0 };
+            assert!((f64::from(f.rate_rad_s[2] - l.rate_rad_s[2]) - step).abs() < 1e-6, "frame {k}");
+        }
+        assert!(seeds.contains_key("wheel-runaway-0") && seeds.contains_key("tracker-frozen"));
     }
 
     /// The CLI's names of the estimation flags.

@@ -3,9 +3,9 @@
 //! budget. Write errors are ignored (a closed pipe, `sim-host … | head`, must not stop
 //! the command, which still saves its corpus and reports its verdict).
 
-use super::Target;
 use super::corpus::{BudgetFile, Replayed};
 use super::search::{SearchResult, estimate_names, mode_name};
+use super::{Cost, Target};
 use anyhow::Result;
 use std::io::Write;
 
@@ -35,6 +35,20 @@ pub fn budget_verdict(
     }
 }
 
+/// ", FDIR declared [...], costliest declaration step k: N instructions" (empty when FDIR
+/// declared nothing).
+pub fn fdir_text(c: &Cost) -> String {
+    let mut s = String::new();
+    let names = c.fdir.names();
+    if !names.is_empty() {
+        s += &format!(", FDIR declared [{names}]");
+    }
+    if let Some((k, n)) = c.declaration {
+        s += &format!(", costliest declaration step {k}: {n} instructions");
+    }
+    s
+}
+
 /// Writes the summary of search `r` on target `t` (run with `seed`); returns whether a
 /// reported step exceeds its budget.
 pub fn write_search(
@@ -61,7 +75,7 @@ pub fn write_search(
     out!(
         w,
         "  worst: {} instructions (step {} of the sequence, mode {}, status {:#06x}, estimation [{}], \
-         MEKF updates accepted/rejected/restarts {}/{}/{}, most history nodes replayed {}); {}",
+         MEKF updates accepted/rejected/restarts {}/{}/{}, most history nodes replayed {}{}); {}",
         c.instructions,
         c.step,
         mode_name(c.mode),
@@ -71,6 +85,7 @@ pub fn write_search(
         c.mekf_rejected,
         c.mekf_resets,
         c.replayed_nodes,
+        fdir_text(c),
         budget_verdict(budget, &t.name, mode_name(r.worst.cost.mode), r.worst.cost.instructions, t.dt_s, &mut failed)
     );
     out!(
@@ -115,7 +130,7 @@ pub fn write_replayed(
                 out!(
                     w,
                     "  {:<16} {:>7} instructions (recorded {:>7}, {:+}), mode {mode}, estimation [{}], \
-                     step {} status {:#06x}, MEKF updates accepted/rejected/restarts {}/{}/{}, history nodes replayed {}; {}",
+                     step {} status {:#06x}, MEKF updates accepted/rejected/restarts {}/{}/{}, history nodes replayed {}{}; {}",
                     r.label,
                     m.instructions,
                     r.recorded,
@@ -127,6 +142,7 @@ pub fn write_replayed(
                     m.mekf_rejected,
                     m.mekf_resets,
                     m.replayed_nodes,
+                    fdir_text(&m),
                     budget_verdict(budget, scenario, mode, m.instructions, dt_s, failed)
                 );
             }
