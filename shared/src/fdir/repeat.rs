@@ -51,6 +51,12 @@ impl<const N: usize> Repeats<N> {
         stuck
     }
 
+    /// The components whose last sample repeated the one before (bit `i`: component `i`).
+    pub fn repeating(&self) -> u32 {
+        let bit = |i: usize| u32::try_from(i).ok().and_then(|i| 1u32.checked_shl(i)).unwrap_or(0);
+        self.run.iter().enumerate().filter(|(_, r)| **r > 0).fold(0, |m, (i, _)| m | bit(i))
+    }
+
     /// The longest current run over the components (telemetry).
     pub fn longest_run(&self) -> u16 {
         self.run.iter().copied().max().unwrap_or(0)

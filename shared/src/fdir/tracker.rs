@@ -69,6 +69,8 @@ pub struct TrackerMonitor {
     last_witness_rad: f32,
     /// The last judged sample had a witness and every witness agreed with it.
     last_corroborated: bool,
+    /// The last judged sample repeated the one before in all four components.
+    last_repeated: bool,
 }
 
 impl TrackerMonitor {
@@ -81,6 +83,7 @@ impl TrackerMonitor {
             events: 0,
             last_witness_rad: 0.0,
             last_corroborated: false,
+            last_repeated: false,
         }
     }
 
@@ -101,6 +104,7 @@ impl TrackerMonitor {
         self.last_time_us = Some(time_us);
         let c = q_ib.coords;
         let frozen = self.repeats.push(p.max_repeats, &[c.x, c.y, c.z, c.w]) == 0b1111;
+        self.last_repeated = self.repeats.repeating() == 0b1111;
         let exceeded = self.witness_exceeded(p, q_ib, witnesses, filter);
         let fault = if frozen {
             Some(TrackerFault::Frozen)
@@ -141,12 +145,18 @@ impl TrackerMonitor {
     }
 
     /// Whether the sample at `time_us` was judged and the Sun or the field corroborate it:
-    /// at least one witness, none against it, and no exceedance in the window (the
-    /// bias-step monitor's isolation, [`super::bias`]).
+    /// at least one witness, none against it, no exceedance in the window, and not an
+    /// exact repeat of the sample before (the bias-step monitor's isolation,
+    /// [`super::bias`]). A repeat is the frozen test's evidence, not the tracker's: a frozen
+    /// output agrees with the witnesses until the body has turned by their threshold, while
+    /// its innovations grow at the body's rate, a slope the bias test would take for a gyro
+    /// step (found by the timing search's frozen-tracker seed: declared a bias step one
+    /// sample before the frozen test fired).
     pub fn corroborates(&self, time_us: u64) -> bool {
         self.failed.is_none()
             && self.last_time_us == Some(time_us)
             && self.last_corroborated
+            && !self.last_repeated
             && self.persistence.count() == 0
     }
 
@@ -254,9 +264,13 @@ mod tests {
             assert!(!m.judge(&params(), i + 1, &live, &[None, None], None), "a repeated tag is not judged");
         }
         // Frozen: the same quaternion with fresh tags; 3 repeats allowed, the 4th fires.
-        let fired: heapless::Vec<bool, 8> =
-            (0..5u64).map(|i| m.judge(&params(), 100 + i, &truth, &[None, None], None)).collect();
-        assert_eq!(fired.as_slice(), &[false, false, false, false, true]);
+        // The witnesses still agree with it, but a repeat is never corroborated (the
+        // bias-step test must not read a frozen output's growing innovation as a step).
+        let fired: heapless::Vec<(bool, bool), 8> = (0..5u64)
+            .map(|i| (m.judge(&params(), 100 + i, &truth, &w, Some(&truth)), m.corroborates(100 + i)))
+            .collect();
+        let want = [(false, true), (false, false), (false, false), (false, false), (true, false)];
+        assert_eq!(fired.as_slice(), &want);
         assert_eq!(m.failed(), Some(TrackerFault::Frozen));
     }
 
