@@ -148,6 +148,8 @@ pub struct Determination {
     tracker_vouched_us: Option<u64>,
     /// The magnetometer monitor (with `params.magnetometer_fdir`).
     mag_monitor: MagnetometerMonitor,
+    /// The on-board model's field at the last step, ECI, T (`None`: none yet).
+    model_field_eci_t: Option<Vec3>,
 }
 
 impl Default for Determination {
@@ -199,6 +201,7 @@ impl Determination {
             bias_monitor: BiasStepMonitor::new(),
             tracker_vouched_us: None,
             mag_monitor: MagnetometerMonitor::new(),
+            model_field_eci_t: None,
         }
     }
 
@@ -236,6 +239,7 @@ impl Determination {
             bias_monitor,
             tracker_vouched_us,
             mag_monitor,
+            model_field_eci_t,
         } = self;
         *p = *params;
         *mekf_cfg = mekf_config(params);
@@ -254,6 +258,7 @@ impl Determination {
         *bias_monitor = BiasStepMonitor::new();
         *tracker_vouched_us = None;
         *mag_monitor = MagnetometerMonitor::new();
+        *model_field_eci_t = None;
         Ok(())
     }
 
@@ -334,8 +339,9 @@ impl Determination {
                 None
             }
         };
-        let without_magnetometer =
-            self.monitor_magnetometer(s, field_eci.and(self.references.field_magnitude_t(s.time_us)));
+        let model_t = field_eci.and(self.references.field_magnitude_t(s.time_us));
+        self.model_field_eci_t = field_eci.zip(model_t).map(|(d, m)| d * m);
+        let without_magnetometer = self.monitor_magnetometer(s, model_t);
         let s = without_magnetometer.as_ref().unwrap_or(s);
         let v = self.vectors(s, sun_eci, field_eci);
         let without_tracker = self.monitor_tracker(s, &v, eclipse);
@@ -428,6 +434,12 @@ impl Determination {
             self.mag_monitor.judge(&p, x.time_us, &x.field_body_t, model_t);
         }
         self.mag_monitor.failed().then_some(SensorSamples { magnetometer: None, ..*s })
+    }
+
+    /// The on-board model's field at the last step's time, ECI, T (`None` without
+    /// navigation, the MEKF source or an evaluated bracket yet).
+    pub fn model_field_eci_t(&self) -> Option<Vec3> {
+        self.model_field_eci_t
     }
 
     /// The magnetometer monitor's state (telemetry).

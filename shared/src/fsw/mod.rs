@@ -149,6 +149,8 @@ impl Fsw {
         // Estimate: runs whatever the mode (and unconfigured: the filter converges while
         // the ground uploads the laws).
         let est = self.determination.step(&sensor_samples(f));
+        let substituted = self.without_failed_magnetometer(f, &est);
+        let f = substituted.as_ref().unwrap_or(f);
         self.step_fdir(f);
         let mut cmd = self.step_active(f, &est);
         self.wheel_fdir.command_sent(&cmd.wheel_torque_cmd_nm);
@@ -213,6 +215,24 @@ impl Fsw {
         let field = momentum::torquer_field_t(p, &self.dipole_last_am2);
         let mut g = *f;
         g.mag_field_t = (Vec3::from(f.mag_field_t) - field).into();
+        Some(g)
+    }
+
+    /// Recovery of a magnetometer the estimation stage declared failed (docs/fdir.md
+    /// "Magnetometer"): the laws (B-dot, magnetic unloading) get the on-board model's field
+    /// turned into body axes by the attitude estimate instead of the failed reading; with
+    /// no model field or no estimate the magnetometer is invalid for them (its valid bit
+    /// cleared: a law that needs it lacks its input, unloading commands nothing). `None`: a
+    /// healthy magnetometer (no copy on the hot path).
+    fn without_failed_magnetometer(&self, f: &SensorFrame, est: &Estimate) -> Option<SensorFrame> {
+        if !self.determination.magnetometer_monitor().failed() {
+            return None;
+        }
+        let mut g = *f;
+        match (self.determination.model_field_eci_t(), est.attitude) {
+            (Some(b_eci), Some(q_ib)) => g.mag_field_t = crate::math::rotate_ref_to_body(&q_ib, &b_eci).into(),
+            _ => g.valid &= !crate::link::valid::MAG,
+        }
         Some(g)
     }
 
