@@ -398,6 +398,7 @@ impl Target {
             tracker: e.is_some_and(|e| e.tracker_fdir.is_some()),
             gyro: gyro.is_some(),
             bias_step: gyro.is_some_and(|g| g.bias_step.is_some()),
+            magnetometer: e.is_some_and(|e| e.magnetometer_fdir.is_some()),
         }
     }
 
@@ -492,11 +493,13 @@ pub struct Monitors {
     /// `[fdir.gyro]`: the stuck-axis test, and its bias-step test.
     pub gyro: bool,
     pub bias_step: bool,
+    /// `[fdir.magnetometer]`: `magnetometer_fdir` in the estimation parameters.
+    pub magnetometer: bool,
 }
 
 impl Monitors {
     pub fn any(&self) -> bool {
-        self.wheels || self.tracker || self.gyro
+        self.wheels || self.tracker || self.gyro || self.magnetometer
     }
 }
 
@@ -692,7 +695,8 @@ mod tests {
         assert_eq!(m.tracker, fdir.get("star_tracker").is_some());
         assert_eq!(m.gyro, fdir.get("gyro").is_some());
         assert_eq!(m.bias_step, fdir["gyro"].get("bias_step").is_some());
-        assert!(m.wheels && m.tracker && m.gyro && m.bias_step, "every monitor: {m:?}");
+        assert_eq!(m.magnetometer, fdir.get("magnetometer").is_some());
+        assert!(m.wheels && m.tracker && m.gyro && m.bias_step && m.magnetometer, "every monitor: {m:?}");
         let Upload::Modes(table) = &t.upload else { panic!("the 3U mission flies a mode table") };
         // The monitor rides with the wheels: every slot flying them (detumble flies the
         // magnetorquers).
