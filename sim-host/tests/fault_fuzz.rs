@@ -116,11 +116,13 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 15] = [
+const ALL_KINDS: [&str; 17] = [
     "stuck",
     "torque_gain",
     "runaway",
     "tach_stuck",
+    "power_off",
+    "tach_noise",
     "bias_step",
     "flip",
     "frozen",
@@ -142,7 +144,7 @@ const MAGNETOMETER_AXES: [&str; 3] = ["magnetometer.x", "magnetometer.y", "magne
 
 fn kinds_of(unit: &str) -> &'static [&'static str] {
     match unit.split('.').next() {
-        Some("wheel") => &["stuck", "torque_gain", "runaway", "tach_stuck"],
+        Some("wheel") => &["stuck", "torque_gain", "runaway", "tach_stuck", "power_off", "tach_noise"],
         Some("gyro") => &["stuck", "bias_step", "noise", "saturation"],
         Some("star_tracker") => &["flip", "frozen"],
         Some("magnetorquer") => &["open", "reversed"],
@@ -200,7 +202,7 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
         // 1e-6 to 1 rad/s (the largest step the format takes), either sign.
         "bias_step" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(-6.0 * rng.uniform())),
         // 1 to 1000 (the largest factor the format takes).
-        "noise" => Some(10f64.powf(3.0 * rng.uniform())),
+        "noise" | "tach_noise" => Some(10f64.powf(3.0 * rng.uniform())),
         // 1e-4 to 50 rad/s (the flight code's rate limit, the largest bound the format takes).
         "saturation" => Some(MAX_RATE_RAD_S * 10f64.powf(-5.7 * rng.uniform())),
         // 1 m to 1e7 m (the largest jump the format takes), either sign.
@@ -249,7 +251,7 @@ fn valid(e: &Entry, wheels: usize, css_heads: usize) -> bool {
         "runaway" => m.is_some_and(|s| s == 1.0 || s == -1.0),
         "bias_step" => m.is_some_and(|x| x.is_finite() && x.abs() <= 1.0),
         "bias" => m.is_some_and(|x| x.is_finite() && x.abs() <= MAX_MAG_BIAS_T),
-        "noise" => m.is_some_and(|x| (1.0..=1000.0).contains(&x)),
+        "noise" | "tach_noise" => m.is_some_and(|x| (1.0..=1000.0).contains(&x)),
         "position_jump" => m.is_some_and(|x| x.abs() <= 1.0e7),
         "saturation" => m.is_some_and(|x| (0.0..=MAX_RATE_RAD_S).contains(&x)),
         _ => m.is_none(),

@@ -42,6 +42,12 @@ pub enum WheelFault {
     Runaway { sign: f64 },
     /// The tachometer repeats the reading of its first sample in the window.
     TachStuck,
+    /// The wheel's power is off: the motor delivers no torque (its command is zero) and the
+    /// tachometer reads 0.
+    PowerOff,
+    /// The tachometer's white noise σ multiplied by this factor (>= 1): an independent
+    /// normal of σ √(factor² − 1) added to each reading.
+    TachNoise { factor: f64 },
 }
 
 /// A gyro axis's fault (the axis of the triad).
@@ -171,6 +177,8 @@ impl Fault {
             Fault::Wheel { kind: WheelFault::TorqueGain(_), .. } => "torque_gain",
             Fault::Wheel { kind: WheelFault::Runaway { .. }, .. } => "runaway",
             Fault::Wheel { kind: WheelFault::TachStuck, .. } => "tach_stuck",
+            Fault::Wheel { kind: WheelFault::PowerOff, .. } => "power_off",
+            Fault::Wheel { kind: WheelFault::TachNoise { .. }, .. } => "tach_noise",
             Fault::Gyro { kind: GyroFault::BiasStep { .. }, .. } => "bias_step",
             Fault::Gyro { kind: GyroFault::Noise { .. }, .. } => "noise",
             Fault::Gyro { kind: GyroFault::Saturation { .. }, .. } => "saturation",
@@ -189,6 +197,7 @@ impl Fault {
         match self {
             Fault::Wheel { kind: WheelFault::TorqueGain(g), .. } => Some(*g),
             Fault::Wheel { kind: WheelFault::Runaway { sign }, .. } => Some(*sign),
+            Fault::Wheel { kind: WheelFault::TachNoise { factor }, .. } => Some(*factor),
             Fault::Gyro { kind: GyroFault::BiasStep { rad_s } | GyroFault::Saturation { rad_s }, .. } => Some(*rad_s),
             Fault::Gyro { kind: GyroFault::Noise { factor }, .. } => Some(*factor),
             Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),

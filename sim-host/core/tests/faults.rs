@@ -141,6 +141,11 @@ fn invalid_entries_are_refused_naming_the_key() {
         (entry("css.0", "dead", ""), "faults[0].unit", "no css (no [sensors.css])"),
         (entry("gnss", "position_jump", "magnitude = 100.0"), "faults[0].unit", "no GNSS fix (no [orbit])"),
         (entry("gnss.0", "position_jump", "magnitude = 100.0"), "faults[0].unit", "unknown unit"),
+        (entry("wheel.4", "power_off", ""), "faults[0].unit", "wheel.0 to wheel.3"),
+        (entry("wheel.1", "power_off", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
+        (entry("wheel.1", "tach_noise", "magnitude = 0.5"), "faults[0].magnitude", "out of range"),
+        (entry("wheel.1", "tach_noise", ""), "faults[0].magnitude", "required"),
+        (entry("wheel.1", "friction", "magnitude = 2.0"), "faults[0].kind", "\"power_off\", \"tach_noise\""),
         (entry("magnetometer", "stuck", ""), "faults[0].unit", "magnetometer.x, magnetometer.y or magnetometer.z"),
         (entry("magnetometer.w", "bias", "magnitude = 1e-6"), "faults[0].unit", "magnetometer.x"),
         (entry("magnetometer.x", "flip", ""), "faults[0].kind", "\"stuck\", \"bias\""),
@@ -744,4 +749,65 @@ fn a_gnss_position_jump_offsets_the_fix_by_its_magnitude_along_the_radial() {
     let (_, summary) = fly(&orbit_scenario(&fault));
     let rec = &summary.faults.unwrap()[0];
     assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("gnss", "position_jump", Some(jump_m)));
+}
+
+// --- wheel power off and tachometer noise ---
+
+#[test]
+fn a_wheel_without_power_gets_no_torque_and_its_tachometer_reads_zero() {
+    let sc = scenario("[[faults]]\nonset_s = 2.0\nunit = \"wheel.2\"\nkind = \"power_off\"\nend_s = 4.0\n");
+    let (states, summary) = fly(&sc);
+    // The ideal wheel's absolute speed changes at the torque the motor delivers / I_w: zero
+    // while unpowered, the command otherwise (far below the speed band: no fade).
+    let accel = |i: usize, k: usize| (abs_speed(&states[k + 1], i) - abs_speed(&states[k], i)) / DT;
+    for k in 0..states.len() - 1 {
+        let t = k as f64 * DT;
+        let off = (2.0 - 1e-9..4.0 - 1e-9).contains(&t);
+        let want = if off { 0.0 } else { CMD_NM[2] / I_W };
+        assert!((accel(2, k) - want).abs() < 1e-9 * CMD_NM[2] / I_W, "wheel 2 at {t}: {}", accel(2, k));
+        assert!((accel(1, k) - CMD_NM[1] / I_W).abs() < 1e-9 * (CMD_NM[1] / I_W).abs(), "wheel 1 at {t}");
+    }
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("wheel.2", "power_off", None));
+    // The tachometer on the closed-form truth: 0 in the window, the truth (noise 0.01 rad/s,
+    // 5σ, plus f32 rounding) outside.
+    let craft = sc.spacecraft().unwrap();
+    for (t, s, f) in frames(&sc) {
+        let axis = Vec3::from(craft.wheels[2].spin_axis);
+        let rel = s.wheels[2].h_abs_nms / I_W - axis.dot(&s.w);
+        if (2.0 - 1e-9..4.0 - 1e-9).contains(&t) {
+            assert_eq!(f.wheel_speed_rad_s[2], 0.0, "at {t}");
+        } else {
+            assert!((f64::from(f.wheel_speed_rad_s[2]) - rel).abs() < 0.05 + 1e-4, "at {t}");
+        }
+    }
+}
+
+#[test]
+fn a_noisy_tachometer_has_its_sigma_times_the_factor_and_the_others_keep_theirs() {
+    let factor = 5.0;
+    let sc = scenario(&format!(
+        "[[faults]]\nonset_s = 0.0\nunit = \"wheel.0\"\nkind = \"tach_noise\"\nmagnitude = {factor}\n"
+    ));
+    let r = Resolved::try_from(&sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    // The wheels held at 100 to 130 rad/s (f32 rounding 4e-6 rad/s, far below σ).
+    let s = truth(0.0, &craft);
+    let rel = |i: usize| s.wheels[i].h_abs_nms / I_W - Vec3::from(craft.wheels[i].spin_axis).dot(&s.w);
+    let n = 20_000u32;
+    let mut err: Vec<Vec<f64>> = vec![Vec::new(); 4];
+    for k in 0..n {
+        let f = suite.sample(k, k as f64 * DT, &s, &craft, None, &[0.0; 3]);
+        for (i, e) in err.iter_mut().enumerate() {
+            e.push(f64::from(f.wheel_speed_rad_s[i]) - rel(i));
+        }
+    }
+    // Sample σ of N normals: relative standard error 1/√(2N) = 0.5 %; 3 % is 6 of them.
+    for (i, e) in err.iter().enumerate() {
+        let want = if i == 0 { factor * 0.01 } else { 0.01 };
+        let (_, sd) = mean_sd(e);
+        eprintln!("tach noise x{factor} on wheel 0: wheel {i} σ {sd:e} rad/s (want {want:e})");
+        assert!((sd / want - 1.0).abs() < 0.03, "wheel {i}: {sd:e} vs {want:e}");
+    }
 }

@@ -20,6 +20,10 @@ pub const MAX_GYRO_NOISE_FACTOR: f64 = 1000.0;
 /// Largest GNSS position jump, m (beyond it the fix is not on the same planet).
 pub const MAX_GNSS_JUMP_M: f64 = 1.0e7;
 
+/// Largest tachometer noise factor (the faulty tachometer's σ is at most this many times
+/// its own).
+pub const MAX_TACH_NOISE_FACTOR: f64 = 1000.0;
+
 /// Largest magnetometer bias, T: the flight code's field limit (`MAX_FIELD_T`, as
 /// `sensors.magnetometer.bias_t`); beyond it every reading is refused on board anyway.
 pub const MAX_MAG_BIAS_T: f64 = acs_flight::validation::MAX_FIELD_T as f64;
@@ -93,7 +97,15 @@ impl Scenario {
                     "tach_stuck" => m.none(WheelFault::TachStuck)?,
                     "torque_gain" => WheelFault::TorqueGain(m.within(0.0, 1.0, "a gain in [0, 1]")?),
                     "runaway" => WheelFault::Runaway { sign: m.sign()? },
-                    _ => return Err(kind_err("\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\"")),
+                    "power_off" => m.none(WheelFault::PowerOff)?,
+                    "tach_noise" => WheelFault::TachNoise {
+                        factor: m.within(1.0, MAX_TACH_NOISE_FACTOR, "a factor on the tachometer's noise σ")?,
+                    },
+                    _ => {
+                        return Err(kind_err(
+                            "\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\", \"power_off\", \"tach_noise\"",
+                        ));
+                    }
                 };
                 Ok(Fault::Wheel { index, kind })
             }

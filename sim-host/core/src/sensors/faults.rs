@@ -52,6 +52,16 @@ pub struct SensorFaults {
     bias_step_rad_s: [f64; 3],
     /// The gyro's noise, for the `noise` faults (`None`: no such fault).
     gyro_noise: Option<GyroNoise>,
+    /// The tachometers' noise, for the `tach_noise` faults (`None`: no such fault).
+    tach_noise: Option<TachNoise>,
+}
+
+/// The tachometers' white noise and the stream a noisier one draws its extra noise from.
+#[derive(Clone, Debug)]
+pub struct TachNoise {
+    /// 1σ of a reading, rad/s.
+    pub sigma_rad_s: f64,
+    pub rng: ChaCha8Rng,
 }
 
 impl SensorFaults {
@@ -65,11 +75,23 @@ impl SensorFaults {
                     | Fault::Magnetometer { .. }
                     | Fault::Css { .. }
                     | Fault::Gnss(_)
-                    | Fault::Wheel { kind: WheelFault::TachStuck, .. }
+                    | Fault::Wheel {
+                        kind: WheelFault::TachStuck | WheelFault::PowerOff | WheelFault::TachNoise { .. },
+                        ..
+                    }
             )
         };
         let entries = list.iter().filter(sensor).map(|f| Entry { fault: *f, held: None }).collect();
-        Self { entries, bias_step_rad_s: [0.0; 3], gyro_noise: None }
+        Self { entries, bias_step_rad_s: [0.0; 3], gyro_noise: None, tach_noise: None }
+    }
+
+    /// The tachometers' noise (`noise`: the stream the suite derives for it).
+    pub fn with_tach_noise(mut self, noise: TachNoise) -> Self {
+        let noisy = |e: &Entry| matches!(e.fault.fault, Fault::Wheel { kind: WheelFault::TachNoise { .. }, .. });
+        if self.entries.iter().any(noisy) {
+            self.tach_noise = Some(noise);
+        }
+        self
     }
 
     /// The gyro's noise (`noise`: the streams the suite derives from the gyro's).
@@ -214,13 +236,28 @@ impl SensorFaults {
     pub fn tach(&mut self, t_s: f64, wheel: usize, speed_rad_s: f64) -> f64 {
         let mut out = speed_rad_s;
         for e in &mut self.entries {
-            match e.fault.fault {
-                Fault::Wheel { index, kind: WheelFault::TachStuck } if index == wheel => {}
+            let kind = match e.fault.fault {
+                Fault::Wheel { index, kind } if index == wheel => kind,
                 _ => continue,
-            }
+            };
             if !e.fault.window.active(t_s) {
                 e.held = None;
                 continue;
+            }
+            match kind {
+                WheelFault::PowerOff => {
+                    out = 0.0;
+                    continue;
+                }
+                WheelFault::TachNoise { factor } => {
+                    if let Some(n) = self.tach_noise.as_mut() {
+                        let extra: f64 = StandardNormal.sample(&mut n.rng);
+                        out += n.sigma_rad_s * (factor * factor - 1.0).max(0.0).sqrt() * extra;
+                    }
+                    continue;
+                }
+                WheelFault::TachStuck => {}
+                _ => continue,
             }
             let held = match e.held {
                 Some(Held::Speed(x)) => x,

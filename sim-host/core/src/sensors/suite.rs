@@ -20,7 +20,7 @@
 use super::clock::{SampleTiming, Sampled};
 use super::css::{CoarseSunSensors, CssGeometry, CssModel, MAX_CSS_HEADS};
 use super::encoders::Encoders;
-use super::faults::{GyroNoise, SensorFaults};
+use super::faults::{GyroNoise, SensorFaults, TachNoise};
 use super::gnss::{GnssModel, GnssReceiver};
 use super::gyro::{Gyro, GyroModel};
 use super::latency::SampleQueue;
@@ -43,6 +43,10 @@ const MAGNETOMETER_STREAM: u32 = 3;
 const SUN_STREAM: u32 = 4;
 const CSS_STREAM: u32 = 5;
 const GNSS_STREAM: u32 = 6;
+/// The tachometers' extra noise of an injected `tach_noise` fault: sub-stream
+/// [`FAULT_NOISE_SUB_STREAM`] of this index (the encoders' own stream is the seed's 0,
+/// which has no sub-streams).
+const ENCODER_FAULT_STREAM: u32 = 7;
 /// Sub-stream of each sensor's stream for its sample-time jitter.
 const JITTER_SUB_STREAM: u32 = 2;
 /// Sub-streams (this and the next) of a sensor's stream for the extra noise of an injected
@@ -305,7 +309,11 @@ impl SensorSuite {
             rate_rng: sensor_sub_rng(self.seed, GYRO_STREAM, FAULT_NOISE_SUB_STREAM),
             angle_rng: sensor_sub_rng(self.seed, GYRO_STREAM, FAULT_NOISE_SUB_STREAM + 1),
         };
-        self.faults = SensorFaults::new(list).with_gyro_noise(noise);
+        let tach = TachNoise {
+            sigma_rad_s: self.encoders.wheel_sigma_rad_s(),
+            rng: sensor_sub_rng(self.seed, ENCODER_FAULT_STREAM, FAULT_NOISE_SUB_STREAM),
+        };
+        self.faults = SensorFaults::new(list).with_gyro_noise(noise).with_tach_noise(tach);
     }
 
     /// Whether a sensor that reads the environment (magnetometer, sun sensors, GNSS
