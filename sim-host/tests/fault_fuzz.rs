@@ -116,13 +116,14 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 17] = [
+const ALL_KINDS: [&str; 18] = [
     "stuck",
     "torque_gain",
     "runaway",
     "tach_stuck",
     "power_off",
     "tach_noise",
+    "friction",
     "bias_step",
     "flip",
     "frozen",
@@ -142,6 +143,7 @@ const MAX_MAG_BIAS_T: f64 = 1e-2f32 as f64;
 const MAX_RATE_RAD_S: f64 = 50.0;
 const MAGNETOMETER_AXES: [&str; 3] = ["magnetometer.x", "magnetometer.y", "magnetometer.z"];
 
+/// The kinds each unit has on the bases (their wheels are ideal: no `friction`).
 fn kinds_of(unit: &str) -> &'static [&'static str] {
     match unit.split('.').next() {
         Some("wheel") => &["stuck", "torque_gain", "runaway", "tach_stuck", "power_off", "tach_noise"],

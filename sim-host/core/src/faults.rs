@@ -42,6 +42,9 @@ pub enum WheelFault {
     Runaway { sign: f64 },
     /// The tachometer repeats the reading of its first sample in the window.
     TachStuck,
+    /// The wheel's friction (viscous and Coulomb, the motor model's) multiplied by this
+    /// factor (>= 1).
+    Friction { factor: f64 },
     /// The wheel's power is off: the motor delivers no torque (its command is zero) and the
     /// tachometer reads 0.
     PowerOff,
@@ -178,6 +181,7 @@ impl Fault {
             Fault::Wheel { kind: WheelFault::Runaway { .. }, .. } => "runaway",
             Fault::Wheel { kind: WheelFault::TachStuck, .. } => "tach_stuck",
             Fault::Wheel { kind: WheelFault::PowerOff, .. } => "power_off",
+            Fault::Wheel { kind: WheelFault::Friction { .. }, .. } => "friction",
             Fault::Wheel { kind: WheelFault::TachNoise { .. }, .. } => "tach_noise",
             Fault::Gyro { kind: GyroFault::BiasStep { .. }, .. } => "bias_step",
             Fault::Gyro { kind: GyroFault::Noise { .. }, .. } => "noise",
@@ -197,7 +201,9 @@ impl Fault {
         match self {
             Fault::Wheel { kind: WheelFault::TorqueGain(g), .. } => Some(*g),
             Fault::Wheel { kind: WheelFault::Runaway { sign }, .. } => Some(*sign),
-            Fault::Wheel { kind: WheelFault::TachNoise { factor }, .. } => Some(*factor),
+            Fault::Wheel { kind: WheelFault::TachNoise { factor } | WheelFault::Friction { factor }, .. } => {
+                Some(*factor)
+            }
             Fault::Gyro { kind: GyroFault::BiasStep { rad_s } | GyroFault::Saturation { rad_s }, .. } => Some(*rad_s),
             Fault::Gyro { kind: GyroFault::Noise { factor }, .. } => Some(*factor),
             Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),

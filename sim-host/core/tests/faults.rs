@@ -145,7 +145,8 @@ fn invalid_entries_are_refused_naming_the_key() {
         (entry("wheel.1", "power_off", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
         (entry("wheel.1", "tach_noise", "magnitude = 0.5"), "faults[0].magnitude", "out of range"),
         (entry("wheel.1", "tach_noise", ""), "faults[0].magnitude", "required"),
-        (entry("wheel.1", "friction", "magnitude = 2.0"), "faults[0].kind", "\"power_off\", \"tach_noise\""),
+        (entry("wheel.1", "explode", ""), "faults[0].kind", "\"power_off\", \"tach_noise\", \"friction\""),
+        (entry("wheel.1", "friction", "magnitude = 2.0"), "faults[0].kind", "no friction to scale"),
         (entry("magnetometer", "stuck", ""), "faults[0].unit", "magnetometer.x, magnetometer.y or magnetometer.z"),
         (entry("magnetometer.w", "bias", "magnitude = 1e-6"), "faults[0].unit", "magnetometer.x"),
         (entry("magnetometer.x", "flip", ""), "faults[0].kind", "\"stuck\", \"bias\""),
@@ -810,4 +811,55 @@ fn a_noisy_tachometer_has_its_sigma_times_the_factor_and_the_others_keep_theirs(
         eprintln!("tach noise x{factor} on wheel 0: wheel {i} σ {sd:e} rad/s (want {want:e})");
         assert!((sd / want - 1.0).abs() < 0.03, "wheel {i}: {sd:e} vs {want:e}");
     }
+}
+
+// --- wheel friction ---
+
+#[test]
+fn a_wheel_friction_fault_scales_the_viscous_and_coulomb_friction() {
+    use sim_core::plant::wheel::WheelParams;
+    let accurate = |faults: &str| {
+        // The motor model's RK4 stability limit asks for 17 substeps or more at 10 Hz.
+        let text = BASE
+            .replace(
+                "model = \"ideal\"\nmax_torque_nm = 0.01\nmax_speed_rpm = 6000.0\ninertia_kgm2 = 1e-4\n",
+                "model = \"accurate\"\n",
+            )
+            .replace("dynamics_substeps = 4\n", "dynamics_substeps = 40\n");
+        Scenario::from_toml(&format!("{text}{faults}")).unwrap()
+    };
+    let k = 3.0;
+    let sc = accurate(&format!(
+        "[[faults]]\nonset_s = 2.0\nunit = \"wheel.0\"\nkind = \"friction\"\nmagnitude = {k}\nend_s = 4.0\n"
+    ));
+    let p = WheelParams::paper001();
+    let r = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
+    let c = |n: &str| r.series.col(n).unwrap();
+    let (t, rpm, fr) = (c("t_s"), c("wheel1_speed_rpm"), c("wheel1_friction_nm"));
+    // The converged Dahl friction (eq 23: T_f tanh(ω/ω_s) = T_c) plus the viscous term,
+    // both scaled by the factor in force. After a change the Dahl state's error x obeys
+    // ẋ ≈ −β|ω| x|x|, so |x(τ)| = |x0| / (1 + β|ω||x0|τ) < 1/(β|ω|τ), τ the time since the
+    // change: that bound (10 % margin) is the tolerance, from 0.5 s after each change on.
+    let mut judged = [0, 0];
+    let mut worst = 0.0f64;
+    for i in 0..t.len() {
+        let since = [0.0, 2.0, 4.0].into_iter().filter(|c| t[i] >= c - 1e-9).fold(0.0, f64::max);
+        let tau = t[i] - since;
+        if tau < 0.5 - 1e-9 {
+            continue;
+        }
+        let on = (2.0 - 1e-9..4.0 - 1e-9).contains(&t[i]);
+        let f = if on { k } else { 1.0 };
+        let w = rpm[i] * std::f64::consts::PI / 30.0;
+        let want = f * (p.coulomb_nm / (w / p.sign_smoothing_rad_s).tanh() + p.viscous_nms * w);
+        let tol = 1.1 / (p.dahl_beta * w.abs() * tau);
+        let e = (fr[i] - want).abs();
+        worst = worst.max(e / tol);
+        assert!(e < tol, "at {}: friction {} vs {want} (ω {w} rad/s, tolerance {tol:e})", t[i], fr[i]);
+        judged[usize::from(on)] += 1;
+    }
+    eprintln!("wheel friction x{k}: {judged:?} rows judged (off, on), worst error / tolerance {worst:.3}");
+    assert!(judged[0] > 5 && judged[1] > 5, "{judged:?}");
+    let recs = r.summary.faults.unwrap();
+    assert_eq!((recs[0].unit.as_str(), recs[0].kind, recs[0].magnitude), ("wheel.0", "friction", Some(k)));
 }

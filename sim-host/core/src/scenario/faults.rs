@@ -7,6 +7,7 @@ use super::{Scenario, bad};
 use crate::faults::{
     CssFault, Fault, GnssFault, GyroFault, MAX_FAULTS, MagFault, RodFault, TimedFault, TrackerFault, WheelFault, Window,
 };
+use crate::plant::wheel::Fidelity;
 use acs_flight::validation::MAX_RATE_RAD_S;
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
@@ -19,6 +20,9 @@ pub const MAX_GYRO_NOISE_FACTOR: f64 = 1000.0;
 
 /// Largest GNSS position jump, m (beyond it the fix is not on the same planet).
 pub const MAX_GNSS_JUMP_M: f64 = 1.0e7;
+
+/// Largest wheel friction factor.
+pub const MAX_FRICTION_FACTOR: f64 = 100.0;
 
 /// Largest tachometer noise factor (the faulty tachometer's σ is at most this many times
 /// its own).
@@ -90,20 +94,33 @@ impl Scenario {
         let m = Magnitude { value: f.magnitude, key: format!("{key}.magnitude"), kind: &f.kind };
         match name {
             "wheel" => {
-                let n = self.wheel_params()?.len();
-                let index = self.unit_index(index, n, &unit_key, "wheel", "[actuators.wheels]")?;
+                let params = self.wheel_params()?;
+                let index = self.unit_index(index, params.len(), &unit_key, "wheel", "[actuators.wheels]")?;
                 let kind = match f.kind.as_str() {
                     "stuck" => m.none(WheelFault::Stuck)?,
                     "tach_stuck" => m.none(WheelFault::TachStuck)?,
                     "torque_gain" => WheelFault::TorqueGain(m.within(0.0, 1.0, "a gain in [0, 1]")?),
                     "runaway" => WheelFault::Runaway { sign: m.sign()? },
                     "power_off" => m.none(WheelFault::PowerOff)?,
+                    "friction" => {
+                        if params.get(index).is_none_or(|p| p.fidelity != Fidelity::Accurate) {
+                            let why = format!(
+                                "{}: the ideal wheel model has no friction to scale (model = \"accurate\" has)",
+                                f.unit
+                            );
+                            return Err(bad(&format!("{key}.kind"), why));
+                        }
+                        WheelFault::Friction {
+                            factor: m.within(1.0, MAX_FRICTION_FACTOR, "a factor on the wheel's friction")?,
+                        }
+                    }
                     "tach_noise" => WheelFault::TachNoise {
                         factor: m.within(1.0, MAX_TACH_NOISE_FACTOR, "a factor on the tachometer's noise σ")?,
                     },
                     _ => {
                         return Err(kind_err(
-                            "\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\", \"power_off\", \"tach_noise\"",
+                            "\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\", \"power_off\", \"tach_noise\", \
+                             \"friction\"",
                         ));
                     }
                 };

@@ -94,7 +94,10 @@ impl Actuation {
                 WheelFault::TorqueGain(g) => *cmd *= g,
                 WheelFault::Runaway { sign } => *cmd = sign * max,
                 WheelFault::PowerOff => *cmd = 0.0,
-                WheelFault::Stuck | WheelFault::TachStuck | WheelFault::TachNoise { .. } => {}
+                WheelFault::Stuck
+                | WheelFault::TachStuck
+                | WheelFault::TachNoise { .. }
+                | WheelFault::Friction { .. } => {}
             }
         }
     }
