@@ -73,6 +73,8 @@ struct Base {
     name: &'static str,
     doc: Value,
     wheels: usize,
+    /// Coarse sun sensor heads (`[sensors.css] normals_body`; 0 without the table).
+    css_heads: usize,
     duration_s: f64,
 }
 
@@ -92,12 +94,16 @@ fn base(file: &'static str, duration_s: f64, fdir: bool) -> Base {
         Some("pyramid4") => 4,
         _ => doc["actuators"]["wheels"]["axes"].as_array().map_or(0, Vec::len),
     };
+    let css_heads = doc
+        .get("sensors")
+        .and_then(|s| s.get("css"))
+        .map_or(0, |c| c.get("normals_body").and_then(Value::as_array).map_or(0, Vec::len));
     let name = match (file.contains("mission"), fdir) {
         (true, true) => "3U mission + [fdir.wheels]",
         (true, false) => "3U mission",
         _ => "6U wheel-seized + [fdir.wheels]",
     };
-    Base { name, doc, wheels, duration_s }
+    Base { name, doc, wheels, css_heads, duration_s }
 }
 
 /// One `[[faults]]` entry as drawn.
@@ -110,31 +116,43 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 11] = [
+const ALL_KINDS: [&str; 18] = [
     "stuck",
     "torque_gain",
     "runaway",
     "tach_stuck",
+    "power_off",
+    "tach_noise",
+    "friction",
     "bias_step",
     "flip",
     "frozen",
     "open",
     "reversed",
     "bias",
+    "dead",
+    "position_jump",
+    "noise",
+    "saturation",
     "explode",
 ];
 
 /// The largest magnetometer bias the format takes, T (the flight code's f32 field limit).
 const MAX_MAG_BIAS_T: f64 = 1e-2f32 as f64;
+/// The largest gyro saturation bound the format takes, rad/s (the flight code's rate limit).
+const MAX_RATE_RAD_S: f64 = 50.0;
 const MAGNETOMETER_AXES: [&str; 3] = ["magnetometer.x", "magnetometer.y", "magnetometer.z"];
 
+/// The kinds each unit has on the bases (their wheels are ideal: no `friction`).
 fn kinds_of(unit: &str) -> &'static [&'static str] {
     match unit.split('.').next() {
-        Some("wheel") => &["stuck", "torque_gain", "runaway", "tach_stuck"],
-        Some("gyro") => &["stuck", "bias_step"],
+        Some("wheel") => &["stuck", "torque_gain", "runaway", "tach_stuck", "power_off", "tach_noise"],
+        Some("gyro") => &["stuck", "bias_step", "noise", "saturation"],
         Some("star_tracker") => &["flip", "frozen"],
         Some("magnetorquer") => &["open", "reversed"],
         Some("magnetometer") => &["stuck", "bias"],
+        Some("css") => &["dead"],
+        Some("gnss") => &["position_jump"],
         _ => &["stuck"],
     }
 }
@@ -150,6 +168,9 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
     valid_units.extend(["gyro.x", "gyro.y", "gyro.z", "star_tracker"].map(String::from));
     valid_units.extend((0..3).map(|i| format!("magnetorquer.{i}")));
     valid_units.extend(MAGNETOMETER_AXES.map(String::from));
+    valid_units.extend((0..b.css_heads).map(|i| format!("css.{i}")));
+    // Both bases fly an orbit: each has a GNSS fix.
+    valid_units.push("gnss".into());
     let unit = if bad(rng, 0.06) {
         let wrong = [
             format!("wheel.{}", b.wheels),
@@ -160,8 +181,10 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
             "magnetometer".into(),
             "magnetometer.w".into(),
             "magnetometer.0".into(),
-            "css.2".into(),
-            "gnss".into(),
+            format!("css.{}", b.css_heads),
+            "css.9".into(),
+            "css".into(),
+            "gnss.0".into(),
             "gyro.w".into(),
             "star_tracker.1".into(),
             "wheel".into(),
@@ -180,6 +203,12 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
         "runaway" => Some(*pick(rng, &[1.0, -1.0])),
         // 1e-6 to 1 rad/s (the largest step the format takes), either sign.
         "bias_step" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(-6.0 * rng.uniform())),
+        // 1 to 1000 (the largest factor the format takes).
+        "noise" | "tach_noise" => Some(10f64.powf(3.0 * rng.uniform())),
+        // 1e-4 to 50 rad/s (the flight code's rate limit, the largest bound the format takes).
+        "saturation" => Some(MAX_RATE_RAD_S * 10f64.powf(-5.7 * rng.uniform())),
+        // 1 m to 1e7 m (the largest jump the format takes), either sign.
+        "position_jump" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(7.0 * rng.uniform())),
         // 1e-9 to 1e-2 T (the largest bias the format takes), either sign.
         "bias" => Some(*pick(rng, &[1.0, -1.0]) * MAX_MAG_BIAS_T * 10f64.powf(-7.0 * rng.uniform())),
         _ => None,
@@ -199,10 +228,11 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
     Entry { onset_s, unit, kind: kind.into(), magnitude, end_s }
 }
 
-/// Whether the format takes this entry on a spacecraft with `wheels` wheels and three rods
+/// Whether the format takes this entry on a spacecraft with `wheels` wheels, three rods and
+/// `css_heads` coarse sun sensor heads
 /// (docs/scenario.md `[[faults]]`, and "every number": finite, within the f32 range),
 /// decided from the values alone.
-fn valid(e: &Entry, wheels: usize) -> bool {
+fn valid(e: &Entry, wheels: usize, css_heads: usize) -> bool {
     let numbers = [Some(e.onset_s), e.magnitude, e.end_s];
     let in_range = numbers.iter().flatten().all(|x| x.is_finite() && x.abs() <= f64::from(f32::MAX));
     let onset_ok = e.onset_s.is_finite() && e.onset_s >= 0.0;
@@ -212,8 +242,10 @@ fn valid(e: &Entry, wheels: usize) -> bool {
     };
     let unit_ok = index_below("wheel.", wheels)
         || index_below("magnetorquer.", 3)
+        || index_below("css.", css_heads)
         || ["gyro.x", "gyro.y", "gyro.z", "star_tracker"].contains(&e.unit.as_str())
-        || MAGNETOMETER_AXES.contains(&e.unit.as_str());
+        || MAGNETOMETER_AXES.contains(&e.unit.as_str())
+        || e.unit == "gnss";
     let kind_ok = unit_ok && kinds_of(&e.unit).contains(&e.kind.as_str());
     let m = e.magnitude;
     let magnitude_ok = match e.kind.as_str() {
@@ -221,6 +253,9 @@ fn valid(e: &Entry, wheels: usize) -> bool {
         "runaway" => m.is_some_and(|s| s == 1.0 || s == -1.0),
         "bias_step" => m.is_some_and(|x| x.is_finite() && x.abs() <= 1.0),
         "bias" => m.is_some_and(|x| x.is_finite() && x.abs() <= MAX_MAG_BIAS_T),
+        "noise" | "tach_noise" => m.is_some_and(|x| (1.0..=1000.0).contains(&x)),
+        "position_jump" => m.is_some_and(|x| x.abs() <= 1.0e7),
+        "saturation" => m.is_some_and(|x| (0.0..=MAX_RATE_RAD_S).contains(&x)),
         _ => m.is_none(),
     };
     in_range && onset_ok && end_ok && unit_ok && kind_ok && magnitude_ok
@@ -267,7 +302,7 @@ fn cases(bases: &[Base]) -> Vec<Case> {
         let clean = n > 3 && rng.below(2) == 0;
         let entries: Vec<Entry> = (0..n).map(|_| draw_entry(&mut rng, b, clean)).collect();
         let mut refusal_keys: Vec<String> =
-            (0..n).filter(|i| !valid(&entries[*i], b.wheels)).map(|i| format!("`faults[{i}]")).collect();
+            (0..n).filter(|i| !valid(&entries[*i], b.wheels, b.css_heads)).map(|i| format!("`faults[{i}]")).collect();
         if n > 32 {
             refusal_keys.push("`faults`".into());
         }

@@ -42,6 +42,15 @@ pub enum WheelFault {
     Runaway { sign: f64 },
     /// The tachometer repeats the reading of its first sample in the window.
     TachStuck,
+    /// The wheel's friction (viscous and Coulomb, the motor model's) multiplied by this
+    /// factor (>= 1).
+    Friction { factor: f64 },
+    /// The wheel's power is off: the motor delivers no torque (its command is zero) and the
+    /// tachometer reads 0.
+    PowerOff,
+    /// The tachometer's white noise σ multiplied by this factor (>= 1): an independent
+    /// normal of σ √(factor² − 1) added to each reading.
+    TachNoise { factor: f64 },
 }
 
 /// A gyro axis's fault (the axis of the triad).
@@ -53,6 +62,12 @@ pub enum GyroFault {
     /// A bias step added to the axis's rate (and to its angle increment over the part of
     /// the interval inside the window), rad/s.
     BiasStep { rad_s: f64 },
+    /// The axis's white rate noise σ (and its angle random walk) multiplied by this factor
+    /// (>= 1): an independent normal of σ √(factor² − 1) added to each sample.
+    Noise { factor: f64 },
+    /// The axis's rate clamps at ± this bound, rad/s (its angle increment at ± the bound
+    /// times the interval).
+    Saturation { rad_s: f64 },
 }
 
 /// The star tracker's fault.
@@ -72,6 +87,22 @@ pub enum MagFault {
     Stuck,
     /// A constant field added to the axis's reading, T.
     Bias { t: f64 },
+}
+
+/// A coarse sun sensor head's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CssFault {
+    /// The head reads 0, what a head that sees nothing reads without noise (an unused
+    /// head, or any head in eclipse).
+    Dead,
+}
+
+/// The GNSS receiver's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GnssFault {
+    /// The reported position is offset by this many m along the true radial direction
+    /// (outward from the Earth's centre at the sample; negative: inward).
+    PositionJump { m: f64 },
 }
 
 /// A magnetorquer rod's fault.
@@ -102,6 +133,12 @@ pub enum Fault {
         axis: usize,
         kind: MagFault,
     },
+    /// Coarse sun sensor head `index` (0-based, the order of `normals_body`).
+    Css {
+        index: usize,
+        kind: CssFault,
+    },
+    Gnss(GnssFault),
     /// Torquer rod `index` (0-based, the order of `[actuators.magnetorquers]`).
     Magnetorquer {
         index: usize,
@@ -129,6 +166,8 @@ impl Fault {
                 format!("magnetometer.{}", AXES.get(*axis).copied().unwrap_or("?"))
             }
             Fault::Magnetorquer { index, .. } => format!("magnetorquer.{index}"),
+            Fault::Css { index, .. } => format!("css.{index}"),
+            Fault::Gnss(_) => "gnss".into(),
         }
     }
 
@@ -141,11 +180,18 @@ impl Fault {
             Fault::Wheel { kind: WheelFault::TorqueGain(_), .. } => "torque_gain",
             Fault::Wheel { kind: WheelFault::Runaway { .. }, .. } => "runaway",
             Fault::Wheel { kind: WheelFault::TachStuck, .. } => "tach_stuck",
+            Fault::Wheel { kind: WheelFault::PowerOff, .. } => "power_off",
+            Fault::Wheel { kind: WheelFault::Friction { .. }, .. } => "friction",
+            Fault::Wheel { kind: WheelFault::TachNoise { .. }, .. } => "tach_noise",
             Fault::Gyro { kind: GyroFault::BiasStep { .. }, .. } => "bias_step",
+            Fault::Gyro { kind: GyroFault::Noise { .. }, .. } => "noise",
+            Fault::Gyro { kind: GyroFault::Saturation { .. }, .. } => "saturation",
             Fault::Magnetometer { kind: MagFault::Bias { .. }, .. } => "bias",
             Fault::StarTracker(TrackerFault::Flip) => "flip",
             Fault::StarTracker(TrackerFault::Frozen) => "frozen",
             Fault::Magnetorquer { kind: RodFault::Open, .. } => "open",
+            Fault::Css { kind: CssFault::Dead, .. } => "dead",
+            Fault::Gnss(GnssFault::PositionJump { .. }) => "position_jump",
             Fault::Magnetorquer { kind: RodFault::Reversed, .. } => "reversed",
         }
     }
@@ -155,8 +201,13 @@ impl Fault {
         match self {
             Fault::Wheel { kind: WheelFault::TorqueGain(g), .. } => Some(*g),
             Fault::Wheel { kind: WheelFault::Runaway { sign }, .. } => Some(*sign),
-            Fault::Gyro { kind: GyroFault::BiasStep { rad_s }, .. } => Some(*rad_s),
+            Fault::Wheel { kind: WheelFault::TachNoise { factor } | WheelFault::Friction { factor }, .. } => {
+                Some(*factor)
+            }
+            Fault::Gyro { kind: GyroFault::BiasStep { rad_s } | GyroFault::Saturation { rad_s }, .. } => Some(*rad_s),
+            Fault::Gyro { kind: GyroFault::Noise { factor }, .. } => Some(*factor),
             Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),
+            Fault::Gnss(GnssFault::PositionJump { m }) => Some(*m),
             _ => None,
         }
     }

@@ -132,6 +132,21 @@ fn invalid_entries_are_refused_naming_the_key() {
         (entry("wheel.1", "stuck", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
         (entry("wheel.1", "stuck", "end_s = 0.5"), "faults[0].end_s", "> onset_s"),
         (entry("wheel.1", "stuck", "typo = 1"), "typo", "unknown field"),
+        (entry("gyro.x", "noise", "magnitude = 0.5"), "faults[0].magnitude", "out of range"),
+        (entry("gyro.x", "noise", ""), "faults[0].magnitude", "required"),
+        (entry("gyro.y", "saturation", "magnitude = -0.1"), "faults[0].magnitude", "out of range"),
+        (entry("gyro.y", "saturation", "magnitude = 60.0"), "faults[0].magnitude", "out of range"),
+        (entry("gyro.w", "saturation", "magnitude = 0.1"), "faults[0].unit", "gyro.x"),
+        (entry("gyro.z", "noisy", ""), "faults[0].kind", "\"noise\", \"saturation\""),
+        (entry("css.0", "dead", ""), "faults[0].unit", "no css (no [sensors.css])"),
+        (entry("gnss", "position_jump", "magnitude = 100.0"), "faults[0].unit", "no GNSS fix (no [orbit])"),
+        (entry("gnss.0", "position_jump", "magnitude = 100.0"), "faults[0].unit", "unknown unit"),
+        (entry("wheel.4", "power_off", ""), "faults[0].unit", "wheel.0 to wheel.3"),
+        (entry("wheel.1", "power_off", "magnitude = 1.0"), "faults[0].magnitude", "takes no magnitude"),
+        (entry("wheel.1", "tach_noise", "magnitude = 0.5"), "faults[0].magnitude", "out of range"),
+        (entry("wheel.1", "tach_noise", ""), "faults[0].magnitude", "required"),
+        (entry("wheel.1", "explode", ""), "faults[0].kind", "\"power_off\", \"tach_noise\", \"friction\""),
+        (entry("wheel.1", "friction", "magnitude = 2.0"), "faults[0].kind", "no friction to scale"),
         (entry("magnetometer", "stuck", ""), "faults[0].unit", "magnetometer.x, magnetometer.y or magnetometer.z"),
         (entry("magnetometer.w", "bias", "magnitude = 1e-6"), "faults[0].unit", "magnetometer.x"),
         (entry("magnetometer.x", "flip", ""), "faults[0].kind", "\"stuck\", \"bias\""),
@@ -514,4 +529,337 @@ fn a_magnetometer_bias_adds_exactly_its_field_to_its_axis_in_its_window() {
         (rec.unit.as_str(), rec.kind, rec.magnitude, rec.injected_at_s, rec.end_s),
         ("magnetometer.z", "bias", Some(bias_t), Some(4.0), Some(8.0))
     );
+}
+
+// --- gyro noise and saturation ---
+
+/// `n` gyro samples at 10 Hz on the closed-form truth with the scenario's faults.
+fn gyro_frames(sc: &Scenario, n: u32) -> Vec<(f64, acs_flight::link::SensorFrame)> {
+    let r = Resolved::try_from(sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    (0..n)
+        .map(|k| {
+            let t = k as f64 * DT;
+            (t, suite.sample(k, t, &truth(t, &craft), &craft, None, &[0.0; 3]))
+        })
+        .collect()
+}
+
+/// Mean and sample standard deviation.
+fn mean_sd(x: &[f64]) -> (f64, f64) {
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    (mean, (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt())
+}
+
+#[test]
+fn a_noisy_gyro_axis_has_its_sigma_times_the_factor_and_the_others_keep_theirs() {
+    let factor = 4.0;
+    let sc =
+        scenario(&format!("[[faults]]\nonset_s = 0.0\nunit = \"gyro.x\"\nkind = \"noise\"\nmagnitude = {factor}\n"));
+    let n = 20_000;
+    let fr = gyro_frames(&sc, n);
+    let err = |a: usize| -> Vec<f64> { fr.iter().map(|(_, f)| f64::from(f.rate_rad_s[a]) - W_TRUE[a]).collect() };
+    // Increments (from the second frame: the first has no interval): truth ω DT.
+    let inc = |a: usize| -> Vec<f64> {
+        fr.iter().skip(1).map(|(_, f)| f64::from(f.gyro_angle_rad[a]) - W_TRUE[a] * DT).collect()
+    };
+    // Sample σ of N normals: relative standard error 1/√(2N) = 0.5 %; 3 % is 6 of them.
+    let arw_sigma_inc = 1e-4 * DT.sqrt();
+    for (a, want_rate, want_inc) in [
+        (0, factor * GYRO_SIGMA, factor * arw_sigma_inc),
+        (1, GYRO_SIGMA, arw_sigma_inc),
+        (2, GYRO_SIGMA, arw_sigma_inc),
+    ] {
+        let ((_, sd), (_, sd_inc)) = (mean_sd(&err(a)), mean_sd(&inc(a)));
+        eprintln!(
+            "gyro noise x{factor} on x: axis {a} rate σ {sd:e} (want {want_rate:e}), increment σ {sd_inc:e} (want {want_inc:e})"
+        );
+        assert!((sd / want_rate - 1.0).abs() < 0.03, "axis {a}: {sd:e} vs {want_rate:e}");
+        assert!((sd_inc / want_inc - 1.0).abs() < 0.03, "axis {a}: {sd_inc:e} vs {want_inc:e}");
+    }
+}
+
+#[test]
+fn a_saturated_gyro_axis_never_exceeds_its_bound_and_reads_the_truth_below_it() {
+    // ω_y = -0.03 rad/s with σ = 3.2e-4: a bound of 0.0302 clips about a quarter of the samples.
+    let bound = 0.0302;
+    let sc = scenario(&format!(
+        "[[faults]]\nonset_s = 2.0\nunit = \"gyro.y\"\nkind = \"saturation\"\nmagnitude = {bound}\nend_s = 8.0\n"
+    ));
+    // Second method: the same samples without the fault (the noise draws are the same).
+    let (with, without) = (gyro_frames(&sc, 101), gyro_frames(&scenario(""), 101));
+    let (mut clipped, mut below) = (0, 0);
+    for ((t, f), (_, g)) in with.iter().zip(&without) {
+        assert_eq!((f.rate_rad_s[0], f.rate_rad_s[2]), (g.rate_rad_s[0], g.rate_rad_s[2]), "other axes at {t}");
+        let (y, y0) = (f64::from(f.rate_rad_s[1]), f64::from(g.rate_rad_s[1]));
+        if !(2.0 - 1e-9..8.0 - 1e-9).contains(t) {
+            assert_eq!(f.rate_rad_s[1], g.rate_rad_s[1], "outside the window at {t}");
+            continue;
+        }
+        // The f32 of the wire: within an ulp of the bound.
+        assert!(y.abs() <= bound * (1.0 + 1e-7), "at {t}: {y}");
+        assert!(f64::from(f.gyro_angle_rad[1]).abs() <= bound * DT * (1.0 + 1e-7), "increment at {t}");
+        if y0.abs() < bound * (1.0 - 1e-6) {
+            assert_eq!(f.rate_rad_s[1], g.rate_rad_s[1], "below the bound at {t}");
+            below += 1;
+        } else {
+            assert_eq!(y, (bound * y0.signum()) as f32 as f64, "clipped at {t}");
+            clipped += 1;
+        }
+    }
+    eprintln!("gyro saturation at {bound} rad/s: {clipped} samples clipped, {below} below the bound");
+    assert!(clipped > 5 && below > 5, "{clipped} clipped, {below} below: the test exercises both");
+    let (_, summary) = fly(&sc);
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("gyro.y", "saturation", Some(bound)));
+}
+
+// --- coarse sun sensors ---
+
+/// `BASE` in a 500 km orbit with six coarse sun sensor heads (noise `noise`) and `faults`.
+fn css_scenario(noise: f64, faults: &str) -> Scenario {
+    let orbit = "[orbit]\nkind = \"circular\"\naltitude_km = 500.0\ninclination_deg = 97.4\n\
+                 epoch_utc = \"2026-04-15T00:00:00\"\n[environment]\n";
+    let css = format!(
+        "[sensors.css]\nnormals_body = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]]\n\
+         noise = {noise:e}\n"
+    );
+    let text = BASE.replace("[environment]\nlab_field_t = [2e-5, -1e-5, 3e-5]\n", orbit) + &css + faults;
+    Scenario::from_toml(&text).unwrap()
+}
+
+/// The CSS outputs of 10 s of frames at 10 Hz on the closed-form attitude, the spacecraft
+/// on the Sun side of the Earth (sunlit, 7000 km from its centre).
+fn css_frames(sc: &Scenario) -> Vec<(f64, [f32; 6])> {
+    use sim_core::environment::model::EnvSnapshot;
+    use sim_core::environment::torques::sun_position_eci;
+    let r = Resolved::try_from(sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    let jd = |t: f64| craft.env.as_ref().unwrap().julian_date(t);
+    (0..=100)
+        .map(|k| {
+            let t = k as f64 * DT;
+            let pos = sun_position_eci(jd(t)).normalize() * 7.0e6;
+            let env = EnvSnapshot { t_s: t, orbit: Some((pos, Vec3::zeros())), ..Default::default() };
+            let f = suite.sample(k, t, &truth(t, &craft), &craft, Some(&env), &[0.0; 3]);
+            assert!(f.valid & acs_flight::link::valid::CSS != 0, "at {t}");
+            (t, f.css_output)
+        })
+        .collect()
+}
+
+#[test]
+fn a_dead_css_head_reads_what_a_dark_head_reads_and_the_others_are_untouched() {
+    // Noise-free: what a head that sees nothing reads (the one of each opposite pair facing
+    // away from the Sun).
+    let quiet = css_frames(&css_scenario(0.0, ""));
+    let dark: Vec<f32> = quiet.iter().flat_map(|(_, o)| [0, 2, 4].map(|i| o[i].min(o[i + 1]))).collect();
+    assert!(dark.iter().all(|x| *x == dark[0]), "dark heads disagree: {dark:?}");
+    // The head that sees the Sun best fails (a dead dark head would prove nothing).
+    let lit = |i: usize| quiet.iter().map(|(_, o)| o[i]).sum::<f32>();
+    let head = (0..6).max_by(|a, b| lit(*a).total_cmp(&lit(*b))).unwrap();
+    let dead = format!("[[faults]]\nonset_s = 3.0\nunit = \"css.{head}\"\nkind = \"dead\"\nend_s = 7.0\n");
+    // Second method: the same noisy samples without the fault (the noise draws are the same).
+    let (with, without) = (css_frames(&css_scenario(0.01, &dead)), css_frames(&css_scenario(0.01, "")));
+    let mut lit_before = 0;
+    for ((t, o), (_, o0)) in with.iter().zip(&without) {
+        for i in (0..6).filter(|i| *i != head) {
+            assert_eq!(o[i], o0[i], "head {i} at {t}");
+        }
+        if (3.0 - 1e-9..7.0 - 1e-9).contains(t) {
+            assert_eq!(o[head], dark[0], "at {t}");
+        } else {
+            assert_eq!(o[head], o0[head], "at {t}");
+            lit_before += usize::from(o[head] > 0.05);
+        }
+    }
+    // Healthy, the head saw the Sun (else the test would not tell dead from dark).
+    eprintln!("dead css head {head}: {lit_before} of 61 healthy samples lit (> 0.05), dark reading {}", dark[0]);
+    assert!(lit_before > 30, "{lit_before}");
+    let (_, summary) = fly(&css_scenario(0.01, &dead));
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), (format!("css.{head}").as_str(), "dead", None));
+}
+
+// --- GNSS ---
+
+/// `BASE` in a 500 km orbit, with `more` (a `[sensors.gnss]` table, faults).
+fn orbit_scenario(more: &str) -> Scenario {
+    let orbit = "[orbit]\nkind = \"circular\"\naltitude_km = 500.0\ninclination_deg = 97.4\n\
+                 epoch_utc = \"2026-04-15T00:00:00\"\n[environment]\n";
+    let text = BASE.replace("[environment]\nlab_field_t = [2e-5, -1e-5, 3e-5]\n", orbit) + more;
+    Scenario::from_toml(&text).unwrap()
+}
+
+/// The true position (a circle of 6878 km at 1.1e-3 rad/s) and the GNSS fix of 20 s of
+/// frames at 10 Hz.
+fn gnss_frames(sc: &Scenario) -> Vec<(f64, Vec3, acs_flight::link::SensorFrame)> {
+    use sim_core::environment::model::EnvSnapshot;
+    let r = Resolved::try_from(sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    (0..=200)
+        .map(|k| {
+            let t = k as f64 * DT;
+            let (s, c) = (1.1e-3 * t).sin_cos();
+            let pos = Vec3::new(c, s * 0.2, s * 0.98) * 6.878e6;
+            let vel = Vec3::new(-s, c * 0.2, c * 0.98) * (6.878e6 * 1.1e-3);
+            let env = EnvSnapshot { t_s: t, orbit: Some((pos, vel)), ..Default::default() };
+            (t, pos, suite.sample(k, t, &truth(t, &craft), &craft, Some(&env), &[0.0; 3]))
+        })
+        .collect()
+}
+
+#[test]
+fn a_gnss_position_jump_offsets_the_fix_by_its_magnitude_along_the_radial() {
+    let jump_m = -1500.0;
+    let fault = format!(
+        "[[faults]]\nonset_s = 5.0\nunit = \"gnss\"\nkind = \"position_jump\"\nmagnitude = {jump_m}\nend_s = 15.0\n"
+    );
+    let in_window = |t: f64| (5.0 - 1e-9..15.0 - 1e-9).contains(&t);
+    let pos = |f: &acs_flight::link::SensorFrame| Vec3::from(f.gnss_pos_m.map(f64::from));
+    // The ideal fix (no receiver table): the truth plus the jump, to the f32 of the wire
+    // (half an ulp, 0.25 m, per component at 6878 km).
+    let mut worst = 0.0f64;
+    for (t, r, f) in gnss_frames(&orbit_scenario(&fault)) {
+        let want = if in_window(t) { r + r.normalize() * jump_m } else { r };
+        let e = (pos(&f) - want).amax();
+        worst = worst.max(e);
+        assert!(e <= 0.5, "at {t}: {e} m");
+    }
+    eprintln!("gnss position jump {jump_m} m (ideal fix): largest error against truth + jump {worst} m");
+    // A receiver with noise, against the same fixes without the fault (same draws).
+    let rx = "[sensors.gnss]\nrate_hz = 1.0\nposition_noise_m = 5.0\nvelocity_noise_m_s = 0.05\n";
+    let (with, without) = (gnss_frames(&orbit_scenario(&(rx.to_string() + &fault))), gnss_frames(&orbit_scenario(rx)));
+    let mut jumped = 0;
+    for ((t, _, f), (_, _, g)) in with.iter().zip(&without) {
+        assert_eq!(f.sampled_at.gnss_us, g.sampled_at.gnss_us);
+        assert_eq!(f.gnss_vel_m_s, g.gnss_vel_m_s, "velocity at {t}");
+        let tag_s = f.sampled_at.gnss_us as f64 * 1e-6;
+        // The fix's position is the truth at its tag: the jump along that radial.
+        let (s, c) = (1.1e-3 * tag_s).sin_cos();
+        let r_tag = Vec3::new(c, s * 0.2, s * 0.98);
+        let want = if in_window(tag_s) { r_tag * jump_m } else { Vec3::zeros() };
+        assert!((pos(f) - pos(g) - want).amax() <= 1.0, "at {t} (fix of {tag_s}): {:?}", pos(f) - pos(g));
+        jumped += usize::from(in_window(tag_s));
+    }
+    assert!(jumped >= 90, "{jumped}");
+    let (_, summary) = fly(&orbit_scenario(&fault));
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("gnss", "position_jump", Some(jump_m)));
+}
+
+// --- wheel power off and tachometer noise ---
+
+#[test]
+fn a_wheel_without_power_gets_no_torque_and_its_tachometer_reads_zero() {
+    let sc = scenario("[[faults]]\nonset_s = 2.0\nunit = \"wheel.2\"\nkind = \"power_off\"\nend_s = 4.0\n");
+    let (states, summary) = fly(&sc);
+    // The ideal wheel's absolute speed changes at the torque the motor delivers / I_w: zero
+    // while unpowered, the command otherwise (far below the speed band: no fade).
+    let accel = |i: usize, k: usize| (abs_speed(&states[k + 1], i) - abs_speed(&states[k], i)) / DT;
+    for k in 0..states.len() - 1 {
+        let t = k as f64 * DT;
+        let off = (2.0 - 1e-9..4.0 - 1e-9).contains(&t);
+        let want = if off { 0.0 } else { CMD_NM[2] / I_W };
+        assert!((accel(2, k) - want).abs() < 1e-9 * CMD_NM[2] / I_W, "wheel 2 at {t}: {}", accel(2, k));
+        assert!((accel(1, k) - CMD_NM[1] / I_W).abs() < 1e-9 * (CMD_NM[1] / I_W).abs(), "wheel 1 at {t}");
+    }
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("wheel.2", "power_off", None));
+    // The tachometer on the closed-form truth: 0 in the window, the truth (noise 0.01 rad/s,
+    // 5σ, plus f32 rounding) outside.
+    let craft = sc.spacecraft().unwrap();
+    for (t, s, f) in frames(&sc) {
+        let axis = Vec3::from(craft.wheels[2].spin_axis);
+        let rel = s.wheels[2].h_abs_nms / I_W - axis.dot(&s.w);
+        if (2.0 - 1e-9..4.0 - 1e-9).contains(&t) {
+            assert_eq!(f.wheel_speed_rad_s[2], 0.0, "at {t}");
+        } else {
+            assert!((f64::from(f.wheel_speed_rad_s[2]) - rel).abs() < 0.05 + 1e-4, "at {t}");
+        }
+    }
+}
+
+#[test]
+fn a_noisy_tachometer_has_its_sigma_times_the_factor_and_the_others_keep_theirs() {
+    let factor = 5.0;
+    let sc = scenario(&format!(
+        "[[faults]]\nonset_s = 0.0\nunit = \"wheel.0\"\nkind = \"tach_noise\"\nmagnitude = {factor}\n"
+    ));
+    let r = Resolved::try_from(&sc).unwrap();
+    let (craft, mut suite) = (r.craft, r.sensors);
+    suite.set_faults(&sc.faults().unwrap());
+    // The wheels held at 100 to 130 rad/s (f32 rounding 4e-6 rad/s, far below σ).
+    let s = truth(0.0, &craft);
+    let rel = |i: usize| s.wheels[i].h_abs_nms / I_W - Vec3::from(craft.wheels[i].spin_axis).dot(&s.w);
+    let n = 20_000u32;
+    let mut err: Vec<Vec<f64>> = vec![Vec::new(); 4];
+    for k in 0..n {
+        let f = suite.sample(k, k as f64 * DT, &s, &craft, None, &[0.0; 3]);
+        for (i, e) in err.iter_mut().enumerate() {
+            e.push(f64::from(f.wheel_speed_rad_s[i]) - rel(i));
+        }
+    }
+    // Sample σ of N normals: relative standard error 1/√(2N) = 0.5 %; 3 % is 6 of them.
+    for (i, e) in err.iter().enumerate() {
+        let want = if i == 0 { factor * 0.01 } else { 0.01 };
+        let (_, sd) = mean_sd(e);
+        eprintln!("tach noise x{factor} on wheel 0: wheel {i} σ {sd:e} rad/s (want {want:e})");
+        assert!((sd / want - 1.0).abs() < 0.03, "wheel {i}: {sd:e} vs {want:e}");
+    }
+}
+
+// --- wheel friction ---
+
+#[test]
+fn a_wheel_friction_fault_scales_the_viscous_and_coulomb_friction() {
+    use sim_core::plant::wheel::WheelParams;
+    let accurate = |faults: &str| {
+        // The motor model's RK4 stability limit asks for 17 substeps or more at 10 Hz.
+        let text = BASE
+            .replace(
+                "model = \"ideal\"\nmax_torque_nm = 0.01\nmax_speed_rpm = 6000.0\ninertia_kgm2 = 1e-4\n",
+                "model = \"accurate\"\n",
+            )
+            .replace("dynamics_substeps = 4\n", "dynamics_substeps = 40\n");
+        Scenario::from_toml(&format!("{text}{faults}")).unwrap()
+    };
+    let k = 3.0;
+    let sc = accurate(&format!(
+        "[[faults]]\nonset_s = 2.0\nunit = \"wheel.0\"\nkind = \"friction\"\nmagnitude = {k}\nend_s = 4.0\n"
+    ));
+    let p = WheelParams::paper001();
+    let r = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
+    let c = |n: &str| r.series.col(n).unwrap();
+    let (t, rpm, fr) = (c("t_s"), c("wheel1_speed_rpm"), c("wheel1_friction_nm"));
+    // The converged Dahl friction (eq 23: T_f tanh(ω/ω_s) = T_c) plus the viscous term,
+    // both scaled by the factor in force. After a change the Dahl state's error x obeys
+    // ẋ ≈ −β|ω| x|x|, so |x(τ)| = |x0| / (1 + β|ω||x0|τ) < 1/(β|ω|τ), τ the time since the
+    // change: that bound (10 % margin) is the tolerance, from 0.5 s after each change on.
+    let mut judged = [0, 0];
+    let mut worst = 0.0f64;
+    for i in 0..t.len() {
+        let since = [0.0, 2.0, 4.0].into_iter().filter(|c| t[i] >= c - 1e-9).fold(0.0, f64::max);
+        let tau = t[i] - since;
+        if tau < 0.5 - 1e-9 {
+            continue;
+        }
+        let on = (2.0 - 1e-9..4.0 - 1e-9).contains(&t[i]);
+        let f = if on { k } else { 1.0 };
+        let w = rpm[i] * std::f64::consts::PI / 30.0;
+        let want = f * (p.coulomb_nm / (w / p.sign_smoothing_rad_s).tanh() + p.viscous_nms * w);
+        let tol = 1.1 / (p.dahl_beta * w.abs() * tau);
+        let e = (fr[i] - want).abs();
+        worst = worst.max(e / tol);
+        assert!(e < tol, "at {}: friction {} vs {want} (ω {w} rad/s, tolerance {tol:e})", t[i], fr[i]);
+        judged[usize::from(on)] += 1;
+    }
+    eprintln!("wheel friction x{k}: {judged:?} rows judged (off, on), worst error / tolerance {worst:.3}");
+    assert!(judged[0] > 5 && judged[1] > 5, "{judged:?}");
+    let recs = r.summary.faults.unwrap();
+    assert_eq!((recs[0].unit.as_str(), recs[0].kind, recs[0].magnitude), ("wheel.0", "friction", Some(k)));
 }

@@ -95,6 +95,8 @@ pub struct Spacecraft {
     env_cache: SnapshotCache,
     /// Wheels seized by an injected fault now ([`wheel::seized`]; set by the run loop).
     pub seized: [bool; MAX_WHEELS],
+    /// Each wheel's friction factor by an injected fault now (1: none; set by the run loop).
+    pub friction_factor: [f64; MAX_WHEELS],
 }
 
 impl Spacecraft {
@@ -110,6 +112,7 @@ impl Spacecraft {
             external_torque_nm: Vec3::zeros(),
             env_cache: SnapshotCache::default(),
             seized: [false; MAX_WHEELS],
+            friction_factor: [1.0; MAX_WHEELS],
         })
     }
 
@@ -182,7 +185,14 @@ impl Spacecraft {
 
     /// Wheel `i` evaluated at `s` under `u`, seized when a fault says so.
     fn wheel_at(&self, i: usize, p: &WheelParams, s: &State, u: &Input, w: &[f64; 3]) -> (WheelDeriv, WheelOutput) {
-        let e = wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], w, &[0.0; 3]);
+        let k = self.friction_factor[i];
+        let e = if k == 1.0 {
+            wheel::evaluate(p, &s.wheels[i], u.wheel_torque_cmd_nm[i], w, &[0.0; 3])
+        } else {
+            // Friction fault: the viscous and Coulomb (Dahl) levels scaled.
+            let q = WheelParams { viscous_nms: p.viscous_nms * k, coulomb_nm: p.coulomb_nm * k, ..p.clone() };
+            wheel::evaluate(&q, &s.wheels[i], u.wheel_torque_cmd_nm[i], w, &[0.0; 3])
+        };
         if self.seized[i] { wheel::seized(e) } else { e }
     }
 

@@ -4,12 +4,29 @@
 //! (`faults[i].unit`, `faults[i].magnitude`, …, the campaign's key-path spelling).
 
 use super::{Scenario, bad};
-use crate::faults::{Fault, GyroFault, MAX_FAULTS, MagFault, RodFault, TimedFault, TrackerFault, WheelFault, Window};
+use crate::faults::{
+    CssFault, Fault, GnssFault, GyroFault, MAX_FAULTS, MagFault, RodFault, TimedFault, TrackerFault, WheelFault, Window,
+};
+use crate::plant::wheel::Fidelity;
+use acs_flight::validation::MAX_RATE_RAD_S;
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 
 /// Largest gyro bias step, rad/s (57 deg/s: beyond it the fault is a saturation, not a bias).
 pub const MAX_GYRO_BIAS_STEP_RAD_S: f64 = 1.0;
+
+/// Largest gyro noise factor (the faulty axis's σ is at most this many times its own).
+pub const MAX_GYRO_NOISE_FACTOR: f64 = 1000.0;
+
+/// Largest GNSS position jump, m (beyond it the fix is not on the same planet).
+pub const MAX_GNSS_JUMP_M: f64 = 1.0e7;
+
+/// Largest wheel friction factor.
+pub const MAX_FRICTION_FACTOR: f64 = 100.0;
+
+/// Largest tachometer noise factor (the faulty tachometer's σ is at most this many times
+/// its own).
+pub const MAX_TACH_NOISE_FACTOR: f64 = 1000.0;
 
 /// Largest magnetometer bias, T: the flight code's field limit (`MAX_FIELD_T`, as
 /// `sensors.magnetometer.bias_t`); beyond it every reading is refused on board anyway.
@@ -21,8 +38,8 @@ pub const MAX_MAG_BIAS_T: f64 = acs_flight::validation::MAX_FIELD_T as f64;
 pub struct FaultSpec {
     /// When the fault starts, s (>= 0).
     pub onset_s: f64,
-    /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N", "magnetometer.x|y|z"
-    /// (N 0-based).
+    /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N", "magnetometer.x|y|z",
+    /// "css.N", "gnss" (N 0-based).
     pub unit: String,
     /// The fault, among those the unit's kind has.
     pub kind: String,
@@ -36,7 +53,7 @@ pub struct FaultSpec {
 
 /// The units the format names that no fault kind is modelled for yet (refused, not
 /// ignored).
-const UNMODELLED: [&str; 4] = ["css", "gnss", "cmg", "thruster"];
+const UNMODELLED: [&str; 2] = ["cmg", "thruster"];
 
 impl Scenario {
     /// The `[[faults]]` list, typed and checked against this spacecraft.
@@ -77,14 +94,35 @@ impl Scenario {
         let m = Magnitude { value: f.magnitude, key: format!("{key}.magnitude"), kind: &f.kind };
         match name {
             "wheel" => {
-                let n = self.wheel_params()?.len();
-                let index = self.unit_index(index, n, &unit_key, "wheel", "[actuators.wheels]")?;
+                let params = self.wheel_params()?;
+                let index = self.unit_index(index, params.len(), &unit_key, "wheel", "[actuators.wheels]")?;
                 let kind = match f.kind.as_str() {
                     "stuck" => m.none(WheelFault::Stuck)?,
                     "tach_stuck" => m.none(WheelFault::TachStuck)?,
                     "torque_gain" => WheelFault::TorqueGain(m.within(0.0, 1.0, "a gain in [0, 1]")?),
                     "runaway" => WheelFault::Runaway { sign: m.sign()? },
-                    _ => return Err(kind_err("\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\"")),
+                    "power_off" => m.none(WheelFault::PowerOff)?,
+                    "friction" => {
+                        if params.get(index).is_none_or(|p| p.fidelity != Fidelity::Accurate) {
+                            let why = format!(
+                                "{}: the ideal wheel model has no friction to scale (model = \"accurate\" has)",
+                                f.unit
+                            );
+                            return Err(bad(&format!("{key}.kind"), why));
+                        }
+                        WheelFault::Friction {
+                            factor: m.within(1.0, MAX_FRICTION_FACTOR, "a factor on the wheel's friction")?,
+                        }
+                    }
+                    "tach_noise" => WheelFault::TachNoise {
+                        factor: m.within(1.0, MAX_TACH_NOISE_FACTOR, "a factor on the tachometer's noise σ")?,
+                    },
+                    _ => {
+                        return Err(kind_err(
+                            "\"stuck\", \"torque_gain\", \"runaway\", \"tach_stuck\", \"power_off\", \"tach_noise\", \
+                             \"friction\"",
+                        ));
+                    }
                 };
                 Ok(Fault::Wheel { index, kind })
             }
@@ -95,7 +133,14 @@ impl Scenario {
                     "bias_step" => GyroFault::BiasStep {
                         rad_s: m.within(-MAX_GYRO_BIAS_STEP_RAD_S, MAX_GYRO_BIAS_STEP_RAD_S, "a rate step in rad/s")?,
                     },
-                    _ => return Err(kind_err("\"stuck\", \"bias_step\"")),
+                    "noise" => GyroFault::Noise {
+                        factor: m.within(1.0, MAX_GYRO_NOISE_FACTOR, "a factor on the axis's noise σ")?,
+                    },
+                    // The flight code refuses rates beyond its limit: a larger bound clamps nothing.
+                    "saturation" => GyroFault::Saturation {
+                        rad_s: m.within(0.0, f64::from(MAX_RATE_RAD_S), "the axis's output bound in rad/s")?,
+                    },
+                    _ => return Err(kind_err("\"stuck\", \"bias_step\", \"noise\", \"saturation\"")),
                 };
                 Ok(Fault::Gyro { axis, kind })
             }
@@ -114,6 +159,27 @@ impl Scenario {
                 };
                 Ok(Fault::Magnetometer { axis, kind })
             }
+            "css" => {
+                let n = self.sensors.css.as_ref().map_or(0, |c| c.normals_body.len());
+                let index = self.unit_index(index, n, &unit_key, "css", "[sensors.css]")?;
+                let kind = match f.kind.as_str() {
+                    "dead" => m.none(CssFault::Dead)?,
+                    _ => return Err(kind_err("\"dead\"")),
+                };
+                Ok(Fault::Css { index, kind })
+            }
+            // A GNSS fix exists only in orbit (ideal without `[sensors.gnss]`).
+            "gnss" if index.is_none() => {
+                if self.orbit.is_none() {
+                    return Err(bad(&unit_key, "the spacecraft has no GNSS fix (no [orbit])".to_string()));
+                }
+                Ok(Fault::Gnss(match f.kind.as_str() {
+                    "position_jump" => GnssFault::PositionJump {
+                        m: m.within(-MAX_GNSS_JUMP_M, MAX_GNSS_JUMP_M, "an offset in m along the radial")?,
+                    },
+                    _ => return Err(kind_err("\"position_jump\"")),
+                }))
+            }
             "magnetorquer" => {
                 let n = self.actuators.magnetorquers.as_ref().map_or(0, |_| self.magnetorquer_set().rods.len());
                 let index = self.unit_index(index, n, &unit_key, "magnetorquer", "[actuators.magnetorquers]")?;
@@ -131,7 +197,7 @@ impl Scenario {
                 &unit_key,
                 format!(
                     "unknown unit {:?} (known: \"wheel.N\", \"gyro.x|y|z\", \"star_tracker\", \"magnetorquer.N\", \
-                     \"magnetometer.x|y|z\")",
+                     \"magnetometer.x|y|z\", \"css.N\", \"gnss\")",
                     f.unit
                 ),
             )),

@@ -42,6 +42,11 @@ impl Encoders {
         true_rad + self.gauss(self.gimbal_sigma_rad)
     }
 
+    /// 1σ of a tachometer reading, rad/s.
+    pub fn wheel_sigma_rad_s(&self) -> f64 {
+        self.wheel_sigma_rad_s
+    }
+
     /// One wheel's measured speed relative to the body, rad/s, for the true one.
     pub fn wheel_speed(&mut self, true_rad_s: f64) -> f64 {
         true_rad_s + self.gauss(self.wheel_sigma_rad_s)

@@ -1,12 +1,32 @@
 //! Sensor faults of `[[faults]]` (issue 42) applied to the readings as they are sampled:
-//! gyro axis stuck or bias step, star tracker flipped about its boresight or frozen,
-//! magnetometer axis stuck or biased, wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
+//! gyro axis stuck, bias step, noisier or saturated, star tracker flipped about its boresight or frozen,
+//! magnetometer axis stuck or biased, coarse sun sensor head dead, GNSS
+//! position jump, wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
 //! in its window; a frozen value is the first reading in the window. The models still
 //! draw their noise as without the fault, so every other reading keeps its bits.
 
 use crate::attitude::{Quat, Vec3};
-use crate::faults::{Fault, GyroFault, MagFault, TimedFault, TrackerFault, WheelFault};
+use crate::faults::{CssFault, Fault, GnssFault, GyroFault, MagFault, TimedFault, TrackerFault, WheelFault};
 use nalgebra::{Unit, UnitQuaternion};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// The gyro's white noise and the streams a noisier axis draws its extra noise from
+/// (sub-streams of the gyro's own, drawn only while such a fault is in force, so every
+/// other reading keeps its bits).
+#[derive(Clone, Debug)]
+pub struct GyroNoise {
+    /// Per-sample 1σ of the rate's white noise per axis, rad/s (ARW × √rate).
+    pub rate_sigma_rad_s: [f64; 3],
+    /// Angle random walk per axis, rad/√s (the increments' σ is this × √interval).
+    pub arw_rad_sqrt_s: [f64; 3],
+    pub rate_rng: ChaCha8Rng,
+    pub angle_rng: ChaCha8Rng,
+}
+
+fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    StandardNormal.sample(rng)
+}
 
 /// One sensor fault and the value it froze (while its window is open).
 #[derive(Clone, Debug)]
@@ -30,6 +50,18 @@ pub struct SensorFaults {
     /// The sum of the gyro bias steps in force at the last gyro sample, triad axes, rad/s
     /// (part of the true bias the estimator is scored against).
     bias_step_rad_s: [f64; 3],
+    /// The gyro's noise, for the `noise` faults (`None`: no such fault).
+    gyro_noise: Option<GyroNoise>,
+    /// The tachometers' noise, for the `tach_noise` faults (`None`: no such fault).
+    tach_noise: Option<TachNoise>,
+}
+
+/// The tachometers' white noise and the stream a noisier one draws its extra noise from.
+#[derive(Clone, Debug)]
+pub struct TachNoise {
+    /// 1σ of a reading, rad/s.
+    pub sigma_rad_s: f64,
+    pub rng: ChaCha8Rng,
 }
 
 impl SensorFaults {
@@ -41,11 +73,34 @@ impl SensorFaults {
                 Fault::Gyro { .. }
                     | Fault::StarTracker(_)
                     | Fault::Magnetometer { .. }
-                    | Fault::Wheel { kind: WheelFault::TachStuck, .. }
+                    | Fault::Css { .. }
+                    | Fault::Gnss(_)
+                    | Fault::Wheel {
+                        kind: WheelFault::TachStuck | WheelFault::PowerOff | WheelFault::TachNoise { .. },
+                        ..
+                    }
             )
         };
         let entries = list.iter().filter(sensor).map(|f| Entry { fault: *f, held: None }).collect();
-        Self { entries, bias_step_rad_s: [0.0; 3] }
+        Self { entries, bias_step_rad_s: [0.0; 3], gyro_noise: None, tach_noise: None }
+    }
+
+    /// The tachometers' noise (`noise`: the stream the suite derives for it).
+    pub fn with_tach_noise(mut self, noise: TachNoise) -> Self {
+        let noisy = |e: &Entry| matches!(e.fault.fault, Fault::Wheel { kind: WheelFault::TachNoise { .. }, .. });
+        if self.entries.iter().any(noisy) {
+            self.tach_noise = Some(noise);
+        }
+        self
+    }
+
+    /// The gyro's noise (`noise`: the streams the suite derives from the gyro's).
+    pub fn with_gyro_noise(mut self, noise: GyroNoise) -> Self {
+        let noisy = |e: &Entry| matches!(e.fault.fault, Fault::Gyro { kind: GyroFault::Noise { .. }, .. });
+        if self.entries.iter().any(noisy) {
+            self.gyro_noise = Some(noise);
+        }
+        self
     }
 
     /// The gyro bias steps in force at the last gyro sample, rad/s.
@@ -78,6 +133,26 @@ impl SensorFaults {
                     *a = held * interval_s;
                 }
                 GyroFault::Stuck => e.held = None,
+                GyroFault::Noise { factor } => {
+                    let Some(n) = self.gyro_noise.as_mut() else { continue };
+                    // σ_total² = σ² + σ_extra²: the extra's σ is σ √(factor² − 1).
+                    let extra = (factor * factor - 1.0).max(0.0).sqrt();
+                    let overlap_s = w.overlap_s(t_s - interval_s, t_s);
+                    if overlap_s > 0.0 {
+                        let arw = n.arw_rad_sqrt_s.get(axis).copied().unwrap_or(0.0);
+                        *a += arw * extra * overlap_s.sqrt() * normal(&mut n.angle_rng);
+                    }
+                    if w.active(t_s) {
+                        let sigma = n.rate_sigma_rad_s.get(axis).copied().unwrap_or(0.0);
+                        *r += sigma * extra * normal(&mut n.rate_rng);
+                    }
+                }
+                GyroFault::Saturation { rad_s } if w.active(t_s) => {
+                    *r = r.clamp(-rad_s, rad_s);
+                    let max_angle = rad_s * interval_s;
+                    *a = a.clamp(-max_angle, max_angle);
+                }
+                GyroFault::Saturation { .. } => {}
             }
         }
     }
@@ -131,17 +206,58 @@ impl SensorFaults {
         }
     }
 
+    /// A coarse-sun-sensor sample at `t_s` (each head's normalised output).
+    pub fn css(&self, t_s: f64, output: &mut [f64]) {
+        for e in &self.entries {
+            let Fault::Css { index, kind: CssFault::Dead } = e.fault.fault else { continue };
+            if let Some(o) = output.get_mut(index)
+                && e.fault.window.active(t_s)
+            {
+                *o = 0.0;
+            }
+        }
+    }
+
+    /// A GNSS fix at `t_s` (`r_true_m`: the true position, ECI, m).
+    pub fn gnss(&self, t_s: f64, r_true_m: &Vec3, pos_m: &mut [f64; 3]) {
+        let r = r_true_m.norm();
+        if r <= 0.0 || !r.is_finite() {
+            return;
+        }
+        for e in &self.entries {
+            let Fault::Gnss(GnssFault::PositionJump { m }) = e.fault.fault else { continue };
+            if e.fault.window.active(t_s) {
+                *pos_m = (Vec3::from(*pos_m) + r_true_m * (m / r)).into();
+            }
+        }
+    }
+
     /// Wheel `wheel`'s tachometer reading at `t_s`.
     pub fn tach(&mut self, t_s: f64, wheel: usize, speed_rad_s: f64) -> f64 {
         let mut out = speed_rad_s;
         for e in &mut self.entries {
-            match e.fault.fault {
-                Fault::Wheel { index, kind: WheelFault::TachStuck } if index == wheel => {}
+            let kind = match e.fault.fault {
+                Fault::Wheel { index, kind } if index == wheel => kind,
                 _ => continue,
-            }
+            };
             if !e.fault.window.active(t_s) {
                 e.held = None;
                 continue;
+            }
+            match kind {
+                WheelFault::PowerOff => {
+                    out = 0.0;
+                    continue;
+                }
+                WheelFault::TachNoise { factor } => {
+                    if let Some(n) = self.tach_noise.as_mut() {
+                        let extra: f64 = StandardNormal.sample(&mut n.rng);
+                        out += n.sigma_rad_s * (factor * factor - 1.0).max(0.0).sqrt() * extra;
+                    }
+                    continue;
+                }
+                WheelFault::TachStuck => {}
+                _ => continue,
             }
             let held = match e.held {
                 Some(Held::Speed(x)) => x,

@@ -23,7 +23,8 @@
 //! change another's noise. Streams: 0 encoders and tachometers, 1 gyro, 2 attitude sensor,
 //! 3 magnetometer, 4 sun sensor, 5 coarse sun sensors, 6 GNSS receiver; sub-streams of a
 //! sensor's stream: 1 the gyro's bias instability, 2 every sensor's sample-time jitter, 3
-//! the angle random walk of the gyro's angle increments.
+//! the angle random walk of the gyro's angle increments, 4 and 5 the extra rate and
+//! increment noise of an injected gyro `noise` fault (drawn only while one is in force).
 //!
 //! Conventions: Hamilton quaternions, `q_ib` rotates body → inertial; nalgebra's
 //! `Quaternion` stores `[x, y, z, w]` (scalar last). Vectors are `[f64; 3]` or

@@ -20,7 +20,7 @@
 use super::clock::{SampleTiming, Sampled};
 use super::css::{CoarseSunSensors, CssGeometry, CssModel, MAX_CSS_HEADS};
 use super::encoders::Encoders;
-use super::faults::SensorFaults;
+use super::faults::{GyroNoise, SensorFaults, TachNoise};
 use super::gnss::{GnssModel, GnssReceiver};
 use super::gyro::{Gyro, GyroModel};
 use super::latency::SampleQueue;
@@ -43,8 +43,15 @@ const MAGNETOMETER_STREAM: u32 = 3;
 const SUN_STREAM: u32 = 4;
 const CSS_STREAM: u32 = 5;
 const GNSS_STREAM: u32 = 6;
+/// The tachometers' extra noise of an injected `tach_noise` fault: sub-stream
+/// [`FAULT_NOISE_SUB_STREAM`] of this index (the encoders' own stream is the seed's 0,
+/// which has no sub-streams).
+const ENCODER_FAULT_STREAM: u32 = 7;
 /// Sub-stream of each sensor's stream for its sample-time jitter.
 const JITTER_SUB_STREAM: u32 = 2;
+/// Sub-streams (this and the next) of a sensor's stream for the extra noise of an injected
+/// noise fault (the gyro's 3 is its increments' angle random walk).
+const FAULT_NOISE_SUB_STREAM: u32 = 4;
 
 /// Whole days and seconds of the day since J2000.0 (JD 2451545.0) for a Julian date.
 pub fn j2000_days_seconds(jd: f64) -> (i32, f32) {
@@ -211,6 +218,8 @@ pub struct SensorSuite {
     tracker_outages: Vec<[f64; 2]>,
     /// The sensor faults of `[[faults]]` (none: [`Self::set_faults`] not called).
     faults: SensorFaults,
+    /// The scenario's sensor seed (the faults' noise streams derive from it).
+    seed: u64,
 }
 
 impl SensorSuite {
@@ -253,6 +262,7 @@ impl SensorSuite {
             gnss_channel: Channel::new(&timing(Sampled::Gnss), newest),
             tracker_outages: spec.tracker_outages_s.clone(),
             faults: SensorFaults::default(),
+            seed,
         };
         suite.set_grids(spec);
         suite
@@ -292,7 +302,18 @@ impl SensorSuite {
 
     /// Injects the sensor faults among `list` (`[[faults]]`; the others are ignored here).
     pub fn set_faults(&mut self, list: &[crate::faults::TimedFault]) {
-        self.faults = SensorFaults::new(list);
+        let g = &self.gyro.spec;
+        let noise = GyroNoise {
+            rate_sigma_rad_s: g.arw_rad_sqrt_s.map(|n| n * g.rate_hz.sqrt()),
+            arw_rad_sqrt_s: g.arw_rad_sqrt_s,
+            rate_rng: sensor_sub_rng(self.seed, GYRO_STREAM, FAULT_NOISE_SUB_STREAM),
+            angle_rng: sensor_sub_rng(self.seed, GYRO_STREAM, FAULT_NOISE_SUB_STREAM + 1),
+        };
+        let tach = TachNoise {
+            sigma_rad_s: self.encoders.wheel_sigma_rad_s(),
+            rng: sensor_sub_rng(self.seed, ENCODER_FAULT_STREAM, FAULT_NOISE_SUB_STREAM),
+        };
+        self.faults = SensorFaults::new(list).with_gyro_noise(noise).with_tach_noise(tach);
     }
 
     /// Whether a sensor that reads the environment (magnetometer, sun sensors, GNSS
@@ -401,14 +422,17 @@ impl SensorSuite {
         }
         if let Some(css) = self.css.as_mut().filter(|x| x.clock.is_due(t_s)) {
             let g = CssGeometry { sun_ref: (rs - r).normalize(), r_m: r, eclipse };
-            let rd = css.update(t_s, q, &g);
-            self.css_channel.push(tag, rd.output);
+            let mut out = css.update(t_s, q, &g).output;
+            self.faults.css(t_s, &mut out);
+            self.css_channel.push(tag, out);
         }
         if let Some(g) = self.gnss.as_mut().filter(|x| x.clock.is_due(t_s))
             && let Some(fix) = g.update(t_s, &r.into(), &v.into())
         {
             let j2000 = j2000_days_seconds(env_model.julian_date(t_s));
-            self.gnss_channel.push(tag, FixSample { pos_m: fix.pos_m, vel_m_s: fix.vel_m_s, j2000 });
+            let mut pos_m = fix.pos_m;
+            self.faults.gnss(t_s, &r, &mut pos_m);
+            self.gnss_channel.push(tag, FixSample { pos_m, vel_m_s: fix.vel_m_s, j2000 });
         }
     }
 
@@ -492,10 +516,11 @@ impl SensorSuite {
         let fix = match self.gnss {
             Some(_) => self.gnss_channel.deliver_newest(now),
             None => match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
-                (Some((r, v)), Some(m)) => Some((
-                    now,
-                    FixSample { pos_m: r.into(), vel_m_s: v.into(), j2000: j2000_days_seconds(m.julian_date(t_s)) },
-                )),
+                (Some((r, v)), Some(m)) => {
+                    let mut pos_m = r.into();
+                    self.faults.gnss(t_s, &r, &mut pos_m);
+                    Some((now, FixSample { pos_m, vel_m_s: v.into(), j2000: j2000_days_seconds(m.julian_date(t_s)) }))
+                }
                 _ => None,
             },
         };

@@ -68,7 +68,9 @@ impl Actuation {
         self.faults = list
             .iter()
             .filter(|f| match f.fault {
-                Fault::Wheel { kind, .. } => matches!(kind, WheelFault::TorqueGain(_) | WheelFault::Runaway { .. }),
+                Fault::Wheel { kind, .. } => {
+                    matches!(kind, WheelFault::TorqueGain(_) | WheelFault::Runaway { .. } | WheelFault::PowerOff)
+                }
                 Fault::Magnetorquer { .. } => true,
                 _ => false,
             })
@@ -91,7 +93,11 @@ impl Actuation {
             match kind {
                 WheelFault::TorqueGain(g) => *cmd *= g,
                 WheelFault::Runaway { sign } => *cmd = sign * max,
-                WheelFault::Stuck | WheelFault::TachStuck => {}
+                WheelFault::PowerOff => *cmd = 0.0,
+                WheelFault::Stuck
+                | WheelFault::TachStuck
+                | WheelFault::TachNoise { .. }
+                | WheelFault::Friction { .. } => {}
             }
         }
     }

@@ -723,17 +723,28 @@ impl<'a> Simulation<'a> {
         Ok(())
     }
 
-    /// The wheels seized by an injected fault at `t` (checked at every dynamics step).
+    /// The wheels seized, and the friction factors, by the injected faults at `t` (checked at every
+    /// dynamics step).
     fn seize_wheels(&mut self, t: f64) {
         let mut seized = [false; MAX_WHEELS];
+        let mut friction = [1.0; MAX_WHEELS];
         for f in self.faults.list.iter().filter(|f| f.window.active(t)) {
-            if let Fault::Wheel { index, kind: WheelFault::Stuck } = f.fault
-                && let Some(s) = seized.get_mut(index)
-            {
-                *s = true;
+            match f.fault {
+                Fault::Wheel { index, kind: WheelFault::Stuck } => {
+                    if let Some(s) = seized.get_mut(index) {
+                        *s = true;
+                    }
+                }
+                Fault::Wheel { index, kind: WheelFault::Friction { factor } } => {
+                    if let Some(k) = friction.get_mut(index) {
+                        *k *= factor;
+                    }
+                }
+                _ => {}
             }
         }
         self.craft.seized = seized;
+        self.craft.friction_factor = friction;
     }
 
     /// The true state at the substep boundary `t` to the sensors due there, with the
