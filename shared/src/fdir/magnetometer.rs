@@ -40,6 +40,8 @@ pub struct MagnetometerMonitor {
     /// The last judged residual and its threshold, T (telemetry; 0 when not judged).
     last_residual_t: f32,
     last_threshold_t: f32,
+    /// The threshold of the parameters it was computed for (a square root, once per set).
+    threshold: Option<(MagnetometerFdirParams, f32)>,
 }
 
 impl MagnetometerMonitor {
@@ -53,6 +55,19 @@ impl MagnetometerMonitor {
             events: 0,
             last_residual_t: 0.0,
             last_threshold_t: 0.0,
+            threshold: None,
+        }
+    }
+
+    /// `γ √(σ_m² + σ_model²)`, T, computed when the parameters change.
+    fn threshold_t(&mut self, p: &MagnetometerFdirParams) -> f32 {
+        match self.threshold {
+            Some((q, t)) if q == *p => t,
+            _ => {
+                let t = p.threshold_sigma * f32m::sqrt(p.noise_t * p.noise_t + p.model_sigma_t * p.model_sigma_t);
+                self.threshold = Some((*p, t));
+                t
+            }
         }
     }
 
@@ -70,11 +85,19 @@ impl MagnetometerMonitor {
         self.stuck_axes |= new_stuck;
         (self.last_residual_t, self.last_threshold_t) = (0.0, 0.0);
         if let Some(model) = model_t {
-            let threshold = p.threshold_sigma * f32m::sqrt(p.noise_t * p.noise_t + p.model_sigma_t * p.model_sigma_t);
-            let residual = f32m::sqrt(field_t.norm_squared()) - model;
-            // NaN compares false: a non-finite reading or model is an exceedance.
-            let exceeded = !(libm::fabsf(residual) <= threshold);
+            let threshold = self.threshold_t(p);
+            // |r| ≤ t ⇔ (m − t)² ≤ |B|² ≤ (m + t)² (for m > t; else any |B| ≥ 0 passes
+            // below): exact, and no square root in the step (≈ 200 instructions each on the
+            // Cortex-M4F, `f32m::sqrt`). NaN compares false: a non-finite reading or model
+            // is an exceedance.
+            let n2 = field_t.norm_squared();
+            let hi = (model + threshold) * (model + threshold);
+            let lo = if model > threshold { (model - threshold) * (model - threshold) } else { 0.0 };
+            let exceeded = !(lo <= n2 && n2 <= hi);
             self.magnitude_failed |= self.persistence.push(&p.window, exceeded);
+            // Telemetry: r to first order, (|B|² − m²) / 2m = r + r²/2m (0.02 nT at r = 1 µT,
+            // m = 30 µT); the test above is exact.
+            let residual = if model > 0.0 { (n2 - model * model) / (2.0 * model) } else { f32::NAN };
             (self.last_residual_t, self.last_threshold_t) = (residual, threshold);
         }
         // One event per verdict: newly stuck axes (one step), the magnitude test.
@@ -146,7 +169,9 @@ mod tests {
             assert_eq!(m.failed(), i >= 12, "sample {i}");
         }
         let (r, t) = m.last_residual_t();
-        assert!((r - 2.0e-6).abs() < 1e-9 && (t - threshold).abs() < 1e-10, "{r} {t}");
+        // The first-order residual: r + r²/2m.
+        let want = 2.0e-6 + 2.0e-6 * 2.0e-6 / (2.0 * model);
+        assert!((r - want).abs() < 1e-9 && (t - threshold).abs() < 1e-10, "{r} {want} {t}");
         assert_eq!((m.events(), m.magnitude_failed(), m.stuck_axes()), (1, true, 0));
         m.clear();
         assert_eq!((m.failed(), m.events()), (false, 1));
