@@ -339,9 +339,7 @@ impl Determination {
                 None
             }
         };
-        let model_t = field_eci.and(self.references.field_magnitude_t(s.time_us));
-        self.model_field_eci_t = field_eci.zip(model_t).map(|(d, m)| d * m);
-        let without_magnetometer = self.monitor_magnetometer(s, model_t);
+        let without_magnetometer = self.monitor_magnetometer(s, field_eci);
         let s = without_magnetometer.as_ref().unwrap_or(s);
         let v = self.vectors(s, sun_eci, field_eci);
         let without_tracker = self.monitor_tracker(s, &v, eclipse);
@@ -428,12 +426,20 @@ impl Determination {
     /// step; the field moves nanotesla in a sample's latency); once it is declared failed,
     /// the magnetometer is dropped from the estimation (the returned copy; `None`: use the
     /// samples as they are).
-    fn monitor_magnetometer(&mut self, s: &SensorSamples, model_t: Option<f32>) -> Option<SensorSamples> {
+    /// `field_eci`: the model's direction at the step (`None`: no model field).
+    fn monitor_magnetometer(&mut self, s: &SensorSamples, field_eci: Option<Vec3>) -> Option<SensorSamples> {
         let p = self.params.magnetometer_fdir?;
+        // Only with the monitor on: the magnitude's interpolation costs the step.
+        let model_t = field_eci.and_then(|_| self.references.field_magnitude_t(s.time_us));
         if let Some(x) = s.magnetometer {
             self.mag_monitor.judge(&p, x.time_us, &x.field_body_t, model_t);
         }
-        self.mag_monitor.failed().then_some(SensorSamples { magnetometer: None, ..*s })
+        if !self.mag_monitor.failed() {
+            return None;
+        }
+        // The laws' substitute (`Fsw`): only once the magnetometer has failed.
+        self.model_field_eci_t = field_eci.zip(model_t).map(|(d, m)| d * m);
+        Some(SensorSamples { magnetometer: None, ..*s })
     }
 
     /// The on-board model's field at the last step's time, ECI, T (`None` without
