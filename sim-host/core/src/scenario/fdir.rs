@@ -79,13 +79,7 @@ impl MagnetometerFdirSpec {
         if !(t.is_finite() && t > 0.0) {
             return Err(bad(&format!("{k}.threshold_sigma"), format!("{t}: must be > 0")));
         }
-        let window = KOfN { k: self.k, n: self.n };
-        if !window.valid() {
-            return Err(bad(&format!("{k}.k"), "need 1 ≤ k ≤ n ≤ 32"));
-        }
-        if self.max_repeats == 0 {
-            return Err(bad(&format!("{k}.max_repeats"), "must be ≥ 1"));
-        }
+        let window = window_and_repeats(k, self.k, self.n, self.max_repeats)?;
         let p = MagnetometerFdirParams {
             noise_t: noise_t as f32,
             model_sigma_t: self.model_sigma_t as f32,
@@ -164,6 +158,19 @@ fn default_max_repeats() -> u16 {
     3
 }
 
+/// A sensor monitor's `k` of `n` window and stuck-output repeat count under the table `key`,
+/// checked naming the key.
+fn window_and_repeats(key: &str, k: u8, n: u8, max_repeats: u16) -> Result<KOfN> {
+    let window = KOfN { k, n };
+    if !window.valid() {
+        return Err(bad(&format!("{key}.k"), "need 1 ≤ k ≤ n ≤ 32"));
+    }
+    if max_repeats == 0 {
+        return Err(bad(&format!("{key}.max_repeats"), "must be ≥ 1"));
+    }
+    Ok(window)
+}
+
 impl TrackerFdirSpec {
     fn params(&self) -> Result<TrackerFdirParams> {
         let k = "fdir.star_tracker";
@@ -171,13 +178,7 @@ impl TrackerFdirSpec {
         if !(w.is_finite() && w > 0.0 && w < 180.0) {
             return Err(bad(&format!("{k}.witness_max_deg"), format!("{w}: must be in (0, 180)")));
         }
-        let window = KOfN { k: self.k, n: self.n };
-        if !window.valid() {
-            return Err(bad(&format!("{k}.k"), "need 1 ≤ k ≤ n ≤ 32"));
-        }
-        if self.max_repeats == 0 {
-            return Err(bad(&format!("{k}.max_repeats"), "must be ≥ 1"));
-        }
+        let window = window_and_repeats(k, self.k, self.n, self.max_repeats)?;
         Ok(TrackerFdirParams { witness_max_rad: w.to_radians() as f32, window, max_repeats: self.max_repeats })
     }
 }
@@ -334,5 +335,41 @@ impl WheelFdirSpec {
             isolation_min_ratio: self.isolation_min_ratio as f32,
             body_torque_sigma_nm: nonneg("body_torque_sigma_nm", self.body_torque_sigma_nm)?,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Scenario;
+
+    fn every_monitor() -> String {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../campaigns/base-3u-every-monitor.toml");
+        std::fs::read_to_string(path).unwrap()
+    }
+
+    /// `[fdir.magnetometer]` is checked naming the key: a bad window, a zero repeat count,
+    /// a negative model σ, and the monitor without the MEKF (its field model runs only
+    /// there) are refused; the shipped table becomes the flight's parameters.
+    #[test]
+    fn the_magnetometer_monitor_is_checked_naming_the_key() {
+        let text = every_monitor();
+        let sc = Scenario::from_toml(&text).unwrap();
+        let e = sc.estimation.as_ref().unwrap();
+        let p = sc.estimation_params(e).unwrap().magnetometer_fdir.unwrap();
+        assert_eq!((p.window.k, p.window.n, p.max_repeats, p.noise_t), (3, 4, 3, 1.0e-7));
+        for (from, to, key) in [
+            ("k = 3\nn = 4\nmax_repeats = 3\n", "k = 5\nn = 4\nmax_repeats = 3\n", "fdir.magnetometer.k"),
+            ("k = 3\nn = 4\nmax_repeats = 3\n", "k = 3\nn = 4\nmax_repeats = 0\n", "fdir.magnetometer.max_repeats"),
+            ("model_sigma_t = 2.0e-7", "model_sigma_t = -1.0", "fdir.magnetometer.model_sigma_t"),
+            ("source = \"mekf\"", "source = \"sensor\"", "fdir.magnetometer"),
+        ] {
+            // The last table of the file is the magnetometer's: edit there only.
+            let at = text.rfind("[fdir.magnetometer]").unwrap();
+            let edited = format!("{}{}", &text[..at], text[at..].replacen(from, to, 1));
+            let edited = if key == "fdir.magnetometer" { text.replacen(from, to, 1) } else { edited };
+            assert_ne!(edited, text, "{key}: the edit applies");
+            let err = Scenario::from_toml(&edited).map(|_| ()).unwrap_err().to_string();
+            assert!(err.contains(key), "{key}: {err}");
+        }
     }
 }
