@@ -101,7 +101,7 @@ impl MagnetometerMonitor {
             (self.last_residual_t, self.last_threshold_t) = (residual, threshold);
         }
         // One event per verdict: newly stuck axes (one step), the magnitude test.
-        let new_verdicts = u16::from(new_stuck != 0) + u16::from(!was_magnitude && self.magnitude_failed);
+        let new_verdicts = u16::from(new_stuck != 0).saturating_add(u16::from(!was_magnitude && self.magnitude_failed));
         self.events = self.events.saturating_add(new_verdicts);
     }
 
