@@ -69,8 +69,6 @@ pub struct TrackerMonitor {
     last_witness_rad: f32,
     /// The last judged sample had a witness and every witness agreed with it.
     last_corroborated: bool,
-    /// The last judged sample repeated the one before in all four components.
-    last_repeated: bool,
 }
 
 impl TrackerMonitor {
@@ -83,7 +81,6 @@ impl TrackerMonitor {
             events: 0,
             last_witness_rad: 0.0,
             last_corroborated: false,
-            last_repeated: false,
         }
     }
 
@@ -104,7 +101,6 @@ impl TrackerMonitor {
         self.last_time_us = Some(time_us);
         let c = q_ib.coords;
         let frozen = self.repeats.push(p.max_repeats, &[c.x, c.y, c.z, c.w]) == 0b1111;
-        self.last_repeated = self.repeats.repeating() == 0b1111;
         let exceeded = self.witness_exceeded(p, q_ib, witnesses, filter);
         let fault = if frozen {
             Some(TrackerFault::Frozen)
@@ -156,7 +152,8 @@ impl TrackerMonitor {
         self.failed.is_none()
             && self.last_time_us == Some(time_us)
             && self.last_corroborated
-            && !self.last_repeated
+            // The last judged sample (the tag matched) repeated the one before in all four.
+            && self.repeats.repeating() != 0b1111
             && self.persistence.count() == 0
     }
 
