@@ -285,15 +285,41 @@ pub fn asin(x: f32) -> f32 {
 /// Correctly rounded √x (bit-identical to IEEE-754 `sqrt`, i.e. to the M4F `vsqrt.f32`
 /// and to std's `f32::sqrt`). √(±0) = ±0, √(+inf) = +inf, NaN and x < 0 → NaN.
 ///
+/// On the Cortex-M4F (`acs_fpu::HAS_VSQRT`) the root of a positive finite x is the FPU's
+/// `VSQRT.F32` (`acs_fpu::sqrt_positive`, one instruction instead of ~100); elsewhere it is
+/// [`sqrt_software`]. Both are correctly rounded, so they give the same bits; zero,
+/// negatives, NaN and infinity are answered here on every target (a NaN result is always
+/// the canonical `f32::NAN`, whatever the input's payload).
+#[inline]
+pub fn sqrt(x: f32) -> f32 {
+    if !(x > 0.0) {
+        // ±0 → ±0; negative or NaN → NaN.
+        return if x == 0.0 { x } else { f32::NAN };
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        acs_fpu::sqrt_positive(x)
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        sqrt_software(x)
+    }
+}
+
+/// The software √x of [`sqrt`] (every target but the M4F's), correctly rounded; kept public
+/// so that the host can check it against the FPU's on the target (tests/tests/f32m_target.rs).
+///
 /// Why software: `core` has no stable `f32::sqrt` on rustc 1.95 (`core_float_math` is
-/// unstable), `libm` has no ARM `arch` path, and inline `vsqrt` needs `unsafe`, which the
-/// workspace forbids. Method: x = M · 2^(2j) with the integer M ∈ [2^46, 2^48); the
+/// unstable) and `libm` has no ARM `arch` path. Method: x = M · 2^(2j) with the integer M ∈ [2^46, 2^48); the
 /// result is R · 2^j with R = round(√M) ∈ [2^23, 2^24] (24 bits: the f32 significand
 /// grid). An f32 estimate of √M (a·(1/√a), three division-free Newton steps for 1/√a
 /// from a bit-trick seed, relative error a few 2^-24) gives R within ±2; exact 64-bit integer comparisons then fix
 /// R = ⌊√M⌋ (at most 4 steps each way, a documented cap never reached) and round:
 /// √M > R + ½ ⇔ M − R² > R (M integer, no ties possible).
-pub fn sqrt(x: f32) -> f32 {
+pub fn sqrt_software(x: f32) -> f32 {
     if !(x > 0.0) {
         // ±0 → ±0; negative or NaN → NaN.
         return if x == 0.0 { x } else { f32::NAN };
