@@ -12,6 +12,8 @@
 //! (e) the magnetometer's field-magnitude residual `|B + n| − |B_model|` has σ = σ_m (the
 //!     noise along the field) and exceeds `γ σ` at the two-sided Gaussian tail; a bias
 //!     along the field is declared after exactly `k` samples, one across it never.
+//! (f) the GNSS residual (a fix against the last one propagated to its time) is χ²₃ in
+//!     units of `σ_d² = 2σ_r² + (σ_v Δt)²` on an exact circular orbit.
 //! Noise from a seeded SplitMix64 (acs-test-support); f64 oracles written here.
 
 #![allow(clippy::disallowed_methods)] // test-side oracles may use nalgebra's own sqrt
@@ -431,4 +433,74 @@ fn a_bias_along_the_field_is_declared_after_k_samples_and_one_across_it_never() 
         }
         assert_eq!(first, declared_at, "bias {bias:?}");
     }
+}
+
+/// `Q(x) = P(χ²₃ > x) = erfc(√(x/2)) + √(2x/π) e^(−x/2)`.
+fn chi2_3_tail(x: f64) -> f64 {
+    libm::erfc((x / 2.0).sqrt()) + (2.0 * x / std::f64::consts::PI).sqrt() * (-x / 2.0).exp()
+}
+
+/// (f) the GNSS monitor's residual: each fix against the last one carried to its time by
+/// the flight's two-body step. On an exact circular orbit (f64, closed form) with white
+/// noise σ_r on the position and σ_v on the velocity of every fix, `d²/σ_d²` with
+/// `σ_d² = 2σ_r² + (σ_v Δt)²` is χ²₃: mean 3, and the monitor's exceedances at
+/// `γ σ_d + ROUNDING_M` (no model acceleration) follow `Q(((γ σ_d + 4)/σ_d)²)`.
+#[test]
+fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
+    use acs_flight::estimation::navigation::Navigation;
+    use acs_flight::fdir::gnss::{GnssMonitor, ROUNDING_M};
+    use acs_flight::params::fdir::GnssFdirParams;
+    use acs_flight::types::GnssFix;
+    let (radius_m, mu) = (6_988_000.0f64, 3.986_004_418e14f64);
+    let n_rad_s = (mu / radius_m.powi(3)).sqrt();
+    let (sr, sv, gamma) = (5.0f64, 0.05f64, 2.0f64);
+    let p = GnssFdirParams {
+        position_sigma_m: sr as f32,
+        velocity_sigma_m_s: sv as f32,
+        model_accel_m_s2: 0.0,
+        threshold_sigma: gamma as f32,
+        window: KOfN { k: 32, n: 32 },
+    };
+    let mut rng = SplitMix64(2026_11_29);
+    let (mut nav, mut monitor) = (Navigation::new(), GnssMonitor::new());
+    let (mut sum, mut exceeded, mut judged) = (0.0f64, 0usize, 0usize);
+    let sigma_d = (2.0 * sr * sr + sv * sv).sqrt(); // Δt = 1 s
+    for k in 0..20_000u64 {
+        let t = k as f64; // one fix a second
+        let (s, c) = (n_rad_s * t).sin_cos();
+        let r = [radius_m * c, radius_m * s, 0.0];
+        let v = [-radius_m * n_rad_s * s, radius_m * n_rad_s * c, 0.0];
+        let noisy = |x: [f64; 3], sigma: f64, rng: &mut SplitMix64| {
+            Vec3::new(
+                (x[0] + sigma * rng.normal()) as f32,
+                (x[1] + sigma * rng.normal()) as f32,
+                x[2] as f32 + (sigma * rng.normal()) as f32,
+            )
+        };
+        let fix = GnssFix {
+            time_us: k * 1_000_000,
+            pos_eci_m: noisy(r, sr, &mut rng),
+            vel_eci_m_s: noisy(v, sv, &mut rng),
+            j2000_days: 9_800,
+            j2000_s: t as f32,
+        };
+        let predicted = nav.predict_fix(fix.time_us);
+        monitor.judge(&p, fix.time_us, &fix.pos_eci_m, predicted);
+        if predicted.is_some() {
+            let (d, threshold) = monitor.last_residual_m();
+            sum += (f64::from(d) / sigma_d).powi(2);
+            exceeded += usize::from(d > threshold);
+            judged += 1;
+        }
+        // Every fix is taken, so that each residual spans one second.
+        nav.update(fix.time_us, Some(&fix));
+    }
+    let mean = sum / judged as f64;
+    // χ²₃ has variance 6: the mean of 20,000 has σ 0.017; 3 % is 5σ.
+    assert!((mean - 3.0).abs() < 0.09, "mean d²/σ_d² = {mean}, want 3");
+    let want = chi2_3_tail(((gamma * sigma_d + f64::from(ROUNDING_M)) / sigma_d).powi(2));
+    let got = exceeded as f64 / judged as f64;
+    let se = (want * (1.0 - want) / judged as f64).sqrt();
+    println!("GNSS residual: mean d²/σ_d² {mean:.4} (3), exceedances {got:.5} against {want:.5} (se {se:.5})");
+    assert!((got - want).abs() < 4.0 * se, "exceedance rate {got} against the χ²₃ tail {want}");
 }

@@ -42,6 +42,7 @@ use super::status::{EstimateFlags, EstimateStatus, FilterStatus, FusionCounts, S
 use super::triad::triad;
 use super::waiting::{MAX_WAITING, Pushed, WaitQueue, Waiting};
 use crate::fdir::bias::{BiasStep, BiasStepMonitor};
+use crate::fdir::gnss::{GnssMonitor, Verdict};
 use crate::fdir::gyro::GyroMonitor;
 use crate::fdir::magnetometer::MagnetometerMonitor;
 use crate::fdir::tracker::{TrackerMonitor, Witness, flip_visible, witness_angle_rad};
@@ -148,6 +149,8 @@ pub struct Determination {
     tracker_vouched_us: Option<u64>,
     /// The magnetometer monitor (with `params.magnetometer_fdir`).
     mag_monitor: MagnetometerMonitor,
+    /// The GNSS monitor (with `params.gnss_fdir`).
+    gnss_monitor: GnssMonitor,
     /// The on-board model's field at the last step, ECI, T (`None`: none yet).
     model_field_eci_t: Option<Vec3>,
 }
@@ -202,6 +205,7 @@ impl Determination {
             tracker_vouched_us: None,
             mag_monitor: MagnetometerMonitor::new(),
             model_field_eci_t: None,
+            gnss_monitor: GnssMonitor::new(),
         }
     }
 
@@ -240,6 +244,7 @@ impl Determination {
             tracker_vouched_us,
             mag_monitor,
             model_field_eci_t,
+            gnss_monitor,
         } = self;
         *p = *params;
         *mekf_cfg = mekf_config(params);
@@ -258,6 +263,7 @@ impl Determination {
         *bias_monitor = BiasStepMonitor::new();
         *tracker_vouched_us = None;
         *mag_monitor = MagnetometerMonitor::new();
+        *gnss_monitor = GnssMonitor::new();
         *model_field_eci_t = None;
         Ok(())
     }
@@ -322,7 +328,8 @@ impl Determination {
         let s = gyro_checked.as_ref().unwrap_or(s);
         let stale = self.stale(s);
         let gyro = s.gyro.filter(|_| !stale.contains(Valid::RATE));
-        let nav = self.nav.update(s.time_us, s.gnss.as_ref());
+        let fix = self.monitor_gnss(s);
+        let nav = self.nav.update(s.time_us, fix.as_ref());
         let sun_eci = nav.map(|n| self.references.sun_eci(&n.time));
         let eclipse = match (nav, sun_eci) {
             (Some(n), Some(s)) => in_eclipse(&n.r_m, &s),
@@ -448,6 +455,23 @@ impl Determination {
         self.model_field_eci_t
     }
 
+    /// The GNSS monitor (with `gnss_fdir`; [`crate::fdir::gnss`]): the step's fix if the
+    /// navigation may take it (consistent with the last accepted fix, or no monitor).
+    fn monitor_gnss(&mut self, s: &SensorSamples) -> Option<crate::types::GnssFix> {
+        let g = s.gnss?;
+        let Some(p) = self.params.gnss_fdir else { return Some(g) };
+        let predicted = self.nav.predict_fix(g.time_us);
+        match self.gnss_monitor.judge(&p, g.time_us, &g.pos_eci_m, predicted) {
+            Verdict::Take => Some(g),
+            Verdict::Refuse => None,
+        }
+    }
+
+    /// The GNSS monitor's state (telemetry).
+    pub fn gnss_monitor(&self) -> &GnssMonitor {
+        &self.gnss_monitor
+    }
+
     /// The magnetometer monitor's state (telemetry).
     pub fn magnetometer_monitor(&self) -> &MagnetometerMonitor {
         &self.mag_monitor
@@ -494,6 +518,7 @@ impl Determination {
         self.gyro_monitor.clear();
         self.bias_monitor.clear();
         self.mag_monitor.clear();
+        self.gnss_monitor.clear();
     }
 
     /// The measured vectors of the step and their reference directions.

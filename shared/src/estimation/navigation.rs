@@ -94,6 +94,13 @@ impl Navigation {
         self.state_at(time_us).map(|(r, _, time, _)| (r, time))
     }
 
+    /// The last fix's position carried to `time_us` (inertial, m) and the time it was
+    /// carried over, s: what the GNSS monitor judges a new fix against
+    /// ([`crate::fdir::gnss`]). `None` like `update`.
+    pub fn predict_fix(&self, time_us: u64) -> Option<(Vec3, f32)> {
+        self.state_at(time_us).map(|(r, _, _, age_s)| (r, age_s))
+    }
+
     /// Position, velocity, time and fix age at `time_us`, propagated from the last fix.
     fn state_at(&self, time_us: u64) -> Option<(Vec3, Vec3, J2000Time, f32)> {
         let fix = self.fix?;

@@ -17,6 +17,9 @@
 //! - [`bias`]: a gyro bias step, from the star tracker's innovations the filter's gate
 //!   rejects while the Sun or the field corroborate the tracker (the filter restarts with
 //!   the step added to its bias);
+//! - [`gnss`]: each GNSS fix against the last accepted one propagated to its time (run by
+//!   the estimation stage, which does not take an inconsistent fix and drops a failed
+//!   receiver);
 //! - [`magnetometer`]: the measured field's magnitude against the on-board model, and a
 //!   stuck axis (run by the estimation stage, which drops a failed magnetometer);
 //! - [`gyro`]: a stuck gyro axis (run by the estimation stage, which reads it as 0);
@@ -26,6 +29,7 @@
 //!   (the wheel dropped from the allocation) and the telemetry.
 
 pub mod bias;
+pub mod gnss;
 pub mod gyro;
 pub mod isolate;
 pub mod magnetometer;

@@ -189,13 +189,15 @@ pub(super) fn sensor_fdir(t: &mut crate::link::FdirTelemetry, d: &crate::estimat
     use crate::fdir::tracker::TrackerFault;
     let (tracker, gyro, bias, mag) =
         (d.tracker_monitor(), d.gyro_monitor(), d.bias_monitor(), d.magnetometer_monitor());
+    let gnss = d.gnss_monitor();
     let failed = tracker.failed();
     t.events = t
         .events
         .saturating_add(tracker.events())
         .saturating_add(gyro.events())
         .saturating_add(bias.events())
-        .saturating_add(mag.events());
+        .saturating_add(mag.events())
+        .saturating_add(gnss.events());
     t.gyro_bias_steps = bias.events();
     if let Some(step) = bias.last() {
         t.gyro_bias_step_rad_s = step.rate_rad_s.into();
@@ -209,6 +211,8 @@ pub(super) fn sensor_fdir(t: &mut crate::link::FdirTelemetry, d: &crate::estimat
     t.tracker_frozen = failed == Some(TrackerFault::Frozen);
     t.tracker_witness_rad = tracker.last_witness_rad();
     (t.mag_residual_t, t.mag_threshold_t) = mag.last_residual_t();
+    t.gnss_failed = gnss.failed();
+    (t.gnss_residual_m, t.gnss_threshold_m) = gnss.last_residual_m();
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 23;
+pub const PROTOCOL_VERSION: u16 = 24;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -273,6 +273,13 @@ pub struct FdirTelemetry {
     /// T (protocol 23; 0 when not judged).
     pub mag_residual_t: f32,
     pub mag_threshold_t: f32,
+    /// The GNSS receiver declared failed: its fixes are no longer taken (protocol 24,
+    /// [`crate::fdir::gnss`]).
+    pub gnss_failed: bool,
+    /// The GNSS monitor's last residual `|r_fix − r_pred|` and its threshold, m (0 when not
+    /// judged).
+    pub gnss_residual_m: f32,
+    pub gnss_threshold_m: f32,
 }
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.
@@ -594,10 +601,10 @@ pub enum HostMsg {
     ClearWheelFault {
         wheel: u8,
     },
-    /// Re-enable the star tracker, the gyro axes and the magnetometer the estimation
-    /// stage's monitors declared failed (used again from their next sample; protocol 21,
-    /// the magnetometer 23; docs/fdir.md "Star tracker", "Gyro", "Magnetometer"). Reply:
-    /// `Ack`.
+    /// Re-enable the star tracker, the gyro axes, the magnetometer and the GNSS receiver
+    /// the estimation stage's monitors declared failed (used again from their next sample;
+    /// protocol 21, the magnetometer 23, the GNSS 24; docs/fdir.md "Star tracker", "Gyro",
+    /// "Magnetometer", "GNSS"). Reply: `Ack`.
     ClearSensorFaults,
 }
 

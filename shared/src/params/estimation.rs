@@ -102,6 +102,10 @@ pub struct EstimationParams {
     /// The magnetometer monitor (protocol 23; `None`: off; needs the MEKF source): a
     /// magnetometer it declares failed is no longer used (docs/fdir.md "Magnetometer").
     pub magnetometer_fdir: Option<super::fdir::MagnetometerFdirParams>,
+    /// The GNSS monitor (protocol 24; `None`: off): fixes inconsistent with the last
+    /// accepted one are not taken, and a receiver it declares failed is no longer used
+    /// (docs/fdir.md "GNSS").
+    pub gnss_fdir: Option<super::fdir::GnssFdirParams>,
 }
 
 /// Largest `max_replayed_nodes`: every node of the flight history but the one a late
@@ -144,6 +148,7 @@ impl EstimationParams {
         tracker_fdir: None,
         gyro_fdir: None,
         magnetometer_fdir: None,
+        gnss_fdir: None,
     };
 }
 
@@ -192,6 +197,7 @@ impl EstimationParams {
         if self.tracker_fdir.is_some_and(|t| t.validate().is_err())
             || self.gyro_fdir.is_some_and(|g| !g.valid(self.tracker_fdir.is_some()))
             || self.magnetometer_fdir.is_some_and(|m| m.validate().is_err() || self.source != AttitudeSource::Mekf)
+            || self.gnss_fdir.is_some_and(|g| g.validate().is_err())
         {
             return bad(ParamReason::OutOfRange);
         }
@@ -223,7 +229,8 @@ impl EstimationParams {
 
     /// CRC of the serialised set (what `ParamsAccepted` echoes).
     pub fn checksum(&self) -> Result<u32, ParamError> {
-        let mut buf = [0u8; 192];
+        // Every monitor on, every option set: 190 B before the GNSS monitor's 19 (protocol 24).
+        let mut buf = [0u8; 256];
         let used = postcard::to_slice(self, &mut buf)
             .map_err(|_| ParamError { field: ParamField::Estimation, reason: ParamReason::TooLarge })?;
         Ok(crate::checksum::CRC32.checksum(used))

@@ -64,6 +64,8 @@ pub enum FdirParamError {
     Tracker,
     /// The magnetometer monitor's noise, threshold, window or repeat count.
     Magnetometer,
+    /// The GNSS monitor's noise, model acceleration, threshold or window.
+    Gnss,
 }
 
 impl WheelMonitorParams {
@@ -223,5 +225,36 @@ impl MagnetometerFdirParams {
         } else {
             Err(FdirParamError::Magnetometer)
         }
+    }
+}
+
+/// The GNSS monitor of the estimation stage (estimation parameters, protocol 24;
+/// [`crate::fdir::gnss`]): each fix against the last accepted one propagated to its time.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, postcard_schema::Schema)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GnssFdirParams {
+    /// White noise of one position axis of a fix, m (1σ, ≥ 0).
+    pub position_sigma_m: f32,
+    /// White noise of one velocity axis of a fix, m/s (1σ, ≥ 0).
+    pub velocity_sigma_m_s: f32,
+    /// The acceleration the two-body propagation leaves out (J2, drag; a thrust), m/s²
+    /// (≥ 0): its `½ a Δt²` widens the threshold.
+    pub model_accel_m_s2: f32,
+    /// Threshold on the residual / σ (> 0): per fix `P(χ²₃ > γ²)`, 5 → 1.5e-5.
+    pub threshold_sigma: f32,
+    /// k-of-n persistence over the fixes judged.
+    pub window: KOfN,
+}
+
+impl GnssFdirParams {
+    pub fn validate(&self) -> Result<(), FdirParamError> {
+        let nonneg = |x: f32| x.is_finite() && x >= 0.0;
+        let ok = nonneg(self.position_sigma_m)
+            && nonneg(self.velocity_sigma_m_s)
+            && nonneg(self.model_accel_m_s2)
+            && self.threshold_sigma.is_finite()
+            && self.threshold_sigma > 0.0
+            && self.window.valid();
+        if ok { Ok(()) } else { Err(FdirParamError::Gnss) }
     }
 }

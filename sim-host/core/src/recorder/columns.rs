@@ -274,6 +274,9 @@ pub struct Layout {
     /// With `[fdir.magnetometer]`: the monitor's residual `|B_meas| − |B_model|` and its
     /// threshold, T (2).
     pub fdir_magnetometer: bool,
+    /// With `[fdir.gnss]`: the monitor's residual `|r_fix − r_pred|` and its threshold, m
+    /// (2).
+    pub fdir_gnss: bool,
 }
 
 fn xyz(f: impl Fn(&str) -> String) -> [String; 3] {
@@ -347,6 +350,9 @@ impl Layout {
         if self.fdir_magnetometer {
             v.extend(["mag_residual_t".into(), "mag_residual_threshold_t".into()]);
         }
+        if self.fdir_gnss {
+            v.extend(["gnss_residual_m".into(), "gnss_residual_threshold_m".into()]);
+        }
         v
     }
 }
@@ -410,6 +416,7 @@ mod tests {
             timeline: true,
             fdir_wheels: 4,
             fdir_magnetometer: true,
+            fdir_gnss: true,
         }
     }
 

@@ -21,7 +21,7 @@ pub struct FdirEvent {
     /// wheel; `star_tracker` for the tracker; the axis (`gyro.y`) for a stuck gyro axis;
     /// the axis or `ambiguous` (unit `gyro`) for a gyro bias step; the axis
     /// (`magnetometer.x`) for a stuck magnetometer axis, `ambiguous` (unit `magnetometer`)
-    /// for its field-magnitude test.
+    /// for its field-magnitude test; `gnss` for the GNSS receiver.
     pub isolated_as: &'static str,
     /// What the flight code did.
     pub recovery: &'static str,
@@ -79,6 +79,9 @@ impl FdirLog {
             }
         }
         self.observe_magnetometer(t_s, new_sensors, faults);
+        if f.gnss_failed && !self.last.gnss_failed {
+            self.record(t_s, faults, "gnss".into(), "gnss_position_consistency", "gnss", "fixes_refused");
+        }
         if f.gyro_bias_steps > self.last.gyro_bias_steps {
             let axis = (0..3).find(|i| f.gyro_bias_axes == bit(*i));
             let (unit, isolated_as) = match axis.and_then(|i| ["gyro.x", "gyro.y", "gyro.z"].get(i).copied()) {

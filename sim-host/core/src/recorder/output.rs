@@ -173,7 +173,14 @@ pub fn figures_with(thresholds: &ModeThresholds) -> Vec<Figure> {
     ]
     .into_iter()
     .chain(actuator_figures())
-    .chain([estimation_figure(), environment_figure(), pointing_figure(), fdir_figure(), magnetometer_fdir_figure()])
+    .chain([
+        estimation_figure(),
+        environment_figure(),
+        pointing_figure(),
+        fdir_figure(),
+        magnetometer_fdir_figure(),
+        gnss_fdir_figure(),
+    ])
     .collect()
 }
 
@@ -214,6 +221,27 @@ fn magnetometer_fdir_figure() -> Figure {
             "Magnetometer FDIR: measured field magnitude against the on-board model",
             vec![
                 panel("field magnitude residual", "T", residual),
+                panel("faults in force (bit i: faults[i])", "(bit mask)", masks),
+            ],
+        )
+    }
+}
+
+/// `fdir-gnss.png` (runs with `[fdir.gnss]`): each fix's distance from the last accepted
+/// fix propagated to its time, its threshold (log axis: metres to thousands of km), and
+/// the faults in force.
+fn gnss_fdir_figure() -> Figure {
+    let residual =
+        vec![line("gnss_residual_m", "|r_fix − r_pred|", false), line("gnss_residual_threshold_m", "threshold", true)];
+    let masks = vec![line("fault_active", "injected", true)];
+    Figure {
+        requires: Some("gnss_residual_threshold_m".into()),
+        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        ..figure(
+            "fdir-gnss.png",
+            "GNSS FDIR: each fix against the last accepted one propagated to its time",
+            vec![
+                Panel { log_y: true, ..panel("position residual", "m", residual) },
                 panel("faults in force (bit i: faults[i])", "(bit mask)", masks),
             ],
         )

@@ -279,6 +279,7 @@ impl EstimationSpec {
             tracker_fdir: None,
             gyro_fdir: None,
             magnetometer_fdir: None,
+            gnss_fdir: None,
         };
         // The flight code's own validation, with the scenario's key names.
         if let Err(e) = p.validate() {

@@ -21,7 +21,8 @@ use super::{Scenario, bad, finite};
 use acs_flight::params::ActuatorParams;
 use acs_flight::params::EstimationParams;
 use acs_flight::params::fdir::{
-    FdirParams, GyroFdirParams, KOfN, MagnetometerFdirParams, TrackerFdirParams, WheelFdirParams, WheelResidualNoise,
+    FdirParams, GnssFdirParams, GyroFdirParams, KOfN, MagnetometerFdirParams, TrackerFdirParams, WheelFdirParams,
+    WheelResidualNoise,
 };
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
@@ -37,6 +38,63 @@ pub struct FdirSpec {
     pub gyro: Option<GyroFdirSpec>,
     #[serde(default)]
     pub magnetometer: Option<MagnetometerFdirSpec>,
+    #[serde(default)]
+    pub gnss: Option<GnssFdirSpec>,
+}
+
+/// `[fdir.gnss]`: the estimation stage's GNSS monitor (docs/fdir.md "GNSS"): each fix
+/// against the last accepted one propagated to its time (σ from `[sensors.gnss]`
+/// `position_noise_m` and `velocity_noise_m_s`; without the table the ideal fix: 0).
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct GnssFdirSpec {
+    /// The acceleration the flight's two-body propagation leaves out, m/s² (J2 and drag in
+    /// LEO: ≤ 0.02).
+    #[serde(default = "default_gnss_model_accel")]
+    pub model_accel_m_s2: f64,
+    /// Residual / σ per fix (χ²₃ tail: 5 → 1.5e-5).
+    #[serde(default = "default_gnss_threshold_sigma")]
+    pub threshold_sigma: f64,
+    #[serde(default = "default_tracker_k")]
+    pub k: u8,
+    #[serde(default = "default_tracker_n")]
+    pub n: u8,
+}
+
+fn default_gnss_model_accel() -> f64 {
+    0.02
+}
+fn default_gnss_threshold_sigma() -> f64 {
+    5.0
+}
+
+impl GnssFdirSpec {
+    /// The flight's parameters, with the simulated receiver's noise (position m, velocity
+    /// m/s per axis).
+    fn params(&self, position_sigma_m: f64, velocity_sigma_m_s: f64) -> Result<GnssFdirParams> {
+        let k = "fdir.gnss";
+        finite(&format!("{k}.model_accel_m_s2"), &[self.model_accel_m_s2])?;
+        if self.model_accel_m_s2 < 0.0 {
+            return Err(bad(&format!("{k}.model_accel_m_s2"), "must be ≥ 0"));
+        }
+        let t = self.threshold_sigma;
+        if !(t.is_finite() && t > 0.0) {
+            return Err(bad(&format!("{k}.threshold_sigma"), format!("{t}: must be > 0")));
+        }
+        let window = KOfN { k: self.k, n: self.n };
+        if !window.valid() {
+            return Err(bad(&format!("{k}.k"), "need 1 ≤ k ≤ n ≤ 32"));
+        }
+        let p = GnssFdirParams {
+            position_sigma_m: position_sigma_m as f32,
+            velocity_sigma_m_s: velocity_sigma_m_s as f32,
+            model_accel_m_s2: self.model_accel_m_s2 as f32,
+            threshold_sigma: t as f32,
+            window,
+        };
+        p.validate().map_err(|e| bad(k, format!("refused by the flight code: {e:?}")))?;
+        Ok(p)
+    }
 }
 
 /// `[fdir.magnetometer]`: the estimation stage's magnetometer monitor (docs/fdir.md
@@ -250,7 +308,17 @@ impl Scenario {
             Some(m) => Some(m.params(self.magnetometer_noise_t())?),
             None => None,
         };
+        p.gnss_fdir = match self.fdir.as_ref().and_then(|f| f.gnss.as_ref()) {
+            Some(g) => Some(g.params(self.gnss_noise().0, self.gnss_noise().1)?),
+            None => None,
+        };
         Ok(p)
+    }
+
+    /// The simulated GNSS receiver's noise per axis, position m and velocity m/s (0, 0:
+    /// the ideal fix without `[sensors.gnss]`).
+    fn gnss_noise(&self) -> (f64, f64) {
+        self.sensors.gnss.as_ref().map_or((0.0, 0.0), |g| (g.position_noise_m, g.velocity_noise_m_s))
     }
 
     /// The simulated magnetometer's noise per axis, T (0 without one).
@@ -291,6 +359,12 @@ impl Scenario {
                 ));
             }
             m.params(self.magnetometer_noise_t())?;
+        }
+        if let Some(g) = self.fdir.as_ref().and_then(|f| f.gnss.as_ref()) {
+            if self.orbit.is_none() {
+                return Err(bad("fdir.gnss", "the monitor judges the navigation's fixes: needs [orbit]"));
+            }
+            g.params(self.gnss_noise().0, self.gnss_noise().1)?;
         }
         let Some(spec) = self.fdir.as_ref().and_then(|f| f.wheels.as_ref()) else { return Ok(()) };
         if self.actuators.wheels.is_none() {
@@ -371,5 +445,34 @@ mod tests {
             let err = Scenario::from_toml(&edited).map(|_| ()).unwrap_err().to_string();
             assert!(err.contains(key), "{key}: {err}");
         }
+    }
+
+    /// `[fdir.gnss]` is checked naming the key: a negative model acceleration, a zero
+    /// threshold, a bad window, and the monitor without `[orbit]` are refused; the shipped
+    /// table takes the receiver's noise.
+    #[test]
+    fn the_gnss_monitor_is_checked_naming_the_key() {
+        let text = every_monitor();
+        let sc = Scenario::from_toml(&text).unwrap();
+        let e = sc.estimation.as_ref().unwrap();
+        let p = sc.estimation_params(e).unwrap().gnss_fdir.unwrap();
+        assert_eq!((p.position_sigma_m, p.velocity_sigma_m_s, p.window.k, p.window.n), (5.0, 0.05, 3, 4));
+        // The last table of the file is the GNSS monitor's: edit there only.
+        let at = text.rfind("\n[fdir.gnss]\n").unwrap();
+        for (from, to, key) in [
+            ("model_accel_m_s2 = 0.02", "model_accel_m_s2 = -0.1", "fdir.gnss.model_accel_m_s2"),
+            ("threshold_sigma = 5.0", "threshold_sigma = 0.0", "fdir.gnss.threshold_sigma"),
+            ("k = 3\nn = 4", "k = 5\nn = 4", "fdir.gnss.k"),
+        ] {
+            let edited = format!("{}{}", &text[..at], text[at..].replacen(from, to, 1));
+            assert_ne!(edited, text, "{key}: the edit applies");
+            let err = Scenario::from_toml(&edited).map(|_| ()).unwrap_err().to_string();
+            assert!(err.contains(key), "{key}: {err}");
+        }
+        let start = text.find("[orbit]").unwrap();
+        let end = start + text[start..].find("\n\n").unwrap();
+        let no_orbit = format!("{}{}", &text[..start], &text[end..]);
+        let err = Scenario::from_toml(&no_orbit).map(|_| ()).unwrap_err().to_string();
+        assert!(err.contains("fdir.gnss") || err.contains("orbit"), "{err}");
     }
 }

@@ -254,6 +254,7 @@ pub fn layout(sc: &Scenario, n_wheels: usize, n_thrusters: usize) -> Layout {
         timeline: sc.timeline.is_some(),
         fdir_wheels: if sc.fdir.as_ref().is_some_and(|f| f.wheels.is_some()) { n_wheels } else { 0 },
         fdir_magnetometer: sc.fdir.as_ref().is_some_and(|f| f.magnetometer.is_some()),
+        fdir_gnss: sc.fdir.as_ref().is_some_and(|f| f.gnss.is_some()),
     }
 }
 

@@ -92,6 +92,13 @@ impl Simulation<'_> {
             let value = |x: f32| if judged { f64::from(x) } else { f64::NAN };
             self.row.extend([value(f.mag_residual_t), value(f.mag_threshold_t)]);
         }
+        if self.layout.fdir_gnss {
+            // Not judged (no fix this step, no accepted fix before it, failed): NaN.
+            let f = &v.cmd.fdir;
+            let judged = f.gnss_threshold_m > 0.0;
+            let value = |x: f32| if judged { f64::from(x) } else { f64::NAN };
+            self.row.extend([value(f.gnss_residual_m), value(f.gnss_threshold_m)]);
+        }
     }
 
     /// The guidance group ([`crate::recorder::columns::GUIDANCE`]): the truth's pointing
