@@ -362,13 +362,13 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
 }
 
 /// The estimation stage's sensor monitors on the firmware (issue 42): the 6U shortened to
-/// 200 s with `[fdir.star_tracker]`, `[fdir.magnetometer]` and `[fdir.gyro]` (with its
-/// bias-step test), a 0.01 rad/s bias step on gyro x at 30 s, the tracker flipped at 60 s,
-/// the gyro's z axis stuck at 130 s and a 20 µT bias on magnetometer y at 160 s. Every
-/// recorded cell equal bit for bit (the filter's restart with the step and the field
-/// residual among them), the same four events (the step from the tracker's innovations, the
-/// flip from the Sun and the field, the axis from its repeats, the magnetometer from the
-/// field model).
+/// 200 s with `[fdir.star_tracker]`, `[fdir.magnetometer]`, `[fdir.gnss]` and `[fdir.gyro]`
+/// (with its bias-step test), a 0.01 rad/s bias step on gyro x at 30 s, the tracker flipped
+/// at 60 s, the gyro's z axis stuck at 130 s, a 20 µT bias on magnetometer y at 160 s and a
+/// 100 km GNSS jump at 180 s. Every recorded cell equal bit for bit (the filter's restart
+/// with the step, the field and GNSS residuals among them), the same five events (the step
+/// from the tracker's innovations, the flip from the Sun and the field, the axis from its
+/// repeats, the magnetometer from the field model, the receiver from its own last fix).
 #[test]
 fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
     let Some((_, f)) = fdir_6u_sil_equals_pil(|text| {
@@ -378,17 +378,18 @@ fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
             format!("\n[[faults]]\nonset_s = {at:?}\nunit = \"{unit}\"\nkind = \"{kind}\"\n")
         };
         format!(
-            "{base}\n[fdir.star_tracker]\n\n[fdir.magnetometer]\n\n[fdir.gyro]\nbias_step = {{ k = 3, n = 4 }}\n{}magnitude = 0.01\n{}{}{}magnitude = 2.0e-5\n",
+            "{base}\n[fdir.star_tracker]\n\n[fdir.magnetometer]\n\n[fdir.gnss]\n\n[fdir.gyro]\nbias_step = {{ k = 3, n = 4 }}\n{}magnitude = 0.01\n{}{}{}magnitude = 2.0e-5\n{}magnitude = 1.0e5\n",
             fault(30.0, "gyro.x", "bias_step"),
             fault(60.0, "star_tracker", "flip"),
             fault(130.0, "gyro.z", "stuck"),
-            fault(160.0, "magnetometer.y", "bias")
+            fault(160.0, "magnetometer.y", "bias"),
+            fault(180.0, "gnss", "position_jump")
         )
     }) else {
         return;
     };
     let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
-    assert_eq!(units, ["gyro.x", "star_tracker", "gyro.z", "magnetometer"], "{f:?}");
+    assert_eq!(units, ["gyro.x", "star_tracker", "gyro.z", "magnetometer", "gnss"], "{f:?}");
     assert_eq!(f.events[0].test, "gyro_bias_innovation");
     assert_eq!(f.false_alarms, 0);
 }

@@ -399,6 +399,7 @@ impl Target {
             gyro: gyro.is_some(),
             bias_step: gyro.is_some_and(|g| g.bias_step.is_some()),
             magnetometer: e.is_some_and(|e| e.magnetometer_fdir.is_some()),
+            gnss: e.is_some_and(|e| e.gnss_fdir.is_some()),
         }
     }
 
@@ -495,11 +496,13 @@ pub struct Monitors {
     pub bias_step: bool,
     /// `[fdir.magnetometer]`: `magnetometer_fdir` in the estimation parameters.
     pub magnetometer: bool,
+    /// `[fdir.gnss]`: `gnss_fdir` in the estimation parameters.
+    pub gnss: bool,
 }
 
 impl Monitors {
     pub fn any(&self) -> bool {
-        self.wheels || self.tracker || self.gyro || self.magnetometer
+        self.wheels || self.tracker || self.gyro || self.magnetometer || self.gnss
     }
 }
 
@@ -696,7 +699,8 @@ mod tests {
         assert_eq!(m.gyro, fdir.get("gyro").is_some());
         assert_eq!(m.bias_step, fdir["gyro"].get("bias_step").is_some());
         assert_eq!(m.magnetometer, fdir.get("magnetometer").is_some());
-        assert!(m.wheels && m.tracker && m.gyro && m.bias_step && m.magnetometer, "every monitor: {m:?}");
+        assert_eq!(m.gnss, fdir.get("gnss").is_some());
+        assert!(m.wheels && m.tracker && m.gyro && m.bias_step && m.magnetometer && m.gnss, "every monitor: {m:?}");
         let Upload::Modes(table) = &t.upload else { panic!("the 3U mission flies a mode table") };
         // The monitor rides with the wheels: every slot flying them (detumble flies the
         // magnetorquers).
