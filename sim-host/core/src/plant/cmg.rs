@@ -146,6 +146,41 @@ impl CmgCluster {
         (h, hd)
     }
 
+    /// Cluster momentum with unit i's rotor momentum `scale[i] h0` (a rotor spin-down
+    /// fault; exactly [`Self::momentum`] with every scale 1).
+    pub fn momentum_scaled(&self, delta: &[f64; MAX_GIMBALS], scale: &[f64; MAX_GIMBALS]) -> Vec3 {
+        let mut h = Vec3::zeros();
+        for (i, u) in self.units.iter().enumerate() {
+            let (s, c) = delta[i].sin_cos();
+            h += (u.spin0 * c + u.trans0 * s) * (u.h0_nms * scale[i]);
+        }
+        h
+    }
+
+    /// [`Self::momentum_and_rate`] with unit i's rotor momentum `scale[i] h0` changing at
+    /// `scale_rate[i] h0`: `ḣ_i = h0 (scale_rate e_i + scale δ̇ ∂e_i/∂δ)`. Bit for bit
+    /// [`Self::momentum_and_rate`] with every scale 1 and every scale rate 0.
+    pub fn momentum_and_rate_scaled(
+        &self,
+        delta: &[f64; MAX_GIMBALS],
+        rate: &[f64; MAX_GIMBALS],
+        scale: &[f64; MAX_GIMBALS],
+        scale_rate: &[f64; MAX_GIMBALS],
+    ) -> (Vec3, Vec3) {
+        let (mut h, mut hd) = (Vec3::zeros(), Vec3::zeros());
+        for (i, u) in self.units.iter().enumerate() {
+            let (s, c) = delta[i].sin_cos();
+            let e = u.spin0 * c + u.trans0 * s;
+            let h0 = u.h0_nms * scale[i];
+            h += e * h0;
+            hd += (u.trans0 * c - u.spin0 * s) * (h0 * rate[i]);
+            if scale_rate[i] != 0.0 {
+                hd += e * (u.h0_nms * scale_rate[i]);
+            }
+        }
+        (h, hd)
+    }
+
     /// `det(J₁ J₁ᵀ)` with unit rotor momentum.
     pub fn singularity_measure(&self, delta: &[f64; MAX_GIMBALS]) -> f64 {
         let mut jjt = nalgebra::Matrix3::<f64>::zeros();
