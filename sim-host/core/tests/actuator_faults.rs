@@ -196,6 +196,33 @@ fn a_stuck_gimbal_gives_the_body_no_torque() {
 }
 
 #[test]
+fn a_stuck_gimbal_with_a_servo_is_at_rest_and_its_servo_restarts_from_rest() {
+    // Servo lag τ = 0.2 s, no friction: freed at 2 s from rest, the rate follows
+    // r (1 - exp(-(t - 2)/τ)) (the servo's first-order closed form).
+    let tau = 0.2;
+    let text = CMG.replace(
+        "initial_gimbal_deg",
+        &format!("servo_time_constant_s = {tau}\ngimbal_inertia_kgm2 = 0.01\ninitial_gimbal_deg"),
+    );
+    let sc = parse(&text, "[[faults]]\nonset_s = 1.0\nunit = \"cmg.3\"\nkind = \"gimbal_stuck\"\nend_s = 2.0\n");
+    let (states, _) = fly(&sc);
+    let held = states[10].gimbal_rad[3];
+    assert!(states[10].gimbal_rate_rad_s[3].abs() > 0.9 * RATES[3], "moving at the onset");
+    for s in &states[11..=20] {
+        assert_eq!((s.gimbal_rad[3].to_bits(), s.gimbal_rate_rad_s[3]), (held.to_bits(), 0.0));
+    }
+    let mut worst = 0.0f64;
+    for (k, s) in states.iter().enumerate().skip(20) {
+        let t = k as f64 * DT - 2.0;
+        worst = worst.max((s.gimbal_rate_rad_s[3] - RATES[3] * (1.0 - (-t / tau).exp())).abs());
+    }
+    // RK4 at h = 25 ms on a τ = 0.2 s lag: (h/τ)⁵/120 ≈ 2.5e-7 of the rate a step, over
+    // the few τ/h = 8 steps before it decays: a few 1e-6.
+    eprintln!("stuck gimbal with a servo: largest rate error after release {worst:e} rad/s");
+    assert!(worst < 1e-5 * RATES[3], "{worst:e}");
+}
+
+#[test]
 fn a_spinning_down_rotor_decays_as_the_exponential_and_the_body_takes_its_momentum() {
     let tau = 3.0;
     let sc = parse(
