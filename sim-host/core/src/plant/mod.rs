@@ -275,9 +275,11 @@ impl Spacecraft {
     fn actuator_torque_with(&self, s: &State, u: &Input, wheels: &[(WheelDeriv, WheelOutput); MAX_WHEELS]) -> Vec3 {
         let rates = self.applied_gimbal_rates(s, u);
         let mut t = Vec3::zeros();
-        if self.cmg.is_some() {
-            let (h, hd) = self.cmg_momentum_and_rate(s, &rates);
-            t += -hd - s.w.cross(&h);
+        if let Some(c) = &self.cmg {
+            // Summed in the order of the recorded torque before rotor faults (bit for bit).
+            let (scale, scale_rate) = (&s.cmg_rotor_scale, &self.rotor_scale_rate(s));
+            t += -c.momentum_rate_scaled(&s.gimbal_rad, &rates, scale, scale_rate)
+                - s.w.cross(&c.momentum_scaled(&s.gimbal_rad, scale));
         }
         for (i, (p, (d, o))) in self.wheels.iter().zip(wheels).enumerate() {
             let a = Vec3::from(p.spin_axis);
