@@ -193,29 +193,7 @@ impl Scenario {
                 };
                 Ok(Fault::Magnetorquer { index, kind })
             }
-            "cmg" => {
-                // The only layout, "pyramid4", has one unit per initial gimbal angle.
-                let n = self.actuators.cmg.as_ref().map_or(0, |c| c.initial_gimbal_deg.len());
-                let index = self.unit_index(index, n, &unit_key, "cmg", "[actuators.cmg]")?;
-                let kind = match f.kind.as_str() {
-                    "gimbal_stuck" => m.none(CmgFault::GimbalStuck)?,
-                    "rotor_spin_down" => CmgFault::RotorSpinDown {
-                        tau_s: m.within(MIN_SPIN_DOWN_TAU_S, MAX_SPIN_DOWN_TAU_S, "the rotor's time constant in s")?,
-                    },
-                    _ => return Err(kind_err("\"gimbal_stuck\", \"rotor_spin_down\"")),
-                };
-                Ok(Fault::Cmg { index, kind })
-            }
-            "thruster" => {
-                let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
-                let index = self.unit_index(index, n, &unit_key, "thruster", "[actuators.thrusters]")?;
-                let kind = match f.kind.as_str() {
-                    "stuck_closed" => m.none(ThrusterFault::StuckClosed)?,
-                    "stuck_open" => m.none(ThrusterFault::StuckOpen)?,
-                    _ => return Err(kind_err("\"stuck_closed\", \"stuck_open\"")),
-                };
-                Ok(Fault::Thruster { index, kind })
-            }
+            "cmg" | "thruster" => self.momentum_or_thrust_fault(name, index, f, key, &m),
             _ => Err(bad(
                 &unit_key,
                 format!(
@@ -225,6 +203,43 @@ impl Scenario {
                 ),
             )),
         }
+    }
+
+    /// A CMG's (`name` "cmg") or a thruster's fault: its index below the number the
+    /// spacecraft has, its kind, its magnitude.
+    fn momentum_or_thrust_fault(
+        &self,
+        name: &str,
+        index: Option<&str>,
+        f: &FaultSpec,
+        key: &str,
+        m: &Magnitude,
+    ) -> Result<Fault> {
+        let unit_key = format!("{key}.unit");
+        let kind_err = |known: &str| {
+            bad(&format!("{key}.kind"), format!("{:?} is not a fault of {} (known: {known})", f.kind, f.unit))
+        };
+        if name == "cmg" {
+            // The only layout, "pyramid4", has one unit per initial gimbal angle.
+            let n = self.actuators.cmg.as_ref().map_or(0, |c| c.initial_gimbal_deg.len());
+            let index = self.unit_index(index, n, &unit_key, "cmg", "[actuators.cmg]")?;
+            let kind = match f.kind.as_str() {
+                "gimbal_stuck" => m.none(CmgFault::GimbalStuck)?,
+                "rotor_spin_down" => CmgFault::RotorSpinDown {
+                    tau_s: m.within(MIN_SPIN_DOWN_TAU_S, MAX_SPIN_DOWN_TAU_S, "the rotor's time constant in s")?,
+                },
+                _ => return Err(kind_err("\"gimbal_stuck\", \"rotor_spin_down\"")),
+            };
+            return Ok(Fault::Cmg { index, kind });
+        }
+        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+        let index = self.unit_index(index, n, &unit_key, "thruster", "[actuators.thrusters]")?;
+        let kind = match f.kind.as_str() {
+            "stuck_closed" => m.none(ThrusterFault::StuckClosed)?,
+            "stuck_open" => m.none(ThrusterFault::StuckOpen)?,
+            _ => return Err(kind_err("\"stuck_closed\", \"stuck_open\"")),
+        };
+        Ok(Fault::Thruster { index, kind })
     }
 
     /// The 0-based index of a numbered unit, below the `n` the spacecraft has.
