@@ -1,10 +1,13 @@
 //! Seeded, bounded-time fuzz of `[[faults]]` lists (issue 42): on shipped spacecraft — the
 //! 3U mission (`scenarios/modes/cubesat-mission.toml`, 6,500 s: detumble to hold; with and
 //! without `[fdir.wheels]`) and the 6U (`scenarios/fdir/wheel-seized-6u.toml`, 1,500 s,
-//! `[fdir.wheels]`, its own fault removed) — random lists of 1 to 33 entries: every fault
-//! class at random onsets and magnitudes (in range, and NaN, ±inf, negative, huge), units the
-//! spacecraft does not have (`wheel.7` on four wheels, `magnetorquer.5`, `cmg.0`,
-//! `thruster.0`, unmodelled units, `gyro.w`, `magnetometer` without an axis), kinds a unit does not have, `end_s` ≤ `onset_s`.
+//! `[fdir.wheels]`, its own fault removed), a CMG pyramid (`scenarios/paper000/test1.toml`,
+//! 150 s: the slew and a hold) and eight thrusters (`scenarios/paper004/dp-nominal.toml`,
+//! 150 s) — random lists of 1 to 33 entries: every fault class at random onsets and
+//! magnitudes (in range, and NaN, ±inf, negative, huge), units the spacecraft does not have
+//! (`wheel.7` on four wheels, `magnetorquer.5`, `cmg.4` or `cmg.0` without CMGs,
+//! `thruster.8` or `thruster.0` without thrusters, unmodelled units, `gyro.w`,
+//! `magnetometer` without an axis), kinds a unit does not have, `end_s` ≤ `onset_s`.
 //! The test predicts each entry's validity itself (docs/scenario.md `[[faults]]`), and every
 //! case must end in exactly one of:
 //!
@@ -68,17 +71,24 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// A base spacecraft: its scenario (no faults, every step recorded), its wheel count.
+/// A base spacecraft: its scenario (no faults, every step recorded) and the units it has.
 struct Base {
     name: &'static str,
     doc: Value,
     wheels: usize,
     /// Coarse sun sensor heads (`[sensors.css] normals_body`; 0 without the table).
     css_heads: usize,
+    /// Torquer rods (3 with `[actuators.magnetorquers]`), CMGs (the pyramid's 4 with
+    /// `[actuators.cmg]`), thrusters (paper 004's 8 with `[actuators.thrusters]`).
+    rods: usize,
+    cmgs: usize,
+    thrusters: usize,
+    /// A GNSS fix: only with `[orbit]`.
+    gnss: bool,
     duration_s: f64,
 }
 
-fn base(file: &'static str, duration_s: f64, fdir: bool) -> Base {
+fn base(name: &'static str, file: &'static str, duration_s: f64, fdir: bool) -> Base {
     let mut doc: Value = toml::from_str(&std::fs::read_to_string(repo().join(file)).unwrap()).unwrap();
     doc["duration_s"] = Value::Float(duration_s);
     doc["timing"].as_table_mut().unwrap().insert("output_every".into(), Value::Integer(1));
@@ -90,20 +100,22 @@ fn base(file: &'static str, duration_s: f64, fdir: bool) -> Base {
     } else {
         t.remove("fdir");
     }
-    let wheels = match doc["actuators"]["wheels"]["layout"].as_str() {
+    let act = &doc["actuators"];
+    let wheels = match act.get("wheels").and_then(|w| w.get("layout")).and_then(Value::as_str) {
         Some("pyramid4") => 4,
-        _ => doc["actuators"]["wheels"]["axes"].as_array().map_or(0, Vec::len),
+        _ => act.get("wheels").and_then(|w| w.get("axes")).and_then(Value::as_array).map_or(0, Vec::len),
     };
+    let has = |table: &str| act.get(table).is_some();
+    // The bases' thrusters are paper 004's layout (eight).
+    assert!(!has("thrusters") || act["thrusters"].get("layout").is_none_or(|l| l.as_str() == Some("paper004")));
     let css_heads = doc
         .get("sensors")
         .and_then(|s| s.get("css"))
         .map_or(0, |c| c.get("normals_body").and_then(Value::as_array).map_or(0, Vec::len));
-    let name = match (file.contains("mission"), fdir) {
-        (true, true) => "3U mission + [fdir.wheels]",
-        (true, false) => "3U mission",
-        _ => "6U wheel-seized + [fdir.wheels]",
-    };
-    Base { name, doc, wheels, css_heads, duration_s }
+    let (rods, cmgs, thrusters) =
+        (3 * usize::from(has("magnetorquers")), 4 * usize::from(has("cmg")), 8 * usize::from(has("thrusters")));
+    let gnss = doc.get("orbit").is_some();
+    Base { name, doc, wheels, css_heads, rods, cmgs, thrusters, gnss, duration_s }
 }
 
 /// One `[[faults]]` entry as drawn.
@@ -116,7 +128,7 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 18] = [
+const ALL_KINDS: [&str; 22] = [
     "stuck",
     "torque_gain",
     "runaway",
@@ -134,6 +146,10 @@ const ALL_KINDS: [&str; 18] = [
     "position_jump",
     "noise",
     "saturation",
+    "gimbal_stuck",
+    "rotor_spin_down",
+    "stuck_closed",
+    "stuck_open",
     "explode",
 ];
 
@@ -153,6 +169,8 @@ fn kinds_of(unit: &str) -> &'static [&'static str] {
         Some("magnetometer") => &["stuck", "bias"],
         Some("css") => &["dead"],
         Some("gnss") => &["position_jump"],
+        Some("cmg") => &["gimbal_stuck", "rotor_spin_down"],
+        Some("thruster") => &["stuck_closed", "stuck_open"],
         _ => &["stuck"],
     }
 }
@@ -166,18 +184,26 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
     let bad = |rng: &mut SplitMix64, p: f64| !clean && rng.uniform() < p;
     let mut valid_units: Vec<String> = (0..b.wheels).map(|i| format!("wheel.{i}")).collect();
     valid_units.extend(["gyro.x", "gyro.y", "gyro.z", "star_tracker"].map(String::from));
-    valid_units.extend((0..3).map(|i| format!("magnetorquer.{i}")));
+    valid_units.extend((0..b.rods).map(|i| format!("magnetorquer.{i}")));
     valid_units.extend(MAGNETOMETER_AXES.map(String::from));
     valid_units.extend((0..b.css_heads).map(|i| format!("css.{i}")));
-    // Both bases fly an orbit: each has a GNSS fix.
-    valid_units.push("gnss".into());
+    valid_units.extend((0..b.cmgs).map(|i| format!("cmg.{i}")));
+    valid_units.extend((0..b.thrusters).map(|i| format!("thruster.{i}")));
+    if b.gnss {
+        valid_units.push("gnss".into());
+    }
     let unit = if bad(rng, 0.06) {
         let wrong = [
             format!("wheel.{}", b.wheels),
             "wheel.7".into(),
             "magnetorquer.5".into(),
             "cmg.0".into(),
+            format!("cmg.{}", b.cmgs),
+            "cmg.x".into(),
             "thruster.0".into(),
+            format!("thruster.{}", b.thrusters),
+            "thruster".into(),
+            "gnss".into(),
             "magnetometer".into(),
             "magnetometer.w".into(),
             "magnetometer.0".into(),
@@ -211,6 +237,8 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
         "position_jump" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(7.0 * rng.uniform())),
         // 1e-9 to 1e-2 T (the largest bias the format takes), either sign.
         "bias" => Some(*pick(rng, &[1.0, -1.0]) * MAX_MAG_BIAS_T * 10f64.powf(-7.0 * rng.uniform())),
+        // 1 s to 1e7 s (the shortest and longest time constants the format takes).
+        "rotor_spin_down" => Some(10f64.powf(7.0 * rng.uniform())),
         _ => None,
     };
     let onset_s = if bad(rng, 0.03) {
@@ -228,11 +256,11 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
     Entry { onset_s, unit, kind: kind.into(), magnitude, end_s }
 }
 
-/// Whether the format takes this entry on a spacecraft with `wheels` wheels, three rods and
-/// `css_heads` coarse sun sensor heads
+/// Whether the format takes this entry on the base's spacecraft (its wheels, rods, coarse
+/// sun sensor heads, CMGs, thrusters and GNSS fix)
 /// (docs/scenario.md `[[faults]]`, and "every number": finite, within the f32 range),
 /// decided from the values alone.
-fn valid(e: &Entry, wheels: usize, css_heads: usize) -> bool {
+fn valid(e: &Entry, b: &Base) -> bool {
     let numbers = [Some(e.onset_s), e.magnitude, e.end_s];
     let in_range = numbers.iter().flatten().all(|x| x.is_finite() && x.abs() <= f64::from(f32::MAX));
     let onset_ok = e.onset_s.is_finite() && e.onset_s >= 0.0;
@@ -240,12 +268,14 @@ fn valid(e: &Entry, wheels: usize, css_heads: usize) -> bool {
     let index_below = |prefix: &str, n: usize| {
         e.unit.strip_prefix(prefix).and_then(|i| i.parse::<usize>().ok()).is_some_and(|i| i < n)
     };
-    let unit_ok = index_below("wheel.", wheels)
-        || index_below("magnetorquer.", 3)
-        || index_below("css.", css_heads)
+    let unit_ok = index_below("wheel.", b.wheels)
+        || index_below("magnetorquer.", b.rods)
+        || index_below("css.", b.css_heads)
+        || index_below("cmg.", b.cmgs)
+        || index_below("thruster.", b.thrusters)
         || ["gyro.x", "gyro.y", "gyro.z", "star_tracker"].contains(&e.unit.as_str())
         || MAGNETOMETER_AXES.contains(&e.unit.as_str())
-        || e.unit == "gnss";
+        || (b.gnss && e.unit == "gnss");
     let kind_ok = unit_ok && kinds_of(&e.unit).contains(&e.kind.as_str());
     let m = e.magnitude;
     let magnitude_ok = match e.kind.as_str() {
@@ -256,6 +286,7 @@ fn valid(e: &Entry, wheels: usize, css_heads: usize) -> bool {
         "noise" | "tach_noise" => m.is_some_and(|x| (1.0..=1000.0).contains(&x)),
         "position_jump" => m.is_some_and(|x| x.abs() <= 1.0e7),
         "saturation" => m.is_some_and(|x| (0.0..=MAX_RATE_RAD_S).contains(&x)),
+        "rotor_spin_down" => m.is_some_and(|x| (1.0..=1.0e7).contains(&x)),
         _ => m.is_none(),
     };
     in_range && onset_ok && end_ok && unit_ok && kind_ok && magnitude_ok
@@ -302,7 +333,7 @@ fn cases(bases: &[Base]) -> Vec<Case> {
         let clean = n > 3 && rng.below(2) == 0;
         let entries: Vec<Entry> = (0..n).map(|_| draw_entry(&mut rng, b, clean)).collect();
         let mut refusal_keys: Vec<String> =
-            (0..n).filter(|i| !valid(&entries[*i], b.wheels, b.css_heads)).map(|i| format!("`faults[{i}]")).collect();
+            (0..n).filter(|i| !valid(&entries[*i], b)).map(|i| format!("`faults[{i}]")).collect();
         if n > 32 {
             refusal_keys.push("`faults`".into());
         }
@@ -452,9 +483,11 @@ fn describe(c: &Case) -> String {
 fn fault_lists_are_refused_naming_the_entry_or_run_without_losing_control_unnoticed_or_fail() {
     let t0 = Instant::now();
     let bases = [
-        base("scenarios/modes/cubesat-mission.toml", 6500.0, false),
-        base("scenarios/modes/cubesat-mission.toml", 6500.0, true),
-        base("scenarios/fdir/wheel-seized-6u.toml", 1500.0, true),
+        base("3U mission", "scenarios/modes/cubesat-mission.toml", 6500.0, false),
+        base("3U mission + [fdir.wheels]", "scenarios/modes/cubesat-mission.toml", 6500.0, true),
+        base("6U wheel-seized + [fdir.wheels]", "scenarios/fdir/wheel-seized-6u.toml", 1500.0, true),
+        base("paper 000 CMG pyramid", "scenarios/paper000/test1.toml", 150.0, false),
+        base("paper 004 thrusters", "scenarios/paper004/dp-nominal.toml", 150.0, false),
     ];
     let all = cases(&bases);
     let verdicts = run_all(&all);
@@ -471,6 +504,29 @@ fn fault_lists_are_refused_naming_the_entry_or_run_without_losing_control_unnoti
         count(&|v| matches!(v, Verdict::Failed(_))),
         count(&|v| matches!(v, Verdict::Bad(_))),
     );
+    for (bi, b) in bases.iter().enumerate() {
+        let of_base: Vec<&Verdict> = verdicts.iter().filter(|(i, _)| all[*i].base == bi).map(|(_, v)| v).collect();
+        let n = |f: &dyn Fn(&Verdict) -> bool| of_base.iter().filter(|v| f(v)).count();
+        println!(
+            "  {}: {} cases, {} refused, {} ok, {} failed runs",
+            b.name,
+            of_base.len(),
+            n(&|v| *v == Verdict::Refused),
+            n(&|v| matches!(v, Verdict::Ok { .. })),
+            n(&|v| matches!(v, Verdict::Failed(_)))
+        );
+    }
+    // The new actuator kinds must reach a run, not only refusals.
+    for kind in ["gimbal_stuck", "rotor_spin_down", "stuck_closed", "stuck_open"] {
+        let ran = verdicts
+            .iter()
+            .filter(|(i, v)| {
+                matches!(v, Verdict::Ok { .. } | Verdict::Failed(_)) && all[*i].entries.iter().any(|e| e.kind == kind)
+            })
+            .count();
+        println!("  runs with a {kind} entry: {ran}");
+        assert!(ran > 0, "no run with a {kind} entry: the generator does not reach it");
+    }
     for (i, v) in &verdicts {
         if matches!(v, Verdict::Failed(_)) {
             println!("  {} [{}]: {v:?}", bases[all[*i].base].name, describe(&all[*i]));

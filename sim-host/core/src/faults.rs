@@ -2,7 +2,7 @@
 //! kind), the time window it acts in, and its names in the summary. Parsed and checked
 //! against the spacecraft by `scenario::faults`; applied by the plant (a seized wheel), the
 //! sensors (gyro, star tracker, magnetometer, tachometers) and the actuation (wheel torque, torquer
-//! rods). docs/scenario.md `[[faults]]`.
+//! rods, CMG gimbals and rotors, thruster valves). docs/scenario.md `[[faults]]`.
 
 use serde::Serialize;
 
@@ -114,6 +114,27 @@ pub enum RodFault {
     Reversed,
 }
 
+/// A control moment gyro's fault.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CmgFault {
+    /// The gimbal is seized: its angle stays at its value at the onset (rate 0 whatever
+    /// the command).
+    GimbalStuck,
+    /// The rotor's momentum decays as `exp(-(t - onset)/tau)` while in force (its lost
+    /// momentum goes to the body: the total is conserved); it keeps what is left after.
+    RotorSpinDown { tau_s: f64 },
+}
+
+/// A thruster's fault (its valve; unknown to the flight code, unlike
+/// `actuators.thrusters.failures`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ThrusterFault {
+    /// No thrust whatever the command.
+    StuckClosed,
+    /// Full thrust (`thrust_n`, valve fully open) whatever the command.
+    StuckOpen,
+}
+
 /// One unit's fault.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Fault {
@@ -144,6 +165,17 @@ pub enum Fault {
         index: usize,
         kind: RodFault,
     },
+    /// CMG `index` (0-based, the order of the cluster's units: the pyramid's 1 to 4).
+    Cmg {
+        index: usize,
+        kind: CmgFault,
+    },
+    /// Thruster `index` (0-based, the order of `[actuators.thrusters]`: `thruster.0` is
+    /// `failures`' thruster 1).
+    Thruster {
+        index: usize,
+        kind: ThrusterFault,
+    },
 }
 
 /// A fault and its window.
@@ -168,6 +200,8 @@ impl Fault {
             Fault::Magnetorquer { index, .. } => format!("magnetorquer.{index}"),
             Fault::Css { index, .. } => format!("css.{index}"),
             Fault::Gnss(_) => "gnss".into(),
+            Fault::Cmg { index, .. } => format!("cmg.{index}"),
+            Fault::Thruster { index, .. } => format!("thruster.{index}"),
         }
     }
 
@@ -193,6 +227,10 @@ impl Fault {
             Fault::Css { kind: CssFault::Dead, .. } => "dead",
             Fault::Gnss(GnssFault::PositionJump { .. }) => "position_jump",
             Fault::Magnetorquer { kind: RodFault::Reversed, .. } => "reversed",
+            Fault::Cmg { kind: CmgFault::GimbalStuck, .. } => "gimbal_stuck",
+            Fault::Cmg { kind: CmgFault::RotorSpinDown { .. }, .. } => "rotor_spin_down",
+            Fault::Thruster { kind: ThrusterFault::StuckClosed, .. } => "stuck_closed",
+            Fault::Thruster { kind: ThrusterFault::StuckOpen, .. } => "stuck_open",
         }
     }
 
@@ -208,6 +246,7 @@ impl Fault {
             Fault::Gyro { kind: GyroFault::Noise { factor }, .. } => Some(*factor),
             Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),
             Fault::Gnss(GnssFault::PositionJump { m }) => Some(*m),
+            Fault::Cmg { kind: CmgFault::RotorSpinDown { tau_s }, .. } => Some(*tau_s),
             _ => None,
         }
     }

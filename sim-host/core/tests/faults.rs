@@ -121,7 +121,8 @@ fn invalid_entries_are_refused_naming_the_key() {
         (entry("wheel.x", "stuck", ""), "faults[0].unit", "0-based"),
         (entry("reactor.1", "stuck", ""), "faults[0].unit", "unknown unit"),
         (entry("gyro.w", "stuck", ""), "faults[0].unit", "gyro.x"),
-        (entry("cmg.0", "stuck", ""), "faults[0].unit", "modelled yet"),
+        (entry("cmg.0", "gimbal_stuck", ""), "faults[0].unit", "no cmg (no [actuators.cmg])"),
+        (entry("thruster.0", "stuck_open", ""), "faults[0].unit", "no thruster (no [actuators.thrusters])"),
         (entry("magnetorquer.3", "open", ""), "faults[0].unit", "magnetorquer.0 to magnetorquer.2"),
         (entry("wheel.1", "flip", ""), "faults[0].kind", "not a fault of wheel.1"),
         (entry("star_tracker", "stuck", ""), "faults[0].kind", "\"flip\", \"frozen\""),
@@ -304,7 +305,14 @@ fn truth(t: f64, craft: &sim_core::plant::Spacecraft) -> State {
         let rel = 100.0 + 50.0 * t + 10.0 * i as f64;
         wheels[i].h_abs_nms = p.inertia_kgm2 * (rel + Vec3::from(p.spin_axis).dot(&w));
     }
-    State { q: truth_q(t), w, gimbal_rad: [0.0; MAX_GIMBALS], gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels }
+    State {
+        q: truth_q(t),
+        w,
+        gimbal_rad: [0.0; MAX_GIMBALS],
+        gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
+        wheels,
+        cmg_rotor_scale: sim_core::plant::NOMINAL_ROTORS,
+    }
 }
 
 /// The frames of 10 s of samples at 10 Hz on the truth, with the scenario's faults.

@@ -28,6 +28,7 @@ fn state_at(t: f64, w: Vec3) -> State {
         gimbal_rad: [0.0; MAX_GIMBALS],
         gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
         wheels: Default::default(),
+        cmg_rotor_scale: sim_core::plant::NOMINAL_ROTORS,
     }
 }
 

@@ -46,7 +46,13 @@ pub struct State {
     /// Actual gimbal rates (a state only with a gimbal servo model; else the command).
     pub gimbal_rate_rad_s: [f64; MAX_GIMBALS],
     pub wheels: [WheelState; MAX_WHEELS],
+    /// Each CMG rotor's momentum as a fraction of its `h0_nms` (1 unless a spin-down fault
+    /// acted).
+    pub cmg_rotor_scale: [f64; MAX_GIMBALS],
 }
+
+/// Every CMG rotor at its nominal momentum ([`State::cmg_rotor_scale`]).
+pub const NOMINAL_ROTORS: [f64; MAX_GIMBALS] = [1.0; MAX_GIMBALS];
 
 /// Actuator inputs held constant over one dynamics step (zero-order hold).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -67,6 +73,7 @@ struct Deriv {
     dgimbal: [f64; MAX_GIMBALS],
     dgimbal_rate: [f64; MAX_GIMBALS],
     dwheel: [wheel::WheelDeriv; MAX_WHEELS],
+    drotor_scale: [f64; MAX_GIMBALS],
 }
 
 /// Every torque acting on the body at one instant, for telemetry and tests.
@@ -97,6 +104,12 @@ pub struct Spacecraft {
     pub seized: [bool; MAX_WHEELS],
     /// Each wheel's friction factor by an injected fault now (1: none; set by the run loop).
     pub friction_factor: [f64; MAX_WHEELS],
+    /// CMG gimbals seized by an injected fault now: rate 0 whatever the command (set by
+    /// the run loop).
+    pub gimbal_stuck: [bool; MAX_GIMBALS],
+    /// Each CMG rotor's spin-down rate by the injected faults now, `Σ 1/τ`, 1/s
+    /// (`d scale/dt = -rate · scale`; 0: none; set by the run loop).
+    pub rotor_decay_per_s: [f64; MAX_GIMBALS],
 }
 
 impl Spacecraft {
@@ -113,6 +126,8 @@ impl Spacecraft {
             env_cache: SnapshotCache::default(),
             seized: [false; MAX_WHEELS],
             friction_factor: [1.0; MAX_WHEELS],
+            gimbal_stuck: [false; MAX_GIMBALS],
+            rotor_decay_per_s: [0.0; MAX_GIMBALS],
         })
     }
 
@@ -130,12 +145,14 @@ impl Spacecraft {
     }
 
     /// Gimbal rates the hardware actually applies: with an ideal servo the command after
-    /// the rate limit and angle stops, with a servo model the lagging state.
+    /// the rate limit and angle stops, with a servo model the lagging state; a seized
+    /// gimbal's is 0.
     pub fn applied_gimbal_rates(&self, s: &State, u: &Input) -> [f64; MAX_GIMBALS] {
         let mut r = [0.0; MAX_GIMBALS];
         if let Some(c) = &self.cmg {
             for i in 0..c.units.len() {
                 r[i] = match c.servo {
+                    _ if self.gimbal_stuck[i] => 0.0,
                     Some(_) => s.gimbal_rate_rad_s[i],
                     None => c.applied_rate(u.gimbal_rate_cmd_rad_s[i], s.gimbal_rad[i]),
                 };
@@ -149,7 +166,7 @@ impl Spacecraft {
         if let Some(c) = &self.cmg
             && let Some(servo) = &c.servo
         {
-            for i in 0..c.units.len() {
+            for i in (0..c.units.len()).filter(|i| !self.gimbal_stuck[*i]) {
                 let cmd = c.applied_rate(u.gimbal_rate_cmd_rad_s[i], s.gimbal_rad[i]);
                 a[i] = servo.accel(cmd, s.gimbal_rate_rad_s[i]);
             }
@@ -157,9 +174,29 @@ impl Spacecraft {
         a
     }
 
+    /// Each rotor's `d scale/dt` at `s` (spin-down faults).
+    fn rotor_scale_rate(&self, s: &State) -> [f64; MAX_GIMBALS] {
+        let mut d = [0.0; MAX_GIMBALS];
+        for ((d, k), x) in d.iter_mut().zip(&self.rotor_decay_per_s).zip(&s.cmg_rotor_scale) {
+            if *k != 0.0 {
+                *d = -k * x;
+            }
+        }
+        d
+    }
+
+    /// The CMG cluster's momentum and its rate `ḣ` (gimbal motion and rotor spin-down) at
+    /// `s` with the applied gimbal `rates`, body axes (zeros without CMGs).
+    pub fn cmg_momentum_and_rate(&self, s: &State, rates: &[f64; MAX_GIMBALS]) -> (Vec3, Vec3) {
+        match &self.cmg {
+            Some(c) => c.momentum_and_rate_scaled(&s.gimbal_rad, rates, &s.cmg_rotor_scale, &self.rotor_scale_rate(s)),
+            None => (Vec3::zeros(), Vec3::zeros()),
+        }
+    }
+
     /// Actuator momentum in body axes (CMG cluster + wheels' absolute axial momentum).
     pub fn actuator_momentum(&self, s: &State) -> Vec3 {
-        let mut h = self.cmg.as_ref().map_or(Vec3::zeros(), |c| c.momentum(&s.gimbal_rad));
+        let mut h = self.cmg.as_ref().map_or(Vec3::zeros(), |c| c.momentum_scaled(&s.gimbal_rad, &s.cmg_rotor_scale));
         for (p, ws) in self.wheels.iter().zip(s.wheels.iter()) {
             h += Vec3::from(p.spin_axis) * ws.h_abs_nms;
         }
@@ -239,7 +276,10 @@ impl Spacecraft {
         let rates = self.applied_gimbal_rates(s, u);
         let mut t = Vec3::zeros();
         if let Some(c) = &self.cmg {
-            t += -c.momentum_rate(&s.gimbal_rad, &rates) - s.w.cross(&c.momentum(&s.gimbal_rad));
+            // Summed in the order of the recorded torque before rotor faults (bit for bit).
+            let (scale, scale_rate) = (&s.cmg_rotor_scale, &self.rotor_scale_rate(s));
+            t += -c.momentum_rate_scaled(&s.gimbal_rad, &rates, scale, scale_rate)
+                - s.w.cross(&c.momentum_scaled(&s.gimbal_rad, scale));
         }
         for (i, (p, (d, o))) in self.wheels.iter().zip(wheels).enumerate() {
             let a = Vec3::from(p.spin_axis);
@@ -250,10 +290,7 @@ impl Spacecraft {
 
     fn deriv(&self, t: f64, s: &State, u: &Input, env: Option<&EnvSnapshot>) -> Deriv {
         let rates = self.applied_gimbal_rates(s, u);
-        let (h, hdot) = match &self.cmg {
-            Some(c) => c.momentum_and_rate(&s.gimbal_rad, &rates),
-            None => (Vec3::zeros(), Vec3::zeros()),
-        };
+        let (h, hdot) = self.cmg_momentum_and_rate(s, &rates);
         let mut h_total = h;
         let mut torque = self.external_torque_nm - hdot;
         let mut dwheel = [wheel::WheelDeriv::default(); MAX_WHEELS];
@@ -270,21 +307,31 @@ impl Spacecraft {
         let big_h = self.inertia * s.w + h_total;
         let dw = self.inertia_inv * (torque - s.w.cross(&big_h));
         let dq = s.q * Quat::from_imag(s.w) * 0.5;
-        Deriv { dq, dw, dgimbal: rates, dgimbal_rate: self.gimbal_accel(s, u), dwheel }
+        let (dgimbal_rate, drotor_scale) = (self.gimbal_accel(s, u), self.rotor_scale_rate(s));
+        Deriv { dq, dw, dgimbal: rates, dgimbal_rate, dwheel, drotor_scale }
     }
 
     fn add(s: &State, d: &Deriv, h: f64) -> State {
         let mut g = s.gimbal_rad;
         let mut gr = s.gimbal_rate_rad_s;
+        let mut rs = s.cmg_rotor_scale;
         for i in 0..MAX_GIMBALS {
             g[i] += h * d.dgimbal[i];
             gr[i] += h * d.dgimbal_rate[i];
+            rs[i] += h * d.drotor_scale[i];
         }
         let mut wh = s.wheels;
         for (x, dx) in wh.iter_mut().zip(d.dwheel.iter()) {
             *x = x.add_scaled(dx, h);
         }
-        State { q: s.q + d.dq * h, w: s.w + d.dw * h, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
+        State {
+            q: s.q + d.dq * h,
+            w: s.w + d.dw * h,
+            gimbal_rad: g,
+            gimbal_rate_rad_s: gr,
+            wheels: wh,
+            cmg_rotor_scale: rs,
+        }
     }
 
     /// Forget the cached snapshots (after the environment changed).
@@ -337,10 +384,19 @@ impl Spacecraft {
         let k4 = self.deriv(t + h, &Self::add(s, &k3, h), u, env[2]);
         let mut g = s.gimbal_rad;
         let mut gr = s.gimbal_rate_rad_s;
+        let mut rs = s.cmg_rotor_scale;
         for i in 0..MAX_GIMBALS {
             g[i] += h / 6.0 * (k1.dgimbal[i] + 2.0 * k2.dgimbal[i] + 2.0 * k3.dgimbal[i] + k4.dgimbal[i]);
             gr[i] += h / 6.0
                 * (k1.dgimbal_rate[i] + 2.0 * k2.dgimbal_rate[i] + 2.0 * k3.dgimbal_rate[i] + k4.dgimbal_rate[i]);
+            if self.gimbal_stuck[i] {
+                gr[i] = 0.0; // a seized gimbal is at rest: its servo restarts from 0 when freed
+            }
+            // Only a spin-down moves it: nominal rotors keep 1 to the bit.
+            if self.rotor_decay_per_s[i] != 0.0 {
+                rs[i] += h / 6.0
+                    * (k1.drotor_scale[i] + 2.0 * k2.drotor_scale[i] + 2.0 * k3.drotor_scale[i] + k4.drotor_scale[i]);
+            }
         }
         if let Some(c) = &self.cmg {
             c.clamp_angles(&mut g);
@@ -357,7 +413,7 @@ impl Spacecraft {
         }
         let q = s.q + (k1.dq + (k2.dq + k3.dq) * 2.0 + k4.dq) * (h / 6.0);
         let w = s.w + (k1.dw + (k2.dw + k3.dw) * 2.0 + k4.dw) * (h / 6.0);
-        State { q: q.normalize(), w, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh }
+        State { q: q.normalize(), w, gimbal_rad: g, gimbal_rate_rad_s: gr, wheels: wh, cmg_rotor_scale: rs }
     }
 
     /// Total angular momentum in the inertial frame, N m s (conserved without T_ext).
@@ -399,6 +455,7 @@ mod tests {
             gimbal_rad: g,
             gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
             wheels: [WheelState::default(); MAX_WHEELS],
+            cmg_rotor_scale: NOMINAL_ROTORS,
         }
     }
 

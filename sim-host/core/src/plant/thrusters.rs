@@ -20,8 +20,13 @@
 //! `F (b - a + close_delay - open_delay)`: equal delays shift the impulse without
 //! changing it. Failures override the valve from their time on, exactly inside the
 //! step: `Off` closes it for good, `StuckOn` holds it open whatever the command.
+//! Injected faults (`[[faults]]` `stuck_closed` / `stuck_open`, [`InjectedFailure`],
+//! unknown to the flight code) override the same way over their window only, and over
+//! the known failures; the latest in force in list order wins. Stuck open is full
+//! thrust: `thrust_n`, the valve open over the whole of every step in the window.
 //! Propellant: `ṁ = F / (Isp g0)` while open.
 
+use crate::faults::Window;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
@@ -59,12 +64,24 @@ pub enum Failure {
     StuckOn,
 }
 
+/// A valve failure injected over a window (`[[faults]]`, issue 42).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InjectedFailure {
+    /// Thruster index, 0-based.
+    pub index: usize,
+    pub window: Window,
+    pub failure: Failure,
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ThrusterSet {
     pub thrusters: Vec<ThrusterSpec>,
     /// `(thruster index (0-based), time s, failure)`. For a thruster with several
     /// entries the latest one whose time has passed applies.
     pub failures: Vec<(usize, f64, Failure)>,
+    /// Injected faults, in list order (plant only; not part of a thruster description).
+    #[serde(skip)]
+    pub injected: Vec<InjectedFailure>,
     /// Centre of mass, body axes, m (torques are taken about it).
     pub cg_m: [f64; 3],
 }
@@ -120,7 +137,7 @@ impl ThrusterSet {
                 torque_per_n_m: Some(*c),
             })
             .collect();
-        Self { thrusters, failures: Vec::new(), cg_m: [0.0; 3] }
+        Self { thrusters, failures: Vec::new(), injected: Vec::new(), cg_m: [0.0; 3] }
     }
 
     /// Paper 004 table 2 (r = d = 0.73 m), B × thrust. Isp = [`PAPER004_ASSUMED_ISP_S`]
@@ -148,8 +165,15 @@ impl ThrusterSet {
         (f.into(), tq.into())
     }
 
-    /// Failure in force at time `tau` for thruster `i`.
+    /// Failure in force at time `tau` for thruster `i`: the latest injected fault in force,
+    /// else the known failure.
     fn failure_at(&self, i: usize, tau: f64) -> Option<Failure> {
+        let injected = self.injected.iter().rfind(|f| f.index == i && f.window.active(tau));
+        injected.map(|f| f.failure).or_else(|| self.known_failure_at(i, tau))
+    }
+
+    /// Known failure (`failures`) in force at time `tau` for thruster `i`.
+    fn known_failure_at(&self, i: usize, tau: f64) -> Option<Failure> {
         let mut best: Option<(f64, Failure)> = None;
         for &(j, tf, kind) in &self.failures {
             if j == i && tf <= tau && best.is_none_or(|(tb, _)| tf >= tb) {
@@ -239,6 +263,10 @@ impl ThrusterSet {
             //    piecewise between failure times falling inside the step.
             let mut cuts = vec![t];
             cuts.extend(set.failures.iter().filter(|&&(j, tf, _)| j == i && tf > t && tf < t1).map(|f| f.1));
+            for f in set.injected.iter().filter(|f| f.index == i) {
+                let edges = [Some(f.window.onset_s), f.window.end_s];
+                cuts.extend(edges.into_iter().flatten().filter(|&x| x > t && x < t1));
+            }
             cuts.push(t1);
             cuts.sort_by(f64::total_cmp);
             let mut iv: Vec<(f64, f64)> = Vec::new();
@@ -303,6 +331,7 @@ mod tests {
                 torque_per_n_m: None,
             }],
             failures: vec![],
+            injected: vec![],
             cg_m: [0.0; 3],
         }
     }
@@ -418,6 +447,36 @@ mod tests {
     }
 
     #[test]
+    fn injected_faults_override_the_valve_over_their_window_only() {
+        let dt = 0.001;
+        let w = |on: f64, end: Option<f64>| Window { onset_s: on, end_s: end };
+        // Stuck open from 2.5 ms to 5.25 ms with no command: the open fraction of each
+        // step is its overlap with the window over dt.
+        let mut set = one(0.0, 0.0, 0.0);
+        set.injected = vec![InjectedFailure { index: 0, window: w(0.0025, Some(0.00525)), failure: Failure::StuckOn }];
+        let mut s = ThrusterState::new(1);
+        let f = run(&set, &mut s, &[0; 8], dt);
+        let want = [0.0, 0.0, 0.5, 1.0, 1.0, 0.25, 0.0, 0.0];
+        assert!(f.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9), "{f:?}");
+        assert!((s.on_time_s[0] - 0.00275).abs() < 1e-15 && s.pulses[0] == 1);
+        // Stuck closed from 3 ms under a held command: no thrust; the command resumes
+        // after the window; a later entry in force wins over an earlier one and over a
+        // known failure.
+        set.injected = vec![InjectedFailure { index: 0, window: w(0.003, Some(0.005)), failure: Failure::Off }];
+        let mut s = ThrusterState::new(1);
+        assert_eq!(run(&set, &mut s, &[1; 7], dt), vec![1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0]);
+        set.failures = vec![(0, 0.0, Failure::Off)];
+        set.injected.push(InjectedFailure { index: 0, window: w(0.004, None), failure: Failure::StuckOn });
+        let mut s = ThrusterState::new(1);
+        assert_eq!(run(&set, &mut s, &[1; 7], dt), vec![0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0]);
+        // Another thruster's fault does not touch this one.
+        set.injected = vec![InjectedFailure { index: 1, window: w(0.0, None), failure: Failure::StuckOn }];
+        set.failures.clear();
+        let mut s = ThrusterState::new(1);
+        assert_eq!(run(&set, &mut s, &[0; 3], dt), vec![0.0; 3]);
+    }
+
+    #[test]
     fn pulse_counter_counts_rising_edges() {
         let mut s = ThrusterState::new(1);
         run(&one(0.0, 0.0, 0.0), &mut s, &[0, 1, 1, 1, 0, 1, 0, 0, 1, 1, 0, 1], 0.01);
@@ -451,6 +510,7 @@ mod tests {
                 spec([0.0, -l, h], [1.0, 0.0, 0.0]),
             ],
             failures: vec![],
+            injected: vec![],
             cg_m: [0.0, 0.0, 0.0],
         };
         // By hand, r × F with r = (x, y, h): (y Fz - h Fy, h Fx - x Fz, x Fy - y Fx).

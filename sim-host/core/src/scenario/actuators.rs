@@ -535,6 +535,7 @@ impl Scenario {
                     })
                     .collect(),
                 failures: Vec::new(),
+                injected: Vec::new(),
                 cg_m: t.cg_m,
             },
             layout => {

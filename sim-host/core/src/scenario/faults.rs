@@ -5,7 +5,8 @@
 
 use super::{Scenario, bad};
 use crate::faults::{
-    CssFault, Fault, GnssFault, GyroFault, MAX_FAULTS, MagFault, RodFault, TimedFault, TrackerFault, WheelFault, Window,
+    CmgFault, CssFault, Fault, GnssFault, GyroFault, MAX_FAULTS, MagFault, RodFault, ThrusterFault, TimedFault,
+    TrackerFault, WheelFault, Window,
 };
 use crate::plant::wheel::Fidelity;
 use acs_flight::validation::MAX_RATE_RAD_S;
@@ -32,6 +33,12 @@ pub const MAX_TACH_NOISE_FACTOR: f64 = 1000.0;
 /// `sensors.magnetometer.bias_t`); beyond it every reading is refused on board anyway.
 pub const MAX_MAG_BIAS_T: f64 = acs_flight::validation::MAX_FIELD_T as f64;
 
+/// Shortest and longest CMG rotor spin-down time constant, s: below 1 s the rotor's momentum
+/// goes to the body as an impulse more than a spin-down; beyond 1e7 s (four months) it
+/// does not decay within any run.
+pub const MIN_SPIN_DOWN_TAU_S: f64 = 1.0;
+pub const MAX_SPIN_DOWN_TAU_S: f64 = 1.0e7;
+
 /// One `[[faults]]` entry as written.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -39,7 +46,7 @@ pub struct FaultSpec {
     /// When the fault starts, s (>= 0).
     pub onset_s: f64,
     /// "wheel.N", "gyro.x|y|z", "star_tracker", "magnetorquer.N", "magnetometer.x|y|z",
-    /// "css.N", "gnss" (N 0-based).
+    /// "css.N", "gnss", "cmg.N", "thruster.N" (N 0-based).
     pub unit: String,
     /// The fault, among those the unit's kind has.
     pub kind: String,
@@ -50,10 +57,6 @@ pub struct FaultSpec {
     #[serde(default)]
     pub end_s: Option<f64>,
 }
-
-/// The units the format names that no fault kind is modelled for yet (refused, not
-/// ignored).
-const UNMODELLED: [&str; 2] = ["cmg", "thruster"];
 
 impl Scenario {
     /// The `[[faults]]` list, typed and checked against this spacecraft.
@@ -190,18 +193,53 @@ impl Scenario {
                 };
                 Ok(Fault::Magnetorquer { index, kind })
             }
-            n if UNMODELLED.contains(&n) => {
-                Err(bad(&unit_key, format!("{:?}: no fault of a {n} is modelled yet (issue 42)", f.unit)))
-            }
+            "cmg" | "thruster" => self.momentum_or_thrust_fault(name, index, f, key, &m),
             _ => Err(bad(
                 &unit_key,
                 format!(
                     "unknown unit {:?} (known: \"wheel.N\", \"gyro.x|y|z\", \"star_tracker\", \"magnetorquer.N\", \
-                     \"magnetometer.x|y|z\", \"css.N\", \"gnss\")",
+                     \"magnetometer.x|y|z\", \"css.N\", \"gnss\", \"cmg.N\", \"thruster.N\")",
                     f.unit
                 ),
             )),
         }
+    }
+
+    /// A CMG's (`name` "cmg") or a thruster's fault: its index below the number the
+    /// spacecraft has, its kind, its magnitude.
+    fn momentum_or_thrust_fault(
+        &self,
+        name: &str,
+        index: Option<&str>,
+        f: &FaultSpec,
+        key: &str,
+        m: &Magnitude,
+    ) -> Result<Fault> {
+        let unit_key = format!("{key}.unit");
+        let kind_err = |known: &str| {
+            bad(&format!("{key}.kind"), format!("{:?} is not a fault of {} (known: {known})", f.kind, f.unit))
+        };
+        if name == "cmg" {
+            // The only layout, "pyramid4", has one unit per initial gimbal angle.
+            let n = self.actuators.cmg.as_ref().map_or(0, |c| c.initial_gimbal_deg.len());
+            let index = self.unit_index(index, n, &unit_key, "cmg", "[actuators.cmg]")?;
+            let kind = match f.kind.as_str() {
+                "gimbal_stuck" => m.none(CmgFault::GimbalStuck)?,
+                "rotor_spin_down" => CmgFault::RotorSpinDown {
+                    tau_s: m.within(MIN_SPIN_DOWN_TAU_S, MAX_SPIN_DOWN_TAU_S, "the rotor's time constant in s")?,
+                },
+                _ => return Err(kind_err("\"gimbal_stuck\", \"rotor_spin_down\"")),
+            };
+            return Ok(Fault::Cmg { index, kind });
+        }
+        let n = self.thruster_set().map_or(0, |s| s.thrusters.len());
+        let index = self.unit_index(index, n, &unit_key, "thruster", "[actuators.thrusters]")?;
+        let kind = match f.kind.as_str() {
+            "stuck_closed" => m.none(ThrusterFault::StuckClosed)?,
+            "stuck_open" => m.none(ThrusterFault::StuckOpen)?,
+            _ => return Err(kind_err("\"stuck_closed\", \"stuck_open\"")),
+        };
+        Ok(Fault::Thruster { index, kind })
     }
 
     /// The 0-based index of a numbered unit, below the `n` the spacecraft has.

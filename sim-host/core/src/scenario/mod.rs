@@ -7,7 +7,7 @@ use crate::environment::frames::julian_date;
 use crate::environment::model::EnvSnapshot;
 use crate::plant::cmg::GimbalServo;
 use crate::plant::wheel::WheelState;
-use crate::plant::{MAX_GIMBALS, MAX_WHEELS, Spacecraft, State, cmg::CmgCluster};
+use crate::plant::{MAX_GIMBALS, MAX_WHEELS, NOMINAL_ROTORS, Spacecraft, State, cmg::CmgCluster};
 use acs_flight::math::EulerSeq;
 use acs_flight::params::{FlightParams, GuidanceParams, PARAMS_VERSION, TargetFrame};
 use anyhow::{Context, Result, anyhow};
@@ -690,7 +690,7 @@ impl Scenario {
         for (i, p) in craft.wheels.iter().enumerate() {
             wheels[i] = WheelState::spinning(p, speeds.get(i).copied().unwrap_or(0.0) * rpm, &w.into());
         }
-        State { q, w, gimbal_rad: g, gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels }
+        State { q, w, gimbal_rad: g, gimbal_rate_rad_s: [0.0; MAX_GIMBALS], wheels, cmg_rotor_scale: NOMINAL_ROTORS }
     }
 
     /// The parameter set uploaded to the flight code (single `[controller]`).

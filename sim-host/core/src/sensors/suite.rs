@@ -597,6 +597,7 @@ mod tests {
             gimbal_rad: [0.0; MAX_GIMBALS],
             gimbal_rate_rad_s: [0.0; MAX_GIMBALS],
             wheels: Default::default(),
+            cmg_rotor_scale: crate::plant::NOMINAL_ROTORS,
         }
     }
 

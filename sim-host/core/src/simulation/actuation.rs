@@ -3,10 +3,10 @@
 
 use super::probe::{LoopInjection, PlantCommands};
 use crate::attitude::Vec3;
-use crate::faults::{Fault, RodFault, TimedFault, WheelFault};
+use crate::faults::{Fault, RodFault, ThrusterFault, TimedFault, WheelFault};
 use crate::plant::delay::DelayLine;
 use crate::plant::magnetorquers::MagnetorquerSet;
-use crate::plant::thrusters::{ThrusterSet, ThrusterState};
+use crate::plant::thrusters::{Failure, InjectedFailure, ThrusterSet, ThrusterState};
 use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS};
 use acs_flight::link::ActuatorCommand;
 
@@ -63,7 +63,8 @@ impl Actuation {
     }
 
     /// Injects the actuator faults among `list` (wheel torque gain and runaway, torquer
-    /// rods; a seized wheel is the plant's); `max_torque_nm`: each wheel's full torque.
+    /// rods, thruster valves; a seized wheel and the CMGs' faults are the plant's);
+    /// `max_torque_nm`: each wheel's full torque.
     pub(super) fn set_faults(&mut self, list: &[TimedFault], max_torque_nm: impl Iterator<Item = f64>) {
         self.faults = list
             .iter()
@@ -78,6 +79,22 @@ impl Actuation {
             .collect();
         for (d, t) in self.wheel_max_torque_nm.iter_mut().zip(max_torque_nm) {
             *d = t;
+        }
+        if let Some(set) = &mut self.thrusters {
+            set.injected = list
+                .iter()
+                .filter_map(|f| match f.fault {
+                    Fault::Thruster { index, kind } => Some(InjectedFailure {
+                        index,
+                        window: f.window,
+                        failure: match kind {
+                            ThrusterFault::StuckClosed => Failure::Off,
+                            ThrusterFault::StuckOpen => Failure::StuckOn,
+                        },
+                    }),
+                    _ => None,
+                })
+                .collect();
         }
     }
 

@@ -16,11 +16,11 @@ use crate::attitude::{Quat, Vec3, error_angle_and_vector, euler_from_quat};
 use crate::environment::guidance::{PointingErrors, Sky, TruthGuidance, TruthSet, TruthStep};
 use crate::environment::model::EnvSnapshot;
 use crate::estimation::stats::EstimationStats;
-use crate::faults::{Fault, FaultLog, WheelFault};
+use crate::faults::{CmgFault, Fault, FaultLog, WheelFault};
 use crate::link::{FlightLink, LinkInfo};
 use crate::plant::delay::DelayLine;
 use crate::plant::wheel::{WheelDeriv, WheelOutput};
-use crate::plant::{Input, MAX_WHEELS, Spacecraft, State};
+use crate::plant::{Input, MAX_GIMBALS, MAX_WHEELS, Spacecraft, State};
 use crate::recorder::columns::Layout;
 use crate::recorder::control_lost::{ControlWatch, LostVerdict};
 use crate::recorder::momentum::MomentumStats;
@@ -456,7 +456,7 @@ impl<'a> Simulation<'a> {
         }
         self.ground_commands(t)?;
         self.faults.observe(t);
-        self.seize_wheels(t);
+        self.plant_faults(t);
         let (cmd, ticks) = self.flight_command(k, t)?;
         if self.diverged_at(t, command_non_finite(&cmd)) {
             return Ok(());
@@ -709,7 +709,7 @@ impl<'a> Simulation<'a> {
                 input.thruster_torque_nm = self.act.thruster_torque(thr_mask, tj, h);
                 input.wheel_torque_cmd_nm = self.act.wheel_torques();
             }
-            self.seize_wheels(tj);
+            self.plant_faults(tj);
             // The plant integrator (the only call): RK4 over [tj, tj + h) with the
             // environment evaluated at every stage's own time (issue 9).
             self.state = self.craft.rk4_env(tj, &self.state, input, h)?;
@@ -723,11 +723,14 @@ impl<'a> Simulation<'a> {
         Ok(())
     }
 
-    /// The wheels seized, and the friction factors, by the injected faults at `t` (checked at every
-    /// dynamics step).
-    fn seize_wheels(&mut self, t: f64) {
+    /// The plant's faults in force at `t` (checked at every dynamics step): the wheels
+    /// seized and their friction factors, the CMG gimbals seized and the rotors' spin-down
+    /// rates.
+    fn plant_faults(&mut self, t: f64) {
         let mut seized = [false; MAX_WHEELS];
         let mut friction = [1.0; MAX_WHEELS];
+        let mut gimbal_stuck = [false; MAX_GIMBALS];
+        let mut decay = [0.0; MAX_GIMBALS];
         for f in self.faults.list.iter().filter(|f| f.window.active(t)) {
             match f.fault {
                 Fault::Wheel { index, kind: WheelFault::Stuck } => {
@@ -740,11 +743,23 @@ impl<'a> Simulation<'a> {
                         *k *= factor;
                     }
                 }
+                Fault::Cmg { index, kind: CmgFault::GimbalStuck } => {
+                    if let Some(s) = gimbal_stuck.get_mut(index) {
+                        *s = true;
+                    }
+                }
+                Fault::Cmg { index, kind: CmgFault::RotorSpinDown { tau_s } } => {
+                    if let Some(k) = decay.get_mut(index) {
+                        *k += 1.0 / tau_s; // tau_s >= 1 s (validated)
+                    }
+                }
                 _ => {}
             }
         }
         self.craft.seized = seized;
         self.craft.friction_factor = friction;
+        self.craft.gimbal_stuck = gimbal_stuck;
+        self.craft.rotor_decay_per_s = decay;
     }
 
     /// The true state at the substep boundary `t` to the sensors due there, with the
