@@ -7,7 +7,7 @@ probability, the latency from the fault's first step in force to its detection
 (median / p95 / max), the isolated-as counts, the wrong-unit count, the false alarms, the
 mode at the onset, and the outcome figures of the class. Standard library only.
 
-    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|magnetometer|wheel|nominal [--refly SIM_HOST]
+    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|magnetometer|wheel|gnss|undetected|nominal [--refly SIM_HOST]
     scripts/fdir-campaign.py --self-test
 
 Exit status 1 when a run errored, a fault was missed or isolated as another unit, a false
@@ -24,6 +24,14 @@ For magnetometer, a stuck axis and a bias of at least MAG_MUST_DETECT_T must be 
 and the run must end in hold within HOLD_DEG; the event names the injected axis or the
 magnetometer (ambiguous). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
 absorbed by the filter's bias random walk: docs/fdir.md "Gyro bias step").
+For undetected (a fault class the flight code has no monitor for: gyro noise and saturation,
+a dead sun-sensor head, a GNSS jump, a magnetorquer rod open or reversed), the run's verdict
+is an outcome, not an error: a run passes when its verdict is not ok (the simulator said it
+lost control: a non-zero exit) or when it ends in hold within HOLD_DEG or in sun-safe at
+rest; an ok run that ended anywhere else is a silent loss of pointing and fails. The table
+groups the runs by kind and magnitude decade with their verdicts and final errors. The gnss
+class (a GNSS position jump, [fdir.gnss]) is judged the same way, and every jump must be
+detected.
 Quantiles are nearest-rank (the ceil(q n)-th smallest value).
 """
 import argparse
@@ -194,6 +202,16 @@ def outcome(cls, s, det_s, bad, refly=None):
         must = fig["kind"] == "stuck" or abs(fig["magnitude"] or 0.0) >= MAG_MUST_DETECT_T
         kept = fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG
         return (fig["detected"] or not must) and kept and not bad, fig
+    if cls in ("undetected", "gnss"):
+        f0 = (s.get("faults") or [{}])[0]
+        fig["kind"], fig["magnitude"], fig["unit"] = f0.get("kind"), f0.get("magnitude"), f0.get("unit")
+        fig["detected"] = det_s is not None
+        fig["verdict"] = s.get("run_status")
+        fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
+        kept = (fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG) or (
+            fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
+        )
+        return (fig["verdict"] != "ok" or kept) and not bad, fig
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
@@ -211,7 +229,8 @@ def analyse(dirname, cls, sim_host=None):
     latency, isolated, onset_mode, figs, iso_kind = [], {}, {}, [], {}
     for path, status, s in runs:
         run = os.path.basename(os.path.dirname(path))
-        if status not in ("ok", "requirement_failed") or s.get("run_status") != "ok":
+        verdict_is_outcome = cls in ("undetected", "gnss")  # a lost-control verdict is what it measures
+        if status not in ("ok", "requirement_failed") or (s.get("run_status") != "ok" and not verdict_is_outcome):
             errored.append(f"{run}:{status}/{s.get('run_status')}")
         fd = s.get("fdir") or {}
         false_alarms += fd.get("false_alarms", 0)
@@ -266,7 +285,7 @@ def analyse(dirname, cls, sim_host=None):
     report_outcome(cls, figs)
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
-    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer") and detected < n
+    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "undetected") and detected < n
     bad = errored or missed or wrong or false_alarms or failed_outcome
     return 1 if bad else 0
 
@@ -292,6 +311,8 @@ def report_outcome(cls, figs):
         report_bias_step(figs)
     if cls == "magnetometer":
         report_magnetometer(figs)
+    if cls in ("undetected", "gnss"):
+        report_undetected(figs)
     if cls in ("wheel", "nominal"):
         ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
         if ape:
@@ -373,10 +394,37 @@ def report_magnetometer(figs):
             print(f"  missed: run {f['run']}, {f['kind']} {f['magnitude']}, ends {f['final_mode']} {f['final_error_deg']:.4f} deg")
 
 
+def report_undetected(figs):
+    groups = {}
+    for f in figs:
+        mag = f["magnitude"]
+        if not mag:  # a kind without a magnitude (or 0)
+            key = f"{f['kind']}" if mag is None else f"{f['kind']} 0"
+        else:
+            key = f"{f['kind']} {'-' if mag < 0 else '+'}{decade(mag):.0e}"
+        groups.setdefault(key, []).append(f)
+    for key in sorted(groups):
+        fs = groups[key]
+        verdicts, modes = {}, {}
+        for f in fs:
+            count(verdicts, f["verdict"])
+            count(modes, f["final_mode"])
+        det = sum(1 for f in fs if f["detected"])
+        fin = [f["final_error_deg"] for f in fs if f["final_error_deg"] is not None and f["final_mode"] == "hold"]
+        print(
+            f"{key}: {len(fs)} runs, detected {det}; verdicts {verdicts}; final mode {modes};"
+            f" final error in hold (deg) median / p95 / max: {spread(fin, '{:.4f}')}"
+        )
+    onset = {}
+    for f in figs:
+        count(onset, f["mode_at_onset"])
+    print(f"mode at the onset: {onset}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dir", nargs="?")
-    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "magnetometer", "wheel", "nominal"])
+    ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "magnetometer", "wheel", "gnss", "undetected", "nominal"])
     ap.add_argument("--self-test", action="store_true")
     ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound, every gyro-bias-step run (CSV)")
     a = ap.parse_args()
