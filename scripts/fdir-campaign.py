@@ -22,7 +22,9 @@ ambiguous, another axis) and the missed steps with their magnitudes and pointing
 For magnetometer, a stuck axis and a bias of at least MAG_MUST_DETECT_T must be detected
 (a smaller bias across the field may not show in its magnitude before the run ends: reported)
 and the run must end in hold within HOLD_DEG; the event names the injected axis or the
-magnetometer (ambiguous). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
+magnetometer (ambiguous). For wheel, every fault must be detected but a tachometer noise
+factor below TACH_NOISE_MUST_DETECT (reported per factor: a slightly noisier tachometer may
+stay under the floor while the wheel works). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
 absorbed by the filter's bias random walk: docs/fdir.md "Gyro bias step").
 Quantiles are nearest-rank (the ceil(q n)-th smallest value).
 """
@@ -50,6 +52,12 @@ BIAS_MUST_DETECT_RAD_S = 1.0e-3
 # magnetometer: a bias at or above this must be detected (5x the test's 1.12 uT threshold
 # on the field magnitude: seen unless nearly perpendicular to the field for the whole run)
 MAG_MUST_DETECT_T = 5.0e-6
+# wheel tach_noise: a factor at or above this must be detected. The residual of a tachometer
+# with noise f sigma_t is noise of sigma_r(f) = (I_w/dt) sqrt(2 (f^2 sigma_t^2 + q^2/12 +
+# sigma_g^2)); on scenarios/fdir/wheel-tach-noise-6u.toml (sigma_t = 5e-5 rad/s) the 5e-8 N m
+# floor is 1.38 sigma_r at f = 8: 17 % of steps exceed and 4 of 6 fires within seconds
+# (docs/fdir.md "Campaigns"). Below it a miss is reported, not failed: the wheel still works.
+TACH_NOISE_MUST_DETECT = 8.0
 
 
 def binom_tail_ge(k, n, p):
@@ -197,7 +205,14 @@ def outcome(cls, s, det_s, bad, refly=None):
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
-        return True, fig  # the campaign's own requirements judge it
+        f0 = (s.get("faults") or [{}])[0]
+        fig["kind"], fig["magnitude"] = f0.get("kind"), f0.get("magnitude")
+        fig["detected"] = det_s is not None
+        fig["latency_s"] = None if det_s is None else det_s - f0.get("injected_at_s")
+        # a tachometer only a little noisier may stay under the floor (the wheel works)
+        must = not (fig["kind"] == "tach_noise" and abs(fig["magnitude"] or 0.0) < TACH_NOISE_MUST_DETECT)
+        # the hold itself: the campaign's own requirements judge it
+        return (fig["detected"] or not must) and not bad, fig
     return not bad, fig
 
 
@@ -248,6 +263,7 @@ def analyse(dirname, cls, sim_host=None):
         bad_run = bool(evs) if cls == "nominal" else fd.get("false_alarms", 0) > 0
         ok, fig = outcome(cls, s, det_s, bad_run, refly)
         fig["run"] = run
+        fig["isolated_as"] = [e.get("isolated_as") for e in evs if e.get("fault") == 0]
         figs.append(fig)
         if not ok:
             failed_outcome.append(run)
@@ -266,7 +282,7 @@ def analyse(dirname, cls, sim_host=None):
     report_outcome(cls, figs)
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
-    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer") and detected < n
+    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "wheel") and detected < n
     bad = errored or missed or wrong or false_alarms or failed_outcome
     return 1 if bad else 0
 
@@ -292,6 +308,8 @@ def report_outcome(cls, figs):
         report_bias_step(figs)
     if cls == "magnetometer":
         report_magnetometer(figs)
+    if cls == "wheel":
+        report_wheel(figs)
     if cls in ("wheel", "nominal"):
         ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
         if ape:
@@ -352,6 +370,32 @@ def report_bias_step(figs):
     print(f"max error after an onset in hold (deg), median / p95 / max: {spread(err, '{:.4f}')}")
     fin = [f["final_error_deg"] for f in figs if f["final_error_deg"] is not None]
     print(f"final error, all runs (deg), median / p95 / max: {spread(fin, '{:.4f}')}")
+
+
+def report_wheel(figs):
+    """Per fault magnitude (a kind with one, e.g. tach_noise): detection, latency, isolation."""
+    groups = {}
+    for f in figs:
+        if f.get("magnitude") is not None:
+            groups.setdefault((f["kind"], abs(f["magnitude"])), []).append(f)
+    for (kind, mag) in sorted(groups):
+        fs = groups[(kind, mag)]
+        det = [f for f in fs if f["detected"]]
+        lat = [f["latency_s"] for f in det]
+        ape = [f["ape_deg"] for f in fs if f.get("ape_deg") is not None]
+        iso = {}
+        for f in fs:
+            for i in f["isolated_as"]:
+                count(iso, i)
+        print(
+            f"{kind} {mag:g}: detected {len(det)} / {len(fs)} (P_D >= {cp_lower(len(det), len(fs)):.4f});"
+            f" latency (s) median / p95 / max: {spread(lat)}; isolated as {iso};"
+            f" APE after settle (deg) {spread(ape, '{:.5f}')}"
+        )
+    # a tachometer noise below TACH_NOISE_MUST_DETECT may be missed: counted above
+    for f in figs:
+        if not f["detected"] and not (f["kind"] == "tach_noise" and abs(f["magnitude"] or 0.0) < TACH_NOISE_MUST_DETECT):
+            print(f"  missed: run {f['run']}, {f['kind']} {f['magnitude']}")
 
 
 def report_magnetometer(figs):
