@@ -175,8 +175,9 @@ def count(d, key):
 def outcome(cls, s, det_s, bad, refly=None):
     """The class's outcome for one run: (passed, figures); refly() gives the estimate's
     largest error after the onset (None: not available)."""
-    # a diverged run has no final rate (null components)
+    # a diverged run's final rate (null or astronomical components) is no outcome
     rate = math.sqrt(sum(math.nan if w is None else w * w for w in s.get("final_rate_rad_s") or [math.nan] * 3))
+    rate = math.nan if s.get("run_status") == "diverged" else rate
     fig = {"final_mode": s.get("final_mode"), "final_rate_rad_s": rate, "final_error_deg": s.get("final_error_deg")}
     safe = first_entry_after(s, "sun_safe", det_s) if det_s is not None else None
     fig["to_safe_s"] = None if safe is None else safe - det_s
@@ -303,7 +304,7 @@ def report_outcome(cls, figs):
     for f in figs:
         count(modes, f["final_mode"])
     print(f"final mode: {modes}")
-    rates = [math.degrees(f["final_rate_rad_s"]) for f in figs if not math.isnan(f["final_rate_rad_s"])]
+    rates = [math.degrees(f["final_rate_rad_s"]) for f in figs if math.isfinite(f["final_rate_rad_s"])]
     print(f"final |w| (deg/s), median / p95 / max: {spread(rates, '{:.4f}')}")
     if cls == "tracker":
         est = [f["est_max_deg"] for f in figs if f["est_max_deg"] is not None]
