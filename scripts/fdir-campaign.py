@@ -22,7 +22,10 @@ ambiguous, another axis) and the missed steps with their magnitudes and pointing
 For magnetometer, a stuck axis and a bias of at least MAG_MUST_DETECT_T must be detected
 (a smaller bias across the field may not show in its magnitude before the run ends: reported)
 and the run must end in hold within HOLD_DEG; the event names the injected axis or the
-magnetometer (ambiguous). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
+magnetometer (ambiguous). For wheel, every fault must be detected but a tachometer noise
+factor below TACH_NOISE_MUST_DETECT or a friction factor below FRICTION_MUST_DETECT (reported
+per factor: a slightly noisier tachometer may stay under the floor while the wheel works, a
+speed loop absorbs a small friction). A missed bias step below BIAS_MUST_DETECT_RAD_S is reported, not failed (a small step may be
 absorbed by the filter's bias random walk: docs/fdir.md "Gyro bias step").
 For undetected (a fault class the flight code has no monitor for: gyro noise and saturation,
 a dead sun-sensor head, a GNSS jump, a magnetorquer rod open or reversed), the run's verdict
@@ -58,6 +61,20 @@ BIAS_MUST_DETECT_RAD_S = 1.0e-3
 # magnetometer: a bias at or above this must be detected (5x the test's 1.12 uT threshold
 # on the field magnitude: seen unless nearly perpendicular to the field for the whole run)
 MAG_MUST_DETECT_T = 5.0e-6
+# wheel tach_noise: a factor at or above this must be detected. The residual of a tachometer
+# with noise f sigma_t is noise of sigma_r(f) = (I_w/dt) sqrt(2 (f^2 sigma_t^2 + q^2/12 +
+# sigma_g^2)); on scenarios/fdir/wheel-tach-noise-6u.toml (sigma_t = 5e-5 rad/s) the 5e-8 N m
+# floor is 1.38 sigma_r at f = 8: 17 % of steps exceed and 4 of 6 fires within seconds
+# (docs/fdir.md "Campaigns"). Below it a miss is reported, not failed: the wheel still works.
+TACH_NOISE_MUST_DETECT = 8.0
+# wheel friction: a factor at or above this must be detected. The accurate wheel's speed loop
+# (rate p = 2.5 1/s) returns the delivered torque to the command after a friction step dT, so
+# the residual is dT e^(-p t): its fourth 0.25 s step keeps 0.11 dT, and a step is declared
+# when dT = (f - 1)(T_c + lambda |w_w|) passes about 9 floors; on
+# scenarios/fdir/wheel-friction-accurate.toml (T_c = 0.04 N m, floor 0.05 N m) that holds at
+# any speed from f = 12.25 on (the next factor the campaign draws: 15). A rotor at rest does
+# not feel it (the Dahl state moves with the speed) until it turns.
+FRICTION_MUST_DETECT = 15.0
 
 
 def binom_tail_ge(k, n, p):
@@ -166,7 +183,9 @@ def count(d, key):
 def outcome(cls, s, det_s, bad, refly=None):
     """The class's outcome for one run: (passed, figures); refly() gives the estimate's
     largest error after the onset (None: not available)."""
-    rate = math.sqrt(sum(w * w for w in s.get("final_rate_rad_s") or [math.nan] * 3))
+    # a diverged run's final rate (null or astronomical components) is no outcome
+    rate = math.sqrt(sum(math.nan if w is None else w * w for w in s.get("final_rate_rad_s") or [math.nan] * 3))
+    rate = math.nan if s.get("run_status") == "diverged" else rate
     fig = {"final_mode": s.get("final_mode"), "final_rate_rad_s": rate, "final_error_deg": s.get("final_error_deg")}
     safe = first_entry_after(s, "sun_safe", det_s) if det_s is not None else None
     fig["to_safe_s"] = None if safe is None else safe - det_s
@@ -215,7 +234,15 @@ def outcome(cls, s, det_s, bad, refly=None):
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
-        return True, fig  # the campaign's own requirements judge it
+        f0 = (s.get("faults") or [{}])[0]
+        fig["kind"], fig["magnitude"] = f0.get("kind"), f0.get("magnitude")
+        fig["detected"] = det_s is not None
+        fig["latency_s"] = None if det_s is None else det_s - f0.get("injected_at_s")
+        fig["run_status"] = s.get("run_status")
+        # a tachometer only a little noisier may stay under the floor (the wheel works)
+        must = not may_miss(fig)
+        # the hold itself: the campaign's own requirements judge it
+        return (fig["detected"] or not must) and not bad, fig
     return not bad, fig
 
 
@@ -267,6 +294,7 @@ def analyse(dirname, cls, sim_host=None):
         bad_run = bool(evs) if cls == "nominal" else fd.get("false_alarms", 0) > 0
         ok, fig = outcome(cls, s, det_s, bad_run, refly)
         fig["run"] = run
+        fig["isolated_as"] = [e.get("isolated_as") for e in evs if e.get("fault") == 0]
         figs.append(fig)
         if not ok:
             failed_outcome.append(run)
@@ -285,7 +313,7 @@ def analyse(dirname, cls, sim_host=None):
     report_outcome(cls, figs)
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
-    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "undetected") and detected < n
+    missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "wheel", "undetected") and detected < n
     bad = errored or missed or wrong or false_alarms or failed_outcome
     return 1 if bad else 0
 
@@ -295,7 +323,7 @@ def report_outcome(cls, figs):
     for f in figs:
         count(modes, f["final_mode"])
     print(f"final mode: {modes}")
-    rates = [math.degrees(f["final_rate_rad_s"]) for f in figs if not math.isnan(f["final_rate_rad_s"])]
+    rates = [math.degrees(f["final_rate_rad_s"]) for f in figs if math.isfinite(f["final_rate_rad_s"])]
     print(f"final |w| (deg/s), median / p95 / max: {spread(rates, '{:.4f}')}")
     if cls == "tracker":
         est = [f["est_max_deg"] for f in figs if f["est_max_deg"] is not None]
@@ -313,6 +341,8 @@ def report_outcome(cls, figs):
         report_magnetometer(figs)
     if cls in ("undetected", "gnss"):
         report_undetected(figs)
+    if cls == "wheel":
+        report_wheel(figs)
     if cls in ("wheel", "nominal"):
         ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
         if ape:
@@ -373,6 +403,43 @@ def report_bias_step(figs):
     print(f"max error after an onset in hold (deg), median / p95 / max: {spread(err, '{:.4f}')}")
     fin = [f["final_error_deg"] for f in figs if f["final_error_deg"] is not None]
     print(f"final error, all runs (deg), median / p95 / max: {spread(fin, '{:.4f}')}")
+
+
+def may_miss(fig):
+    """A wheel fault the monitor may miss by design: a slightly noisier tachometer, a
+    friction the speed loop absorbs (the constants above)."""
+    mag = abs(fig.get("magnitude") or 0.0)
+    return (fig["kind"] == "tach_noise" and mag < TACH_NOISE_MUST_DETECT) or (
+        fig["kind"] == "friction" and mag < FRICTION_MUST_DETECT
+    )
+
+
+def report_wheel(figs):
+    """Per fault magnitude (a kind with one, e.g. tach_noise): detection, latency, isolation."""
+    groups = {}
+    for f in figs:
+        if f.get("magnitude") is not None:
+            groups.setdefault((f["kind"], abs(f["magnitude"])), []).append(f)
+    for (kind, mag) in sorted(groups):
+        flown = groups[(kind, mag)]
+        # a run that stopped (diverged, errored; counted above) did not fly its fault
+        fs = [f for f in flown if f["run_status"] == "ok"]
+        det = [f for f in fs if f["detected"]]
+        lat = [f["latency_s"] for f in det]
+        ape = [f["ape_deg"] for f in fs if f.get("ape_deg") is not None]
+        iso = {}
+        for f in fs:
+            for i in f["isolated_as"]:
+                count(iso, i)
+        print(
+            f"{kind} {mag:g}: {len(flown) - len(fs)} stopped; detected {len(det)} / {len(fs)} (P_D >= {cp_lower(len(det), len(fs)):.4f});"
+            f" latency (s) median / p95 / max: {spread(lat)}; isolated as {iso};"
+            f" APE after settle (deg) {spread(ape, '{:.5f}')}"
+        )
+    # a small tachometer noise or friction factor may be missed: counted above
+    for f in figs:
+        if not f["detected"] and not may_miss(f) and f["run_status"] == "ok":
+            print(f"  missed: run {f['run']}, {f['kind']} {f['magnitude']}")
 
 
 def report_magnetometer(figs):
