@@ -826,20 +826,26 @@ fn a_noisy_tachometer_has_its_sigma_times_the_factor_and_the_others_keep_theirs(
 #[test]
 fn a_wheel_friction_fault_scales_the_viscous_and_coulomb_friction() {
     use sim_core::plant::wheel::WheelParams;
-    let accurate = |faults: &str| {
-        // The motor model's RK4 stability limit asks for 17 substeps or more at 10 Hz.
-        let text = BASE
-            .replace(
-                "model = \"ideal\"\nmax_torque_nm = 0.01\nmax_speed_rpm = 6000.0\ninertia_kgm2 = 1e-4\n",
-                "model = \"accurate\"\n",
-            )
-            .replace("dynamics_substeps = 4\n", "dynamics_substeps = 40\n");
-        Scenario::from_toml(&format!("{text}{faults}")).unwrap()
-    };
+    // The motor model's RK4 stability limit asks for 17 substeps or more at 10 Hz, and its
+    // Dahl friction x 3 (the fault) for 51.
+    let text = BASE
+        .replace(
+            "model = \"ideal\"\nmax_torque_nm = 0.01\nmax_speed_rpm = 6000.0\ninertia_kgm2 = 1e-4\n",
+            "model = \"accurate\"\n",
+        )
+        .replace("dynamics_substeps = 4\n", "dynamics_substeps = 60\n");
+    let accurate = |faults: &str| Scenario::from_toml(&format!("{text}{faults}"));
     let k = 3.0;
+    // A factor the dynamics step cannot resolve is refused naming its magnitude (at 60
+    // substeps the limit is x 3.5: x 4 would diverge the integrator, as x 20 did at the
+    // issue-42 friction campaign's 41 substeps).
+    let too_stiff = "[[faults]]\nonset_s = 2.0\nunit = \"wheel.0\"\nkind = \"friction\"\nmagnitude = 4.0\n";
+    let err = accurate(too_stiff).map(|_| ()).unwrap_err().to_string();
+    assert!(err.contains("faults[0].magnitude") && err.contains("dynamics_substeps"), "{err}");
     let sc = accurate(&format!(
         "[[faults]]\nonset_s = 2.0\nunit = \"wheel.0\"\nkind = \"friction\"\nmagnitude = {k}\nend_s = 4.0\n"
-    ));
+    ))
+    .unwrap();
     let p = WheelParams::paper001();
     let r = sim_core::runner::run(&sc, &mut InProcess::new(), false).unwrap();
     let c = |n: &str| r.series.col(n).unwrap();

@@ -113,9 +113,9 @@ impl Scenario {
                             );
                             return Err(bad(&format!("{key}.kind"), why));
                         }
-                        WheelFault::Friction {
-                            factor: m.within(1.0, MAX_FRICTION_FACTOR, "a factor on the wheel's friction")?,
-                        }
+                        let factor = m.within(1.0, MAX_FRICTION_FACTOR, "a factor on the wheel's friction")?;
+                        self.friction_step_ok(params.get(index), factor, key)?;
+                        WheelFault::Friction { factor }
                     }
                     "tach_noise" => WheelFault::TachNoise {
                         factor: m.within(1.0, MAX_TACH_NOISE_FACTOR, "a factor on the tachometer's noise σ")?,
@@ -207,6 +207,32 @@ impl Scenario {
 
     /// A CMG's (`name` "cmg") or a thruster's fault: its index below the number the
     /// spacecraft has, its kind, its magnitude.
+    /// A friction fault scales the Dahl model's level, and with it the wheel's fastest
+    /// dynamics: the dynamics step must stay inside the scaled wheel's RK4 stability limit
+    /// (the un-faulted wheel's is checked by `validate_wheel_step`); a larger factor
+    /// diverged the integrator within a second of the onset (issue 42's friction campaign).
+    fn friction_step_ok(&self, p: Option<&crate::plant::wheel::WheelParams>, factor: f64, key: &str) -> Result<()> {
+        let Some(p) = p else { return Ok(()) };
+        let q = crate::plant::wheel::WheelParams {
+            viscous_nms: p.viscous_nms * factor,
+            coulomb_nm: p.coulomb_nm * factor,
+            ..p.clone()
+        };
+        let rate_hz = self.timing.control_rate_hz * f64::from(self.timing.dynamics_substeps.max(1));
+        let (h_s, h_max) = (1.0 / rate_hz, q.max_stable_step_s());
+        if h_s.is_finite() && h_s > h_max {
+            let need = (1.0 / (self.timing.control_rate_hz * h_max)).ceil();
+            return Err(bad(
+                &format!("{key}.magnitude"),
+                format!(
+                    "friction x {factor} makes the wheel faster than the dynamics step resolves ({h_s:.5} s > its RK4 \
+                     limit {h_max:.5} s): use timing.dynamics_substeps >= {need} or a smaller factor"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     fn momentum_or_thrust_fault(
         &self,
         name: &str,
