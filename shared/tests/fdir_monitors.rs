@@ -461,7 +461,7 @@ fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
         threshold_sigma: gamma as f32,
         window: KOfN { k: 32, n: 32 },
     };
-    let mut rng = SplitMix64(2026_11_29);
+    let mut rng = SplitMix64(20_261_129);
     let (mut nav, mut monitor) = (Navigation::new(), GnssMonitor::new());
     let (mut sum, mut exceeded, mut judged) = (0.0f64, 0usize, 0usize);
     let sigma_d = (2.0 * sr * sr + sv * sv).sqrt(); // Δt = 1 s
