@@ -629,7 +629,11 @@ impl Determination {
         }
         self.propagate_history(g);
         if let Some((x, step)) = self.fuse_new(s, v) {
-            self.restart_on_bias_step(&x, &step);
+            match step.axis.filter(|_| step.erratic) {
+                // Not a step but an erratic axis (crate::fdir::bias): failed, read as 0.
+                Some(axis) => self.gyro_monitor.fail_erratic(axis),
+                None => self.restart_on_bias_step(&x, &step),
+            }
         }
         if self.consecutive_rejections >= self.params.max_consecutive_rejections && self.may_restart_on_tracker(s) {
             self.lose();

@@ -27,6 +27,13 @@
 //! Recovery (in the estimation stage): the filter restarts on the tracker with the bias
 //! estimate plus the step and the bias σ raised to cover the slope's error, instead of
 //! waiting for `max_consecutive_rejections` and restarting with a zero bias.
+//!
+//! Repeated steps (an erratic axis): a bias steps once. An axis named by
+//! [`ERRATIC_STEPS`] declarations within [`ERRATIC_SPAN_S`] is not stepping but noisy or
+//! erratic (the issue-42 gyro-noise campaign: a ×10–×1000 noisier axis was declared as
+//! hundreds of steps per run, each restarting the filter): the step that completes the count
+//! comes back with `erratic` set, and the estimation stage declares the axis failed (read as
+//! 0, as a stuck one) instead of restarting. Ambiguous steps are not counted (no axis).
 
 use super::window::Persistence;
 use crate::math::{Vec3, f32m};
@@ -37,6 +44,12 @@ pub const AXIS_SHARE: f32 = 0.8;
 /// A step is declared only when it is this many σ of its error (`|z|`), and an axis
 /// named only when its own component is.
 pub const MIN_SIGMA: f32 = 3.0;
+
+/// Declarations on one axis within [`ERRATIC_SPAN_S`] that make it erratic (a genuine step
+/// is declared once; a second may follow when the first slope was short).
+pub const ERRATIC_STEPS: u8 = 3;
+/// The span those declarations fall in, s.
+pub const ERRATIC_SPAN_S: f32 = 600.0;
 
 /// Rejected samples kept for the slope (the window's largest `n`).
 const KEPT: usize = MAX_WINDOW as usize;
@@ -50,6 +63,9 @@ pub struct BiasStep {
     pub slope_sigma_per_rad: f32,
     /// The axis (0 x, 1 y, 2 z); `None`: ambiguous.
     pub axis: Option<u8>,
+    /// The axis's [`ERRATIC_STEPS`]th declaration within [`ERRATIC_SPAN_S`]: not a step but
+    /// an erratic axis.
+    pub erratic: bool,
 }
 
 /// The monitor's state.
@@ -65,6 +81,8 @@ pub struct BiasStepMonitor {
     last_time_us: Option<u64>,
     events: u16,
     last: Option<BiasStep>,
+    /// Per axis: declarations counted and the time of the first of them, µs.
+    per_axis: [(u8, u64); 3],
 }
 
 impl Default for BiasStepMonitor {
@@ -83,6 +101,7 @@ impl BiasStepMonitor {
             last_time_us: None,
             events: 0,
             last: None,
+            per_axis: [(0, 0); 3],
         }
     }
 
@@ -112,13 +131,24 @@ impl BiasStepMonitor {
         if !self.persistence.push(window, true) {
             return None;
         }
-        let step = self.slope(&noise_rad);
+        let step = self.slope(&noise_rad).map(|s| BiasStep { erratic: self.count_on_axis(s.axis, time_us), ..s });
         if step.is_some() {
             self.events = self.events.saturating_add(1);
             self.last = step;
             self.clear_window();
         }
         step
+    }
+
+    /// Counts a declaration on `axis` at `time_us`; true when it is the axis's
+    /// [`ERRATIC_STEPS`]th within [`ERRATIC_SPAN_S`] of the first counted.
+    fn count_on_axis(&mut self, axis: Option<u8>, time_us: u64) -> bool {
+        let Some(slot) = axis.and_then(|i| self.per_axis.get_mut(usize::from(i))) else { return false };
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)] // 6e8 µs
+        let span_us = (ERRATIC_SPAN_S * 1.0e6) as u64;
+        let within = slot.0 > 0 && time_us.checked_sub(slot.1).is_some_and(|d| d <= span_us);
+        *slot = if within { (slot.0.saturating_add(1), slot.1) } else { (1, time_us) };
+        slot.0 >= ERRATIC_STEPS
     }
 
     /// Keeps a rejected sample; after [`Self::forget`] at most `n − 1 ≤ 31` are kept, so
@@ -186,7 +216,7 @@ impl BiasStepMonitor {
         }
         let named = |x: f32| libm::fabsf(x) >= MIN_SIGMA && x * x >= AXIS_SHARE * square;
         let axis = (0u8..3).find(|i| square.is_finite() && z.get(usize::from(*i)).is_some_and(|x| named(*x)));
-        Some(BiasStep { rate_rad_s, slope_sigma_per_rad, axis })
+        Some(BiasStep { rate_rad_s, slope_sigma_per_rad, axis, erratic: false })
     }
 
     fn clear_window(&mut self) {
@@ -205,15 +235,39 @@ impl BiasStepMonitor {
         self.last
     }
 
-    /// The ground's clear: the window starts again (the last step stays in the telemetry).
+    /// The ground's clear: the window and the per-axis counts start again (the last step
+    /// stays in the telemetry).
     pub fn clear(&mut self) {
         self.clear_window();
         self.last_time_us = None;
+        self.per_axis = [(0, 0); 3];
     }
 }
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_third_step_on_one_axis_within_the_span_is_an_erratic_axis() {
+        let mut m = BiasStepMonitor::new();
+        let s = |t: f32| (t * 1.0e6) as u64;
+        assert!(!m.count_on_axis(Some(0), s(100.0)));
+        assert!(!m.count_on_axis(Some(1), s(150.0)), "another axis counts apart");
+        assert!(!m.count_on_axis(None, s(160.0)), "an ambiguous step is not counted");
+        assert!(!m.count_on_axis(Some(0), s(400.0)));
+        assert!(m.count_on_axis(Some(0), s(100.0 + ERRATIC_SPAN_S)), "3 within the span, its end included");
+        // Beyond the span from the first counted: the count starts again.
+        let mut m = BiasStepMonitor::new();
+        assert!(!m.count_on_axis(Some(2), s(0.0)));
+        assert!(!m.count_on_axis(Some(2), s(500.0)));
+        assert!(!m.count_on_axis(Some(2), s(ERRATIC_SPAN_S + 1.0)));
+        assert!(!m.count_on_axis(Some(2), s(ERRATIC_SPAN_S + 2.0)));
+        assert!(m.count_on_axis(Some(2), s(ERRATIC_SPAN_S + 3.0)));
+        m.clear();
+        assert!(!m.count_on_axis(Some(2), s(ERRATIC_SPAN_S + 4.0)), "a clear forgets the counts");
+        // An out-of-range axis is never counted (no panic).
+        assert!(!m.count_on_axis(Some(7), s(1.0)));
+    }
     use super::*;
 
     const W: KOfN = KOfN { k: 3, n: 4 };

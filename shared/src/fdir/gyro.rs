@@ -22,14 +22,17 @@ use crate::types::GyroRate;
 pub struct GyroMonitor {
     repeats: Repeats<3>,
     last_time_us: Option<u64>,
-    /// Bit i: axis i (x, y, z) declared stuck.
+    /// Bit i: axis i (x, y, z) declared failed (stuck, or erratic).
     failed_axes: u8,
+    /// Bit i: axis i declared erratic by the bias-step test's repeats
+    /// ([`super::bias::ERRATIC_STEPS`]), not by its own repeats.
+    erratic_axes: u8,
     events: u16,
 }
 
 impl GyroMonitor {
     pub const fn new() -> Self {
-        Self { repeats: Repeats::EMPTY, last_time_us: None, failed_axes: 0, events: 0 }
+        Self { repeats: Repeats::EMPTY, last_time_us: None, failed_axes: 0, erratic_axes: 0, events: 0 }
     }
 
     /// Judges a sample (a repeated time tag is not judged) and returns it with the failed
@@ -60,9 +63,27 @@ impl GyroMonitor {
         out
     }
 
-    /// Bit i: axis i declared stuck.
+    /// Bit i: axis i declared failed (stuck or erratic).
     pub fn failed_axes(&self) -> u8 {
         self.failed_axes
+    }
+
+    /// Bit i: axis i declared erratic ([`Self::fail_erratic`]).
+    pub fn erratic_axes(&self) -> u8 {
+        self.erratic_axes
+    }
+
+    /// The estimation stage declares axis `axis` (0 x, 1 y, 2 z) erratic: the bias-step
+    /// test named it [`super::bias::ERRATIC_STEPS`] times in a short span. It is read as 0
+    /// from the next sample on, as a stuck axis; an axis already failed, or out of range,
+    /// changes nothing.
+    pub fn fail_erratic(&mut self, axis: u8) {
+        let bit = 1u8.checked_shl(u32::from(axis)).filter(|b| *b <= 0b100).unwrap_or(0);
+        if bit != 0 && self.failed_axes & bit == 0 {
+            self.failed_axes |= bit;
+            self.erratic_axes |= bit;
+            self.events = self.events.saturating_add(1);
+        }
     }
 
     /// Gyro axes declared stuck since boot (saturating; a clear does not lower it).
@@ -78,6 +99,19 @@ impl GyroMonitor {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn an_erratic_axis_is_failed_once_and_read_as_zero() {
+        let mut m = GyroMonitor::new();
+        m.fail_erratic(1);
+        m.fail_erratic(1);
+        m.fail_erratic(9);
+        assert_eq!((m.failed_axes(), m.erratic_axes(), m.events()), (0b010, 0b010, 1));
+        let g = GyroRate { time_us: 1, rate_rad_s: Vec3::new(0.1, 0.2, 0.3), increment: None };
+        assert_eq!(m.without_failed(&g).rate_rad_s, Vec3::new(0.1, 0.0, 0.3));
+        m.clear();
+        assert_eq!((m.failed_axes(), m.erratic_axes(), m.events()), (0, 0, 1));
+    }
     use super::*;
 
     fn sample(i: u64, r: [f32; 3]) -> GyroRate {

@@ -212,6 +212,7 @@ pub(super) fn sensor_fdir(t: &mut crate::link::FdirTelemetry, d: &crate::estimat
     t.tracker_witness_rad = tracker.last_witness_rad();
     (t.mag_residual_t, t.mag_threshold_t) = mag.last_residual_t();
     t.gnss_failed = gnss.failed();
+    t.gyro_erratic_axes = gyro.erratic_axes();
     (t.gnss_residual_m, t.gnss_threshold_m) = gnss.last_residual_m();
 }
 

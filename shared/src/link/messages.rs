@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 24;
+pub const PROTOCOL_VERSION: u16 = 25;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -280,6 +280,10 @@ pub struct FdirTelemetry {
     /// judged).
     pub gnss_residual_m: f32,
     pub gnss_threshold_m: f32,
+    /// Bit i: gyro axis i's failure (its `failed_sensors` bit) was the bias-step test naming
+    /// it again and again (an erratic axis, [`crate::fdir::bias::ERRATIC_STEPS`]), not its
+    /// repeats (protocol 25).
+    pub gyro_erratic_axes: u8,
 }
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.

@@ -75,7 +75,9 @@ impl FdirLog {
         let stuck_axes = new_sensors >> 1;
         for (i, unit) in ["gyro.x", "gyro.y", "gyro.z"].into_iter().enumerate() {
             if stuck_axes & bit(i) != 0 {
-                self.record(t_s, faults, unit.into(), "gyro_stuck", unit, "axis_read_as_zero");
+                // Its own repeats, or the bias-step test naming it again and again.
+                let test = if f.gyro_erratic_axes & bit(i) != 0 { "gyro_erratic" } else { "gyro_stuck" };
+                self.record(t_s, faults, unit.into(), test, unit, "axis_read_as_zero");
             }
         }
         self.observe_magnetometer(t_s, new_sensors, faults);
