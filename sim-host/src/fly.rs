@@ -165,6 +165,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         Some(Failure::RecoveryFailed { reason }) => {
             failed(format!("{reason} (summary.json: run_status \"recovery_failed\")"))
         }
+        Some(Failure::PointingDegraded { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"pointing_degraded\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
@@ -236,5 +239,9 @@ mod tests {
         let v = verdict(&summary);
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"recovery_failed\"")), "{v:?}");
+        summary.failure = Some(Failure::PointingDegraded { reason: "pointing degraded".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"pointing_degraded\"")), "{v:?}");
     }
 }

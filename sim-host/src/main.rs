@@ -737,7 +737,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = sim_host::campaign::run_shard(&dir, shard, jobs, !quiet)?;
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
-                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, {} errors",
+                 {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, \
+                 {} pointing degraded unnoticed, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -752,6 +753,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.no_control,
                 r.control_lost,
                 r.recovery_failed,
+                r.pointing_degraded,
                 r.errors
             );
         }
@@ -760,7 +762,8 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             let r = &m.result;
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
-                 {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, {} errors)",
+                 {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, \
+                 {} pointing degraded unnoticed, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -772,6 +775,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.no_control.len(),
                 r.control_lost.len(),
                 r.recovery_failed.len(),
+                r.pointing_degraded.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
@@ -785,6 +789,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 ("not controlled", &r.no_control),
                 ("control lost unnoticed", &r.control_lost),
                 ("recovery failed", &r.recovery_failed),
+                ("pointing degraded unnoticed", &r.pointing_degraded),
             ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();

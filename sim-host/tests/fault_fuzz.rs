@@ -20,10 +20,13 @@
 //!   sun-safe 5: the recovery fell back to survival);
 //! - failed run: exit 3 with a failed `run_status`; a `control_lost` verdict must be what the
 //!   series shows (lost, no FDIR event), a `recovery_failed` one too (lost, FDIR events, the
-//!   last row not in a safe mode).
+//!   last row not in a safe mode); a `pointing_degraded` one is what the series shows too
+//!   (not lost, every row of the last 60 s after the injection in hold — or without a mode
+//!   manager — and above the degraded-hold bound, no FDIR event), and a `recovery_failed`
+//!   may also be that degraded hold after an FDIR event.
 //!
 //! Anything else (a panic, a signal, a hang beyond 60 s, exit 0 with control lost and no
-//! event or with events but not in a safe mode, an invalid entry accepted or a valid one
+//! event or with events but not in a safe mode, exit 0 with a degraded hold, an invalid entry accepted or a valid one
 //! refused) fails, listing the cases.
 
 use acs_test_support::cases::run_cases;
@@ -47,9 +50,10 @@ const WINDOW_S: f64 = 60.0;
 /// The safe modes' telemetry codes (docs/outputs.md `mode`: detumble 1, sun-safe 5).
 const DETUMBLE_CODE: f64 = 1.0;
 const SUN_SAFE_CODE: f64 = 5.0;
+const HOLD_CODE: f64 = 4.0;
 
 /// The failed statuses a run may end in (docs/scenario.md "Run status").
-const FAILED: [&str; 9] = [
+const FAILED: [&str; 10] = [
     "diverged",
     "all_refused",
     "no_control",
@@ -59,6 +63,7 @@ const FAILED: [&str; 9] = [
     "fdir_false_alarm",
     "control_lost",
     "recovery_failed",
+    "pointing_degraded",
 ];
 
 const FDIR_WHEELS: &str = "floor_nm = 5.0e-8\nthreshold_sigma = 6.0\ngyro_sigma_rad_s = 1.4e-5\n";
@@ -355,10 +360,29 @@ enum Verdict {
     Bad(String),
 }
 
-/// From `timeseries.csv`: whether every row of the last `WINDOW_S` is lost and at or after
-/// the first row with a fault in force; whether the last row's `mode` is a safe mode (false
-/// without a `mode` column: no mode manager).
-fn lost_by_the_series(csv: &Path) -> Result<(bool, bool), String> {
+/// The degraded-hold bound of a scenario, deg (docs/scenario.md "Pointing degraded"):
+/// `[performance] degraded_hold_error_deg`, else `[modes] hold_enter_error_deg`, else
+/// `[performance] settle_bound_deg`, else its default 1°.
+fn degraded_bound_deg(doc: &Value) -> f64 {
+    let key = |table: &str, k: &str| doc.get(table).and_then(|t| t.get(k)).and_then(Value::as_float);
+    key("performance", "degraded_hold_error_deg")
+        .or_else(|| key("modes", "hold_enter_error_deg"))
+        .or_else(|| key("performance", "settle_bound_deg"))
+        .unwrap_or(1.0)
+}
+
+/// What the series says of a run's end.
+struct SeriesEnd {
+    /// Every row of the last `WINDOW_S` lost, all at or after the first row with a fault.
+    lost: bool,
+    /// The last row's `mode` is a safe mode (false without a `mode` column: no mode manager).
+    safe: bool,
+    /// Every row of the same window held (mode hold, or no `mode` column) above the bound.
+    degraded: bool,
+}
+
+/// From `timeseries.csv`, with the scenario's degraded-hold bound `bound_deg`.
+fn lost_by_the_series(csv: &Path, bound_deg: f64) -> Result<SeriesEnd, String> {
     let text = std::fs::read_to_string(csv).map_err(|e| format!("{}: {e}", csv.display()))?;
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().ok_or("empty time series")?.split(',').collect();
@@ -375,7 +399,9 @@ fn lost_by_the_series(csv: &Path) -> Result<(bool, bool), String> {
             (cols.map(|c| num(f[c])), active.map_or(0.0, |a| num(f[a])), mode.map_or(f64::NAN, |m| num(f[m])))
         })
         .collect();
-    let Some(&(last, _, last_mode)) = rows.last() else { return Ok((false, false)) };
+    let Some(&(last, _, last_mode)) = rows.last() else {
+        return Ok(SeriesEnd { lost: false, safe: false, degraded: false });
+    };
     let end = last[0];
     let injected = rows.iter().find(|r| r.1 != 0.0).map_or(f64::INFINITY, |r| r.0[0]);
     let tumbling_row =
@@ -386,7 +412,13 @@ fn lost_by_the_series(csv: &Path) -> Result<(bool, bool), String> {
     // Sun-safe tumbling over the whole window (the mode manager blind to it) is no survival.
     let tumbling = judged && window.iter().all(|r| tumbling_row(&r.0));
     let safe = last_mode == DETUMBLE_CODE || (last_mode == SUN_SAFE_CODE && !tumbling);
-    Ok((judged && window.iter().all(|r| lost_row(&r.0)), safe))
+    // NaN mode: no mode column, the one law holds the whole run.
+    let held_off = |r: &([f64; 5], f64, f64)| (r.2.is_nan() || r.2 == HOLD_CODE) && !(r.0[1] <= bound_deg);
+    Ok(SeriesEnd {
+        lost: judged && window.iter().all(|r| lost_row(&r.0)),
+        safe,
+        degraded: judged && window.iter().all(|r| held_off(r)),
+    })
 }
 
 fn judge(c: &Case, dir: &Path) -> Verdict {
@@ -420,35 +452,41 @@ fn judge(c: &Case, dir: &Path) -> Verdict {
         Some(1) if keys.is_empty() => Verdict::Bad(format!("a valid list refused: {}", err.trim())),
         Some(1) => Verdict::Bad(format!("refused without naming any of {keys:?}: {}", err.trim())),
         Some(0 | 3) if !keys.is_empty() => Verdict::Bad(format!("ran with invalid entries ({keys:?})")),
-        Some(code @ (0 | 3)) => judge_run(&out, code),
+        Some(code @ (0 | 3)) => judge_run(&out, code, degraded_bound_deg(&c.doc)),
         other => Verdict::Bad(format!("exit {other:?}: {}", err.trim())),
     }
 }
 
-fn judge_run(out: &Path, code: i32) -> Verdict {
+fn judge_run(out: &Path, code: i32, bound_deg: f64) -> Verdict {
     let Ok(text) = std::fs::read_to_string(out.join("summary.json")) else {
         return Verdict::Bad(format!("exit {code} without summary.json"));
     };
     let s: Json = serde_json::from_str(&text).unwrap();
     let status = s["run_status"].as_str().unwrap_or("(none)").to_string();
     let events = s["fdir"]["events"].as_array().map_or(0, Vec::len);
-    let (lost, safe) = match lost_by_the_series(&out.join("timeseries.csv")) {
+    let SeriesEnd { lost, safe, degraded } = match lost_by_the_series(&out.join("timeseries.csv"), bound_deg) {
         Ok(l) => l,
         Err(e) => return Verdict::Bad(e),
     };
+    let degraded = degraded && !lost;
     match code {
         0 if status != "ok" => Verdict::Bad(format!("exit 0 with run_status {status}")),
         0 if lost && events == 0 => Verdict::Bad("exit 0 with control lost and no FDIR event".into()),
         0 if lost && !safe => {
             Verdict::Bad(format!("exit 0 with control lost after {events} FDIR events, not in a safe mode"))
         }
+        0 if degraded => Verdict::Bad(format!("exit 0 held above {bound_deg} deg with {events} FDIR events")),
         0 => Verdict::Ok { lost_reported: lost },
         _ if !FAILED.contains(&status.as_str()) => Verdict::Bad(format!("exit 3 with run_status {status}")),
         _ if status == "control_lost" && !(lost && events == 0) => {
             Verdict::Bad(format!("control_lost, but the series says lost {lost} with {events} FDIR events"))
         }
-        _ if status == "recovery_failed" && !(lost && events > 0 && !safe) => Verdict::Bad(format!(
-            "recovery_failed, but the series says lost {lost}, safe mode at the end {safe}, with {events} FDIR events"
+        _ if status == "recovery_failed" && !(events > 0 && ((lost && !safe) || degraded)) => Verdict::Bad(format!(
+            "recovery_failed, but the series says lost {lost}, degraded {degraded}, safe mode at the end {safe}, \
+             with {events} FDIR events"
+        )),
+        _ if status == "pointing_degraded" && !(degraded && events == 0) => Verdict::Bad(format!(
+            "pointing_degraded, but the series says degraded {degraded} with {events} FDIR events"
         )),
         _ => Verdict::Failed(status),
     }

@@ -244,7 +244,8 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
             // that its per-sample noise swamps the wheel residual) fail, never exit 0.
             Some(
                 st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped" | "keepout_violated"
-                | "timeline_missed" | "fdir_false_alarm" | "control_lost" | "recovery_failed"),
+                | "timeline_missed" | "fdir_false_alarm" | "control_lost" | "recovery_failed"
+                | "pointing_degraded"),
             ) => Verdict::Failed(st.into()),
             other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
         };

@@ -8,7 +8,8 @@
 //!     after the injection has the true error above 10° or the body rate above the
 //!     detumble entry rate (3°/s);
 //! (b) the fault-free mission, and `wheel.0` stuck with `[fdir.wheels]` (the FDIR declares
-//!     it: a reported loss), are not `control_lost`.
+//!     it: a reported loss), are not `control_lost`;
+//! (c) paper 004 with a stuck-open thruster holding 9° off is `pointing_degraded`.
 
 use sim_core::link::in_process::InProcess;
 use sim_core::runner::{RunResult, run};
@@ -85,4 +86,37 @@ fn a_mission_without_faults_or_with_the_loss_declared_is_not_control_lost() {
     assert_eq!(s["run_status"], "ok", "{}", s["failure"]);
     // The truth alone would have called it lost: the FDIR event is what makes it ok.
     assert!(lost, "final error {final_err}");
+}
+
+/// Pointing degraded (docs/scenario.md "Pointing degraded"): paper 004's eight-thruster
+/// spacecraft (`scenarios/paper004/dp-nominal.toml`, no `[modes]`, so its one law holds the
+/// whole run; the degraded-hold bound is the settle bound, 1°) with thruster 0 stuck open
+/// from 5 s, flown to 150 s. Before the verdict it ended ok at a steady 9.0° (under the 10°
+/// of a lost control) while burning 2.09 kg. The series must show what the verdict says:
+/// not lost, every row of the last 60 s above 1° — and the tank drained against the twin.
+#[test]
+fn a_stuck_open_thruster_holding_nine_degrees_off_is_pointing_degraded() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/paper004/dp-nominal.toml");
+    let base = std::fs::read_to_string(path).unwrap().replace("duration_s = 60.0", "duration_s = 150.0");
+    assert!(base.contains("duration_s = 150.0"));
+    let (twin, _) = fly(&base);
+    assert_eq!(twin["run_status"], "ok");
+    let faulted = format!("{base}\n[[faults]]\nonset_s = 5.0\nunit = \"thruster.0\"\nkind = \"stuck_open\"\n");
+    let (s, r) = fly(&faulted);
+    let (lost, final_err) = lost_by_the_series(&r);
+    let col = |n: &str| r.series.col(n).unwrap();
+    let (t, e) = (col("t_s"), col("error_deg"));
+    let end = *t.last().unwrap();
+    let above = (0..t.len()).filter(|i| t[*i] >= end - WINDOW_S - 1e-9).all(|i| e[i] > 1.0);
+    let (fuel, fuel_twin) = (s["propellant_kg"].as_f64().unwrap(), twin["propellant_kg"].as_f64().unwrap());
+    eprintln!(
+        "stuck open: {} final {final_err:.3} deg, propellant {fuel:.4} kg (twin {fuel_twin:.4})",
+        s["run_status"]
+    );
+    assert!(!lost && above, "lost {lost}, above 1 deg through the window {above}");
+    assert_eq!(s["run_status"], "pointing_degraded");
+    let reason = s["failure"]["reason"].as_str().unwrap();
+    assert!(reason.contains("no FDIR event") && reason.contains("bound 1 deg"), "{reason}");
+    // The drain the verdict stands for: over 10 times the twin's propellant.
+    assert!(fuel > 10.0 * fuel_twin, "{fuel} vs {fuel_twin}");
 }

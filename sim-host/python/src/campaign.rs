@@ -60,6 +60,7 @@ pub fn campaign_run<'py>(
             ("no_control", r.no_control),
             ("control_lost", r.control_lost),
             ("recovery_failed", r.recovery_failed),
+            ("pointing_degraded", r.pointing_degraded),
         ] {
             d.set_item(k, v)?;
         }

@@ -49,6 +49,10 @@ pub enum RunStatus {
     /// the end of the run and the flight did not end in a safe mode (summary `run_status`
     /// `recovery_failed`): misses every requirement.
     RecoveryFailed,
+    /// Flew with `[[faults]]`, and held off by more than the degraded-hold bound through the
+    /// end of the run with no FDIR event (summary `run_status` `pointing_degraded`): misses
+    /// every requirement.
+    PointingDegraded,
 }
 
 impl RunStatus {
@@ -121,6 +125,7 @@ fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
         Some("no_control") => Some(RunStatus::NoControl),
         Some("control_lost") => Some(RunStatus::ControlLost),
         Some("recovery_failed") => Some(RunStatus::RecoveryFailed),
+        Some("pointing_degraded") => Some(RunStatus::PointingDegraded),
         Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
             Some(RunStatus::MarginsFailed)
         }
@@ -189,6 +194,7 @@ pub struct ShardReport {
     pub no_control: usize,
     pub control_lost: usize,
     pub recovery_failed: usize,
+    pub pointing_degraded: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -249,6 +255,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::NoControl => r.no_control += 1,
                         RunStatus::ControlLost => r.control_lost += 1,
                         RunStatus::RecoveryFailed => r.recovery_failed += 1,
+                        RunStatus::PointingDegraded => r.pointing_degraded += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

@@ -172,6 +172,10 @@ pub struct CampaignResult {
     /// end anyway, not in a safe mode (summary `run_status` `recovery_failed`): each misses
     /// every requirement and fails the campaign.
     pub recovery_failed: Vec<u32>,
+    /// Runs with `[[faults]]` that held off by more than the degraded-hold bound through the
+    /// end with no FDIR event (summary `run_status` `pointing_degraded`): each misses every
+    /// requirement and fails the campaign.
+    pub pointing_degraded: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -190,6 +194,7 @@ impl CampaignResult {
             && self.no_control.is_empty()
             && self.control_lost.is_empty()
             && self.recovery_failed.is_empty()
+            && self.pointing_degraded.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -361,6 +366,7 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
                     | RunStatus::NoControl
                     | RunStatus::ControlLost
                     | RunStatus::RecoveryFailed
+                    | RunStatus::PointingDegraded
             ) {
                 row.failed_runs += 1;
             }
@@ -420,6 +426,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         no_control: runs_of(RunStatus::NoControl),
         control_lost: runs_of(RunStatus::ControlLost),
         recovery_failed: runs_of(RunStatus::RecoveryFailed),
+        pointing_degraded: runs_of(RunStatus::PointingDegraded),
         requirements,
         groups,
         statistics,
@@ -601,7 +608,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
          {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
          part of the run, {} lost control with no FDIR event, {} lost control after an FDIR event and not in a safe mode \
-         (recovery failed), {} ended in error.\n",
+         (recovery failed), {} held off their pointing with no FDIR event, {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -614,6 +621,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         r.no_control.len(),
         r.control_lost.len(),
         r.recovery_failed.len(),
+        r.pointing_degraded.len(),
         r.errors.len()
     );
     for (what, runs) in [
@@ -623,6 +631,10 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         ("Runs not controlled for a material part of the run (`run_status` `no_control`)", &r.no_control),
         ("Runs that lost control with no FDIR event (`run_status` `control_lost`)", &r.control_lost),
         ("Runs whose recovery from a declared fault failed (`run_status` `recovery_failed`)", &r.recovery_failed),
+        (
+            "Runs that held off their pointing with no FDIR event (`run_status` `pointing_degraded`)",
+            &r.pointing_degraded,
+        ),
     ] {
         if !runs.is_empty() {
             let shown: Vec<String> = runs.iter().take(50).map(|i| format!("{i} (`{}`)", rerun_from(dir, *i))).collect();

@@ -76,6 +76,11 @@ pub enum RunStatus {
     /// recovery neither kept the pointing nor fell back to survival
     /// (`crate::recorder::control_lost`).
     RecoveryFailed,
+    /// With `[[faults]]`: control was not lost, but the flight held (hold, or its one law
+    /// without a mode manager) with the true error above the degraded-hold bound through
+    /// the last window after a fault was injected, and the FDIR raised no event
+    /// (`crate::recorder::control_lost`).
+    PointingDegraded,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -116,6 +121,9 @@ pub enum Failure {
     /// Which FDIR events were raised, since when control was lost (truth), and the mode the
     /// flight ended in.
     RecoveryFailed { reason: String },
+    /// Since when the hold was off by more than the degraded-hold bound (truth), and how far
+    /// at the end.
+    PointingDegraded { reason: String },
 }
 
 /// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.

@@ -13,6 +13,9 @@
 //! drift_separation_s = 100.0    # Δt_s between the two PDE windows (whole windows)
 //! stability_window_s = 1.0      # Δt of the stability index e(t + Δt) − e(t)
 //! segment_settle_s = 0.0        # per pointing segment: its first seconds left out
+//! degraded_hold_error_deg = 0.5 # with [[faults]]: a hold off by more than this through
+//!                               # the last 60 s fails the run (default: [modes]
+//!                               # hold_enter_error_deg, else settle_bound_deg)
 //! ```
 
 use super::{Scenario, bad};
@@ -46,6 +49,11 @@ pub struct PerformanceSpec {
     /// A `[[timeline]]` segment missed (not on target at its start) does not fail the run.
     #[serde(default)]
     pub allow_missed_segments: bool,
+    /// With `[[faults]]`: the true error above which a hold through the last 60 s fails the
+    /// run (`pointing_degraded`, `crate::recorder::control_lost`), deg. `None`: the mode
+    /// manager's `hold_enter_error_deg`, else `settle_bound_deg`.
+    #[serde(default)]
+    pub degraded_hold_error_deg: Option<f64>,
 }
 
 fn settle_bound() -> f64 {
@@ -76,6 +84,7 @@ impl Default for PerformanceSpec {
             stability_window_s: stability_window(),
             segment_settle_s: 0.0,
             allow_missed_segments: false,
+            degraded_hold_error_deg: None,
         }
     }
 }
@@ -116,6 +125,11 @@ impl PerformanceSpec {
         let settle = self.segment_settle_s;
         if !(settle.is_finite() && settle >= 0.0) {
             return Err(bad(&k("segment_settle_s"), format!("must be >= 0 (got {settle})")));
+        }
+        if let Some(d) = self.degraded_hold_error_deg
+            && !(d.is_finite() && d > 0.0)
+        {
+            return Err(bad(&k("degraded_hold_error_deg"), format!("must be > 0 (got {d})")));
         }
         Ok(Performance {
             settle_bound_deg: b,

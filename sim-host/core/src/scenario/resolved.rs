@@ -115,6 +115,9 @@ pub struct Resolved {
     /// The body rate the `control_lost` verdict calls a tumble, deg/s (`[modes]
     /// detumble_enter_rate_deg_s`, else `recorder::control_lost::CONTROL_LOST_RATE_DEG_S`).
     pub tumble_rate_deg_s: f64,
+    /// The degraded-hold bound of the `pointing_degraded` verdict, deg (`[performance]
+    /// degraded_hold_error_deg`, else `[modes] hold_enter_error_deg`, else the settle bound).
+    pub degraded_hold_error_deg: f64,
 }
 
 impl TryFrom<&Scenario> for Resolved {
@@ -189,6 +192,11 @@ impl TryFrom<&Scenario> for Resolved {
                 .as_ref()
                 .and_then(|m| m.detumble_enter_rate_deg_s)
                 .unwrap_or(crate::recorder::control_lost::CONTROL_LOST_RATE_DEG_S),
+            degraded_hold_error_deg: sc
+                .performance
+                .degraded_hold_error_deg
+                .or(sc.modes.as_ref().and_then(|m| m.hold_enter_error_deg))
+                .unwrap_or(sc.performance.settle_bound_deg),
         })
     }
 }

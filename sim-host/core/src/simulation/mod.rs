@@ -292,6 +292,7 @@ impl<'a> Simulation<'a> {
             allow_missed_segments,
             fdir,
             tumble_rate_deg_s,
+            degraded_hold_error_deg,
         } = cfg;
         let timeline =
             timeline::TimelineRun { entries: timeline, allow_missed: allow_missed_segments, ..Default::default() };
@@ -367,7 +368,7 @@ impl<'a> Simulation<'a> {
             t_end: 0.0,
             injection: None,
             last_step: None,
-            control: (!faults.is_empty()).then(|| ControlWatch::new(tumble_rate_deg_s)),
+            control: (!faults.is_empty()).then(|| ControlWatch::new(tumble_rate_deg_s, degraded_hold_error_deg)),
             faults: FaultLog::new(faults),
             fdir: fdir.then(FdirLog::default),
             timeline,
@@ -822,6 +823,9 @@ impl<'a> Simulation<'a> {
             Some(LostVerdict::ControlLost(reason)) => (RunStatus::ControlLost, Some(Failure::ControlLost { reason })),
             Some(LostVerdict::RecoveryFailed(reason)) => {
                 (RunStatus::RecoveryFailed, Some(Failure::RecoveryFailed { reason }))
+            }
+            Some(LostVerdict::PointingDegraded(reason)) => {
+                (RunStatus::PointingDegraded, Some(Failure::PointingDegraded { reason }))
             }
             None => (RunStatus::Ok, None),
         }

@@ -120,7 +120,9 @@ class RunResult:
         ``[[timeline]]`` segment missed), ``"fdir_false_alarm"`` (``[fdir]`` declared a healthy
         unit failed), ``"control_lost"`` (with ``[[faults]]``: control lost through the end of the
         run with no FDIR event), ``"recovery_failed"`` (with ``[[faults]]``: an FDIR event, yet
-        control lost through the end and the flight not in a safe mode) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
+        control lost through the end and the flight not in a safe mode, or a degraded hold after
+        it), ``"pointing_degraded"`` (with ``[[faults]]``: a hold off by more than its bound through
+        the end with no FDIR event) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
