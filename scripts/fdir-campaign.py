@@ -227,6 +227,32 @@ def count(d, key):
     d[key] = d.get(key, 0) + 1
 
 
+def outcome_undetected(s, fig, det_s, bad, rate):
+    """undetected and gnss: the verdict, else the end (hold, sun-safe at rest, or without a
+    mode manager the final error within the settle bound); see the module doc."""
+    f0 = (s.get("faults") or [{}])[0]
+    fig["kind"], fig["magnitude"], fig["unit"] = f0.get("kind"), f0.get("magnitude"), f0.get("unit")
+    fig["detected"] = det_s is not None
+    fig["verdict"] = s.get("run_status")
+    fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
+    fig["propellant_kg"] = s.get("propellant_kg")
+    fig["bound_deg"] = s.get("settle_bound_deg") or SETTLE_BOUND_DEG
+    err = fig["final_error_deg"]
+    fig["off"] = err is None or not err < fig["bound_deg"]  # a NaN is off
+    # the APE over [performance] from_s to the end: the whole end window, not one sample
+    pointing = s.get("pointing") or {}
+    fig["ape_from_s"] = pointing.get("from_s")
+    fig["ape_deg"] = (pointing.get("ape_deg") or {}).get("total")
+    fig["settle_time_s"] = s.get("settle_time_s")  # below the bound from then to the end
+    if fig["final_mode"] is None:  # no mode manager: the final error alone
+        kept = not fig["off"]
+    else:
+        kept = (fig["final_mode"] == "hold" and (err or math.inf) < HOLD_DEG) or (
+            fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
+        )
+    return (fig["verdict"] != "ok" or kept) and not bad, fig
+
+
 def outcome(cls, s, det_s, bad, refly=None):
     """The class's outcome for one run: (passed, figures); refly() gives the estimate's
     largest error after the onset (None: not available)."""
@@ -269,27 +295,7 @@ def outcome(cls, s, det_s, bad, refly=None):
         kept = fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG
         return (fig["detected"] or not must) and kept and not bad, fig
     if cls in ("undetected", "gnss"):
-        f0 = (s.get("faults") or [{}])[0]
-        fig["kind"], fig["magnitude"], fig["unit"] = f0.get("kind"), f0.get("magnitude"), f0.get("unit")
-        fig["detected"] = det_s is not None
-        fig["verdict"] = s.get("run_status")
-        fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
-        fig["propellant_kg"] = s.get("propellant_kg")
-        fig["bound_deg"] = s.get("settle_bound_deg") or SETTLE_BOUND_DEG
-        err = fig["final_error_deg"]
-        fig["off"] = err is None or not err < fig["bound_deg"]  # a NaN is off
-        # the APE over [performance] from_s to the end: the whole end window, not one sample
-        pointing = s.get("pointing") or {}
-        fig["ape_from_s"] = pointing.get("from_s")
-        fig["ape_deg"] = (pointing.get("ape_deg") or {}).get("total")
-        fig["settle_time_s"] = s.get("settle_time_s")  # below the bound from then to the end
-        if fig["final_mode"] is None:  # no mode manager: the final error alone
-            kept = not fig["off"]
-        else:
-            kept = (fig["final_mode"] == "hold" and (err or math.inf) < HOLD_DEG) or (
-                fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
-            )
-        return (fig["verdict"] != "ok" or kept) and not bad, fig
+        return outcome_undetected(s, fig, det_s, bad, rate)
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
@@ -310,6 +316,14 @@ def twins(nominal_dir):
     if not nominal_dir:
         return {}
     return {os.path.basename(os.path.dirname(p)): s for p, _, s in load(nominal_dir)}
+
+
+def add_twin(fig, tw):
+    """The fault-free twin's figures beside the run's (tw: its summary, or {})."""
+    fig["nominal_propellant_kg"] = tw.get("propellant_kg")
+    fig["nominal_final_error_deg"] = tw.get("final_error_deg")
+    fig["nominal_ape_deg"] = ((tw.get("pointing") or {}).get("ape_deg") or {}).get("total")
+    fig["nominal_settle_time_s"] = tw.get("settle_time_s")
 
 
 def analyse(dirname, cls, sim_host=None, nominal_dir=None):
@@ -367,11 +381,7 @@ def analyse(dirname, cls, sim_host=None, nominal_dir=None):
         fig["run"] = run
         fig["isolated_as"] = [e.get("isolated_as") for e in evs if e.get("fault") == 0]
         if nominal_dir:
-            tw = twin.get(run) or {}
-            fig["nominal_propellant_kg"] = tw.get("propellant_kg")
-            fig["nominal_final_error_deg"] = tw.get("final_error_deg")
-            fig["nominal_ape_deg"] = ((tw.get("pointing") or {}).get("ape_deg") or {}).get("total")
-            fig["nominal_settle_time_s"] = tw.get("settle_time_s")
+            add_twin(fig, twin.get(run) or {})
         figs.append(fig)
         if not ok:
             failed_outcome.append(run)
@@ -389,7 +399,7 @@ def analyse(dirname, cls, sim_host=None, nominal_dir=None):
         print(f"flown: {days:.2f} days  {bound}")
     report_outcome(cls, figs)
     if nominal_dir:
-        print(f"fault-free twins: {len(twin)} runs in {nominal_dir}, {sum(1 for _, _, s in runs if s) - len([f for f in figs if f.get('nominal_final_error_deg') is not None])} without one")
+        print(f"fault-free twins: {len(twin)} runs in {nominal_dir}, {sum(1 for f in figs if f['run'] not in twin)} runs without one")
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
     missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "wheel", "undetected") and detected < n
