@@ -7,7 +7,7 @@ probability, the latency from the fault's first step in force to its detection
 (median / p95 / max), the isolated-as counts, the wrong-unit count, the false alarms, the
 mode at the onset, and the outcome figures of the class. Standard library only.
 
-    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|magnetometer|wheel|gnss|undetected|nominal [--refly SIM_HOST]
+    scripts/fdir-campaign.py DIR --class tracker|gyro|gyro-bias-step|magnetometer|wheel|gnss|undetected|nominal [--refly SIM_HOST] [--nominal NOMINAL_DIR]
     scripts/fdir-campaign.py --self-test
 
 Exit status 1 when a run errored, a fault was missed or isolated as another unit, a false
@@ -34,7 +34,20 @@ lost control: a non-zero exit) or when it ends in hold within HOLD_DEG or in sun
 rest; an ok run that ended anywhere else is a silent loss of pointing and fails. The table
 groups the runs by kind and magnitude decade with their verdicts and final errors. The gnss
 class (a GNSS position jump, [fdir.gnss]) is judged the same way, and every jump must be
-detected.
+detected. A run without a mode manager (final_mode null: the paper scenarios, e.g. the CMG
+and thruster campaigns) has no hold to end in: it is judged by its final true error
+(final_error_deg) against the scenario's own settle bound (summary settle_bound_deg, the
+[performance] settle_bound_deg, default SETTLE_BOUND_DEG = 1 deg): the error the scenario
+itself calls settled, the bound of its settle_time_s, so each campaign base states its own
+(paper 000 times its manoeuvres to 1 deg; campaigns/base-thruster-fault.toml sets 2 deg,
+above paper 004's healthy PWPF limit cycle). An ok run beyond it is a silent degradation and
+fails. The table then adds the final error per magnitude decade and per unit, the ok runs
+beyond the bound, the APE 95 % over [performance] from_s to the end (summary
+pointing.ape_deg.total; reported, not judged: a limit cycle's final sample may fall low), the
+time from which the error stays within the bound to the end (settle_time_s), and the propellant (summary propellant_kg, thrusters); with
+--nominal NOMINAL_DIR (the same campaign's fault-free twin: same seed and dispersion keys, so
+run i flew the same initial attitude) each run's propellant and final error are set against
+its twin's.
 Quantiles are nearest-rank (the ceil(q n)-th smallest value).
 """
 import argparse
@@ -75,6 +88,9 @@ TACH_NOISE_MUST_DETECT = 8.0
 # any speed from f = 12.25 on (the next factor the campaign draws: 15). A rotor at rest does
 # not feel it (the Dahl state moves with the speed) until it turns.
 FRICTION_MUST_DETECT = 15.0
+# undetected, without a mode manager: the settle bound when the summary does not give one (the
+# [performance] settle_bound_deg default, docs/scenario.md)
+SETTLE_BOUND_DEG = 1.0
 
 
 def binom_tail_ge(k, n, p):
@@ -121,7 +137,38 @@ def self_test():
     good = f"{cp_lower(300, 300):.5f}" == "0.99006"
     ok &= good
     print(f"n=300, alpha=0.05: {cp_lower(300, 300):.5f} (0.99006) {'ok' if good else 'FAIL'}")
+    ok &= self_test_no_mode()
     return 0 if ok else 1
+
+
+def self_test_no_mode():
+    """The judging of a run without a mode manager (undetected), against hand-stated verdicts:
+    the final error against the summary's settle bound (or SETTLE_BOUND_DEG), the lost-control
+    verdict passing whatever the error, a mode manager's run judged as before."""
+    def run(err, status="ok", bound=None, mode=None):
+        s = {"run_status": status, "final_mode": mode, "final_error_deg": err, "final_rate_rad_s": [0.0] * 3}
+        s["faults"] = [{"unit": "thruster.0", "kind": "stuck_open", "onset_s": 1.0, "injected_at_s": 1.0}]
+        if bound is not None:
+            s["settle_bound_deg"] = bound
+        return s
+    cases = [
+        ("within the default 1 deg", run(0.5), True),
+        ("ok beyond the default 1 deg: silent degradation", run(1.5), False),
+        ("within a stated 2 deg", run(1.5, bound=2.0), True),
+        ("ok beyond a stated 2 deg", run(9.0, bound=2.0), False),
+        ("control_lost far off: the verdict said so", run(36.0, status="control_lost"), True),
+        ("no final error, ok", run(None), False),
+        ("NaN final error, ok", run(math.nan), False),
+        ("mode manager, hold within HOLD_DEG (bound ignored)", run(0.5, mode="hold", bound=0.1), True),
+        ("mode manager, hold beyond HOLD_DEG", run(0.6, mode="hold", bound=2.0), False),
+    ]
+    ok = True
+    for name, s, want in cases:
+        got, fig = outcome("undetected", s, None, False)
+        good = got == want
+        ok &= good
+        print(f"undetected, {name}: passed {got} (want {want}) {'ok' if good else 'FAIL'}")
+    return ok
 
 
 def quantile(xs, q):
@@ -180,6 +227,32 @@ def count(d, key):
     d[key] = d.get(key, 0) + 1
 
 
+def outcome_undetected(s, fig, det_s, bad, rate):
+    """undetected and gnss: the verdict, else the end (hold, sun-safe at rest, or without a
+    mode manager the final error within the settle bound); see the module doc."""
+    f0 = (s.get("faults") or [{}])[0]
+    fig["kind"], fig["magnitude"], fig["unit"] = f0.get("kind"), f0.get("magnitude"), f0.get("unit")
+    fig["detected"] = det_s is not None
+    fig["verdict"] = s.get("run_status")
+    fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
+    fig["propellant_kg"] = s.get("propellant_kg")
+    fig["bound_deg"] = s.get("settle_bound_deg") or SETTLE_BOUND_DEG
+    err = fig["final_error_deg"]
+    fig["off"] = err is None or not err < fig["bound_deg"]  # a NaN is off
+    # the APE over [performance] from_s to the end: the whole end window, not one sample
+    pointing = s.get("pointing") or {}
+    fig["ape_from_s"] = pointing.get("from_s")
+    fig["ape_deg"] = (pointing.get("ape_deg") or {}).get("total")
+    fig["settle_time_s"] = s.get("settle_time_s")  # below the bound from then to the end
+    if fig["final_mode"] is None:  # no mode manager: the final error alone
+        kept = not fig["off"]
+    else:
+        kept = (fig["final_mode"] == "hold" and (err or math.inf) < HOLD_DEG) or (
+            fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
+        )
+    return (fig["verdict"] != "ok" or kept) and not bad, fig
+
+
 def outcome(cls, s, det_s, bad, refly=None):
     """The class's outcome for one run: (passed, figures); refly() gives the estimate's
     largest error after the onset (None: not available)."""
@@ -222,15 +295,7 @@ def outcome(cls, s, det_s, bad, refly=None):
         kept = fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG
         return (fig["detected"] or not must) and kept and not bad, fig
     if cls in ("undetected", "gnss"):
-        f0 = (s.get("faults") or [{}])[0]
-        fig["kind"], fig["magnitude"], fig["unit"] = f0.get("kind"), f0.get("magnitude"), f0.get("unit")
-        fig["detected"] = det_s is not None
-        fig["verdict"] = s.get("run_status")
-        fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
-        kept = (fig["final_mode"] == "hold" and (fig["final_error_deg"] or math.inf) < HOLD_DEG) or (
-            fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
-        )
-        return (fig["verdict"] != "ok" or kept) and not bad, fig
+        return outcome_undetected(s, fig, det_s, bad, rate)
     if cls == "wheel":
         fig["ape_deg"] = s.get("ape_after_settle_deg")
         fig["final_error_deg"] = s.get("final_error_deg")
@@ -246,8 +311,24 @@ def outcome(cls, s, det_s, bad, refly=None):
     return not bad, fig
 
 
-def analyse(dirname, cls, sim_host=None):
+def twins(nominal_dir):
+    """The fault-free twin's summary of each run, by run name (empty without a directory)."""
+    if not nominal_dir:
+        return {}
+    return {os.path.basename(os.path.dirname(p)): s for p, _, s in load(nominal_dir)}
+
+
+def add_twin(fig, tw):
+    """The fault-free twin's figures beside the run's (tw: its summary, or {})."""
+    fig["nominal_propellant_kg"] = tw.get("propellant_kg")
+    fig["nominal_final_error_deg"] = tw.get("final_error_deg")
+    fig["nominal_ape_deg"] = ((tw.get("pointing") or {}).get("ape_deg") or {}).get("total")
+    fig["nominal_settle_time_s"] = tw.get("settle_time_s")
+
+
+def analyse(dirname, cls, sim_host=None, nominal_dir=None):
     runs = load(dirname)
+    twin = twins(nominal_dir)
     if not runs:
         print(f"no runs/*/result.json under {dirname}", file=sys.stderr)
         return 1
@@ -257,7 +338,11 @@ def analyse(dirname, cls, sim_host=None):
     for path, status, s in runs:
         run = os.path.basename(os.path.dirname(path))
         verdict_is_outcome = cls in ("undetected", "gnss")  # a lost-control verdict is what it measures
-        if status not in ("ok", "requirement_failed") or (s.get("run_status") != "ok" and not verdict_is_outcome):
+        # the campaign's record carries the lost-control verdict as its status too
+        flew = status in ("ok", "requirement_failed") or (
+            verdict_is_outcome and status in ("control_lost", "recovery_failed")
+        )
+        if not flew or (s.get("run_status") != "ok" and not verdict_is_outcome):
             errored.append(f"{run}:{status}/{s.get('run_status')}")
         fd = s.get("fdir") or {}
         false_alarms += fd.get("false_alarms", 0)
@@ -295,6 +380,8 @@ def analyse(dirname, cls, sim_host=None):
         ok, fig = outcome(cls, s, det_s, bad_run, refly)
         fig["run"] = run
         fig["isolated_as"] = [e.get("isolated_as") for e in evs if e.get("fault") == 0]
+        if nominal_dir:
+            add_twin(fig, twin.get(run) or {})
         figs.append(fig)
         if not ok:
             failed_outcome.append(run)
@@ -311,6 +398,8 @@ def analyse(dirname, cls, sim_host=None):
         bound = f"<= {-math.log(ALPHA) / days:.4f} per day (95 %, Poisson)" if events == 0 else ""
         print(f"flown: {days:.2f} days  {bound}")
     report_outcome(cls, figs)
+    if nominal_dir:
+        print(f"fault-free twins: {len(twin)} runs in {nominal_dir}, {sum(1 for f in figs if f['run'] not in twin)} runs without one")
     print(f"outcome failed: {len(failed_outcome)} {failed_outcome[:20]}")
     # a bias step below BIAS_MUST_DETECT_RAD_S may be missed: its outcome judges it
     missed = cls not in ("nominal", "gyro-bias-step", "magnetometer", "wheel", "undetected") and detected < n
@@ -341,6 +430,8 @@ def report_outcome(cls, figs):
         report_magnetometer(figs)
     if cls in ("undetected", "gnss"):
         report_undetected(figs)
+        if any(f["final_mode"] is None for f in figs):
+            report_no_mode(figs)
     if cls == "wheel":
         report_wheel(figs)
     if cls in ("wheel", "nominal"):
@@ -488,18 +579,93 @@ def report_undetected(figs):
     print(f"mode at the onset: {onset}")
 
 
+def verdict_counts(fs):
+    """ok / control_lost / recovery_failed / other (any other run_status)."""
+    out = {"ok": 0, "control_lost": 0, "recovery_failed": 0, "other": 0}
+    for f in fs:
+        count(out, f["verdict"] if f["verdict"] in out else "other")
+    return out
+
+
+def no_mode_row(label, fs):
+    """One group of runs without a mode manager: verdicts, final error, ok runs off the bound."""
+    fin = [f["final_error_deg"] for f in fs if f["final_error_deg"] is not None]
+    off = [f for f in fs if f["verdict"] == "ok" and f["off"]]
+    ape = [f["ape_deg"] for f in fs if f.get("ape_deg") is not None]
+    settled = [f["settle_time_s"] for f in fs if f.get("settle_time_s") is not None]
+    # reported, not judged: an ok run whose end window's APE passes the bound
+    ape_off = [f for f in fs if f["verdict"] == "ok" and f.get("ape_deg") is not None and not f["ape_deg"] < f["bound_deg"]]
+    print(
+        f"  {label}: {len(fs)} runs; verdicts {verdict_counts(fs)}; final error (deg) median / p95 / max:"
+        f" {spread(fin, '{:.3g}')}; ok but off (> bound): {len(off)};"
+        f" APE 95 % of the end window (deg) {spread(ape, '{:.3g}')}, ok with it > bound: {len(ape_off)};"
+        f" within the bound to the end from (s) {spread(settled, '{:.1f}')}, never: {len(fs) - len(settled)}"
+    )
+
+
+def report_no_mode(figs):
+    """The runs without a mode manager (judged on final_error_deg against their settle bound):
+    per magnitude decade and per unit, the silent degradations, the propellant."""
+    figs = [f for f in figs if f["final_mode"] is None]
+    bounds = sorted({f["bound_deg"] for f in figs})
+    froms = sorted({f["ape_from_s"] for f in figs if f.get("ape_from_s") is not None})
+    print(f"without a mode manager: {len(figs)} runs, judged on the final error against {bounds} deg; end window from {froms} s")
+    by_mag, by_unit = {}, {}
+    for f in figs:
+        mag = f["magnitude"]
+        by_mag.setdefault("-" if not mag else f"{decade(mag):.0e}", []).append(f)
+        by_unit.setdefault(f["unit"], []).append(f)
+    print(" per magnitude decade:")
+    for key in sorted(by_mag, key=lambda k: -1.0 if k == "-" else float(k)):
+        no_mode_row(key, by_mag[key])
+    print(" per unit:")
+    for key in sorted(by_unit, key=str):
+        no_mode_row(key, by_unit[key])
+    no_mode_row("all", figs)
+    off = sorted((f for f in figs if f["verdict"] == "ok" and f["off"]), key=lambda f: -(f["final_error_deg"] or math.inf))
+    for f in off[:10]:
+        print(f"  ok but off: run {f['run']} {f['unit']} {f['kind']} {f['magnitude']}: {f['final_error_deg']:.3f} deg")
+    tw = [f["nominal_final_error_deg"] for f in figs if f.get("nominal_final_error_deg") is not None]
+    if tw:
+        print(f" fault-free twins' final error (deg), median / p95 / max: {spread(tw, '{:.3g}')}")
+    tw = [f["nominal_ape_deg"] for f in figs if f.get("nominal_ape_deg") is not None]
+    if tw:
+        print(f" fault-free twins' APE 95 % of the end window (deg), median / p95 / max: {spread(tw, '{:.3g}')}")
+        tw = [f["nominal_settle_time_s"] for f in figs if f.get("nominal_settle_time_s") is not None]
+        print(f" fault-free twins within the bound to the end from (s), median / p95 / max: {spread(tw, '{:.1f}')}, never: {len(figs) - len(tw)}")
+    report_propellant(figs)
+
+
+def report_propellant(figs):
+    """Thrusters: the propellant used, and against each run's fault-free twin."""
+    prop = [f["propellant_kg"] for f in figs if f.get("propellant_kg") is not None]
+    if not prop:
+        return
+    print(f" propellant (kg), median / p95 / max: {spread(prop, '{:.4g}')}")
+    nom = [f["nominal_propellant_kg"] for f in figs if f.get("nominal_propellant_kg") is not None]
+    if nom:
+        print(f" fault-free twins' propellant (kg), median / p95 / max: {spread(nom, '{:.4g}')}")
+        ratio = [
+            f["propellant_kg"] / f["nominal_propellant_kg"]
+            for f in figs
+            if f.get("propellant_kg") is not None and (f.get("nominal_propellant_kg") or 0.0) > 0.0
+        ]
+        print(f" propellant / its twin's, median / p95 / max (min {min(ratio):.3g}): {spread(ratio, '{:.3g}')}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dir", nargs="?")
     ap.add_argument("--class", dest="cls", choices=["tracker", "gyro", "gyro-bias-step", "magnetometer", "wheel", "gnss", "undetected", "nominal"])
     ap.add_argument("--self-test", action="store_true")
     ap.add_argument("--refly", metavar="SIM_HOST", help="re-fly tracker runs over the bound, every gyro-bias-step run (CSV)")
+    ap.add_argument("--nominal", metavar="NOMINAL_DIR", help="undetected: the fault-free twin campaign (propellant, final error)")
     a = ap.parse_args()
     if a.self_test:
         return self_test()
     if not a.dir or not a.cls:
         ap.error("DIR and --class are needed (or --self-test)")
-    return analyse(a.dir, a.cls, a.refly)
+    return analyse(a.dir, a.cls, a.refly, a.nominal)
 
 
 if __name__ == "__main__":
