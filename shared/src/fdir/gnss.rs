@@ -77,6 +77,13 @@ impl GnssMonitor {
         p.threshold_sigma * sigma + 0.5 * p.model_accel_m_s2 * dt_s * dt_s + ROUNDING_M
     }
 
+    /// Whether [`GnssMonitor::judge`] would look at the prediction for the fix at
+    /// `fix_time_us`: not once the receiver is declared, nor for a repeated time tag (the
+    /// fix held in the next frame). The caller skips the propagation then.
+    pub fn judges(&self, fix_time_us: u64) -> bool {
+        !self.failed && self.last_time_us != Some(fix_time_us)
+    }
+
     /// Judges the fix at `fix_time_us` whose position is `r_fix_m`, against `predicted`: the
     /// last accepted fix carried to that time and the time between them, s (`None`: no
     /// accepted fix to judge against, taken unjudged). A repeated time tag is not judged
@@ -188,6 +195,38 @@ mod tests {
         m.clear();
         assert_eq!(m.judge(&p, 7, &r, Some((r, 1.0))), Verdict::Take);
         assert_eq!(m.events(), 1);
+    }
+
+    /// Where `judges` says no, the verdict and the state do not depend on the prediction
+    /// (so the estimation stage may skip the propagation); where it says yes, they do.
+    #[test]
+    fn the_prediction_is_needed_exactly_when_judges_says_so() {
+        let p = params();
+        let r = Vec3::new(7.0e6, 0.0, 0.0);
+        let far = Some((r + Vec3::new(1.0e4, 0.0, 0.0), 1.0));
+        let mut m = GnssMonitor::new();
+        // Tags: new, repeated, new, ... through a declaration (the far fixes) and a clear.
+        let tags = [1u64, 1, 2, 2, 3, 4, 4, 5, 6, 6, 7];
+        let (mut skipped, mut judged) = (0, 0);
+        for (i, &t) in tags.iter().enumerate() {
+            if i == 9 {
+                m.clear();
+            }
+            let pred = if (3..=5).contains(&t) { far } else { Some((r, 1.0)) };
+            let (mut with, mut without) = (m, m);
+            let (a, b) = (with.judge(&p, t, &r, pred), without.judge(&p, t, &r, None));
+            if m.judges(t) {
+                judged += 1;
+                // A prediction judged (consistent or far) differs from taking it unjudged
+                // in the residual kept, or in the verdict.
+                assert!(a != b || with != without, "tag {t}: the prediction was not used");
+            } else {
+                skipped += 1;
+                assert_eq!((a, with), (b, without), "tag {t}: the prediction mattered");
+            }
+            m = with;
+        }
+        assert!(m.events() == 1 && skipped >= 4 && judged >= 5, "{skipped} skipped, {judged} judged");
     }
 
     #[test]
