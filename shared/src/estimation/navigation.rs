@@ -107,7 +107,7 @@ impl Navigation {
             let r = if age_us == 0 { fix.r_m } else { propagate_short(&fix.r_m, &fix.v_m_s, age_s).ok()? };
             return Some((r, age_s));
         }
-        self.state_at(time_us).map(|(r, _, _, age_s)| (r, age_s))
+        carried(&fix, age_us, age_s).map(|(r, _, _, age_s)| (r, age_s))
     }
 
     /// The last fix and its age at `time_us`, µs and s (`None` past [`MAX_FIX_AGE_S`]).
@@ -126,13 +126,18 @@ impl Navigation {
     /// Position, velocity, time and fix age at `time_us`, propagated from the last fix.
     fn state_at(&self, time_us: u64) -> Option<(Vec3, Vec3, J2000Time, f32)> {
         let (fix, age_us, age_s) = self.age_at(time_us)?;
-        let (r, v) =
-            if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate_two_body(&fix.r_m, &fix.v_m_s, age_s).ok()? };
-        let time = fix.time.add_seconds(age_s)?;
-        Some((r, v, time, age_s))
+        carried(&fix, age_us, age_s)
     }
 
     pub fn reset(&mut self) {
         *self = Self::default();
     }
+}
+
+/// The fix carried over its age by the Kepler step: position, velocity, time and age.
+fn carried(fix: &Fix, age_us: u64, age_s: f32) -> Option<(Vec3, Vec3, J2000Time, f32)> {
+    let (r, v) =
+        if age_us == 0 { (fix.r_m, fix.v_m_s) } else { propagate_two_body(&fix.r_m, &fix.v_m_s, age_s).ok()? };
+    let time = fix.time.add_seconds(age_s)?;
+    Some((r, v, time, age_s))
 }

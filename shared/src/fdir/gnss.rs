@@ -2,15 +2,17 @@
 //! against the last accepted one carried to its time by the navigation's two-body step.
 //!
 //! Residual `d = |r_fix − r_pred|`, m, with `r_pred` the last accepted fix propagated over
-//! `Δt` to the new fix's time ([`crate::estimation::navigation::Navigation::predict`]).
+//! `Δt` to the new fix's time ([`crate::estimation::navigation::Navigation::predict_fix`]:
+//! up to 4 s, the usual 1 s at 1 Hz, a second-order Taylor step of two-body motion; beyond,
+//! the navigation's Kepler step).
 //! With white noise σ_r per axis on every fix's position and σ_v on its velocity, the
 //! difference is, per axis, `n_new − n_old − Δt n_v`: normal with variance
 //! `σ_d² = 2σ_r² + (σ_v Δt)²`, so `d²/σ_d² ~ χ²₃`. What the two-body step leaves out (J2,
 //! drag: an acceleration `a` it does not model) adds at most `½ a Δt²`, and the f32
-//! propagation's rounding at most [`ROUNDING_M`]. A fix is an exceedance when
-//! `d > γ σ_d + ½ a Δt² + ROUNDING_M`: per fix `P(χ²₃ > γ²)`, γ = 5 → 1.5e-5, γ = 6 →
-//! 7.5e-8 (on the bound's side: the model terms only widen it); `k` of the last `n` judged
-//! fixes declare the receiver failed.
+//! propagation's rounding (with the Taylor step's truncation) at most [`ROUNDING_M`]. A
+//! fix is an exceedance when `d > γ σ_d + ½ a Δt² + ROUNDING_M`: per fix `P(χ²₃ > γ²)`,
+//! γ = 5 → 1.5e-5, γ = 6 → 7.5e-8 (on the bound's side: the model terms only widen it);
+//! `k` of the last `n` judged fixes declare the receiver failed.
 //!
 //! What it sees: a jump of the reported position (a receiver re-acquiring on a wrong
 //! solution), a frozen position with a fresh time (the spacecraft moves 7.5 km/s), any
@@ -31,7 +33,8 @@ use crate::math::{Vec3, f32m};
 use crate::params::fdir::GnssFdirParams;
 
 /// Upper bound on the f32 two-body step's rounding, m (the navigation's own bound, from
-/// sim-host/core/tests/onboard_orbit.rs: < 4 m).
+/// sim-host/core/tests/onboard_orbit.rs: < 4 m). It covers the short step too: truncation
+/// ≤ 0.47 m at 4 s (`models::orbit::short_step_truncation_m`) plus rounding ≤ 0.43 m in LEO.
 pub const ROUNDING_M: f32 = 4.0;
 
 /// The monitor's state.
