@@ -35,6 +35,11 @@
 //! fixes, not for a whole-orbit outage if sub-degree LVLH pointing is needed (adding the
 //! J2 secular rates would be the next step).
 //!
+//! For a gap of at most [`SHORT_STEP_MAX_S`] (the GNSS monitor's usual 1 s between fixes),
+//! [`propagate_short`] takes the second-order Taylor step instead: no Kepler solve, its
+//! truncation bounded by [`short_step_truncation_m`] (0.47 m at 4 s, any ellipse from
+//! 6,000 km).
+//!
 //! No heap, one bounded loop, no panics: every failure is an [`OrbitError`].
 
 use crate::math::f32m::{atan2, floor, sin, sin_cos, sqrt};
