@@ -460,7 +460,8 @@ impl Determination {
     fn monitor_gnss(&mut self, s: &SensorSamples) -> Option<crate::types::GnssFix> {
         let g = s.gnss?;
         let Some(p) = self.params.gnss_fdir else { return Some(g) };
-        let predicted = self.nav.predict_fix(g.time_us);
+        // The propagation only when judged: a fix held over two frames is judged once.
+        let predicted = if self.gnss_monitor.judges(g.time_us) { self.nav.predict_fix(g.time_us) } else { None };
         match self.gnss_monitor.judge(&p, g.time_us, &g.pos_eci_m, predicted) {
             Verdict::Take => Some(g),
             Verdict::Refuse => None,

@@ -2,15 +2,17 @@
 //! against the last accepted one carried to its time by the navigation's two-body step.
 //!
 //! Residual `d = |r_fix − r_pred|`, m, with `r_pred` the last accepted fix propagated over
-//! `Δt` to the new fix's time ([`crate::estimation::navigation::Navigation::predict`]).
+//! `Δt` to the new fix's time ([`crate::estimation::navigation::Navigation::predict_fix`]:
+//! up to 4 s, the usual 1 s at 1 Hz, a second-order Taylor step of two-body motion; beyond,
+//! the navigation's Kepler step).
 //! With white noise σ_r per axis on every fix's position and σ_v on its velocity, the
 //! difference is, per axis, `n_new − n_old − Δt n_v`: normal with variance
 //! `σ_d² = 2σ_r² + (σ_v Δt)²`, so `d²/σ_d² ~ χ²₃`. What the two-body step leaves out (J2,
 //! drag: an acceleration `a` it does not model) adds at most `½ a Δt²`, and the f32
-//! propagation's rounding at most [`ROUNDING_M`]. A fix is an exceedance when
-//! `d > γ σ_d + ½ a Δt² + ROUNDING_M`: per fix `P(χ²₃ > γ²)`, γ = 5 → 1.5e-5, γ = 6 →
-//! 7.5e-8 (on the bound's side: the model terms only widen it); `k` of the last `n` judged
-//! fixes declare the receiver failed.
+//! propagation's rounding (with the Taylor step's truncation) at most [`ROUNDING_M`]. A
+//! fix is an exceedance when `d > γ σ_d + ½ a Δt² + ROUNDING_M`: per fix `P(χ²₃ > γ²)`,
+//! γ = 5 → 1.5e-5, γ = 6 → 7.5e-8 (on the bound's side: the model terms only widen it);
+//! `k` of the last `n` judged fixes declare the receiver failed.
 //!
 //! What it sees: a jump of the reported position (a receiver re-acquiring on a wrong
 //! solution), a frozen position with a fresh time (the spacecraft moves 7.5 km/s), any
@@ -31,7 +33,8 @@ use crate::math::{Vec3, f32m};
 use crate::params::fdir::GnssFdirParams;
 
 /// Upper bound on the f32 two-body step's rounding, m (the navigation's own bound, from
-/// sim-host/core/tests/onboard_orbit.rs: < 4 m).
+/// sim-host/core/tests/onboard_orbit.rs: < 4 m). It covers the short step too: truncation
+/// ≤ 0.47 m at 4 s (`models::orbit::short_step_truncation_m`) plus rounding ≤ 0.43 m in LEO.
 pub const ROUNDING_M: f32 = 4.0;
 
 /// The monitor's state.
@@ -75,6 +78,13 @@ impl GnssMonitor {
         let (sr, sv) = (p.position_sigma_m, p.velocity_sigma_m_s * dt_s);
         let sigma = f32m::sqrt(2.0 * sr * sr + sv * sv);
         p.threshold_sigma * sigma + 0.5 * p.model_accel_m_s2 * dt_s * dt_s + ROUNDING_M
+    }
+
+    /// Whether [`GnssMonitor::judge`] would look at the prediction for the fix at
+    /// `fix_time_us`: not once the receiver is declared, nor for a repeated time tag (the
+    /// fix held in the next frame). The caller skips the propagation then.
+    pub fn judges(&self, fix_time_us: u64) -> bool {
+        !self.failed && self.last_time_us != Some(fix_time_us)
     }
 
     /// Judges the fix at `fix_time_us` whose position is `r_fix_m`, against `predicted`: the
@@ -188,6 +198,38 @@ mod tests {
         m.clear();
         assert_eq!(m.judge(&p, 7, &r, Some((r, 1.0))), Verdict::Take);
         assert_eq!(m.events(), 1);
+    }
+
+    /// Where `judges` says no, the verdict and the state do not depend on the prediction
+    /// (so the estimation stage may skip the propagation); where it says yes, they do.
+    #[test]
+    fn the_prediction_is_needed_exactly_when_judges_says_so() {
+        let p = params();
+        let r = Vec3::new(7.0e6, 0.0, 0.0);
+        let far = Some((r + Vec3::new(1.0e4, 0.0, 0.0), 1.0));
+        let mut m = GnssMonitor::new();
+        // Tags: new, repeated, new, ... through a declaration (the far fixes) and a clear.
+        let tags = [1u64, 1, 2, 2, 3, 4, 4, 5, 6, 6, 7];
+        let (mut skipped, mut judged) = (0, 0);
+        for (i, &t) in tags.iter().enumerate() {
+            if i == 9 {
+                m.clear();
+            }
+            let pred = if (3..=5).contains(&t) { far } else { Some((r, 1.0)) };
+            let (mut with, mut without) = (m, m);
+            let (a, b) = (with.judge(&p, t, &r, pred), without.judge(&p, t, &r, None));
+            if m.judges(t) {
+                judged += 1;
+                // A prediction judged (consistent or far) differs from taking it unjudged
+                // in the residual kept, or in the verdict.
+                assert!(a != b || with != without, "tag {t}: the prediction was not used");
+            } else {
+                skipped += 1;
+                assert_eq!((a, with), (b, without), "tag {t}: the prediction mattered");
+            }
+            m = with;
+        }
+        assert!(m.events() == 1 && skipped >= 4 && judged >= 5, "{skipped} skipped, {judged} judged");
     }
 
     #[test]

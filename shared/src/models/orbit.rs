@@ -35,6 +35,11 @@
 //! fixes, not for a whole-orbit outage if sub-degree LVLH pointing is needed (adding the
 //! J2 secular rates would be the next step).
 //!
+//! For a gap of at most [`SHORT_STEP_MAX_S`] (the GNSS monitor's usual 1 s between fixes),
+//! [`propagate_short`] takes the second-order Taylor step instead: no Kepler solve, its
+//! truncation bounded by [`short_step_truncation_m`] (0.47 m at 4 s, any ellipse from
+//! 6,000 km).
+//!
 //! No heap, one bounded loop, no panics: every failure is an [`OrbitError`].
 
 use crate::math::f32m::{atan2, floor, sin, sin_cos, sqrt};
@@ -143,6 +148,54 @@ pub fn propagate_two_body(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<(Vec3
     if all_finite(r1.as_slice()) && all_finite(v1.as_slice()) { Ok((r1, v1)) } else { Err(OrbitError::NonFinite) }
 }
 
+/// Longest `|dt|` the short step ([`propagate_short`]) takes, s: four 1 Hz GNSS fixes.
+pub const SHORT_STEP_MAX_S: f32 = 4.0;
+/// Bound on `|d³r/dt³|` of any elliptic orbit over a short step, m/s³ (see
+/// [`propagate_short`]): `2 μ v / r³` with `r ≥ 5.95e6` m and `v < √(2μ / r)`.
+pub const SHORT_STEP_JERK_MAX_M_S3: f32 = 0.0439;
+
+/// Bound on the short step's truncation error against two-body motion, m:
+/// `SHORT_STEP_JERK_MAX_M_S3 · |dt|³ / 6` (7.3 mm at 1 s, 0.47 m at 4 s).
+pub fn short_step_truncation_m(dt_s: f32) -> f32 {
+    let t = libm::fabsf(dt_s);
+    SHORT_STEP_JERK_MAX_M_S3 * t * t * t / 6.0
+}
+
+/// Position (m) `dt_s` after the fix `(r0_m, v0_m_s)`, two-body, by the second-order
+/// Taylor step `r0 + v0 dt + ½ a0 dt²`, `a0 = −μ r0 / |r0|³`: a few dozen operations where
+/// [`propagate_two_body`] solves Kepler's equation. For `|dt| ≤` [`SHORT_STEP_MAX_S`] only.
+///
+/// Truncation (Taylor's remainder in integral form holds for vectors): at most
+/// `max |r'''| |dt|³ / 6`. With `r''' = −μ (v − 3 r̂ (r̂·v)) / r³` and
+/// `|v − 3 r̂ (r̂·v)| = √(4 v_r² + v_t²) ≤ 2 |v|`, `|r'''| ≤ 2 μ |v| / r³`. An elliptic orbit
+/// keeps `v² < 2μ / r`; from `|r0| ≥` [`ORBIT_MIN_RADIUS_M`] it falls at most
+/// `√(2μ / 5.95e6) · 4 s` = 46 km in 4 s, so `r ≥ 5.95e6` m, `v < 11.58 km/s` and
+/// `|r'''| < 2 · 3.986e14 · 1.158e4 / 5.95e6³ = 0.0438` m/s³ ([`SHORT_STEP_JERK_MAX_M_S3`],
+/// [`short_step_truncation_m`]). Rounding: the last addition to `r0`, half an ulp per axis
+/// (≤ 0.43 m below |r| = 8,388 km), the displacement's own far less.
+pub fn propagate_short(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<Vec3, OrbitError> {
+    if !(all_finite(r0_m.as_slice()) && all_finite(v0_m_s.as_slice()) && dt_s.is_finite()) {
+        return Err(OrbitError::NonFinite);
+    }
+    if !(libm::fabsf(dt_s) <= SHORT_STEP_MAX_S) {
+        return Err(OrbitError::TimeOutOfRange);
+    }
+    let r2 = r0_m.norm_squared();
+    let l = sqrt(r2);
+    if !(ORBIT_MIN_RADIUS_M..=ORBIT_MAX_RADIUS_M).contains(&l) {
+        return Err(OrbitError::RadiusOutOfRange);
+    }
+    let mu_over_r = MU_EARTH_M3_S2 / l;
+    // v² < 2μ / r: the bound above needs an ellipse (`!(x < y)` also catches NaN).
+    if !(v0_m_s.norm_squared() < 2.0 * mu_over_r) {
+        return Err(OrbitError::NotElliptic);
+    }
+    // r0 + dt (v0 − ½ dt (μ / r³) r0): the displacement first, added to r0 once.
+    let half_k_dt = 0.5 * (mu_over_r / r2) * dt_s;
+    let r1 = r0_m + (v0_m_s - r0_m * half_k_dt) * dt_s;
+    if all_finite(r1.as_slice()) { Ok(r1) } else { Err(OrbitError::NonFinite) }
+}
+
 /// Root `x = ΔE` of `x − c sin x + s (1 − cos x) = m` (`c = e cos E0`, `s = e sin E0`,
 /// `e = √(c² + s²) < 1`): safeguarded Newton in the bracket `[m − 2e, m + 2e]`, which holds
 /// the root because the sine terms differ from `x` by at most `2e`. `None` if no Newton
@@ -223,5 +276,117 @@ mod tests {
         // When written: [0, 21544, 280852, 758371, 86827, 4238, 104, 50, 12, 2, 0, ...].
         assert!(hist.iter().take(5).sum::<u32>() * 1000 >= hist.iter().sum::<u32>() * 995);
         assert!(worst <= 10, "measured 9 when written");
+    }
+
+    /// f64 two-body acceleration and a fine RK4 (0.01 s steps: its error over 4 s is
+    /// ~1e-12 of r): the independent truth for the short step.
+    fn accel64(r: [f64; 3]) -> [f64; 3] {
+        let n = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let k = -f64::from(MU_EARTH_M3_S2) / (n * n * n);
+        [k * r[0], k * r[1], k * r[2]]
+    }
+
+    fn rk4_64(r0: &Vec3, v0: &Vec3, dt: f64) -> [f64; 3] {
+        let mut y = [r0.x, r0.y, r0.z, v0.x, v0.y, v0.z].map(f64::from);
+        let f = |y: &[f64; 6]| {
+            let a = accel64([y[0], y[1], y[2]]);
+            [y[3], y[4], y[5], a[0], a[1], a[2]]
+        };
+        let steps = (dt.abs() / 0.01).ceil().max(1.0) as usize;
+        let h = dt / steps as f64;
+        for _ in 0..steps {
+            let add = |y: &[f64; 6], k: &[f64; 6], c: f64| core::array::from_fn(|i| y[i] + c * k[i]);
+            let k1 = f(&y);
+            let k2 = f(&add(&y, &k1, h / 2.0));
+            let k3 = f(&add(&y, &k2, h / 2.0));
+            let k4 = f(&add(&y, &k3, h));
+            y = core::array::from_fn(|i| y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+        }
+        [y[0], y[1], y[2]]
+    }
+
+    /// Fixes at periapsis, apoapsis and between, e from 0 to 0.8, the periapsis from
+    /// 6,000 km (the fastest state the bound allows: 10.9 km/s) up.
+    fn short_step_orbits() -> Vec<(Vec3, Vec3)> {
+        let mu = f64::from(MU_EARTH_M3_S2);
+        let mut out = Vec::new();
+        for &(rp, e) in &[(6.995e6, 0.0), (6.6e6, 0.1), (6.0e6, 0.5), (6.0e6, 0.8), (7.0e6, 0.3)] {
+            let p = rp * (1.0 + e);
+            for k in 0..8 {
+                let nu = f64::from(k) * core::f64::consts::TAU / 8.0;
+                let (s, c) = nu.sin_cos();
+                let r = p / (1.0 + e * c);
+                let (vr, vt) = ((mu / p).sqrt() * e * s, (mu / p).sqrt() * (1.0 + e * c));
+                // An inclined plane: x along the node, the orbit tilted by 98° about it.
+                let (si, ci) = (98f64.to_radians().sin(), 98f64.to_radians().cos());
+                let pos = [r * c, r * s * ci, r * s * si];
+                let vel = [vr * c - vt * s, (vr * s + vt * c) * ci, (vr * s + vt * c) * si];
+                out.push((Vec3::from(pos.map(|x| x as f32)), Vec3::from(vel.map(|x| x as f32))));
+            }
+        }
+        out
+    }
+
+    /// The Taylor step against an f64 RK4 of the same (f32) fix: within the truncation
+    /// bound `0.0439 |dt|³ / 6` plus the rounding of the final addition (half an ulp per
+    /// axis: ≤ 0.43 m below 8,388 km) and of the displacement (16 ulps allowed); and in f64,
+    /// the truncation alone within its bound.
+    #[test]
+    fn the_short_step_is_within_its_truncation_bound() {
+        // Worst truncation / bound, worst f32 error, worst f32 error below 8,388 km.
+        let mut worst = [0.0f64; 3];
+        for (r0, v0) in short_step_orbits() {
+            for &dt in &[0.5f32, 1.0, 2.0, -1.0, 3.0, SHORT_STEP_MAX_S] {
+                let truth = rk4_64(&r0, &v0, f64::from(dt));
+                let dist = |x: [f64; 3]| (0..3).map(|i| (x[i] - truth[i]).powi(2)).sum::<f64>().sqrt();
+                let bound = f64::from(short_step_truncation_m(dt));
+                // f64 Taylor: the truncation alone.
+                let (r, v) = ([r0.x, r0.y, r0.z].map(f64::from), [v0.x, v0.y, v0.z].map(f64::from));
+                let a = accel64(r);
+                let d = f64::from(dt);
+                let taylor64 = dist(core::array::from_fn(|i| r[i] + v[i] * d + 0.5 * a[i] * d * d));
+                assert!(taylor64 <= bound, "f64 Taylor {taylor64} m > bound {bound} m (dt {dt})");
+                // The flight's f32 step.
+                let got = propagate_short(&r0, &v0, dt).unwrap();
+                let err = dist([got.x, got.y, got.z].map(f64::from));
+                // Half an ulp of each axis of the result, and 16 ulps of the displacement.
+                let half_ulp = |x: f32| 0.5 * f64::from(f32::from_bits(x.abs().to_bits() + 1) - x.abs());
+                let half_ulps = (half_ulp(got.x).powi(2) + half_ulp(got.y).powi(2) + half_ulp(got.z).powi(2)).sqrt();
+                let rounding = half_ulps + 1e-6 * f64::from(norm(&(got - r0)));
+                assert!(err <= bound + rounding, "f32 step {err} m > {bound} + {rounding} m (dt {dt})");
+                let leo = if norm(&r0) < 8.0e6 { err } else { 0.0 };
+                worst = [worst[0].max(taylor64 / bound), worst[1].max(err), worst[2].max(leo)];
+            }
+        }
+        let [t, e, leo] = worst;
+        println!(
+            "short step: worst f64 truncation / bound {t:.3}, f32 error {e:.3} m ({leo:.3} m from |r0| < 8,000 km)"
+        );
+    }
+
+    /// The short step agrees with the Kepler step over its range (the two methods within
+    /// the truncation bound and both roundings: the navigation's 4 m for Kepler's), and
+    /// refuses what the Kepler step refuses for the bound's sake.
+    #[test]
+    fn the_short_step_matches_kepler_and_refuses_bad_input() {
+        for (r0, v0) in short_step_orbits() {
+            for &dt in &[1.0f32, SHORT_STEP_MAX_S] {
+                let taylor = propagate_short(&r0, &v0, dt).unwrap();
+                let (kepler, _) = propagate_two_body(&r0, &v0, dt).unwrap();
+                // Rounding: half an ulp per axis of the short step's result (≤ 1.8 m out to
+                // the 18,000 km apoapsis) and the navigation's 4 m for Kepler's.
+                let tol = short_step_truncation_m(dt) + 1.8 + 4.0;
+                assert!(norm(&(taylor - kepler)) <= tol, "dt {dt}: {} m", norm(&(taylor - kepler)));
+            }
+        }
+        let (r, v) = (Vec3::new(7.0e6, 0.0, 0.0), Vec3::new(0.0, 7.5e3, 0.0));
+        assert_eq!(propagate_short(&r, &v, 0.0), Ok(r));
+        assert_eq!(propagate_short(&r, &v, 4.001), Err(OrbitError::TimeOutOfRange));
+        assert_eq!(propagate_short(&r, &v, f32::NAN), Err(OrbitError::NonFinite));
+        assert_eq!(propagate_short(&Vec3::new(f32::NAN, 0.0, 0.0), &v, 1.0), Err(OrbitError::NonFinite));
+        assert_eq!(propagate_short(&Vec3::new(5.9e6, 0.0, 0.0), &v, 1.0), Err(OrbitError::RadiusOutOfRange));
+        // Escape speed at 7,000 km is 10.67 km/s.
+        assert_eq!(propagate_short(&r, &Vec3::new(0.0, 10.7e3, 0.0), 1.0), Err(OrbitError::NotElliptic));
+        assert_eq!(propagate_short(&r, &Vec3::new(0.0, f32::MAX, 0.0), 1.0), Err(OrbitError::NotElliptic));
     }
 }
