@@ -22,8 +22,10 @@
 //!   series shows (lost, no FDIR event), a `recovery_failed` one too (lost, FDIR events, the
 //!   last row not in a safe mode); a `pointing_degraded` one is what the series shows too
 //!   (not lost, every row of the last 60 s after the injection in hold — or without a mode
-//!   manager — and above the degraded-hold bound, no FDIR event), and a `recovery_failed`
-//!   may also be that degraded hold after an FDIR event.
+//!   manager — and more than 1 − confidence of them above the degraded-hold bound: the
+//!   window's APE above it; the injection at least 60 s before the window, its recovery
+//!   allowance; no FDIR event), and a `recovery_failed` may also be that
+//!   degraded hold after an FDIR event.
 //!
 //! Anything else (a panic, a signal, a hang beyond 60 s, exit 0 with control lost and no
 //! event or with events but not in a safe mode, exit 0 with a degraded hold, an invalid entry accepted or a valid one
@@ -47,6 +49,7 @@ const CASE_LIMIT: Duration = Duration::from_secs(60);
 const ERROR_BOUND_DEG: f64 = 10.0;
 const RATE_BOUND_DEG_S: f64 = 3.0; // the mission's detumble_enter_rate_deg_s and the default
 const WINDOW_S: f64 = 60.0;
+const RECOVERY_ALLOWANCE_S: f64 = 60.0;
 /// The safe modes' telemetry codes (docs/outputs.md `mode`: detumble 1, sun-safe 5).
 const DETUMBLE_CODE: f64 = 1.0;
 const SUN_SAFE_CODE: f64 = 5.0;
@@ -362,13 +365,22 @@ enum Verdict {
 
 /// The degraded-hold bound of a scenario, deg (docs/scenario.md "Pointing degraded"):
 /// `[performance] degraded_hold_error_deg`, else `[modes] hold_enter_error_deg`, else
-/// `[performance] settle_bound_deg`, else its default 1°.
-fn degraded_bound_deg(doc: &Value) -> f64 {
+/// `[performance] settle_bound_deg`, else its default 1°; with the APE's confidence
+/// (`[performance] confidence`, default 0.95).
+fn degraded_bound(doc: &Value) -> Bound {
     let key = |table: &str, k: &str| doc.get(table).and_then(|t| t.get(k)).and_then(Value::as_float);
-    key("performance", "degraded_hold_error_deg")
+    let deg = key("performance", "degraded_hold_error_deg")
         .or_else(|| key("modes", "hold_enter_error_deg"))
         .or_else(|| key("performance", "settle_bound_deg"))
-        .unwrap_or(1.0)
+        .unwrap_or(1.0);
+    Bound { deg, confidence: key("performance", "confidence").unwrap_or(0.95) }
+}
+
+/// The degraded-hold bound and the confidence of the window's APE.
+#[derive(Clone, Copy)]
+struct Bound {
+    deg: f64,
+    confidence: f64,
 }
 
 /// What the series says of a run's end.
@@ -377,12 +389,13 @@ struct SeriesEnd {
     lost: bool,
     /// The last row's `mode` is a safe mode (false without a `mode` column: no mode manager).
     safe: bool,
-    /// Every row of the same window held (mode hold, or no `mode` column) above the bound.
+    /// Every row of the same window held (mode hold, or no `mode` column), and more than
+    /// `1 − confidence` of them above the bound.
     degraded: bool,
 }
 
 /// From `timeseries.csv`, with the scenario's degraded-hold bound `bound_deg`.
-fn lost_by_the_series(csv: &Path, bound_deg: f64) -> Result<SeriesEnd, String> {
+fn lost_by_the_series(csv: &Path, bound: Bound) -> Result<SeriesEnd, String> {
     let text = std::fs::read_to_string(csv).map_err(|e| format!("{}: {e}", csv.display()))?;
     let mut lines = text.lines().filter(|l| !l.starts_with('#'));
     let header: Vec<&str> = lines.next().ok_or("empty time series")?.split(',').collect();
@@ -413,11 +426,14 @@ fn lost_by_the_series(csv: &Path, bound_deg: f64) -> Result<SeriesEnd, String> {
     let tumbling = judged && window.iter().all(|r| tumbling_row(&r.0));
     let safe = last_mode == DETUMBLE_CODE || (last_mode == SUN_SAFE_CODE && !tumbling);
     // NaN mode: no mode column, the one law holds the whole run.
-    let held_off = |r: &([f64; 5], f64, f64)| (r.2.is_nan() || r.2 == HOLD_CODE) && !(r.0[1] <= bound_deg);
+    let held = window.iter().all(|r| r.2.is_nan() || r.2 == HOLD_CODE);
+    let above = window.iter().filter(|r| !(r.0[1] <= bound.deg)).count();
     Ok(SeriesEnd {
         lost: judged && window.iter().all(|r| lost_row(&r.0)),
         safe,
-        degraded: judged && window.iter().all(|r| held_off(r)),
+        degraded: injected <= end - WINDOW_S - RECOVERY_ALLOWANCE_S + 1e-9
+            && held
+            && above as f64 > (1.0 - bound.confidence) * window.len() as f64,
     })
 }
 
@@ -452,19 +468,19 @@ fn judge(c: &Case, dir: &Path) -> Verdict {
         Some(1) if keys.is_empty() => Verdict::Bad(format!("a valid list refused: {}", err.trim())),
         Some(1) => Verdict::Bad(format!("refused without naming any of {keys:?}: {}", err.trim())),
         Some(0 | 3) if !keys.is_empty() => Verdict::Bad(format!("ran with invalid entries ({keys:?})")),
-        Some(code @ (0 | 3)) => judge_run(&out, code, degraded_bound_deg(&c.doc)),
+        Some(code @ (0 | 3)) => judge_run(&out, code, degraded_bound(&c.doc)),
         other => Verdict::Bad(format!("exit {other:?}: {}", err.trim())),
     }
 }
 
-fn judge_run(out: &Path, code: i32, bound_deg: f64) -> Verdict {
+fn judge_run(out: &Path, code: i32, bound: Bound) -> Verdict {
     let Ok(text) = std::fs::read_to_string(out.join("summary.json")) else {
         return Verdict::Bad(format!("exit {code} without summary.json"));
     };
     let s: Json = serde_json::from_str(&text).unwrap();
     let status = s["run_status"].as_str().unwrap_or("(none)").to_string();
     let events = s["fdir"]["events"].as_array().map_or(0, Vec::len);
-    let SeriesEnd { lost, safe, degraded } = match lost_by_the_series(&out.join("timeseries.csv"), bound_deg) {
+    let SeriesEnd { lost, safe, degraded } = match lost_by_the_series(&out.join("timeseries.csv"), bound) {
         Ok(l) => l,
         Err(e) => return Verdict::Bad(e),
     };
@@ -475,7 +491,7 @@ fn judge_run(out: &Path, code: i32, bound_deg: f64) -> Verdict {
         0 if lost && !safe => {
             Verdict::Bad(format!("exit 0 with control lost after {events} FDIR events, not in a safe mode"))
         }
-        0 if degraded => Verdict::Bad(format!("exit 0 held above {bound_deg} deg with {events} FDIR events")),
+        0 if degraded => Verdict::Bad(format!("exit 0 held with an APE above {} deg, {events} FDIR events", bound.deg)),
         0 => Verdict::Ok { lost_reported: lost },
         _ if !FAILED.contains(&status.as_str()) => Verdict::Bad(format!("exit 3 with run_status {status}")),
         _ if status == "control_lost" && !(lost && events == 0) => {

@@ -29,11 +29,18 @@
 //! job is to bring that rate down.
 //!
 //! Pointing degraded (`run_status` "pointing_degraded", exit 3): control was not lost, but
-//! the flight *held* — its mode hold, or, without a mode manager, its one law — with the
-//! true error above the scenario's degraded-hold bound (`[performance]
-//! degraded_hold_error_deg`; by default the mode manager's `hold_enter_error_deg`, the error
-//! the mission itself calls acquired, else `settle_bound_deg`) at every step of the last
-//! [`CONTROL_LOST_WINDOW_S`] after an injection, and the FDIR raised no event. Found by the
+//! the flight *held* — its mode hold, or, without a mode manager, its one law — at every
+//! step of the last [`CONTROL_LOST_WINDOW_S`], all after an injection, and the APE of that
+//! window (the error at the `[performance] confidence`, 0.95 by default) exceeded the
+//! scenario's degraded-hold bound (`[performance] degraded_hold_error_deg`; by default the
+//! mode manager's `hold_enter_error_deg`, the error the mission itself calls acquired, else
+//! `settle_bound_deg`), and the FDIR raised no event. The APE, not every step: a limit
+//! cycle that swings past the bound and back (paper 004 with a thruster stuck closed) or
+//! an error still climbing through it is as degraded as a steady offset. The window is
+//! judged only when the first injection lies at least [`RECOVERY_ALLOWANCE_S`] before it:
+//! the issue asks the pointing "recovered to a stated APE within a stated time", and a
+//! recovery still under way (a rotor's momentum dumped at once settles within 40 s) is not
+//! a degradation. Found by the
 //! campaigns: a reversed magnetorquer rod left the 3U in hold 0.53°–2.33° off (12 / 159
 //! runs), a stuck-open thruster held paper 004's spacecraft 9.0° off while draining its
 //! tank — each under the 10° of a lost control, each exit 0. With an event, the same end is
@@ -53,6 +60,10 @@ pub const CONTROL_LOST_RATE_DEG_S: f64 = 3.0;
 /// persistence and dwell (5 s and 60 s in the shipped tables) so that a transient the flight
 /// is still acting on does not count.
 pub const CONTROL_LOST_WINDOW_S: f64 = 60.0;
+/// The time a recovery is given before its pointing is judged degraded, s: the degraded
+/// window (the last [`CONTROL_LOST_WINDOW_S`]) starts at least this long after the first
+/// injection — as long as the longest dwell of the shipped mode tables.
+pub const RECOVERY_ALLOWANCE_S: f64 = 60.0;
 
 /// Whether `mode` is a safe mode: one whose job is survival, not pointing — detumble (rate
 /// damping by B-dot) and sun-safe (power: a panel on the Sun). Stabilise, manoeuvre and
@@ -77,14 +88,21 @@ pub enum LostVerdict {
 #[derive(Clone, Debug)]
 pub struct ControlWatch {
     rate_bound_rad_s: f64,
-    /// The degraded-hold bound, deg (module doc).
+    /// The degraded-hold bound, deg, and the confidence of the window's APE (module doc).
     degraded_bound_deg: f64,
+    confidence: f64,
     /// Start of the current unbroken run of lost steps, all at or after an injection.
     lost_since_s: Option<f64>,
     /// The same for the rate alone above the bound (tumbling).
     tumbling_since_s: Option<f64>,
-    /// The same for a hold with the error above the degraded-hold bound.
-    degraded_since_s: Option<f64>,
+    /// Start of the current unbroken run of held steps (hold, or no mode manager), all at
+    /// or after an injection.
+    held_since_s: Option<f64>,
+    /// The first step with a fault in force.
+    injected_at_s: Option<f64>,
+    /// Time and true error of the steps of the last [`CONTROL_LOST_WINDOW_S`] (bounded by
+    /// the window times the control rate, whatever the run's length).
+    window: std::collections::VecDeque<(f64, f64)>,
     /// The last step's time, error and rate.
     last: Option<(f64, f64, f64)>,
     /// The last step's flight mode (None: no mode manager, or a code it does not name).
@@ -93,14 +111,18 @@ pub struct ControlWatch {
 
 impl ControlWatch {
     /// `rate_bound_deg_s`: the tumble rate (`[modes] detumble_enter_rate_deg_s`, else
-    /// [`CONTROL_LOST_RATE_DEG_S`]); `degraded_bound_deg`: the degraded-hold bound.
-    pub fn new(rate_bound_deg_s: f64, degraded_bound_deg: f64) -> Self {
+    /// [`CONTROL_LOST_RATE_DEG_S`]); `degraded_bound_deg` and `confidence`: the degraded-hold
+    /// bound and the confidence of the window's APE.
+    pub fn new(rate_bound_deg_s: f64, degraded_bound_deg: f64, confidence: f64) -> Self {
         Self {
             rate_bound_rad_s: rate_bound_deg_s.to_radians(),
             degraded_bound_deg,
+            confidence,
             lost_since_s: None,
             tumbling_since_s: None,
-            degraded_since_s: None,
+            held_since_s: None,
+            injected_at_s: None,
+            window: std::collections::VecDeque::new(),
             last: None,
             last_mode: None,
         }
@@ -116,10 +138,14 @@ impl ControlWatch {
         let lost = tumbling || (injected && !(err_deg <= CONTROL_LOST_ERROR_DEG));
         // Holding: in hold, or no mode manager (its one law points the whole run).
         let holding = mode.is_none_or(|m| m == Mode::Hold);
-        let degraded = injected && holding && !(err_deg <= self.degraded_bound_deg);
         self.lost_since_s = if lost { self.lost_since_s.or(Some(t_s)) } else { None };
         self.tumbling_since_s = if tumbling { self.tumbling_since_s.or(Some(t_s)) } else { None };
-        self.degraded_since_s = if degraded { self.degraded_since_s.or(Some(t_s)) } else { None };
+        self.held_since_s = if injected && holding { self.held_since_s.or(Some(t_s)) } else { None };
+        self.injected_at_s = self.injected_at_s.or(injected.then_some(t_s));
+        self.window.push_back((t_s, err_deg));
+        while self.window.front().is_some_and(|(t, _)| *t < t_s - CONTROL_LOST_WINDOW_S - 1e-9) {
+            self.window.pop_front();
+        }
         self.last = Some((t_s, err_deg, rate));
         self.last_mode = mode;
     }
@@ -173,18 +199,34 @@ impl ControlWatch {
         )))
     }
 
-    /// Whether every step of the last window was a hold off by more than the bound.
+    /// How many steps of the last window had the error above the degraded-hold bound (NaN
+    /// is above), of how many.
+    fn above_bound(&self) -> (usize, usize) {
+        let above = self.window.iter().filter(|(_, e)| !(*e <= self.degraded_bound_deg)).count();
+        (above, self.window.len())
+    }
+
+    /// Whether every step of the last window was held, the first injection at least
+    /// [`RECOVERY_ALLOWANCE_S`] before it, and the window's APE exceeds the bound: more than
+    /// `1 − confidence` of its steps above it.
     pub fn degraded(&self) -> bool {
-        self.whole_window(self.degraded_since_s)
+        let (above, n) = self.above_bound();
+        let allowed = match (self.injected_at_s, self.last) {
+            (Some(i), Some((t, _, _))) => i <= t - CONTROL_LOST_WINDOW_S - RECOVERY_ALLOWANCE_S + 1e-9,
+            _ => false,
+        };
+        allowed && self.whole_window(self.held_since_s) && above as f64 > (1.0 - self.confidence) * n as f64
     }
 
     /// A run not lost: with a degraded hold, pointing degraded (no event) or recovery failed.
     fn degraded_verdict(&self, fdir_events: usize) -> Option<LostVerdict> {
-        let (since, (t, err, _)) = self.degraded_since_s.zip(self.last).filter(|_| self.degraded())?;
+        let (since, (t, err, _)) = self.held_since_s.zip(self.last).filter(|_| self.degraded())?;
+        let (above, n) = self.above_bound();
         let span = format!(
-            "from t = {since} s to the end ({t} s) the flight held with the true attitude error above the \
-             degraded-hold bound {} deg at every control step (at the end: {err:.3} deg)",
-            self.degraded_bound_deg
+            "the flight held from t = {since} s to the end ({t} s), and its true attitude error exceeded the \
+             degraded-hold bound {} deg at {above} of the {n} control steps of the last {CONTROL_LOST_WINDOW_S} s \
+             (an APE at confidence {} above the bound; at the end: {err:.3} deg)",
+            self.degraded_bound_deg, self.confidence
         );
         Some(if fdir_events == 0 {
             LostVerdict::PointingDegraded(format!("pointing degraded with no FDIR event: {span}"))
@@ -204,7 +246,7 @@ mod tests {
     /// Steps every 0.5 s from 0 to `end` with the error `e(t)` and rate `w(t)` (deg/s about
     /// x), a fault in force from `inj`.
     fn watch(end: f64, inj: f64, e: impl Fn(f64) -> f64, w: impl Fn(f64) -> f64) -> ControlWatch {
-        let mut c = ControlWatch::new(3.0, 0.5);
+        let mut c = ControlWatch::new(3.0, 0.5, 0.95);
         for k in 0..=(end / 0.5) as u64 {
             let t = k as f64 * 0.5;
             c.push(t, t >= inj, e(t), [w(t).to_radians(), 0.0, 0.0], Some(Mode::Hold));
@@ -238,7 +280,7 @@ mod tests {
 
     /// The same steps, the last one's mode `last` (the others in hold).
     fn ending_in(last: Option<Mode>, e: f64) -> ControlWatch {
-        let mut c = ControlWatch::new(3.0, 0.5);
+        let mut c = ControlWatch::new(3.0, 0.5, 0.95);
         for k in 0..=400u64 {
             let t = k as f64 * 0.5;
             c.push(t, t >= 10.0, e, [0.0; 3], if k == 400 { last } else { Some(Mode::Hold) });
@@ -269,7 +311,7 @@ mod tests {
 
     /// Steps every 0.5 s to 200 s in `mode(t)` with the error `e(t)`, a fault from 10 s.
     fn held(mode: impl Fn(f64) -> Option<Mode>, e: impl Fn(f64) -> f64) -> ControlWatch {
-        let mut c = ControlWatch::new(3.0, 0.5);
+        let mut c = ControlWatch::new(3.0, 0.5, 0.95);
         for k in 0..=400u64 {
             let t = k as f64 * 0.5;
             c.push(t, t >= 10.0, e(t), [0.0; 3], mode(t));
@@ -286,6 +328,7 @@ mod tests {
         assert!(c.degraded() && !c.lost());
         let Some(LostVerdict::PointingDegraded(r)) = c.verdict(0) else { panic!("{:?}", c.verdict(0)) };
         assert!(r.contains("bound 0.5 deg") && r.contains("2.000 deg") && r.contains("from t = 10 s"), "{r}");
+        assert!(r.contains("at 121 of the 121 control steps"), "{r}");
         let Some(LostVerdict::RecoveryFailed(r)) = c.verdict(3) else { panic!("{:?}", c.verdict(3)) };
         assert!(r.contains("3 event(s)") && r.contains("did not restore"), "{r}");
         // No mode manager: its one law is judged as a hold (paper 004's stuck-open thruster).
@@ -297,15 +340,29 @@ mod tests {
         for m in [Mode::Manoeuvre, Mode::Stabilise, Mode::SunSafe, Mode::Detumble] {
             assert!(held(|_| Some(m), |_| 5.0).verdict(0).is_none(), "{m:?}");
         }
-        // One step back within the bound, or out of hold, inside the last 60 s: not degraded.
-        assert!(held(hold, |t| if t == 190.0 { 0.3 } else { 2.0 }).verdict(0).is_none());
+        // Out of hold inside the last 60 s: not judged.
         let left = |t: f64| if t >= 199.0 { Some(Mode::SunSafe) } else { Some(Mode::Hold) };
         assert!(held(left, |_| 2.0).verdict(0).is_none());
-        // Off from 140.5 s only (one step short of the window): not yet.
-        assert!(held(hold, |t| if t >= 140.5 { 2.0 } else { 0.1 }).verdict(0).is_none());
-        assert!(held(hold, |t| if t >= 140.0 { 2.0 } else { 0.1 }).degraded());
+        // The window's APE at 0.95 (121 steps: above in more than 6.05 of them): a limit
+        // cycle 2 deg off in 7 of its steps is degraded, in 6 is not; so is an error still
+        // climbing through the bound (above in its last 20 s).
+        let cycle = |k: u64| move |t: f64| if t >= 140.0 && (t * 2.0) as u64 % 121 < k { 2.0 } else { 0.1 };
+        assert!(held(hold, cycle(7)).degraded() && !held(hold, cycle(6)).degraded());
+        assert!(held(hold, |t| 0.1 + (t - 100.0).max(0.0) * 0.005).degraded());
+        // A fault from 80 s (the window 140–200 s starts 60 s after it) is judged, from
+        // 80.5 s it is not: its recovery is still allowed.
+        let from = |inj: f64| {
+            let mut c = ControlWatch::new(3.0, 0.5, 0.95);
+            (0..=400u64).map(|k| k as f64 * 0.5).for_each(|t| c.push(t, t >= inj, 2.0, [0.0; 3], Some(Mode::Hold)));
+            c
+        };
+        assert!(from(80.0).degraded() && !from(80.5).degraded());
+        // The window held from 140.5 s only (one step short): not judged; from 140 s: judged.
+        let late = |t: f64| if t >= 140.0 { Some(Mode::Hold) } else { Some(Mode::Manoeuvre) };
+        let later = |t: f64| if t >= 140.5 { Some(Mode::Hold) } else { Some(Mode::Manoeuvre) };
+        assert!(held(late, |_| 2.0).degraded() && !held(later, |_| 2.0).degraded());
         // No fault in force: never (a hold is the scenario's own business then).
-        let mut c = ControlWatch::new(3.0, 0.5);
+        let mut c = ControlWatch::new(3.0, 0.5, 0.95);
         (0..=400u64).for_each(|k| c.push(k as f64 * 0.5, false, 2.0, [0.0; 3], Some(Mode::Hold)));
         assert!(c.verdict(0).is_none());
     }

@@ -368,7 +368,8 @@ impl<'a> Simulation<'a> {
             t_end: 0.0,
             injection: None,
             last_step: None,
-            control: (!faults.is_empty()).then(|| ControlWatch::new(tumble_rate_deg_s, degraded_hold_error_deg)),
+            control: (!faults.is_empty())
+                .then(|| ControlWatch::new(tumble_rate_deg_s, degraded_hold_error_deg, performance.confidence)),
             faults: FaultLog::new(faults),
             fdir: fdir.then(FdirLog::default),
             timeline,
