@@ -36,14 +36,16 @@ groups the runs by kind and magnitude decade with their verdicts and final error
 class (a GNSS position jump, [fdir.gnss]) is judged the same way, and every jump must be
 detected. A run without a mode manager (final_mode null: the paper scenarios, e.g. the CMG
 and thruster campaigns) has no hold to end in: it is judged by its final true error
-(final_error_deg) against the scenario's own settle bound (summary settle_bound_deg, the
+(final_error_deg) or, when the summary has it, the APE 95 % over [performance] from_s to
+the end (pointing.ape_deg.total: the campaign bases set from_s to the last 60 s, the window
+the simulator's pointing_degraded verdict judges; a limit cycle's final sample may fall on
+a peak or a trough) against the scenario's own settle bound (summary settle_bound_deg, the
 [performance] settle_bound_deg, default SETTLE_BOUND_DEG = 1 deg): the error the scenario
 itself calls settled, the bound of its settle_time_s, so each campaign base states its own
 (paper 000 times its manoeuvres to 1 deg; campaigns/base-thruster-fault.toml sets 2 deg,
 above paper 004's healthy PWPF limit cycle). An ok run beyond it is a silent degradation and
 fails. The table then adds the final error per magnitude decade and per unit, the ok runs
-beyond the bound, the APE 95 % over [performance] from_s to the end (summary
-pointing.ape_deg.total; reported, not judged: a limit cycle's final sample may fall low), the
+beyond the bound, the APE 95 % over [performance] from_s to the end, the
 time from which the error stays within the bound to the end (settle_time_s), and the propellant (summary propellant_kg, thrusters); with
 --nominal NOMINAL_DIR (the same campaign's fault-free twin: same seed and dispersion keys, so
 run i flew the same initial attitude) each run's propellant and final error are set against
@@ -145,8 +147,10 @@ def self_test_no_mode():
     """The judging of a run without a mode manager (undetected), against hand-stated verdicts:
     the final error against the summary's settle bound (or SETTLE_BOUND_DEG), the lost-control
     verdict passing whatever the error, a mode manager's run judged as before."""
-    def run(err, status="ok", bound=None, mode=None):
+    def run(err, status="ok", bound=None, mode=None, ape=None):
         s = {"run_status": status, "final_mode": mode, "final_error_deg": err, "final_rate_rad_s": [0.0] * 3}
+        if ape is not None:
+            s["pointing"] = {"from_s": 120.0, "ape_deg": {"total": ape}}
         s["faults"] = [{"unit": "thruster.0", "kind": "stuck_open", "onset_s": 1.0, "injected_at_s": 1.0}]
         if bound is not None:
             s["settle_bound_deg"] = bound
@@ -159,6 +163,9 @@ def self_test_no_mode():
         ("control_lost far off: the verdict said so", run(36.0, status="control_lost"), True),
         ("no final error, ok", run(None), False),
         ("NaN final error, ok", run(math.nan), False),
+        ("a limit cycle's peak at the end, its APE within 2 deg", run(2.1, bound=2.0, ape=1.5), True),
+        ("a limit cycle's trough at the end, its APE beyond 2 deg", run(0.3, bound=2.0, ape=2.5), False),
+        ("pointing_degraded far off: the verdict said so", run(9.0, status="pointing_degraded", ape=9.0), True),
         ("mode manager, hold within HOLD_DEG (bound ignored)", run(0.5, mode="hold", bound=0.1), True),
         ("mode manager, hold beyond HOLD_DEG", run(0.6, mode="hold", bound=2.0), False),
     ]
@@ -244,7 +251,9 @@ def outcome_undetected(s, fig, det_s, bad, rate):
     fig["ape_from_s"] = pointing.get("from_s")
     fig["ape_deg"] = (pointing.get("ape_deg") or {}).get("total")
     fig["settle_time_s"] = s.get("settle_time_s")  # below the bound from then to the end
-    if fig["final_mode"] is None:  # no mode manager: the final error alone
+    if fig["final_mode"] is None:  # no mode manager: the end window's APE, else the final error
+        if fig["ape_deg"] is not None:
+            fig["off"] = not fig["ape_deg"] <= fig["bound_deg"]
         kept = not fig["off"]
     else:
         kept = (fig["final_mode"] == "hold" and (err or math.inf) < HOLD_DEG) or (
@@ -340,7 +349,7 @@ def analyse(dirname, cls, sim_host=None, nominal_dir=None):
         verdict_is_outcome = cls in ("undetected", "gnss")  # a lost-control verdict is what it measures
         # the campaign's record carries the lost-control verdict as its status too
         flew = status in ("ok", "requirement_failed") or (
-            verdict_is_outcome and status in ("control_lost", "recovery_failed")
+            verdict_is_outcome and status in ("control_lost", "recovery_failed", "pointing_degraded")
         )
         if not flew or (s.get("run_status") != "ok" and not verdict_is_outcome):
             errored.append(f"{run}:{status}/{s.get('run_status')}")
@@ -580,8 +589,8 @@ def report_undetected(figs):
 
 
 def verdict_counts(fs):
-    """ok / control_lost / recovery_failed / other (any other run_status)."""
-    out = {"ok": 0, "control_lost": 0, "recovery_failed": 0, "other": 0}
+    """ok / control_lost / recovery_failed / pointing_degraded / other (any other run_status)."""
+    out = {"ok": 0, "control_lost": 0, "recovery_failed": 0, "pointing_degraded": 0, "other": 0}
     for f in fs:
         count(out, f["verdict"] if f["verdict"] in out else "other")
     return out
