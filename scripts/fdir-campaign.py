@@ -444,12 +444,15 @@ def report_outcome(cls, figs):
     if cls == "wheel":
         report_wheel(figs)
     if cls in ("wheel", "nominal"):
-        ape = [f["ape_deg"] for f in figs if f.get("ape_deg") is not None]
-        if ape:
-            print(f"APE after settle (deg), median / p95 / max: {spread(ape, '{:.5f}')}")
-        fin = [f["final_error_deg"] for f in figs if f.get("final_error_deg") is not None]
-        if fin:
-            print(f"final error (deg), median / p95 / max: {spread(fin, '{:.5f}')}")
+        print_spread(figs, "ape_deg", "APE after settle (deg)", "{:.5f}")
+        print_spread(figs, "final_error_deg", "final error (deg)", "{:.5f}")
+
+
+def print_spread(figs, key, label, fmt):
+    """`label, median / p95 / max: ...` of the runs' `key`, if any has it."""
+    xs = [f[key] for f in figs if f.get(key) is not None]
+    if xs:
+        print(f"{label}, median / p95 / max: {spread(xs, fmt)}")
 
 
 def decade(m):
@@ -634,12 +637,10 @@ def report_no_mode(figs):
     off = sorted((f for f in figs if f["verdict"] == "ok" and f["off"]), key=lambda f: -(f["final_error_deg"] or math.inf))
     for f in off[:10]:
         print(f"  ok but off: run {f['run']} {f['unit']} {f['kind']} {f['magnitude']}: {f['final_error_deg']:.3f} deg")
-    tw = [f["nominal_final_error_deg"] for f in figs if f.get("nominal_final_error_deg") is not None]
-    if tw:
-        print(f" fault-free twins' final error (deg), median / p95 / max: {spread(tw, '{:.3g}')}")
+    print_spread(figs, "nominal_final_error_deg", " fault-free twins' final error (deg)", "{:.3g}")
     tw = [f["nominal_ape_deg"] for f in figs if f.get("nominal_ape_deg") is not None]
     if tw:
-        print(f" fault-free twins' APE 95 % of the end window (deg), median / p95 / max: {spread(tw, '{:.3g}')}")
+        print_spread(figs, "nominal_ape_deg", " fault-free twins' APE 95 % of the end window (deg)", "{:.3g}")
         tw = [f["nominal_settle_time_s"] for f in figs if f.get("nominal_settle_time_s") is not None]
         print(f" fault-free twins within the bound to the end from (s), median / p95 / max: {spread(tw, '{:.1f}')}, never: {len(figs) - len(tw)}")
     report_propellant(figs)
