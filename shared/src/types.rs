@@ -141,6 +141,17 @@ pub struct GnssFix {
     pub j2000_s: f32,
 }
 
+/// The last accepted fix carried to a new fix's time (`estimation::navigation::Navigation::
+/// predict_fix`): what the GNSS monitor (`fdir::gnss`) judges the new fix against.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PredictedFix {
+    /// Inertial position and velocity, m, m/s.
+    pub r_m: Vec3,
+    pub v_m_s: Vec3,
+    /// The time carried over, s.
+    pub dt_s: f32,
+}
+
 /// The typed sensor samples of one step (`crate::validation::sensor_samples`): what the
 /// estimation stage reads; `None` for a sensor not flagged valid or not usable.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -444,7 +444,8 @@ fn chi2_3_tail(x: f64) -> f64 {
 /// the flight's two-body step. On an exact circular orbit (f64, closed form) with white
 /// noise σ_r on the position and σ_v on the velocity of every fix, `d²/σ_d²` with
 /// `σ_d² = 2σ_r² + (σ_v Δt)²` is χ²₃: mean 3, and the monitor's exceedances at
-/// `γ σ_d + ROUNDING_M` (no model acceleration) follow `Q(((γ σ_d + 4)/σ_d)²)`.
+/// `γ σ_d + ROUNDING_M` (no model acceleration) follow `Q(((γ σ_d + 4)/σ_d)²)`. The
+/// velocity residual likewise with `σ_e² = 2σ_v²`.
 #[test]
 fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
     use acs_flight::estimation::navigation::Navigation;
@@ -465,6 +466,10 @@ fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
     let (mut nav, mut monitor) = (Navigation::new(), GnssMonitor::new());
     let (mut sum, mut exceeded, mut judged) = (0.0f64, 0usize, 0usize);
     let sigma_d = (2.0 * sr * sr + sv * sv).sqrt(); // Δt = 1 s
+    // The velocity: 2σ_v² (the gravity gradient's share, 1.9e-5 m/s, is below the
+    // tolerance's reach: 1e-7 of the variance).
+    let sigma_e = (2.0 * sv * sv).sqrt();
+    let (mut sum_v, mut exceeded_v) = (0.0f64, 0usize);
     for k in 0..20_000u64 {
         let t = k as f64; // one fix a second
         let (s, c) = (n_rad_s * t).sin_cos();
@@ -485,11 +490,14 @@ fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
             j2000_s: t as f32,
         };
         let predicted = nav.predict_fix(fix.time_us);
-        monitor.judge(&p, fix.time_us, &fix.pos_eci_m, predicted);
+        monitor.judge(&p, fix.time_us, (&fix.pos_eci_m, &fix.vel_eci_m_s), predicted.as_ref());
         if predicted.is_some() {
             let (d, threshold) = monitor.last_residual_m();
             sum += (f64::from(d) / sigma_d).powi(2);
             exceeded += usize::from(d > threshold);
+            let (e, threshold_v) = monitor.last_velocity_residual_m_s();
+            sum_v += (f64::from(e) / sigma_e).powi(2);
+            exceeded_v += usize::from(e > threshold_v);
             judged += 1;
         }
         // Every fix is taken, so that each residual spans one second.
@@ -503,4 +511,110 @@ fn the_gnss_residual_is_chi2_3_on_a_circular_orbit() {
     let se = (want * (1.0 - want) / judged as f64).sqrt();
     println!("GNSS residual: mean d²/σ_d² {mean:.4} (3), exceedances {got:.5} against {want:.5} (se {se:.5})");
     assert!((got - want).abs() < 4.0 * se, "exceedance rate {got} against the χ²₃ tail {want}");
+    // The velocity residual: the same law, its threshold γ σ_e + the truncation and
+    // rounding terms (no model acceleration), taken from the monitor's formula's parts.
+    let mean_v = sum_v / judged as f64;
+    assert!((mean_v - 3.0).abs() < 0.09, "mean e²/σ_e² = {mean_v}, want 3");
+    let extra = f64::from(GnssMonitor::velocity_threshold_m_s(&p, 1.0)) - gamma * sigma_e;
+    assert!((0.012..0.0125).contains(&extra), "truncation + rounding {extra} m/s");
+    let want_v = chi2_3_tail(((gamma * sigma_e + extra) / sigma_e).powi(2));
+    let got_v = exceeded_v as f64 / judged as f64;
+    let se_v = (want_v * (1.0 - want_v) / judged as f64).sqrt();
+    println!(
+        "GNSS velocity residual: mean e²/σ_e² {mean_v:.4} (3), exceedances {got_v:.5} against {want_v:.5} (se {se_v:.5})"
+    );
+    assert!((got_v - want_v).abs() < 4.0 * se_v, "velocity exceedance rate {got_v} against the χ²₃ tail {want_v}");
+}
+
+/// (g) one fix with a good position and a corrupt velocity, through the estimation stage.
+/// Before the velocity test such a fix was taken: the next good fixes looked like jumps
+/// against the orbit carried with its velocity, the healthy receiver was declared failed 3
+/// fixes later and the navigation carried the bad state (26.9 km, 53.8 km and 537 km off
+/// after 500 s for 50, 100 and 1,000 m/s). Now the fix is refused, nothing is declared,
+/// and the navigation at 500 s is within the receiver's noise of the truth (a closed-form
+/// circular orbit, f64). A velocity that stays corrupt is declared on its third fix (3 of
+/// 4) as the velocity test's, and the navigation keeps the last good fix.
+#[test]
+fn a_corrupt_gnss_velocity_is_refused_and_the_orbit_kept() {
+    use acs_flight::estimation::determination::Determination;
+    use acs_flight::params::EstimationParams;
+    use acs_flight::params::fdir::GnssFdirParams;
+    use acs_flight::types::{GnssFix, SensorSamples};
+    let (radius_m, mu) = (6_988_000.0f64, 3.986_004_418e14f64);
+    let n_rad_s = (mu / radius_m.powi(3)).sqrt();
+    let state = |t: f64| {
+        let (s, c) = (n_rad_s * t).sin_cos();
+        let (r, v) = ([radius_m * c, 0.0, radius_m * s], [-radius_m * n_rad_s * s, 0.0, radius_m * n_rad_s * c]);
+        (Vector3::from(r), Vector3::from(v))
+    };
+    let gnss = GnssFdirParams {
+        position_sigma_m: 5.0,
+        velocity_sigma_m_s: 0.05,
+        model_accel_m_s2: 0.02,
+        threshold_sigma: 5.0,
+        window: KOfN { k: 3, n: 4 },
+    };
+    let params = EstimationParams { gnss_fdir: Some(gnss), ..EstimationParams::SENSOR };
+    // (jump, last corrupt fix): one fix, or every fix from 50 s on.
+    for (jump_m_s, last) in [(50.0, 50u64), (100.0, 50), (1000.0, 50), (-100.0, 50), (100.0, 500)] {
+        let mut d = Determination::new(&params).unwrap();
+        let mut rng = SplitMix64(20_261_130);
+        let mut declared_at = None;
+        let mut nav_error_m = f64::NAN;
+        for k in 0..=500u64 {
+            let t = k as f64;
+            let (r, v) = state(t);
+            let noise =
+                |s: f64, rng: &mut SplitMix64| Vector3::new(s * rng.normal(), s * rng.normal(), s * rng.normal());
+            let (r_fix, mut v_fix) = (r + noise(5.0, &mut rng), v + noise(0.05, &mut rng));
+            if (50..=last).contains(&k) {
+                v_fix += v.normalize() * jump_m_s;
+            }
+            let fix = GnssFix {
+                time_us: k * 1_000_000,
+                pos_eci_m: Vec3::new(r_fix.x as f32, r_fix.y as f32, r_fix.z as f32),
+                vel_eci_m_s: Vec3::new(v_fix.x as f32, v_fix.y as f32, v_fix.z as f32),
+                j2000_days: 9_800,
+                j2000_s: t as f32,
+            };
+            let samples = SensorSamples {
+                time_us: fix.time_us,
+                gyro: None,
+                star_tracker: None,
+                sun_sensor: None,
+                css: None,
+                magnetometer: None,
+                gnss: Some(fix),
+            };
+            let estimate = d.step(&samples);
+            let monitor = d.gnss_monitor();
+            if k == 50 {
+                let (e, threshold) = monitor.last_velocity_residual_m_s();
+                assert!(f64::from(e) > jump_m_s.abs() - 1.0 && e > threshold, "{jump_m_s}: {e} against {threshold}");
+                assert!(monitor.last_residual_m().0 < monitor.last_residual_m().1, "the position was good");
+            }
+            if monitor.failed() && declared_at.is_none() {
+                declared_at = Some(k);
+                let (e, threshold) = monitor.last_velocity_residual_m_s();
+                assert!(e > threshold, "declared by the velocity test");
+            }
+            if let Some(nav) = estimate.nav {
+                let r_nav = Vector3::new(f64::from(nav.r_m.x), f64::from(nav.r_m.y), f64::from(nav.r_m.z));
+                nav_error_m = (r_nav - r).norm();
+            }
+        }
+        println!(
+            "velocity jump {jump_m_s} m/s to {last} s: declared at {declared_at:?}, nav error at 500 s {nav_error_m:.1} m"
+        );
+        if last == 50 {
+            assert_eq!(declared_at, None, "{jump_m_s}: a healthy receiver declared");
+            // One fix's noise: 5 m per axis (3σ of the norm ≈ 20 m), plus ROUNDING_M.
+            assert!(nav_error_m < 30.0, "{jump_m_s}: {nav_error_m} m");
+        } else {
+            assert_eq!(declared_at, Some(52), "3 of 4 from the first corrupt fix");
+            // The last good fix (49 s) carried 451 s by the Kepler step: its position noise
+            // and its velocity noise × 451 s (0.05 m/s: 3σ 68 m) on a closed-form orbit.
+            assert!(nav_error_m < 120.0, "{nav_error_m} m");
+        }
+    }
 }

@@ -136,7 +136,7 @@ struct Entry {
     end_s: Option<f64>,
 }
 
-const ALL_KINDS: [&str; 22] = [
+const ALL_KINDS: [&str; 23] = [
     "stuck",
     "torque_gain",
     "runaway",
@@ -152,6 +152,7 @@ const ALL_KINDS: [&str; 22] = [
     "bias",
     "dead",
     "position_jump",
+    "velocity_jump",
     "noise",
     "saturation",
     "gimbal_stuck",
@@ -176,7 +177,7 @@ fn kinds_of(unit: &str) -> &'static [&'static str] {
         Some("magnetorquer") => &["open", "reversed"],
         Some("magnetometer") => &["stuck", "bias"],
         Some("css") => &["dead"],
-        Some("gnss") => &["position_jump"],
+        Some("gnss") => &["position_jump", "velocity_jump"],
         Some("cmg") => &["gimbal_stuck", "rotor_spin_down"],
         Some("thruster") => &["stuck_closed", "stuck_open"],
         _ => &["stuck"],
@@ -243,6 +244,8 @@ fn draw_entry(rng: &mut SplitMix64, b: &Base, clean: bool) -> Entry {
         "saturation" => Some(MAX_RATE_RAD_S * 10f64.powf(-5.7 * rng.uniform())),
         // 1 m to 1e7 m (the largest jump the format takes), either sign.
         "position_jump" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(7.0 * rng.uniform())),
+        // 0.01 m/s to 1e4 m/s (the largest jump the format takes), either sign.
+        "velocity_jump" => Some(*pick(rng, &[1.0, -1.0]) * 10f64.powf(6.0 * rng.uniform() - 2.0)),
         // 1e-9 to 1e-2 T (the largest bias the format takes), either sign.
         "bias" => Some(*pick(rng, &[1.0, -1.0]) * MAX_MAG_BIAS_T * 10f64.powf(-7.0 * rng.uniform())),
         // 1 s to 1e7 s (the shortest and longest time constants the format takes).
@@ -293,6 +296,7 @@ fn valid(e: &Entry, b: &Base) -> bool {
         "bias" => m.is_some_and(|x| x.is_finite() && x.abs() <= MAX_MAG_BIAS_T),
         "noise" | "tach_noise" => m.is_some_and(|x| (1.0..=1000.0).contains(&x)),
         "position_jump" => m.is_some_and(|x| x.abs() <= 1.0e7),
+        "velocity_jump" => m.is_some_and(|x| x.abs() <= 1.0e4),
         "saturation" => m.is_some_and(|x| (0.0..=MAX_RATE_RAD_S).contains(&x)),
         "rotor_spin_down" => m.is_some_and(|x| (1.0..=1.0e7).contains(&x)),
         _ => m.is_none(),

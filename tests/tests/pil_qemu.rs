@@ -364,8 +364,9 @@ fn the_wheel_fdir_gives_the_same_bits_on_the_firmware() {
 /// The estimation stage's sensor monitors on the firmware (issue 42): the 6U shortened to
 /// 200 s with `[fdir.star_tracker]`, `[fdir.magnetometer]`, `[fdir.gnss]` and `[fdir.gyro]`
 /// (with its bias-step test), a 0.01 rad/s bias step on gyro x at 30 s, the tracker flipped
-/// at 60 s, the gyro's z axis stuck at 130 s, a 20 µT bias on magnetometer y at 160 s and a
-/// 100 km GNSS jump at 180 s. Every recorded cell equal bit for bit (the filter's restart
+/// at 60 s, the gyro's z axis stuck at 130 s, a 20 µT bias on magnetometer y at 160 s, one
+/// GNSS fix with a 100 m/s velocity error at 170 s (refused, not declared) and a 100 km GNSS
+/// jump at 180 s. Every recorded cell equal bit for bit (the filter's restart
 /// with the step, the field and GNSS residuals among them), the same five events (the step
 /// from the tracker's innovations, the flip from the Sun and the field, the axis from its
 /// repeats, the magnetometer from the field model, the receiver from its own last fix).
@@ -378,11 +379,12 @@ fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
             format!("\n[[faults]]\nonset_s = {at:?}\nunit = \"{unit}\"\nkind = \"{kind}\"\n")
         };
         format!(
-            "{base}\n[fdir.star_tracker]\n\n[fdir.magnetometer]\n\n[fdir.gnss]\n\n[fdir.gyro]\nbias_step = {{ k = 3, n = 4 }}\n{}magnitude = 0.01\n{}{}{}magnitude = 2.0e-5\n{}magnitude = 1.0e5\n",
+            "{base}\n[fdir.star_tracker]\n\n[fdir.magnetometer]\n\n[fdir.gnss]\n\n[fdir.gyro]\nbias_step = {{ k = 3, n = 4 }}\n{}magnitude = 0.01\n{}{}{}magnitude = 2.0e-5\n{}magnitude = 100.0\nend_s = 170.5\n{}magnitude = 1.0e5\n",
             fault(30.0, "gyro.x", "bias_step"),
             fault(60.0, "star_tracker", "flip"),
             fault(130.0, "gyro.z", "stuck"),
             fault(160.0, "magnetometer.y", "bias"),
+            fault(170.0, "gnss", "velocity_jump"),
             fault(180.0, "gnss", "position_jump")
         )
     }) else {
@@ -391,6 +393,7 @@ fn the_sensor_monitors_give_the_same_bits_on_the_firmware() {
     let units: Vec<&str> = f.events.iter().map(|e| e.unit.as_str()).collect();
     assert_eq!(units, ["gyro.x", "star_tracker", "gyro.z", "magnetometer", "gnss"], "{f:?}");
     assert_eq!(f.events[0].test, "gyro_bias_innovation");
+    assert_eq!(f.events[4].test, "gnss_position_consistency", "the velocity error alone declares nothing");
     assert_eq!(f.false_alarms, 0);
 }
 

@@ -462,7 +462,7 @@ impl Determination {
         let Some(p) = self.params.gnss_fdir else { return Some(g) };
         // The propagation only when judged: a fix held over two frames is judged once.
         let predicted = if self.gnss_monitor.judges(g.time_us) { self.nav.predict_fix(g.time_us) } else { None };
-        match self.gnss_monitor.judge(&p, g.time_us, &g.pos_eci_m, predicted) {
+        match self.gnss_monitor.judge(&p, g.time_us, (&g.pos_eci_m, &g.vel_eci_m_s), predicted.as_ref()) {
             Verdict::Take => Some(g),
             Verdict::Refuse => None,
         }

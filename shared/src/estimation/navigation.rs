@@ -13,7 +13,7 @@ use crate::math::{Quat, Vec3, norm, rotate_body_to_ref};
 use crate::models::lvlh::lvlh;
 use crate::models::orbit::{SHORT_STEP_MAX_S, propagate_short, propagate_two_body};
 use crate::models::time::J2000Time;
-use crate::types::GnssFix;
+use crate::types::{GnssFix, PredictedFix};
 
 /// Longest time a fix is carried forward, s (three LEO orbits). Two-body propagation
 /// ignores J2: from a 617 km fix it is 3.5 km off after 600 s and 108 km (0.9° of LVLH)
@@ -94,20 +94,24 @@ impl Navigation {
         self.state_at(time_us).map(|(r, _, time, _)| (r, time))
     }
 
-    /// The last fix's position carried to `time_us` (inertial, m) and the time it was
-    /// carried over, s: what the GNSS monitor judges a new fix against
+    /// The last fix's position and velocity carried to `time_us` and the time it was
+    /// carried over: what the GNSS monitor judges a new fix against
     /// ([`crate::fdir::gnss`]). Up to [`SHORT_STEP_MAX_S`] (the usual 1 s between fixes) by
-    /// the Taylor step [`propagate_short`] (within 0.47 m of two-body motion, rounding
-    /// 0.43 m in LEO), beyond it by `update`'s Kepler step. `None` when there is no fix,
+    /// the Taylor step [`propagate_short`] (within 0.47 m and 11 mm/s of two-body motion,
+    /// rounding 0.43 m and 0.85 mm/s in LEO), beyond it by `update`'s Kepler step. `None` when there is no fix,
     /// the clock went back, or the step refuses the fix (and, beyond the short step, like
     /// `update`).
-    pub fn predict_fix(&self, time_us: u64) -> Option<(Vec3, f32)> {
+    pub fn predict_fix(&self, time_us: u64) -> Option<PredictedFix> {
         let (fix, age_us, age_s) = self.age_at(time_us)?;
-        if age_s <= SHORT_STEP_MAX_S {
-            let r = if age_us == 0 { fix.r_m } else { propagate_short(&fix.r_m, &fix.v_m_s, age_s).ok()? };
-            return Some((r, age_s));
-        }
-        carried(&fix, age_us, age_s).map(|(r, _, _, age_s)| (r, age_s))
+        let (r_m, v_m_s) = if age_us == 0 {
+            (fix.r_m, fix.v_m_s)
+        } else if age_s <= SHORT_STEP_MAX_S {
+            propagate_short(&fix.r_m, &fix.v_m_s, age_s).ok()?
+        } else {
+            let (r, v, _, _) = carried(&fix, age_us, age_s)?;
+            (r, v)
+        };
+        Some(PredictedFix { r_m, v_m_s, dt_s: age_s })
     }
 
     /// The last fix and its age at `time_us`, µs and s (`None` past [`MAX_FIX_AGE_S`]).

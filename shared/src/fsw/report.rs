@@ -214,6 +214,7 @@ pub(super) fn sensor_fdir(t: &mut crate::link::FdirTelemetry, d: &crate::estimat
     t.gnss_failed = gnss.failed();
     t.gyro_erratic_axes = gyro.erratic_axes();
     (t.gnss_residual_m, t.gnss_threshold_m) = gnss.last_residual_m();
+    (t.gnss_velocity_residual_m_s, t.gnss_velocity_threshold_m_s) = gnss.last_velocity_residual_m_s();
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@ use postcard_schema::Schema;
 use serde::{Deserialize, Serialize};
 
 /// Bumped whenever a message changes; the schema hash catches forgotten bumps.
-pub const PROTOCOL_VERSION: u16 = 25;
+pub const PROTOCOL_VERSION: u16 = 26;
 
 /// Largest postcard payload of any message (checked by a test).
 pub const MAX_PAYLOAD: usize = 1280;
@@ -284,6 +284,10 @@ pub struct FdirTelemetry {
     /// it again and again (an erratic axis, [`crate::fdir::bias::ERRATIC_STEPS`]), not its
     /// repeats (protocol 25).
     pub gyro_erratic_axes: u8,
+    /// The GNSS monitor's last velocity residual `|v_fix − v_pred|` and its threshold, m/s
+    /// (protocol 26; 0 when not judged).
+    pub gnss_velocity_residual_m_s: f32,
+    pub gnss_velocity_threshold_m_s: f32,
 }
 
 /// [`FdirTelemetry::failed_sensors`]: the star tracker.

@@ -38,7 +38,7 @@
 //! For a gap of at most [`SHORT_STEP_MAX_S`] (the GNSS monitor's usual 1 s between fixes),
 //! [`propagate_short`] takes the second-order Taylor step instead: no Kepler solve, its
 //! truncation bounded by [`short_step_truncation_m`] (0.47 m at 4 s, any ellipse from
-//! 6,000 km).
+//! 6,000 km) and, for the velocity, [`short_step_velocity_truncation_m_s`] (11 mm/s at 4 s).
 //!
 //! No heap, one bounded loop, no panics: every failure is an [`OrbitError`].
 
@@ -161,9 +161,22 @@ pub fn short_step_truncation_m(dt_s: f32) -> f32 {
     SHORT_STEP_JERK_MAX_M_S3 * t * t * t / 6.0
 }
 
-/// Position (m) `dt_s` after the fix `(r0_m, v0_m_s)`, two-body, by the second-order
-/// Taylor step `r0 + v0 dt + ½ a0 dt²`, `a0 = −μ r0 / |r0|³`: a few dozen operations where
-/// [`propagate_two_body`] solves Kepler's equation. For `|dt| ≤` [`SHORT_STEP_MAX_S`] only.
+/// Bound on `|d⁴r/dt⁴|` of any elliptic orbit over a short step, m/s⁴ (see
+/// [`propagate_short`]): `(μ/r²)(24 v²/r² + 2μ/r³)` with `r ≥ 5.95e6` m, `v < 11.58 km/s`.
+pub const SHORT_STEP_SNAP_MAX_M_S4: f32 = 1.07e-3;
+
+/// Bound on the short step's velocity truncation against two-body motion, m/s:
+/// `SHORT_STEP_SNAP_MAX_M_S4 · |dt|³ / 6` (0.18 mm/s at 1 s, 11.4 mm/s at 4 s).
+pub fn short_step_velocity_truncation_m_s(dt_s: f32) -> f32 {
+    let t = libm::fabsf(dt_s);
+    SHORT_STEP_SNAP_MAX_M_S4 * t * t * t / 6.0
+}
+
+/// Position (m) and velocity (m/s) `dt_s` after the fix `(r0_m, v0_m_s)`, two-body, by the
+/// second-order Taylor steps `r0 + v0 dt + ½ a0 dt²` and `v0 + a0 dt + ½ j0 dt²`
+/// (`a0 = −μ r0 / |r0|³`, `j0 = −(μ/r³)(v0 − 3 r̂ (r̂·v0))` the jerk): a few dozen
+/// operations where [`propagate_two_body`] solves Kepler's equation. For
+/// `|dt| ≤` [`SHORT_STEP_MAX_S`] only.
 ///
 /// Truncation (Taylor's remainder in integral form holds for vectors): at most
 /// `max |r'''| |dt|³ / 6`. With `r''' = −μ (v − 3 r̂ (r̂·v)) / r³` and
@@ -173,7 +186,14 @@ pub fn short_step_truncation_m(dt_s: f32) -> f32 {
 /// `|r'''| < 2 · 3.986e14 · 1.158e4 / 5.95e6³ = 0.0438` m/s³ ([`SHORT_STEP_JERK_MAX_M_S3`],
 /// [`short_step_truncation_m`]). Rounding: the last addition to `r0`, half an ulp per axis
 /// (≤ 0.43 m below |r| = 8,388 km), the displacement's own far less.
-pub fn propagate_short(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<Vec3, OrbitError> {
+///
+/// Velocity truncation: at most `max |r''''| |dt|³ / 6`. The f and g series (Battin §4.3:
+/// `f₄ = (3uq − 15up² + u²)/24`, `g₄ = up/4` with `u = μ/r³`, `p = r·v/r²`,
+/// `q = v²/r² − u`) give `r'''' = (3uq − 15up² + u²) r + 6up v`; with `|p| ≤ w = v/r`,
+/// `|r''''| ≤ u r (24 w² + 2u)`, which over the same range is < 1.07e-3 m/s⁴
+/// ([`SHORT_STEP_SNAP_MAX_M_S4`], [`short_step_velocity_truncation_m_s`]). Rounding: half
+/// an ulp per axis of the result, ≤ 0.85 mm/s below 16.4 km/s.
+pub fn propagate_short(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<(Vec3, Vec3), OrbitError> {
     if !(all_finite(r0_m.as_slice()) && all_finite(v0_m_s.as_slice()) && dt_s.is_finite()) {
         return Err(OrbitError::NonFinite);
     }
@@ -191,9 +211,13 @@ pub fn propagate_short(r0_m: &Vec3, v0_m_s: &Vec3, dt_s: f32) -> Result<Vec3, Or
         return Err(OrbitError::NotElliptic);
     }
     // r0 + dt (v0 − ½ dt (μ / r³) r0): the displacement first, added to r0 once.
-    let half_k_dt = 0.5 * (mu_over_r / r2) * dt_s;
+    let k = mu_over_r / r2;
+    let half_k_dt = 0.5 * k * dt_s;
     let r1 = r0_m + (v0_m_s - r0_m * half_k_dt) * dt_s;
-    if all_finite(r1.as_slice()) { Ok(r1) } else { Err(OrbitError::NonFinite) }
+    // v0 − k dt (r0 + ½ dt (v0 − 3 p r0)), p = r0·v0 / r²: the change first, added once.
+    let p = r0_m.dot(v0_m_s) / r2;
+    let v1 = v0_m_s - (r0_m + (v0_m_s - r0_m * (3.0 * p)) * (0.5 * dt_s)) * (k * dt_s);
+    if all_finite(r1.as_slice()) && all_finite(v1.as_slice()) { Ok((r1, v1)) } else { Err(OrbitError::NonFinite) }
 }
 
 /// Root `x = ΔE` of `x − c sin x + s (1 − cos x) = m` (`c = e cos E0`, `s = e sin E0`,
@@ -286,7 +310,7 @@ mod tests {
         [k * r[0], k * r[1], k * r[2]]
     }
 
-    fn rk4_64(r0: &Vec3, v0: &Vec3, dt: f64) -> [f64; 3] {
+    fn rk4_64(r0: &Vec3, v0: &Vec3, dt: f64) -> [f64; 6] {
         let mut y = [r0.x, r0.y, r0.z, v0.x, v0.y, v0.z].map(f64::from);
         let f = |y: &[f64; 6]| {
             let a = accel64([y[0], y[1], y[2]]);
@@ -302,7 +326,7 @@ mod tests {
             let k4 = f(&add(&y, &k3, h));
             y = core::array::from_fn(|i| y[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
         }
-        [y[0], y[1], y[2]]
+        y
     }
 
     /// Fixes at periapsis, apoapsis and between, e from 0 to 0.8, the periapsis from
@@ -335,10 +359,12 @@ mod tests {
     fn the_short_step_is_within_its_truncation_bound() {
         // Worst truncation / bound, worst f32 error, worst f32 error below 8,388 km.
         let mut worst = [0.0f64; 3];
+        let mut worst_v = 0.0f64;
         for (r0, v0) in short_step_orbits() {
             for &dt in &[0.5f32, 1.0, 2.0, -1.0, 3.0, SHORT_STEP_MAX_S] {
                 let truth = rk4_64(&r0, &v0, f64::from(dt));
                 let dist = |x: [f64; 3]| (0..3).map(|i| (x[i] - truth[i]).powi(2)).sum::<f64>().sqrt();
+                let dist_v = |x: [f64; 3]| (0..3).map(|i| (x[i] - truth[i + 3]).powi(2)).sum::<f64>().sqrt();
                 let bound = f64::from(short_step_truncation_m(dt));
                 // f64 Taylor: the truncation alone.
                 let (r, v) = ([r0.x, r0.y, r0.z].map(f64::from), [v0.x, v0.y, v0.z].map(f64::from));
@@ -346,8 +372,25 @@ mod tests {
                 let d = f64::from(dt);
                 let taylor64 = dist(core::array::from_fn(|i| r[i] + v[i] * d + 0.5 * a[i] * d * d));
                 assert!(taylor64 <= bound, "f64 Taylor {taylor64} m > bound {bound} m (dt {dt})");
+                // The velocity: f64 Taylor (the jerk by finite difference of the f64
+                // acceleration along the RK4 arc, a second method) within its bound, and the
+                // f32 step within that bound plus half an ulp per axis.
+                let bound_v = f64::from(short_step_velocity_truncation_m_s(dt));
+                let h = 1e-3;
+                let (rp, rm) = (rk4_64(&r0, &v0, h), rk4_64(&r0, &v0, -h));
+                let (ap, am) = (accel64([rp[0], rp[1], rp[2]]), accel64([rm[0], rm[1], rm[2]]));
+                let jerk: [f64; 3] = core::array::from_fn(|i| (ap[i] - am[i]) / (2.0 * h));
+                let taylor64_v = dist_v(core::array::from_fn(|i| v[i] + a[i] * d + 0.5 * jerk[i] * d * d));
+                assert!(taylor64_v <= bound_v, "f64 Taylor velocity {taylor64_v} m/s > {bound_v} m/s (dt {dt})");
                 // The flight's f32 step.
-                let got = propagate_short(&r0, &v0, dt).unwrap();
+                let (got, got_v) = propagate_short(&r0, &v0, dt).unwrap();
+                let half_ulp_v = |x: f32| 0.5 * f64::from(f32::from_bits(x.abs().to_bits() + 1) - x.abs());
+                let rounding_v =
+                    (half_ulp_v(got_v.x).powi(2) + half_ulp_v(got_v.y).powi(2) + half_ulp_v(got_v.z).powi(2)).sqrt()
+                        + 1e-6 * f64::from(norm(&(got_v - v0)));
+                let err_v = dist_v([got_v.x, got_v.y, got_v.z].map(f64::from));
+                assert!(err_v <= bound_v + rounding_v, "f32 velocity {err_v} m/s > {bound_v} + {rounding_v} (dt {dt})");
+                worst_v = worst_v.max(taylor64_v / bound_v);
                 let err = dist([got.x, got.y, got.z].map(f64::from));
                 // Half an ulp of each axis of the result, and 16 ulps of the displacement.
                 let half_ulp = |x: f32| 0.5 * f64::from(f32::from_bits(x.abs().to_bits() + 1) - x.abs());
@@ -360,7 +403,7 @@ mod tests {
         }
         let [t, e, leo] = worst;
         println!(
-            "short step: worst f64 truncation / bound {t:.3}, f32 error {e:.3} m ({leo:.3} m from |r0| < 8,000 km)"
+            "short step: worst f64 truncation / bound {t:.3} (velocity {worst_v:.3}), f32 error {e:.3} m ({leo:.3} m from |r0| < 8,000 km)"
         );
     }
 
@@ -371,8 +414,13 @@ mod tests {
     fn the_short_step_matches_kepler_and_refuses_bad_input() {
         for (r0, v0) in short_step_orbits() {
             for &dt in &[1.0f32, SHORT_STEP_MAX_S] {
-                let taylor = propagate_short(&r0, &v0, dt).unwrap();
-                let (kepler, _) = propagate_two_body(&r0, &v0, dt).unwrap();
+                let (taylor, taylor_v) = propagate_short(&r0, &v0, dt).unwrap();
+                let (kepler, kepler_v) = propagate_two_body(&r0, &v0, dt).unwrap();
+                // Velocity: the truncation, half an ulp per axis (≤ 0.85 mm/s) and Kepler's
+                // 16 · 2⁻²⁴ · v · (1 + |ΔM|) (sim-host/core/tests/onboard_orbit.rs): 12 mm/s.
+                let tol_v = short_step_velocity_truncation_m_s(dt) + 0.001 + 0.012;
+                let dv = norm(&(taylor_v - kepler_v));
+                assert!(dv <= tol_v, "dt {dt}: velocity {dv} m/s");
                 // Rounding: half an ulp per axis of the short step's result (≤ 1.8 m out to
                 // the 18,000 km apoapsis) and the navigation's 4 m for Kepler's.
                 let tol = short_step_truncation_m(dt) + 1.8 + 4.0;
@@ -380,7 +428,7 @@ mod tests {
             }
         }
         let (r, v) = (Vec3::new(7.0e6, 0.0, 0.0), Vec3::new(0.0, 7.5e3, 0.0));
-        assert_eq!(propagate_short(&r, &v, 0.0), Ok(r));
+        assert_eq!(propagate_short(&r, &v, 0.0), Ok((r, v)));
         assert_eq!(propagate_short(&r, &v, 4.001), Err(OrbitError::TimeOutOfRange));
         assert_eq!(propagate_short(&r, &v, f32::NAN), Err(OrbitError::NonFinite));
         assert_eq!(propagate_short(&Vec3::new(f32::NAN, 0.0, 0.0), &v, 1.0), Err(OrbitError::NonFinite));

@@ -103,6 +103,9 @@ pub enum GnssFault {
     /// The reported position is offset by this many m along the true radial direction
     /// (outward from the Earth's centre at the sample; negative: inward).
     PositionJump { m: f64 },
+    /// The reported velocity is offset by this many m/s along the true velocity's direction
+    /// (negative: against it); the position is unaffected.
+    VelocityJump { m_s: f64 },
 }
 
 /// A magnetorquer rod's fault.
@@ -226,6 +229,7 @@ impl Fault {
             Fault::Magnetorquer { kind: RodFault::Open, .. } => "open",
             Fault::Css { kind: CssFault::Dead, .. } => "dead",
             Fault::Gnss(GnssFault::PositionJump { .. }) => "position_jump",
+            Fault::Gnss(GnssFault::VelocityJump { .. }) => "velocity_jump",
             Fault::Magnetorquer { kind: RodFault::Reversed, .. } => "reversed",
             Fault::Cmg { kind: CmgFault::GimbalStuck, .. } => "gimbal_stuck",
             Fault::Cmg { kind: CmgFault::RotorSpinDown { .. }, .. } => "rotor_spin_down",
@@ -246,6 +250,7 @@ impl Fault {
             Fault::Gyro { kind: GyroFault::Noise { factor }, .. } => Some(*factor),
             Fault::Magnetometer { kind: MagFault::Bias { t }, .. } => Some(*t),
             Fault::Gnss(GnssFault::PositionJump { m }) => Some(*m),
+            Fault::Gnss(GnssFault::VelocityJump { m_s }) => Some(*m_s),
             Fault::Cmg { kind: CmgFault::RotorSpinDown { tau_s }, .. } => Some(*tau_s),
             _ => None,
         }

@@ -696,10 +696,13 @@ fn a_dead_css_head_reads_what_a_dark_head_reads_and_the_others_are_untouched() {
 
 /// `BASE` in a 500 km orbit, with `more` (a `[sensors.gnss]` table, faults).
 fn orbit_scenario(more: &str) -> Scenario {
+    Scenario::from_toml(&orbit_scenario_text(more)).unwrap()
+}
+
+fn orbit_scenario_text(more: &str) -> String {
     let orbit = "[orbit]\nkind = \"circular\"\naltitude_km = 500.0\ninclination_deg = 97.4\n\
                  epoch_utc = \"2026-04-15T00:00:00\"\n[environment]\n";
-    let text = BASE.replace("[environment]\nlab_field_t = [2e-5, -1e-5, 3e-5]\n", orbit) + more;
-    Scenario::from_toml(&text).unwrap()
+    BASE.replace("[environment]\nlab_field_t = [2e-5, -1e-5, 3e-5]\n", orbit) + more
 }
 
 /// The true position (a circle of 6878 km at 1.1e-3 rad/s) and the GNSS fix of 20 s of
@@ -758,6 +761,40 @@ fn a_gnss_position_jump_offsets_the_fix_by_its_magnitude_along_the_radial() {
     let (_, summary) = fly(&orbit_scenario(&fault));
     let rec = &summary.faults.unwrap()[0];
     assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("gnss", "position_jump", Some(jump_m)));
+}
+
+#[test]
+fn a_gnss_velocity_jump_offsets_the_velocity_by_its_magnitude_along_it() {
+    let jump_m_s = 250.0;
+    let fault = format!(
+        "[[faults]]\nonset_s = 5.0\nunit = \"gnss\"\nkind = \"velocity_jump\"\nmagnitude = {jump_m_s}\nend_s = 15.0\n"
+    );
+    let in_window = |t: f64| (5.0 - 1e-9..15.0 - 1e-9).contains(&t);
+    let vel = |f: &acs_flight::link::SensorFrame| Vec3::from(f.gnss_vel_m_s.map(f64::from));
+    // A receiver with noise, against the same fixes without the fault (same draws): the
+    // position untouched, the velocity moved by the jump along the true velocity at the
+    // fix's tag (the circle of `gnss_frames`, written apart), to the f32 of the wire.
+    let rx = "[sensors.gnss]\nrate_hz = 1.0\nposition_noise_m = 5.0\nvelocity_noise_m_s = 0.05\n";
+    let (with, without) = (gnss_frames(&orbit_scenario(&(rx.to_string() + &fault))), gnss_frames(&orbit_scenario(rx)));
+    let mut jumped = 0;
+    for ((t, _, f), (_, _, g)) in with.iter().zip(&without) {
+        assert_eq!(f.sampled_at.gnss_us, g.sampled_at.gnss_us);
+        assert_eq!(f.gnss_pos_m, g.gnss_pos_m, "position at {t}");
+        let tag_s = f.sampled_at.gnss_us as f64 * 1e-6;
+        let (s, c) = (1.1e-3 * tag_s).sin_cos();
+        let v_hat = Vec3::new(-s, c * 0.2, c * 0.98).normalize();
+        let want = if in_window(tag_s) { v_hat * jump_m_s } else { Vec3::zeros() };
+        assert!((vel(f) - vel(g) - want).amax() <= 1e-3, "at {t} (fix of {tag_s}): {:?}", vel(f) - vel(g));
+        jumped += usize::from(in_window(tag_s));
+    }
+    assert!(jumped >= 90, "{jumped}");
+    let (_, summary) = fly(&orbit_scenario(&fault));
+    let rec = &summary.faults.unwrap()[0];
+    assert_eq!((rec.unit.as_str(), rec.kind, rec.magnitude), ("gnss", "velocity_jump", Some(jump_m_s)));
+    // Refused beyond the flight code's speed limit, naming the key.
+    let big = fault.replace("magnitude = 250", "magnitude = 2.0e4");
+    let err = format!("{:#}", Scenario::from_toml(&orbit_scenario_text(&big)).unwrap_err());
+    assert!(err.contains("faults[0].magnitude"), "{err}");
 }
 
 // --- wheel power off and tachometer noise ---

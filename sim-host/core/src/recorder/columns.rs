@@ -352,6 +352,7 @@ impl Layout {
         }
         if self.fdir_gnss {
             v.extend(["gnss_residual_m".into(), "gnss_residual_threshold_m".into()]);
+            v.extend(["gnss_velocity_residual_m_s".into(), "gnss_velocity_residual_threshold_m_s".into()]);
         }
         v
     }

@@ -82,7 +82,16 @@ impl FdirLog {
         }
         self.observe_magnetometer(t_s, new_sensors, faults);
         if f.gnss_failed && !self.last.gnss_failed {
-            self.record(t_s, faults, "gnss".into(), "gnss_position_consistency", "gnss", "fixes_refused");
+            // The declaring fix's residuals are this step's: the position test, unless only
+            // the velocity exceeded.
+            let test = if f.gnss_residual_m > f.gnss_threshold_m
+                || f.gnss_velocity_residual_m_s <= f.gnss_velocity_threshold_m_s
+            {
+                "gnss_position_consistency"
+            } else {
+                "gnss_velocity_consistency"
+            };
+            self.record(t_s, faults, "gnss".into(), test, "gnss", "fixes_refused");
         }
         if f.gyro_bias_steps > self.last.gyro_bias_steps {
             let axis = (0..3).find(|i| f.gyro_bias_axes == bit(*i));

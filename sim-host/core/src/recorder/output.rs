@@ -228,11 +228,15 @@ fn magnetometer_fdir_figure() -> Figure {
 }
 
 /// `fdir-gnss.png` (runs with `[fdir.gnss]`): each fix's distance from the last accepted
-/// fix propagated to its time, its threshold (log axis: metres to thousands of km), and
-/// the faults in force.
+/// fix propagated to its time and the same for its velocity, their thresholds (log axes:
+/// metres to thousands of km, cm/s to km/s), and the faults in force.
 fn gnss_fdir_figure() -> Figure {
     let residual =
         vec![line("gnss_residual_m", "|r_fix − r_pred|", false), line("gnss_residual_threshold_m", "threshold", true)];
+    let velocity = vec![
+        line("gnss_velocity_residual_m_s", "|v_fix − v_pred|", false),
+        line("gnss_velocity_residual_threshold_m_s", "threshold", true),
+    ];
     let masks = vec![line("fault_active", "injected", true)];
     Figure {
         requires: Some("gnss_residual_threshold_m".into()),
@@ -242,6 +246,7 @@ fn gnss_fdir_figure() -> Figure {
             "GNSS FDIR: each fix against the last accepted one propagated to its time",
             vec![
                 Panel { log_y: true, ..panel("position residual", "m", residual) },
+                Panel { log_y: true, ..panel("velocity residual", "m/s", velocity) },
                 panel("faults in force (bit i: faults[i])", "(bit mask)", masks),
             ],
         )

@@ -22,6 +22,9 @@ pub const MAX_GYRO_NOISE_FACTOR: f64 = 1000.0;
 /// Largest GNSS position jump, m (beyond it the fix is not on the same planet).
 pub const MAX_GNSS_JUMP_M: f64 = 1.0e7;
 
+/// Largest GNSS velocity jump, m/s (the flight code refuses |v| ≥ 20 km/s anyway).
+pub const MAX_GNSS_VELOCITY_JUMP_M_S: f64 = 1.0e4;
+
 /// Largest wheel friction factor.
 pub const MAX_FRICTION_FACTOR: f64 = 100.0;
 
@@ -180,7 +183,14 @@ impl Scenario {
                     "position_jump" => GnssFault::PositionJump {
                         m: m.within(-MAX_GNSS_JUMP_M, MAX_GNSS_JUMP_M, "an offset in m along the radial")?,
                     },
-                    _ => return Err(kind_err("\"position_jump\"")),
+                    "velocity_jump" => GnssFault::VelocityJump {
+                        m_s: m.within(
+                            -MAX_GNSS_VELOCITY_JUMP_M_S,
+                            MAX_GNSS_VELOCITY_JUMP_M_S,
+                            "an offset in m/s along the velocity",
+                        )?,
+                    },
+                    _ => return Err(kind_err("\"position_jump\", \"velocity_jump\"")),
                 }))
             }
             "magnetorquer" => {

@@ -1,7 +1,7 @@
 //! Sensor faults of `[[faults]]` (issue 42) applied to the readings as they are sampled:
 //! gyro axis stuck, bias step, noisier or saturated, star tracker flipped about its boresight or frozen,
 //! magnetometer axis stuck or biased, coarse sun sensor head dead, GNSS
-//! position jump, wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
+//! position or velocity jump, wheel tachometer stuck. A fault acts on a sample whose time (the truth's, the tag) is
 //! in its window; a frozen value is the first reading in the window. The models still
 //! draw their noise as without the fault, so every other reading keeps its bits.
 
@@ -218,16 +218,21 @@ impl SensorFaults {
         }
     }
 
-    /// A GNSS fix at `t_s` (`r_true_m`: the true position, ECI, m).
-    pub fn gnss(&self, t_s: f64, r_true_m: &Vec3, pos_m: &mut [f64; 3]) {
-        let r = r_true_m.norm();
-        if r <= 0.0 || !r.is_finite() {
-            return;
-        }
+    /// A GNSS fix at `t_s` (`r_true_m`, `v_true_m_s`: the true position and velocity, ECI,
+    /// m, m/s): a position jump along the radial, a velocity jump along the velocity.
+    pub fn gnss(&self, t_s: f64, (r_true_m, v_true_m_s): (&Vec3, &Vec3), pos_m: &mut [f64; 3], vel_m_s: &mut [f64; 3]) {
+        let along = |x: &Vec3, by: f64| {
+            let n = x.norm();
+            if n > 0.0 && n.is_finite() { x * (by / n) } else { Vec3::zeros() }
+        };
         for e in &self.entries {
-            let Fault::Gnss(GnssFault::PositionJump { m }) = e.fault.fault else { continue };
-            if e.fault.window.active(t_s) {
-                *pos_m = (Vec3::from(*pos_m) + r_true_m * (m / r)).into();
+            let Fault::Gnss(kind) = e.fault.fault else { continue };
+            if !e.fault.window.active(t_s) {
+                continue;
+            }
+            match kind {
+                GnssFault::PositionJump { m } => *pos_m = (Vec3::from(*pos_m) + along(r_true_m, m)).into(),
+                GnssFault::VelocityJump { m_s } => *vel_m_s = (Vec3::from(*vel_m_s) + along(v_true_m_s, m_s)).into(),
             }
         }
     }

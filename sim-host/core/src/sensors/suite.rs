@@ -430,9 +430,9 @@ impl SensorSuite {
             && let Some(fix) = g.update(t_s, &r.into(), &v.into())
         {
             let j2000 = j2000_days_seconds(env_model.julian_date(t_s));
-            let mut pos_m = fix.pos_m;
-            self.faults.gnss(t_s, &r, &mut pos_m);
-            self.gnss_channel.push(tag, FixSample { pos_m, vel_m_s: fix.vel_m_s, j2000 });
+            let (mut pos_m, mut vel_m_s) = (fix.pos_m, fix.vel_m_s);
+            self.faults.gnss(t_s, (&r, &v), &mut pos_m, &mut vel_m_s);
+            self.gnss_channel.push(tag, FixSample { pos_m, vel_m_s, j2000 });
         }
     }
 
@@ -517,9 +517,9 @@ impl SensorSuite {
             Some(_) => self.gnss_channel.deliver_newest(now),
             None => match (env.and_then(|e| e.orbit), craft.env.as_ref()) {
                 (Some((r, v)), Some(m)) => {
-                    let mut pos_m = r.into();
-                    self.faults.gnss(t_s, &r, &mut pos_m);
-                    Some((now, FixSample { pos_m, vel_m_s: v.into(), j2000: j2000_days_seconds(m.julian_date(t_s)) }))
+                    let (mut pos_m, mut vel_m_s) = (r.into(), v.into());
+                    self.faults.gnss(t_s, (&r, &v), &mut pos_m, &mut vel_m_s);
+                    Some((now, FixSample { pos_m, vel_m_s, j2000: j2000_days_seconds(m.julian_date(t_s)) }))
                 }
                 _ => None,
             },

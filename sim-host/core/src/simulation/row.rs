@@ -98,6 +98,7 @@ impl Simulation<'_> {
             let judged = f.gnss_threshold_m > 0.0;
             let value = |x: f32| if judged { f64::from(x) } else { f64::NAN };
             self.row.extend([value(f.gnss_residual_m), value(f.gnss_threshold_m)]);
+            self.row.extend([value(f.gnss_velocity_residual_m_s), value(f.gnss_velocity_threshold_m_s)]);
         }
     }
 
