@@ -46,7 +46,11 @@ itself calls settled, the bound of its settle_time_s, so each campaign base stat
 above paper 004's healthy PWPF limit cycle). An ok run beyond it is a silent degradation and
 fails. The table then adds the final error per magnitude decade and per unit, the ok runs
 beyond the bound, the APE 95 % over [performance] from_s to the end, the
-time from which the error stays within the bound to the end (settle_time_s), and the propellant (summary propellant_kg, thrusters); with
+time from which the error stays within the bound to the end (settle_time_s), and the propellant (summary propellant_kg, thrusters)
+with the runs above the scenario's budget (summary propellant_budget_kg, [performance]
+propellant_budget_kg: the simulator's propellant_exceeded verdict, which a lost or degraded
+pointing wins over, so the count includes runs with those statuses); an ok run above the
+budget would be a silent drain and fails; with
 --nominal NOMINAL_DIR (the same campaign's fault-free twin: same seed and dispersion keys, so
 run i flew the same initial attitude) each run's propellant and final error are set against
 its twin's.
@@ -147,8 +151,12 @@ def self_test_no_mode():
     """The judging of a run without a mode manager (undetected), against hand-stated verdicts:
     the final error against the summary's settle bound (or SETTLE_BOUND_DEG), the lost-control
     verdict passing whatever the error, a mode manager's run judged as before."""
-    def run(err, status="ok", bound=None, mode=None, ape=None):
+    def run(err, status="ok", bound=None, mode=None, ape=None, prop=None, budget=None):
         s = {"run_status": status, "final_mode": mode, "final_error_deg": err, "final_rate_rad_s": [0.0] * 3}
+        if prop is not None:
+            s["propellant_kg"] = prop
+        if budget is not None:
+            s["propellant_budget_kg"] = budget
         if ape is not None:
             s["pointing"] = {"from_s": 120.0, "ape_deg": {"total": ape}}
         s["faults"] = [{"unit": "thruster.0", "kind": "stuck_open", "onset_s": 1.0, "injected_at_s": 1.0}]
@@ -166,6 +174,13 @@ def self_test_no_mode():
         ("a limit cycle's peak at the end, its APE within 2 deg", run(2.1, bound=2.0, ape=1.5), True),
         ("a limit cycle's trough at the end, its APE beyond 2 deg", run(0.3, bound=2.0, ape=2.5), False),
         ("pointing_degraded far off: the verdict said so", run(9.0, status="pointing_degraded", ape=9.0), True),
+        ("propellant_exceeded within the bound: the verdict said so", run(0.5, status="propellant_exceeded", prop=0.2, budget=0.1), True),
+        ("ok within the bound and the budget", run(0.5, prop=0.05, budget=0.1), True),
+        ("ok within the bound, at the budget", run(0.5, prop=0.1, budget=0.1), True),
+        ("ok within the bound, above the budget: silent drain", run(0.5, prop=0.1000001, budget=0.1), False),
+        ("ok within the bound, NaN propellant against a budget", run(0.5, prop=math.nan, budget=0.1), False),
+        ("ok within the bound, no budget", run(0.5, prop=5.0), True),
+        ("ok within the bound, no propellant used against a budget", run(0.5, prop=0.0, budget=0.1), True),
         ("mode manager, hold within HOLD_DEG (bound ignored)", run(0.5, mode="hold", bound=0.1), True),
         ("mode manager, hold beyond HOLD_DEG", run(0.6, mode="hold", bound=2.0), False),
     ]
@@ -243,6 +258,10 @@ def outcome_undetected(s, fig, det_s, bad, rate):
     fig["verdict"] = s.get("run_status")
     fig["mode_at_onset"] = mode_at(s, f0.get("injected_at_s") or f0.get("onset_s"))
     fig["propellant_kg"] = s.get("propellant_kg")
+    fig["budget_kg"] = s.get("propellant_budget_kg")
+    # above the budget (a NaN or missing use is above it), whatever the run's status
+    used = math.nan if fig["propellant_kg"] is None else fig["propellant_kg"]
+    fig["over_budget"] = fig["budget_kg"] is not None and not used <= fig["budget_kg"]
     fig["bound_deg"] = s.get("settle_bound_deg") or SETTLE_BOUND_DEG
     err = fig["final_error_deg"]
     fig["off"] = err is None or not err < fig["bound_deg"]  # a NaN is off
@@ -259,7 +278,8 @@ def outcome_undetected(s, fig, det_s, bad, rate):
         kept = (fig["final_mode"] == "hold" and (err or math.inf) < HOLD_DEG) or (
             fig["final_mode"] == "sun_safe" and rate < AT_REST_RAD_S
         )
-    return (fig["verdict"] != "ok" or kept) and not bad, fig
+    # an ok run above the budget: the simulator's propellant_exceeded restated
+    return (fig["verdict"] != "ok" or (kept and not fig["over_budget"])) and not bad, fig
 
 
 def outcome(cls, s, det_s, bad, refly=None):
@@ -349,7 +369,8 @@ def analyse(dirname, cls, sim_host=None, nominal_dir=None):
         verdict_is_outcome = cls in ("undetected", "gnss")  # a lost-control verdict is what it measures
         # the campaign's record carries the lost-control verdict as its status too
         flew = status in ("ok", "requirement_failed") or (
-            verdict_is_outcome and status in ("control_lost", "recovery_failed", "pointing_degraded")
+            verdict_is_outcome
+            and status in ("control_lost", "recovery_failed", "pointing_degraded", "propellant_exceeded")
         )
         if not flew or (s.get("run_status") != "ok" and not verdict_is_outcome):
             errored.append(f"{run}:{status}/{s.get('run_status')}")
@@ -592,8 +613,9 @@ def report_undetected(figs):
 
 
 def verdict_counts(fs):
-    """ok / control_lost / recovery_failed / pointing_degraded / other (any other run_status)."""
-    out = {"ok": 0, "control_lost": 0, "recovery_failed": 0, "pointing_degraded": 0, "other": 0}
+    """ok / control_lost / recovery_failed / pointing_degraded / propellant_exceeded / other (any
+    other run_status)."""
+    out = {"ok": 0, "control_lost": 0, "recovery_failed": 0, "pointing_degraded": 0, "propellant_exceeded": 0, "other": 0}
     for f in fs:
         count(out, f["verdict"] if f["verdict"] in out else "other")
     return out
@@ -652,6 +674,10 @@ def report_propellant(figs):
     if not prop:
         return
     print(f" propellant (kg), median / p95 / max: {spread(prop, '{:.4g}')}")
+    budgets = sorted({f["budget_kg"] for f in figs if f.get("budget_kg") is not None})
+    if budgets:
+        over = [f for f in figs if f.get("over_budget")]
+        print(f" above the budget {budgets} kg: {len(over)} runs; their verdicts {verdict_counts(over)}")
     nom = [f["nominal_propellant_kg"] for f in figs if f.get("nominal_propellant_kg") is not None]
     if nom:
         print(f" fault-free twins' propellant (kg), median / p95 / max: {spread(nom, '{:.4g}')}")

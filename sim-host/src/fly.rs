@@ -168,6 +168,9 @@ pub fn verdict(summary: &Summary) -> Verdict {
         Some(Failure::PointingDegraded { reason }) => {
             failed(format!("{reason} (summary.json: run_status \"pointing_degraded\")"))
         }
+        Some(Failure::Propellant { reason }) => {
+            failed(format!("{reason} (summary.json: run_status \"propellant_exceeded\")"))
+        }
         Some(Failure::Control { reason }) => {
             failed(format!("the flight code could not control: {reason} (summary.json: run_status \"no_control\")"))
         }
@@ -243,5 +246,9 @@ mod tests {
         let v = verdict(&summary);
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"pointing_degraded\"")), "{v:?}");
+        summary.failure = Some(Failure::Propellant { reason: "propellant exceeded".into() });
+        let v = verdict(&summary);
+        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
+        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"propellant_exceeded\"")), "{v:?}");
     }
 }

@@ -738,7 +738,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             say!(
                 "shard {}/{}: {} runs, {} already done, ran {} in {:.1} s on {jobs} threads: {} ok, {} missed a requirement, \
                  {} diverged, {} refused by the flight code, {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, \
-                 {} pointing degraded unnoticed, {} errors",
+                 {} pointing degraded unnoticed, {} propellant exceeded, {} errors",
                 shard.index,
                 shard.count,
                 r.assigned,
@@ -754,6 +754,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.control_lost,
                 r.recovery_failed,
                 r.pointing_degraded,
+                r.propellant_exceeded,
                 r.errors
             );
         }
@@ -763,7 +764,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
             say!(
                 "{}: {}/{} runs completed ({} ok, {} missed a requirement, {} diverged, {} refused by the flight code, \
                  {} margins failed, {} not controlled, {} control lost unnoticed, {} recovery failed, \
-                 {} pointing degraded unnoticed, {} errors)",
+                 {} pointing degraded unnoticed, {} propellant exceeded, {} errors)",
                 r.campaign,
                 r.completed,
                 r.runs,
@@ -776,6 +777,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 r.control_lost.len(),
                 r.recovery_failed.len(),
                 r.pointing_degraded.len(),
+                r.propellant_exceeded.len(),
                 r.errors.len()
             );
             for q in &r.requirements {
@@ -790,6 +792,7 @@ fn campaign(what: CampaignCmd) -> Result<()> {
                 ("control lost unnoticed", &r.control_lost),
                 ("recovery failed", &r.recovery_failed),
                 ("pointing degraded unnoticed", &r.pointing_degraded),
+                ("propellant exceeded", &r.propellant_exceeded),
             ] {
                 if !runs.is_empty() {
                     let shown: Vec<String> = runs.iter().take(20).map(u32::to_string).collect();

@@ -269,6 +269,46 @@ fn runs_whose_recovery_fails_fail_the_campaign() {
     assert!(report.contains("2 lost control after an FDIR event"), "{report}");
 }
 
+/// A run whose thrusters use more than `[performance] propellant_budget_kg` (paper 004,
+/// 60 s, thruster 0 stuck open from 5 s: 0.80 kg against budgets of 0.05-0.5 kg; docs/scenario.md
+/// "Propellant exceeded") has `run_status` `propellant_exceeded`: a campaign lists it as such,
+/// it fails every requirement whatever its figures, and the merge fails (exit 1).
+#[test]
+fn runs_over_their_propellant_budget_fail_the_campaign() {
+    let t = tempfile::tempdir().unwrap();
+    let dp = std::fs::read_to_string(repo().join("scenarios/paper004/dp-nominal.toml")).unwrap();
+    let text = dp
+        + "\n[performance]\npropellant_budget_kg = 0.1\n\n[[faults]]\nonset_s = 5.0\nunit = \"thruster.0\"\n\
+           kind = \"stuck_open\"\n";
+    let base = t.path().join("stuck-open.toml");
+    std::fs::write(&base, text).unwrap();
+    let extra = "[[dispersion]]\nkey = \"performance.propellant_budget_kg\"\n\
+                 dist = { type = \"uniform\", low = 0.05, high = 0.5 }\n\
+                 [[requirement]]\nname = \"error\"\nkey = \"final_error_deg\"\nop = \"<\"\nvalue = 1000.0\n";
+    let f = campaign_file(t.path(), &base, 2, extra);
+    let dir = t.path().join("c");
+    assert!(sim_host().args(["campaign", "plan"]).arg(&f).arg("--out").arg(&dir).status().unwrap().success());
+    let o = sim_host().args(["campaign", "run", "-q"]).arg(&dir).output().unwrap();
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("2 propellant exceeded"));
+    let o = sim_host().args(["campaign", "merge", "--no-plots"]).arg(&dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stdout));
+    let c: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("campaign.json")).unwrap()).unwrap();
+    assert_eq!(c["propellant_exceeded"], serde_json::json!([0, 1]), "{c}");
+    assert_eq!(c["pointing_degraded"], serde_json::json!([]), "{c}");
+    assert_eq!(c["requirements"][0]["failed_runs"], serde_json::json!([0, 1]), "{}", c["requirements"]);
+    // Each run's own summary: above its drawn budget.
+    for i in 0..2 {
+        let path = dir.join(format!("runs/{i:06}/result.json"));
+        let r: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let s = &r["summary"];
+        assert!(s["propellant_kg"].as_f64().unwrap() > s["propellant_budget_kg"].as_f64().unwrap(), "{s}");
+    }
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 propellant exceeded"));
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    assert!(report.contains("2 used more propellant than their budget"), "{report}");
+}
+
 /// The re-run commands `report.md` lists (here the worst runs of a requirement) work as
 /// written from the directory the campaign was run in (issue 38: they used to hold only
 /// inside the campaign directory), and give the run's own summary.

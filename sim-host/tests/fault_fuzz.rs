@@ -3,7 +3,8 @@
 //! without `[fdir.wheels]`) and the 6U (`scenarios/fdir/wheel-seized-6u.toml`, 1,500 s,
 //! `[fdir.wheels]`, its own fault removed), a CMG pyramid (`scenarios/paper000/test1.toml`,
 //! 150 s: the slew and a hold) and eight thrusters (`scenarios/paper004/dp-nominal.toml`,
-//! 150 s) — random lists of 1 to 33 entries: every fault class at random onsets and
+//! 150 s, with `[performance] propellant_budget_kg` = [`PROPELLANT_BUDGET_KG`]) — random lists
+//! of 1 to 33 entries: every fault class at random onsets and
 //! magnitudes (in range, and NaN, ±inf, negative, huge), units the spacecraft does not have
 //! (`wheel.7` on four wheels, `magnetorquer.5`, `cmg.4` or `cmg.0` without CMGs,
 //! `thruster.8` or `thruster.0` without thrusters, unmodelled units, `gyro.w`,
@@ -25,11 +26,14 @@
 //!   manager — and more than 1 − confidence of them above the degraded-hold bound: the
 //!   window's APE above it; the injection at least 60 s before the window, its recovery
 //!   allowance; no FDIR event), and a `recovery_failed` may also be that
-//!   degraded hold after an FDIR event.
+//!   degraded hold after an FDIR event; a `propellant_exceeded` one is what the series
+//!   shows too (the last row's `propellant_kg` above the budget) and neither a pointing
+//!   verdict's loss nor a degraded hold (those win over it).
 //!
 //! Anything else (a panic, a signal, a hang beyond 60 s, exit 0 with control lost and no
-//! event or with events but not in a safe mode, exit 0 with a degraded hold, an invalid entry accepted or a valid one
-//! refused) fails, listing the cases.
+//! event or with events but not in a safe mode, exit 0 with a degraded hold, exit 0 over the
+//! propellant budget, an invalid entry accepted or a valid one refused) fails, listing the
+//! cases.
 
 use acs_test_support::cases::run_cases;
 use acs_test_support::rng::SplitMix64;
@@ -56,7 +60,7 @@ const SUN_SAFE_CODE: f64 = 5.0;
 const HOLD_CODE: f64 = 4.0;
 
 /// The failed statuses a run may end in (docs/scenario.md "Run status").
-const FAILED: [&str; 10] = [
+const FAILED: [&str; 11] = [
     "diverged",
     "all_refused",
     "no_control",
@@ -67,7 +71,14 @@ const FAILED: [&str; 10] = [
     "control_lost",
     "recovery_failed",
     "pointing_degraded",
+    "propellant_exceeded",
 ];
+
+/// The paper 004 base's propellant budget, kg: five times its fault-free use over 150 s
+/// (0.0197 kg, docs/fdir.md), which one stuck-open valve (10 N at Isp 220 s: 4.6 g/s) spends
+/// alone in about 22 s — so onsets late in the run exceed it without a judged pointing
+/// verdict, early ones are `pointing_degraded` first.
+const PROPELLANT_BUDGET_KG: f64 = 0.1;
 
 const FDIR_WHEELS: &str = "floor_nm = 5.0e-8\nthreshold_sigma = 6.0\ngyro_sigma_rad_s = 1.4e-5\n";
 
@@ -123,6 +134,11 @@ fn base(name: &'static str, file: &'static str, duration_s: f64, fdir: bool) -> 
     let (rods, cmgs, thrusters) =
         (3 * usize::from(has("magnetorquers")), 4 * usize::from(has("cmg")), 8 * usize::from(has("thrusters")));
     let gnss = doc.get("orbit").is_some();
+    if thrusters > 0 {
+        let budget = [("propellant_budget_kg".to_string(), Value::Float(PROPELLANT_BUDGET_KG))];
+        assert!(doc.get("performance").is_none(), "{file}: a [performance] of its own");
+        doc.as_table_mut().unwrap().insert("performance".into(), Value::Table(budget.into_iter().collect()));
+    }
     Base { name, doc, wheels, css_heads, rods, cmgs, thrusters, gnss, duration_s }
 }
 
@@ -377,14 +393,19 @@ fn degraded_bound(doc: &Value) -> Bound {
         .or_else(|| key("modes", "hold_enter_error_deg"))
         .or_else(|| key("performance", "settle_bound_deg"))
         .unwrap_or(1.0);
-    Bound { deg, confidence: key("performance", "confidence").unwrap_or(0.95) }
+    Bound {
+        deg,
+        confidence: key("performance", "confidence").unwrap_or(0.95),
+        budget_kg: key("performance", "propellant_budget_kg"),
+    }
 }
 
-/// The degraded-hold bound and the confidence of the window's APE.
+/// The degraded-hold bound and the confidence of the window's APE; the propellant budget.
 #[derive(Clone, Copy)]
 struct Bound {
     deg: f64,
     confidence: f64,
+    budget_kg: Option<f64>,
 }
 
 /// What the series says of a run's end.
@@ -396,6 +417,8 @@ struct SeriesEnd {
     /// Every row of the same window held (mode hold, or no `mode` column), and more than
     /// `1 − confidence` of them above the bound.
     degraded: bool,
+    /// The last row's `propellant_kg` is above the budget (NaN is; never without one).
+    over_budget: bool,
 }
 
 /// From `timeseries.csv`, with the scenario's degraded-hold bound `bound_deg`.
@@ -408,16 +431,20 @@ fn lost_by_the_series(csv: &Path, bound: Bound) -> Result<SeriesEnd, String> {
     // Without faults there is no `fault_active` column: nothing was ever injected.
     let active = col("fault_active").ok();
     let mode = col("mode").ok();
+    let propellant = col("propellant_kg").ok();
     // Empty fields (NaN, ±inf) read as NaN: beyond any bound, as in the verdict.
     let num = |s: &str| s.parse::<f64>().unwrap_or(f64::NAN);
+    let mut used_kg = f64::NAN;
     let rows: Vec<([f64; 5], f64, f64)> = lines
         .map(|l| {
             let f: Vec<&str> = l.split(',').collect();
+            used_kg = propellant.map_or(f64::NAN, |p| num(f[p]));
             (cols.map(|c| num(f[c])), active.map_or(0.0, |a| num(f[a])), mode.map_or(f64::NAN, |m| num(f[m])))
         })
         .collect();
+    let over_budget = bound.budget_kg.is_some_and(|b| !(used_kg <= b));
     let Some(&(last, _, last_mode)) = rows.last() else {
-        return Ok(SeriesEnd { lost: false, safe: false, degraded: false });
+        return Ok(SeriesEnd { lost: false, safe: false, degraded: false, over_budget });
     };
     let end = last[0];
     let injected = rows.iter().find(|r| r.1 != 0.0).map_or(f64::INFINITY, |r| r.0[0]);
@@ -438,6 +465,7 @@ fn lost_by_the_series(csv: &Path, bound: Bound) -> Result<SeriesEnd, String> {
         degraded: injected <= end - WINDOW_S - RECOVERY_ALLOWANCE_S + 1e-9
             && held
             && above as f64 > (1.0 - bound.confidence) * window.len() as f64,
+        over_budget,
     })
 }
 
@@ -484,7 +512,7 @@ fn judge_run(out: &Path, code: i32, bound: Bound) -> Verdict {
     let s: Json = serde_json::from_str(&text).unwrap();
     let status = s["run_status"].as_str().unwrap_or("(none)").to_string();
     let events = s["fdir"]["events"].as_array().map_or(0, Vec::len);
-    let SeriesEnd { lost, safe, degraded } = match lost_by_the_series(&out.join("timeseries.csv"), bound) {
+    let SeriesEnd { lost, safe, degraded, over_budget } = match lost_by_the_series(&out.join("timeseries.csv"), bound) {
         Ok(l) => l,
         Err(e) => return Verdict::Bad(e),
     };
@@ -496,6 +524,7 @@ fn judge_run(out: &Path, code: i32, bound: Bound) -> Verdict {
             Verdict::Bad(format!("exit 0 with control lost after {events} FDIR events, not in a safe mode"))
         }
         0 if degraded => Verdict::Bad(format!("exit 0 held with an APE above {} deg, {events} FDIR events", bound.deg)),
+        0 if over_budget => Verdict::Bad(format!("exit 0 over the propellant budget {:?} kg", bound.budget_kg)),
         0 => Verdict::Ok { lost_reported: lost },
         _ if !FAILED.contains(&status.as_str()) => Verdict::Bad(format!("exit 3 with run_status {status}")),
         _ if status == "control_lost" && !(lost && events == 0) => {
@@ -508,6 +537,13 @@ fn judge_run(out: &Path, code: i32, bound: Bound) -> Verdict {
         _ if status == "pointing_degraded" && !(degraded && events == 0) => Verdict::Bad(format!(
             "pointing_degraded, but the series says degraded {degraded} with {events} FDIR events"
         )),
+        // The pointing verdicts win: lost (unless reported and ended safe) or degraded.
+        _ if status == "propellant_exceeded" && !(over_budget && !(lost && (events == 0 || !safe)) && !degraded) => {
+            Verdict::Bad(format!(
+                "propellant_exceeded, but the series says over the budget {over_budget}, lost {lost} with {events} \
+                 FDIR events (safe mode at the end {safe}), degraded {degraded}"
+            ))
+        }
         _ => Verdict::Failed(status),
     }
 }

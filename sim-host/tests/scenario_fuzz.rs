@@ -243,9 +243,17 @@ fn judge_summary(dir: &Path, code: i32) -> Verdict {
             // keep-out, a timeline or the FDIR's noise model (e.g. a gyro sampled so fast
             // that its per-sample noise swamps the wheel residual) fail, never exit 0.
             Some(
-                st @ ("diverged" | "all_refused" | "no_control" | "samples_dropped" | "keepout_violated"
-                | "timeline_missed" | "fdir_false_alarm" | "control_lost" | "recovery_failed"
-                | "pointing_degraded"),
+                st @ ("diverged"
+                | "all_refused"
+                | "no_control"
+                | "samples_dropped"
+                | "keepout_violated"
+                | "timeline_missed"
+                | "fdir_false_alarm"
+                | "control_lost"
+                | "recovery_failed"
+                | "pointing_degraded"
+                | "propellant_exceeded"),
             ) => Verdict::Failed(st.into()),
             other => Verdict::Bad(format!("exit 3 with run_status {other:?}")),
         };

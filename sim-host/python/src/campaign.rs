@@ -61,6 +61,7 @@ pub fn campaign_run<'py>(
             ("control_lost", r.control_lost),
             ("recovery_failed", r.recovery_failed),
             ("pointing_degraded", r.pointing_degraded),
+            ("propellant_exceeded", r.propellant_exceeded),
         ] {
             d.set_item(k, v)?;
         }

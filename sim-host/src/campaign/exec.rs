@@ -53,6 +53,10 @@ pub enum RunStatus {
     /// end of the run with no FDIR event (summary `run_status` `pointing_degraded`): misses
     /// every requirement.
     PointingDegraded,
+    /// Flew, and its thrusters used more propellant than `[performance]
+    /// propellant_budget_kg` (summary `run_status` `propellant_exceeded`): misses every
+    /// requirement.
+    PropellantExceeded,
 }
 
 impl RunStatus {
@@ -126,6 +130,7 @@ fn failed_run(summary: &serde_json::Value) -> Option<RunStatus> {
         Some("control_lost") => Some(RunStatus::ControlLost),
         Some("recovery_failed") => Some(RunStatus::RecoveryFailed),
         Some("pointing_degraded") => Some(RunStatus::PointingDegraded),
+        Some("propellant_exceeded") => Some(RunStatus::PropellantExceeded),
         Some("ok") if margins.is_some_and(|m| m.get("status").and_then(|s| s.as_str()) != Some("measured")) => {
             Some(RunStatus::MarginsFailed)
         }
@@ -195,6 +200,7 @@ pub struct ShardReport {
     pub control_lost: usize,
     pub recovery_failed: usize,
     pub pointing_degraded: usize,
+    pub propellant_exceeded: usize,
 }
 
 /// Most threads one `campaign run` starts.
@@ -256,6 +262,7 @@ pub fn run_shard_until(dir: &Path, shard: Shard, jobs: usize, progress: bool, ca
                         RunStatus::ControlLost => r.control_lost += 1,
                         RunStatus::RecoveryFailed => r.recovery_failed += 1,
                         RunStatus::PointingDegraded => r.pointing_degraded += 1,
+                        RunStatus::PropellantExceeded => r.propellant_exceeded += 1,
                     }
                     if let Some(b) = &bar {
                         b.inc(1);

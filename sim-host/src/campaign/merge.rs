@@ -176,6 +176,10 @@ pub struct CampaignResult {
     /// end with no FDIR event (summary `run_status` `pointing_degraded`): each misses every
     /// requirement and fails the campaign.
     pub pointing_degraded: Vec<u32>,
+    /// Runs whose thrusters used more propellant than `[performance] propellant_budget_kg`
+    /// (summary `run_status` `propellant_exceeded`; a run that also lost or degraded its
+    /// pointing is counted there): each misses every requirement and fails the campaign.
+    pub propellant_exceeded: Vec<u32>,
     pub requirements: Vec<RequirementResult>,
     /// Groups by discrete dispersion (choice, k-of-n).
     pub groups: Vec<Group>,
@@ -195,6 +199,7 @@ impl CampaignResult {
             && self.control_lost.is_empty()
             && self.recovery_failed.is_empty()
             && self.pointing_degraded.is_empty()
+            && self.propellant_exceeded.is_empty()
             && self.requirements.iter().all(|r| r.verdict == Verdict::Met)
     }
 }
@@ -367,6 +372,7 @@ fn groups(campaign: &Campaign, records: &[Completed], requirements: &[Requiremen
                     | RunStatus::ControlLost
                     | RunStatus::RecoveryFailed
                     | RunStatus::PointingDegraded
+                    | RunStatus::PropellantExceeded
             ) {
                 row.failed_runs += 1;
             }
@@ -427,6 +433,7 @@ pub fn merge(dir: &Path, with_plots: bool) -> Result<MergeOutcome> {
         control_lost: runs_of(RunStatus::ControlLost),
         recovery_failed: runs_of(RunStatus::RecoveryFailed),
         pointing_degraded: runs_of(RunStatus::PointingDegraded),
+        propellant_exceeded: runs_of(RunStatus::PropellantExceeded),
         requirements,
         groups,
         statistics,
@@ -608,7 +615,8 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
          {} diverged (non-finite state or command), {} had every step refused by the flight code, \
          {} had margins that are not a stable loop at a steady hold, {} were not controlled for a material \
          part of the run, {} lost control with no FDIR event, {} lost control after an FDIR event and not in a safe mode \
-         (recovery failed), {} held off their pointing with no FDIR event, {} ended in error.\n",
+         (recovery failed), {} held off their pointing with no FDIR event, {} used more propellant than their budget, \
+         {} ended in error.\n",
         r.base_scenario,
         r.seed,
         r.completed,
@@ -622,6 +630,7 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         r.control_lost.len(),
         r.recovery_failed.len(),
         r.pointing_degraded.len(),
+        r.propellant_exceeded.len(),
         r.errors.len()
     );
     for (what, runs) in [
@@ -634,6 +643,10 @@ fn md_head(s: &mut String, r: &CampaignResult, dir: &Path) {
         (
             "Runs that held off their pointing with no FDIR event (`run_status` `pointing_degraded`)",
             &r.pointing_degraded,
+        ),
+        (
+            "Runs that used more propellant than their budget (`run_status` `propellant_exceeded`)",
+            &r.propellant_exceeded,
         ),
     ] {
         if !runs.is_empty() {

@@ -7,6 +7,7 @@
 //! - [`summary`]: `summary.json` and the statistics it is built from;
 //! - [`control_lost`]: the verdicts of a run with faults that lost control (unnoticed, or
 //!   after a declared fault whose recovery failed);
+//! - [`propellant`]: the verdict of a run that used more propellant than its budget;
 //! - [`momentum`]: stored-momentum statistics (every control step);
 //! - [`csv`]: `timeseries.csv`, written with a fast shortest round-trip float formatter;
 //! - [`parquet`]: `timeseries.parquet`, typed columns with units and the run's metadata;
@@ -26,6 +27,7 @@ pub mod output;
 pub mod parquet;
 pub mod plots;
 pub mod pointing;
+pub mod propellant;
 pub mod segments;
 pub mod series;
 pub mod summary;

@@ -81,6 +81,11 @@ pub enum RunStatus {
     /// the last window after a fault was injected, and the FDIR raised no event
     /// (`crate::recorder::control_lost`).
     PointingDegraded,
+    /// With `[performance] propellant_budget_kg`: the thrusters used more propellant than
+    /// the budget (`propellant_kg` above `propellant_budget_kg`), with or without faults; a
+    /// run that also failed otherwise (a lost or degraded pointing among them) has that
+    /// status instead (`crate::recorder::propellant`).
+    PropellantExceeded,
 }
 
 /// Start-up allowance of the no-control check: the first tenth of the run's steps…
@@ -124,6 +129,8 @@ pub enum Failure {
     /// Since when the hold was off by more than the degraded-hold bound (truth), and how far
     /// at the end.
     PointingDegraded { reason: String },
+    /// How much propellant the thrusters used against the budget.
+    Propellant { reason: String },
 }
 
 /// `summary.json` `timeline` (with `[[timeline]]`): the flight code's counters at the end.
@@ -191,6 +198,10 @@ pub struct Summary {
     /// which have no motor model).
     pub max_wheel_current_a: Option<f64>,
     pub propellant_kg: Option<f64>,
+    /// `[performance] propellant_budget_kg` (absent without a budget): `propellant_kg` above
+    /// it fails the run (`propellant_exceeded`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub propellant_budget_kg: Option<f64>,
     /// Most valve openings of any single thruster.
     pub max_pulses: Option<u32>,
     /// Largest `Fsw::step` cost in instructions (QEMU) — `null` when not measured.

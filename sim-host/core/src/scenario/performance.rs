@@ -16,6 +16,8 @@
 //! degraded_hold_error_deg = 0.5 # with [[faults]]: a hold off by more than this through
 //!                               # the last 60 s fails the run (default: [modes]
 //!                               # hold_enter_error_deg, else settle_bound_deg)
+//! propellant_budget_kg = 0.1    # with thrusters: a run that uses more fails (default:
+//!                               # none)
 //! ```
 
 use super::{Scenario, bad};
@@ -54,6 +56,10 @@ pub struct PerformanceSpec {
     /// manager's `hold_enter_error_deg`, else `settle_bound_deg`.
     #[serde(default)]
     pub degraded_hold_error_deg: Option<f64>,
+    /// The most propellant the thrusters may use over the run, kg (`propellant_exceeded`,
+    /// `crate::recorder::propellant`). `None`: no budget. Refused without thrusters.
+    #[serde(default)]
+    pub propellant_budget_kg: Option<f64>,
 }
 
 fn settle_bound() -> f64 {
@@ -85,6 +91,7 @@ impl Default for PerformanceSpec {
             segment_settle_s: 0.0,
             allow_missed_segments: false,
             degraded_hold_error_deg: None,
+            propellant_budget_kg: None,
         }
     }
 }
@@ -98,6 +105,8 @@ pub struct Performance {
     pub confidence: f64,
     pub windows: Windows,
     pub segment_settle_s: f64,
+    /// `propellant_budget_kg`, checked (> 0, finite).
+    pub propellant_budget_kg: Option<f64>,
 }
 
 impl PerformanceSpec {
@@ -131,6 +140,11 @@ impl PerformanceSpec {
         {
             return Err(bad(&k("degraded_hold_error_deg"), format!("must be > 0 (got {d})")));
         }
+        if let Some(m) = self.propellant_budget_kg
+            && !(m.is_finite() && m > 0.0)
+        {
+            return Err(bad(&k("propellant_budget_kg"), format!("must be > 0 (got {m})")));
+        }
         Ok(Performance {
             settle_bound_deg: b,
             settle_dwell_s: self.settle_dwell_s,
@@ -138,14 +152,23 @@ impl PerformanceSpec {
             confidence: p,
             windows,
             segment_settle_s: settle,
+            propellant_budget_kg: self.propellant_budget_kg,
         })
     }
 }
 
 impl Scenario {
-    /// `[performance]` (its defaults when absent) at the scenario's control period.
+    /// `[performance]` (its defaults when absent) at the scenario's control period; a
+    /// propellant budget needs thrusters to spend it.
     pub fn performance(&self) -> Result<Performance> {
-        self.performance.resolve(1.0 / self.timing.control_rate_hz)
+        let p = self.performance.resolve(1.0 / self.timing.control_rate_hz)?;
+        if p.propellant_budget_kg.is_some() && self.actuators.thrusters.is_none() {
+            return Err(bad(
+                "performance.propellant_budget_kg",
+                "needs thrusters ([actuators.thrusters]): the spacecraft uses no propellant",
+            ));
+        }
+        Ok(p)
     }
 }
 
@@ -165,6 +188,16 @@ mod tests {
             (PerformanceSpec { confidence: 1.5, ..ok.clone() }, "performance.confidence"),
             (PerformanceSpec { window_s: -1.0, ..ok.clone() }, "window_s"),
             (PerformanceSpec { stability_window_s: 1e9, ..ok.clone() }, "stability_window_s"),
+            (PerformanceSpec { propellant_budget_kg: Some(0.0), ..ok.clone() }, "performance.propellant_budget_kg"),
+            (PerformanceSpec { propellant_budget_kg: Some(-1.0), ..ok.clone() }, "performance.propellant_budget_kg"),
+            (
+                PerformanceSpec { propellant_budget_kg: Some(f64::NAN), ..ok.clone() },
+                "performance.propellant_budget_kg",
+            ),
+            (
+                PerformanceSpec { propellant_budget_kg: Some(f64::INFINITY), ..ok.clone() },
+                "performance.propellant_budget_kg",
+            ),
         ] {
             let e = spec.resolve(0.1).unwrap_err().to_string();
             assert!(e.contains(key), "{e}");

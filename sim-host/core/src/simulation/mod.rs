@@ -25,6 +25,7 @@ use crate::recorder::columns::Layout;
 use crate::recorder::control_lost::{ControlWatch, LostVerdict};
 use crate::recorder::momentum::MomentumStats;
 use crate::recorder::pointing::PointingStats;
+use crate::recorder::propellant;
 use crate::recorder::segments::{SegmentKey, Segments};
 use crate::recorder::series::Recorder;
 use crate::recorder::summary::{
@@ -784,7 +785,8 @@ impl<'a> Simulation<'a> {
     /// How the run ended: diverged, every flight step refused (`bad_input` on each of the
     /// control steps the flight code answered), a link anomaly, sensor samples dropped,
     /// not controlled for a material part of the run, a keep-out cone entered, a timeline
-    /// missed, an FDIR false alarm, control lost unnoticed, a recovery failed, or ok.
+    /// missed, an FDIR false alarm, control lost unnoticed, a recovery failed, a pointing
+    /// degraded, the propellant budget exceeded, or ok.
     fn outcome(&self) -> (RunStatus, Option<Failure>) {
         if let Some(f) = &self.failure {
             return (RunStatus::Diverged, Some(f.clone()));
@@ -828,8 +830,17 @@ impl<'a> Simulation<'a> {
             Some(LostVerdict::PointingDegraded(reason)) => {
                 (RunStatus::PointingDegraded, Some(Failure::PointingDegraded { reason }))
             }
-            None => (RunStatus::Ok, None),
+            // Last: a lost or degraded pointing is the worse failure (recorder::propellant).
+            None => match propellant::exceeded(self.propellant_kg(), self.performance.propellant_budget_kg) {
+                Some(reason) => (RunStatus::PropellantExceeded, Some(Failure::Propellant { reason })),
+                None => (RunStatus::Ok, None),
+            },
         }
+    }
+
+    /// Propellant the thrusters used so far, kg (`None` without thrusters).
+    fn propellant_kg(&self) -> Option<f64> {
+        (self.act.n_thr > 0).then(|| self.act.thr_state.total_propellant_kg())
     }
 
     /// The summary of the finished run; `wall_s` is the wall time of the loop.
@@ -890,7 +901,8 @@ impl<'a> Simulation<'a> {
             max_wheel_power_w: (n_wheels > 0).then_some(m.max_wheel_w),
             // Ideal wheels have no motor model: no current to report (not 0 A).
             max_wheel_current_a: accurate_wheels.then_some(m.max_wheel_a),
-            propellant_kg: (n_thr > 0).then(|| thr.total_propellant_kg()),
+            propellant_kg: self.propellant_kg(),
+            propellant_budget_kg: self.performance.propellant_budget_kg,
             max_pulses: (n_thr > 0).then(|| thr.pulses.iter().copied().max().unwrap_or(0)),
             max_step_instructions: ipt.map(|f| (m.max_ticks as f64 * f).round() as u64),
             mean_step_instructions: ipt.map(|f| m.sum_ticks / n_ticks as f64 * f),

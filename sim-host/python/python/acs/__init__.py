@@ -122,7 +122,9 @@ class RunResult:
         run with no FDIR event), ``"recovery_failed"`` (with ``[[faults]]``: an FDIR event, yet
         control lost through the end and the flight not in a safe mode, or a degraded hold after
         it), ``"pointing_degraded"`` (with ``[[faults]]``: a hold off by more than its bound through
-        the end with no FDIR event) or ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
+        the end with no FDIR event), ``"propellant_exceeded"`` (the thrusters used more than
+        ``[performance] propellant_budget_kg``; a lost or degraded pointing wins over it) or
+        ``"margins_failed"`` (a ``[margins]`` loop not stable and steady)."""
         return str(self.summary.get("run_status"))
 
     @property
