@@ -797,6 +797,28 @@ fn a_gnss_velocity_jump_offsets_the_velocity_by_its_magnitude_along_it() {
     assert!(err.contains("faults[0].magnitude"), "{err}");
 }
 
+/// With `[fdir.gnss]` on the 6U of `scenarios/fdir/wheel-seized-6u.toml` (flown 30 s, its
+/// wheel fault replaced): a one-fix velocity glitch (100 m/s at 10 s) is refused and declares
+/// nothing; a velocity that stays 5 m/s off from 20 s is declared at its third fix (22 s) by
+/// the velocity test, and the event names that fault (faults[1]), not the glitch that ended
+/// before it on the same unit.
+#[test]
+fn a_gnss_velocity_fault_is_declared_by_the_velocity_test_and_attributed_to_itself() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenarios/fdir/wheel-seized-6u.toml");
+    let text = std::fs::read_to_string(path).unwrap().replace("duration_s = 6000.0", "duration_s = 30.0");
+    let base = &text[..text.find("\n[[faults]]").unwrap()];
+    let faults = "[[faults]]\nonset_s = 10.0\nend_s = 10.5\nunit = \"gnss\"\nkind = \"velocity_jump\"\nmagnitude = 100.0\n\
+                  [[faults]]\nonset_s = 20.0\nunit = \"gnss\"\nkind = \"velocity_jump\"\nmagnitude = -5.0\n";
+    let (_, summary) = fly(&Scenario::from_toml(&format!("{base}\n[fdir.gnss]\n\n{faults}")).unwrap());
+    let f = summary.fdir.expect("[fdir.gnss] reports");
+    assert_eq!(f.false_alarms, 0, "{f:?}");
+    assert_eq!(f.events.len(), 1, "the glitch declares nothing: {f:?}");
+    let e = &f.events[0];
+    assert_eq!((e.unit.as_str(), e.test, e.fault), ("gnss", "gnss_velocity_consistency", Some(1)), "{e:?}");
+    // Fixes at 20, 21 and 22 s exceed: declared with the 22 s fix (within a control step).
+    assert!((22.0..22.5).contains(&e.detected_at_s), "{e:?}");
+}
+
 // --- wheel power off and tachometer noise ---
 
 #[test]

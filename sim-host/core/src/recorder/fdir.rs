@@ -138,7 +138,16 @@ impl FdirLog {
                 || (unit == "gyro" && u.starts_with("gyro."))
                 || (unit == "magnetometer" && u.starts_with("magnetometer."))
         };
-        let fault = faults.iter().position(|x| on_unit(&x.fault.unit()) && x.window.onset_s <= t_s);
+        // The unit's fault with the latest onset up to now (the first of equal onsets): a
+        // fault that ended before it (a one-fix glitch refused earlier) is not the cause.
+        let mut fault: Option<(usize, f64)> = None;
+        for (i, x) in faults.iter().enumerate() {
+            let onset = x.window.onset_s;
+            if on_unit(&x.fault.unit()) && onset <= t_s && fault.is_none_or(|(_, best)| onset > best) {
+                fault = Some((i, onset));
+            }
+        }
+        let fault = fault.map(|(i, _)| i);
         self.summary.false_alarms += usize::from(fault.is_none());
         self.summary.events.push(FdirEvent { unit, test, detected_at_s: t_s, isolated_as, recovery, fault });
     }

@@ -193,7 +193,7 @@ fn fdir_figure() -> Figure {
     let masks = vec![line("fdir_failed_wheels", "dropped by FDIR", false), line("fault_active", "injected", true)];
     Figure {
         requires: Some("wheel_residual_threshold_nm".into()),
-        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        shade: Some(("fault_active".into(), "blue: a fault in force".into())),
         ..figure(
             "fdir.png",
             "Wheel FDIR: torque residual r = u − I_w (Δω_w + aᵀΔω)/Δt against its threshold",
@@ -215,7 +215,7 @@ fn magnetometer_fdir_figure() -> Figure {
     let masks = vec![line("fault_active", "injected", true)];
     Figure {
         requires: Some("mag_residual_threshold_t".into()),
-        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        shade: Some(("fault_active".into(), "blue: a fault in force".into())),
         ..figure(
             "fdir-magnetometer.png",
             "Magnetometer FDIR: measured field magnitude against the on-board model",
@@ -240,7 +240,7 @@ fn gnss_fdir_figure() -> Figure {
     let masks = vec![line("fault_active", "injected", true)];
     Figure {
         requires: Some("gnss_residual_threshold_m".into()),
-        shade: Some(("fault_active".into(), "blue: faults[0] in force".into())),
+        shade: Some(("fault_active".into(), "blue: a fault in force".into())),
         ..figure(
             "fdir-gnss.png",
             "GNSS FDIR: each fix against the last accepted one propagated to its time",
