@@ -8,10 +8,55 @@
 //! the torque direction is kept. A rod whose command falls inside its hysteresis dead
 //! band produces nothing on the real hardware: it is reported in `unrealised` and left
 //! out of `realised`. Below `min_field_t` the law is undefined: zero dipole, `Singular`.
+//!
+//! Rank loss (issue 42): a rod the ground masked (`failed_mask`) is commanded nothing and
+//! the others realise what they can ([`dipole_for_torque`]).
 
 use super::{AllocResult, AllocStatus};
-use crate::math::Vec3;
+use crate::math::{Mat3, Vec3};
 use crate::params::MagnetorquerParams;
+
+/// Damping of the rods' least squares when a rod is masked, relative to `|B|²`: keeps the
+/// normal matrix invertible when the field lies in the plane of the working rods (then
+/// they can only make torque along the failed rod's axis). The cost: with rod i failed the
+/// normal matrix's weak eigenvalue is `B_i²`, so an achievable torque falls short by at
+/// most `λ|B|² / (B_i² + λ|B|²)` of itself (1.1 % at `|B_i| = 0.3|B|`, 0.1 % at `|B|`).
+pub const ROD_LS_DAMPING: f32 = 1.0e-3;
+
+/// The dipole of the working rods (rod i along body axis i; bit i of `failed_mask`: rod i
+/// failed, commanded 0) whose torque `m × B` is closest to `torque_nm`. All three working:
+/// `(B × T) / |B|²` (eq 22: the least-norm exact solution for T ⟂ B). Otherwise the damped
+/// least squares over the working rods: with `a_j = e_j × B`, `a_j·a_k = δ_jk |B|² − B_j B_k`
+/// and `a_j·T = (B × T)_j`, solve `(G_W + λ|B|² I) m_W = (B × T)_W`, λ =
+/// [`ROD_LS_DAMPING`]. Without one rod the undamped system's determinant is `|B|² B_i²`:
+/// singular when the field has no component along the failed rod. `Vec3::zeros()` when
+/// `|B|² ≤ 0` or the factorisation fails (non-finite input).
+pub fn dipole_for_torque(b_body_t: &Vec3, torque_nm: &Vec3, failed_mask: u8) -> Vec3 {
+    let b2 = b_body_t.norm_squared();
+    let rhs = b_body_t.cross(torque_nm);
+    if failed_mask & crate::params::ALL_RODS == 0 {
+        return rhs / b2;
+    }
+    if !(b2 > 0.0) {
+        return Vec3::zeros();
+    }
+    let working = |j: usize| failed_mask & (1u8 << j) == 0;
+    let at = |v: &Vec3, j: usize| v.get(j).copied().unwrap_or(0.0);
+    let g = Mat3::from_fn(|j, k| match (working(j) && working(k), j == k) {
+        (true, true) => b2 - at(b_body_t, j) * at(b_body_t, k) + ROD_LS_DAMPING * b2,
+        (true, false) => -at(b_body_t, j) * at(b_body_t, k),
+        // A failed rod's row and column: the identity, with 0 on the right: m_i = 0.
+        (false, same) => f32::from(u8::from(same)),
+    });
+    let rhs_w = Vec3::from_fn(|j, _| if working(j) { at(&rhs, j) } else { 0.0 });
+    match g.cholesky() {
+        Some(c) => {
+            let m = c.solve(&rhs_w);
+            if m.iter().all(|x| x.is_finite()) { m } else { Vec3::zeros() }
+        }
+        None => Vec3::zeros(),
+    }
+}
 
 pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> AllocResult<3> {
     let mut r = AllocResult::<3>::nothing_realised(torque_nm);
@@ -25,7 +70,7 @@ pub fn allocate(p: &MagnetorquerParams, b_body_t: &Vec3, torque_nm: &Vec3) -> Al
         r.outcome.status = AllocStatus::Singular;
         return r;
     }
-    let m: [f32; 3] = (b_body_t.cross(torque_nm) / b2).into();
+    let m: [f32; 3] = dipole_for_torque(b_body_t, torque_nm, p.failed_mask).into();
     // Finite but huge inputs can overflow |B|² or B × T (then inf/inf = NaN).
     if !(b2.is_finite() && m.iter().all(|x| x.is_finite())) {
         r.outcome.status = AllocStatus::NonFinite;
@@ -88,6 +133,7 @@ mod tests {
             deadband_lo_am2: [-1.26; 3],
             deadband_hi_am2: [1.86; 3],
             min_field_t: 1e-7,
+            failed_mask: 0,
         }
     }
 

@@ -17,7 +17,9 @@
 //!
 //! Dead band: nothing is commanded while `|h_err| <= deadband`. Saturation: the whole
 //! dipole is scaled to the rod limits (direction kept). The residual dipole the parameter
-//! set carries is cancelled by the torquers (inside the same limit).
+//! set carries is cancelled by the torquers (inside the same limit). Masked rods
+//! (`failed_rods_mask`, issue 42): the torque of that dipole is realised by the working
+//! rods ([`crate::allocation::magnetorquers::dipole_for_torque`]), then scaled.
 //!
 //! Magnetometer / torquer sharing: the flight code subtracts the torquers' field at the
 //! magnetometer, `C · m_last` (the calibrated coupling times the dipole commanded over
@@ -63,7 +65,14 @@ pub fn unload(p: &MomentumParams, h_nms: &Vec3, b_body_t: &Vec3) -> Unloading {
         Vec3::zeros()
     };
     let residual = Vec3::from(p.residual_dipole_am2);
-    let (m, scaled) = super::scale_to_box(&(unload - residual), &Vec3::from(p.max_dipole_am2));
+    let wanted = unload - residual;
+    // Masked rods (issue 42): the torque that dipole makes, from the working rods.
+    let wanted = if p.failed_rods_mask == 0 {
+        wanted
+    } else {
+        crate::allocation::magnetorquers::dipole_for_torque(b_body_t, &wanted.cross(b_body_t), p.failed_rods_mask)
+    };
+    let (m, scaled) = super::scale_to_box(&wanted, &Vec3::from(p.max_dipole_am2));
     let torque = (m + residual).cross(b_body_t);
     if !(m.iter().chain(torque.iter()).all(|x| x.is_finite())) {
         return Unloading::default();

@@ -440,6 +440,7 @@ mod tests {
             deadband_lo_am2: [0.0; 3],
             deadband_hi_am2: [0.0; 3],
             min_field_t: 1e-7,
+            failed_mask: 0,
         }
     }
 

@@ -48,6 +48,10 @@ pub struct MagnetorquerParams {
     pub deadband_hi_am2: [f32; 3],
     /// Below this field magnitude the dipole law is not used, T.
     pub min_field_t: f32,
+    /// Bit i: rod i (body axis i) failed — it is commanded nothing and the torque is
+    /// realised by the others (`allocation::magnetorquers::dipole_for_torque`; params
+    /// version 14).
+    pub failed_mask: u8,
 }
 
 /// Thruster allocation method.
@@ -236,9 +240,18 @@ impl MagnetorquerParams {
                 return Err(err(F::DeadBand, R::OutOfRange));
             }
         }
-        check_range(F::MinField, self.min_field_t, 0.0, 1.0)
+        check_range(F::MinField, self.min_field_t, 0.0, 1.0)?;
+        check_rod_mask(self.failed_mask)
     }
 }
+
+/// A rod mask names only the three rods.
+pub fn check_rod_mask(mask: u8) -> Result<(), ParamError> {
+    if mask & !ALL_RODS == 0 { Ok(()) } else { Err(err(ParamField::RodMask, ParamReason::OutOfRange)) }
+}
+
+/// Every rod of the three (a mask with all of them failed commands no dipole).
+pub const ALL_RODS: u8 = 0b111;
 
 impl ThrusterParams {
     pub fn validate(&self) -> Result<(), ParamError> {

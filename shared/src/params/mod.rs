@@ -36,7 +36,7 @@ pub use sun_safe::{SunSafeError, SunSafeParams};
 pub use timeline::{MAX_TIMELINE_SEGMENTS, TimelineError, TimelineFault, TimelineSegment};
 
 /// Bumped whenever the meaning or layout of [`FlightParams`] changes.
-pub const PARAMS_VERSION: u16 = 13;
+pub const PARAMS_VERSION: u16 = 14;
 
 /// Largest serialised size of a [`FlightParams`] (checked by a test).
 pub const PARAMS_MAX_SIZE: usize = 1280;
@@ -136,6 +136,9 @@ pub enum ParamField {
     /// Fault detection ([`fdir::FdirParams`], params version 13), or a wheel monitor on
     /// a family without wheels.
     Fdir,
+    /// The magnetorquer rods the ground masked (`failed_mask` of [`MagnetorquerParams`]
+    /// or [`MomentumParams`], params version 14): a bit beyond the three rods.
+    RodMask,
 }
 
 /// Why it was rejected.
@@ -410,6 +413,7 @@ mod tests {
             deadband_lo_am2: [-1.26; 3],
             deadband_hi_am2: [1.86; 3],
             min_field_t: 1e-7,
+            failed_mask: 0,
         };
         let thr = ThrusterParams {
             count: 12,

@@ -57,6 +57,9 @@ pub struct MomentumParams {
     pub dump_stop_nms: f32,
     /// The thrusters that dump (a wheel or CMG mode has no thruster family of its own).
     pub dump_thrusters: ThrusterParams,
+    /// Bit i: torquer rod i failed — the unloading dipole is realised by the others
+    /// (params version 14; as [`super::MagnetorquerParams::failed_mask`]).
+    pub failed_rods_mask: u8,
 }
 
 /// Largest magnitude of a torquer-to-magnetometer coupling coefficient, T per A m² (the
@@ -92,6 +95,7 @@ impl MomentumParams {
         dump_start_nms: 0.0,
         dump_stop_nms: 0.0,
         dump_thrusters: NO_THRUSTERS,
+        failed_rods_mask: 0,
     };
 
     /// Thruster dump selected and enabled.
@@ -114,6 +118,7 @@ impl MomentumParams {
             check_range(F::Momentum, m, 0.0, 1.0e4)?;
         }
         check_range(F::Momentum, self.min_field_t, 1e-9, 1.0)?;
+        super::actuator::check_rod_mask(self.failed_rods_mask)?;
         self.validate_dump()?;
         if self.enabled
             && self.method == UnloadMethod::Magnetic

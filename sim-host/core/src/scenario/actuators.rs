@@ -96,6 +96,27 @@ pub struct MagnetorquersSpec {
     /// Pure delay of the dipole commands, s, rounded to whole control periods (default 0).
     #[serde(default)]
     pub delay_s: f64,
+    /// Rods (0 = x, 1 = y, 2 = z) the flight code is told not to use: the ground's mask
+    /// after a rod failed (issue 42, docs/fdir.md "Magnetorquer rank loss"). The plant's
+    /// rods are unaffected (a rod's own failure is a `[[faults]]` entry).
+    #[serde(default)]
+    pub masked_rods: Vec<usize>,
+}
+
+impl MagnetorquersSpec {
+    /// `masked_rods` as the flight code's bit mask (bit i: rod i), checked: each in 0..=2,
+    /// no repeat.
+    pub fn masked_rods_mask(&self) -> Result<u8> {
+        let mut mask = 0u8;
+        for &i in &self.masked_rods {
+            if i > 2 || mask & (1 << i) != 0 {
+                let why = format!("rods are 0 (x), 1 (y), 2 (z), each once (got {:?})", self.masked_rods);
+                return Err(bad("actuators.magnetorquers.masked_rods", why));
+            }
+            mask |= 1 << i;
+        }
+        Ok(mask)
+    }
 }
 
 /// Thrusters.
@@ -739,7 +760,9 @@ impl Scenario {
         }
         let neg = m.min_dipole_am2.unwrap_or(m.max_dipole_am2);
         let [lo, hi] = m.deadband_am2.unwrap_or([0.0, 0.0]);
+        let failed_mask = m.masked_rods_mask()?;
         Ok(ActuatorParams::Magnetorquers(MagnetorquerParams {
+            failed_mask,
             max_dipole_am2: m.max_dipole_am2.map(|x| x as f32),
             min_dipole_am2: neg.map(|x| x as f32),
             deadband_lo_am2: [lo as f32; 3],

@@ -436,6 +436,7 @@ impl Scenario {
             F::Estimation => "estimation".into(),
             F::Momentum => "momentum".into(),
             F::Fdir => "fdir".into(),
+            F::RodMask => "actuators.magnetorquers.masked_rods".into(),
             F::MomentumDump => "momentum.dump_*".into(),
             F::Pointing => "guidance".into(),
             F::PointingAxes => "guidance.pointing (primary_body, secondary_body)".into(),

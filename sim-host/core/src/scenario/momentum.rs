@@ -153,6 +153,9 @@ impl Scenario {
             _ => true,
         };
         let rods = self.actuators.magnetorquers.as_ref().map_or([0.0; 3], |r| r.max_dipole_am2);
+        // Checked at load (`magnetorquer_flight_params`): a bad list never gets here.
+        let failed_rods_mask =
+            self.actuators.magnetorquers.as_ref().and_then(|r| r.masked_rods_mask().ok()).unwrap_or(0);
         let coupling = m
             .mag_coupling_t_per_am2
             .unwrap_or_else(|| self.sensors.magnetometer.as_ref().map_or([[0.0; 3]; 3], |s| s.coupling_t_per_am2));
@@ -174,6 +177,7 @@ impl Scenario {
                 Ok(ActuatorParams::Thrusters(t)) if m.dumps() => t,
                 _ => NO_THRUSTERS,
             },
+            failed_rods_mask,
         }
     }
 }
