@@ -230,25 +230,19 @@ mod tests {
         assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
         let Verdict::Failed(m) = v else { panic!("{v:?}") };
         assert!(m.starts_with(&sc.name) && m.contains("\"diverged\"") && m.contains("t = 1.5 s"), "{m}");
-        summary.failure = Some(Failure::KeepOut { reason: "a boresight entered its keep-out cone".into() });
-        let v = verdict(&summary);
-        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
-        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"keepout_violated\"")), "{v:?}");
-        summary.failure = Some(Failure::ControlLost { reason: "control lost with no FDIR event".into() });
-        let v = verdict(&summary);
-        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
-        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"control_lost\"")), "{v:?}");
-        summary.failure = Some(Failure::RecoveryFailed { reason: "recovery failed".into() });
-        let v = verdict(&summary);
-        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
-        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"recovery_failed\"")), "{v:?}");
-        summary.failure = Some(Failure::PointingDegraded { reason: "pointing degraded".into() });
-        let v = verdict(&summary);
-        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
-        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"pointing_degraded\"")), "{v:?}");
-        summary.failure = Some(Failure::Propellant { reason: "propellant exceeded".into() });
-        let v = verdict(&summary);
-        assert_eq!(v.exit_code(), EXIT_RUN_FAILED);
-        assert!(matches!(&v, Verdict::Failed(m) if m.contains("\"propellant_exceeded\"")), "{v:?}");
+        // Every other failure: exit 3, its run_status named.
+        let failures = [
+            (Failure::KeepOut { reason: "a boresight entered its keep-out cone".into() }, "keepout_violated"),
+            (Failure::ControlLost { reason: "control lost with no FDIR event".into() }, "control_lost"),
+            (Failure::RecoveryFailed { reason: "recovery failed".into() }, "recovery_failed"),
+            (Failure::PointingDegraded { reason: "pointing degraded".into() }, "pointing_degraded"),
+            (Failure::Propellant { reason: "propellant exceeded".into() }, "propellant_exceeded"),
+        ];
+        for (failure, status) in failures {
+            summary.failure = Some(failure);
+            let v = verdict(&summary);
+            assert_eq!(v.exit_code(), EXIT_RUN_FAILED, "{status}");
+            assert!(matches!(&v, Verdict::Failed(m) if m.contains(&format!("\"{status}\""))), "{v:?}");
+        }
     }
 }
